@@ -1,0 +1,40 @@
+"""Tolerances and defaults shared by every stage.
+
+Units inside foldprint: mm, s, degrees Celsius, radians.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """One tolerance object for the whole package (trimesh's ``tol`` idea)."""
+
+    length: float = 1e-6  # mm: coordinates closer than this are the same point
+    area: float = 1e-9  # mm^2: polygons smaller than this are degenerate
+    angle: float = 1e-9  # rad
+    time: float = 1e-3  # s: contact times are refined to this
+
+
+tol = Tolerance()
+
+#: Recovery ratio that defines "folded" (paper: 98 %, theta = 91.8 deg for a 90 deg hinge).
+FOLD_LEVEL = 0.98
+#: Recovery ratio that defines the onset of a fold (our choice, used for reports only).
+ONSET_LEVEL = 0.05
+#: How long the recovery model looks ahead before it calls a hinge "does not fold" (s).
+RECOVERY_HORIZON_S = 600.0
+
+#: Defaults for a design that does not say (the paper's helix, Mao et al. 2015, Fig. 2).
+DEFAULT_THICKNESS_MM = 0.8
+DEFAULT_DEPTH_MM = 6.0
+DEFAULT_HINGE_RADIUS_MM = 5.0
+DEFAULT_PANEL_MATERIAL = "VeroWhite"
+
+#: Process defaults: the paper's protocol (program at 90 C, fix at 10 C, recover at 90 C).
+DEFAULT_PROGRAM_C = 90.0
+DEFAULT_FIX_C = 10.0
+DEFAULT_BATH_C = 90.0
+DEFAULT_DURATION_S = 20.0
