@@ -1,0 +1,1 @@
+"""Every byte foldprint writes goes through this package (trimesh's ``exchange`` idea)."""
