@@ -1,0 +1,202 @@
+"""The reduced-order model (ROM): hinge angles from recovery curves, panel poses by
+forward kinematics down the hinge tree.
+
+Two hinge models (``docs/simulation.md``):
+
+* ``point``: the paper's Eq. 2-4; a hinge of zero size rotates the child panel about
+  the fold line.
+* ``arc``: a hinge of flat width w = R |rho_target| centred on the fold line bends with
+  uniform curvature, so the child panel also translates; the rigid part of each panel
+  is its outline less a strip of w/2 along each of its hinges.
+
+A pose maps a panel's flat-sheet coordinates (x, y, z) to world coordinates; the root
+panel stays put. Everything is vectorised over time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from .design import Design, Hinge, tree_order
+from .errors import DesignError
+from .materials import MaterialLibrary, default_library
+from .recovery import recovery_curve
+
+HingeModel = Literal["point", "arc"]
+HINGE_MODELS = ("point", "arc")
+
+
+@dataclass(frozen=True)
+class HingeFrame:
+    """Static data of one hinge in the sheet frame.
+
+    ``origin`` (3,) a point on the fold line; ``axis`` (3,) unit rotation axis such that a
+    positive angle lifts the child toward +z; ``normal`` (3,) unit in-plane direction from
+    the fold line into the child panel; ``width`` the flat width w (mm).
+    """
+
+    hinge: Hinge
+    index: int
+    parent: int
+    child: int
+    origin: np.ndarray
+    axis: np.ndarray
+    normal: np.ndarray
+    width: float
+
+
+def hinge_frames(design: Design) -> list[HingeFrame]:
+    """Hinges in tree order (root outward) with their axes."""
+    pidx = design.panel_index()
+    hidx = {h.id: i for i, h in enumerate(design.hinges)}
+    frames = []
+    for h, parent, child in tree_order(design):
+        a, b = h.line
+        d = np.array([b[0] - a[0], b[1] - a[1], 0.0])
+        d /= np.linalg.norm(d)
+        n = np.array([-d[1], d[0], 0.0])
+        centroid = design.panel(child).polygon.centroid
+        mid = 0.5 * (a + b)
+        if (centroid.x - mid[0]) * n[0] + (centroid.y - mid[1]) * n[1] < 0:
+            n = -n
+        axis = np.cross(n, [0.0, 0.0, 1.0])
+        frames.append(HingeFrame(h, hidx[h.id], pidx[parent], pidx[child],
+                                 np.array([mid[0], mid[1], 0.0]), axis, n, h.width))
+    return frames
+
+
+def _rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rodrigues: (n, 3, 3) rotations by ``angle`` (n,) about unit ``axis`` (3,)."""
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
+    return np.eye(3)[None] + s * k[None] + (1 - c) * (k @ k)[None]
+
+
+def _sinc_terms(angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sin(a)/a and (1 - cos a)/a, stable at a = 0."""
+    a = np.asarray(angle, float)
+    small = np.abs(a) < 1e-6
+    safe = np.where(small, 1.0, a)
+    s = np.where(small, 1.0 - a**2 / 6.0, np.sin(safe) / safe)
+    c = np.where(small, a / 2.0, (1.0 - np.cos(safe)) / safe)
+    return s, c
+
+
+def local_transforms(frame: HingeFrame, angle: np.ndarray, model: HingeModel) -> np.ndarray:
+    """(n, 4, 4) transforms of the child relative to the parent for hinge angles (n,)."""
+    angle = np.atleast_1d(np.asarray(angle, float))
+    rot = _rotation(frame.axis, angle)
+    out = np.zeros((len(angle), 4, 4))
+    out[:, :3, :3] = rot
+    out[:, 3, 3] = 1.0
+    q = frame.origin
+    if model == "point":
+        out[:, :3, 3] = q - rot @ q
+    elif model == "arc":
+        w = frame.width
+        start = q - 0.5 * w * frame.normal
+        end = q + 0.5 * w * frame.normal
+        s, c = _sinc_terms(angle)
+        tip = start[None] + w * s[:, None] * frame.normal[None] + w * c[:, None] * np.array([0, 0, 1.0])[None]
+        out[:, :3, 3] = tip - rot @ end
+    else:
+        raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+    return out
+
+
+def forward(design: Design, angles: np.ndarray, model: HingeModel = "arc",
+            frames: list[HingeFrame] | None = None) -> np.ndarray:
+    """Panel poses (n_t, n_panels, 4, 4) for hinge angles (n_t, n_hinges) in
+    ``design.hinges`` order (rad)."""
+    angles = np.atleast_2d(np.asarray(angles, float))
+    frames = frames if frames is not None else hinge_frames(design)
+    n_t = angles.shape[0]
+    poses = np.zeros((n_t, len(design.panels), 4, 4))
+    root = design.panel_index()[design.root]
+    poses[:, root] = np.eye(4)
+    for f in frames:
+        poses[:, f.child] = poses[:, f.parent] @ local_transforms(f, angles[:, f.index], model)
+    return poses
+
+
+def target_angles(design: Design) -> np.ndarray:
+    """(n_hinges,) target fold angles (rad): the permanent, printed state."""
+    return np.array([h.angle for h in design.hinges])
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """The ROM's answer: ``times`` (n_t,) s, ``ratios`` and ``angles`` (n_t, n_hinges)
+    (recovery ratio, fold angle in rad), ``poses`` (n_t, n_panels, 4, 4)."""
+
+    design: Design
+    times: np.ndarray
+    ratios: np.ndarray
+    angles: np.ndarray
+    poses: np.ndarray
+    model: str
+    bath_c: float
+    fold_times: tuple[float | None, ...]  # per hinge, s (98 % recovery), None = does not fold
+    onset_times: tuple[float | None, ...]
+
+
+class HingeDrive:
+    """Continuous-time hinge angles: evaluates rho_i(t) at any times (used by the
+    trajectory and by the collision refinement between samples)."""
+
+    def __init__(self, design: Design, bath_c: float | None = None,
+                 library: MaterialLibrary | None = None):
+        lib = library or default_library()
+        self.design = design
+        self.bath_c = float(design.process.bath_temperature_c if bath_c is None else bath_c)
+        self.curves = [recovery_curve(lib[h.material], self.bath_c, h.thickness,
+                                      design.process.fix_temperature_c) for h in design.hinges]
+        self.target = target_angles(design)
+        self.fixity = np.array([h.fixity for h in design.hinges])
+        self.frozen_at: dict[int, float] = {}  # hinge index -> time it was arrested
+
+    def ratios(self, t) -> np.ndarray:
+        t = np.atleast_1d(np.asarray(t, float))
+        out = np.empty((len(t), len(self.curves)))
+        for i, c in enumerate(self.curves):
+            ti = t if i not in self.frozen_at else np.minimum(t, self.frozen_at[i])
+            out[:, i] = c(ti)
+        return out
+
+    def angles(self, t) -> np.ndarray:
+        """rho(t) = rho_target (1 - (1 - R(t)) f), (n_t, n_hinges) rad."""
+        r = self.ratios(t)
+        return self.target[None] * (1.0 - (1.0 - r) * self.fixity[None])
+
+
+def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath_c: float | None = None,
+                        model: HingeModel = "arc", dt: float = 0.01, duration: float | None = None,
+                        library: MaterialLibrary | None = None,
+                        drive: HingeDrive | None = None) -> Trajectory:
+    """Hinge angles and panel poses over time."""
+    if model not in HINGE_MODELS:
+        raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+    drive = drive or HingeDrive(design, bath_c, library)
+    if times is None:
+        dur = float(design.process.duration_s if duration is None else duration)
+        if not (dur > 0 and dt > 0):
+            raise DesignError(f"duration and dt must be > 0 s, got {dur} and {dt}")
+        n = int(np.ceil(dur / dt - 1e-9)) + 1
+        times = np.linspace(0.0, (n - 1) * dt, n)
+    times = np.asarray(times, float)
+    ratios = drive.ratios(times)
+    angles = drive.angles(times)
+    poses = forward(design, angles, model)
+    for a in (times, ratios, angles, poses):
+        a.setflags(write=False)
+    return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c,
+                      tuple(c.fold_time for c in drive.curves), tuple(c.onset_time for c in drive.curves))
+
+
+def transform_points(pose: np.ndarray, pts2d: np.ndarray, z: float = 0.0) -> np.ndarray:
+    """Apply one (4, 4) pose to sheet points (n, 2) at height ``z``; returns (n, 3)."""
+    pts = np.column_stack([pts2d, np.full(len(pts2d), z)])
+    return pts @ pose[:3, :3].T + pose[:3, 3]
