@@ -228,7 +228,7 @@ def _positive(value, what: str, src: str) -> float:
     return v
 
 
-def _check_ring(ring: np.ndarray, what: str, src: str) -> None:
+def check_ring(ring: np.ndarray, what: str, src: str) -> None:
     if ring.ndim != 2 or ring.shape[1] != 2:
         raise DesignError(f"{src}{what} must be a list of [x, y] points, got shape {ring.shape}")
     if not np.all(np.isfinite(ring)):
@@ -236,6 +236,9 @@ def _check_ring(ring: np.ndarray, what: str, src: str) -> None:
     if len(ring) < 3:
         raise DesignError(f"{src}{what} needs at least 3 points, got {len(ring)}")
     poly = Polygon(ring)
+    rank = np.linalg.matrix_rank(ring - ring.mean(axis=0), tol=tol.length)
+    if rank >= 2 and not shapely.LinearRing(ring).is_simple:
+        raise DesignError(f"{src}{what} is self-intersecting; reorder its points so edges do not cross")
     if poly.area <= tol.area:
         raise DesignError(f"{src}{what} is degenerate (zero area); give at least 3 non-collinear points")
     if not poly.is_valid:
@@ -320,9 +323,9 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
     for p in design.panels:
         item = f"{src}panel {p.id!r}: "
         _positive(p.thickness, "thickness_mm", item)
-        _check_ring(p.outline, "outline", item)
+        check_ring(p.outline, "outline", item)
         for k, hole in enumerate(p.holes):
-            _check_ring(hole, f"hole {k}", item)
+            check_ring(hole, f"hole {k}", item)
         if not p.polygon.is_valid:
             raise DesignError(f"{item}holes must lie inside the outline and not overlap "
                               f"({shapely.is_valid_reason(p.polygon)})")

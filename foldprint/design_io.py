@@ -41,8 +41,8 @@ import tomli_w
 
 from .constants import (DEFAULT_DEPTH_MM, DEFAULT_HINGE_RADIUS_MM, DEFAULT_PANEL_MATERIAL,
                         DEFAULT_THICKNESS_MM)
-from .design import (SCHEMA_VERSION, Design, Goal, Hinge, HingeStyle, Panel, Process, shared_edge,
-                     strip, validate)
+from .design import (SCHEMA_VERSION, Design, Goal, Hinge, HingeStyle, Panel, Process, check_ring,
+                     shared_edge, strip, validate)
 from .errors import DesignError, where
 from .materials import MaterialLibrary
 
@@ -159,7 +159,9 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
         what = f"panel {pid!r}"
         if "outline" not in raw:
             raise DesignError(f"{src}{what}: needs outline = [[x, y], ...]")
-        panels.append(Panel(pid, _points(raw["outline"], f"{what}: outline", src),
+        outline = _points(raw["outline"], f"{what}: outline", src)
+        check_ring(outline, "outline", f"{src}{what}: ")
+        panels.append(Panel(pid, outline,
                             _num(raw.get("thickness_mm", thickness), f"{what}: thickness_mm", src),
                             str(raw.get("material", pmat)),
                             tuple(_points(h, f"{what}: holes[{k}]", src)

@@ -1,0 +1,205 @@
+"""Command line: a thin layer over the library.
+
+Exit codes: 0 ok, 1 the design fails (collision, goal, rule), 2 bad input or usage.
+Machine output (``--json``) goes to stdout; human messages to stderr.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from typer import echo
+
+from . import __version__
+from .errors import FoldprintError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
+                  help="foldprint: design, simulate, check and export sequentially self-folding "
+                       "structures printed with digital shape-memory polymers.")
+
+#: Options that take several values after one flag (``--temperature 80 90 100``).
+_MULTI = {"--temperature"}
+
+
+def _click_exceptions() -> tuple[type, ...]:
+    """ClickException classes: typer >= 0.20 vendors its own click."""
+    found: list[type] = []
+    for mod in ("typer._click.exceptions", "click.exceptions"):
+        try:
+            found.append(__import__(mod, fromlist=["ClickException"]).ClickException)
+        except ImportError:
+            pass
+    return tuple(found)
+
+
+_CLICK_ERRORS = _click_exceptions()
+
+
+class ExitCode(Exception):
+    def __init__(self, code: int):
+        self.code = code
+
+
+def _err(msg: str) -> None:
+    echo(f"foldprint: error: {msg}", err=True)
+
+
+def _echo_json(obj) -> None:
+    echo(json.dumps(obj, indent=2, allow_nan=False))
+
+
+def _number(text: str, what: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise FoldprintError(f"{what} must be a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise FoldprintError(f"{what} must be a finite number, got {text!r}")
+    return v
+
+
+def _version(value: bool):
+    if value:
+        echo(f"foldprint {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(version: bool = typer.Option(False, "--version", is_eager=True, callback=_version,
+                                       help="Print the version and exit.")):
+    """foldprint: design, simulate, check and export self-folding structures."""
+
+
+@app.command()
+def materials(
+    temperature: Optional[List[str]] = typer.Option(None, "--temperature", "-t", metavar="C ...",
+                                                    help="Bath temperature(s) in deg C (default 80 90 100)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write a Fig. 1b-style chart (PNG/SVG/PDF)."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    thickness: float = typer.Option(0.8, "--thickness", help="Hinge thickness in mm."),
+):
+    """Each material's Tg and its hinge fold time (98 % recovery) at each bath temperature.
+
+    Example: foldprint materials --temperature 80 90 100 --json
+    """
+    from .materials import load_library
+    from .recovery import fold_time
+
+    lib = load_library(materials_file or None)
+    temps_raw = list(temperature) if temperature else ["80", "90", "100"]
+    temps = [(_t, _number(_t, "--temperature")) for _t in temps_raw]
+    if not (thickness > 0 and math.isfinite(thickness)):
+        raise FoldprintError(f"--thickness must be > 0 mm, got {thickness}")
+    rows = []
+    for m in lib:
+        ft = {}
+        for key, val in temps:
+            if m.role == "hinge":
+                v = fold_time(m, val, thickness)
+                ft[key] = None if v is None else round(v, 3)
+            else:
+                ft[key] = None
+        rows.append({"name": m.name, "role": m.role, "tg_c": m.tg_c, "color": m.color, "fold_time_s": ft})
+    if plot is not None:
+        from .render import fold_time_chart, save_figure
+
+        save_figure(fold_time_chart(lib, [v for _, v in temps], thickness), plot)
+        echo(f"wrote {plot}", err=True)
+    if json_out:
+        _echo_json({"materials": rows})
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"materials: fold time to 98 % (s), hinge {thickness:g} mm")
+    table.add_column("material")
+    table.add_column("role")
+    table.add_column("Tg (°C)", justify="right")
+    for key, _ in temps:
+        table.add_column(f"{key} °C", justify="right")
+    for r in rows:
+        cells = ["-" if r["role"] != "hinge" else ("does not fold" if v is None else f"{v:.2f}")
+                 for v in r["fold_time_s"].values()]
+        table.add_row(r["name"], r["role"], f"{r['tg_c']:.1f}", *cells)
+    Console(file=sys.stdout, width=120).print(table)
+
+
+@app.command()
+def templates(json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout.")):
+    """List the shipped design templates.
+
+    Example: foldprint templates --json
+    """
+    from .templates import list_templates, templates_dir
+
+    items = list_templates()
+    if json_out:
+        _echo_json({"templates": items})
+        return
+    if not items:
+        echo(f"no templates found in {templates_dir()}", err=True)
+        return
+    width = max(len(t["name"]) for t in items)
+    for t in items:
+        echo(f"{t['name']:<{width}}  {t['description']}")
+
+
+def _expand_multi(argv: list[str]) -> list[str]:
+    """``--temperature 80 90`` -> ``--temperature 80 --temperature 90``."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        tok = argv[i]
+        out.append(tok)
+        i += 1
+        if tok in _MULTI:
+            first = True
+            while i < len(argv) and (first or not argv[i].startswith("-") or _is_number(argv[i])):
+                if not first:
+                    out.append(tok)
+                out.append(argv[i])
+                first = False
+                i += 1
+    return out
+
+
+def _is_number(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit code (also used by the tests, in-process)."""
+    args = _expand_multi(list(sys.argv[1:] if argv is None else argv))
+    try:
+        rv = app(args=args, prog_name="foldprint", standalone_mode=False)
+        return int(rv or 0)
+    except ExitCode as e:
+        return e.code
+    except typer.Exit as e:
+        return int(getattr(e, "exit_code", 0))
+    except typer.Abort:
+        _err("aborted")
+        return 130
+    except _CLICK_ERRORS as e:
+        _err(e.format_message())
+        return 2
+    except FoldprintError as e:
+        _err(str(e))
+        return 2
+    except KeyboardInterrupt:
+        _err("interrupted")
+        return 130
+
+
+def run() -> None:  # console script
+    sys.exit(main())

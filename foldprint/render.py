@@ -1,0 +1,104 @@
+"""Figures (matplotlib, headless Agg backend). Functions return the Figure; the
+``save_*`` helpers write PNGs through :mod:`foldprint.exchange.files`."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .materials import MaterialLibrary
+from .recovery import recovery_curve
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def figure_bytes(fig, fmt: str = "png", dpi: int = 110) -> bytes:
+    """Render a figure to bytes (deterministic metadata) and close it."""
+    buf = io.BytesIO()
+    meta = {"Software": None} if fmt == "png" else {}
+    fig.savefig(buf, format=fmt, dpi=dpi, metadata=meta, bbox_inches="tight")
+    _plt().close(fig)
+    return buf.getvalue()
+
+
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    from .exchange.files import write_atomic
+
+    fmt = Path(path).suffix.lstrip(".").lower() or "png"
+    return write_atomic(path, figure_bytes(fig, fmt, dpi))
+
+
+def fold_time_chart(lib: MaterialLibrary, temperatures: Sequence[float], thickness_mm: float = 0.8,
+                    initial_c: float = 10.0):
+    """Fig. 1b style: 98 % fold time of every hinge material against bath temperature."""
+    plt = _plt()
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 4))
+    hinges = lib.hinges()
+    temps = np.asarray(sorted(temperatures), float)
+    dense = np.linspace(min(temps.min(), 70.0), max(temps.max(), 100.0), 31)
+    for m in hinges:
+        ft = [recovery_curve(m, float(T), thickness_mm, initial_c).fold_time for T in dense]
+        y = np.array([np.nan if v is None else v for v in ft])
+        ax1.plot(dense, y, color=m.color, label=m.name, lw=1.5)
+        pts = [recovery_curve(m, float(T), thickness_mm, initial_c).fold_time for T in temps]
+        ax1.plot(temps, [np.nan if v is None else v for v in pts], "o", color=m.color, ms=4)
+    ax1.set_xlabel("bath temperature (°C)")
+    ax1.set_ylabel("fold time to 98 % recovery (s)")
+    ax1.set_title("fold time (Fig. 1b style)")
+    ax1.grid(alpha=0.3)
+    ax1.legend(fontsize=8, ncol=2)
+    ax0.bar([m.name for m in hinges], [m.tg_c for m in hinges], color=[m.color for m in hinges],
+            edgecolor="k", lw=0.5)
+    ax0.set_ylabel("Tg (°C)")
+    ax0.set_title("glass transition (Fig. 1a style)")
+    fig.tight_layout()
+    return fig
+
+
+def recovery_calibration_figure(lib: MaterialLibrary, thickness_mm: float = 0.8, initial_c: float = 10.0):
+    """R(t) of every hinge material at 80, 90 and 100 C, with the paper's targets."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, 4, figsize=(16, 3.8))
+    t = np.linspace(0, 14, 701)
+    for ax, bath in zip(axes[:3], (80.0, 90.0, 100.0)):
+        for m in lib.hinges():
+            c = recovery_curve(m, bath, thickness_mm, initial_c)
+            ax.plot(t, c(t), color=m.color, label=m.name)
+        ax.axhline(0.98, color="k", ls=":", lw=0.8)
+        ax.set_title(f"bath {bath:g} °C")
+        ax.set_xlabel("time (s)")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("recovery ratio R")
+    axes[0].legend(fontsize=7)
+    ax = axes[3]
+    spreads = []
+    baths = np.linspace(75, 100, 11)
+    h = lib.hinges()
+    for b in baths:
+        f1 = recovery_curve(h[0], b, thickness_mm, initial_c).fold_time
+        f7 = recovery_curve(h[-1], b, thickness_mm, initial_c).fold_time
+        spreads.append(np.nan if f1 is None or f7 is None else f7 - f1)
+    ax.plot(baths, spreads, "k-", label="model")
+    ax.errorbar([80, 100], [7.0, 2.0], yerr=[[1.5, 0.7], [1.5, 0.7]], fmt="rs", capsize=4,
+                label="paper (≈7 s, ≈2 s) with accepted band")
+    ax.set_xlabel("bath temperature (°C)")
+    ax.set_ylabel(f"{h[-1].name} − {h[0].name} fold time (s)")
+    ax.set_title("spread of fold times")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def plot_recovery_calibration(lib: MaterialLibrary, path: str | Path) -> Path:
+    return save_figure(recovery_calibration_figure(lib), path)

@@ -1,0 +1,14 @@
+import os
+
+import matplotlib
+import pytest
+
+matplotlib.use("Agg")
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+@pytest.fixture(scope="session")
+def lib():
+    from foldprint.materials import default_library
+
+    return default_library()

@@ -1,0 +1,78 @@
+"""The command line, in-process (``foldprint.cli.main``) and as a subprocess."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from foldprint.cli import main
+
+
+def run(capsys, *args):
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_materials_json_contract(capsys, lib):
+    code, out, err = run(capsys, "materials", "--temperature", "80", "90", "100", "--json")
+    assert code == 0
+    data = json.loads(out)
+    rows = {r["name"]: r for r in data["materials"]}
+    assert list(rows)[:7] == [f"H-{i}" for i in range(1, 8)]
+    h1 = rows["H-1"]
+    assert h1["role"] == "hinge" and h1["tg_c"] == 32.0
+    assert list(h1["fold_time_s"]) == ["80", "90", "100"]
+    from foldprint.recovery import fold_time
+    assert h1["fold_time_s"]["90"] == pytest.approx(fold_time(lib["H-1"], 90.0), abs=1e-3)
+    assert rows["VeroWhite"]["fold_time_s"]["90"] is None
+
+
+def test_materials_keys_are_temperatures_as_given_and_null_below_tg(capsys):
+    code, out, _ = run(capsys, "materials", "-t", "55.0", "-t", "95", "--json")
+    data = json.loads(out)
+    h7 = next(r for r in data["materials"] if r["name"] == "H-7")
+    assert list(h7["fold_time_s"]) == ["55.0", "95"]
+    assert h7["fold_time_s"]["55.0"] is None and h7["fold_time_s"]["95"] > 0
+
+
+def test_materials_table_and_plot(capsys, tmp_path):
+    png = tmp_path / "chart.png"
+    code, out, err = run(capsys, "materials", "--plot", str(png))
+    assert code == 0 and "H-7" in out and png.stat().st_size > 5000
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_materials_user_file(capsys, tmp_path):
+    f = tmp_path / "m.toml"
+    f.write_text('[materials.H-9]\nrole = "hinge"\ntg_c = 80.0\ncolor = "#000000"\n')
+    code, out, _ = run(capsys, "materials", "--materials", str(f), "-t", "90", "--json")
+    names = [r["name"] for r in json.loads(out)["materials"]]
+    assert code == 0 and "H-9" in names
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["materials", "--temperature", "hot"], "--temperature"),
+    (["materials", "--materials", "/nonexistent/m.toml"], "/nonexistent/m.toml"),
+    (["materials", "--bogus"], "--bogus"),
+    (["nosuchcommand"], "nosuchcommand"),
+])
+def test_bad_input_exits_2_with_one_line(capsys, args, needle):
+    code, out, err = run(capsys, *args)
+    assert code == 2
+    assert needle in err and "Traceback" not in err
+    assert out == ""
+
+
+def test_templates_lists_shipped_designs(capsys):
+    code, out, _ = run(capsys, "templates", "--json")
+    assert code == 0
+    assert isinstance(json.loads(out)["templates"], list)
+
+
+def test_console_script_and_module_entry_points():
+    res = subprocess.run([sys.executable, "-m", "foldprint", "--version"], capture_output=True, text=True)
+    assert res.returncode == 0 and res.stdout.startswith("foldprint ")
+    res = subprocess.run([sys.executable, "-m", "foldprint", "materials", "-t", "x"], capture_output=True, text=True)
+    assert res.returncode == 2 and "Traceback" not in res.stderr
