@@ -182,6 +182,17 @@ def test_foreign_file_frames_wrapped():
     check_simulator(design_from_fold(wrapped))
 
 
+def test_foreign_simulator_xz_plane_and_series_layout():
+    """Origami Simulator's own export puts the flat sheet in the xz plane (y = 0); its fold
+    series keeps edges and faces at the top level and the coordinates in file_frames."""
+    cp = simulator_cp()
+    cp["vertices_coords"] = [[x, 0, y] for x, y, _ in cp["vertices_coords"]]
+    check_simulator(design_from_fold(cp))
+    frame = {"frame_title": "sim", "frame_inherit": True, "vertices_coords": cp.pop("vertices_coords")}
+    cp["file_frames"] = [frame]
+    check_simulator(design_from_fold(cp))
+
+
 def test_foreign_units_and_scale():
     cp = simulator_cp()
     cp["frame_unit"] = "cm"
@@ -220,6 +231,22 @@ def test_subdivided_crease_merges_into_one_hinge():
     assert d.hinges[0].angle_deg == pytest.approx(120.0)
     assert ring_set(d.panels[0].outline) == {(0, 0), (1, 0), (1, 1), (0, 1)}  # (1, 0.5) dropped
     assert d.name == "sub"
+
+
+def test_foreign_facets_around_a_hole_give_a_panel_with_a_hole():
+    cp = {
+        "vertices_coords": [[0, 0], [3, 0], [3, 3], [0, 3], [1, 1], [2, 1], [2, 2], [1, 2], [4, 0], [4, 3]],
+        "faces_vertices": [[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7], [1, 8, 9, 2]],
+        "edges_vertices": [[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4],
+                           [0, 4], [1, 5], [2, 6], [3, 7], [1, 8], [8, 9], [9, 2]],
+        "edges_assignment": ["B", "V", "B", "B", "B", "B", "B", "B", "F", "F", "F", "F", "B", "B", "B"],
+    }
+    d = design_from_fold(cp)
+    assert [len(p.holes) for p in d.panels] == [1, 0]
+    assert ring_set(d.panels[0].outline) == {(0, 0), (3, 0), (3, 3), (0, 3)}
+    assert ring_set(d.panels[0].holes[0]) == {(1, 1), (2, 1), (2, 2), (1, 2)}
+    assert line_set(d.hinges[0].line) == {(3.0, 0.0), (3.0, 3.0)}
+    assert d.hinges[0].angle == pytest.approx(math.pi)
 
 
 # -- errors ----------------------------------------------------------------------------

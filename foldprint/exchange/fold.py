@@ -177,7 +177,8 @@ def _number(v) -> bool:
 
 
 def _frame(data: Mapping, src: str) -> Mapping:
-    if "vertices_coords" in data or "faces_vertices" in data or "file_frames" not in data:
+    """The top level, or (no coordinates there) the top level updated with file_frames[0]."""
+    if "vertices_coords" in data or "file_frames" not in data:
         return data
     frames = data["file_frames"]
     if not isinstance(frames, list) or not frames or not isinstance(frames[0], Mapping):
@@ -198,14 +199,14 @@ def _coords(frame: Mapping, factor: float, src: str) -> np.ndarray:
         if not isinstance(v, list) or len(v) not in (2, 3) or not all(_number(c) for c in v):
             raise DesignError(f"{src}vertices_coords[{i}] must be [x, y] or [x, y, z] finite numbers, got {v!r}")
         xyz[i, :len(v)] = v
-    if len(raw):
-        extent = max(1.0, float(np.ptp(xyz[:, :2], axis=0).max()))
-        bad = np.nonzero(np.abs(xyz[:, 2]) > 1e-9 * extent)[0]
-        if len(bad):
-            i = int(bad[0])
-            raise DesignError(f"{src}vertices_coords is not flat: vertex {i} has z = {xyz[i, 2]:g}; foldprint "
-                              "imports crease patterns (the flat sheet), not folded states")
-    return xyz[:, :2] * factor
+    flat = np.abs(xyz) <= 1e-9 * max(1.0, float(np.abs(xyz).max(initial=0.0)))
+    if flat[:, 2].all():
+        return xyz[:, :2] * factor
+    if flat[:, 1].all():  # Origami Simulator writes its flat sheet in the xz plane (y up)
+        return xyz[:, [0, 2]] * factor
+    i = int(np.nonzero(~flat[:, 2])[0][0])
+    raise DesignError(f"{src}vertices_coords is not flat: vertex {i} has z = {xyz[i, 2]:g}; foldprint "
+                      "imports crease patterns (the flat sheet), not folded states")
 
 
 def _index_lists(frame: Mapping, key: str, nv: int, src: str, size: int | None) -> list[list[int]]:
@@ -214,15 +215,13 @@ def _index_lists(frame: Mapping, key: str, nv: int, src: str, size: int | None) 
         raise DesignError(f"{src}{key} must be a list of vertex index lists, got {type(raw).__name__}")
     out = []
     for i, item in enumerate(raw):
-        if not isinstance(item, list):
-            raise DesignError(f"{src}{key}[{i}] must be a list of vertex indices, got {item!r}")
-        if size is not None and len(item) != size:
-            raise DesignError(f"{src}{key}[{i}] must hold {size} vertex indices, got {len(item)}")
-        if size is None and len(item) < 3:
-            raise DesignError(f"{src}{key}[{i}] has {len(item)} vertices; a face needs at least 3")
-        for v in item:
-            if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < nv:
+        if not isinstance(item, list) or (len(item) != size if size else len(item) < 3):
+            raise DesignError(f"{src}{key}[{i}] must be a list of {size or 'at least 3'} vertex indices, "
+                              f"got {item!r}")
+        for v in item:  # integral floats (1.0) are accepted as indices
+            if not _number(v) or v != int(v) or not 0 <= v < nv:
                 raise DesignError(f"{src}{key}[{i}] refers to vertex {v!r} but there are {nv} vertices")
+        item = [int(v) for v in item]
         if len(set(item)) != len(item):
             raise DesignError(f"{src}{key}[{i}] repeats a vertex: {item}")
         out.append(item)
@@ -460,8 +459,9 @@ def _scaled(d: dict, factor: float) -> dict:
     """Scale the sheet coordinates kept in foldprint:design (goal tips, strip depth)."""
     d = dict(d)
     if isinstance(d.get("goals"), list):
-        d["goals"] = [dict(g, tip=(np.asarray(g["tip"], float) * factor).tolist())
-                      if isinstance(g, Mapping) and "tip" in g else g for g in d["goals"]]
+        d["goals"] = [dict(g, tip=[c * factor for c in g["tip"]]) if isinstance(g, Mapping)
+                      and isinstance(g.get("tip"), list) and all(map(_number, g["tip"])) else g
+                      for g in d["goals"]]
     if isinstance(d.get("defaults"), Mapping) and _number(d["defaults"].get("depth_mm")):
         d["defaults"] = dict(d["defaults"], depth_mm=d["defaults"]["depth_mm"] * factor)
     return d
