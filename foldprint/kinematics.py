@@ -68,11 +68,14 @@ def hinge_frames(design: Design) -> list[HingeFrame]:
     return frames
 
 
+_EYE3 = np.eye(3)
+
+
 def _rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """Rodrigues: (n, 3, 3) rotations by ``angle`` (n,) about unit ``axis`` (3,)."""
     k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
     s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
-    return np.eye(3)[None] + s * k[None] + (1 - c) * (k @ k)[None]
+    return _EYE3 + s * k + (1 - c) * (k @ k)
 
 
 def _sinc_terms(angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -158,13 +161,29 @@ class HingeDrive:
         self.fixity = np.array([h.fixity for h in design.hinges])
         self.frozen_at: dict[int, float] = {}  # hinge index -> time it was arrested
 
+        # every curve lives on the same internal grid: stack them for one fused lookup
+        self._grid = self.curves[0].t if self.curves else np.zeros(1)
+        if all(c.t is self._grid or np.array_equal(c.t, self._grid) for c in self.curves):
+            self._stack = np.stack([c.ratio for c in self.curves], axis=1) if self.curves else None
+        else:  # pragma: no cover - custom horizons
+            self._stack = None
+
     def ratios(self, t) -> np.ndarray:
+        """Recovery ratios (n_t, n_hinges) at times ``t``; arrested hinges hold their value."""
         t = np.atleast_1d(np.asarray(t, float))
-        out = np.empty((len(t), len(self.curves)))
-        for i, c in enumerate(self.curves):
-            ti = t if i not in self.frozen_at else np.minimum(t, self.frozen_at[i])
-            out[:, i] = c(ti)
-        return out
+        n_h = len(self.curves)
+        tt = np.repeat(t[:, None], n_h, axis=1)
+        for i, tf in self.frozen_at.items():
+            tt[:, i] = np.minimum(t, tf)
+        if self._stack is None:
+            return np.stack([c(tt[:, i]) for i, c in enumerate(self.curves)], axis=1)
+        g = self._grid
+        tc = np.clip(tt, g[0], g[-1])
+        k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
+        f = (tc - g[k]) / (g[k + 1] - g[k])
+        cols = np.arange(n_h)[None, :]
+        r = self._stack[k, cols] * (1 - f) + self._stack[k + 1, cols] * f
+        return np.where(tt < 0, 0.0, r)
 
     def angles(self, t) -> np.ndarray:
         """rho(t) = rho_target (1 - (1 - R(t)) f), (n_t, n_hinges) rad."""
