@@ -150,6 +150,86 @@ def templates(json_out: bool = typer.Option(False, "--json", help="Print one JSO
         echo(f"{t['name']:<{width}}  {t['description']}")
 
 
+def _load(design: str, materials_file=None):
+    from .design_io import load_design
+    from .materials import load_library
+    from .templates import resolve_design_path
+
+    lib = load_library(materials_file or None)
+    return load_design(resolve_design_path(design), lib), lib
+
+
+@app.command()
+def simulate(
+    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); default: the design's."),
+    duration: Optional[float] = typer.Option(None, "--duration", help="Simulated time (s); default: the design's."),
+    dt: float = typer.Option(0.01, "--dt", help="Time step of the trajectory (s)."),
+    method: str = typer.Option("both", "--method", help="index2d | fcl | both"),
+    hinge_model: str = typer.Option("point", "--hinge-model", help="point (paper Eq. 2-4) | arc"),
+    after_contact: str = typer.Option("stop", "--after-contact", help="stop | arrest"),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+):
+    """Fold the design in the bath: hinge angles, collisions, goals. Exit 0 when it
+    completes, 1 when it collides, stalls or misses a goal.
+
+    Example: foldprint simulate helix_graded --json
+    """
+    from .report import simulation_json
+    from .simulate import AFTER, METHODS, simulate as run_sim
+
+    if method not in METHODS:
+        raise FoldprintError(f"--method must be one of {', '.join(METHODS)}, got {method!r}")
+    if hinge_model not in ("point", "arc"):
+        raise FoldprintError(f"--hinge-model must be point or arc, got {hinge_model!r}")
+    if after_contact not in AFTER:
+        raise FoldprintError(f"--after-contact must be one of {', '.join(AFTER)}, got {after_contact!r}")
+    for name, v in (("--temperature", temperature), ("--duration", duration), ("--dt", dt)):
+        if v is not None and not math.isfinite(v):
+            raise FoldprintError(f"{name} must be a finite number, got {v}")
+    if dt <= 0 or (duration is not None and duration <= 0):
+        raise FoldprintError("--dt and --duration must be > 0 s")
+    d, lib = _load(design, materials_file)
+    if plot is not None:
+        from .exchange.files import ensure_dir
+        ensure_dir(plot)
+    res = run_sim(d, bath_c=temperature, duration=duration, dt=dt, method=method,
+                  hinge_model=hinge_model, after_contact=after_contact, library=lib)
+    report = simulation_json(res)
+    if plot is not None:
+        from .render import collision_index_figure, hinge_angle_figure, save_figure
+
+        written = [save_figure(hinge_angle_figure(res), plot / f"{d.name}_hinge_angles.png")]
+        if res.index2d is not None:
+            written.append(save_figure(collision_index_figure(res), plot / f"{d.name}_collision_index.png"))
+        for w in written:
+            echo(f"wrote {w}", err=True)
+    if json_out:
+        _echo_json(report)
+    else:
+        _print_simulation(report)
+    raise ExitCode(0 if res.completed else 1)
+
+
+def _print_simulation(r: dict) -> None:
+    status = "completes" if r["completed"] else "does NOT complete"
+    echo(f"{r['design']} at {r['temperature_c']:g} C ({r['hinge_model']} hinges, {r['method']}): {status}")
+    if r["fold_time_s"] is not None:
+        echo(f"  folded in {r['fold_time_s']:.2f} s")
+    for c in r["contacts"]:
+        echo(f"  contact {c['panels'][0]}-{c['panels'][1]} at {c['time_s']:.3f} s ({c['method']})")
+    for h in r["hinges"]:
+        ft = "does not fold" if h["fold_time_s"] is None else f"{h['fold_time_s']:.2f} s"
+        extra = f", arrested at {h['arrested_at_s']:.3f} s, {h['angle_error_deg']:.1f} deg short" \
+            if h["arrested_at_s"] is not None else ""
+        echo(f"  {h['id']:<6} {h['material']:<6} {ft}{extra}")
+    for g in r["goals"]:
+        state = f"met at {g['time_s']:.2f} s" if g["met"] else "NOT met"
+        echo(f"  goal {g['id']}: {g['panel']} through hole {g['hole']} of {g['target']}: {state}")
+
+
 def _expand_multi(argv: list[str]) -> list[str]:
     """``--temperature 80 90`` -> ``--temperature 80 --temperature 90``."""
     out: list[str] = []

@@ -182,7 +182,8 @@ class HingeDrive:
         k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
         f = (tc - g[k]) / (g[k + 1] - g[k])
         cols = np.arange(n_h)[None, :]
-        r = self._stack[k, cols] * (1 - f) + self._stack[k + 1, cols] * f
+        lo = self._stack[k, cols]
+        r = lo + (self._stack[k + 1, cols] - lo) * f  # monotone in t (the bound needs it)
         return np.where(tt < 0, 0.0, r)
 
     def angles(self, t) -> np.ndarray:

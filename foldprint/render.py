@@ -102,3 +102,50 @@ def recovery_calibration_figure(lib: MaterialLibrary, thickness_mm: float = 0.8,
 
 def plot_recovery_calibration(lib: MaterialLibrary, path: str | Path) -> Path:
     return save_figure(recovery_calibration_figure(lib), path)
+
+
+def hinge_angle_figure(result):
+    """Fig. 3b style: each hinge's fold angle (deg) against time, contacts marked."""
+    plt = _plt()
+    from .materials import default_library
+
+    lib = default_library()
+    traj = result.trajectory
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for k, h in enumerate(result.design.hinges):
+        color = lib[h.material].color if h.material in lib else None
+        ax.plot(traj.times, np.degrees(np.abs(traj.angles[:, k])), color=color, lw=1.4,
+                label=f"{h.id} ({h.material})")
+    for c in result.contacts:
+        ax.axvline(c.time, color="r", ls="--", lw=0.8)
+        ax.text(c.time, ax.get_ylim()[1] * 0.95, f" {c.panels[0]}–{c.panels[1]}", color="r", fontsize=7)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("|fold angle| (deg)")
+    ax.set_title(f"{result.design.name}: hinge angles at {traj.bath_c:g} °C ({traj.model} hinges)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2, loc="lower right")
+    fig.tight_layout()
+    return fig
+
+
+def collision_index_figure(result):
+    """Fig. 4 style: the paper's collision index S_ij of every panel pair against time;
+    contact is S_ij in the band (0, 1) outside the paper's exception cases."""
+    plt = _plt()
+    idx = result.index2d
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.axhspan(0, 1, color="0.9", zorder=0)
+    for k, (i, j) in enumerate(idx.pairs):
+        if idx.adjacent[k]:
+            continue
+        ax.plot(idx.times, idx.s_ij[:, k], lw=0.6, color="0.4", alpha=0.7)
+        hit = idx.contact[:, k]
+        if hit.any():
+            ax.plot(idx.times[hit], idx.s_ij[hit, k], ".", ms=3, color="r")
+    ax.set_ylim(-3, 4)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("collision index $S_{ij}$")
+    ax.set_title(f"{result.design.name}: collision index of {int((~idx.adjacent).sum())} non-adjacent pairs")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig

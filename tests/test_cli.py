@@ -76,3 +76,35 @@ def test_console_script_and_module_entry_points():
     assert res.returncode == 0 and res.stdout.startswith("foldprint ")
     res = subprocess.run([sys.executable, "-m", "foldprint", "materials", "-t", "x"], capture_output=True, text=True)
     assert res.returncode == 2 and "Traceback" not in res.stderr
+
+
+def test_simulate_json_contract_and_exit_codes(capsys, tmp_path):
+    code, out, err = run(capsys, "simulate", "helix_graded", "--json", "--plot", str(tmp_path))
+    assert code == 0
+    r = json.loads(out)
+    assert r["design"] == "helix_graded" and r["temperature_c"] == 90.0
+    assert r["completed"] is True and r["first_collision"] is None
+    assert 5.0 <= r["fold_time_s"] <= 9.0
+    assert [h["material"] for h in r["hinges"]][:3] == ["H-1", "H-1", "H-2"]
+    assert all(h["fold_time_s"] > 0 for h in r["hinges"])
+    assert (tmp_path / "helix_graded_hinge_angles.png").stat().st_size > 5000
+    assert (tmp_path / "helix_graded_collision_index.png").stat().st_size > 5000
+    code, out, _ = run(capsys, "simulate", "helix_uniform", "--json", "--method", "index2d")
+    r = json.loads(out)
+    assert code == 1 and r["completed"] is False
+    assert r["first_collision"]["method"] == "index2d" and sorted(r["first_collision"]["panels"]) == ["p4", "p9"]
+    code, out, _ = run(capsys, "simulate", "self_lock", "--json")
+    r = json.loads(out)
+    assert code == 0 and [g["met"] for g in r["goals"]] == [True, True]
+    assert r["goals"][0]["time_s"] < r["goals"][1]["time_s"]
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["simulate", "nosuchdesign"], "nosuchdesign"),
+    (["simulate", "helix_graded", "--method", "magic"], "--method"),
+    (["simulate", "helix_graded", "--dt", "0"], "--dt"),
+    (["simulate", "helix_graded", "--hinge-model", "spring"], "--hinge-model"),
+])
+def test_simulate_bad_input(capsys, args, needle):
+    code, out, err = run(capsys, *args)
+    assert code == 2 and needle in err and out == "" and "Traceback" not in err

@@ -1,0 +1,53 @@
+"""Plain-data (JSON-ready) reports of results. The CLI prints them; nothing here writes."""
+
+from __future__ import annotations
+
+import math
+
+
+def _r(x, nd=4):
+    if x is None:
+        return None
+    x = float(x)
+    return None if not math.isfinite(x) else round(x, nd)
+
+
+def contact_json(c) -> dict:
+    out = {"time_s": _r(c.time), "panels": list(c.panels), "method": c.method}
+    if all(math.isfinite(v) for v in c.point):
+        out["point_mm"] = [_r(v, 3) for v in c.point]
+    return out
+
+
+def simulation_json(result) -> dict:
+    """The ``foldprint simulate --json`` object."""
+    traj = result.trajectory
+    design = result.design
+    err = result.final_angle_error()
+    hinges = []
+    for k, h in enumerate(design.hinges):
+        hinges.append({
+            "id": h.id, "material": h.material,
+            "fold_time_s": None if h.id in result.arrested else _r(traj.fold_times[k]),
+            "onset_time_s": _r(traj.onset_times[k]),
+            "target_angle_deg": _r(math.degrees(h.angle), 3),
+            "final_angle_deg": _r(math.degrees(traj.angles[-1, k]), 3),
+            "angle_error_deg": _r(math.degrees(err[k]), 3),
+            "arrested_at_s": _r(result.arrested.get(h.id)),
+        })
+    return {
+        "design": design.name,
+        "temperature_c": _r(traj.bath_c, 3),
+        "completed": bool(result.completed),
+        "fold_time_s": _r(result.fold_time) if result.completed else None,
+        "first_collision": contact_json(result.first_collision) if result.first_collision else None,
+        "contacts": [contact_json(c) for c in result.contacts],
+        "hinges": hinges,
+        "goals": [g.to_json() for g in result.goals],
+        "method": result.method,
+        "hinge_model": traj.model,
+        "after_contact": result.after_contact,
+        "duration_s": _r(traj.times[-1]),
+        "dt_s": _r(traj.times[1] - traj.times[0]) if len(traj.times) > 1 else None,
+        "initial_contacts": [contact_json(c) for c in result.initial_contacts],
+    }
