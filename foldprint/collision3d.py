@@ -113,16 +113,22 @@ class SweptChecker:
         distances when folded); infinity otherwise."""
         import shapely
 
+        key = (frame.index, tuple(chain_panels))
+        cache = self.__dict__.setdefault("_flat_cache", {})
+        if key in cache:
+            return cache[key]
         region = shapely.union_all([self.design.panels[k].polygon for k in chain_panels]
                                    + [self.design.panels[frame.parent].polygon])
         hull = region.convex_hull
         if region.geom_type != "Polygon" or hull.area - region.area > 1e-6 * hull.area:
+            cache[key] = np.inf
             return np.inf
         pts = self.design.panels[chain_panels[-1]].outline
         a, b = frame.hinge.line
         d = (b - a) / np.linalg.norm(b - a)
         rel = pts - a
-        return float(np.max(np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0])))
+        cache[key] = float(np.max(np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0])))
+        return cache[key]
 
     # -- queries ----------------------------------------------------------------------
     def poses_at(self, t: float) -> np.ndarray:

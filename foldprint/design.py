@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Iterable, Sequence
 
 import numpy as np
@@ -52,8 +53,9 @@ class Panel:
         object.__setattr__(self, "holes", tuple(
             _frozen_array(h, (2,), f"panel {self.id!r} hole") for h in self.holes))
 
-    @property
+    @cached_property
     def polygon(self) -> Polygon:
+        """Shapely polygon (cached; shapely geometries are immutable)."""
         return Polygon(self.outline, [h for h in self.holes])
 
     @property
