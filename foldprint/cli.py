@@ -230,6 +230,46 @@ def _print_simulation(r: dict) -> None:
         echo(f"  goal {g['id']}: {g['panel']} through hole {g['hole']} of {g['target']}: {state}")
 
 
+@app.command()
+def check(
+    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    printer: Optional[str] = typer.Option(None, "--printer", help="Printer profile key (default: connex260)."),
+    printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML)."),
+    hinge_model: str = typer.Option("point", "--hinge-model", help="point | arc, for the folding check"),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+):
+    """Design-rule checks before printing: build volume, walls and gaps, hinge strain and
+    size, temperatures, fold time, collisions and goals. Exit 0 without errors, 1 with.
+
+    Example: foldprint check helix_uniform --json
+    """
+    from .checks import default_printer_key, load_printers, run_checks
+
+    if hinge_model not in ("point", "arc"):
+        raise FoldprintError(f"--hinge-model must be point or arc, got {hinge_model!r}")
+    printers = load_printers(printers_file)
+    key = printer or default_printer_key()
+    if key not in printers:
+        raise FoldprintError(f"--printer {key!r} is unknown; profiles: {', '.join(printers)} "
+                             "(add your own with --printers FILE)")
+    d, lib = _load(design, materials_file)
+    findings = run_checks(d, printers[key], lib, hinge_model=hinge_model)
+    n_err = sum(f.severity == "error" for f in findings)
+    if json_out:
+        _echo_json({"design": d.name, "printer": key, "ok": n_err == 0,
+                    "errors": n_err, "warnings": sum(f.severity == "warning" for f in findings),
+                    "findings": [f.to_json() for f in findings]})
+    else:
+        for f in findings:
+            where = ", ".join(f"{k} {v}" for k, v in f.where.items())
+            echo(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
+            if f.hint:
+                echo(f"        hint: {f.hint}")
+        echo(f"{d.name}: {n_err} error(s) on {printers[key].name}", err=True)
+    raise ExitCode(1 if n_err else 0)
+
+
 def _expand_multi(argv: list[str]) -> list[str]:
     """``--temperature 80 90`` -> ``--temperature 80 --temperature 90``."""
     out: list[str] = []

@@ -1,0 +1,322 @@
+"""Design-rule checks before printing. Each rule is a function ``(ctx) -> list[Finding]``,
+so one run reports every problem.
+
+Codes are stable (documented in ``docs/checks.md``); severities: error (the part will not
+print or fold), warning (it may not), info (a margin worth knowing).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .design import Design
+from .errors import DesignError
+from .materials import MaterialLibrary, default_library
+
+SEVERITIES = ("error", "warning", "info")
+
+
+@dataclass(frozen=True)
+class Finding:
+    code: str
+    severity: str
+    message: str
+    hint: str = ""
+    where: dict = field(default_factory=dict)  # panel / hinge / body ids
+    point_mm: tuple[float, float, float] | None = None
+
+    def to_json(self) -> dict:
+        out = {"code": self.code, "severity": self.severity, "message": self.message,
+               "where": dict(self.where), "hint": self.hint}
+        if self.point_mm is not None:
+            out["point_mm"] = [round(float(v), 3) for v in self.point_mm]
+        return out
+
+
+@dataclass(frozen=True)
+class Printer:
+    key: str
+    name: str
+    technology: str
+    build_mm: tuple[float, float, float]
+    layer_mm: float
+    min_wall_mm: float
+    min_gap_mm: float
+
+
+def load_printers(extra: str | Path | None = None) -> dict[str, Printer]:
+    """Shipped printer profiles plus a user TOML file of the same layout."""
+    text = (resources.files("foldprint") / "data" / "printers.toml").read_text(encoding="utf-8")
+    tables = [("foldprint/data/printers.toml", tomllib.loads(text))]
+    if extra is not None:
+        p = Path(extra)
+        try:
+            tables.append((str(p), tomllib.loads(p.read_text(encoding="utf-8"))))
+        except FileNotFoundError:
+            raise DesignError(f"{p}: printer file not found") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise DesignError(f"{p}: not valid TOML: {exc}") from None
+    out: dict[str, Printer] = {}
+    for src, data in tables:
+        for key, raw in data.get("printers", {}).items():
+            try:
+                build = tuple(float(v) for v in raw["build_mm"])
+                pr = Printer(key, str(raw.get("name", key)), str(raw.get("technology", "")), build,
+                             float(raw.get("layer_mm", 0.1)), float(raw["min_wall_mm"]), float(raw["min_gap_mm"]))
+            except (KeyError, TypeError, ValueError) as exc:
+                raise DesignError(f"{src}: printers.{key}: needs build_mm = [x, y, z], min_wall_mm and "
+                                  f"min_gap_mm ({exc})") from None
+            if len(build) != 3 or min(build) <= 0 or pr.min_wall_mm <= 0 or pr.min_gap_mm <= 0:
+                raise DesignError(f"{src}: printers.{key}: sizes must be positive")
+            out[key] = pr
+    return out
+
+
+def default_printer_key() -> str:
+    text = (resources.files("foldprint") / "data" / "printers.toml").read_text(encoding="utf-8")
+    data = tomllib.loads(text)["printers"]
+    return next(k for k, v in data.items() if v.get("default"))
+
+
+@dataclass
+class CheckContext:
+    design: Design
+    library: MaterialLibrary
+    printer: Printer
+    simulation: object | None = None  # SimulationResult, computed lazily
+    assembly: object | None = None
+    hinge_model: str = "point"
+
+    def sim(self):
+        if self.simulation is None:
+            from .simulate import simulate
+
+            self.simulation = simulate(self.design, method="fcl", hinge_model=self.hinge_model,
+                                       library=self.library)
+        return self.simulation
+
+
+def _f(code, sev, msg, hint="", point=None, **where):
+    return Finding(code, sev, msg, hint, {k: v for k, v in where.items() if v is not None},
+                   None if point is None else tuple(float(x) for x in point))
+
+
+# -- rules ------------------------------------------------------------------------------
+
+def rule_build_volume(ctx: CheckContext) -> list[Finding]:
+    """The printed (permanent) part fits the printer, in some axis-aligned orientation."""
+    from .kinematics import forward, target_angles, transform_points
+
+    d = ctx.design
+    poses = forward(d, target_angles(d)[None], "arc")[0]
+    pts = []
+    for i, p in enumerate(d.panels):
+        for z in (-p.thickness / 2, p.thickness / 2):
+            pts.append(transform_points(poses[i], p.outline, z))
+    pts = np.concatenate(pts)
+    size = pts.max(0) - pts.min(0)
+    build = np.array(ctx.printer.build_mm)
+    fits = np.all(np.sort(size) <= np.sort(build) + 1e-9)
+    if fits:
+        return [_f("FP101", "info", f"part {size[0]:.1f} x {size[1]:.1f} x {size[2]:.1f} mm fits "
+                   f"{ctx.printer.name} ({build[0]:g} x {build[1]:g} x {build[2]:g} mm)")]
+    return [_f("FP100", "error", f"part {size[0]:.1f} x {size[1]:.1f} x {size[2]:.1f} mm does not fit the build "
+               f"volume of {ctx.printer.name} ({build[0]:g} x {build[1]:g} x {build[2]:g} mm)",
+               "scale the design down or choose a larger printer with --printer")]
+
+
+def rule_min_wall(ctx: CheckContext) -> list[Finding]:
+    out = []
+    w = ctx.printer.min_wall_mm
+    for p in ctx.design.panels:
+        if p.thickness < w:
+            out.append(_f("FP110", "error", f"panel {p.id!r} is {p.thickness:g} mm thick, below the "
+                          f"{w:g} mm minimum wall of {ctx.printer.name}",
+                          f"make it at least {w:g} mm thick", panel=p.id))
+    for h in ctx.design.hinges:
+        thin = h.style.thin_mm if h.style.stepped else h.thickness
+        if thin < w:
+            out.append(_f("FP111", "warning" if thin >= 0.5 * w else "error",
+                          f"hinge {h.id!r} is {thin:g} mm at its thinnest, below the {w:g} mm minimum wall",
+                          "thicken the hinge (or its thin steps)", hinge=h.id))
+    return out
+
+
+def rule_min_gap(ctx: CheckContext) -> list[Finding]:
+    """Gaps that would fuse: slots, holes, and the clearance between non-adjacent panels
+    in the printed (permanent) state."""
+    out = []
+    g = ctx.printer.min_gap_mm
+    for h in ctx.design.hinges:
+        if h.style.max_segment_mm > 0 and h.length > h.style.max_segment_mm and h.style.slot_width_mm < g:
+            out.append(_f("FP120", "error", f"hinge {h.id!r}: slots of {h.style.slot_width_mm:g} mm are narrower "
+                          f"than the {g:g} mm minimum gap and will fuse", f"use slot_width_mm >= {g:g}", hinge=h.id))
+    for p in ctx.design.panels:
+        for k, hole in enumerate(p.holes):
+            from shapely.geometry import Polygon
+
+            poly = Polygon(hole)
+            minx, miny, maxx, maxy = poly.bounds
+            if min(maxx - minx, maxy - miny) < g:
+                out.append(_f("FP121", "error", f"panel {p.id!r} hole {k} is narrower than the {g:g} mm minimum gap",
+                              "widen the hole", panel=p.id))
+    from .collision3d import SweptChecker, non_adjacent_pairs
+    from .kinematics import HingeDrive, forward, target_angles
+
+    d = ctx.design
+    checker = SweptChecker(d, "arc", HingeDrive(d, library=ctx.library))
+    poses = forward(d, target_angles(d)[None], "arc")[0]
+    for i, j in non_adjacent_pairs(d):
+        dist, point = checker.distance(i, j, poses[i], poses[j])
+        if dist < g:
+            a, b = d.panels[i].id, d.panels[j].id
+            sev = "error"
+            msg = (f"panels {a!r} and {b!r} are {max(dist, 0):.2f} mm apart in the printed state, below the "
+                   f"{g:g} mm minimum gap: they would print fused" if dist > 0 else
+                   f"panels {a!r} and {b!r} intersect in the printed (permanent) state")
+            out.append(_f("FP122", sev, msg, "move the panels apart or change the target angles",
+                          point, panels=[a, b]))
+    return out
+
+
+def rule_hinge_strain(ctx: CheckContext) -> list[Finding]:
+    """Bending strain when a hinge of thickness t and radius R is programmed flat:
+    eps = t / (2 R) at its outer fibres."""
+    out = []
+    for h in ctx.design.hinges:
+        mat = ctx.library[h.material]
+        eps = h.thickness / (2 * h.radius)
+        if eps > mat.max_strain:
+            out.append(_f("FP130", "error", f"hinge {h.id!r}: programming strain {eps:.0%} exceeds {mat.name}'s "
+                          f"limit {mat.max_strain:.0%} (t = {h.thickness:g} mm, R = {h.radius:g} mm)",
+                          f"increase the radius to at least {h.thickness / (2 * mat.max_strain):.2f} mm", hinge=h.id))
+        elif eps > 0.8 * mat.max_strain:
+            out.append(_f("FP131", "warning", f"hinge {h.id!r}: programming strain {eps:.0%} is within 20 % of "
+                          f"{mat.name}'s limit {mat.max_strain:.0%}", "increase the bend radius", hinge=h.id))
+        if 2 * h.radius <= h.thickness and abs(h.angle) > math.radians(150):
+            out.append(_f("FP132", "error", f"hinge {h.id!r}: radius {h.radius:g} mm is too tight for a "
+                          f"{math.degrees(abs(h.angle)):.0f} deg fold of {h.thickness:g} mm: its faces would meet",
+                          "increase the radius", hinge=h.id))
+    return out
+
+
+def rule_hinge_fits(ctx: CheckContext) -> list[Finding]:
+    """The flat hinge strip (w/2 each side of the fold line) must fit in both panels, and a
+    hinge should be longer than its width."""
+    from shapely.geometry import LineString
+
+    out = []
+    d = ctx.design
+    for h in d.hinges:
+        w = h.width
+        band = LineString(h.line).buffer(w / 2, cap_style="flat")
+        for pid in h.panels:
+            poly = d.panel(pid).polygon
+            rest = poly.difference(band)
+            if rest.is_empty or rest.area < 0.05 * poly.area:
+                out.append(_f("FP140", "error", f"hinge {h.id!r}: its flat width {w:.2f} mm (R {h.radius:g} mm x "
+                              f"{math.degrees(abs(h.angle)):.0f} deg) leaves almost nothing of panel {pid!r}",
+                              "reduce the bend radius or enlarge the panel", hinge=h.id, panel=pid))
+        if h.length < 0.5 * w:
+            out.append(_f("FP141", "warning", f"hinge {h.id!r} is {h.length:.1f} mm long but {w:.1f} mm wide: "
+                          "short hinges twist", "lengthen the fold line or reduce the radius", hinge=h.id))
+    return out
+
+
+def rule_temperatures(ctx: CheckContext) -> list[Finding]:
+    out = []
+    pr = ctx.design.process
+    for h in ctx.design.hinges:
+        tg = ctx.library[h.material].tg_c
+        if pr.program_temperature_c <= tg:
+            out.append(_f("FP150", "error", f"hinge {h.id!r} ({h.material}, Tg {tg:g} C): programming at "
+                          f"{pr.program_temperature_c:g} C is not above Tg, so it cannot be programmed flat",
+                          f"program above {tg + 15:g} C", hinge=h.id))
+        if pr.bath_temperature_c <= tg:
+            out.append(_f("FP151", "error", f"hinge {h.id!r} ({h.material}, Tg {tg:g} C): a {pr.bath_temperature_c:g} C "
+                          "bath is below Tg, so it never folds", f"use a bath above {tg + 15:g} C", hinge=h.id))
+        if pr.fix_temperature_c >= tg:
+            out.append(_f("FP152", "error", f"hinge {h.id!r} ({h.material}, Tg {tg:g} C): fixing at "
+                          f"{pr.fix_temperature_c:g} C is not below Tg, so the flat shape will not hold",
+                          "cool below Tg before releasing", hinge=h.id))
+    return out
+
+
+def rule_fold_within_duration(ctx: CheckContext) -> list[Finding]:
+    out = []
+    d = ctx.design
+    from .recovery import fold_time
+
+    for h in d.hinges:
+        if d.process.bath_temperature_c <= ctx.library[h.material].tg_c:
+            continue  # reported by FP151
+        ft = fold_time(ctx.library[h.material], d.process.bath_temperature_c, h.thickness,
+                       d.process.fix_temperature_c)
+        if ft is None or ft > d.process.duration_s:
+            out.append(_f("FP160", "error", f"hinge {h.id!r} ({h.material}) does not reach 98 % within the "
+                          f"{d.process.duration_s:g} s process" + ("" if ft is None else f" (needs {ft:.1f} s)"),
+                          "lengthen duration_s or raise the bath temperature", hinge=h.id))
+    return out
+
+
+def rule_folding(ctx: CheckContext) -> list[Finding]:
+    """Simulate (3D, swept): collisions, goals, and the minimum clearance as a margin."""
+    res = ctx.sim()
+    out = []
+    c = res.first_collision
+    if c is not None:
+        out.append(_f("FP170", "error", f"panels {c.panels[0]!r} and {c.panels[1]!r} collide at {c.time:.3f} s "
+                      f"while folding ({ctx.hinge_model} hinges, 3D swept check)",
+                      "give the hinges that must fold first lower-Tg materials, so these panels fold in sequence",
+                      c.point if all(map(math.isfinite, c.point)) else None, panels=list(c.panels)))
+    for g in res.goals:
+        if not g.met:
+            why = "never passes" if g.time is None else "passes out of order"
+            out.append(_f("FP171", "error", f"goal {g.goal.id!r}: panel {g.goal.panel!r} {why} through hole "
+                          f"{g.goal.hole} of {g.goal.target!r}", "adjust the hinge sequence", goal=g.goal.id))
+    if c is None:
+        gap = _min_clearance(ctx)
+        if gap is not None:
+            out.append(_f("FP172", "info", f"smallest clearance between non-adjacent panels while folding: "
+                          f"{gap[0]:.2f} mm ({gap[1]!r}-{gap[2]!r} at {gap[3]:.2f} s)",
+                          "", panels=[gap[1], gap[2]]))
+    return out
+
+
+def _min_clearance(ctx: CheckContext):
+    from .collision3d import SweptChecker, non_adjacent_pairs
+
+    res = ctx.sim()
+    d = ctx.design
+    traj = res.trajectory
+    checker = SweptChecker(d, traj.model, None)
+    best = None
+    for k in range(0, len(traj.times), max(1, len(traj.times) // 200)):
+        for i, j in non_adjacent_pairs(d):
+            dist, _ = checker.distance(i, j, traj.poses[k][i], traj.poses[k][j])
+            if best is None or dist < best[0]:
+                best = (dist, d.panels[i].id, d.panels[j].id, float(traj.times[k]))
+    return best
+
+
+RULES = [rule_build_volume, rule_min_wall, rule_min_gap, rule_hinge_strain, rule_hinge_fits,
+         rule_temperatures, rule_fold_within_duration, rule_folding]
+
+
+def run_checks(design: Design, printer: Printer | None = None, library: MaterialLibrary | None = None,
+               rules=None, hinge_model: str = "point") -> list[Finding]:
+    """Every rule's findings, errors first."""
+    lib = library or default_library()
+    pr = printer or load_printers()[default_printer_key()]
+    ctx = CheckContext(design, lib, pr, hinge_model=hinge_model)
+    findings: list[Finding] = []
+    for rule in rules or RULES:
+        findings.extend(rule(ctx))
+    order = {s: i for i, s in enumerate(SEVERITIES)}
+    return sorted(findings, key=lambda f: (order[f.severity], f.code))

@@ -1,0 +1,81 @@
+"""Design-rule checks: each rule on a crafted design, and the templates' verdicts."""
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from foldprint.checks import load_printers, run_checks
+from foldprint.cli import main
+from foldprint.design import Process, strip
+from foldprint.design_io import load_design
+
+TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
+
+
+def codes(findings, severity=None):
+    return {f.code for f in findings if severity is None or f.severity == severity}
+
+
+def test_good_strip_has_no_errors():
+    d = strip("ok", [20, 20], [90], ["H-3"])
+    assert codes(run_checks(d), "error") == set()
+
+
+def test_build_volume():
+    d = strip("huge", [300, 10], [90], ["H-3"])
+    f = run_checks(d)
+    assert "FP100" in codes(f, "error")
+    big = load_printers()["connex3_500"]
+    assert "FP100" not in codes(run_checks(d, big))
+
+
+def test_thin_wall_and_fused_slots():
+    d = strip("thin", [20, 20], [90], ["H-3"], thickness=0.3)
+    assert "FP110" in codes(run_checks(d), "error")
+
+
+def test_programming_strain():
+    d = strip("tight", [20, 20], [90], ["H-3"], radius=1.0)  # 0.8 / 2 = 40 % > 25 %
+    f = [x for x in run_checks(d) if x.code == "FP130"]
+    assert f and f[0].where["hinge"] == "h1" and "1.60 mm" in f[0].hint
+
+
+def test_temperatures_against_tg():
+    d = strip("cold", [20, 20, 20], [90, 90], ["H-1", "H-7"],
+              process=Process(program_temperature_c=60, fix_temperature_c=10, bath_temperature_c=60))
+    f = run_checks(d)
+    bath = [x for x in f if x.code == "FP151"]
+    prog = [x for x in f if x.code == "FP150"]
+    assert [x.where["hinge"] for x in bath] == ["h2"] and [x.where["hinge"] for x in prog] == ["h2"]
+
+
+def test_fold_time_within_duration():
+    d = strip("short", [20, 20], [90], ["H-7"], process=Process(duration_s=3.0))
+    f = [x for x in run_checks(d) if x.code == "FP160"]
+    assert f and "needs 5.4 s" in f[0].message
+
+
+@pytest.mark.parametrize("name", ["helix_graded", "self_lock"])
+def test_good_templates_pass(name):
+    f = run_checks(load_design(TEMPLATES / f"{name}.toml"))
+    assert codes(f, "error") == set(), [x.message for x in f if x.severity == "error"]
+    assert "FP172" in codes(f)  # the clearance margin is reported
+
+
+@pytest.mark.parametrize("name,panels", [("helix_uniform", {"p4", "p9"}), ("self_lock_uniform", {"p1", "p6"})])
+def test_bad_templates_fail_naming_panels_and_time(capsys, name, panels):
+    code = main(["check", name, "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 1 and not out["ok"]
+    coll = [f for f in out["findings"] if f["code"] == "FP170"]
+    assert coll and set(coll[0]["where"]["panels"]) == panels and " s " in coll[0]["message"]
+
+
+def test_user_printer_profile(tmp_path, capsys):
+    f = tmp_path / "p.toml"
+    f.write_text('[printers.tiny]\nname = "Tiny"\nbuild_mm = [30, 30, 30]\nmin_wall_mm = 0.5\nmin_gap_mm = 0.2\n')
+    code = main(["check", "helix_graded", "--printers", str(f), "--printer", "tiny", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 1 and any(x["code"] == "FP100" for x in out["findings"])
