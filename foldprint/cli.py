@@ -69,10 +69,26 @@ def _version(value: bool):
         raise typer.Exit(0)
 
 
+_STATE = {"quiet": False, "verbose": False}
+
+
+def _note(msg: str) -> None:
+    """A human message on stderr (silenced by --quiet)."""
+    if not _STATE["quiet"]:
+        echo(msg, err=True)
+
+
 @app.callback()
 def _root(version: bool = typer.Option(False, "--version", is_eager=True, callback=_version,
-                                       help="Print the version and exit.")):
+                                       help="Print the version and exit."),
+          quiet: bool = typer.Option(False, "--quiet", "-q", help="Only errors and machine output."),
+          verbose: bool = typer.Option(False, "--verbose", "-v", help="Log what foldprint does (stderr).")):
     """foldprint: design, simulate, check and export self-folding structures."""
+    import logging
+
+    _STATE["quiet"], _STATE["verbose"] = quiet, verbose
+    if verbose and not quiet:
+        logging.basicConfig(level=logging.INFO, format="foldprint: %(name)s: %(message)s")
 
 
 @app.command()
@@ -110,7 +126,7 @@ def materials(
         from .render import fold_time_chart, save_figure
 
         save_figure(fold_time_chart(lib, [v for _, v in temps], thickness), plot)
-        echo(f"wrote {plot}", err=True)
+        _note(f"wrote {plot}")
     if json_out:
         _echo_json({"materials": rows})
         return
@@ -205,7 +221,7 @@ def simulate(
         if res.index2d is not None:
             written.append(save_figure(collision_index_figure(res), plot / f"{d.name}_collision_index.png"))
         for w in written:
-            echo(f"wrote {w}", err=True)
+            _note(f"wrote {w}")
     if json_out:
         _echo_json(report)
     else:
@@ -266,7 +282,7 @@ def check(
             echo(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
             if f.hint:
                 echo(f"        hint: {f.hint}")
-        echo(f"{d.name}: {n_err} error(s) on {printers[key].name}", err=True)
+        _note(f"{d.name}: {n_err} error(s) on {printers[key].name}")
     raise ExitCode(1 if n_err else 0)
 
 
