@@ -286,6 +286,86 @@ def check(
     raise ExitCode(1 if n_err else 0)
 
 
+@app.command()
+def export(
+    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Output directory (default: output/<design>/)."),
+    state: str = typer.Option("permanent", "--state", help="permanent (folded, printed) | programmed (flat)"),
+    formats: str = typer.Option("3mf,prusa3mf,stl", "--format", help="Comma-separated: 3mf, prusa3mf, stl."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+):
+    """Build the printable part (one watertight body per material) and write multi-body
+    3MF (spec + Bambu/Orca/Cura metadata), a PrusaSlicer 3MF, and one STL per material.
+
+    Example: foldprint export helix_graded --format 3mf,stl --json
+    """
+    from .exchange.export import FORMATS, export_design
+
+    if state not in ("permanent", "programmed"):
+        raise FoldprintError(f"--state must be permanent or programmed, got {state!r}")
+    fmts = [f.strip() for f in formats.split(",") if f.strip()]
+    bad = [f for f in fmts if f not in FORMATS]
+    if bad or not fmts:
+        raise FoldprintError(f"--format: unknown format(s) {bad or formats!r}; choose from {', '.join(FORMATS)}")
+    d, lib = _load(design, materials_file)
+    out_dir = out if out is not None else Path("output") / d.name
+    records = _with_progress(f"building {d.name} ({state})",
+                             lambda: export_design(d, out_dir, state, fmts, lib))
+    if json_out:
+        _echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records})
+    else:
+        for r in records:
+            vol = sum(b["volume_mm3"] for b in r["bodies"])
+            echo(f"{r['path']}  ({r['format']}, {len(r['bodies'])} bodies, {vol:.1f} mm3)")
+
+
+def _with_progress(label: str, fn):
+    """Run ``fn`` with a spinner on stderr when stderr is a terminal and not --quiet."""
+    if _STATE["quiet"] or not sys.stderr.isatty():
+        return fn()
+    from rich.console import Console
+
+    with Console(stderr=True).status(label):
+        return fn()
+
+
+@app.command()
+def gallery(
+    designs: Optional[List[str]] = typer.Argument(None, help="Designs or template names (default: every template)."),
+    out: Path = typer.Option(Path("output") / "gallery", "--out", help="Output directory."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+):
+    """Simulate, check, render and export designs into an offline HTML gallery
+    (index.html with renders, fold animations, plots, check summaries and 3MF/STL links).
+
+    Example: foldprint gallery --out output/gallery
+    """
+    from .design_io import load_design
+    from .exchange.files import ensure_dir
+    from .gallery import build_gallery
+    from .materials import load_library
+    from .templates import list_templates, resolve_design_path
+
+    lib = load_library(materials_file or None)
+    names = list(designs) if designs else [t["path"] for t in list_templates()]
+    if not names:
+        raise FoldprintError("no designs given and no templates found")
+    loaded = [load_design(resolve_design_path(n), lib) for n in names]
+    ensure_dir(out)
+    if _STATE["quiet"] or not sys.stderr.isatty():
+        index = build_gallery(loaded, out, progress=lambda msg: _note(msg) if _STATE["verbose"] else None,
+                              library=lib)
+    else:
+        from rich.progress import Progress
+
+        with Progress(transient=True, console=__import__("rich.console").console.Console(stderr=True)) as bar:
+            task = bar.add_task("gallery", total=None)
+            index = build_gallery(loaded, out, progress=lambda msg: bar.update(task, description=msg),
+                                  library=lib)
+    _note(f"wrote {index}")
+
+
 def _expand_multi(argv: list[str]) -> list[str]:
     """``--temperature 80 90`` -> ``--temperature 80 --temperature 90``."""
     out: list[str] = []

@@ -1,0 +1,512 @@
+"""A static, offline HTML gallery of designs: renders, plots, checks, simulation and files.
+
+:func:`build_gallery` writes, for every design, into ``out_dir/<name>/``:
+
+* ``programmed.png`` and ``permanent.png``: the flat sheet and the printed shape;
+* ``frames.png``: four mid-fold frames; ``fold.gif``: the fold as an animation;
+* ``hinge_angles.png`` (paper Fig. 3b style) and, for planar strips,
+  ``collision_index.png`` (paper Fig. 4 style);
+* ``check.json`` (design-rule findings, as ``foldprint check --json``) and
+  ``simulation.json`` (as ``foldprint simulate --json``);
+* ``files/``: the printable files from :func:`foldprint.exchange.export.export_design`
+  (3MF, PrusaSlicer 3MF, STL per material, manifest), when that module is available;
+
+and, once, ``out_dir/materials.png`` (fold time against bath temperature) and
+``out_dir/index.html``, one self-contained page (inline CSS, no scripts, relative links)
+that ties everything together. Every file goes through
+:func:`foldprint.exchange.files.write_atomic`; nothing is printed, progress is logged and
+reported to an optional callback. The output is deterministic: building twice gives the
+same bytes (export files aside, which belong to the exporter).
+"""
+
+from __future__ import annotations
+
+import html
+import io
+import json
+import logging
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+from urllib.parse import quote
+
+from . import __version__
+from .design import Design
+from .materials import MaterialLibrary, default_library
+
+log = logging.getLogger(__name__)
+
+MATERIAL_TEMPERATURES = (80.0, 90.0, 100.0)
+"""Bath temperatures (deg C) of the material chart."""
+
+SIM_DT = 0.02
+"""Time step (s) of the simulations behind the renders (collision times are refined
+between samples, so the reported first contact does not depend on it)."""
+
+GIF_FRAMES = 30
+GIF_DPI = 72
+STATE_DPI = 100
+PLOT_DPI = 90
+
+
+@dataclass
+class _Image:
+    src: str  # relative URL from index.html
+    width: int
+    height: int
+    alt: str
+    caption: str
+    wide: bool = False  # spans the whole row of the picture grid
+
+
+@dataclass
+class _Link:
+    href: str
+    label: str
+    size: int | None = None
+
+
+@dataclass
+class _Entry:
+    design: Design
+    dirname: str
+    sim: dict
+    checks: dict
+    fold_time: float | None = None  # s, every hinge at 98 % (from the recovery curves)
+    contacts: list = field(default_factory=list)  # (panel a, panel b, time, method)
+    hinge_done: list = field(default_factory=list)
+    images: list = field(default_factory=list)
+    files: list = field(default_factory=list)
+    data_links: list = field(default_factory=list)
+    export_note: str = ""
+
+
+# -- helpers --------------------------------------------------------------------------
+
+def _slug(name: str) -> str:
+    """A directory-name-safe version of a design name."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", name).strip("._") or "design"
+
+
+def _unique_dirnames(designs: Sequence[Design]) -> list[str]:
+    seen: dict[str, int] = {}
+    out = []
+    for d in designs:
+        base = _slug(d.name)
+        if base.lower() in ("materials.png", "index.html"):
+            base = f"design_{base}"
+        k = seen.get(base.lower(), 0) + 1
+        seen[base.lower()] = k
+        out.append(base if k == 1 else f"{base}-{k}")
+    return out
+
+
+def _png_size(data: bytes) -> tuple[int, int]:
+    from PIL import Image
+
+    with Image.open(io.BytesIO(data)) as im:
+        return int(im.width), int(im.height)
+
+
+def _write_image(out_dir: Path, rel: str, data: bytes, alt: str, caption: str,
+                 wide: bool = False) -> _Image:
+    from .exchange.files import write_atomic
+
+    write_atomic(out_dir / rel, data)
+    w, h = _png_size(data)
+    return _Image(_url(rel), w, h, alt, caption, wide)
+
+
+def _url(rel: str) -> str:
+    """A relative URL for a POSIX relative path (each segment percent-encoded)."""
+    return "/".join(quote(part) for part in rel.split("/"))
+
+
+def _json_bytes(obj) -> bytes:
+    return (json.dumps(obj, indent=2, ensure_ascii=False, allow_nan=False) + "\n").encode("utf-8")
+
+
+def _fmt_s(t: float | None, nd: int = 2) -> str:
+    return "\u2014" if t is None else f"{t:.{nd}f} s"
+
+
+def _import_exporter():
+    """``export_design``, or None (logged) when the exporter cannot be imported."""
+    try:
+        from .exchange.export import export_design
+    except Exception as exc:  # noqa: BLE001 - any failure only costs the download links
+        log.warning("printable-file export unavailable (%s: %s); the gallery has no download links",
+                    type(exc).__name__, exc)
+        return None
+    return export_design
+
+
+# -- building -------------------------------------------------------------------------
+
+def build_gallery(designs: Sequence[Design], out_dir: str | Path,
+                  progress: Callable[[str], None] | None = None, *,
+                  library: MaterialLibrary | None = None, dt: float = SIM_DT,
+                  gif_frames: int = GIF_FRAMES) -> Path:
+    """Simulate, check, render and export ``designs`` into a static HTML gallery.
+
+    Parameters
+    ----------
+    designs : sequence of Design
+        The designs, in page order (e.g. every template, via
+        :func:`foldprint.templates.list_templates` and :func:`foldprint.design_io.load_design`).
+    out_dir : str or Path
+        Output directory (created if needed); each design gets ``out_dir/<name>/``.
+    progress : callable, optional
+        Called with a short description of each step (``"helix_graded: simulating"``).
+    library : MaterialLibrary, optional
+        Materials for simulation, colours and the material chart; the default library if
+        omitted.
+    dt : float
+        Time step (s) of the simulations behind the renders.
+    gif_frames : int
+        Frames of each fold animation.
+
+    Returns
+    -------
+    Path
+        ``out_dir/index.html``.
+
+    Raises
+    ------
+    foldprint.errors.ExportError
+        If ``out_dir`` or a file in it cannot be written. A design whose printable files
+        cannot be built is reported on the page (and logged), not raised.
+    """
+    from . import render
+    from .exchange.files import ensure_dir, write_atomic
+
+    lib = library or default_library()
+    out = ensure_dir(out_dir)
+    t_start = time.perf_counter()
+
+    def step(msg: str) -> None:
+        log.info("gallery: %s", msg)
+        if progress is not None:
+            progress(msg)
+
+    export_design = _import_exporter()
+    step("material chart")
+    chart = render.figure_bytes(render.fold_time_chart(lib, MATERIAL_TEMPERATURES), "png", PLOT_DPI)
+    temps = ", ".join(f"{t:g}" for t in MATERIAL_TEMPERATURES)
+    materials_img = _write_image(
+        out, "materials.png", chart,
+        f"Glass transition temperature of each hinge material and its fold time at {temps} \u00b0C",
+        f"Hinge materials: Tg and 98 % fold time against bath temperature ({temps} \u00b0C marked).")
+
+    entries = []
+    for design, dirname in zip(designs, _unique_dirnames(designs)):
+        entries.append(_build_design(design, out, dirname, lib, dt, gif_frames, export_design, step))
+
+    step("index.html")
+    page = _page(entries, materials_img, lib, dt)
+    index = write_atomic(out / "index.html", page)
+    log.info("gallery: %d design(s) in %s (%.1f s)", len(entries), out, time.perf_counter() - t_start)
+    return index
+
+
+def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary, dt: float,
+                  gif_frames: int, export_design, step) -> _Entry:
+    from . import render, render3d
+    from .checks import default_printer_key, run_checks
+    from .exchange.files import write_atomic
+    from .report import simulation_json
+    from .simulate import simulate
+
+    name = design.name
+    base = out / dirname
+    step(f"{name}: simulating")
+    result = simulate(design, dt=dt, library=lib)
+    sim = simulation_json(result)
+    write_atomic(base / "simulation.json", _json_bytes(sim))
+
+    step(f"{name}: design-rule checks")
+    findings = run_checks(design, library=lib)
+    n_err = sum(f.severity == "error" for f in findings)
+    checks = {"design": name, "printer": default_printer_key(), "ok": n_err == 0, "errors": n_err,
+              "warnings": sum(f.severity == "warning" for f in findings),
+              "findings": [f.to_json() for f in findings]}
+    write_atomic(base / "check.json", _json_bytes(checks))
+
+    # the page's fold time: the latest hinge's 98 % time from its recovery curve, so it
+    # does not depend on the time step (simulation.json's is the first sample past it)
+    hinge_times = [h["fold_time_s"] for h in sim["hinges"]]
+    fold_time = (max(hinge_times, default=0.0) if sim["completed"] and None not in hinge_times
+                 else None)
+    entry = _Entry(design, dirname, sim, checks, fold_time=fold_time,
+                   contacts=[(c.panels[0], c.panels[1], c.time, c.method) for c in result.contacts],
+                   hinge_done=list(result.hinge_done))
+    entry.data_links = [_Link(_url(f"{dirname}/simulation.json"), "simulation (JSON)"),
+                        _Link(_url(f"{dirname}/check.json"), "design-rule checks (JSON)")]
+    model = result.trajectory.model
+    bath = result.trajectory.bath_c
+
+    step(f"{name}: rendering states")
+    for state, what in (("programmed", "programmed (flat) state, as it goes into the bath"),
+                        ("permanent", "permanent state: the printed shape every hinge recovers to")):
+        fig = render3d.render_state(design, render3d.state_poses(design, state, model),
+                                    f"{name}: {state} state", model=model, library=lib)
+        entry.images.append(_write_image(
+            out, f"{dirname}/{state}.png", render.figure_bytes(fig, "png", STATE_DPI),
+            f"3D view of {name} in the {state} state", f"The {what}."))
+
+    step(f"{name}: rendering mid-fold frames")
+    times = render3d.frame_times(result, 4)
+    fig = render3d.render_frames(result, 4, library=lib)
+    t_list = ", ".join(f"{t:.2f}" for t in times)
+    entry.images.append(_write_image(
+        out, f"{dirname}/frames.png", render.figure_bytes(fig, "png", PLOT_DPI),
+        f"Four 3D views of {name} while folding, at {t_list} s",
+        f"Mid-fold frames at {t_list} s (same camera and scale); panels in contact in red.",
+        wide=True))
+
+    step(f"{name}: rendering fold animation")
+    gif = render3d.fold_animation_gif(result, gif_frames, dpi=GIF_DPI, library=lib)
+    end = render3d.motion_end(result)
+    entry.images.append(_write_image(
+        out, f"{dirname}/fold.gif", gif,
+        f"Animation of {name} folding in a {bath:g} \u00b0C bath, from flat to {end:.1f} s",
+        f"The fold from 0 to {end:.2f} s ({gif_frames} frames, looping)."
+        + (" After the first contact the model's motion is kinematic only: the real part jams."
+           if result.contacts else "")))
+
+    step(f"{name}: plots")
+    entry.images.append(_write_image(
+        out, f"{dirname}/hinge_angles.png",
+        render.figure_bytes(render.hinge_angle_figure(result), "png", PLOT_DPI),
+        f"Fold angle of each hinge of {name} against time",
+        "Hinge angles against time (paper Fig. 3b style); dashed red lines mark contacts."))
+    if design.is_planar_strip and result.index2d is not None:
+        entry.images.append(_write_image(
+            out, f"{dirname}/collision_index.png",
+            render.figure_bytes(render.collision_index_figure(result), "png", PLOT_DPI),
+            f"Collision index of every non-adjacent panel pair of {name} against time",
+            "The paper's collision index S_ij (Fig. 4 style): contact where it enters the shaded "
+            "band (0, 1); red points are contacts."))
+
+    if export_design is not None:
+        step(f"{name}: exporting printable files")
+        try:
+            records = export_design(design, base / "files", state="permanent",
+                                    formats=("3mf", "prusa3mf", "stl"))
+        except Exception as exc:  # noqa: BLE001 - the exporter's failure is shown, not raised
+            log.warning("gallery: %s: export failed: %s: %s", name, type(exc).__name__, exc)
+            entry.export_note = f"Export failed: {type(exc).__name__}: {exc}"
+        else:
+            for rec in records:
+                fname = Path(rec["path"]).name
+                entry.files.append(_Link(_url(f"{dirname}/files/{fname}"),
+                                         _format_label(rec, fname), rec.get("bytes")))
+    else:
+        entry.export_note = "Printable-file export is not available in this installation."
+    return entry
+
+
+def _format_label(rec: dict, fname: str) -> str:
+    fmt = rec.get("format", "")
+    mats = ", ".join(b.get("material", "?") for b in rec.get("bodies", []))
+    if fmt == "3mf":
+        return f"3MF, every material as its own body ({fname})"
+    if fmt == "prusa3mf":
+        return f"3MF for PrusaSlicer ({fname})"
+    if fmt == "stl":
+        return f"STL, {mats} ({fname})"
+    if fmt == "manifest":
+        return f"manifest: which STL is which material ({fname})"
+    return f"{fmt} ({fname})"
+
+
+# -- the page -------------------------------------------------------------------------
+
+_CSS = """
+:root { color-scheme: light; }
+body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", Roboto, Helvetica, Arial, sans-serif;
+       margin: 0 auto; max-width: 1100px; padding: 0 1.2em 3em; color: #1d1d1f; background: #fff; }
+h1 { margin: 0.8em 0 0.2em; } h2 { margin-top: 2.2em; border-bottom: 2px solid #ddd; }
+h3 { margin: 1.4em 0 0.4em; font-size: 1.05em; }
+table { border-collapse: collapse; margin: 0.4em 0; }
+th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
+th { background: #f4f4f4; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+figure { margin: 0.8em 0; }
+figcaption { color: #555; font-size: 0.9em; }
+img { max-width: 100%; height: auto; border: 1px solid #eee; }
+.status { padding: 0.5em 0.8em; border-radius: 4px; font-weight: 600; }
+.ok { background: #e6f4ea; color: #1e6b34; } .fail { background: #fdecea; color: #9b1c1c; }
+.sev-error { color: #9b1c1c; font-weight: 600; } .sev-warning { color: #8a5300; font-weight: 600; }
+.sev-info { color: #555; }
+.swatch { display: inline-block; width: 0.9em; height: 0.9em; border: 1px solid #888;
+          vertical-align: -0.1em; margin-right: 0.3em; }
+.pics { display: grid; grid-template-columns: repeat(auto-fit, minmax(420px, 1fr)); gap: 0.8em 1.2em;
+        align-items: start; }
+.pics figure.wide { grid-column: 1 / -1; }
+.muted { color: #666; }
+code { font-size: 0.92em; }
+"""
+
+
+def _e(text) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _status(entry: _Entry) -> tuple[bool, str]:
+    """(completed, one-line status text) of a design."""
+    sim = entry.sim
+    if sim["completed"]:
+        return True, (f"Completes in {_fmt_s(entry.fold_time)} at {sim['temperature_c']:g} \u00b0C; "
+                      "no collision" + (", every goal met." if sim["goals"] else "."))
+    reasons = []
+    if entry.contacts:
+        a, b, t, method = entry.contacts[0]
+        reasons.append(f"collision: panels {a} and {b} touch at {t:.3f} s ({method})")
+    stalled = [h["id"] for h, done in zip(sim["hinges"], entry.hinge_done) if not done]
+    if stalled:
+        reasons.append(f"hinges {', '.join(stalled)} do not reach 98 % within {sim['duration_s']:g} s")
+    missed = [g["id"] for g in sim["goals"] if not g["met"]]
+    if missed:
+        reasons.append(f"goals not met: {', '.join(missed)}")
+    return False, "Does not complete \u2014 " + "; ".join(reasons) + "."
+
+
+def _img_html(img: _Image) -> str:
+    cls = ' class="wide"' if img.wide else ""
+    return (f'<figure{cls}><img src="{_e(img.src)}" width="{img.width}" height="{img.height}" '
+            f'alt="{_e(img.alt)}"><figcaption>{_e(img.caption)}</figcaption></figure>')
+
+
+def _link_html(link: _Link) -> str:
+    size = "" if link.size is None else f' <span class="muted">({_size(link.size)})</span>'
+    return f'<li><a href="{_e(link.href)}">{_e(link.label)}</a>{size}</li>'
+
+
+def _size(n: int) -> str:
+    return f"{n} B" if n < 1024 else f"{n / 1024:.1f} kB" if n < 1024 * 1024 else f"{n / 1024 ** 2:.1f} MB"
+
+
+def _swatch(lib: MaterialLibrary, material: str) -> str:
+    color = lib[material].color[:7] if material in lib else "#9a9a9a"
+    return f'<span class="swatch" style="background:{_e(color)}"></span>'
+
+
+def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
+    d, sim, chk = entry.design, entry.sim, entry.checks
+    ok, status = _status(entry)
+    anchor = _e(f"d-{entry.dirname}")
+    parts = [f'<section class="design" id="{anchor}">', f"<h2>{_e(d.name)}</h2>"]
+    if d.description:
+        parts.append(f'<p class="desc">{_e(d.description)}</p>')
+    parts.append(f'<p class="status {"ok" if ok else "fail"}">{_e(status)}</p>')
+    kind = "planar strip (side view)" if d.is_planar_strip else "3D crease pattern"
+    fold = (f"{_fmt_s(entry.fold_time)} (every hinge at 98 %)" if entry.fold_time is not None
+            else "\u2014 (does not complete)")
+    parts.append(
+        "<table><tbody>"
+        f"<tr><th>bath</th><td>{sim['temperature_c']:g} \u00b0C</td></tr>"
+        f"<tr><th>fold time</th><td>{_e(fold)}</td></tr>"
+        f"<tr><th>structure</th><td>{len(d.panels)} panels, {len(d.hinges)} hinges, {_e(kind)}</td></tr>"
+        f"<tr><th>model</th><td>{_e(sim['hinge_model'])} hinges, collision check {_e(sim['method'])}, "
+        f"after contact: {_e(sim['after_contact'])}, dt {_e(sim['dt_s'])} s</td></tr>"
+        "</tbody></table>")
+    if entry.contacts:
+        rows = "".join(f"<tr><td>{_e(a)}\u2013{_e(b)}</td><td class=\"num\">{t:.3f} s</td><td>{_e(m)}</td></tr>"
+                       for a, b, t, m in entry.contacts)
+        parts.append("<h3>Contacts</h3><table><thead><tr><th>panels</th><th>time</th><th>found by</th>"
+                     f"</tr></thead><tbody>{rows}</tbody></table>")
+    rows = []
+    for h, hd in zip(d.hinges, sim["hinges"]):
+        rows.append(f"<tr><td>{_e(h.id)}</td><td>{_e(h.panels[0])}\u2013{_e(h.panels[1])}</td>"
+                    f"<td>{_swatch(lib, h.material)}{_e(h.material)}</td>"
+                    f"<td class=\"num\">{hd['target_angle_deg']:g}\u00b0</td>"
+                    f"<td class=\"num\">{_e(_fmt_s(hd['fold_time_s']))}</td></tr>")
+    parts.append("<h3>Hinges</h3><table><thead><tr><th>hinge</th><th>panels</th><th>material</th>"
+                 "<th>target angle</th><th>fold time (98 %)</th></tr></thead>"
+                 f"<tbody>{''.join(rows)}</tbody></table>")
+    parts.append("<h3>Goals</h3>")
+    if sim["goals"]:
+        rows = []
+        for g in sim["goals"]:
+            what = f"{g['panel']} passes through hole {g['hole']} of {g['target']}" \
+                if g["type"] == "pass_through" else g["type"]
+            met = f"met at {g['time_s']:.2f} s" if g["met"] else (
+                "passed out of order" if g["passes_s"] else "NOT met")
+            rows.append(f"<tr><td>{_e(g['id'])}</td><td>{_e(what)}</td><td class=\"num\">{g['order']}</td>"
+                        f"<td class=\"{'ok' if g['met'] else 'fail'}\">{_e(met)}</td></tr>")
+        parts.append("<table><thead><tr><th>goal</th><th>what</th><th>order</th><th>result</th></tr>"
+                     f"</thead><tbody>{''.join(rows)}</tbody></table>")
+    else:
+        parts.append('<p class="muted">No goals.</p>')
+    counts = {s: sum(f["severity"] == s for f in chk["findings"]) for s in ("error", "warning", "info")}
+    parts.append(f"<h3>Design-rule checks ({_e(chk['printer'])})</h3>")
+    parts.append(f"<p>{counts['error']} error(s), {counts['warning']} warning(s), {counts['info']} note(s).</p>")
+
+    def finding(f) -> str:
+        hint = f' <span class="muted">\u2014 {_e(f["hint"])}</span>' if f.get("hint") else ""
+        return (f'<li><span class="sev-{_e(f["severity"])}">{_e(f["severity"].upper())} {_e(f["code"])}</span> '
+                f"{_e(f['message'])}{hint}</li>")
+
+    serious = [f for f in chk["findings"] if f["severity"] in ("error", "warning")]
+    if serious:
+        parts.append("<ul>" + "".join(finding(f) for f in serious) + "</ul>")
+    info = [f for f in chk["findings"] if f["severity"] == "info"]
+    if info:
+        parts.append(f"<details><summary>{len(info)} note(s)</summary><ul>"
+                     + "".join(finding(f) for f in info) + "</ul></details>")
+    parts.append("<h3>Pictures</h3>")
+    parts.append('<div class="pics">' + "".join(_img_html(i) for i in entry.images) + "</div>")
+    parts.append("<h3>Files</h3><ul>")
+    parts.extend(_link_html(link) for link in entry.files)
+    parts.extend(_link_html(link) for link in entry.data_links)
+    parts.append("</ul>")
+    if entry.export_note:
+        parts.append(f'<p class="muted">{_e(entry.export_note)}</p>')
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def _page(entries: list[_Entry], materials_img: _Image, lib: MaterialLibrary, dt: float) -> str:
+    rows = []
+    for en in entries:
+        ok, _ = _status(en)
+        first = (f"{_e(en.contacts[0][0])}\u2013{_e(en.contacts[0][1])} at {en.contacts[0][2]:.3f} s"
+                 if en.contacts else "none")
+        ft = _fmt_s(en.fold_time)
+        rows.append(f'<tr><td><a href="#{_e("d-" + en.dirname)}">{_e(en.design.name)}</a></td>'
+                    f'<td class="{"ok" if ok else "fail"}">{"completes" if ok else "does not complete"}</td>'
+                    f'<td class="num">{_e(ft)}</td><td>{first}</td>'
+                    f'<td class="num">{en.checks["errors"]}</td><td class="num">{en.checks["warnings"]}</td></tr>')
+    summary = ("<table><thead><tr><th>design</th><th>result</th><th>fold time</th><th>first collision</th>"
+               f"<th>check errors</th><th>warnings</th></tr></thead><tbody>{''.join(rows)}</tbody></table>")
+    body = "\n".join(_design_html(en, lib) for en in entries)
+    return f"""<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="generator" content="foldprint {_e(__version__)}">
+<title>foldprint gallery</title>
+<style>{_CSS}</style>
+</head>
+<body>
+<header>
+<h1>foldprint gallery</h1>
+<p>Sequentially self-folding structures printed with digital shape-memory polymers (after Mao et al.,
+Sci. Rep. 5, 13616, 2015): {len(entries)} design(s), simulated with the paper's reduced-order model
+(time step {dt:g} s, first contacts refined between samples) and checked against the design rules.
+Generated by foldprint {_e(__version__)}.</p>
+</header>
+<main>
+<h2 id="summary">Summary</h2>
+{summary}
+<h2 id="materials">Materials</h2>
+{_img_html(materials_img)}
+{body}
+</main>
+</body>
+</html>
+"""

@@ -1,0 +1,376 @@
+"""The HTML gallery (foldprint.gallery) and the 3D renders behind it (foldprint.render3d).
+
+One gallery of two small templates is built per module; the page is checked as files
+(every image referenced exists and is valid, every file referenced exists, offline, valid
+HTML5 structure) and, where Chromium is installed, in a real headless browser.
+"""
+
+from __future__ import annotations
+
+import html
+import io
+import json
+import logging
+import re
+import shutil
+import subprocess
+import sys
+import threading
+from functools import partial
+from html.parser import HTMLParser
+from http.server import SimpleHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
+from urllib.parse import unquote
+
+import pytest
+from PIL import Image
+
+from foldprint.design import strip
+from foldprint.design_io import load_design
+from foldprint.gallery import build_gallery
+from foldprint.templates import templates_dir
+
+DESIGNS = ("helix_graded", "self_lock_uniform")
+PER_DESIGN = ("programmed.png", "permanent.png", "frames.png", "fold.gif", "hinge_angles.png",
+              "collision_index.png", "check.json", "simulation.json")
+VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source",
+        "track", "wbr"}
+
+
+@pytest.fixture(scope="module")
+def gallery(tmp_path_factory):
+    root = tmp_path_factory.mktemp("gallery")
+    out = root / "site"
+    steps: list[str] = []
+    designs = [load_design(templates_dir() / f"{n}.toml") for n in DESIGNS]
+    index = build_gallery(designs, out, progress=steps.append)
+    return root, out, index, steps
+
+
+class _Page(HTMLParser):
+    """Collects images, links, text per section, and checks that tags nest."""
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.images: list[dict] = []
+        self.links: list[str] = []
+        self.stack: list[str] = []
+        self.errors: list[str] = []
+        self.tags: list[str] = []
+        self.meta_charset = None
+        self.section = None
+        self.text: dict[str | None, list[str]] = {}
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        self.tags.append(tag)
+        if tag == "img":
+            self.images.append(a)
+        elif tag in ("a", "link"):
+            if "href" in a:
+                self.links.append(a["href"])
+        elif tag == "meta" and "charset" in a:
+            self.meta_charset = a["charset"]
+        elif tag == "section":
+            self.section = a.get("id")
+        if tag not in VOID:
+            self.stack.append(tag)
+
+    def handle_startendtag(self, tag, attrs):
+        self.handle_starttag(tag, attrs)
+        if tag not in VOID:
+            self.stack.pop()
+
+    def handle_endtag(self, tag):
+        if tag in VOID:
+            self.errors.append(f"end tag for void element {tag}")
+        elif not self.stack or self.stack[-1] != tag:
+            self.errors.append(f"</{tag}> closes <{self.stack[-1] if self.stack else None}>")
+        else:
+            self.stack.pop()
+        if tag == "section":
+            self.section = None
+
+    def handle_data(self, data):
+        self.text.setdefault(self.section, []).append(data)
+
+
+def _parse(index: Path) -> _Page:
+    page = _Page()
+    page.feed(index.read_text(encoding="utf-8"))
+    page.close()
+    return page
+
+
+def _local(out: Path, url: str) -> Path:
+    return out / unquote(url.split("#")[0])
+
+
+# -- files ------------------------------------------------------------------------------
+
+def test_gallery_writes_every_file(gallery):
+    _, out, index, steps = gallery
+    assert index == out / "index.html" and index.is_file()
+    assert (out / "materials.png").is_file()
+    for name in DESIGNS:
+        for f in PER_DESIGN:
+            assert (out / name / f).is_file(), f"{name}/{f} missing"
+        assert f"{name}: simulating" in steps
+    assert not list(out.rglob("*.tmp")), "write_atomic left temporary files"
+
+
+def test_images_are_valid(gallery):
+    _, out, _, _ = gallery
+    pngs = sorted(out.rglob("*.png"))
+    assert len(pngs) == 1 + 5 * len(DESIGNS)
+    for p in pngs:
+        with Image.open(p) as im:
+            assert im.format == "PNG"
+            im.verify()
+    for name in DESIGNS:
+        with Image.open(out / name / "fold.gif") as im:
+            assert im.format == "GIF"
+            assert im.n_frames > 1
+            assert im.info.get("loop") == 0
+            size = im.size
+            for k in range(im.n_frames):  # every frame decodes, all the same size
+                im.seek(k)
+                im.load()
+                assert im.size == size
+
+
+def test_json_outputs(gallery):
+    _, out, _, _ = gallery
+    graded = json.loads((out / "helix_graded" / "simulation.json").read_text())
+    assert graded["design"] == "helix_graded" and graded["completed"] is True
+    assert graded["first_collision"] is None and len(graded["hinges"]) == 9
+    failing = json.loads((out / "self_lock_uniform" / "simulation.json").read_text())
+    assert failing["completed"] is False
+    assert sorted(failing["first_collision"]["panels"]) == ["p1", "p6"]
+    check = json.loads((out / "self_lock_uniform" / "check.json").read_text())
+    assert check["ok"] is False and check["errors"] >= 1
+    assert any(f["code"] == "FP170" for f in check["findings"])  # the collision rule
+
+
+def test_index_references_every_image_and_every_reference_exists(gallery):
+    _, out, index, _ = gallery
+    page = _parse(index)
+    srcs = [img["src"] for img in page.images]
+    referenced = {_local(out, s).resolve() for s in srcs}
+    on_disk = {p.resolve() for p in out.rglob("*") if p.suffix in (".png", ".gif")}
+    assert on_disk == referenced, f"unreferenced: {on_disk - referenced}, missing: {referenced - on_disk}"
+    for href in page.links:
+        if href.startswith("#"):
+            continue
+        assert _local(out, href).is_file(), f"broken link {href}"
+    for img in page.images:  # alt text and the real pixel size as width/height attributes
+        assert img.get("alt"), img
+        with Image.open(_local(out, img["src"])) as im:
+            assert (int(img["width"]), int(img["height"])) == im.size, img["src"]
+    data = [h for h in page.links if h.endswith(".json")]
+    assert {f"{n}/{f}" for n in DESIGNS for f in ("check.json", "simulation.json")} <= set(data)
+
+
+def test_index_links_the_printable_files(gallery):
+    _, out, index, _ = gallery
+    page = _parse(index)
+    text = index.read_text(encoding="utf-8")
+    for name in DESIGNS:
+        files = sorted((out / name / "files").glob("*")) if (out / name / "files").is_dir() else []
+        linked = {unquote(h) for h in page.links if h.startswith(f"{name}/files/")}
+        if files:
+            assert {f"{name}/files/{p.name}" for p in files} == linked
+        else:  # the exporter is missing or failed for this design: said on the page
+            assert not linked
+            section = " ".join(page.text[f"d-{name}"])
+            assert "Export failed" in section or "not available" in section, name
+    if (out / "helix_graded" / "files").is_dir():
+        assert re.search(r'href="helix_graded/files/[^"]+\.3mf"', text)
+        assert re.search(r'href="helix_graded/files/[^"]+\.stl"', text)
+
+
+def test_index_is_offline_valid_html5(gallery):
+    _, _, index, _ = gallery
+    raw = index.read_text(encoding="utf-8")
+    assert raw.startswith("<!DOCTYPE html>\n<html lang=\"en\">")
+    page = _parse(index)
+    assert page.meta_charset == "utf-8"
+    assert page.errors == [] and page.stack == []
+    assert page.tags.count("html") == page.tags.count("head") == page.tags.count("body") == 1
+    assert page.tags.count("title") == 1
+    assert "script" not in page.tags and "link" not in page.tags and "iframe" not in page.tags
+    for url in [i["src"] for i in page.images] + page.links:
+        assert "://" not in url and not url.startswith("/") and not url.startswith("//"), url
+    assert not re.search(r"url\(|@import|https?://(?!www\.w3)", raw.split("</style>")[0]), "external CSS"
+    ids = re.findall(r'\sid="([^"]+)"', raw)
+    assert len(ids) == len(set(ids)), "duplicate ids"
+
+
+def test_page_reports_status_collision_hinges_and_checks(gallery):
+    _, out, index, _ = gallery
+    page = _parse(index)
+    failing = json.loads((out / "self_lock_uniform" / "simulation.json").read_text())
+    t = failing["first_collision"]["time_s"]
+    a, b = failing["first_collision"]["panels"]
+    bad = " ".join(page.text["d-self_lock_uniform"])
+    assert "Does not complete" in bad
+    assert f"panels {a} and {b} touch at {t:.3f} s" in bad
+    assert "NOT met" in bad  # the two holes
+    errors = json.loads((out / "self_lock_uniform" / "check.json").read_text())["errors"]
+    assert f"{errors} error(s)" in bad and "FP170" in bad  # the check summary with messages
+    good = " ".join(page.text["d-helix_graded"])
+    graded = json.loads((out / "helix_graded" / "simulation.json").read_text())
+    slowest = max(h["fold_time_s"] for h in graded["hinges"])
+    assert f"Completes in {slowest:.2f} s" in good
+    for h in graded["hinges"]:  # the hinge table: id, material, fold time
+        assert re.search(rf"{h['id']}\s*p\d+\u2013p\d+\s*{re.escape(h['material'])}\s*90\u00b0\s*"
+                         rf"{h['fold_time_s']:.2f} s", good), h
+    assert "0 error(s)" in good
+    summary = " ".join(page.text[None])
+    assert "p1\u2013p6 at" in summary
+
+
+def test_export_import_failure_is_skipped_gracefully(tmp_path, monkeypatch, caplog):
+    monkeypatch.setitem(sys.modules, "foldprint.exchange.export", None)  # import raises
+    d = strip("tiny", [10.0, 10.0], [90.0], ["H-1"], description="two panels <&> one hinge")
+    with caplog.at_level(logging.WARNING, logger="foldprint.gallery"):
+        index = build_gallery([d], tmp_path / "site", gif_frames=4)
+    assert any("export unavailable" in r.getMessage() for r in caplog.records)
+    assert not (tmp_path / "site" / "tiny" / "files").exists()
+    text = index.read_text(encoding="utf-8")
+    assert "not available" in text
+    assert "two panels &lt;&amp;&gt; one hinge" in text  # escaped
+
+
+def test_gallery_is_deterministic(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "foldprint.exchange.export", None)  # exports are not ours
+    d = strip("tiny", [10.0, 12.0, 8.0], [90.0, -60.0], ["H-1", "H-4"])
+    a = build_gallery([d], tmp_path / "a", gif_frames=6).parent
+    b = build_gallery([d], tmp_path / "b", gif_frames=6).parent
+    files_a = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
+    files_b = sorted(p.relative_to(b) for p in b.rglob("*") if p.is_file())
+    assert files_a == files_b and files_a
+    for rel in files_a:
+        assert (a / rel).read_bytes() == (b / rel).read_bytes(), rel
+
+
+# -- render3d -----------------------------------------------------------------------------
+
+def test_render3d_states_frames_and_gif():
+    from foldprint import render3d
+    from foldprint.render import figure_bytes
+    from foldprint.simulate import simulate
+
+    d = load_design(templates_dir() / "self_lock_uniform.toml")
+    assert render3d.camera_for(d).azim == -90.0  # a strip: side view along y
+    res = simulate(d, dt=0.02)
+    times = render3d.frame_times(res, 4)
+    assert len(times) == 4 and 0 < times[0] < times[-1] <= render3d.motion_end(res)
+    assert res.first_collision.time in times  # one frame sits on the first contact
+    for state in ("programmed", "permanent"):
+        png = figure_bytes(render3d.render_state(d, render3d.state_poses(d, state), state))
+        with Image.open(io.BytesIO(png)) as im:
+            assert im.width > 300 and im.height > 50
+    # the arc model draws its hinges as ribbons; poses (1, n, 4, 4) are accepted too
+    arc = render3d.state_poses(d, "permanent", "arc")[None]
+    assert figure_bytes(render3d.render_state(d, arc, "arc", model="arc"))
+    gif1 = render3d.fold_animation_gif(res, 5)
+    gif2 = render3d.fold_animation_gif(res, 5)
+    assert gif1 == gif2
+    with Image.open(io.BytesIO(gif1)) as im:
+        assert im.n_frames == 5 and im.info["loop"] == 0
+
+
+def test_render3d_shows_the_structure():
+    """The render is not blank and the panels are drawn where the geometry says: in the
+    flat side view of a strip the drawing spans the strip's length."""
+    import numpy as np
+
+    from foldprint import render3d
+    from foldprint.materials import default_library
+    from foldprint.render import figure_bytes
+
+    d = strip("bar", [40.0, 40.0], [90.0], ["H-7"])
+    png = figure_bytes(render3d.render_state(d, render3d.state_poses(d, "programmed"), "flat"), dpi=100)
+    rgb = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+    hinge = np.array([int(default_library()["H-7"].color[i:i + 2], 16) for i in (1, 3, 5)])
+    near = (np.abs(rgb - hinge).sum(axis=-1) < 40)
+    assert near.sum() > 5, "the hinge (H-7 colour) is drawn"
+    cols = np.nonzero(near.any(axis=0))[0]
+    centre = rgb.shape[1] * 0.5
+    assert abs(cols.mean() - centre) < 0.15 * rgb.shape[1], "the hinge sits mid-strip in the side view"
+
+
+# -- the page in a browser -------------------------------------------------------------------
+
+HARNESS = """<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>harness</title></head>
+<body><pre id="result">pending</pre>
+<iframe id="f" src="site/index.html" width="1200" height="900"></iframe>
+<script>
+const errors = [];
+window.addEventListener("error", e => errors.push(String(e.message || e)));
+const frame = document.getElementById("f");
+frame.addEventListener("load", async () => {
+  const doc = frame.contentDocument;
+  frame.contentWindow.addEventListener("error", e => errors.push(String(e.message || e)));
+  const imgs = Array.from(doc.images);
+  await Promise.all(imgs.map(i => i.complete ? null : new Promise(r => { i.onload = i.onerror = r; })));
+  const links = [];
+  for (const a of doc.querySelectorAll("a[href]")) {
+    const href = a.getAttribute("href");
+    if (href.startsWith("#")) {
+      links.push({href, status: doc.getElementById(href.slice(1)) ? 200 : 404});
+      continue;
+    }
+    try { const r = await fetch(a.href, {method: "HEAD"}); links.push({href, status: r.status}); }
+    catch (e) { links.push({href, status: 0}); errors.push("fetch " + href + " " + e); }
+  }
+  document.getElementById("result").textContent = JSON.stringify({
+    title: doc.title, charset: doc.characterSet,
+    images: imgs.map(i => ({src: i.getAttribute("src"), w: i.naturalWidth, h: i.naturalHeight})),
+    links, errors, text: doc.body.innerText});
+});
+</script></body></html>
+"""
+
+
+class _QuietHandler(SimpleHTTPRequestHandler):
+    def log_message(self, *args):
+        pass
+
+
+def _chromium() -> str | None:
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(_chromium() is None, reason="chromium is not on PATH: the in-browser check of "
+                    "index.html needs a headless Chromium")
+def test_page_in_headless_chromium(gallery, tmp_path):
+    root, _, _, _ = gallery
+    (root / "harness.html").write_text(HARNESS, encoding="utf-8")
+    server = ThreadingHTTPServer(("127.0.0.1", 0), partial(_QuietHandler, directory=str(root)))
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        url = f"http://127.0.0.1:{server.server_address[1]}/harness.html"
+        cmd = [_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+               "--no-first-run", "--disable-background-networking", "--disable-component-update",
+               "--disable-sync", "--disable-extensions", f"--user-data-dir={tmp_path / 'profile'}",
+               "--virtual-time-budget=15000", "--dump-dom", url]
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    finally:
+        server.shutdown()
+        server.server_close()
+    m = re.search(r'<pre id="result">(.*?)</pre>', proc.stdout, re.S)
+    assert m, f"no result from Chromium (exit {proc.returncode}): {proc.stderr[-2000:]}"
+    assert m.group(1) != "pending", "the page did not finish loading in the time budget"
+    res = json.loads(html.unescape(m.group(1)))
+    assert res["errors"] == []
+    assert res["charset"] == "UTF-8" and res["title"] == "foldprint gallery"
+    assert len(res["images"]) == 1 + 6 * len(DESIGNS)
+    for img in res["images"]:
+        assert img["w"] > 0 and img["h"] > 0, f"{img['src']} did not load"
+    assert res["links"] and all(link["status"] == 200 for link in res["links"]), \
+        [link for link in res["links"] if link["status"] != 200]
+    assert "Does not complete" in res["text"] and "p1 and p6 touch at" in res["text"]
