@@ -108,3 +108,26 @@ def test_simulate_json_contract_and_exit_codes(capsys, tmp_path):
 def test_simulate_bad_input(capsys, args, needle):
     code, out, err = run(capsys, *args)
     assert code == 2 and needle in err and out == "" and "Traceback" not in err
+
+
+def test_export_json_lists_files(capsys, tmp_path):
+    code, out, _ = run(capsys, "export", "helix_graded", "--out", str(tmp_path), "--format", "3mf,stl", "--json")
+    assert code == 0
+    r = json.loads(out)
+    fmts = sorted({f["format"] for f in r["files"]})
+    assert fmts == ["3mf", "manifest", "stl"]
+    three = next(f for f in r["files"] if f["format"] == "3mf")
+    mats = {b["material"] for b in three["bodies"]}
+    assert mats == {"H-1", "H-2", "H-3", "H-4", "H-5", "H-6", "H-7", "VeroWhite"}
+    stl_total = sum(b["volume_mm3"] for f in r["files"] if f["format"] == "stl" for b in f["bodies"])
+    assert stl_total == pytest.approx(sum(b["volume_mm3"] for b in three["bodies"]), rel=1e-9)
+    for f in r["files"]:
+        assert (tmp_path / f["path"].split("/")[-1]).exists()
+
+
+def test_export_to_unwritable_place_exits_2_and_writes_nothing(capsys, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    code, out, err = run(capsys, "export", "helix_graded", "--out", str(blocker / "sub"))
+    assert code == 2 and "file" in err and "Traceback" not in err and out == ""
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]

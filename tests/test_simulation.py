@@ -221,3 +221,20 @@ def test_self_lock_uniform_fails():
     r = simulate(template("self_lock_uniform"), method="both")
     assert not r.completed
     assert r.first_collision is not None or not all(x.met for x in r.goals)
+
+
+@pytest.mark.parametrize("model", ["point", "arc"])
+def test_mailbox_folds_in_sequence_without_collision(model):
+    r = simulate(template("mailbox"), method="fcl", hinge_model=model)
+    assert r.completed and r.first_collision is None
+    assert not r.design.is_planar_strip  # a 3D panel tree
+    ft = {}
+    for h, t in zip(r.design.hinges, r.trajectory.fold_times):
+        ft.setdefault(h.material, []).append(t)
+    assert max(ft["H-3"]) < min(ft["H-5"]) and max(ft["H-5"]) < min(ft["H-6"])
+    assert 8.0 <= r.fold_time <= 14.0
+
+
+def test_mailbox_reversed_jams():
+    r = simulate(template("mailbox_reversed"), method="fcl")
+    assert not r.completed and r.first_collision is not None

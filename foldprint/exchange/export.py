@@ -1,0 +1,121 @@
+"""Export a design's printable part: 3MF (two flavours), STL per material + manifest.
+
+Everything is built in memory first; only then are files written, each atomically
+(:func:`~foldprint.exchange.files.write_atomic`). If a write fails, the files this call
+had already created are removed again, so a failed export leaves no partial set.
+
+File names (``stem`` = the design name, ``<name>_programmed`` for the flat state):
+``<stem>.3mf`` (spec form + Bambu/Orca/Cura metadata), ``<stem>_prusa.3mf`` (PrusaSlicer),
+``<stem>_<material>.stl`` and ``manifest.json`` (``manifest_programmed.json``).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+from typing import Iterable
+
+from ..design import Design
+from ..errors import ExportError
+from ..geometry import Assembly, build_assembly
+from ..materials import MaterialLibrary, default_library
+from .files import ensure_dir, write_atomic
+from .stl import manifest, stl_bytes
+from .threemf import prusa3mf_bytes, threemf_bytes
+
+FORMATS = ("3mf", "prusa3mf", "stl")
+
+
+def safe_name(text: str) -> str:
+    """A file-name-safe version of a design or material name."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or "part"
+
+
+def stem(design: Design, state: str) -> str:
+    base = safe_name(design.name)
+    return base if state == "permanent" else f"{base}_{state}"
+
+
+def check_formats(formats: Iterable[str]) -> list[str]:
+    """The requested formats, de-duplicated; ExportError names unknown ones."""
+    if isinstance(formats, str):
+        formats = [formats]
+    formats = list(dict.fromkeys(formats))
+    unknown = [f for f in formats if f not in FORMATS]
+    if unknown or not formats:
+        raise ExportError(f"unknown export format(s) {unknown or 'none given'}; choose from {list(FORMATS)}")
+    return formats
+
+
+def _bodies(bodies) -> list[dict]:
+    return [{"material": b.material, "volume_mm3": round(b.volume, 6)} for b in bodies]
+
+
+def render(design: Design, assembly: Assembly, formats: Iterable[str] = FORMATS,
+           library: MaterialLibrary | None = None) -> list[tuple[str, bytes, str, list[dict]]]:
+    """The files of an export in memory: (file name, bytes, format, bodies)."""
+    lib = library or default_library()
+    formats = check_formats(formats)
+    st = stem(design, assembly.state)
+    out = []
+    if "3mf" in formats:
+        out.append((f"{st}.3mf", threemf_bytes(design, assembly, lib), "3mf", _bodies(assembly.bodies)))
+    if "prusa3mf" in formats:
+        out.append((f"{st}_prusa.3mf", prusa3mf_bytes(design, assembly, lib), "prusa3mf",
+                    _bodies(assembly.bodies)))
+    if "stl" in formats:
+        names = {}
+        for b in assembly.bodies:
+            name = f"{st}_{safe_name(b.material)}.stl"
+            names[b.material] = name
+            out.append((name, stl_bytes(b, f"{design.name} {b.material} {assembly.state} mm"), "stl",
+                        _bodies([b])))
+        man = "manifest.json" if assembly.state == "permanent" else f"manifest_{assembly.state}.json"
+        out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest",
+                    _bodies(assembly.bodies)))
+    seen = set()
+    for name, *_ in out:
+        if name in seen:  # e.g. two materials that differ only in characters made safe
+            raise ExportError(f"two export files would be named {name!r}; rename a material")
+        seen.add(name)
+    return out
+
+
+def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
+                    formats: Iterable[str] = FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
+    """Write an already built assembly; see :func:`export_design`."""
+    files = render(design, assembly, formats, library)
+    out = ensure_dir(out_dir)
+    created: list[Path] = []
+    records = []
+    try:
+        for name, data, fmt, bodies in files:
+            path = out / name
+            existed = path.exists()
+            write_atomic(path, data)
+            if not existed:
+                created.append(path)
+            records.append({"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data)})
+    except (ExportError, OSError) as exc:
+        for p in created:
+            try:
+                os.unlink(p)
+            except OSError:
+                pass
+        if isinstance(exc, ExportError):
+            raise
+        raise ExportError(f"{out}: cannot write: {exc}") from None
+    return records
+
+
+def export_design(design: Design, out_dir: str | Path, state: str = "permanent",
+                  formats: Iterable[str] = FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
+    """Build ``design`` in ``state`` and write ``formats`` ("3mf", "prusa3mf", "stl")
+    into ``out_dir`` (created if needed; ExportError if it cannot be). Returns one
+    record per file written: {path, format, bodies: [{material, volume_mm3}], bytes};
+    format is "3mf", "prusa3mf", "stl" or "manifest"."""
+    lib = library or default_library()
+    check_formats(formats)  # before the (slower) build
+    assembly = build_assembly(design, state, lib)
+    return export_assembly(design, assembly, out_dir, formats, lib)

@@ -1,0 +1,206 @@
+"""Curved hinge strips: poses of the printed states, the arc map across a strip, the
+stepped profile, the sliced prism and its bending, slots."""
+
+from __future__ import annotations
+
+import math
+
+import manifold3d as mf
+import numpy as np
+
+from ..design import Design, Hinge
+from ..errors import GeometryError
+from ..kinematics import HingeFrame, local_transforms
+from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, _checked, _from_arrays, apply_pose)
+
+# -- kinematics of the printed states ----------------------------------------------------
+
+def state_angles(design: Design, state: str) -> np.ndarray:
+    """Hinge angles (rad, ``design.hinges`` order) of a build state."""
+    if state not in STATES:
+        raise GeometryError(f"state must be one of {STATES}, got {state!r}")
+    if state == "programmed":
+        return np.zeros(len(design.hinges))
+    return np.array([h.angle for h in design.hinges], dtype=float)
+
+
+def _local(frame: HingeFrame, rho: float) -> np.ndarray:
+    """Child relative to parent: exactly the identity for a flat hinge."""
+    if rho == 0.0:
+        return np.eye(4)
+    return local_transforms(frame, np.array([rho]), "arc")[0]
+
+
+def _poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.ndarray:
+    poses = np.zeros((len(design.panels), 4, 4))
+    poses[design.panel_index()[design.root]] = np.eye(4)
+    for f in frames:
+        poses[f.child] = poses[f.parent] @ _local(f, float(angles[f.index]))
+    return poses
+
+
+def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)
+
+
+def arc_transform(frame: HingeFrame, rho: float, u: float) -> np.ndarray:
+    """(4, 4) map of the strip line at width ``u`` (0 = parent edge, w = child edge) of
+    a hinge bent to ``rho``: the arc model's child transform with w replaced by u and
+    the angle by rho u / w. u = 0 gives the identity, u = w the child transform."""
+    w = frame.width
+    if rho == 0.0 or u <= 0.0:
+        return np.eye(4)
+    phi = rho * u / w
+    n, z = frame.normal, np.array([0.0, 0.0, 1.0])
+    start = frame.origin - 0.5 * w * n
+    rot = _rotation(frame.axis, phi)
+    tip = start + u * (math.sin(phi) / phi) * n + u * ((1 - math.cos(phi)) / phi) * z
+    out = np.eye(4)
+    out[:3, :3] = rot
+    out[:3, 3] = tip - rot @ (start + u * n)
+    return out
+
+
+# -- hinge strips ------------------------------------------------------------------------
+
+def strip_profile(hinge: Hinge, rho: float) -> tuple[np.ndarray, np.ndarray]:
+    """Slice boundaries ``u`` (K+1,) across the strip width and the thickness of each
+    slice (K,): uniform bend slices of <= 5 deg, split at the step edges of a stepped
+    hinge (thin sections centred in each period, thick quarter-periods at both ends)."""
+    w, t, st = hinge.width, hinge.thickness, hinge.style
+    n_bend = max(1, math.ceil(abs(rho) / MAX_SLICE_RAD - 1e-9))
+    cuts = list(np.linspace(0.0, w, n_bend + 1))
+    thin: list[tuple[float, float]] = []
+    if st.stepped and st.thin_mm < t:
+        n_per = max(1, round(w / st.step_period_mm))
+        period = w / n_per
+        for i in range(n_per):
+            thin.append((period * (i + 0.25), period * (i + 0.75)))
+        edges = [e for pair in thin for e in pair]
+        snap = 1e-4 * max(w, 1.0)
+        cuts = [c for c in cuts if all(abs(c - e) > snap for e in edges)] + edges
+    if st.interface == "triangular" and w > 4 * TEETH_OVERLAP:
+        # thin end slices where the teeth reach into the strip: their chords hug the arc
+        snap = 1e-4 * max(w, 1.0)
+        ends = [TEETH_OVERLAP, w - TEETH_OVERLAP]
+        cuts = [c for c in cuts if all(abs(c - e) > snap for e in ends)] + ends
+    u = np.unique(np.array(sorted(cuts)))
+    u[0], u[-1] = 0.0, w
+    mids = 0.5 * (u[:-1] + u[1:])
+    thick = np.full(len(mids), float(t))
+    for a, b in thin:
+        thick[(mids > a) & (mids < b)] = float(st.thin_mm)
+    return u, thick
+
+
+def _prism(u: np.ndarray, thick: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A prism along v of the stepped (u, z) profile. Returns the profile points (P, 2),
+    their column index into ``u`` and the faces (over 2P vertices: profile at v0, then
+    at v1). Every triangle spans one slice only, so bending it slice by slice is exact
+    at the slice boundaries."""
+    k_n = len(thick)
+    pts: list[tuple[float, float]] = []
+    col: list[int] = []
+
+    def add(j, z):
+        pts.append((u[j], z))
+        col.append(j)
+
+    # counter-clockwise in (u, z): bottom to the right, up, top to the left, down
+    add(0, -thick[0] / 2)
+    for j in range(1, k_n):
+        add(j, -thick[j - 1] / 2)
+        if thick[j] != thick[j - 1]:
+            add(j, -thick[j] / 2)
+    add(k_n, -thick[k_n - 1] / 2)
+    add(k_n, thick[k_n - 1] / 2)
+    for j in range(k_n - 1, 0, -1):
+        add(j, thick[j] / 2)
+        if thick[j - 1] != thick[j]:
+            add(j, thick[j - 1] / 2)
+    add(0, thick[0] / 2)
+    pts_a = np.array(pts)
+    col_a = np.array(col)
+    n_p = len(pts_a)
+    a = np.arange(n_p)
+    b = np.roll(a, -1)
+    sides = np.concatenate([np.stack([a + n_p, b + n_p, b], 1), np.stack([a + n_p, b, a], 1)])
+    columns: dict[int, list[int]] = {}
+    for i in np.argsort(pts_a[:, 1], kind="stable"):
+        columns.setdefault(int(col_a[i]), []).append(int(i))
+    caps = []
+    for k in range(k_n):  # caps: zip the two columns of each slice
+        half = thick[k] / 2 + 1e-12
+        left = [i for i in columns[k] if abs(pts_a[i, 1]) <= half]
+        right = [i for i in columns[k + 1] if abs(pts_a[i, 1]) <= half]
+        i = j = 0
+        while i < len(left) - 1 or j < len(right) - 1:
+            if j == len(right) - 1 or (i < len(left) - 1 and pts_a[left[i + 1], 1] <= pts_a[right[j + 1], 1]):
+                caps.append((left[i], right[j], left[i + 1]))
+                i += 1
+            else:
+                caps.append((left[i], right[j], right[j + 1]))
+                j += 1
+    caps_a = np.array(caps, dtype=np.int64)  # counter-clockwise in (u, z): the cap at v0
+    faces = np.concatenate([sides, caps_a, caps_a[:, [0, 2, 1]] + n_p])  # then the cap at v1
+    return pts_a, col_a, faces.astype(np.int64)
+
+
+def strip_solids(hinge: Hinge, frame: HingeFrame, d: np.ndarray, p0: np.ndarray,
+                 parent_pose: np.ndarray, rho: float,
+                 segments: list[tuple[float, float]]) -> list[mf.Manifold]:
+    """The bent strip of each segment [v0, v1] of a hinge, placed with the parent's pose."""
+    u, thick = strip_profile(hinge, rho)
+    pts, col, faces = _prism(u, thick)
+    w = hinge.width
+    n3 = frame.normal
+    d3 = np.array([d[0], d[1], 0.0])
+    base = np.array([p0[0], p0[1], 0.0])
+    n_p = len(pts)
+    # orientation: the prism is built in (u, v, z); the sheet frame (n, d, z) may mirror it
+    if np.dot(np.cross(n3, d3), [0.0, 0.0, 1.0]) < 0:
+        faces = faces[:, ::-1]
+    last = len(u) - 1
+    poses = []
+    for j in range(len(u)):
+        if j == last and rho != 0.0:
+            local = _local(frame, rho)  # bit-identical to the child's pose
+        else:
+            local = arc_transform(frame, rho, float(u[j]))
+        poses.append(parent_pose @ local)
+    uu = np.concatenate([pts[:, 0], pts[:, 0]])
+    zz = np.concatenate([pts[:, 1], pts[:, 1]])
+    cc = np.concatenate([col, col])
+    groups = [np.flatnonzero(cc == j) for j in range(len(u))]
+    du = np.diff(u)
+    dphi = np.abs(rho) * du / w
+    sinc = np.where(dphi > 0, np.sin(dphi) / np.where(dphi > 0, dphi, 1.0), 1.0)
+    area = float(np.sum(thick * du * sinc))
+    out = []
+    for v0, v1 in segments:
+        vv = np.concatenate([np.full(n_p, v0), np.full(n_p, v1)])
+        flat = base + vv[:, None] * d3 + (uu - 0.5 * w)[:, None] * n3 + zz[:, None] * np.array([0, 0, 1.0])
+        world = np.empty_like(flat)
+        for pose, sel in zip(poses, groups):
+            world[sel] = apply_pose(pose, flat[sel])
+        what = f"hinge {hinge.id!r} strip [{v0:.3f}, {v1:.3f}] mm"
+        solid = _from_arrays(world, faces, what)
+        out.append(_checked(solid, what + f" (bend radius {hinge.radius:g} mm must exceed half the "
+                            f"hinge thickness {hinge.thickness / 2:g} mm)", (v1 - v0) * area))
+    return out
+
+
+def hinge_segments(hinge: Hinge) -> list[tuple[float, float]]:
+    """Intervals [v0, v1] (mm along the fold line from ``line[0]``) of hinge material:
+    one, or several separated by slots when the hinge is longer than max_segment_mm."""
+    length, st = hinge.length, hinge.style
+    if st.max_segment_mm <= 0 or length <= st.max_segment_mm:
+        return [(0.0, length)]
+    n = math.ceil((length + st.slot_width_mm) / (st.max_segment_mm + st.slot_width_mm) - 1e-9)
+    n = max(n, 2)
+    seg = (length - (n - 1) * st.slot_width_mm) / n
+    if seg <= 0:
+        raise GeometryError(f"hinge {hinge.id!r}: slots of {st.slot_width_mm:g} mm leave no material "
+                            f"on a {length:g} mm hinge; reduce slot_width_mm or raise max_segment_mm")
+    return [(i * (seg + st.slot_width_mm), i * (seg + st.slot_width_mm) + seg) for i in range(n)]
