@@ -54,6 +54,7 @@ def fold_time_chart(lib: MaterialLibrary, temperatures: Sequence[float], thickne
         ax1.plot(temps, [np.nan if v is None else v for v in pts], "o", color=m.color, ms=4)
     ax1.set_xlabel("bath temperature (°C)")
     ax1.set_ylabel("fold time to 98 % recovery (s)")
+    ax1.set_yscale("log")
     ax1.set_title("fold time (Fig. 1b style)")
     ax1.grid(alpha=0.3)
     ax1.legend(fontsize=8, ncol=2)
