@@ -218,24 +218,31 @@ def _goal(raw, i: int, src: str) -> Goal:
                 int(raw.get("order", i)))
 
 
+def read_text(path: Path, expected: str) -> str:
+    """A UTF-8 text file's contents; DesignError naming the path otherwise."""
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise DesignError(f"{path}: file not found") from None
+    except IsADirectoryError:
+        raise DesignError(f"{path}: is a directory, expected {expected}") from None
+    except OSError as exc:
+        raise DesignError(f"{path}: cannot read: {exc.strerror}") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise DesignError(f"{path}: not a UTF-8 text file; expected {expected}") from None
+
+
 def load_design(path: str | Path, library: MaterialLibrary | None = None) -> Design:
     """Read a design file: ``.toml`` (foldprint) or ``.fold`` (FOLD 1.1/1.2)."""
     path = Path(path)
     if path.suffix.lower() == ".fold":
         from .exchange.fold import design_from_fold_file
         return design_from_fold_file(path, library=library)
+    text = read_text(path, "a TOML design (.toml)")
     try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise DesignError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise DesignError(f"{path}: is a directory, expected a design file (.toml or .fold)") from None
-    except OSError as exc:
-        raise DesignError(f"{path}: cannot read: {exc.strerror}") from None
-    try:
-        data = tomllib.loads(raw.decode("utf-8"))
-    except UnicodeDecodeError:
-        raise DesignError(f"{path}: not a UTF-8 text file; expected a TOML design") from None
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise DesignError(f"{path}: not valid TOML: {exc}") from None
     return design_from_dict(data, str(path), library)

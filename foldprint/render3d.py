@@ -24,7 +24,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from .design import Design
-from .kinematics import forward, hinge_frames, target_angles
+from .kinematics import _sinc_terms, forward, hinge_frames, target_angles
 from .materials import MaterialLibrary, default_library
 
 log = logging.getLogger(__name__)
@@ -120,14 +120,6 @@ def _edge_of(rgb: np.ndarray) -> np.ndarray:
     return rgb * 0.4
 
 
-def _sinc_terms(angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """sin(a)/a and (1 - cos a)/a, stable at a = 0 (the arc hinge's shape functions)."""
-    a = np.asarray(angle, float)
-    small = np.abs(a) < 1e-6
-    safe = np.where(small, 1.0, a)
-    s = np.where(small, 1.0 - a**2 / 6.0, np.sin(safe) / safe)
-    c = np.where(small, a / 2.0, (1.0 - np.cos(safe)) / safe)
-    return s, c
 
 
 def _hinge_angle(frame, pose_parent: np.ndarray, pose_child: np.ndarray) -> float:

@@ -471,18 +471,11 @@ def design_from_fold_file(path: str | Path, library: MaterialLibrary | None = No
     """Read a ``.fold`` file (FOLD 1.1/1.2); the design is named after ``frame_title``,
     ``file_title`` or the file stem. Keyword arguments go to :func:`design_from_fold`."""
     path = Path(path)
+    from ..design_io import read_text
+
+    text = read_text(path, "a FOLD (JSON) file (.fold)")
     try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise DesignError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise DesignError(f"{path}: is a directory, expected a FOLD file (.fold)") from None
-    except OSError as exc:
-        raise DesignError(f"{path}: cannot read: {exc.strerror}") from None
-    try:
-        data = json.loads(raw.decode("utf-8"))
-    except UnicodeDecodeError:
-        raise DesignError(f"{path}: not a UTF-8 text file; expected a FOLD (JSON) file") from None
+        data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise DesignError(f"{path}: not valid JSON: {exc}") from None
     return design_from_fold(data, source=str(path), library=library, **kw)
