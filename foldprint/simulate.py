@@ -63,7 +63,8 @@ class SimulationResult:
         return np.abs(target - self.trajectory.angles[-1])
 
 
-def _first_2d(traj: Trajectory, t_start: float, skip: set) -> tuple[Contact | None, Index2D]:
+def _first_2d(traj: Trajectory, drive: HingeDrive, t_start: float,
+              skip: set) -> tuple[Contact | None, Index2D]:
     idx = collision_index(traj)
     hit = idx.contact & ~idx.adjacent[None]
     for k, pair in enumerate(idx.pairs.tolist()):
@@ -78,19 +79,16 @@ def _first_2d(traj: Trajectory, t_start: float, skip: set) -> tuple[Contact | No
     i, j = idx.pairs[p]
     ids = (traj.design.panels[i].id, traj.design.panels[j].id)
     if k > 0 and traj.times[k - 1] >= t_start:  # bisect between the two samples
-        t = _bisect_2d(traj, (int(i), int(j)), traj.times[k - 1], traj.times[k])
+        t = _bisect_2d(traj, drive, (int(i), int(j)), traj.times[k - 1], traj.times[k])
     else:
         t = float(traj.times[k])
     return Contact(t, (int(i), int(j)), ids, (float("nan"),) * 3, 0.0, "index2d"), idx
 
 
-def _bisect_2d(traj: Trajectory, pair, lo: float, hi: float) -> float:
+def _bisect_2d(traj: Trajectory, drive: HingeDrive, pair, lo: float, hi: float) -> float:
     from .collision2d import index_arrays, paper_contact, world_side_segments
     from .kinematics import forward
 
-    drive = traj.__dict__.get("_drive")
-    if drive is None:
-        return float(hi)
     i, j = pair
     for _ in range(30):
         if hi - lo < 1e-4:
@@ -162,10 +160,9 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     for _round in range(len(design.hinges) + 1):
         traj = simulate_kinematics(design, bath_c=drive.bath_c, model=hinge_model, dt=dt,
                                    duration=duration, drive=drive)
-        traj.__dict__["_drive"] = drive
         found: list[Contact] = []
         if use2d:
-            c2, idx2d = _first_2d(traj, t_start, skip)
+            c2, idx2d = _first_2d(traj, drive, t_start, skip)
             if c2:
                 found.append(c2)
         if use3d:

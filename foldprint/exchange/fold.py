@@ -61,6 +61,21 @@ class _Vertices:
         return len(self.xy) - 1
 
 
+def _index_face_edges(faces, edges: list, lookup: dict) -> list[list[int]]:
+    """The faces bordering each edge. ``lookup`` maps sorted vertex pairs to indices of
+    ``edges``; face sides not in it are appended to ``edges`` (both are updated)."""
+    edge_faces: list[list[int]] = [[] for _ in edges]
+    for f, ring in enumerate(faces):
+        for a, b in _ring_edges(ring):
+            key = (min(a, b), max(a, b))
+            if key not in lookup:
+                lookup[key] = len(edges)
+                edges.append([a, b])
+                edge_faces.append([])
+            edge_faces[lookup[key]].append(f)
+    return edge_faces
+
+
 def _ring_edges(ring: list[int]):
     return [(ring[k], ring[(k + 1) % len(ring)]) for k in range(len(ring))]
 
@@ -105,15 +120,8 @@ def design_to_fold(design: Design) -> dict:
             on = np.nonzero((dist <= eps) & (t * L > eps) & ((1 - t) * L > eps))[0]
             out.extend(int(i) for i in sorted(on, key=lambda i: t[i]) if i not in (a, b))
         faces.append(out)
-    edges, edge_faces, seen = [], [], {}
-    for f, ring in enumerate(faces):
-        for a, b in _ring_edges(ring):
-            key = (min(a, b), max(a, b))
-            if key not in seen:
-                seen[key] = len(edges)
-                edges.append([a, b])
-                edge_faces.append([])
-            edge_faces[seen[key]].append(f)
+    edges: list[list[int]] = []
+    edge_faces = _index_face_edges(faces, edges, {})
     by_pair: dict[frozenset, list] = {}
     for h in design.hinges:
         by_pair.setdefault(frozenset(h.panels), []).append(h)
@@ -315,15 +323,7 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     lookup = {}
     for i, (a, b) in enumerate(edges):
         lookup.setdefault((min(a, b), max(a, b)), i)
-    edge_faces: list[list[int]] = [[] for _ in edges]
-    for f, ring in enumerate(faces):
-        for a, b in _ring_edges(ring):
-            key = (min(a, b), max(a, b))
-            if key not in lookup:
-                lookup[key] = len(edges)
-                edges.append([a, b])
-                edge_faces.append([])
-            edge_faces[lookup[key]].append(f)
+    edge_faces = _index_face_edges(faces, edges, lookup)
     assign += ["U"] * (len(edges) - ne)
     for col in (angle, e_hid, e_mat, e_rad, e_thk):
         col += [None] * (len(edges) - ne)

@@ -182,16 +182,23 @@ def bambu_config(design: Design, assembly: Assembly) -> str:
     return "".join(out)
 
 
-def threemf_bytes(design: Design, assembly: Assembly, library: MaterialLibrary | None = None) -> bytes:
-    """The spec-correct 3MF with Bambu/Orca and Cura metadata and the design inside."""
+def _package(design: Design, model: str, config_path: str, config: str) -> bytes:
+    """The 3MF package: content types, relationships, the model, one slicer config and
+    the design itself (provenance)."""
     return zip_bytes({
         "[Content_Types].xml": CONTENT_TYPES.encode(),
         "_rels/.rels": ROOT_RELS.encode(),
         "3D/_rels/3dmodel.model.rels": MODEL_RELS.encode(),
-        MODEL_PATH: model_xml(design, assembly, library).encode(),
-        BAMBU_CONFIG_PATH: bambu_config(design, assembly).encode(),
+        MODEL_PATH: model.encode(),
+        config_path: config.encode(),
         DESIGN_PATH: design_to_toml(design).encode(),
     })
+
+
+def threemf_bytes(design: Design, assembly: Assembly, library: MaterialLibrary | None = None) -> bytes:
+    """The spec-correct 3MF with Bambu/Orca and Cura metadata and the design inside."""
+    return _package(design, model_xml(design, assembly, library), BAMBU_CONFIG_PATH,
+                    bambu_config(design, assembly))
 
 
 def merged_mesh(bodies: tuple[Body, ...]) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
@@ -239,11 +246,5 @@ def prusa_config(design: Design, assembly: Assembly) -> str:
 
 def prusa3mf_bytes(design: Design, assembly: Assembly, library: MaterialLibrary | None = None) -> bytes:
     """The PrusaSlicer flavour: one multi-volume object, extruder per volume."""
-    return zip_bytes({
-        "[Content_Types].xml": CONTENT_TYPES.encode(),
-        "_rels/.rels": ROOT_RELS.encode(),
-        "3D/_rels/3dmodel.model.rels": MODEL_RELS.encode(),
-        MODEL_PATH: prusa_model_xml(design, assembly).encode(),
-        PRUSA_CONFIG_PATH: prusa_config(design, assembly).encode(),
-        DESIGN_PATH: design_to_toml(design).encode(),
-    })
+    return _package(design, prusa_model_xml(design, assembly), PRUSA_CONFIG_PATH,
+                    prusa_config(design, assembly))
