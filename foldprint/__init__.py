@@ -10,7 +10,8 @@ __version__ = "0.1.0"
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 from .design import Design, Goal, Hinge, HingeStyle, Panel, Process, strip, validate  # noqa: E402
-from .design_io import design_from_dict, design_to_dict, design_to_toml, load_design  # noqa: E402
+from .design_io import design_from_dict, design_to_dict, design_to_toml  # noqa: E402
+from .load import load_design  # noqa: E402
 from .materials import Material, MaterialLibrary, default_library, load_library  # noqa: E402
 from .recovery import fold_time, recovery_curve, recovery_ratio  # noqa: E402
 

@@ -167,7 +167,7 @@ def templates(json_out: bool = typer.Option(False, "--json", help="Print one JSO
 
 
 def _load(design: str, materials_file=None):
-    from .design_io import load_design
+    from .load import load_design
     from .materials import load_library
     from .templates import resolve_design_path
 
@@ -341,7 +341,7 @@ def gallery(
 
     Example: foldprint gallery --out output/gallery
     """
-    from .design_io import load_design
+    from .load import load_design
     from .exchange.files import ensure_dir
     from .gallery import build_gallery
     from .materials import load_library

@@ -31,7 +31,6 @@ Layout (see ``templates/`` and ``docs/design-file.md``)::
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import fields
 from pathlib import Path
 from typing import Any, Mapping
@@ -232,20 +231,6 @@ def read_text(path: Path, expected: str) -> str:
         return raw.decode("utf-8")
     except UnicodeDecodeError:
         raise DesignError(f"{path}: not a UTF-8 text file; expected {expected}") from None
-
-
-def load_design(path: str | Path, library: MaterialLibrary | None = None) -> Design:
-    """Read a design file: ``.toml`` (foldprint) or ``.fold`` (FOLD 1.1/1.2)."""
-    path = Path(path)
-    if path.suffix.lower() == ".fold":
-        from .exchange.fold import design_from_fold_file
-        return design_from_fold_file(path, library=library)
-    text = read_text(path, "a TOML design (.toml)")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DesignError(f"{path}: not valid TOML: {exc}") from None
-    return design_from_dict(data, str(path), library)
 
 
 def design_to_dict(design: Design) -> dict:

@@ -9,7 +9,7 @@ import pytest
 from foldprint.checks import load_printers, run_checks
 from foldprint.cli import main
 from foldprint.design import Process, strip
-from foldprint.design_io import load_design
+from foldprint.load import load_design
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 

@@ -9,7 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from foldprint.design import strip, tree_order
-from foldprint.design_io import design_from_dict, design_to_dict, design_to_toml, load_design
+from foldprint.design_io import design_from_dict, design_to_dict, design_to_toml
+from foldprint.load import load_design
 from foldprint.errors import DesignError
 
 BOX = {

@@ -22,7 +22,8 @@ import pytest
 
 import foldprint
 from foldprint.design import strip
-from foldprint.design_io import design_from_dict, load_design
+from foldprint.design_io import design_from_dict
+from foldprint.load import load_design
 from foldprint.errors import ExportError
 from foldprint.exchange import export as export_mod
 from foldprint.exchange.export import FORMATS, export_assembly, export_design

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from foldprint.design import Design, Goal, Hinge, HingeStyle, Panel, Process, strip
-from foldprint.design_io import load_design
+from foldprint.load import load_design
 from foldprint.errors import DesignError
 from foldprint.exchange.fold import (design_from_fold, design_from_fold_file, design_to_fold,
                                      fold_bytes, write_fold)

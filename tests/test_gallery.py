@@ -26,7 +26,7 @@ import pytest
 from PIL import Image
 
 from foldprint.design import strip
-from foldprint.design_io import load_design
+from foldprint.load import load_design
 from foldprint.gallery import build_gallery
 from foldprint.templates import templates_dir
 

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from shapely.geometry import MultiPoint, Polygon
 
 from foldprint.design import Design, Hinge, HingeStyle, Panel, strip, validate
-from foldprint.design_io import load_design
+from foldprint.load import load_design
 from foldprint.errors import GeometryError
 from foldprint.geometry import (BEND_VOLUME_RATIO_MIN, STATES, TEETH_OVERLAP, arc_transform, build_assembly,
                                 build_pieces, hinge_segments, layout, panel_solids, strip_profile)

@@ -13,7 +13,7 @@ from shapely.geometry import LineString
 from foldprint.collision2d import collision_index, index_arrays, paper_contact, world_side_segments
 from foldprint.collision3d import SweptChecker, non_adjacent_pairs, swept_first_contact
 from foldprint.design import strip
-from foldprint.design_io import load_design
+from foldprint.load import load_design
 from foldprint.kinematics import HingeDrive, forward, simulate_kinematics, transform_points
 from foldprint.simulate import simulate
 
