@@ -300,7 +300,8 @@ def export(
 
     Example: foldprint export helix_graded --format 3mf,stl --json
     """
-    from .exchange.export import FORMATS, export_design
+    from .exchange.export import FORMATS
+    from .pipeline import export as export_design
 
     if state not in ("permanent", "programmed"):
         raise FoldprintError(f"--state must be permanent or programmed, got {state!r}")

@@ -8,7 +8,7 @@
   ``collision_index.png`` (paper Fig. 4 style);
 * ``check.json`` (design-rule findings, as ``foldprint check --json``) and
   ``simulation.json`` (as ``foldprint simulate --json``);
-* ``files/``: the printable files from :func:`foldprint.exchange.export.export_design`
+* ``files/``: the printable files from :func:`foldprint.pipeline.export`
   (3MF, PrusaSlicer 3MF, STL per material, manifest), when that module is available;
 
 and, once, ``out_dir/materials.png`` (fold time against bath temperature) and
@@ -135,7 +135,7 @@ def _fmt_s(t: float | None, nd: int = 2) -> str:
 def _import_exporter():
     """``export_design``, or None (logged) when the exporter cannot be imported."""
     try:
-        from .exchange.export import export_design
+        from .pipeline import export as export_design
     except Exception as exc:  # noqa: BLE001 - any failure only costs the download links
         log.warning("printable-file export unavailable (%s: %s); the gallery has no download links",
                     type(exc).__name__, exc)

@@ -26,7 +26,8 @@ from foldprint.design_io import design_from_dict
 from foldprint.load import load_design
 from foldprint.errors import ExportError
 from foldprint.exchange import export as export_mod
-from foldprint.exchange.export import FORMATS, export_assembly, export_design
+from foldprint.exchange.export import FORMATS, export_assembly
+from foldprint.pipeline import export as export_design
 from foldprint.exchange.stl import read_stl_volume
 from foldprint.exchange.threemf import REL_DESIGN
 from foldprint.geometry import build_assembly

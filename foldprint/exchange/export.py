@@ -1,4 +1,6 @@
-"""Export a design's printable part: 3MF (two flavours), STL per material + manifest.
+"""Write a built part: 3MF (two flavours), STL per material + manifest.
+
+This module only writes: the assembly comes built from :mod:`foldprint.pipeline`.
 
 Everything is built in memory first; only then are files written, each atomically
 (:func:`~foldprint.exchange.files.write_atomic`). If a write fails, the files this call
@@ -18,7 +20,7 @@ from typing import Iterable
 
 from ..design import Design
 from ..errors import ExportError
-from ..geometry import Assembly, build_assembly
+from ..geometry import Assembly
 from ..materials import MaterialLibrary, default_library
 from .files import ensure_dir, write_atomic
 from .stl import manifest, stl_bytes
@@ -84,7 +86,10 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = FORMATS,
 
 def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
                     formats: Iterable[str] = FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
-    """Write an already built assembly; see :func:`export_design`."""
+    """Write ``formats`` ("3mf", "prusa3mf", "stl") of a built assembly into ``out_dir``
+    (created if needed; ExportError if it cannot be). Returns one record per file
+    written: {path, format, bodies: [{material, volume_mm3}], bytes}; format is "3mf",
+    "prusa3mf", "stl" or "manifest"."""
     files = render(design, assembly, formats, library)
     out = ensure_dir(out_dir)
     created: list[Path] = []
@@ -107,15 +112,3 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
             raise
         raise ExportError(f"{out}: cannot write: {exc}") from None
     return records
-
-
-def export_design(design: Design, out_dir: str | Path, state: str = "permanent",
-                  formats: Iterable[str] = FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
-    """Build ``design`` in ``state`` and write ``formats`` ("3mf", "prusa3mf", "stl")
-    into ``out_dir`` (created if needed; ExportError if it cannot be). Returns one
-    record per file written: {path, format, bodies: [{material, volume_mm3}], bytes};
-    format is "3mf", "prusa3mf", "stl" or "manifest"."""
-    lib = library or default_library()
-    check_formats(formats)  # before the (slower) build
-    assembly = build_assembly(design, state, lib)
-    return export_assembly(design, assembly, out_dir, formats, lib)
