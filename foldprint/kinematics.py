@@ -16,17 +16,16 @@ panel stays put. Everything is vectorised over time.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 
 from .design import Design, Hinge, tree_order
 from .errors import DesignError
 from .materials import MaterialLibrary, default_library
+from .modes import DEFAULT_HINGE_MODEL, HingeModel
 from .recovery import recovery_curve
 
-HingeModel = Literal["point", "arc"]
-HINGE_MODELS = ("point", "arc")
+HINGE_MODELS = tuple(m.value for m in HingeModel)
 
 
 @dataclass(frozen=True)
@@ -69,6 +68,7 @@ def hinge_frames(design: Design) -> list[HingeFrame]:
 
 
 _EYE3 = np.eye(3)
+_EZ = np.array([0.0, 0.0, 1.0])
 
 
 def _rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -88,29 +88,52 @@ def _sinc_terms(angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, c
 
 
-def local_transforms(frame: HingeFrame, angle: np.ndarray, model: HingeModel) -> np.ndarray:
-    """(n, 4, 4) transforms of the child relative to the parent for hinge angles (n,)."""
-    angle = np.atleast_1d(np.asarray(angle, float))
-    rot = _rotation(frame.axis, angle)
-    out = np.zeros((len(angle), 4, 4))
-    out[:, :3, :3] = rot
+def hinge_map(frame: HingeFrame, angle, model: HingeModel | str = "arc", fraction=1.0) -> np.ndarray:
+    """The one hinge map: (n, 4, 4) transforms, relative to the parent panel, of the hinge
+    strip's line at ``fraction`` of its flat width (0 = the parent's edge, 1 = the
+    child's edge) when the hinge is bent to ``angle`` (rad). ``angle`` and ``fraction``
+    broadcast to (n,). ``fraction = 1`` is the child panel's transform.
+
+    ``arc``: the strip bends with uniform curvature, so the line at width u = w s turns by
+    rho s and sits at start + u sinc(rho s) n + u (1 - cos(rho s)) / (rho s) z, where start
+    is the parent's edge of the strip. ``point``: a rotation about the fold line (every
+    fraction is the fold line). Geometry (``foldprint.geometry``) and rendering build on
+    this map, so the printed part and the simulated part move identically.
+    """
+    angle, fraction = np.broadcast_arrays(np.atleast_1d(np.asarray(angle, float)),
+                                          np.atleast_1d(np.asarray(fraction, float)))
+    model = str(model)
+    if model not in HINGE_MODELS:
+        raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+    n = len(angle)
+    out = np.zeros((n, 4, 4))
     out[:, 3, 3] = 1.0
     q = frame.origin
     if model == "point":
+        rot = _rotation(frame.axis, angle)
+        out[:, :3, :3] = rot
         out[:, :3, 3] = q - rot @ q
-    elif model == "arc":
-        w = frame.width
-        start = q - 0.5 * w * frame.normal
-        end = q + 0.5 * w * frame.normal
-        s, c = _sinc_terms(angle)
-        tip = start[None] + w * s[:, None] * frame.normal[None] + w * c[:, None] * np.array([0, 0, 1.0])[None]
-        out[:, :3, 3] = tip - rot @ end
-    else:
-        raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+        return out
+    w = frame.width
+    phi = angle * fraction
+    rot = _rotation(frame.axis, phi)
+    out[:, :3, :3] = rot
+    start = q - 0.5 * w * frame.normal
+    u = w * fraction
+    s, c = _sinc_terms(phi)
+    tip = start[None] + (u * s)[:, None] * frame.normal[None] + (u * c)[:, None] * _EZ[None]
+    line = start[None] + u[:, None] * frame.normal[None]
+    out[:, :3, 3] = tip - np.einsum("nij,nj->ni", rot, line)
     return out
 
 
-def forward(design: Design, angles: np.ndarray, model: HingeModel = "arc",
+def local_transforms(frame: HingeFrame, angle: np.ndarray, model: HingeModel | str) -> np.ndarray:
+    """(n, 4, 4) transforms of the child relative to the parent for hinge angles (n,):
+    :func:`hinge_map` at the child's edge."""
+    return hinge_map(frame, angle, model, 1.0)
+
+
+def forward(design: Design, angles: np.ndarray, model: HingeModel | str = DEFAULT_HINGE_MODEL,
             frames: list[HingeFrame] | None = None) -> np.ndarray:
     """Panel poses (n_t, n_panels, 4, 4) for hinge angles (n_t, n_hinges) in
     ``design.hinges`` order (rad)."""
@@ -193,7 +216,7 @@ class HingeDrive:
 
 
 def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath_c: float | None = None,
-                        model: HingeModel = "arc", dt: float = 0.01, duration: float | None = None,
+                        model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = 0.01, duration: float | None = None,
                         library: MaterialLibrary | None = None,
                         drive: HingeDrive | None = None) -> Trajectory:
     """Hinge angles and panel poses over time."""

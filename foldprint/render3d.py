@@ -24,7 +24,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from .design import Design
-from .kinematics import _sinc_terms, forward, hinge_frames, target_angles
+from .kinematics import forward, hinge_frames, hinge_map, target_angles
 from .materials import MaterialLibrary, default_library
 
 log = logging.getLogger(__name__)
@@ -175,17 +175,16 @@ def _scene(design: Design, poses: np.ndarray, model: str, lib: MaterialLibrary,
             sc.hinge_lines.append(_to_world(pp, np.asarray(h.line)))
             sc.hinge_colors.append(color)
             continue
-        # arc: a ribbon of uniform curvature from the parent's rigid edge to the child's
+        # arc: a ribbon of uniform curvature from the parent's rigid edge to the child's,
+        # through the same hinge map the simulation and the printed geometry use
         a = _hinge_angle(f, pp, pc)
         s = np.linspace(0.0, 1.0, _ARC_STEPS + 1)
-        sn, cs = _sinc_terms(s * a)
-        n2 = f.normal
+        maps = pp[None] @ hinge_map(f, a, "arc", s)
         curves = []
         for e in np.asarray(h.line):
-            start = np.array([e[0], e[1], 0.0]) - 0.5 * f.width * n2
-            local = (start[None] + (f.width * s * sn)[:, None] * n2[None]
-                     + (f.width * s * cs)[:, None] * np.array([0.0, 0.0, 1.0])[None])
-            curves.append(local @ pp[:3, :3].T + pp[:3, 3])
+            line = (np.array([e[0], e[1], 0.0]) - 0.5 * f.width * f.normal)[None] \
+                + (f.width * s)[:, None] * f.normal[None]
+            curves.append(np.einsum("nij,nj->ni", maps[:, :3, :3], line) + maps[:, :3, 3])
         c0, c1 = curves
         for k in range(_ARC_STEPS):
             quad = np.array([c0[k], c0[k + 1], c1[k + 1], c1[k]])

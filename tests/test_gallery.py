@@ -231,7 +231,7 @@ def test_page_reports_status_collision_hinges_and_checks(gallery):
 
 
 def test_export_import_failure_is_skipped_gracefully(tmp_path, monkeypatch, caplog):
-    monkeypatch.setitem(sys.modules, "foldprint.exchange.export", None)  # import raises
+    monkeypatch.setitem(sys.modules, "foldprint.pipeline", None)  # import raises
     d = strip("tiny", [10.0, 10.0], [90.0], ["H-1"], description="two panels <&> one hinge")
     with caplog.at_level(logging.WARNING, logger="foldprint.gallery"):
         index = build_gallery([d], tmp_path / "site", gif_frames=4)
@@ -243,7 +243,7 @@ def test_export_import_failure_is_skipped_gracefully(tmp_path, monkeypatch, capl
 
 
 def test_gallery_is_deterministic(tmp_path, monkeypatch):
-    monkeypatch.setitem(sys.modules, "foldprint.exchange.export", None)  # exports are not ours
+    monkeypatch.setitem(sys.modules, "foldprint.pipeline", None)  # exports are not ours
     d = strip("tiny", [10.0, 12.0, 8.0], [90.0, -60.0], ["H-1", "H-4"])
     a = build_gallery([d], tmp_path / "a", gif_frames=6).parent
     b = build_gallery([d], tmp_path / "b", gif_frames=6).parent

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..design import Design, Hinge
 from ..errors import GeometryError
-from ..kinematics import HingeFrame, local_transforms
+from ..kinematics import HingeFrame, hinge_map
 from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, _checked, _from_arrays, apply_pose)
 
 # -- kinematics of the printed states ----------------------------------------------------
@@ -28,7 +28,7 @@ def _local(frame: HingeFrame, rho: float) -> np.ndarray:
     """Child relative to parent: exactly the identity for a flat hinge."""
     if rho == 0.0:
         return np.eye(4)
-    return local_transforms(frame, np.array([rho]), "arc")[0]
+    return hinge_map(frame, rho, "arc", 1.0)[0]
 
 
 def _poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.ndarray:
@@ -39,27 +39,13 @@ def _poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.n
     return poses
 
 
-def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)
-
-
 def arc_transform(frame: HingeFrame, rho: float, u: float) -> np.ndarray:
     """(4, 4) map of the strip line at width ``u`` (0 = parent edge, w = child edge) of
-    a hinge bent to ``rho``: the arc model's child transform with w replaced by u and
-    the angle by rho u / w. u = 0 gives the identity, u = w the child transform."""
-    w = frame.width
+    a hinge bent to ``rho``: :func:`foldprint.kinematics.hinge_map` at fraction u / w.
+    u = 0 gives the identity, u = w the child transform."""
     if rho == 0.0 or u <= 0.0:
         return np.eye(4)
-    phi = rho * u / w
-    n, z = frame.normal, np.array([0.0, 0.0, 1.0])
-    start = frame.origin - 0.5 * w * n
-    rot = _rotation(frame.axis, phi)
-    tip = start + u * (math.sin(phi) / phi) * n + u * ((1 - math.cos(phi)) / phi) * z
-    out = np.eye(4)
-    out[:3, :3] = rot
-    out[:3, 3] = tip - rot @ (start + u * n)
-    return out
+    return hinge_map(frame, rho, "arc", u / frame.width)[0]
 
 
 # -- hinge strips ------------------------------------------------------------------------
