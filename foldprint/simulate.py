@@ -15,17 +15,19 @@ from .errors import DesignError
 from .goals import GoalResult, evaluate_goals
 from .kinematics import HingeDrive, Trajectory, simulate_kinematics
 from .materials import MaterialLibrary
+from .modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, AfterContact, HingeModel,
+                    Method, parse)
 
-METHODS = ("index2d", "fcl", "both")
-AFTER = ("stop", "arrest")
+METHODS = tuple(m.value for m in Method)
+AFTER = tuple(m.value for m in AfterContact)
 
 
 @dataclass(frozen=True, eq=False)
 class SimulationResult:
     design: Design
     trajectory: Trajectory
-    method: str
-    after_contact: str
+    method: Method
+    after_contact: AfterContact
     contacts: tuple[Contact, ...]  # in time order; the first is the first collision
     index2d: Index2D | None
     goals: tuple[GoalResult, ...]
@@ -131,26 +133,33 @@ def _path_hinges(design: Design, a: int, b: int) -> list[int]:
 
 
 def simulate(design: Design, *, bath_c: float | None = None, duration: float | None = None,
-             dt: float = 0.01, method: str = "both", hinge_model: str = "point",
-             after_contact: str = "stop", library: MaterialLibrary | None = None,
+             dt: float = 0.01, method: Method | str = DEFAULT_METHOD,
+             hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
+             after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT,
+             library: MaterialLibrary | None = None, drive: HingeDrive | None = None,
              progress=None) -> SimulationResult:
     """Run the ROM and the collision check(s).
 
-    ``method``: "index2d" (the paper's index; planar strips only), "fcl" (3D swept) or
-    "both" (index2d only where the design is a planar strip). ``after_contact``: "stop"
-    keeps the kinematic trajectory and reports the first contact; "arrest" freezes the
-    hinges on the tree path between two touching panels from the contact on and goes on.
+    ``hinge_model``: ``arc`` (default: the printed hinges, :class:`~foldprint.modes.HingeModel`)
+    or ``point`` (the paper's Eq. 2-4). ``method``: "index2d" (the paper's index; planar
+    strips only), "fcl" (3D swept) or "both" (index2d only where the design is a planar
+    strip). ``after_contact``: "stop" keeps the kinematic trajectory and reports the first
+    contact; "arrest" freezes the hinges on the tree path between two touching panels from
+    the contact on and goes on. ``drive``: the hinges' recovery (default: the nominal
+    curves of each hinge's material; :mod:`foldprint.robust` passes scattered ones).
     """
-    if method not in METHODS:
-        raise DesignError(f"method must be one of {METHODS}, got {method!r}")
-    if after_contact not in AFTER:
-        raise DesignError(f"after_contact must be one of {AFTER}, got {after_contact!r}")
-    use2d = method in ("index2d", "both") and design.is_planar_strip
-    if method == "index2d" and not design.is_planar_strip:
+    method = parse(Method, method, "method")
+    after_contact = parse(AfterContact, after_contact, "after_contact")
+    hinge_model = parse(HingeModel, hinge_model, "hinge_model")
+    use2d = method in (Method.INDEX2D, Method.BOTH) and design.is_planar_strip
+    if method == Method.INDEX2D and not design.is_planar_strip:
         raise DesignError(f"{design.name}: the paper's 2D collision index needs a planar strip "
                           "(every fold line parallel to y); use --method fcl")
-    use3d = method in ("fcl", "both")
-    drive = HingeDrive(design, bath_c, library)
+    use3d = method in (Method.FCL, Method.BOTH)
+    if drive is None:
+        drive = HingeDrive(design, bath_c, library)
+    elif drive.frozen_at:
+        raise DesignError("simulate needs a fresh HingeDrive (this one has arrested hinges)")
     contacts: list[Contact] = []
     skip: set = set()
     initial: list[Contact] = []
@@ -178,7 +187,7 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
             break
         first = min(found, key=lambda c: c.time)
         contacts.append(first)
-        if after_contact == "stop":
+        if after_contact == AfterContact.STOP:
             break
         for k in _path_hinges(design, *first.pair):
             drive.frozen_at.setdefault(k, first.time)

@@ -1,0 +1,113 @@
+"""Clearances between non-adjacent panels of the printed geometry: in one pose (the
+printed, permanent state: do panels print fused?) and along a trajectory (the margin by
+which a fold misses a collision).
+
+Exact distances come from the FCL solids of :class:`foldprint.collision3d.SweptChecker`
+(the rigid parts of the panels under the hinge model, holes kept). A vectorised
+axis-aligned-box prefilter skips the pairs whose boxes are farther apart than the
+distance of interest, so a large design costs few FCL calls. Along a trajectory the
+clearance is sampled (``n_samples`` evenly spaced poses plus the last); between samples
+the swept check, not this module, guarantees that nothing touches.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .collision3d import SweptChecker, non_adjacent_pairs
+from .rigid import rigid_polygon
+
+
+@dataclass(frozen=True)
+class Gap:
+    """Distance (mm, 0 when touching) between panels ``pair`` (indices) / ``panels``
+    (ids) at ``time`` (s, or None for a static pose), nearest point (world, mm)."""
+
+    distance: float
+    pair: tuple[int, int]
+    panels: tuple[str, str]
+    time: float | None
+    point: tuple[float, float, float] | None
+
+    def to_json(self) -> dict:
+        out = {"distance_mm": round(float(self.distance), 4), "panels": list(self.panels)}
+        if self.time is not None:
+            out["time_s"] = round(float(self.time), 4)
+        return out
+
+
+def _piece_vertices(checker: SweptChecker) -> tuple[np.ndarray, np.ndarray]:
+    """The vertices of every panel's rigid solid in the sheet frame (m, 3) and the panel
+    of each (m,): the same solids the checker's FCL pieces are built from."""
+    cached = checker.__dict__.get("_clearance_vertices")
+    if cached is None:
+        pts, owner = [], []
+        for i, p in enumerate(checker.design.panels):
+            poly = rigid_polygon(checker.design, i, checker.model)
+            if poly.is_empty:
+                continue
+            ring = np.asarray(poly.exterior.coords)[:-1]
+            for z in (-p.thickness / 2, p.thickness / 2):
+                pts.append(np.column_stack([ring, np.full(len(ring), z)]))
+                owner.append(np.full(len(ring), i))
+        cached = (np.concatenate(pts), np.concatenate(owner))
+        checker.__dict__["_clearance_vertices"] = cached
+    return cached
+
+
+def _boxes(checker: SweptChecker, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World axis-aligned boxes (n_panels, 3) lo and hi of every panel's rigid solid."""
+    pts, owner = _piece_vertices(checker)
+    world = np.einsum("mij,mj->mi", poses[owner, :3, :3], pts) + poses[owner, :3, 3]
+    n = len(poses)
+    lo = np.full((n, 3), np.inf)
+    hi = np.full((n, 3), -np.inf)
+    np.minimum.at(lo, owner, world)
+    np.maximum.at(hi, owner, world)
+    return lo, hi
+
+
+def gaps_in_pose(checker: SweptChecker, poses: np.ndarray, within_mm: float,
+                 pairs: list[tuple[int, int]] | None = None, time: float | None = None) -> list[Gap]:
+    """Every non-adjacent pair closer than ``within_mm`` in one pose ``poses``
+    (n_panels, 4, 4), nearest first."""
+    design = checker.design
+    pairs = pairs if pairs is not None else non_adjacent_pairs(design)
+    if not pairs:
+        return []
+    lo, hi = _boxes(checker, poses)
+    a = np.array(pairs)
+    sep = np.maximum(lo[a[:, 0]] - hi[a[:, 1]], lo[a[:, 1]] - hi[a[:, 0]]).max(axis=1)
+    out = []
+    for k in np.nonzero(sep < within_mm)[0]:
+        i, j = (int(x) for x in a[k])
+        d, point = checker.distance(i, j, poses[i], poses[j])
+        if d < within_mm:
+            out.append(Gap(max(float(d), 0.0), (i, j), (design.panels[i].id, design.panels[j].id), time,
+                           None if point is None else tuple(float(x) for x in point)))
+    return sorted(out, key=lambda g: g.distance)
+
+
+def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
+                  n_samples: int = 200, t_end: float | None = None) -> Gap | None:
+    """The smallest gap between non-adjacent panels over ``n_samples`` poses of the
+    trajectory up to ``t_end`` (default: its end), or None for a design with no such pair.
+
+    A running bound keeps this cheap: once some pair is at distance g, a pair whose boxes
+    are g or more apart cannot beat it."""
+    pairs = non_adjacent_pairs(checker.design)
+    if not pairs:
+        return None
+    n = len(times) if t_end is None else int(np.searchsorted(times, t_end, side="right"))
+    n = max(n, 1)
+    ks = np.unique(np.r_[np.linspace(0, n - 1, min(n, n_samples)).round().astype(int), n - 1])
+    best: Gap | None = None
+    # start from the final pose: printed shapes are usually where panels are closest
+    for k in ks[::-1]:
+        bound = np.inf if best is None else best.distance
+        found = gaps_in_pose(checker, poses[k], bound if np.isfinite(bound) else 1e300, pairs, float(times[k]))
+        if found and (best is None or found[0].distance < best.distance):
+            best = found[0]
+    return best
