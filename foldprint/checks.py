@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from .design import Design
+from .constants import tol
 from .errors import DesignError
-from .materials import MaterialLibrary, default_library
+from .materials import MaterialLibrary
 
 SEVERITIES = ("error", "warning", "info")
 
@@ -84,22 +85,39 @@ def default_printer_key() -> str:
     return next(k for k, v in data.items() if v.get("default"))
 
 
-@dataclass
+@dataclass(frozen=True)
+class Thresholds:
+    """When the jam probability makes the pre-print check fail.
+
+    ``error``: the check fails (exit 1) when the *lower* end of the 95 % interval is above
+    this: the part jams more often than this even on the most favourable reading of the
+    samples. ``warning``: a warning when the estimate itself is above this."""
+
+    error: float = 0.2
+    warning: float = 0.05
+
+
+@dataclass(frozen=True)
 class CheckContext:
+    """What the rules read. Every result is computed once, upstream, by
+    :mod:`foldprint.pipeline`; rules compute no simulation and no geometry.
+
+    ``simulation``: the nominal :class:`~foldprint.simulate.SimulationResult` (or None
+    when it could not run); ``assembly``: the printed part (None with
+    ``assembly_error`` when it could not be built); ``printed_gaps``: panel pairs closer
+    than the printer's minimum gap in the permanent state; ``clearance``: the smallest
+    gap along the fold; ``robust``: the jam probability (or None when not run)."""
+
     design: Design
     library: MaterialLibrary
     printer: Printer
-    simulation: object | None = None  # SimulationResult, computed lazily
+    simulation: object | None = None
     assembly: object | None = None
-    hinge_model: str = "point"
-
-    def sim(self):
-        if self.simulation is None:
-            from .simulate import simulate
-
-            self.simulation = simulate(self.design, method="fcl", hinge_model=self.hinge_model,
-                                       library=self.library)
-        return self.simulation
+    assembly_error: str | None = None
+    printed_gaps: tuple = ()
+    clearance: object | None = None
+    robust: object | None = None
+    thresholds: Thresholds = Thresholds()
 
 
 def _f(code, sev, msg, hint="", point=None, **where):
@@ -111,24 +129,27 @@ def _f(code, sev, msg, hint="", point=None, **where):
 
 def rule_build_volume(ctx: CheckContext) -> list[Finding]:
     """The printed (permanent) part fits the printer, in some axis-aligned orientation."""
-    from .kinematics import forward, target_angles, transform_points
-
-    d = ctx.design
-    poses = forward(d, target_angles(d)[None], "arc")[0]
-    pts = []
-    for i, p in enumerate(d.panels):
-        for z in (-p.thickness / 2, p.thickness / 2):
-            pts.append(transform_points(poses[i], p.outline, z))
-    pts = np.concatenate(pts)
+    if ctx.assembly is None or not ctx.assembly.bodies:
+        return []
+    pts = np.concatenate([b.vertices for b in ctx.assembly.bodies])
     size = pts.max(0) - pts.min(0)
     build = np.array(ctx.printer.build_mm)
-    fits = np.all(np.sort(size) <= np.sort(build) + 1e-9)
+    fits = np.all(np.sort(size) <= np.sort(build) + tol.length)
     if fits:
         return [_f("FP101", "info", f"part {size[0]:.1f} x {size[1]:.1f} x {size[2]:.1f} mm fits "
                    f"{ctx.printer.name} ({build[0]:g} x {build[1]:g} x {build[2]:g} mm)")]
     return [_f("FP100", "error", f"part {size[0]:.1f} x {size[1]:.1f} x {size[2]:.1f} mm does not fit the build "
                f"volume of {ctx.printer.name} ({build[0]:g} x {build[1]:g} x {build[2]:g} mm)",
                "scale the design down or choose a larger printer with --printer")]
+
+
+def rule_buildable(ctx: CheckContext) -> list[Finding]:
+    """The printed part could be built: its bodies are watertight and disjoint."""
+    if ctx.assembly_error is None:
+        return []
+    return [_f("FP102", "error", f"the printed part cannot be built: {ctx.assembly_error}",
+               "the panels or hinges overlap in the printed (permanent) state; change the target angles, "
+               "lengths or holes")]
 
 
 def rule_min_wall(ctx: CheckContext) -> list[Finding]:
@@ -166,22 +187,15 @@ def rule_min_gap(ctx: CheckContext) -> list[Finding]:
             if min(maxx - minx, maxy - miny) < g:
                 out.append(_f("FP121", "error", f"panel {p.id!r} hole {k} is narrower than the {g:g} mm minimum gap",
                               "widen the hole", panel=p.id))
-    from .collision3d import SweptChecker, non_adjacent_pairs
-    from .kinematics import HingeDrive, forward, target_angles
-
-    d = ctx.design
-    checker = SweptChecker(d, "arc", HingeDrive(d, library=ctx.library))
-    poses = forward(d, target_angles(d)[None], "arc")[0]
-    for i, j in non_adjacent_pairs(d):
-        dist, point = checker.distance(i, j, poses[i], poses[j])
-        if dist < g:
-            a, b = d.panels[i].id, d.panels[j].id
-            sev = "error"
-            msg = (f"panels {a!r} and {b!r} are {max(dist, 0):.2f} mm apart in the printed state, below the "
-                   f"{g:g} mm minimum gap: they would print fused" if dist > 0 else
-                   f"panels {a!r} and {b!r} intersect in the printed (permanent) state")
-            out.append(_f("FP122", sev, msg, "move the panels apart or change the target angles",
-                          point, panels=[a, b]))
+    for gap in ctx.printed_gaps:
+        if gap.distance >= g:
+            continue
+        a, b = gap.panels
+        msg = (f"panels {a!r} and {b!r} are {gap.distance:.2f} mm apart in the printed state, below the "
+               f"{g:g} mm minimum gap: they would print fused" if gap.distance > 0 else
+               f"panels {a!r} and {b!r} intersect in the printed (permanent) state")
+        out.append(_f("FP122", "error", msg, "move the panels apart or change the target angles",
+                      gap.point, panels=[a, b]))
     return out
 
 
@@ -249,15 +263,14 @@ def rule_temperatures(ctx: CheckContext) -> list[Finding]:
 
 
 def rule_fold_within_duration(ctx: CheckContext) -> list[Finding]:
+    """Every hinge reaches 98 % within the process (the simulation's recovery curves)."""
     out = []
     d = ctx.design
-    from .recovery import fold_time
-
-    for h in d.hinges:
+    if ctx.simulation is None:
+        return out
+    for h, ft in zip(d.hinges, ctx.simulation.trajectory.fold_times):
         if d.process.bath_temperature_c <= ctx.library[h.material].tg_c:
             continue  # reported by FP151
-        ft = fold_time(ctx.library[h.material], d.process.bath_temperature_c, h.thickness,
-                       d.process.fix_temperature_c)
         if ft is None or ft > d.process.duration_s:
             out.append(_f("FP160", "error", f"hinge {h.id!r} ({h.material}) does not reach 98 % within the "
                           f"{d.process.duration_s:g} s process" + ("" if ft is None else f" (needs {ft:.1f} s)"),
@@ -266,13 +279,17 @@ def rule_fold_within_duration(ctx: CheckContext) -> list[Finding]:
 
 
 def rule_folding(ctx: CheckContext) -> list[Finding]:
-    """Simulate (3D, swept): collisions, goals, and the minimum clearance as a margin."""
-    res = ctx.sim()
+    """The nominal fold of the printed geometry: collisions, goals, and the smallest
+    clearance as a margin."""
+    res = ctx.simulation
+    if res is None:
+        return []
+    model = res.trajectory.model
     out = []
     c = res.first_collision
     if c is not None:
         out.append(_f("FP170", "error", f"panels {c.panels[0]!r} and {c.panels[1]!r} collide at {c.time:.3f} s "
-                      f"while folding ({ctx.hinge_model} hinges, 3D swept check)",
+                      f"while folding ({model} hinges, 3D swept check)",
                       "give the hinges that must fold first lower-Tg materials, so these panels fold in sequence",
                       c.point if all(map(math.isfinite, c.point)) else None, panels=list(c.panels)))
     for g in res.goals:
@@ -280,41 +297,40 @@ def rule_folding(ctx: CheckContext) -> list[Finding]:
             why = "never passes" if g.time is None else "passes out of order"
             out.append(_f("FP171", "error", f"goal {g.goal.id!r}: panel {g.goal.panel!r} {why} through hole "
                           f"{g.goal.hole} of {g.goal.target!r}", "adjust the hinge sequence", goal=g.goal.id))
-    if c is None:
-        gap = _min_clearance(ctx)
-        if gap is not None:
-            out.append(_f("FP172", "info", f"smallest clearance between non-adjacent panels while folding: "
-                          f"{gap[0]:.2f} mm ({gap[1]!r}-{gap[2]!r} at {gap[3]:.2f} s)",
-                          "", panels=[gap[1], gap[2]]))
+    gap = ctx.clearance
+    if c is None and gap is not None:
+        out.append(_f("FP172", "info", f"smallest clearance between non-adjacent panels while folding: "
+                      f"{gap.distance:.2f} mm ({gap.panels[0]!r}-{gap.panels[1]!r} at {gap.time:.2f} s, "
+                      f"{model} hinges)", "", panels=list(gap.panels)))
     return out
 
 
-def _min_clearance(ctx: CheckContext):
-    from .collision3d import SweptChecker, non_adjacent_pairs
+def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
+    """The fold under manufacturing and process scatter (``foldprint robust``)."""
+    r = ctx.robust
+    if r is None:
+        return []
+    lo, hi = r.ci95
+    th = ctx.thresholds
+    pairs = ", ".join(f"{a}-{b} ({k}x)" for (a, b), k in r.collisions()[:3])
+    text = (f"jam probability {r.jam_probability:.0%} (95 % interval {lo:.0%}-{hi:.0%}) in {r.samples} samples "
+            f"of the printed geometry under scatter" + (f"; colliding: {pairs}" if pairs else ""))
+    hint = "give neighbouring hinges materials further apart in Tg, so scatter cannot swap their order"
+    if lo > th.error:
+        return [_f("FP180", "error", text + f": above the {th.error:.0%} error threshold even at the interval's "
+                   "lower end", hint)]
+    if r.jam_probability > th.warning:
+        return [_f("FP181", "warning", text + f": above the {th.warning:.0%} warning threshold", hint)]
+    return [_f("FP182", "info", text)]
 
-    res = ctx.sim()
-    d = ctx.design
-    traj = res.trajectory
-    checker = SweptChecker(d, traj.model, None)
-    best = None
-    for k in range(0, len(traj.times), max(1, len(traj.times) // 200)):
-        for i, j in non_adjacent_pairs(d):
-            dist, _ = checker.distance(i, j, traj.poses[k][i], traj.poses[k][j])
-            if best is None or dist < best[0]:
-                best = (dist, d.panels[i].id, d.panels[j].id, float(traj.times[k]))
-    return best
+
+RULES = [rule_build_volume, rule_buildable, rule_min_wall, rule_min_gap, rule_hinge_strain, rule_hinge_fits,
+         rule_temperatures, rule_fold_within_duration, rule_folding, rule_jam_probability]
 
 
-RULES = [rule_build_volume, rule_min_wall, rule_min_gap, rule_hinge_strain, rule_hinge_fits,
-         rule_temperatures, rule_fold_within_duration, rule_folding]
-
-
-def run_checks(design: Design, printer: Printer | None = None, library: MaterialLibrary | None = None,
-               rules=None, hinge_model: str = "point") -> list[Finding]:
-    """Every rule's findings, errors first."""
-    lib = library or default_library()
-    pr = printer or load_printers()[default_printer_key()]
-    ctx = CheckContext(design, lib, pr, hinge_model=hinge_model)
+def run_checks(ctx: CheckContext, rules=None) -> list[Finding]:
+    """Every rule's findings, errors first. The context comes from
+    :func:`foldprint.pipeline.evaluate` (or, for a subset of rules, from the caller)."""
     findings: list[Finding] = []
     for rule in rules or RULES:
         findings.extend(rule(ctx))

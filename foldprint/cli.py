@@ -175,6 +175,41 @@ def _load(design: str, materials_file=None):
     return load_design(resolve_design_path(design), lib), lib
 
 
+def _mode(enum, value: str, option: str):
+    from .modes import parse
+
+    try:
+        return parse(enum, value, option)
+    except FoldprintError:
+        raise FoldprintError(f"{option} must be one of {', '.join(m.value for m in enum)}, got {value!r}") from None
+
+
+def _finite(**values) -> None:
+    for name, v in values.items():
+        if v is not None and not math.isfinite(v):
+            raise FoldprintError(f"--{name.replace('_', '-')} must be a finite number, got {v}")
+
+
+def _samples_progress(label: str):
+    """A context manager giving a ``progress(done, total)`` callback: a bar on stderr when
+    it is a terminal and not --quiet, else nothing."""
+    import contextlib
+
+    if _STATE["quiet"] or not sys.stderr.isatty():
+        return contextlib.nullcontext(None)
+
+    @contextlib.contextmanager
+    def bar():
+        from rich.console import Console
+        from rich.progress import Progress
+
+        with Progress(transient=True, console=Console(stderr=True)) as p:
+            task = p.add_task(label, total=None)
+            yield lambda done, total: p.update(task, completed=done, total=total)
+
+    return bar()
+
+
 @app.command()
 def simulate(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
@@ -182,38 +217,38 @@ def simulate(
     duration: Optional[float] = typer.Option(None, "--duration", help="Simulated time (s); default: the design's."),
     dt: float = typer.Option(0.01, "--dt", help="Time step of the trajectory (s)."),
     method: str = typer.Option("both", "--method", help="index2d | fcl | both"),
-    hinge_model: str = typer.Option("point", "--hinge-model", help="point (paper Eq. 2-4) | arc"),
+    hinge_model: str = typer.Option("arc", "--hinge-model",
+                                    help="arc (default: the printed hinges) | point (the paper's ROM, Eq. 2-4)"),
     after_contact: str = typer.Option("stop", "--after-contact", help="stop | arrest"),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
 ):
     """Fold the design in the bath: hinge angles, collisions, goals. Exit 0 when it
-    completes, 1 when it collides, stalls or misses a goal.
+    completes, 1 when it collides, stalls or misses a goal. The printed geometry (arc
+    hinges) is the default; the paper's point-hinge ROM is run beside it and reported
+    when its verdict differs.
 
     Example: foldprint simulate helix_graded --json
     """
+    from .modes import AfterContact, HingeModel, Method
+    from .pipeline import run_simulation
     from .report import simulation_json
-    from .simulate import AFTER, METHODS, simulate as run_sim
 
-    if method not in METHODS:
-        raise FoldprintError(f"--method must be one of {', '.join(METHODS)}, got {method!r}")
-    if hinge_model not in ("point", "arc"):
-        raise FoldprintError(f"--hinge-model must be point or arc, got {hinge_model!r}")
-    if after_contact not in AFTER:
-        raise FoldprintError(f"--after-contact must be one of {', '.join(AFTER)}, got {after_contact!r}")
-    for name, v in (("--temperature", temperature), ("--duration", duration), ("--dt", dt)):
-        if v is not None and not math.isfinite(v):
-            raise FoldprintError(f"{name} must be a finite number, got {v}")
+    m, model, after = (_mode(Method, method, "--method"), _mode(HingeModel, hinge_model, "--hinge-model"),
+                       _mode(AfterContact, after_contact, "--after-contact"))
+    _finite(temperature=temperature, duration=duration, dt=dt)
     if dt <= 0 or (duration is not None and duration <= 0):
         raise FoldprintError("--dt and --duration must be > 0 s")
     d, lib = _load(design, materials_file)
     if plot is not None:
         from .exchange.files import ensure_dir
         ensure_dir(plot)
-    res = run_sim(d, bath_c=temperature, duration=duration, dt=dt, method=method,
-                  hinge_model=hinge_model, after_contact=after_contact, library=lib)
+    res, other = run_simulation(d, library=lib, bath_c=temperature, duration=duration, dt=dt, method=m,
+                                hinge_model=model, after_contact=after, compare=True)
     report = simulation_json(res)
+    report["comparison"] = None if other is None else dict(
+        simulation_json(other.result, brief=True), hinge_model=other.hinge_model.value)
     if plot is not None:
         from .render import collision_index_figure, hinge_angle_figure, save_figure
 
@@ -229,9 +264,15 @@ def simulate(
     raise ExitCode(0 if res.completed else 1)
 
 
+def _verdict(r: dict) -> str:
+    if r["completed"]:
+        return "completes"
+    c = r["first_collision"]
+    return "does NOT complete" + (f" ({c['panels'][0]}-{c['panels'][1]} at {c['time_s']:.3f} s)" if c else "")
+
+
 def _print_simulation(r: dict) -> None:
-    status = "completes" if r["completed"] else "does NOT complete"
-    echo(f"{r['design']} at {r['temperature_c']:g} C ({r['hinge_model']} hinges, {r['method']}): {status}")
+    echo(f"{r['design']} at {r['temperature_c']:g} C ({r['hinge_model']} hinges, {r['method']}): {_verdict(r)}")
     if r["fold_time_s"] is not None:
         echo(f"  folded in {r['fold_time_s']:.2f} s")
     for c in r["contacts"]:
@@ -244,6 +285,27 @@ def _print_simulation(r: dict) -> None:
     for g in r["goals"]:
         state = f"met at {g['time_s']:.2f} s" if g["met"] else "NOT met"
         echo(f"  goal {g['id']}: {g['panel']} through hole {g['hole']} of {g['target']}: {state}")
+    if r.get("comparison"):
+        c = r["comparison"]
+        echo(f"  note: the {c['hinge_model']} hinge model disagrees: it {_verdict(c)} "
+             "(docs/simulation.md explains the two models)")
+
+
+def _printer(printer, printers_file):
+    from .checks import default_printer_key, load_printers
+
+    printers = load_printers(printers_file)
+    key = printer or default_printer_key()
+    if key not in printers:
+        raise FoldprintError(f"--printer {key!r} is unknown; profiles: {', '.join(printers)} "
+                             "(add your own with --printers FILE)")
+    return key, printers[key]
+
+
+def _fraction(value: float, option: str) -> float:
+    if not (math.isfinite(value) and 0.0 <= value <= 1.0):
+        raise FoldprintError(f"{option} must be a probability between 0 and 1, got {value}")
+    return value
 
 
 @app.command()
@@ -251,39 +313,104 @@ def check(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     printer: Optional[str] = typer.Option(None, "--printer", help="Printer profile key (default: connex260)."),
     printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML)."),
-    hinge_model: str = typer.Option("point", "--hinge-model", help="point | arc, for the folding check"),
+    hinge_model: str = typer.Option("arc", "--hinge-model",
+                                    help="arc (default: the printed hinges) | point (the paper's ROM)"),
+    samples: int = typer.Option(20, "--samples", help="Monte-Carlo samples for the jam probability "
+                                "(0 skips it; 20 take about 10 s for a helix on 2 cores)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the samples."),
+    scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
+    error_above: float = typer.Option(0.2, "--error-above", help="Fail when the 95 % interval's lower end "
+                                      "of the jam probability is above this."),
+    warn_above: float = typer.Option(0.05, "--warn-above", help="Warn when the jam probability is above this."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
 ):
-    """Design-rule checks before printing: build volume, walls and gaps, hinge strain and
-    size, temperatures, fold time, collisions and goals. Exit 0 without errors, 1 with.
+    """Design-rule checks before printing, on the printed geometry: build volume, walls
+    and gaps, hinge strain and size, temperatures, fold time, collisions and goals, and
+    the jam probability under manufacturing scatter. Exit 0 without errors, 1 with.
 
     Example: foldprint check helix_uniform --json
     """
-    from .checks import default_printer_key, load_printers, run_checks
+    from .checks import Thresholds
+    from .modes import HingeModel
+    from .pipeline import evaluate
+    from .robust import load_scatter
 
-    if hinge_model not in ("point", "arc"):
-        raise FoldprintError(f"--hinge-model must be point or arc, got {hinge_model!r}")
-    printers = load_printers(printers_file)
-    key = printer or default_printer_key()
-    if key not in printers:
-        raise FoldprintError(f"--printer {key!r} is unknown; profiles: {', '.join(printers)} "
-                             "(add your own with --printers FILE)")
+    model = _mode(HingeModel, hinge_model, "--hinge-model")
+    if samples < 0:
+        raise FoldprintError(f"--samples must be >= 0 (0 skips the jam probability), got {samples}")
+    if seed < 0:
+        raise FoldprintError(f"--seed must be >= 0, got {seed}")
+    th = Thresholds(_fraction(error_above, "--error-above"), _fraction(warn_above, "--warn-above"))
+    key, pr = _printer(printer, printers_file)
+    sc = load_scatter(scatter_file)
     d, lib = _load(design, materials_file)
-    findings = run_checks(d, printers[key], lib, hinge_model=hinge_model)
-    n_err = sum(f.severity == "error" for f in findings)
+    with _samples_progress(f"{d.name}: scatter samples") as cb:
+        ev = evaluate(d, library=lib, printer=pr, hinge_model=model, samples=samples, seed=seed, scatter=sc,
+                      thresholds=th, progress=(lambda _s, done, total: cb(done, total)) if cb else None)
+    findings = ev.findings
+    n_err = ev.errors
     if json_out:
-        _echo_json({"design": d.name, "printer": key, "ok": n_err == 0,
+        from .report import robust_json
+
+        _echo_json({"design": d.name, "printer": key, "hinge_model": model.value, "ok": n_err == 0,
                     "errors": n_err, "warnings": sum(f.severity == "warning" for f in findings),
-                    "findings": [f.to_json() for f in findings]})
+                    "findings": [f.to_json() for f in findings],
+                    "robust": None if ev.robust is None else robust_json(ev.robust)})
     else:
         for f in findings:
             where = ", ".join(f"{k} {v}" for k, v in f.where.items())
             echo(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
             if f.hint:
                 echo(f"        hint: {f.hint}")
-        _note(f"{d.name}: {n_err} error(s) on {printers[key].name}")
+        _note(f"{d.name}: {n_err} error(s) on {pr.name} ({model.value} hinges)")
     raise ExitCode(1 if n_err else 0)
+
+
+@app.command()
+def robust(
+    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    samples: int = typer.Option(60, "--samples", help="Monte-Carlo samples (>= 1)."),
+    seed: int = typer.Option(0, "--seed", help="Seed: the same seed gives the same answer."),
+    scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
+    hinge_model: str = typer.Option("arc", "--hinge-model",
+                                    help="arc (default: the printed hinges) | point (the paper's ROM)"),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+):
+    """Jam probability under manufacturing and process scatter: Tg per hinge, hinge
+    thickness, heat transfer per hinge and bath temperature (foldprint/data/scatter.toml),
+    N Monte-Carlo folds of the printed geometry on all cores. Exit 0; 2 on bad input.
+
+    Example: foldprint robust helix_uniform --samples 60 --seed 1 --json
+    """
+    from .modes import HingeModel
+    from .report import robust_json
+    from .robust import jam_probability, load_scatter
+
+    model = _mode(HingeModel, hinge_model, "--hinge-model")
+    if samples < 1:
+        raise FoldprintError(f"--samples must be at least 1, got {samples}")
+    if seed < 0:
+        raise FoldprintError(f"--seed must be >= 0, got {seed}")
+    sc = load_scatter(scatter_file)
+    d, lib = _load(design, materials_file)
+    with _samples_progress(f"{d.name}: scatter samples") as cb:
+        r = jam_probability(d, samples, seed, scatter=sc, library=lib, hinge_model=model, progress=cb)
+    out = robust_json(r)
+    if json_out:
+        _echo_json(out)
+    else:
+        lo, hi = out["ci95"]
+        echo(f"{d.name}: jam probability {out['jam_probability']:.1%} (95 % interval {lo:.1%}-{hi:.1%}) "
+             f"in {samples} samples, seed {seed} ({model.value} hinges)")
+        for c in out["collisions"][:5]:
+            echo(f"  {c['pair'][0]}-{c['pair'][1]} collide in {c['count']} samples")
+        ft = out["fold_time_s"]
+        if ft:
+            echo(f"  fold time of the samples that completed: {ft['p5']:.2f} / {ft['p50']:.2f} / "
+                 f"{ft['p95']:.2f} s (5th / 50th / 95th percentile)")
+        echo(f"  nominal: {_verdict(out['nominal'])}")
 
 
 @app.command()

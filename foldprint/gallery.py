@@ -214,21 +214,22 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
 def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary, dt: float,
                   gif_frames: int, export_design, step) -> _Entry:
     from . import render, render3d
-    from .checks import default_printer_key, run_checks
+    from .checks import default_printer_key
     from .exchange.files import write_atomic
+    from .pipeline import evaluate, run_simulation
     from .report import simulation_json
-    from .simulate import simulate
 
     name = design.name
     base = out / dirname
     step(f"{name}: simulating")
-    result = simulate(design, dt=dt, library=lib)
+    result, _ = run_simulation(design, dt=dt, library=lib)
     sim = simulation_json(result)
     write_atomic(base / "simulation.json", _json_bytes(sim))
 
     step(f"{name}: design-rule checks")
-    findings = run_checks(design, library=lib)
-    n_err = sum(f.severity == "error" for f in findings)
+    ev = evaluate(design, library=lib, simulation=result, samples=0, dt=dt)
+    findings = ev.findings
+    n_err = ev.errors
     checks = {"design": name, "printer": default_printer_key(), "ok": n_err == 0, "errors": n_err,
               "warnings": sum(f.severity == "warning" for f in findings),
               "findings": [f.to_json() for f in findings]}

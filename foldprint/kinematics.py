@@ -174,12 +174,19 @@ class HingeDrive:
     trajectory and by the collision refinement between samples)."""
 
     def __init__(self, design: Design, bath_c: float | None = None,
-                 library: MaterialLibrary | None = None):
-        lib = library or default_library()
+                 library: MaterialLibrary | None = None, curves=None):
+        """Nominal recovery curves of each hinge's material, thickness and the bath, or
+        the given ``curves`` (one :class:`~foldprint.recovery.RecoveryCurve` per hinge, in
+        ``design.hinges`` order: e.g. a scattered sample from :mod:`foldprint.robust`)."""
         self.design = design
         self.bath_c = float(design.process.bath_temperature_c if bath_c is None else bath_c)
-        self.curves = [recovery_curve(lib[h.material], self.bath_c, h.thickness,
-                                      design.process.fix_temperature_c) for h in design.hinges]
+        if curves is None:
+            lib = library or default_library()
+            curves = [recovery_curve(lib[h.material], self.bath_c, h.thickness,
+                                     design.process.fix_temperature_c) for h in design.hinges]
+        elif len(curves) != len(design.hinges):
+            raise DesignError(f"{len(curves)} recovery curves for {len(design.hinges)} hinges")
+        self.curves = list(curves)
         self.target = target_angles(design)
         self.fixity = np.array([h.fixity for h in design.hinges])
         self.frozen_at: dict[int, float] = {}  # hinge index -> time it was arrested

@@ -1,18 +1,37 @@
-"""The one place the stages are chained: design -> simulation (once) -> assembly ->
-checks (given both) -> writers. ``cli``, ``gallery`` and ``assign`` call this module;
-no stage below it calls another stage's entry point.
+"""The one place the stages are chained:
+
+    design -> simulation (once) -> assembly -> gaps and clearance -> jam probability
+           -> checks (given all of these, computing none) -> writers
+
+``cli``, ``gallery`` and ``assign`` call this module; no stage below it calls another
+stage's entry point. The verdict is about the printed part: the simulation defaults to
+the arc hinges that ``export`` writes (:data:`foldprint.modes.DEFAULT_HINGE_MODEL`).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable
+from typing import Callable, Iterable
 
+from .checks import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
+from .clearance import Gap, gaps_in_pose, min_clearance
+from .collision3d import SweptChecker
 from .design import Design
+from .errors import GeometryError
 from .exchange.export import FORMATS, check_formats, export_assembly
 from .geometry import Assembly, build_assembly
+from .kinematics import forward, target_angles
 from .materials import MaterialLibrary, default_library
-from .modes import DEFAULT_STATE, State, parse
+from .modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, AfterContact,
+                    HingeModel, Method, State, parse)
+from .robust import RobustResult, Scatter, jam_probability
+from .simulate import SimulationResult, simulate
+
+#: Monte-Carlo samples ``check`` runs by default (about 10 s for a helix on 2 cores).
+CHECK_SAMPLES = 20
+#: Seed of the default check (a fixed seed: the same design gives the same verdict).
+CHECK_SEED = 0
 
 
 def build(design: Design, state: State | str = DEFAULT_STATE,
@@ -29,3 +48,96 @@ def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STA
     lib = library or default_library()
     formats = check_formats(formats)  # before the (slower) build
     return export_assembly(design, build(design, state, lib), out_dir, formats, lib)
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The other hinge model's verdict on the same design, when it differs."""
+
+    hinge_model: HingeModel
+    result: SimulationResult
+
+
+def run_simulation(design: Design, *, library: MaterialLibrary | None = None, bath_c: float | None = None,
+                   duration: float | None = None, dt: float = 0.01, method: Method | str = DEFAULT_METHOD,
+                   hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
+                   after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT,
+                   compare: bool = False) -> tuple[SimulationResult, Comparison | None]:
+    """The simulation, and (``compare``) the other hinge model's result when its verdict
+    (completes or not, first colliding pair) differs."""
+    lib = library or default_library()
+    kw = dict(bath_c=bath_c, duration=duration, dt=dt, method=method, after_contact=after_contact, library=lib)
+    model = parse(HingeModel, hinge_model, "hinge_model")
+    res = simulate(design, hinge_model=model, **kw)
+    if not compare:
+        return res, None
+    other = HingeModel.POINT if model == HingeModel.ARC else HingeModel.ARC
+    alt = simulate(design, hinge_model=other, **kw)
+
+    def verdict(r):
+        c = r.first_collision
+        return r.completed, None if c is None else tuple(sorted(c.panels))
+
+    return res, (Comparison(other, alt) if verdict(alt) != verdict(res) else None)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Everything known about a design before printing."""
+
+    design: Design
+    printer: Printer
+    simulation: SimulationResult
+    assembly: Assembly | None
+    assembly_error: str | None
+    printed_gaps: tuple[Gap, ...]
+    clearance: Gap | None
+    robust: RobustResult | None
+    findings: tuple[Finding, ...]
+
+    @property
+    def errors(self) -> int:
+        return sum(f.severity == "error" for f in self.findings)
+
+    @property
+    def ok(self) -> bool:
+        return self.errors == 0
+
+
+def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer: Printer | None = None,
+             hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = 0.01,
+             samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED, scatter: Scatter | None = None,
+             thresholds: Thresholds = Thresholds(), simulation: SimulationResult | None = None,
+             workers: int | None = None, mapper=None,
+             progress: Callable[[str, int, int], None] | None = None) -> Evaluation:
+    """Simulate once, build the printed part, measure its gaps and clearance, estimate
+    the jam probability (``samples`` = 0 skips it) and run every design rule.
+
+    ``progress(stage, done, total)`` reports the Monte-Carlo samples."""
+    lib = library or default_library()
+    pr = printer or load_printers()[default_printer_key()]
+    model = parse(HingeModel, hinge_model, "hinge_model")
+    if simulation is None:
+        simulation = simulate(design, dt=dt, method=Method.FCL, hinge_model=model, library=lib)
+    try:
+        assembly, assembly_error = build_assembly(design, State.PERMANENT.value, lib), None
+    except GeometryError as exc:
+        assembly, assembly_error = None, str(exc)
+    # gaps of the printed state: the geometry export writes (arc hinges), whatever model
+    # the fold was simulated with
+    printed = SweptChecker(design, HingeModel.ARC, None)
+    poses = forward(design, target_angles(design)[None], HingeModel.ARC)[0]
+    gaps = tuple(gaps_in_pose(printed, poses, pr.min_gap_mm))
+    traj = simulation.trajectory
+    first = simulation.first_collision
+    checker = printed if model == HingeModel.ARC else SweptChecker(design, model, None)
+    clearance = min_clearance(checker, traj.times, traj.poses, t_end=None if first is None else first.time)
+    robust = None
+    if samples:
+        cb = (lambda done, total: progress("samples", done, total)) if progress else None
+        robust = jam_probability(design, samples, seed, scatter=scatter, library=lib, hinge_model=model,
+                                 dt=dt, nominal=simulation, workers=workers, progress=cb, mapper=mapper)
+    ctx = CheckContext(design, lib, pr, simulation, assembly, assembly_error, gaps, clearance, robust,
+                       thresholds)
+    return Evaluation(design, pr, simulation, assembly, assembly_error, gaps, clearance, robust,
+                      tuple(run_checks(ctx)))

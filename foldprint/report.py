@@ -19,10 +19,15 @@ def contact_json(c) -> dict:
     return out
 
 
-def simulation_json(result) -> dict:
-    """The ``foldprint simulate --json`` object."""
+def simulation_json(result, brief: bool = False) -> dict:
+    """The ``foldprint simulate --json`` object (``brief``: the verdict only)."""
     traj = result.trajectory
     design = result.design
+    if brief:
+        return {"completed": bool(result.completed),
+                "fold_time_s": _r(result.fold_time) if result.completed else None,
+                "first_collision": contact_json(result.first_collision) if result.first_collision else None,
+                "goals": [g.to_json() for g in result.goals], "hinge_model": str(traj.model)}
     err = result.final_angle_error()
     hinges = []
     for k, h in enumerate(design.hinges):
@@ -44,10 +49,31 @@ def simulation_json(result) -> dict:
         "contacts": [contact_json(c) for c in result.contacts],
         "hinges": hinges,
         "goals": [g.to_json() for g in result.goals],
-        "method": result.method,
-        "hinge_model": traj.model,
-        "after_contact": result.after_contact,
+        "method": str(result.method),
+        "hinge_model": str(traj.model),
+        "after_contact": str(result.after_contact),
         "duration_s": _r(traj.times[-1]),
         "dt_s": _r(traj.times[1] - traj.times[0]) if len(traj.times) > 1 else None,
         "initial_contacts": [contact_json(c) for c in result.initial_contacts],
+    }
+
+
+def robust_json(r) -> dict:
+    """The ``foldprint robust --json`` object (a :class:`foldprint.robust.RobustResult`)."""
+    lo, hi = r.ci95
+    ft = r.fold_time_percentiles()
+    reasons = {k: sum(o.reason == k for o in r.outcomes) for k in ("collision", "goal", "unfolded")}
+    return {
+        "design": r.design,
+        "samples": r.samples,
+        "seed": r.seed,
+        "hinge_model": str(r.hinge_model),
+        "jam_probability": _r(r.jam_probability),
+        "ci95": [_r(lo), _r(hi)],
+        "jams": r.jams,
+        "failures": reasons,
+        "collisions": [{"pair": list(p), "count": k} for p, k in r.collisions()],
+        "fold_time_s": None if ft is None else {k: _r(v) for k, v in ft.items()},
+        "scatter": r.scatter.to_json(),
+        "nominal": simulation_json(r.nominal, brief=True),
     }

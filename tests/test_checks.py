@@ -6,10 +6,18 @@ from pathlib import Path
 
 import pytest
 
-from foldprint.checks import load_printers, run_checks
+from foldprint.checks import CheckContext, Thresholds, load_printers, rule_jam_probability
 from foldprint.cli import main
 from foldprint.design import Process, strip
 from foldprint.load import load_design
+from foldprint.materials import default_library
+from foldprint.pipeline import evaluate
+from foldprint.robust import wilson
+
+
+def run_checks(design, printer=None):
+    """Every rule on the pipeline's evaluation (no Monte-Carlo: those rules are tested below)."""
+    return list(evaluate(design, printer=printer, samples=0).findings)
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
@@ -57,20 +65,53 @@ def test_fold_time_within_duration():
     assert f and "needs 5.4 s" in f[0].message
 
 
-@pytest.mark.parametrize("name", ["helix_graded", "self_lock"])
+@pytest.mark.parametrize("name", ["helix_graded", "mailbox"])
 def test_good_templates_pass(name):
     f = run_checks(load_design(TEMPLATES / f"{name}.toml"))
     assert codes(f, "error") == set(), [x.message for x in f if x.severity == "error"]
     assert "FP172" in codes(f)  # the clearance margin is reported
 
 
-@pytest.mark.parametrize("name,panels", [("helix_uniform", {"p4", "p9"}), ("self_lock_uniform", {"p1", "p6"})])
-def test_bad_templates_fail_naming_panels_and_time(capsys, name, panels):
-    code = main(["check", name, "--json"])
+def test_paper_rom_collision_names_panels_and_time(capsys):
+    """With the paper's point hinges the uniform helix collides (Fig. 3c): FP170 names it."""
+    code = main(["check", "helix_uniform", "--hinge-model", "point", "--samples", "0", "--json"])
     out = json.loads(capsys.readouterr().out)
-    assert code == 1 and not out["ok"]
+    assert code == 1 and not out["ok"] and out["hinge_model"] == "point"
     coll = [f for f in out["findings"] if f["code"] == "FP170"]
-    assert coll and set(coll[0]["where"]["panels"]) == panels and " s " in coll[0]["message"]
+    assert coll and set(coll[0]["where"]["panels"]) == {"p4", "p9"} and " s " in coll[0]["message"]
+
+
+def test_jam_probability_decides_the_helices(capsys):
+    """Issue 8's done-when: at the shipped geometry and the default scatter, the graded
+    helix passes the pre-print check and the uniform one fails on its jam probability."""
+    assert main(["check", "helix_uniform", "--json"]) == 1
+    out = json.loads(capsys.readouterr().out)
+    assert [f["code"] for f in out["findings"] if f["severity"] == "error"] == ["FP180"]
+    assert out["robust"]["samples"] == 20 and out["robust"]["ci95"][0] > 0.2
+    assert main(["check", "helix_graded", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["robust"]["ci95"][0] <= 0.2
+
+
+class _Fake:
+    """A stand-in robust result with k jams in n samples."""
+
+    def __init__(self, k, n):
+        self.samples, self.jams, self.jam_probability, self.ci95 = n, k, k / n, wilson(k, n)
+
+    def collisions(self):
+        return [(("p1", "p2"), self.jams)] if self.jams else []
+
+
+@pytest.mark.parametrize("k,n,code", [(0, 20, "FP182"), (1, 20, "FP182"), (2, 20, "FP181"), (3, 20, "FP181"), (12, 20, "FP180"),
+                                      (20, 20, "FP180")])
+def test_jam_thresholds(k, n, code):
+    ctx = CheckContext(strip("x", [20, 20], [90], ["H-3"]), default_library(), load_printers()["connex260"],
+                       robust=_Fake(k, n), thresholds=Thresholds(error=0.2, warning=0.05))
+    (f,) = rule_jam_probability(ctx)
+    assert f.code == code
+    lo = wilson(k, n)[0]
+    assert (f.severity == "error") == (lo > 0.2)
 
 
 def test_user_printer_profile(tmp_path, capsys):

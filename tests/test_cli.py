@@ -89,11 +89,17 @@ def test_simulate_json_contract_and_exit_codes(capsys, tmp_path):
     assert all(h["fold_time_s"] > 0 for h in r["hinges"])
     assert (tmp_path / "helix_graded_hinge_angles.png").stat().st_size > 5000
     assert (tmp_path / "helix_graded_collision_index.png").stat().st_size > 5000
-    code, out, _ = run(capsys, "simulate", "helix_uniform", "--json", "--method", "index2d")
+    assert r["hinge_model"] == "arc" and r["comparison"] is None  # both models agree on it
+    code, out, _ = run(capsys, "simulate", "helix_uniform", "--json", "--method", "index2d", "--hinge-model", "point")
     r = json.loads(out)
-    assert code == 1 and r["completed"] is False
+    assert code == 1 and r["completed"] is False and r["hinge_model"] == "point"
     assert r["first_collision"]["method"] == "index2d" and sorted(r["first_collision"]["panels"]) == ["p4", "p9"]
-    code, out, _ = run(capsys, "simulate", "self_lock", "--json")
+    # the printed geometry folds it cleanly; the output says the paper's ROM disagrees
+    code, out, _ = run(capsys, "simulate", "helix_uniform", "--json")
+    r = json.loads(out)
+    assert code == 0 and r["hinge_model"] == "arc" and r["comparison"]["hinge_model"] == "point"
+    assert r["comparison"]["completed"] is False
+    code, out, _ = run(capsys, "simulate", "self_lock", "--json", "--hinge-model", "point")
     r = json.loads(out)
     assert code == 0 and [g["met"] for g in r["goals"]] == [True, True]
     assert r["goals"][0]["time_s"] < r["goals"][1]["time_s"]

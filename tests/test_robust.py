@@ -1,0 +1,117 @@
+"""Jam probability under scatter (foldprint.robust, foldprint robust)."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.stats import binomtest
+
+from foldprint.cli import main
+from foldprint.design import strip
+from foldprint.materials import default_library
+from foldprint.robust import (Scatter, default_scatter, draw_samples, jam_probability, load_scatter,
+                              sample_drive, wilson)
+from foldprint.simulate import simulate
+
+
+@pytest.mark.parametrize("k,n", [(0, 60), (1, 60), (6, 60), (30, 60), (60, 60), (3, 7)])
+def test_wilson_matches_scipy(k, n):
+    ref = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+    lo, hi = wilson(k, n)
+    assert lo == pytest.approx(ref.low, abs=1e-9) and hi == pytest.approx(ref.high, abs=1e-9)
+
+
+def test_default_scatter_carries_sources():
+    s = default_scatter()
+    assert s.tg_sd_c > 0 and s.thickness_sd_mm > 0 and s.bath_sd_c > 0 and s.h_sigma_ln > 0
+    assert set(s.sources) == {"tg", "thickness", "bath", "heat_transfer"}
+    assert all(len(v) > 20 for v in s.sources.values())
+
+
+def test_samples_are_seeded_and_truncated():
+    d = strip("s", [20, 20, 20], [90, 90], ["H-1", "H-7"])
+    a = draw_samples(d, default_scatter(), 200, 7)
+    b = draw_samples(d, default_scatter(), 200, 7)
+    assert all(np.array_equal(x.tg_shift_c, y.tg_shift_c) and x.bath_c == y.bath_c for x, y in zip(a, b))
+    tg = np.array([x.tg_shift_c for x in a])
+    assert np.abs(tg).max() <= 3.0 * default_scatter().tg_sd_c + 1e-12
+    assert 0.8 < tg.std() < 1.2  # sd 1 C, truncated at 3 sd
+    c = draw_samples(d, default_scatter(), 200, 8)
+    assert not np.array_equal(a[0].tg_shift_c, c[0].tg_shift_c)
+
+
+def test_zero_scatter_reproduces_the_nominal_fold():
+    d = strip("z", [20, 25, 20], [90, 90], ["H-2", "H-5"])
+    zero = Scatter(0.0, 0.0, 0.0, 0.0)
+    (s,) = draw_samples(d, zero, 1, 0)
+    drive = sample_drive(d, default_library(), s)
+    nominal = simulate(d, method="fcl")
+    assert np.allclose(drive.angles(nominal.trajectory.times), nominal.trajectory.angles, atol=1e-12)
+
+
+def test_hotter_or_thinner_hinges_fold_sooner():
+    """A physical direction check on the sampled drive: higher Tg -> later."""
+    d = strip("t", [20, 20], [90], ["H-4"])
+    lib = default_library()
+    (s,) = draw_samples(d, Scatter(0.0, 0.0, 0.0, 0.0), 1, 0)
+    base = sample_drive(d, lib, s).curves[0].fold_time
+    hot = sample_drive(d, lib, type(s)(s.tg_shift_c + 2.0, s.thickness_mm, s.h_scale, s.bath_c)).curves[0].fold_time
+    thin = sample_drive(d, lib, type(s)(s.tg_shift_c, s.thickness_mm * 0.9, s.h_scale, s.bath_c)).curves[0].fold_time
+    assert hot > base > thin
+
+
+def test_same_seed_same_answer_on_one_or_two_processes():
+    d = strip("r", [20, 20, 25, 25], [90, 90, 90], ["H-3", "H-3", "H-3"])
+    a = jam_probability(d, 6, 3, workers=1)
+    b = jam_probability(d, 6, 3, workers=2)
+    assert a.outcomes == b.outcomes and a.ci95 == b.ci95
+
+
+def test_robust_cli_contract(capsys):
+    code = main(["robust", "helix_graded", "--samples", "4", "--seed", "1", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0
+    assert {"design", "samples", "seed", "hinge_model", "jam_probability", "ci95", "collisions", "fold_time_s",
+            "nominal"} <= set(out)
+    assert out["samples"] == 4 and out["seed"] == 1 and out["hinge_model"] == "arc"
+    lo, hi = out["ci95"]
+    assert 0 <= lo <= out["jam_probability"] <= hi <= 1
+    assert out["nominal"]["completed"] is True
+    ft = out["fold_time_s"]
+    assert ft is None or ft["p5"] <= ft["p50"] <= ft["p95"]
+    assert main(["robust", "helix_graded", "--samples", "4", "--seed", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == out
+
+
+@pytest.mark.parametrize("text,needle", [
+    ("[tg]\nsd_c = -1.0\n", "tg.sd_c"),
+    ("[tg]\nsd_c = nan\n", "tg.sd_c"),
+    ("[bath]\nsd_c = 1.0\nspread = 2\n", "bath.spread"),
+    ("[wobble]\nsd = 1\n", "[wobble]"),
+    ("[thickness]\nsd_mm = \"x\"\n", "thickness.sd_mm"),
+])
+def test_bad_scatter_file_exit_2(tmp_path, capsys, text, needle):
+    f = tmp_path / "s.toml"
+    f.write_text(text)
+    before = set(tmp_path.iterdir())
+    code = main(["robust", "helix_graded", "--samples", "2", "--scatter", str(f)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and needle in err[0] and str(f) in err[0]
+    assert set(tmp_path.iterdir()) == before
+    with pytest.raises(Exception):
+        load_scatter(f)
+
+
+@pytest.mark.parametrize("args", [["--samples", "0"], ["--samples", "-3"], ["--seed", "-1"]])
+def test_bad_sample_options_exit_2(capsys, args):
+    assert main(["robust", "helix_graded", *args]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_override_keeps_other_fields(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text("[tg]\nsd_c = 2.5\nsource = 'our DMA'\n")
+    s = load_scatter(f)
+    assert s.tg_sd_c == 2.5 and s.sources["tg"] == "our DMA"
+    assert math.isclose(s.bath_sd_c, default_scatter().bath_sd_c)
