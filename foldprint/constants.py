@@ -16,6 +16,8 @@ class Tolerance:
     area: float = 1e-9  # mm^2: polygons smaller than this are degenerate
     angle: float = 1e-9  # rad
     time: float = 1e-3  # s: contact times are refined to this
+    time_eps: float = 1e-12  # s: round-off allowed when comparing sample times
+    contact: float = 0.01  # mm: panels this close count as touching (3D swept check)
 
 
 tol = Tolerance()

@@ -9,7 +9,7 @@ import numpy as np
 
 from .collision2d import Index2D, collision_index
 from .collision3d import Contact, SweptChecker, swept_first_contact
-from .constants import FOLD_LEVEL
+from .constants import FOLD_LEVEL, tol
 from .design import Design, tree_order
 from .errors import DesignError
 from .goals import GoalResult, evaluate_goals
@@ -72,7 +72,7 @@ def _first_2d(traj: Trajectory, drive: HingeDrive, t_start: float,
     for k, pair in enumerate(idx.pairs.tolist()):
         if tuple(pair) in skip:
             hit[:, k] = False
-    hit[traj.times < t_start - 1e-12] = False
+    hit[traj.times < t_start - tol.time_eps] = False
     rows = np.nonzero(hit.any(axis=1))[0]
     if len(rows) == 0:
         return None, idx
@@ -93,7 +93,7 @@ def _bisect_2d(traj: Trajectory, drive: HingeDrive, pair, lo: float, hi: float) 
 
     i, j = pair
     for _ in range(30):
-        if hi - lo < 1e-4:
+        if hi - lo < tol.time / 10:  # finer than the 3D check's refinement
             break
         mid = 0.5 * (lo + hi)
         poses = forward(traj.design, drive.angles([mid]), traj.model)
