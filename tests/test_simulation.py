@@ -10,11 +10,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString
 
+from foldprint.clearance import gaps_in_pose, min_clearance
 from foldprint.collision2d import collision_index, index_arrays, paper_contact, world_side_segments
 from foldprint.collision3d import SweptChecker, non_adjacent_pairs, swept_first_contact
 from foldprint.design import strip
 from foldprint.load import load_design
 from foldprint.kinematics import HingeDrive, forward, simulate_kinematics, transform_points
+from foldprint.pipeline import build
 from foldprint.simulate import simulate
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
@@ -218,17 +220,57 @@ def test_helix_graded_completes_in_time():
     assert ft["H-1"] <= 3.5
 
 
+#: the smallest clearance we ask of the self-locking strip's fold (scripts/derive_self_lock.py
+#: cuts each hole 1 mm around the swept region; docs/simulation.md)
+SELF_LOCK_MARGIN_MM = 0.5
+
+
 def test_self_lock_passes_both_holes_in_order():
-    r = simulate(template("self_lock"), method="both", hinge_model="point")
-    assert r.completed
+    """The printed strip (arc hinges, the default) threads p6 through hole 1 then hole 2,
+    completes, and never comes closer than the margin to another panel."""
+    d = template("self_lock")
+    r = simulate(d, method="both")
+    assert r.trajectory.model == "arc"
+    assert r.completed and r.first_collision is None
     g = {x.goal.id: x for x in r.goals}
     assert g["hole1"].met and g["hole2"].met and g["hole1"].time < g["hole2"].time
+    # hole 1 while hinge 3 (H-3) closes the loop, hole 2 only as the slow H-6 hinges fold
+    assert g["hole1"].time < r.trajectory.fold_times[2] < r.trajectory.onset_times[3] < g["hole2"].time
+    gap = min_clearance(SweptChecker(d, "arc", None), r.trajectory.times, r.trajectory.poses)
+    assert gap.distance >= SELF_LOCK_MARGIN_MM
+
+
+def test_self_lock_paper_rom_agrees():
+    """The holes are cut for the point-hinge motion too: the paper's ROM also threads both."""
+    r = simulate(template("self_lock"), method="both", hinge_model="point")
+    g = {x.goal.id: x for x in r.goals}
+    assert r.completed and g["hole1"].met and g["hole2"].met and g["hole1"].time < g["hole2"].time
 
 
 def test_self_lock_uniform_fails():
-    r = simulate(template("self_lock_uniform"), method="both", hinge_model="point")
+    """Same geometry, every hinge H-3: everything folds at once and the end strikes the plate."""
+    r = simulate(template("self_lock_uniform"), method="both")
+    assert r.trajectory.model == "arc"
     assert not r.completed
-    assert r.first_collision is not None or not all(x.met for x in r.goals)
+    assert r.first_collision is not None and set(r.first_collision.panels) == {"p1", "p6"}
+    assert not any(x.met for x in r.goals)  # it strikes the plate before reaching hole 1
+
+
+@pytest.mark.parametrize("name", ["self_lock", "self_lock_uniform"])
+def test_self_lock_builds_in_both_states(name):
+    """Both printed states build with every body disjoint (the build raises otherwise); a
+    second method agrees: FCL's distance between the non-adjacent rigid panels in the
+    printed (permanent) pose is at least the margin, and the flat programmed pose has no
+    two non-adjacent panels closer than the gap between them along the strip."""
+    d = template(name)
+    for state in ("permanent", "programmed"):
+        asm = build(d, state)
+        assert len(asm.bodies) == len(d.materials_used)
+    checker = SweptChecker(d, "arc", None)
+    printed = forward(d, np.array([[h.angle for h in d.hinges]]), "arc")[0]
+    flat = forward(d, np.zeros((1, len(d.hinges))), "arc")[0]
+    assert gaps_in_pose(checker, printed, 1e300, non_adjacent_pairs(d), 0.0)[0].distance >= SELF_LOCK_MARGIN_MM
+    assert gaps_in_pose(checker, flat, 1e300, non_adjacent_pairs(d), 0.0)[0].distance > 5.0
 
 
 @pytest.mark.parametrize("model", ["point", "arc"])
