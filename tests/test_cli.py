@@ -99,7 +99,7 @@ def test_simulate_json_contract_and_exit_codes(capsys, tmp_path):
     r = json.loads(out)
     assert code == 0 and r["hinge_model"] == "arc" and r["comparison"]["hinge_model"] == "point"
     assert r["comparison"]["completed"] is False
-    code, out, _ = run(capsys, "simulate", "self_lock", "--json", "--hinge-model", "point")
+    code, out, _ = run(capsys, "simulate", "self_lock", "--json")
     r = json.loads(out)
     assert code == 0 and [g["met"] for g in r["goals"]] == [True, True]
     assert r["goals"][0]["time_s"] < r["goals"][1]["time_s"]
