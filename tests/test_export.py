@@ -104,7 +104,8 @@ def test_records_and_file_names(exported, stem):
     for r in records:
         assert Path(r["path"]).is_file() and Path(r["path"]).stat().st_size == r["bytes"]
         assert r["format"] in FORMATS + ("manifest",)
-        assert all(set(b) == {"material", "volume_mm3"} for b in r["bodies"])
+        assert all(set(b) == {"material", "extruder", "files", "volume_mm3", "z_range_mm", "needs_support"}
+                   for b in r["bodies"])
     assert sorted(p.name for p in d.iterdir()) == names  # nothing else (no temp files)
     (tm,) = [r for r in records if r["format"] == "3mf"]
     assert [b["material"] for b in tm["bodies"]] == mats

@@ -1,4 +1,6 @@
-"""Write a built part: 3MF (two flavours), STL per material + manifest.
+"""Write a built part: 3MF (two flavours), STL per material + manifest, and the
+hand-offs: FOLD crease pattern, Abaqus input (FEM), XDMF time series (ParaView),
+animated glTF binary.
 
 This module only writes: the assembly comes built from :mod:`foldprint.pipeline`.
 
@@ -8,7 +10,12 @@ had already created are removed again, so a failed export leaves no partial set.
 
 File names (``stem`` = the design name, ``<name>_programmed`` for the flat state):
 ``<stem>.3mf`` (spec form + Bambu/Orca/Cura metadata), ``<stem>_prusa.3mf`` (PrusaSlicer),
-``<stem>_<material>.stl`` and ``manifest.json`` (``manifest_programmed.json``).
+``<stem>_<material>.stl`` and ``manifest.json`` (``manifest_programmed.json``),
+``<stem>.fold``, ``<stem>.inp``, ``<stem>_fold.xdmf``, ``<stem>_fold.glb``.
+
+Every record lists the bodies it holds, each with its material, extruder (1-based, as
+slicers number them), every file of the export that holds it, volume, z range in the
+print frame and the panels/hinges that need support on the bed.
 """
 
 from __future__ import annotations
@@ -20,13 +27,19 @@ from typing import Iterable
 
 from ..design import Design
 from ..errors import ExportError
-from ..geometry import Assembly
+from ..geometry import Assembly, bed_report
+from ..kinematics import Trajectory
 from ..materials import MaterialLibrary, default_library
 from .files import ensure_dir, write_atomic
+from .fold import fold_bytes
 from .stl import manifest, stl_bytes
 from .threemf import prusa3mf_bytes, threemf_bytes
 
-FORMATS = ("3mf", "prusa3mf", "stl")
+#: Every format ``export`` writes; ``DEFAULT_FORMATS`` when none is asked for.
+FORMATS = ("3mf", "prusa3mf", "stl", "fold")
+DEFAULT_FORMATS = ("3mf", "prusa3mf", "stl")
+#: Formats that show the fold over time: they need the simulated trajectory.
+TRAJECTORY_FORMATS: tuple[str, ...] = ()
 
 
 def safe_name(text: str) -> str:
@@ -50,47 +63,80 @@ def check_formats(formats: Iterable[str]) -> list[str]:
     return formats
 
 
-def _bodies(bodies) -> list[dict]:
-    return [{"material": b.material, "volume_mm3": round(b.volume, 6)} for b in bodies]
+def body_records(assembly: Assembly, files: dict[str, list[str]] | None = None) -> list[dict]:
+    """Per body: material, extruder (1-based, the order of the 3MF volumes), files that
+    hold it, volume, z range in the print frame (part on the bed, ``Assembly.print_offset``)
+    and the panels and hinges of that body that need support (:func:`bed_report`)."""
+    support: dict[str, list[dict]] = {}
+    for r in bed_report(assembly):
+        if r["needs_support"]:
+            support.setdefault(r["material"], []).append(
+                {"kind": r["kind"], "id": r["id"], "z_min_mm": r["z_min_mm"],
+                 "unsupported_area_mm2": r["unsupported_area_mm2"]})
+    out = []
+    for k, b in enumerate(assembly.bodies):
+        lo, hi = assembly.print_z_range(b)
+        out.append({"material": b.material, "extruder": k + 1, "files": list((files or {}).get(b.material, [])),
+                    "volume_mm3": round(b.volume, 6), "z_range_mm": [round(lo, 6), round(hi, 6)],
+                    "needs_support": support.get(b.material, [])})
+    return out
 
 
-def render(design: Design, assembly: Assembly, formats: Iterable[str] = FORMATS,
-           library: MaterialLibrary | None = None) -> list[tuple[str, bytes, str, list[dict]]]:
-    """The files of an export in memory: (file name, bytes, format, bodies)."""
+def _needs_trajectory(formats, trajectory) -> None:
+    need = [f for f in formats if f in TRAJECTORY_FORMATS]
+    if need and trajectory is None:
+        raise ExportError(f"format(s) {need} show the fold over time and need its simulated trajectory; "
+                          "export through foldprint.pipeline.export, which runs the simulation")
+
+
+def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_FORMATS,
+           library: MaterialLibrary | None = None,
+           trajectory: Trajectory | None = None) -> list[tuple[str, bytes, str, list[dict]]]:
+    """The files of an export in memory: (file name, bytes, format, bodies).
+    ``trajectory`` (the simulated fold) is needed by :data:`TRAJECTORY_FORMATS` only."""
     lib = library or default_library()
     formats = check_formats(formats)
+    _needs_trajectory(formats, trajectory)
     st = stem(design, assembly.state)
-    out = []
+    every = [b.material for b in assembly.bodies]
+    out: list[tuple[str, bytes, str, list[str]]] = []  # (name, data, format, materials held)
     if "3mf" in formats:
-        out.append((f"{st}.3mf", threemf_bytes(design, assembly, lib), "3mf", _bodies(assembly.bodies)))
+        out.append((f"{st}.3mf", threemf_bytes(design, assembly, lib), "3mf", every))
     if "prusa3mf" in formats:
-        out.append((f"{st}_prusa.3mf", prusa3mf_bytes(design, assembly, lib), "prusa3mf",
-                    _bodies(assembly.bodies)))
+        out.append((f"{st}_prusa.3mf", prusa3mf_bytes(design, assembly, lib), "prusa3mf", every))
     if "stl" in formats:
         names = {}
         for b in assembly.bodies:
             name = f"{st}_{safe_name(b.material)}.stl"
             names[b.material] = name
             out.append((name, stl_bytes(b, f"{design.name} {b.material} {assembly.state} mm"), "stl",
-                        _bodies([b])))
+                        [b.material]))
         man = "manifest.json" if assembly.state == "permanent" else f"manifest_{assembly.state}.json"
-        out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest",
-                    _bodies(assembly.bodies)))
+        out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest", every))
+    if "fold" in formats:  # the crease pattern: the same for both states
+        out.append((f"{safe_name(design.name)}.fold", fold_bytes(design), "fold", every))
     seen = set()
     for name, *_ in out:
         if name in seen:  # e.g. two materials that differ only in characters made safe
             raise ExportError(f"two export files would be named {name!r}; rename a material")
         seen.add(name)
-    return out
+    held: dict[str, list[str]] = {}
+    for name, _, fmt, mats in out:
+        if fmt != "manifest":
+            for m in mats:
+                held.setdefault(m, []).append(name)
+    records = {r["material"]: r for r in body_records(assembly, held)}
+    return [(name, data, fmt, [records[m] for m in mats if m in records]) for name, data, fmt, mats in out]
 
 
 def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
-                    formats: Iterable[str] = FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
-    """Write ``formats`` ("3mf", "prusa3mf", "stl") of a built assembly into ``out_dir``
+                    formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
+                    trajectory: Trajectory | None = None) -> list[dict]:
+    """Write ``formats`` (see :data:`FORMATS`) of a built assembly into ``out_dir``
     (created if needed; ExportError if it cannot be). Returns one record per file
-    written: {path, format, bodies: [{material, volume_mm3}], bytes}; format is "3mf",
-    "prusa3mf", "stl" or "manifest"."""
-    files = render(design, assembly, formats, library)
+    written: {path, format, bodies, bytes}; format is one of :data:`FORMATS` or
+    "manifest"; bodies as :func:`body_records`."""
+    files = render(design, assembly, formats, library, trajectory)
     out = ensure_dir(out_dir)
     created: list[Path] = []
     records = []
