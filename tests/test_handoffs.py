@@ -145,3 +145,27 @@ def test_bed_report_equal_thickness_flat_strip_needs_no_support():
     design = _design("helix_graded")  # panels and hinges 0.8 mm (paper)
     rep = bed_report(build_assembly(design, "programmed"))
     assert all(r["on_bed"] and not r["needs_support"] for r in rep)
+
+
+# -- FOLD from the command line ------------------------------------------------------------
+
+@pytest.mark.parametrize("stem", ["helix_graded", "self_lock"])
+def test_fold_from_cli_round_trips_through_simulate(tmp_path, stem):
+    res = _cli("export", stem, "--format", "fold", "--out", str(tmp_path), "--json")
+    assert res.returncode == 0, res.stderr
+    (rec,) = json.loads(res.stdout)["files"]
+    assert rec["format"] == "fold" and Path(rec["path"]).name == f"{stem}.fold"
+    fold = json.loads(Path(rec["path"]).read_text())
+    for key in ("file_spec", "vertices_coords", "faces_vertices", "edges_vertices", "edges_assignment"):
+        assert key in fold
+    nv = len(fold["vertices_coords"])
+    assert all(0 <= v < nv for f in fold["faces_vertices"] for v in f)
+    assert len(fold["edges_assignment"]) == len(fold["edges_vertices"])
+    design = _design(stem)
+    if any(p.holes for p in design.panels):  # holes are FOLD geometry: no face keeps one
+        assert not any(fold["faces_foldprint:holes"])
+        assert "F" in fold["edges_assignment"]
+    a = _cli("simulate", stem, "--json")
+    b = _cli("simulate", rec["path"], "--json")
+    assert a.returncode == b.returncode == 0, a.stderr + b.stderr
+    assert json.loads(a.stdout) == json.loads(b.stdout)
