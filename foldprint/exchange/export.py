@@ -30,13 +30,14 @@ from ..errors import ExportError
 from ..geometry import Assembly, bed_report
 from ..kinematics import Trajectory
 from ..materials import MaterialLibrary, default_library
+from .fem import inp_bytes
 from .files import ensure_dir, write_atomic
 from .fold import fold_bytes
 from .stl import manifest, stl_bytes
 from .threemf import prusa3mf_bytes, threemf_bytes
 
 #: Every format ``export`` writes; ``DEFAULT_FORMATS`` when none is asked for.
-FORMATS = ("3mf", "prusa3mf", "stl", "fold")
+FORMATS = ("3mf", "prusa3mf", "stl", "fold", "inp")
 DEFAULT_FORMATS = ("3mf", "prusa3mf", "stl")
 #: Formats that show the fold over time: they need the simulated trajectory.
 TRAJECTORY_FORMATS: tuple[str, ...] = ()
@@ -91,15 +92,16 @@ def _needs_trajectory(formats, trajectory) -> None:
 
 def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_FORMATS,
            library: MaterialLibrary | None = None,
-           trajectory: Trajectory | None = None) -> list[tuple[str, bytes, str, list[dict]]]:
-    """The files of an export in memory: (file name, bytes, format, bodies).
-    ``trajectory`` (the simulated fold) is needed by :data:`TRAJECTORY_FORMATS` only."""
+           trajectory: Trajectory | None = None) -> list[tuple[str, bytes, str, list[dict], dict]]:
+    """The files of an export in memory: (file name, bytes, format, bodies, extra record
+    fields). ``trajectory`` (the simulated fold) is needed by :data:`TRAJECTORY_FORMATS`."""
     lib = library or default_library()
     formats = check_formats(formats)
     _needs_trajectory(formats, trajectory)
     st = stem(design, assembly.state)
     every = [b.material for b in assembly.bodies]
     out: list[tuple[str, bytes, str, list[str]]] = []  # (name, data, format, materials held)
+    extra: dict[str, dict] = {}
     if "3mf" in formats:
         out.append((f"{st}.3mf", threemf_bytes(design, assembly, lib), "3mf", every))
     if "prusa3mf" in formats:
@@ -115,6 +117,10 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
         out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest", every))
     if "fold" in formats:  # the crease pattern: the same for both states
         out.append((f"{safe_name(design.name)}.fold", fold_bytes(design), "fold", every))
+    if "inp" in formats:  # FE mesh of the strip's side profile (panels and hinges)
+        data, quality = inp_bytes(design, assembly.state)
+        extra[f"{st}.inp"] = {"mesh": quality}
+        out.append((f"{st}.inp", data, "inp", every))
     seen = set()
     for name, *_ in out:
         if name in seen:  # e.g. two materials that differ only in characters made safe
@@ -126,7 +132,8 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
             for m in mats:
                 held.setdefault(m, []).append(name)
     records = {r["material"]: r for r in body_records(assembly, held)}
-    return [(name, data, fmt, [records[m] for m in mats if m in records]) for name, data, fmt, mats in out]
+    return [(name, data, fmt, [records[m] for m in mats if m in records], extra.get(name, {}))
+            for name, data, fmt, mats in out]
 
 
 def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
@@ -141,13 +148,13 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
     created: list[Path] = []
     records = []
     try:
-        for name, data, fmt, bodies in files:
+        for name, data, fmt, bodies, more in files:
             path = out / name
             existed = path.exists()
             write_atomic(path, data)
             if not existed:
                 created.append(path)
-            records.append({"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data)})
+            records.append({"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data), **more})
     except (ExportError, OSError) as exc:
         for p in created:
             try:
