@@ -9,7 +9,8 @@ from pathlib import Path
 from typing import Iterable
 
 from .design import Design
-from .exchange.export import DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
+from .exchange.export import (ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats,
+                              export_assembly)
 from .geometry import Assembly, build_assembly
 from .materials import MaterialLibrary, default_library
 from .modes import DEFAULT_STATE, HingeModel, State, parse
@@ -33,5 +34,6 @@ def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STA
     if any(f in TRAJECTORY_FORMATS for f in formats):
         from .simulate import simulate
 
-        trajectory = simulate(design, hinge_model=HingeModel.ARC.value, library=lib).trajectory
+        trajectory = simulate(design, hinge_model=HingeModel.ARC.value, dt=ANIMATION_DT_S,
+                              library=lib).trajectory
     return export_assembly(design, build(design, state, lib), out_dir, formats, lib, trajectory)

@@ -169,3 +169,197 @@ def test_fold_from_cli_round_trips_through_simulate(tmp_path, stem):
     b = _cli("simulate", rec["path"], "--json")
     assert a.returncode == b.returncode == 0, a.stderr + b.stderr
     assert json.loads(a.stdout) == json.loads(b.stdout)
+
+
+# -- inp, xdmf, glb, fold: foldprint export helix_graded --format inp,xdmf,glb,fold ----------
+
+@pytest.fixture(scope="module")
+def handoffs(tmp_path_factory):
+    out = tmp_path_factory.mktemp("handoffs")
+    res = _cli("export", "helix_graded", "--format", "inp,xdmf,glb,fold", "--out", str(out), "--json")
+    assert res.returncode == 0, res.stderr
+    doc = json.loads(res.stdout)
+    return _design("helix_graded"), {r["format"]: r for r in doc["files"]}
+
+
+def test_all_four_handoffs_written(handoffs):
+    design, recs = handoffs
+    assert set(recs) == {"inp", "xdmf", "h5", "glb", "fold"}
+    for r in recs.values():
+        assert Path(r["path"]).is_file() and Path(r["path"]).stat().st_size == r["bytes"]
+        assert [b["material"] for b in r["bodies"]] == build_assembly(design).materials
+
+
+def _read_inp(path):
+    import meshio
+    import meshio.abaqus._abaqus as abq
+
+    # meshio 5.3 does not know Abaqus's plane-strain element names (nschloe/meshio#320):
+    # teach its reader that CPE4 is a 4-node quad, nothing else
+    table = dict(abq.abaqus_to_meshio_type)
+    abq.abaqus_to_meshio_type["CPE4"] = "quad"
+    try:
+        return meshio.read(path, file_format="abaqus")
+    finally:
+        abq.abaqus_to_meshio_type.clear()
+        abq.abaqus_to_meshio_type.update(table)
+
+
+def _quad_areas(pts, quads):
+    c = pts[quads][:, :, :2]
+    x, y = c[..., 0], c[..., 1]
+    return 0.5 * (x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y).sum(axis=1)
+
+
+def test_inp_reads_back_as_plane_strain_quads(handoffs):
+    design, recs = handoffs
+    path = recs["inp"]["path"]
+    text = Path(path).read_text()
+    assert re.findall(r"^\*ELEMENT, TYPE=(\w+)", text, flags=re.M) == ["CPE4"]
+    mesh = _read_inp(path)
+    assert [c.type for c in mesh.cells] == ["quad"]
+    quads = mesh.cells[0].data
+    areas = _quad_areas(mesh.points, quads)
+    assert areas.min() > 0
+    # one set per hinge material, one for the panels, one per hinge; the clamped root
+    from foldprint.exchange.fem import set_name
+
+    mats = {set_name("MAT", h.material) for h in design.hinges} | {set_name("MAT", "VeroWhite")}
+    sets = set(mesh.cell_sets)
+    assert mats | {set_name("HINGE", h.id) for h in design.hinges} <= sets
+    n_el = len(quads)
+    mat_sets = [np.concatenate(mesh.cell_sets[m]) for m in mats]
+    assert sorted(np.concatenate(mat_sets).tolist()) == list(range(n_el))  # a partition
+    # the areas: every panel's rigid part L t, every hinge an annular sector rho R t = w t
+    # (straight-sided quads lose at most 1 - sin(a)/a of a slice of a <= 5 deg)
+    expect_p = sum(p.thickness * np.ptp(p.outline[:, 0]) for p in design.panels) \
+        - sum(h.width * (design.panel(h.panels[0]).thickness + design.panel(h.panels[1]).thickness) / 2
+              for h in design.hinges)
+    expect_h = sum(h.width * h.thickness for h in design.hinges)
+    panels = np.concatenate(mesh.cell_sets[set_name("MAT", "VeroWhite")])
+    assert areas[panels].sum() == pytest.approx(expect_p, rel=1e-9)
+    hinge_area = areas.sum() - areas[panels].sum()
+    assert expect_h * (1 - 2e-3) <= hinge_area <= expect_h
+    # the profile is the built part's side view: same x and z extents as the 3D bodies
+    asm = build_assembly(design)
+    lo, hi = asm.bounds
+    assert mesh.points[:, 0].min() == pytest.approx(lo[0], abs=0.01)
+    assert mesh.points[:, 0].max() == pytest.approx(hi[0], abs=0.01)
+    assert mesh.points[:, 1].min() == pytest.approx(lo[2], abs=0.01)
+    assert mesh.points[:, 1].max() == pytest.approx(hi[2], abs=0.01)
+    # ROOT: exactly the nodes of the root panel's elements
+    root = np.concatenate(mesh.cell_sets[set_name("PANEL", design.root)])
+    assert set(mesh.point_sets["ROOT"].tolist()) == set(quads[root].ravel().tolist())
+    # the recorded quality is the mesh's
+    c = mesh.points[quads][:, :, :2]
+    edges = np.linalg.norm(np.roll(c, -1, axis=1) - c, axis=2)
+    assert recs["inp"]["mesh"]["worst_aspect_ratio"] == pytest.approx((edges.max(1) / edges.min(1)).max(),
+                                                                      rel=1e-3)
+    assert recs["inp"]["mesh"]["elements"] == n_el
+
+
+def test_inp_element_size_is_a_parameter():
+    from foldprint.exchange.fem import strip_mesh
+
+    design = _design("self_lock")  # hinges 0.6 mm, the holed plate 0.8 mm
+    fine = strip_mesh(design, element_size=0.2)
+    coarse = strip_mesh(design, element_size=0.5)
+    assert len(coarse[1]) < len(fine[1])
+    for pts, quads, _, _, q in (fine, coarse):
+        assert _quad_areas(np.column_stack([pts, np.zeros(len(pts))]), quads).min() > 0
+        assert q["elements_through_thinnest"] >= 4
+        # conforming: every interior edge is shared by two quads, boundary edges by one
+        e = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+        _, counts = np.unique(e, axis=0, return_counts=True)
+        assert counts.max() == 2
+
+
+def test_inp_refuses_a_design_that_is_not_a_planar_strip(tmp_path):
+    res = _cli("export", "mailbox", "--format", "inp", "--out", str(tmp_path / "o"))
+    assert res.returncode == 2
+    assert "planar strip" in res.stderr and "Traceback" not in res.stderr
+    assert not (tmp_path / "o").exists() or not any((tmp_path / "o").iterdir())
+
+
+def test_xdmf_series_has_every_simulated_step(handoffs):
+    import meshio
+
+    from foldprint.exchange.export import ANIMATION_DT_S
+    from foldprint.simulate import simulate
+
+    design, recs = handoffs
+    traj = simulate(design, hinge_model="arc", dt=ANIMATION_DT_S).trajectory
+    with meshio.xdmf.TimeSeriesReader(recs["xdmf"]["path"]) as reader:
+        points, cells = reader.read_points_cells()
+        assert reader.num_steps == len(traj.times) == recs["xdmf"]["steps"]
+        t0, _, cd0 = reader.read_data(0)
+        t1, pd1, cd1 = reader.read_data(reader.num_steps - 1)
+    assert [c.type for c in cells] == ["triangle"]
+    assert (t0, t1) == pytest.approx((traj.times[0], traj.times[-1]))
+    mats = recs["xdmf"]["materials"]
+    hinge = cd1["hinge"][0]
+    material = cd1["material"][0]
+    # the hinge cells carry their hinge's material, the panel cells the panels'
+    for i, h in enumerate(design.hinges):
+        assert set(np.asarray(material)[hinge == i].tolist()) == {mats.index(h.material)}
+    assert set(np.asarray(material)[hinge == -1].tolist()) == {mats.index("VeroWhite")}
+    assert np.array_equal(cd0["panel"][0] == -1, hinge >= 0)
+    # flat at t = 0 (programmed, fixity 1); at the end the folded mid-surfaces sit inside the
+    # permanent part's bounding box, less half a thickness on each side
+    assert np.abs(points[:, 2]).max() == 0.0
+    folded = points + pd1["displacement"]
+    lo, hi = build_assembly(design).bounds
+    half = max(p.thickness for p in design.panels) / 2
+    assert np.all(folded >= lo - 1e-4) and np.all(folded <= hi + 1e-4)
+    assert np.all(folded.min(axis=0) <= lo + half + 1e-4) and np.all(folded.max(axis=0) >= hi - half - 1e-4)
+
+
+def _glb_json(path) -> dict:
+    data = Path(path).read_bytes()
+    magic, version, length = np.frombuffer(data[:12], dtype="<u4")
+    assert magic == 0x46546C67 and version == 2 and length == len(data)
+    n, kind = np.frombuffer(data[12:20], dtype="<u4")
+    assert kind == 0x4E4F534A  # "JSON"
+    return json.loads(data[20:20 + n])
+
+
+def test_glb_loads_in_trimesh_with_one_animated_node_per_moving_part(handoffs):
+    import trimesh
+
+    from foldprint.materials import default_library
+
+    design, recs = handoffs
+    rec = recs["glb"]
+    scene = trimesh.load(rec["path"])
+    n_segments = len(design.hinges)  # helix hinges have no slots: one segment each
+    assert len(scene.geometry) == len(design.panels) + n_segments
+    doc = _glb_json(rec["path"])
+    assert doc["asset"]["version"] == "2.0"
+    names = [n["name"] for n in doc["nodes"]]
+    assert len(names) == len(design.panels) + n_segments
+    (anim,) = doc["animations"]
+    targets: dict[str, set] = {}
+    for ch in anim["channels"]:
+        targets.setdefault(names[ch["target"]["node"]], set()).add(ch["target"]["path"])
+    # every node but the root panel moves; a panel by rotation + translation, a hinge by weights
+    assert set(targets) == set(names) - {f"panel {design.root}"} == set(rec["moving_nodes"])
+    for name, paths in targets.items():
+        assert paths == ({"rotation", "translation"} if name.startswith("panel") else {"weights"})
+    assert len(anim["channels"]) == rec["channels"]
+    times = doc["accessors"][anim["samplers"][0]["input"]]
+    assert times["count"] == rec["keyframes"] == recs["xdmf"]["steps"]
+    lib = default_library()
+    colours = {m["name"]: m["pbrMetallicRoughness"]["baseColorFactor"] for m in doc["materials"]}
+    assert set(colours) == set(design.materials_used)
+    for m, rgba in colours.items():
+        assert rgba[:3] == pytest.approx(list(lib[m].rgba[:3]))
+
+
+def test_trajectory_formats_need_the_trajectory(tmp_path):
+    from foldprint.errors import ExportError
+    from foldprint.exchange.export import export_assembly
+
+    design = _design("helix_graded")
+    with pytest.raises(ExportError, match="trajectory"):
+        export_assembly(design, build_assembly(design), tmp_path, ["glb"])
+    assert not any(tmp_path.iterdir())

@@ -25,6 +25,8 @@ import re
 from pathlib import Path
 from typing import Iterable
 
+import numpy as np
+
 from ..design import Design
 from ..errors import ExportError
 from ..geometry import Assembly, bed_report
@@ -33,14 +35,20 @@ from ..materials import MaterialLibrary, default_library
 from .fem import inp_bytes
 from .files import ensure_dir, write_atomic
 from .fold import fold_bytes
+from .gltf import glb_bytes
 from .stl import manifest, stl_bytes
 from .threemf import prusa3mf_bytes, threemf_bytes
+from .xdmf import xdmf_files
 
 #: Every format ``export`` writes; ``DEFAULT_FORMATS`` when none is asked for.
-FORMATS = ("3mf", "prusa3mf", "stl", "fold", "inp")
+FORMATS = ("3mf", "prusa3mf", "stl", "fold", "inp", "xdmf", "glb")
 DEFAULT_FORMATS = ("3mf", "prusa3mf", "stl")
 #: Formats that show the fold over time: they need the simulated trajectory.
-TRAJECTORY_FORMATS: tuple[str, ...] = ()
+TRAJECTORY_FORMATS = ("xdmf", "glb")
+#: Time step (s) of the trajectory the time-series formats are written from: 10 frames
+#: a second (viewers interpolate between them); a 20 s mailbox run gives 201 steps, an
+#: XDMF/HDF5 pair of 10 MB and a 6 MB GLB (the simulation's default 0.01 s: ~10x both).
+ANIMATION_DT_S = 0.1
 
 
 def safe_name(text: str) -> str:
@@ -117,6 +125,19 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
         out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest", every))
     if "fold" in formats:  # the crease pattern: the same for both states
         out.append((f"{safe_name(design.name)}.fold", fold_bytes(design), "fold", every))
+    if trajectory is not None and any(f in TRAJECTORY_FORMATS for f in formats):
+        dt = float(np.median(np.diff(trajectory.times))) if len(trajectory.times) > 1 else 0.0
+        span = {"steps": int(len(trajectory.times)), "dt_s": round(dt, 9), "hinge_model": trajectory.model}
+    if "xdmf" in formats:  # ParaView: the flat surfaces + displacement per time step
+        files, more = xdmf_files(design, trajectory, every, f"{safe_name(design.name)}_fold.xdmf")
+        for k, (name, data) in enumerate(files.items()):
+            extra[name] = {**span, **more} if k == 0 else {}
+            out.append((name, data, "xdmf" if k == 0 else "h5", every))
+    if "glb" in formats:  # any 3D viewer: nodes per panel and hinge segment, keyframes
+        data, more = glb_bytes(design, trajectory, lib)
+        name = f"{safe_name(design.name)}_fold.glb"
+        extra[name] = {**span, **more}
+        out.append((name, data, "glb", every))
     if "inp" in formats:  # FE mesh of the strip's side profile (panels and hinges)
         data, quality = inp_bytes(design, assembly.state)
         extra[f"{st}.inp"] = {"mesh": quality}
