@@ -323,8 +323,12 @@ def test_manifest(exported, stem):
     assert man["design"] == design.name and man["units"] == "mm" and man["state"] == "permanent"
     assert [b["material"] for b in man["bodies"]] == [b.material for b in asm.bodies]
     assert [b["file"] for b in man["bodies"]] == [f"{design.name}_{b.material}.stl" for b in asm.bodies]
-    for m, b in zip(man["bodies"], asm.bodies):
+    for k, (m, b) in enumerate(zip(man["bodies"], asm.bodies)):
         assert m["volume_mm3"] == pytest.approx(b.volume, abs=1e-6)
+        assert m["extruder"] == k + 1
+        # the print frame: the STL's z plus the offset, the whole part from z = 0
+        assert m["z_range_print_mm"] == pytest.approx(b.bounds[:, 2] + man["print_offset_mm"][2], abs=1e-6)
+    assert min(m["z_range_print_mm"][0] for m in man["bodies"]) == pytest.approx(0.0, abs=1e-9)
     assert man["bounding_box"]["min"] == pytest.approx(asm.bounds[0], abs=1e-6)
     assert man["bounding_box"]["max"] == pytest.approx(asm.bounds[1], abs=1e-6)
     pr = man["programming"]
