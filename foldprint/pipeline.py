@@ -9,8 +9,7 @@ from pathlib import Path
 from typing import Iterable
 
 from .design import Design
-from .exchange.export import (ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats,
-                              export_assembly)
+from .exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
 from .geometry import Assembly, build_assembly
 from .materials import MaterialLibrary, default_library
 from .modes import DEFAULT_STATE, HingeModel, State, parse

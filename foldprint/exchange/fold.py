@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 import shapely
 from shapely.geometry import LineString, MultiLineString, Polygon
-from shapely.ops import split
 from shapely.geometry.polygon import orient
+from shapely.ops import split
 
 from .. import __version__
 from ..constants import tol

@@ -13,13 +13,13 @@ from dataclasses import dataclass, replace
 
 import manifold3d as mf
 import numpy as np
+from shapely.geometry.polygon import orient
 
 from ..design import Design
 from ..errors import ExportError
 from ..geometry import layout, strip_profile
 from ..geometry.solids import _polygons
 from ..kinematics import HingeFrame, Trajectory, local_transforms
-from shapely.geometry.polygon import orient
 
 
 @dataclass(frozen=True, eq=False)
