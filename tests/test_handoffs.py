@@ -62,6 +62,7 @@ def first_extrusion_z(gcode: str) -> dict[int, float]:
 
 
 @needs_prusa
+@pytest.mark.slow  # ~50 s CPU for the 12 slices (mailbox permanent ~15 s each)
 @pytest.mark.parametrize("state", ["permanent", "programmed"])
 @pytest.mark.parametrize("stem", IDS)
 def test_prusaslicer_prints_every_body_at_its_height(tmp_path, stem, state):
@@ -363,3 +364,57 @@ def test_trajectory_formats_need_the_trajectory(tmp_path):
     with pytest.raises(ExportError, match="trajectory"):
         export_assembly(design, build_assembly(design), tmp_path, ["glb"])
     assert not any(tmp_path.iterdir())
+
+
+def _glb_accessor(path, doc, k):
+    data = Path(path).read_bytes()
+    n_json = int(np.frombuffer(data[12:16], dtype="<u4")[0])
+    bin_start = 20 + n_json + 8
+    acc = doc["accessors"][k]
+    view = doc["bufferViews"][acc["bufferView"]]
+    dtype = "<u4" if acc["componentType"] == 5125 else "<f4"
+    width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[acc["type"]]
+    raw = np.frombuffer(data, dtype=dtype, count=acc["count"] * width,
+                        offset=bin_start + view.get("byteOffset", 0) + acc.get("byteOffset", 0))
+    return raw.reshape(acc["count"], width) if width > 1 else raw
+
+
+def test_glb_last_keyframe_is_the_xdmf_last_step(handoffs):
+    """Two writers, two encodings of the motion (quaternion + translation or morph
+    targets vs displacements): at the last keyframe every node's points agree."""
+    import meshio
+    from scipy.spatial.transform import Rotation
+
+    from foldprint.exchange.gltf import AXES, SCALE
+
+    design, recs = handoffs
+    with meshio.xdmf.TimeSeriesReader(recs["xdmf"]["path"]) as reader:
+        points, _ = reader.read_points_cells()
+        _, pd, _ = reader.read_data(reader.num_steps - 1)
+    final = points + pd["displacement"]
+    path = recs["glb"]["path"]
+    doc = _glb_json(path)
+    (anim,) = doc["animations"]
+    start = 0
+    for i, node in enumerate(doc["nodes"]):
+        prim = doc["meshes"][node["mesh"]]["primitives"][0]
+        local = _glb_accessor(path, doc, prim["attributes"]["POSITION"]).astype(float)
+        n = len(local)
+        last = {}
+        for ch in anim["channels"]:
+            if ch["target"]["node"] == i:
+                s = anim["samplers"][ch["sampler"]]
+                last[ch["target"]["path"]] = _glb_accessor(path, doc, s["output"])
+        if "weights" in last:
+            k = len(prim["targets"])
+            w = last["weights"].reshape(-1, k)[-1]
+            assert w.tolist() == [0.0] * (k - 1) + [1.0]
+            pts = local + _glb_accessor(path, doc, prim["targets"][-1]["POSITION"])
+        else:
+            q = last["rotation"][-1] if "rotation" in last else node.get("rotation", [0, 0, 0, 1])
+            t = last["translation"][-1] if "translation" in last else node.get("translation", [0, 0, 0])
+            pts = Rotation.from_quat(q).apply(local) + t
+        mm = (pts / SCALE) @ AXES  # back to the sheet frame
+        assert mm == pytest.approx(final[start:start + n], abs=2e-3), node["name"]
+        start += n
+    assert start == len(final)
