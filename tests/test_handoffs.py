@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from foldprint.geometry import bed_report, build_assembly
 from foldprint.load import load_design
@@ -418,3 +420,35 @@ def test_glb_last_keyframe_is_the_xdmf_last_step(handoffs):
         assert mm == pytest.approx(final[start:start + n], abs=2e-3), node["name"]
         start += n
     assert start == len(final)
+
+
+# -- FOLD holes: any set of holes survives the split into holeless faces ------------------------
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.tuples(st.integers(1, 17), st.integers(1, 7), st.integers(1, 3), st.integers(1, 3),
+                          st.booleans()),
+                min_size=1, max_size=4))
+def test_fold_holes_round_trip(specs):
+    from shapely.geometry import Polygon as P
+
+    from foldprint.design import Design, Hinge, Panel
+    from foldprint.exchange.fold import design_from_fold, design_to_fold
+
+    holes, taken = [], []
+    for x, y, w, h, tri in specs:  # rectangles or triangles on a 1 mm grid, apart from each other
+        ring = [[x, y], [x + w, y], [x + w, y + h]] + ([] if tri else [[x, y + h]])
+        poly = P(ring)
+        if x + w > 19 or y + h > 9 or any(poly.distance(o) < 0.5 for o in taken):
+            continue
+        taken.append(poly)
+        holes.append(ring)
+    a = Panel("a", [[0, 0], [20, 0], [20, 10], [0, 10]], 0.8, "VeroWhite", holes=tuple(holes))
+    b = Panel("b", [[20, 0], [30, 0], [30, 10], [20, 10]], 0.8, "VeroWhite")
+    d = Design("h", (a, b), (Hinge("h1", ("a", "b"), [[20, 0], [20, 10]], 1.0, "H-1", 2.0, 0.8),))
+    fold = design_to_fold(d)
+    # no face has a hole; faces of one panel meet only along flat edges
+    assert not any(fold["faces_foldprint:holes"])
+    back = design_from_fold(fold)
+    (pa, pb) = back.panels
+    assert pa.polygon.equals(a.polygon) and pb.polygon.equals(b.polygon)
+    assert len(pa.holes) == len(holes)
