@@ -125,6 +125,10 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
         out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest", every))
     if "fold" in formats:  # the crease pattern: the same for both states
         out.append((f"{safe_name(design.name)}.fold", fold_bytes(design), "fold", every))
+    if "inp" in formats:  # FE mesh of the strip's side profile (panels and hinges)
+        data, quality = inp_bytes(design, assembly.state)
+        extra[f"{st}.inp"] = {"mesh": quality}
+        out.append((f"{st}.inp", data, "inp", every))
     if trajectory is not None and any(f in TRAJECTORY_FORMATS for f in formats):
         dt = float(np.median(np.diff(trajectory.times))) if len(trajectory.times) > 1 else 0.0
         span = {"steps": int(len(trajectory.times)), "dt_s": round(dt, 9), "hinge_model": trajectory.model}
@@ -138,10 +142,6 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
         name = f"{safe_name(design.name)}_fold.glb"
         extra[name] = {**span, **more}
         out.append((name, data, "glb", every))
-    if "inp" in formats:  # FE mesh of the strip's side profile (panels and hinges)
-        data, quality = inp_bytes(design, assembly.state)
-        extra[f"{st}.inp"] = {"mesh": quality}
-        out.append((f"{st}.inp", data, "inp", every))
     seen = set()
     for name, *_ in out:
         if name in seen:  # e.g. two materials that differ only in characters made safe
@@ -162,8 +162,9 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
                     trajectory: Trajectory | None = None) -> list[dict]:
     """Write ``formats`` (see :data:`FORMATS`) of a built assembly into ``out_dir``
     (created if needed; ExportError if it cannot be). Returns one record per file
-    written: {path, format, bodies, bytes}; format is one of :data:`FORMATS` or
-    "manifest"; bodies as :func:`body_records`."""
+    written: {path, format, bodies, bytes, ...}; format is one of :data:`FORMATS`,
+    "manifest" (with stl) or "h5" (the arrays of xdmf); bodies as :func:`body_records`;
+    ``mesh`` (inp) and ``steps``, ``dt_s``, ... (xdmf, glb) describe the file."""
     files = render(design, assembly, formats, library, trajectory)
     out = ensure_dir(out_dir)
     created: list[Path] = []
