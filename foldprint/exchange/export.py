@@ -75,9 +75,10 @@ def check_formats(formats: Iterable[str]) -> list[str]:
 def body_records(assembly: Assembly, files: dict[str, list[str]] | None = None) -> list[dict]:
     """Per body: material, extruder (1-based, the order of the 3MF volumes), files that
     hold it, volume, z range in the print frame (part on the bed, ``Assembly.print_offset``)
-    and the panels and hinges of that body that need support (:func:`bed_report`)."""
+    and the panels and hinges of that body that need support (:func:`bed_report`; None
+    for an assembly made without its units)."""
     support: dict[str, list[dict]] = {}
-    for r in bed_report(assembly):
+    for r in (bed_report(assembly) if assembly.units else []):
         if r["needs_support"]:
             support.setdefault(r["material"], []).append(
                 {"kind": r["kind"], "id": r["id"], "z_min_mm": r["z_min_mm"],
@@ -87,7 +88,7 @@ def body_records(assembly: Assembly, files: dict[str, list[str]] | None = None) 
         lo, hi = assembly.print_z_range(b)
         out.append({"material": b.material, "extruder": k + 1, "files": list((files or {}).get(b.material, [])),
                     "volume_mm3": round(b.volume, 6), "z_range_mm": [round(lo, 6), round(hi, 6)],
-                    "needs_support": support.get(b.material, [])})
+                    "needs_support": support.get(b.material, []) if assembly.units else None})
     return out
 
 
