@@ -47,7 +47,7 @@ DEFAULT_FORMATS = ("3mf", "prusa3mf", "stl")
 TRAJECTORY_FORMATS = ("xdmf", "glb")
 #: Time step (s) of the trajectory the time-series formats are written from: 10 frames
 #: a second (viewers interpolate between them); a 20 s mailbox run gives 201 steps, an
-#: XDMF/HDF5 pair of 10 MB and a 6 MB GLB (the simulation's default 0.01 s: ~10x both).
+#: XDMF/HDF5 pair of 7 MB and a 6 MB GLB (the simulation's default 0.01 s: ~10x both).
 ANIMATION_DT_S = 0.1
 
 
