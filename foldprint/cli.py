@@ -418,7 +418,9 @@ def export(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     out: Optional[Path] = typer.Option(None, "--out", help="Output directory (default: output/<design>/)."),
     state: str = typer.Option("permanent", "--state", help="permanent (folded, printed) | programmed (flat)"),
-    formats: str = typer.Option("3mf,prusa3mf,stl", "--format", help="Comma-separated: 3mf, prusa3mf, stl."),
+    formats: str = typer.Option("3mf,prusa3mf,stl", "--format",
+                                help="Comma-separated: 3mf, prusa3mf, stl (to print); fold (crease pattern), "
+                                     "inp (Abaqus, planar strips), xdmf (ParaView series), glb (animated glTF)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
 ):

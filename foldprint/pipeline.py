@@ -19,7 +19,7 @@ from .clearance import Gap, gaps_in_pose, min_clearance
 from .collision3d import SweptChecker
 from .design import Design
 from .errors import GeometryError
-from .exchange.export import FORMATS, check_formats, export_assembly
+from .exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
 from .geometry import Assembly, build_assembly
 from .kinematics import forward, target_angles
 from .materials import MaterialLibrary, default_library
@@ -42,12 +42,16 @@ def build(design: Design, state: State | str = DEFAULT_STATE,
 
 
 def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STATE,
-           formats: Iterable[str] = FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
+           formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
     """Build ``design`` in ``state`` and write ``formats`` into ``out_dir``; the records
-    of :func:`foldprint.exchange.export.export_assembly`."""
+    of :func:`foldprint.exchange.export.export_assembly`. The fold is simulated (arc
+    hinges, the defaults) only when a format shows it over time (xdmf, glb)."""
     lib = library or default_library()
     formats = check_formats(formats)  # before the (slower) build
-    return export_assembly(design, build(design, state, lib), out_dir, formats, lib)
+    trajectory = None
+    if any(f in TRAJECTORY_FORMATS for f in formats):
+        trajectory = simulate(design, dt=ANIMATION_DT_S, library=lib).trajectory
+    return export_assembly(design, build(design, state, lib), out_dir, formats, lib, trajectory)
 
 
 @dataclass(frozen=True)

@@ -111,12 +111,12 @@ def _hits(w, half, margin, bounds):
 
 
 def footprint(design, margin: float = MARGIN, dt: float = 0.01, duration: float | None = None,
-              models=MODELS):
+              models=MODELS, drives=(None,)):
     """Rectangles (x0, y0, x1, y1) in the plate's sheet frame where the rigid parts of the
     moving panels and the bent hinge strips pass through the plate (its slab, within its
     outline) during the nominal fold and in the printed state, under each hinge model of
     ``models``, grown by ``margin``."""
-    xy = np.concatenate([swept_points(design, margin, dt, duration, m) for m in models])
+    xy = np.concatenate([swept_points(design, margin, dt, duration, m, dr) for m in models for dr in drives])
     if not len(xy):
         return []
     xy = xy[np.argsort(xy[:, 0])]
@@ -125,12 +125,13 @@ def footprint(design, margin: float = MARGIN, dt: float = 0.01, duration: float 
              part[:, 1].max() + margin) for part in np.split(xy, gaps + 1)]
 
 
-def swept_points(design, margin, dt, duration, model):
-    """(n, 2) plate-frame points of the other bodies inside the plate (grown by margin)."""
+def swept_points(design, margin, dt, duration, model, drive=None):
+    """(n, 2) plate-frame points of the other bodies inside the plate (grown by margin),
+    for the nominal hinges or a given (e.g. scattered) hinge ``drive``."""
     plate = design.panel_index()[design.root]
     half = design.panels[plate].thickness / 2
     bounds = design.panels[plate].polygon.bounds
-    traj = simulate_kinematics(design, dt=dt, duration=duration, model=model)
+    traj = simulate_kinematics(design, dt=dt, duration=duration, model=model, drive=drive)
     angles = np.vstack([traj.angles, target_angles(design)[None]])  # + the printed state
     poses = np.concatenate([traj.poses, forward(design, target_angles(design)[None], model)])
     inv_plate = np.linalg.inv(poses[:, plate])

@@ -104,7 +104,8 @@ def test_records_and_file_names(exported, stem):
     for r in records:
         assert Path(r["path"]).is_file() and Path(r["path"]).stat().st_size == r["bytes"]
         assert r["format"] in FORMATS + ("manifest",)
-        assert all(set(b) == {"material", "volume_mm3"} for b in r["bodies"])
+        assert all(set(b) == {"material", "extruder", "files", "volume_mm3", "z_range_mm", "needs_support"}
+                   for b in r["bodies"])
     assert sorted(p.name for p in d.iterdir()) == names  # nothing else (no temp files)
     (tm,) = [r for r in records if r["format"] == "3mf"]
     assert [b["material"] for b in tm["bodies"]] == mats
@@ -322,8 +323,12 @@ def test_manifest(exported, stem):
     assert man["design"] == design.name and man["units"] == "mm" and man["state"] == "permanent"
     assert [b["material"] for b in man["bodies"]] == [b.material for b in asm.bodies]
     assert [b["file"] for b in man["bodies"]] == [f"{design.name}_{b.material}.stl" for b in asm.bodies]
-    for m, b in zip(man["bodies"], asm.bodies):
+    for k, (m, b) in enumerate(zip(man["bodies"], asm.bodies)):
         assert m["volume_mm3"] == pytest.approx(b.volume, abs=1e-6)
+        assert m["extruder"] == k + 1
+        # the print frame: the STL's z plus the offset, the whole part from z = 0
+        assert m["z_range_print_mm"] == pytest.approx(b.bounds[:, 2] + man["print_offset_mm"][2], abs=1e-6)
+    assert min(m["z_range_print_mm"][0] for m in man["bodies"]) == pytest.approx(0.0, abs=1e-9)
     assert man["bounding_box"]["min"] == pytest.approx(asm.bounds[0], abs=1e-6)
     assert man["bounding_box"]["max"] == pytest.approx(asm.bounds[1], abs=1e-6)
     pr = man["programming"]

@@ -7,6 +7,8 @@ import json
 import math
 
 import numpy as np
+import shapely
+from shapely.geometry import Polygon
 import pytest
 
 from foldprint.design import Design, Goal, Hinge, HingeStyle, Panel, Process, strip
@@ -97,11 +99,23 @@ def test_box_export_splits_t_junctions_and_partial_hinges():
     side = [i for i, e in enumerate(f["edges_vertices"])
             if {xy[v] for v in e} in ({(0.0, 0.0), (0.0, 2.0)}, {(0.0, 18.0), (0.0, 20.0)})]
     assert len(side) == 2 and all(f["edges_assignment"][i] == "B" for i in side)
-    # the face of the top flap is counter-clockwise and carries its hole
-    ring = np.array([xy[v] for v in f["faces_vertices"][3]])
-    area2 = np.sum(ring[:, 0] * np.roll(ring[:, 1], -1) - np.roll(ring[:, 0], -1) * ring[:, 1])
-    assert area2 > 0
-    assert f["faces_foldprint:holes"][3] == [[[8.0, 25.0], [12.0, 25.0], [12.0, 29.0], [8.0, 29.0]]]
+    # the top flap's hole is FOLD geometry: the flap is two counter-clockwise holeless faces
+    # cut at the hole's centroid (x = 10), joined by flat edges; the hole's sides are B
+    top = [k for k, pid in enumerate(f["faces_foldprint:id"]) if pid == "top"]
+    assert len(top) == 2 and all(f["faces_foldprint:holes"][k] == [] for k in top)
+    rings = [np.array([xy[v] for v in f["faces_vertices"][k]]) for k in top]
+    for ring in rings:
+        area2 = np.sum(ring[:, 0] * np.roll(ring[:, 1], -1) - np.roll(ring[:, 0], -1) * ring[:, 1])
+        assert area2 > 0
+    union = shapely.union_all([Polygon(r) for r in rings])
+    assert union.area == pytest.approx(20 * 15 - 16)
+    (hole,) = union.interiors  # with the cut's two points on its sides
+    assert Polygon(hole).equals(Polygon([(8, 25), (12, 25), (12, 29), (8, 29)]))
+    joins = [i for i, e in enumerate(f["edges_vertices"]) if all(xy[v][0] == 10.0 for v in e)]
+    assert joins and all(f["edges_assignment"][i] == "F" and f["edges_foldAngle"][i] == 0 for i in joins)
+    hole_sides = [i for i, e in enumerate(f["edges_vertices"])
+                  if all(8 <= xy[v][0] <= 12 and 25 <= xy[v][1] <= 29 for v in e)]
+    assert len(hole_sides) == 6 and all(f["edges_assignment"][i] == "B" for i in hole_sides)
 
 
 def test_fold_bytes_deterministic_and_valid(tmp_path):

@@ -1,4 +1,6 @@
-"""Write a built part: 3MF (two flavours), STL per material + manifest.
+"""Write a built part: 3MF (two flavours), STL per material + manifest, and the
+hand-offs: FOLD crease pattern, Abaqus input (FEM), XDMF time series (ParaView),
+animated glTF binary.
 
 This module only writes: the assembly comes built from :mod:`foldprint.pipeline`.
 
@@ -8,7 +10,12 @@ had already created are removed again, so a failed export leaves no partial set.
 
 File names (``stem`` = the design name, ``<name>_programmed`` for the flat state):
 ``<stem>.3mf`` (spec form + Bambu/Orca/Cura metadata), ``<stem>_prusa.3mf`` (PrusaSlicer),
-``<stem>_<material>.stl`` and ``manifest.json`` (``manifest_programmed.json``).
+``<stem>_<material>.stl`` and ``manifest.json`` (``manifest_programmed.json``),
+``<stem>.fold``, ``<stem>.inp``, ``<stem>_fold.xdmf``, ``<stem>_fold.glb``.
+
+Every record lists the bodies it holds, each with its material, extruder (1-based, as
+slicers number them), every file of the export that holds it, volume, z range in the
+print frame and the panels/hinges that need support on the bed.
 """
 
 from __future__ import annotations
@@ -18,15 +25,30 @@ import re
 from pathlib import Path
 from typing import Iterable
 
+import numpy as np
+
 from ..design import Design
 from ..errors import ExportError
-from ..geometry import Assembly
+from ..geometry import Assembly, bed_report
+from ..kinematics import Trajectory
 from ..materials import MaterialLibrary, default_library
+from .fem import inp_bytes
 from .files import ensure_dir, write_atomic
+from .fold import fold_bytes
+from .gltf import glb_bytes
 from .stl import manifest, stl_bytes
 from .threemf import prusa3mf_bytes, threemf_bytes
+from .xdmf import xdmf_files
 
-FORMATS = ("3mf", "prusa3mf", "stl")
+#: Every format ``export`` writes; ``DEFAULT_FORMATS`` when none is asked for.
+FORMATS = ("3mf", "prusa3mf", "stl", "fold", "inp", "xdmf", "glb")
+DEFAULT_FORMATS = ("3mf", "prusa3mf", "stl")
+#: Formats that show the fold over time: they need the simulated trajectory.
+TRAJECTORY_FORMATS = ("xdmf", "glb")
+#: Time step (s) of the trajectory the time-series formats are written from: 10 frames
+#: a second (viewers interpolate between them); a 20 s mailbox run gives 201 steps, an
+#: XDMF/HDF5 pair of 7 MB and a 6 MB GLB (the simulation's default 0.01 s: ~10x both).
+ANIMATION_DT_S = 0.1
 
 
 def safe_name(text: str) -> str:
@@ -50,58 +72,112 @@ def check_formats(formats: Iterable[str]) -> list[str]:
     return formats
 
 
-def _bodies(bodies) -> list[dict]:
-    return [{"material": b.material, "volume_mm3": round(b.volume, 6)} for b in bodies]
+def body_records(assembly: Assembly, files: dict[str, list[str]] | None = None) -> list[dict]:
+    """Per body: material, extruder (1-based, the order of the 3MF volumes), files that
+    hold it, volume, z range in the print frame (part on the bed, ``Assembly.print_offset``)
+    and the panels and hinges of that body that need support (:func:`bed_report`; None
+    for an assembly made without its units)."""
+    support: dict[str, list[dict]] = {}
+    for r in (bed_report(assembly) if assembly.units else []):
+        if r["needs_support"]:
+            support.setdefault(r["material"], []).append(
+                {"kind": r["kind"], "id": r["id"], "z_min_mm": r["z_min_mm"],
+                 "unsupported_area_mm2": r["unsupported_area_mm2"]})
+    out = []
+    for k, b in enumerate(assembly.bodies):
+        lo, hi = assembly.print_z_range(b)
+        out.append({"material": b.material, "extruder": k + 1, "files": list((files or {}).get(b.material, [])),
+                    "volume_mm3": round(b.volume, 6), "z_range_mm": [round(lo, 6), round(hi, 6)],
+                    "needs_support": support.get(b.material, []) if assembly.units else None})
+    return out
 
 
-def render(design: Design, assembly: Assembly, formats: Iterable[str] = FORMATS,
-           library: MaterialLibrary | None = None) -> list[tuple[str, bytes, str, list[dict]]]:
-    """The files of an export in memory: (file name, bytes, format, bodies)."""
+def _needs_trajectory(formats, trajectory) -> None:
+    need = [f for f in formats if f in TRAJECTORY_FORMATS]
+    if need and trajectory is None:
+        raise ExportError(f"format(s) {need} show the fold over time and need its simulated trajectory; "
+                          "export through foldprint.pipeline.export, which runs the simulation")
+
+
+def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_FORMATS,
+           library: MaterialLibrary | None = None,
+           trajectory: Trajectory | None = None) -> list[tuple[str, bytes, str, list[dict], dict]]:
+    """The files of an export in memory: (file name, bytes, format, bodies, extra record
+    fields). ``trajectory`` (the simulated fold) is needed by :data:`TRAJECTORY_FORMATS`."""
     lib = library or default_library()
     formats = check_formats(formats)
+    _needs_trajectory(formats, trajectory)
     st = stem(design, assembly.state)
-    out = []
+    every = [b.material for b in assembly.bodies]
+    out: list[tuple[str, bytes, str, list[str]]] = []  # (name, data, format, materials held)
+    extra: dict[str, dict] = {}
     if "3mf" in formats:
-        out.append((f"{st}.3mf", threemf_bytes(design, assembly, lib), "3mf", _bodies(assembly.bodies)))
+        out.append((f"{st}.3mf", threemf_bytes(design, assembly, lib), "3mf", every))
     if "prusa3mf" in formats:
-        out.append((f"{st}_prusa.3mf", prusa3mf_bytes(design, assembly, lib), "prusa3mf",
-                    _bodies(assembly.bodies)))
+        out.append((f"{st}_prusa.3mf", prusa3mf_bytes(design, assembly, lib), "prusa3mf", every))
     if "stl" in formats:
         names = {}
         for b in assembly.bodies:
             name = f"{st}_{safe_name(b.material)}.stl"
             names[b.material] = name
             out.append((name, stl_bytes(b, f"{design.name} {b.material} {assembly.state} mm"), "stl",
-                        _bodies([b])))
+                        [b.material]))
         man = "manifest.json" if assembly.state == "permanent" else f"manifest_{assembly.state}.json"
-        out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest",
-                    _bodies(assembly.bodies)))
+        out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest", every))
+    if "fold" in formats:  # the crease pattern: the same for both states
+        out.append((f"{safe_name(design.name)}.fold", fold_bytes(design), "fold", every))
+    if "inp" in formats:  # FE mesh of the strip's side profile (panels and hinges)
+        data, quality = inp_bytes(design, assembly.state)
+        extra[f"{st}.inp"] = {"mesh": quality}
+        out.append((f"{st}.inp", data, "inp", every))
+    if trajectory is not None and any(f in TRAJECTORY_FORMATS for f in formats):
+        dt = float(np.median(np.diff(trajectory.times))) if len(trajectory.times) > 1 else 0.0
+        span = {"steps": int(len(trajectory.times)), "dt_s": round(dt, 9), "hinge_model": trajectory.model}
+    if "xdmf" in formats:  # ParaView: the flat surfaces + displacement per time step
+        files, more = xdmf_files(design, trajectory, every, f"{safe_name(design.name)}_fold.xdmf")
+        for k, (name, data) in enumerate(files.items()):
+            extra[name] = {**span, **more} if k == 0 else {}
+            out.append((name, data, "xdmf" if k == 0 else "h5", every))
+    if "glb" in formats:  # any 3D viewer: nodes per panel and hinge segment, keyframes
+        data, more = glb_bytes(design, trajectory, lib)
+        name = f"{safe_name(design.name)}_fold.glb"
+        extra[name] = {**span, **more}
+        out.append((name, data, "glb", every))
     seen = set()
     for name, *_ in out:
         if name in seen:  # e.g. two materials that differ only in characters made safe
             raise ExportError(f"two export files would be named {name!r}; rename a material")
         seen.add(name)
-    return out
+    held: dict[str, list[str]] = {}
+    for name, _, fmt, mats in out:
+        if fmt != "manifest":
+            for m in mats:
+                held.setdefault(m, []).append(name)
+    records = {r["material"]: r for r in body_records(assembly, held)}
+    return [(name, data, fmt, [records[m] for m in mats if m in records], extra.get(name, {}))
+            for name, data, fmt, mats in out]
 
 
 def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
-                    formats: Iterable[str] = FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
-    """Write ``formats`` ("3mf", "prusa3mf", "stl") of a built assembly into ``out_dir``
+                    formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
+                    trajectory: Trajectory | None = None) -> list[dict]:
+    """Write ``formats`` (see :data:`FORMATS`) of a built assembly into ``out_dir``
     (created if needed; ExportError if it cannot be). Returns one record per file
-    written: {path, format, bodies: [{material, volume_mm3}], bytes}; format is "3mf",
-    "prusa3mf", "stl" or "manifest"."""
-    files = render(design, assembly, formats, library)
+    written: {path, format, bodies, bytes, ...}; format is one of :data:`FORMATS`,
+    "manifest" (with stl) or "h5" (the arrays of xdmf); bodies as :func:`body_records`;
+    ``mesh`` (inp) and ``steps``, ``dt_s``, ... (xdmf, glb) describe the file."""
+    files = render(design, assembly, formats, library, trajectory)
     out = ensure_dir(out_dir)
     created: list[Path] = []
     records = []
     try:
-        for name, data, fmt, bodies in files:
+        for name, data, fmt, bodies, more in files:
             path = out / name
             existed = path.exists()
             write_atomic(path, data)
             if not existed:
                 created.append(path)
-            records.append({"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data)})
+            records.append({"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data), **more})
     except (ExportError, OSError) as exc:
         for p in created:
             try:

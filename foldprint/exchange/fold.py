@@ -5,6 +5,13 @@ vertex or hinge end lying on them, so each hinge is exactly one or more "V"/"M"/
 edges; every other edge (a common side without a hinge too) is "B". foldprint's own data
 rides in ``faces_foldprint:*``, ``edges_foldprint:*`` and ``foldprint:design``; the
 reader is :mod:`foldprint.fold_format`.
+
+Holes: a FOLD face is one simple polygon (``faces_vertices`` is a single cycle), so a
+panel with holes is written as several holeless faces, cut at x = the centroid of each
+hole, joined by flat ("F", fold angle 0) edges: every FOLD tool then sees the holes as
+geometry (the gap between faces), and the reader joins faces across flat edges into one
+panel whose holes are the interiors of the union. Only a panel that this cut cannot
+free of holes keeps one face and its holes in ``faces_foldprint:holes``.
 """
 
 from __future__ import annotations
@@ -16,8 +23,9 @@ from typing import Any
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import LineString, MultiLineString, Polygon
 from shapely.geometry.polygon import orient
+from shapely.ops import split
 
 from .. import __version__
 from ..constants import tol
@@ -48,6 +56,23 @@ class _Vertices:
         return len(self.xy) - 1
 
 
+def holeless_facets(panel) -> list[np.ndarray] | None:
+    """Counter-clockwise rings of holeless polygons that tile a panel with holes: the
+    panel cut by a line x = const through the centroid of each hole. None when the cut
+    leaves a hole inside a facet (then the panel keeps its holes as foldprint data)."""
+    poly = orient(panel.polygon, 1.0)
+    lo_y, hi_y = poly.bounds[1] - 1.0, poly.bounds[3] + 1.0
+    xs = sorted({float(Polygon(h).centroid.x) for h in panel.holes})
+    pieces = split(poly, MultiLineString([[(x, lo_y), (x, hi_y)] for x in xs]))
+    out = []
+    for g in pieces.geoms:
+        if not isinstance(g, Polygon) or g.interiors or g.area <= tol.area:
+            return None
+        out.append(np.asarray(orient(g, 1.0).exterior.coords)[:-1])
+    total = sum(Polygon(r).area for r in out)
+    return out if abs(total - poly.area) <= 1e-9 * max(poly.area, 1.0) else None
+
+
 def design_to_fold(design: Design) -> dict:
     """The design as a FOLD 1.2 crease pattern (a JSON-ready dict)."""
     eps = tol.length
@@ -57,6 +82,22 @@ def design_to_fold(design: Design) -> dict:
         ring_xy = np.asarray(orient(Polygon(p.outline), 1.0).exterior.coords)[:-1]
         ring = [verts.add(q) for q in ring_xy]
         rings.append([v for k, v in enumerate(ring) if v != ring[k - 1]])
+    # faces: the panel's outline, or holeless facets of a panel with holes
+    face_panel: list[int] = []
+    face_holes: list[list] = []
+    facets: list[list[int]] = []
+    for k, p in enumerate(design.panels):
+        cut = holeless_facets(p) if p.holes else None
+        if cut is None:
+            facets.append(rings[k])
+            face_panel.append(k)
+            face_holes.append([h.tolist() for h in p.holes])
+            continue
+        for ring_xy in cut:
+            ring = [verts.add(q) for q in ring_xy]
+            facets.append([v for j, v in enumerate(ring) if v != ring[j - 1]])
+            face_panel.append(k)
+            face_holes.append([])
     index = design.panel_index()
     # hinge ends that fall inside a panel side become vertices (snapped onto the side)
     for h in design.hinges:
@@ -71,7 +112,7 @@ def design_to_fold(design: Design) -> dict:
     # T-junctions: split every side at the vertices lying on it
     pts = np.asarray(verts.xy)
     faces = []
-    for ring in rings:
+    for ring in facets:
         out = []
         for a, b in _ring_edges(ring):
             out.append(a)
@@ -88,13 +129,16 @@ def design_to_fold(design: Design) -> dict:
     assign, fangle, e_hid, e_mat, e_rad, e_thk = [], [], [], [], [], []
     for (a, b), fs in zip(edges, edge_faces):
         hinge = None
-        if len(fs) == 2:
-            for h in by_pair.get(frozenset(design.panels[f].id for f in fs), []):
+        same_panel = len(fs) == 2 and face_panel[fs[0]] == face_panel[fs[1]]
+        if len(fs) == 2 and not same_panel:
+            for h in by_pair.get(frozenset(design.panels[face_panel[f]].id for f in fs), []):
                 line = LineString(h.line)
                 if all(line.distance(shapely.Point(pts[v])) <= _LINE_TOL for v in (a, b)):
                     hinge = h
                     break
-        if hinge is None:
+        if same_panel:  # between two facets of a panel with holes
+            row = ("F", 0.0, None, None, None, None)
+        elif hinge is None:
             row = ("B", 0.0, None, None, None, None)
         else:
             deg = math.degrees(hinge.angle)
@@ -112,10 +156,10 @@ def design_to_fold(design: Design) -> dict:
         "frame_attributes": ["2D"], "frame_unit": "mm", "frame_title": design.name,
         "vertices_coords": [[x, y] for x, y in verts.xy], "faces_vertices": faces,
         "edges_vertices": edges, "edges_assignment": assign, "edges_foldAngle": fangle,
-        "faces_foldprint:id": [p.id for p in design.panels],
-        "faces_foldprint:material": [p.material for p in design.panels],
-        "faces_foldprint:thickness_mm": [float(p.thickness) for p in design.panels],
-        "faces_foldprint:holes": [[h.tolist() for h in p.holes] for p in design.panels],
+        "faces_foldprint:id": [design.panels[k].id for k in face_panel],
+        "faces_foldprint:material": [design.panels[k].material for k in face_panel],
+        "faces_foldprint:thickness_mm": [float(design.panels[k].thickness) for k in face_panel],
+        "faces_foldprint:holes": face_holes,
         "edges_foldprint:hinge_id": e_hid, "edges_foldprint:material": e_mat,
         "edges_foldprint:radius_mm": e_rad, "edges_foldprint:thickness_mm": e_thk,
         "foldprint:design": extra,

@@ -82,12 +82,13 @@ def manifest(design: Design, assembly: Assembly, files: dict[str, str],
     programming protocol. ``files`` maps material -> STL file name."""
     lib = library or default_library()
     bodies, materials = [], []
-    for b in assembly.bodies:
+    for k, b in enumerate(assembly.bodies):
         m = lib[b.material] if b.material in lib else None
-        bodies.append({"material": b.material, "file": files.get(b.material),
+        lo, hi = assembly.print_z_range(b)
+        bodies.append({"material": b.material, "file": files.get(b.material), "extruder": k + 1,
                        "role": m.role if m else None, "volume_mm3": round(b.volume, 6),
                        "triangles": int(len(b.faces)), "vertices": int(len(b.vertices)),
-                       "bounding_box": _bbox(*b.bounds)})
+                       "bounding_box": _bbox(*b.bounds), "z_range_print_mm": [round(lo, 6), round(hi, 6)]})
         materials.append({"name": b.material, "role": m.role if m else None,
                           "tg_c": m.tg_c if m else None, "color": m.color if m else None,
                           "description": m.description if m else ""})
@@ -99,7 +100,8 @@ def manifest(design: Design, assembly: Assembly, files: dict[str, str],
         "state": assembly.state,
         "units": "mm",
         "frame": ("the design's sheet frame: the root panel lies flat with its mid-plane at z = 0; "
-                  "all STL files share it"),
+                  "all STL files share it; add print_offset_mm to put the part on the bed"),
+        "print_offset_mm": [round(float(x), 6) for x in assembly.print_offset],
         "bodies": bodies,
         "materials": materials,
         "total_volume_mm3": round(assembly.volume, 6),

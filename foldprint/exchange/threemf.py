@@ -39,6 +39,14 @@ APPLICATION = f"foldprint {__version__}"
 CORE_NS = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
 CURA_NS = "http://software.ultimaker.com/xml/cura/3mf/2015/10"
 FOLDPRINT_NS = "urn:foldprint:3mf:2025"
+SLIC3RPE_NS = "http://schemas.slic3r.org/3mf/2017/06"
+#: PrusaSlicer's 3MF reader treats a file without ``slic3rpe:Version3mf`` as version 0
+#: (a foreign file) and, for an object with one instance, bakes the build item's
+#: transform into the mesh of its *first* volume only, then resets the instance: every
+#: other volume loses the placement (bodies printed at the wrong height). Version 1 is
+#: the format PrusaSlicer 2.x writes: vertices in object coordinates, the build
+#: transform kept on the instance, each volume placed by its ``matrix``.
+PRUSA_3MF_VERSION = 1
 REL_MODEL = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"
 REL_DESIGN = "urn:foldprint:3mf:2025:design"
 MODEL_PATH = "3D/3dmodel.model"
@@ -216,7 +224,8 @@ def merged_mesh(bodies: tuple[Body, ...]) -> tuple[np.ndarray, np.ndarray, list[
 def prusa_model_xml(design: Design, assembly: Assembly) -> str:
     _check(assembly)
     v, f, _ = merged_mesh(assembly.bodies)
-    out = [_model_header(design, assembly), " <resources>\n",
+    out = [_model_header(design, assembly, f' xmlns:slic3rpe="{SLIC3RPE_NS}"'),
+           f' <metadata name="slic3rpe:Version3mf">{PRUSA_3MF_VERSION}</metadata>\n', " <resources>\n",
            f'  <object id="1" type="model" name={quoteattr(design.name)}>\n',
            _mesh_xml(v, f), "  </object>\n </resources>\n",
            f' <build>\n  <item objectid="1" transform="{_item_transform(assembly)}"/>\n </build>\n',

@@ -38,6 +38,11 @@ TEETH_GAP = 0.01
 TEETH_OVERLAP = 0.01
 #: Relative volume tolerance of the internal consistency checks.
 VOLUME_RTOL = 1e-6
+#: A piece whose lowest point is within this (mm) of the bed starts on the bed.
+BED_TOL = 1e-3
+#: Facets whose normal is within this angle of straight down count as bottom faces
+#: that need something under them (the bed, or support) when printed.
+BOTTOM_FACE_RAD = math.radians(5.0)
 
 
 # -- results ---------------------------------------------------------------------------
@@ -83,6 +88,9 @@ class Assembly:
     design_name: str
     state: str
     bodies: tuple[Body, ...]
+    #: the panels and hinges (each a :class:`Piece` of kind "panel" or "hinge") the
+    #: bodies were united from, for per-piece reports (:func:`bed_report`)
+    units: tuple["Piece", ...] = field(default=(), repr=False, compare=False)
 
     @property
     def materials(self) -> list[str]:
@@ -102,6 +110,18 @@ class Assembly:
     def bounds(self) -> np.ndarray:
         allb = np.array([b.bounds for b in self.bodies])
         return np.array([allb[:, 0].min(axis=0), allb[:, 1].max(axis=0)])
+
+    @property
+    def print_offset(self) -> np.ndarray:
+        """(3,) translation from the design's sheet frame (root mid-plane at z = 0) to
+        the print frame: the part's lowest point on the bed (z = 0), x and y kept. The
+        part prints as built (+z up): see ``docs/geometry-and-export.md``, "On the bed"."""
+        return np.array([0.0, 0.0, -float(self.bounds[0][2])]) + 0.0
+
+    def print_z_range(self, body: Body) -> tuple[float, float]:
+        """A body's lowest and highest z in the print frame (mm)."""
+        lo, hi = body.bounds[:, 2] + self.print_offset[2]
+        return float(lo), float(hi)
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,0 +1,110 @@
+"""The fold over time as moving surfaces, for the time-series writers (XDMF, glTF).
+
+Each panel's rigid part (its outline less the hinge strips and teeth notches, holes
+kept) and each hinge segment (the strip's mid-surface between slots) is a triangulated
+surface in the flat sheet (z = 0). A panel moves rigidly with its pose; a hinge segment
+bends with the arc map across its width (:func:`foldprint.geometry.arc_transform`),
+column by column, exactly as the printed strip is built (``docs/geometry-and-export.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import manifold3d as mf
+import numpy as np
+from shapely.geometry.polygon import orient
+
+from ..design import Design
+from ..errors import ExportError
+from ..geometry import layout, strip_profile
+from ..geometry.solids import _polygons
+from ..kinematics import HingeFrame, Trajectory, local_transforms
+
+
+@dataclass(frozen=True, eq=False)
+class Surface:
+    """One moving surface: ``kind`` "panel" or "hinge", ``owner`` its panel or hinge
+    id, ``segment`` (hinges: which slot-separated segment), ``material``; ``flat`` (n, 3)
+    sheet points, ``triangles`` (m, 3) counter-clockwise seen from +z; for a panel
+    ``index`` is the panel index, for a hinge the hinge index with its ``frame`` and the
+    across-strip coordinate ``u`` (n,) of each point."""
+
+    kind: str
+    owner: str
+    segment: int
+    material: str
+    index: int
+    flat: np.ndarray
+    triangles: np.ndarray
+    frame: HingeFrame | None = None
+    u: np.ndarray | None = None
+
+    def track(self, poses: np.ndarray, angles: np.ndarray) -> np.ndarray:
+        """World points (n_t, n, 3) for panel poses (n_t, n_panels, 4, 4) and hinge
+        angles (n_t, n_hinges). A hinge column at width u moves like the arc model's
+        child of a strip of width u bent by rho u / w (what
+        :func:`~foldprint.geometry.arc_transform` computes one time at a time)."""
+        if self.kind == "panel":
+            pose = poses[:, self.index]
+            return np.einsum("tij,nj->tni", pose[:, :3, :3], self.flat) + pose[:, None, :3, 3]
+        f = self.frame
+        out = np.empty((len(poses), len(self.flat), 3))
+        start = f.origin - 0.5 * f.width * f.normal
+        for u in np.unique(self.u):
+            sel = self.u == u
+            sub = replace(f, origin=start + 0.5 * u * f.normal, width=float(u))
+            pose = poses[:, f.parent] @ local_transforms(sub, angles[:, f.index] * (u / f.width), "arc")
+            out[:, sel] = np.einsum("tij,nj->tni", pose[:, :3, :3], self.flat[sel]) + pose[:, None, :3, 3]
+        return out
+
+    def at(self, poses: np.ndarray, angles: np.ndarray) -> np.ndarray:
+        """World points (n, 3) at one time: panel poses (n_panels, 4, 4), hinge angles."""
+        return self.track(poses[None], np.asarray(angles)[None])[0]
+
+
+def fold_surfaces(design: Design) -> list[Surface]:
+    """Panels (design order), then hinge segments (design order)."""
+    lays, rigid = layout(design)
+    out: list[Surface] = []
+    for k, (p, geom) in enumerate(zip(design.panels, rigid)):
+        verts, tris, n0 = [], [], 0
+        for poly in _polygons(geom):
+            poly = orient(poly, 1.0)
+            rings = [np.asarray(poly.exterior.coords)[:-1]] + [np.asarray(r.coords)[:-1] for r in poly.interiors]
+            t = np.asarray(mf.triangulate(rings), dtype=np.int64).reshape(-1, 3)
+            pts = np.concatenate(rings)
+            verts.append(pts)
+            tris.append(t + n0)
+            n0 += len(pts)
+        if not verts:
+            raise ExportError(f"panel {p.id!r}: no rigid part to draw")
+        xy = np.concatenate(verts)
+        out.append(Surface("panel", p.id, 0, p.material, k, np.column_stack([xy, np.zeros(len(xy))]),
+                           np.concatenate(tris)))
+    for lay in sorted(lays, key=lambda lay_: lay_.frame.index):
+        h, f = lay.hinge, lay.frame
+        u, _ = strip_profile(h, h.angle)
+        n3 = np.array([lay.n[0], lay.n[1], 0.0])
+        d3 = np.array([lay.d[0], lay.d[1], 0.0])
+        base = np.array([lay.p0[0], lay.p0[1], 0.0])
+        for s, (v0, v1) in enumerate(lay.segments):
+            uu = np.concatenate([u, u])
+            vv = np.concatenate([np.full(len(u), v0), np.full(len(u), v1)])
+            flat = base + vv[:, None] * d3 + (uu - 0.5 * h.width)[:, None] * n3
+            m = len(u)
+            a = np.arange(m - 1)
+            tris = np.concatenate([np.stack([a, a + 1, a + 1 + m], 1), np.stack([a, a + 1 + m, a + m], 1)])
+            # counter-clockwise seen from +z: flip when (n, d) is a left-handed pair
+            if np.cross(n3, d3)[2] < 0:
+                tris = tris[:, ::-1]
+            out.append(Surface("hinge", h.id, s, h.material, f.index, flat, tris, f, uu))
+    return out
+
+
+def frames_of(trajectory: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times (n_t,), panel poses (n_t, n_panels, 4, 4) and hinge angles (n_t, n_hinges)."""
+    if trajectory.model != "arc":
+        raise ExportError(f"the fold's time series show the printed (arc) hinges; the trajectory was "
+                          f"simulated with {trajectory.model!r} hinges")
+    return np.asarray(trajectory.times), np.asarray(trajectory.poses), np.asarray(trajectory.angles)
