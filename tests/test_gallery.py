@@ -30,9 +30,10 @@ from foldprint.load import load_design
 from foldprint.gallery import build_gallery
 from foldprint.templates import templates_dir
 
-DESIGNS = ("helix_graded", "self_lock_uniform")
+FAILING = "self_lock"  # collides (panels p1 and p6) with the printed, arc hinges
+DESIGNS = ("helix_graded", FAILING)
 PER_DESIGN = ("programmed.png", "permanent.png", "frames.png", "fold.gif", "hinge_angles.png",
-              "collision_index.png", "check.json", "simulation.json")
+              "collision_index.png", "check.json", "simulation.json", "viewer.html")
 VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source",
         "track", "wbr"}
 
@@ -41,9 +42,9 @@ VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "met
 def gallery(tmp_path_factory):
     root = tmp_path_factory.mktemp("gallery")
     out = root / "site"
-    steps: list[str] = []
+    steps: list[tuple[int, int, str]] = []
     designs = [load_design(templates_dir() / f"{n}.toml") for n in DESIGNS]
-    index = build_gallery(designs, out, progress=steps.append)
+    index = build_gallery(designs, out, progress=lambda *a: steps.append(a), jobs=2)
     return root, out, index, steps
 
 
@@ -115,7 +116,11 @@ def test_gallery_writes_every_file(gallery):
     for name in DESIGNS:
         for f in PER_DESIGN:
             assert (out / name / f).is_file(), f"{name}/{f} missing"
-        assert f"{name}: simulating" in steps
+    # progress: one step per part (chart, each design, the index), counted up to the total
+    total = len(DESIGNS) + 2
+    assert [(d, t) for d, t, _ in steps] == [(k, total) for k in range(1, total + 1)]
+    assert {m for *_, m in steps} >= {"material chart", "index.html"} | {
+        f"{n}: simulated, checked, rendered, exported" for n in DESIGNS}
     assert not list(out.rglob("*.tmp")), "write_atomic left temporary files"
 
 
@@ -144,10 +149,10 @@ def test_json_outputs(gallery):
     graded = json.loads((out / "helix_graded" / "simulation.json").read_text())
     assert graded["design"] == "helix_graded" and graded["completed"] is True
     assert graded["first_collision"] is None and len(graded["hinges"]) == 9
-    failing = json.loads((out / "self_lock_uniform" / "simulation.json").read_text())
+    failing = json.loads((out / FAILING / "simulation.json").read_text())
     assert failing["completed"] is False
     assert sorted(failing["first_collision"]["panels"]) == ["p1", "p6"]
-    check = json.loads((out / "self_lock_uniform" / "check.json").read_text())
+    check = json.loads((out / FAILING / "check.json").read_text())
     assert check["ok"] is False and check["errors"] >= 1
     assert any(f["code"] == "FP170" for f in check["findings"])  # the collision rule
 
@@ -209,14 +214,14 @@ def test_index_is_offline_valid_html5(gallery):
 def test_page_reports_status_collision_hinges_and_checks(gallery):
     _, out, index, _ = gallery
     page = _parse(index)
-    failing = json.loads((out / "self_lock_uniform" / "simulation.json").read_text())
+    failing = json.loads((out / FAILING / "simulation.json").read_text())
     t = failing["first_collision"]["time_s"]
     a, b = failing["first_collision"]["panels"]
-    bad = " ".join(page.text["d-self_lock_uniform"])
+    bad = " ".join(page.text[f"d-{FAILING}"])
     assert "Does not complete" in bad
     assert f"panels {a} and {b} touch at {t:.3f} s" in bad
     assert "NOT met" in bad  # the two holes
-    errors = json.loads((out / "self_lock_uniform" / "check.json").read_text())["errors"]
+    errors = json.loads((out / FAILING / "check.json").read_text())["errors"]
     assert f"{errors} error(s)" in bad and "FP170" in bad  # the check summary with messages
     good = " ".join(page.text["d-helix_graded"])
     graded = json.loads((out / "helix_graded" / "simulation.json").read_text())
@@ -234,7 +239,7 @@ def test_export_import_failure_is_skipped_gracefully(tmp_path, monkeypatch, capl
     monkeypatch.setitem(sys.modules, "foldprint.pipeline", None)  # import raises
     d = strip("tiny", [10.0, 10.0], [90.0], ["H-1"], description="two panels <&> one hinge")
     with caplog.at_level(logging.WARNING, logger="foldprint.gallery"):
-        index = build_gallery([d], tmp_path / "site", gif_frames=4)
+        index = build_gallery([d], tmp_path / "site", gif_frames=4, jobs=1)
     assert any("export unavailable" in r.getMessage() for r in caplog.records)
     assert not (tmp_path / "site" / "tiny" / "files").exists()
     text = index.read_text(encoding="utf-8")
@@ -257,7 +262,7 @@ def test_gallery_is_deterministic(tmp_path, monkeypatch):
 # -- render3d -----------------------------------------------------------------------------
 
 def test_render3d_states_frames_and_gif():
-    from foldprint import render3d
+    from foldprint import render3d, render_anim
     from foldprint.render import figure_bytes
     from foldprint.simulate import simulate
 
@@ -274,8 +279,8 @@ def test_render3d_states_frames_and_gif():
     # the arc model draws its hinges as ribbons; poses (1, n, 4, 4) are accepted too
     arc = render3d.state_poses(d, "permanent", "arc")[None]
     assert figure_bytes(render3d.render_state(d, arc, "arc", model="arc"))
-    gif1 = render3d.fold_animation_gif(res, 5)
-    gif2 = render3d.fold_animation_gif(res, 5)
+    gif1 = render_anim.fold_animation_gif(res, 5)
+    gif2 = render_anim.fold_animation_gif(res, 5)
     assert gif1 == gif2
     with Image.open(io.BytesIO(gif1)) as im:
         assert im.n_frames == 5 and im.info["loop"] == 0
