@@ -28,7 +28,7 @@ from .design import Design
 from .kinematics import forward, hinge_frames, hinge_map, target_angles
 from .materials import MaterialLibrary
 
-FRAMES = 81
+FRAMES = 61
 """Frames per fold (evenly spaced over the motion; the page interpolates between them)."""
 RIBBON_SECTIONS = 8
 """Bend sections of a hinge ribbon (<= 90 deg / 8 = 11 deg per section for a right fold)."""

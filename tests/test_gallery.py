@@ -379,3 +379,131 @@ def test_page_in_headless_chromium(gallery, tmp_path):
     assert res["links"] and all(link["status"] == 200 for link in res["links"]), \
         [link for link in res["links"] if link["status"] != 200]
     assert "Does not complete" in res["text"] and "p1 and p6 touch at" in res["text"]
+
+
+# -- the interactive viewer ------------------------------------------------------------------
+
+def _viewer_data(page: Path) -> dict:
+    raw = page.read_text(encoding="utf-8")
+    m = re.search(r'<script type="application/json" id="fold-data">(.*?)</script>', raw, re.S)
+    assert m, f"{page}: no data block"
+    return json.loads(m.group(1))
+
+
+def test_viewer_pages_are_offline_and_linked(gallery):
+    _, out, index, _ = gallery
+    page = _parse(index)
+    for name in DESIGNS:
+        assert f"{name}/viewer.html" in page.links  # index.html links a viewer per design
+    assets = out / "viewer"
+    assert (assets / "three-viewer.min.js").stat().st_size > 100_000
+    assert "MIT License" in (assets / "LICENSE-three.txt").read_text(encoding="utf-8")
+    for html_file in sorted(out.rglob("*.html")):
+        raw = html_file.read_text(encoding="utf-8")
+        urls = re.findall(r'<(?:script|link)\b[^>]*?(?:src|href)="([^"]*)"', raw)
+        for url in urls:  # scripts and stylesheets: relative files that exist
+            assert "://" not in url and not url.startswith("/"), (html_file, url)
+            assert (html_file.parent / unquote(url)).is_file(), (html_file, url)
+        assert not re.search(r"https?://", raw), f"{html_file}: a network URL"
+        assert not re.search(r"@import|url\(", raw), f"{html_file}: external CSS"
+
+
+def test_viewer_data_is_the_printed_part_in_the_simulated_poses():
+    """Decoded page data: panel poses are the simulation's forward kinematics (flat at t=0,
+    the printed state in the 'permanent' slot); every hinge ribbon starts on its parent
+    panel's edge and ends on its child's (to the 16-bit quantisation step)."""
+    import base64
+
+    import numpy as np
+
+    from foldprint.geometry.hinges import hinge_segments
+    from foldprint.kinematics import forward, hinge_frames, target_angles
+    from foldprint.materials import default_library
+    from foldprint.render_scene import motion_end
+    from foldprint.simulate import simulate
+    from foldprint.viewer import RIBBON_SECTIONS, viewer_data
+
+    d = load_design(templates_dir() / "self_lock.toml")
+    res = simulate(d, dt=0.02, hinge_model="arc")
+    data = json.loads(json.dumps(viewer_data(res, default_library())))  # as the page gets it
+    dec = lambda s, t: np.frombuffer(base64.b64decode(s), dtype=t)  # noqa: E731
+    n_f, n_p = data["frames"], len(d.panels)
+    poses = dec(data["poses"], "<f4").reshape(n_f + 2, n_p, 4, 4).swapaxes(-1, -2)
+    assert data["times"][0] == 0.0 and data["times"][-1] == pytest.approx(motion_end(res))
+    np.testing.assert_allclose(poses[0], np.broadcast_to(np.eye(4), (n_p, 4, 4)), atol=1e-6)
+    np.testing.assert_allclose(poses[-1], forward(d, target_angles(d)[None], "arc")[0], atol=1e-4)
+    k = n_f // 2
+    traj = res.trajectory
+    angles = [np.interp(data["times"][k], traj.times, traj.angles[:, i]) for i in range(len(d.hinges))]
+    np.testing.assert_allclose(poses[k], forward(d, np.array([angles]), "arc")[0], atol=1e-4)
+    # panels: the printed solids, as thick as the panels
+    for it in data["items"]:
+        v = dec(it["v"], "<f4").reshape(-1, 3)
+        if it["kind"] == "panel":
+            assert np.ptp(v[:, 2]) == pytest.approx(d.panels[it["panel"]].thickness, rel=1e-5)
+    # ribbons: both ends on the panels they join, in every frame
+    lo, hi = np.array(data["bounds"][0]), np.array(data["bounds"][1])
+    q = dec(data["ribbon"]["q"], "<u2").reshape(n_f + 2, data["ribbon"]["n"], 3)
+    rib = lo + q / 65535.0 * (hi - lo)
+    step = float((hi - lo).max()) / 65535.0
+    frames = {f.index: f for f in hinge_frames(d)}
+    owners = data["ribbon"]["owners"]
+    assert len(owners) == sum(len(hinge_segments(h)) for h in d.hinges)
+    seg_of: dict[int, int] = {}
+    for h_idx, start, count in owners:
+        fr = frames[h_idx]
+        h = fr.hinge
+        j = seg_of.get(h_idx, 0)
+        seg_of[h_idx] = j + 1
+        v0, v1 = hinge_segments(h)[j]
+        a, b = np.asarray(h.line, float)
+        dvec = np.array([*(b - a) / np.linalg.norm(b - a), 0.0])
+        assert count == 4 * (RIBBON_SECTIONS + 1)
+        for side, pidx, block in ((-1, fr.parent, slice(start, start + 4)),
+                                  (1, fr.child, slice(start + count - 4, start + count))):
+            edge = np.array([a[0], a[1], 0.0]) + side * 0.5 * fr.width * fr.normal
+            corners = np.array([edge + v * dvec + np.array([0, 0, 0.5 * z * h.thickness])
+                                for v, z in ((v0, -1), (v1, -1), (v1, 1), (v0, 1))])
+            for f in (0, k, n_f - 1, n_f + 1):
+                want = corners @ poses[f, pidx][:3, :3].T + poses[f, pidx][:3, 3]
+                np.testing.assert_allclose(rib[f, block], want, atol=2 * step + 1e-4)
+
+
+def _chromium_run(args: list[str], profile: Path) -> subprocess.CompletedProcess:
+    cmd = [_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+           "--disable-background-networking", "--disable-component-update", "--disable-sync",
+           "--disable-extensions", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+           f"--user-data-dir={profile}", "--window-size=1100,900", "--hide-scrollbars",
+           "--virtual-time-budget=8000", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.skipif(_chromium() is None, reason="chromium is not on PATH: the viewer check needs a "
+                    "headless Chromium (SwiftShader WebGL)")
+def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
+    """Opened from file:// with no network: the page at load (t = 0) and at #t=0.5 give
+    different pictures, and the 3D canvas is drawn (not one colour)."""
+    import numpy as np
+
+    _, out, _, _ = gallery
+    url = (out / FAILING / "viewer.html").resolve().as_uri()
+    shots, states = [], []
+    for k, suffix in enumerate(("", "#t=0.5")):
+        dom = _chromium_run(["--dump-dom", url + suffix], tmp_path / f"p{k}")
+        m = re.search(r'<body[^>]*data-canvas="(\d+),(\d+),(\d+),(\d+)"[^>]*>', dom.stdout)
+        assert m and 'data-ready="1"' in m.group(0), f"viewer did not start: {dom.stderr[-2000:]}"
+        states.append(re.search(r'data-t="([^"]+)"', m.group(0)).group(1))
+        x, y, w, h = (int(v) for v in m.groups())
+        png = tmp_path / f"shot{k}.png"
+        shot = _chromium_run([f"--screenshot={png}", url + suffix], tmp_path / f"s{k}")
+        assert png.is_file(), shot.stderr[-2000:]
+        with Image.open(png) as im:
+            rgb = np.asarray(im.convert("RGB")).astype(int)
+        canvas = rgb[y + 2:y + h - 2, x + 2:x + w - 2]
+        assert canvas.size, (x, y, w, h, rgb.shape)
+        colours = np.unique(canvas.reshape(-1, 3), axis=0)
+        assert len(colours) > 20, f"the 3D view is blank ({len(colours)} colours)"
+        shots.append(canvas)
+    assert states == ["0.000", "0.500"]
+    diff = np.abs(shots[0] - shots[1]).sum(axis=-1) > 30
+    assert diff.mean() > 0.005, f"the picture at #t=0.5 is the one at load ({diff.mean():.4f} changed)"

@@ -38,7 +38,7 @@
   camera.up.set(0, 0, 1);
   // the still renders' cameras: strips from the side (along +y, 20 deg up), others oblique
   var el = (D.planar ? 20 : 32) * Math.PI / 180, az = (D.planar ? -90 : -58) * Math.PI / 180;
-  var dist = radius / Math.sin(15 * Math.PI / 180) * 1.05;
+  var dist = radius / Math.sin(15 * Math.PI / 180) * 0.8;
   camera.position.set(centre.x + dist * Math.cos(el) * Math.cos(az),
                       centre.y + dist * Math.cos(el) * Math.sin(az), centre.z + dist * Math.sin(el));
   var controls = new T.OrbitControls(camera, canvas);
