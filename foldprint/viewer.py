@@ -218,7 +218,8 @@ _PAGE = """<!DOCTYPE html>
 </div>
 <div id="info"><div id="legend"></div><div id="facts"></div></div>
 <p class="muted">Drag to orbit, scroll to zoom, right-drag to pan. The address ends in <code>#t=</code> the
-fraction of the fold shown (0 = flat, 1 = end of the motion): copy it to link this moment.
+fraction of the fold shown (0 = flat, 1 = end of the motion), or <code>#state=</code> programmed or permanent:
+copy it to link this view.
 Drawn with three.js (MIT licence, <a href="../viewer/LICENSE-three.txt">LICENSE-three.txt</a>).</p>
 </main>
 <script type="application/json" id="fold-data">{data}</script>

@@ -481,14 +481,14 @@ def _chromium_run(args: list[str], profile: Path) -> subprocess.CompletedProcess
 @pytest.mark.skipif(_chromium() is None, reason="chromium is not on PATH: the viewer check needs a "
                     "headless Chromium (SwiftShader WebGL)")
 def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
-    """Opened from file:// with no network: the page at load (t = 0) and at #t=0.5 give
-    different pictures, and the 3D canvas is drawn (not one colour)."""
+    """Opened from file:// with no network: the page at load (t = 0), at #t=0.5 and in the
+    permanent state give different pictures, and the 3D canvas is drawn (not one colour)."""
     import numpy as np
 
     _, out, _, _ = gallery
     url = (out / FAILING / "viewer.html").resolve().as_uri()
     shots, states = [], []
-    for k, suffix in enumerate(("", "#t=0.5")):
+    for k, suffix in enumerate(("", "#t=0.5", "#state=permanent")):
         dom = _chromium_run(["--dump-dom", url + suffix], tmp_path / f"p{k}")
         m = re.search(r'<body[^>]*data-canvas="(\d+),(\d+),(\d+),(\d+)"[^>]*>', dom.stdout)
         assert m and 'data-ready="1"' in m.group(0), f"viewer did not start: {dom.stderr[-2000:]}"
@@ -504,6 +504,7 @@ def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
         colours = np.unique(canvas.reshape(-1, 3), axis=0)
         assert len(colours) > 20, f"the 3D view is blank ({len(colours)} colours)"
         shots.append(canvas)
-    assert states == ["0.000", "0.500"]
-    diff = np.abs(shots[0] - shots[1]).sum(axis=-1) > 30
-    assert diff.mean() > 0.005, f"the picture at #t=0.5 is the one at load ({diff.mean():.4f} changed)"
+    assert states == ["0.000", "0.500", "permanent"]
+    for k in (1, 2):
+        diff = np.abs(shots[0] - shots[k]).sum(axis=-1) > 30
+        assert diff.mean() > 0.005, f"picture {k} is the one at load ({diff.mean():.4f} changed)"

@@ -38,7 +38,7 @@
   camera.up.set(0, 0, 1);
   // the still renders' cameras: strips from the side (along +y, 20 deg up), others oblique
   var el = (D.planar ? 20 : 32) * Math.PI / 180, az = (D.planar ? -90 : -58) * Math.PI / 180;
-  var dist = radius / Math.sin(15 * Math.PI / 180) * 0.8;
+  var dist = radius / Math.sin(15 * Math.PI / 180) * 0.62;
   camera.position.set(centre.x + dist * Math.cos(el) * Math.cos(az),
                       centre.y + dist * Math.cos(el) * Math.sin(az), centre.z + dist * Math.sin(el));
   var controls = new T.OrbitControls(camera, canvas);
@@ -153,8 +153,9 @@
     document.body.setAttribute("data-t", f.toFixed(3));
   }
 
-  function setNamed(name) {
+  function setNamed(name, fromUser) {
     var k = name === "programmed" ? nF : nF + 1;
+    if (fromUser) history.replaceState(null, "", "#state=" + name);
     state.named = name;
     show(k, k, 0, null);
     clock.textContent = name + " state";
@@ -168,7 +169,9 @@
     });
   }
 
-  function fromHash() {
+  function fromHash() {  // "#t=0.5" a moment of the fold, "#state=permanent" a named state
+    var st = /(?:^#|&)state=(programmed|permanent)\b/.exec(location.hash);
+    if (st) { setNamed(st[1]); return; }
     var m = /(?:^#|&)t=([0-9.eE+-]+)/.exec(location.hash);
     setFraction(m ? parseFloat(m[1]) : 0, false);
   }
@@ -193,8 +196,8 @@
     requestAnimationFrame(tick);
   });
   slider.addEventListener("input", function () { if (playing) stop(); setFraction(slider.value / 1000, true); });
-  document.getElementById("programmed").addEventListener("click", function () { if (playing) stop(); setNamed("programmed"); });
-  document.getElementById("permanent").addEventListener("click", function () { if (playing) stop(); setNamed("permanent"); });
+  document.getElementById("programmed").addEventListener("click", function () { if (playing) stop(); setNamed("programmed", true); });
+  document.getElementById("permanent").addEventListener("click", function () { if (playing) stop(); setNamed("permanent", true); });
   window.addEventListener("hashchange", fromHash);
 
   function resize() {
