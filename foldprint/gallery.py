@@ -1,7 +1,10 @@
-"""A static, offline HTML gallery of designs: renders, plots, checks, simulation and files.
+"""A static, offline HTML gallery of designs: an interactive 3D viewer, renders, plots,
+checks, simulation and files.
 
 :func:`build_gallery` writes, for every design, into ``out_dir/<name>/``:
 
+* ``viewer.html``: the interactive fold viewer (:mod:`foldprint.viewer`; three.js and the
+  viewer script are written once into ``out_dir/viewer/``), opens from ``file://``;
 * ``programmed.png`` and ``permanent.png``: the flat sheet and the printed shape;
 * ``frames.png``: four mid-fold frames; ``fold.gif``: the fold as an animation;
 * ``hinge_angles.png`` (paper Fig. 3b style) and, for planar strips,
@@ -13,10 +16,11 @@
 
 and, once, ``out_dir/materials.png`` (fold time against bath temperature) and
 ``out_dir/index.html``, one self-contained page (inline CSS, no scripts, relative links)
-that ties everything together. Every file goes through
+that ties everything together. Designs are built in parallel worker processes (the
+collision checks hold the GIL); every file goes through
 :func:`foldprint.exchange.files.write_atomic`; nothing is printed, progress is logged and
-reported to an optional callback. The output is deterministic: building twice gives the
-same bytes (export files aside, which belong to the exporter).
+reported to an optional callback. The output is deterministic: building twice, with any
+number of processes, gives the same bytes (export files aside, which belong to the exporter).
 """
 
 from __future__ import annotations

@@ -250,8 +250,8 @@ def test_export_import_failure_is_skipped_gracefully(tmp_path, monkeypatch, capl
 def test_gallery_is_deterministic(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "foldprint.pipeline", None)  # exports are not ours
     d = strip("tiny", [10.0, 12.0, 8.0], [90.0, -60.0], ["H-1", "H-4"])
-    a = build_gallery([d], tmp_path / "a", gif_frames=6).parent
-    b = build_gallery([d], tmp_path / "b", gif_frames=6).parent
+    a = build_gallery([d], tmp_path / "a", gif_frames=6, jobs=2).parent  # chart and design in parallel
+    b = build_gallery([d], tmp_path / "b", gif_frames=6, jobs=1).parent
     files_a = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
     files_b = sorted(p.relative_to(b) for p in b.rglob("*") if p.is_file())
     assert files_a == files_b and files_a
@@ -508,3 +508,24 @@ def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
     for k in (1, 2):
         diff = np.abs(shots[0] - shots[k]).sum(axis=-1) > 30
         assert diff.mean() > 0.005, f"picture {k} is the one at load ({diff.mean():.4f} changed)"
+
+
+# -- the material chart's fold-time table ----------------------------------------------------
+
+def test_fold_time_table_equals_the_recovery_curves(lib):
+    """The vectorised table gives each recovery curve's own 98 % time, including 'never'
+    (a bath far below Tg) and a thicker hinge."""
+    from foldprint.recovery import recovery_curve
+    from foldprint.recovery_table import fold_times
+
+    baths = [20.0, 71.5, 84.0, 100.0]
+    for name, thick in (("H-1", 0.8), ("H-4", 1.2), ("H-7", 0.8)):
+        m = lib[name]
+        got = fold_times(m, baths, thick, 10.0)
+        for b, g in zip(baths, got):
+            want = recovery_curve(m, b, thick, 10.0).fold_time
+            if want is None:
+                assert g is None, (name, b, g)
+            else:
+                assert g == pytest.approx(want, rel=1e-12, abs=1e-12), (name, b)
+        assert got[0] is None  # 20 C: no hinge material recovers
