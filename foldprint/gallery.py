@@ -251,8 +251,13 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     else:
         from concurrent.futures import as_completed
 
+        # the workers fork from here: import what they all need once, before the fork
+        from . import checks, geometry, render, render_anim, simulate, viewer  # noqa: F401
+
+        # the biggest designs first, so the last task to finish is a small one
+        order = [0] + sorted(range(1, len(tasks)), key=lambda k: -len(designs[k - 1].hinges))
         with pool:
-            futures = {pool.submit(fn, *args): k for k, (fn, args) in enumerate(tasks)}
+            futures = {pool.submit(*tasks[k][:1], *tasks[k][1]): k for k in order}
             for fut in as_completed(futures):
                 k = futures[fut]
                 results[k] = fut.result()

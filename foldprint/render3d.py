@@ -106,13 +106,14 @@ class Painter:
     def draw(self, sc: Scene) -> None:
         from matplotlib.path import Path
 
-        _, _, eye = self.camera.axes()
+        right, up, eye = self.camera.axes()
+        proj = np.stack([right, up]).T
         items = []  # (depth, order, path, face, edge, width)
         for k, (rings, face, edge, lw) in enumerate(zip(sc.polys, sc.face_colors, sc.edge_colors,
                                                          sc.edge_widths)):
             verts, codes = [], []
             for r in rings:
-                p = project(r, self.camera)
+                p = r @ proj
                 verts.append(np.vstack([p, p[:1]]))
                 codes.append([Path.MOVETO] + [Path.LINETO] * (len(p) - 1) + [Path.CLOSEPOLY])
             depth = float(rings[0].mean(axis=0) @ eye)
@@ -122,7 +123,7 @@ class Painter:
         n = len(items)
         for k, (line, color, lw) in enumerate(zip(sc.lines, sc.line_colors, sc.line_widths)):
             depth = float(line.mean(axis=0) @ eye) + 1e-6  # over the faces they bound
-            items.append((depth, n + k, Path(project(line, self.camera)), (0.0, 0.0, 0.0, 0.0),
+            items.append((depth, n + k, Path(line @ proj), (0.0, 0.0, 0.0, 0.0),
                           (*color, 1.0), lw))
         items.sort(key=lambda it: (it[0], it[1]))
         self.coll.set_paths([it[2] for it in items])

@@ -166,12 +166,14 @@ def scene(design: Design, poses: np.ndarray, model: str, lib: MaterialLibrary,
                 + (f.width * s)[:, None] * f.normal[None]
             curves.append(np.einsum("nij,nj->ni", maps[:, :3, :3], line) + maps[:, :3, 3])
         c0, c1 = curves
-        for k in range(_ARC_STEPS):
-            quad = np.array([c0[k], c0[k + 1], c1[k + 1], c1[k]])
-            nrm = np.cross(quad[1] - quad[0], quad[3] - quad[0])
-            nn = np.linalg.norm(nrm)
+        quads = np.stack([c0[:-1], c0[1:], c1[1:], c1[:-1]], axis=1)  # (steps, 4, 3)
+        nrm = np.cross(quads[:, 1] - quads[:, 0], quads[:, 3] - quads[:, 0])
+        nn = np.linalg.norm(nrm, axis=1, keepdims=True)
+        nrm = np.where(nn > 0, nrm / np.where(nn > 0, nn, 1.0), np.array([0.0, 0.0, 1.0]))
+        k_shade = 0.55 + 0.45 * np.abs(nrm @ _LIGHT)
+        for quad, k in zip(quads, k_shade):
             sc.polys.append([quad])
-            sc.face_colors.append(_shade(color, nrm / nn if nn > 0 else np.array([0.0, 0.0, 1.0])))
+            sc.face_colors.append(np.clip(color * k, 0.0, 1.0))
             sc.edge_colors.append(None)
             sc.edge_widths.append(0.3)
         for c in curves:
