@@ -367,7 +367,7 @@ def gallery(
 
         with Progress(TextColumn("gallery"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                       TextColumn("{task.description}"), transient=True, console=Console(stderr=True)) as bar:
-            task = bar.add_task("", total=len(loaded) + 2)
+            task = bar.add_task(f"building {len(loaded)} design(s)", total=len(loaded) + 2)
             index = build_gallery(loaded, out, library=lib, jobs=jobs, progress=lambda done, total, msg: bar.update(
                 task, completed=done, total=total, description=msg))
     _note(f"wrote {index}")
