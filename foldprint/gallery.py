@@ -38,6 +38,7 @@ from urllib.parse import quote
 
 from . import __version__
 from .design import Design
+from .errors import FoldprintError
 from .materials import MaterialLibrary, default_library
 
 log = logging.getLogger(__name__)
@@ -86,6 +87,7 @@ class _Entry:
     data_links: list = field(default_factory=list)
     export_note: str = ""
     viewer: _Link | None = None  # the design's interactive 3D viewer page
+    viewer_note: str = ""  # why there is none
     jam: tuple | None = None  # (jam probability, (lo, hi) 95 % CI) when robust was run
 
 
@@ -322,10 +324,15 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
 
     log.info("gallery: %s: viewer", name)
     ok, status = _status(entry)
-    page = viewer.viewer_page(viewer.viewer_data(result, lib, robust), status, ok,
-                              f"../index.html#{quote('d-' + dirname)}", __version__)
-    size = len(write_atomic(base / "viewer.html", page).read_bytes())
-    entry.viewer = _Link(_url(f"{dirname}/viewer.html"), "interactive 3D viewer", size)
+    try:
+        data = viewer.viewer_data(result, lib, robust)
+    except FoldprintError as exc:  # the printed part cannot be built: said on the page
+        log.warning("gallery: %s: no 3D viewer: %s", name, exc)
+        entry.viewer_note = f"No 3D viewer: {exc}"
+    else:
+        page = viewer.viewer_page(data, status, ok, f"../index.html#{quote('d-' + dirname)}", __version__)
+        size = len(write_atomic(base / "viewer.html", page).read_bytes())
+        entry.viewer = _Link(_url(f"{dirname}/viewer.html"), "interactive 3D viewer", size)
 
     log.info("gallery: %s: rendering", name)
     for state, what in (("programmed", "programmed (flat) state, as it goes into the bath"),
@@ -483,6 +490,8 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
         parts.append(f'<p class="viewer"><a class="button" href="{_e(entry.viewer.href)}">Open the interactive '
                      f'3D viewer</a> <span class="muted">(orbit, zoom, scrub the fold; programmed and permanent '
                      f'states; {_e(_size(entry.viewer.size))} page)</span></p>')
+    elif entry.viewer_note:
+        parts.append(f'<p class="muted">{_e(entry.viewer_note)}</p>')
     kind = "planar strip (side view)" if d.is_planar_strip else "3D crease pattern"
     fold = (f"{_fmt_s(entry.fold_time)} (every hinge at 98 %)" if entry.fold_time is not None
             else "\u2014 (does not complete)")

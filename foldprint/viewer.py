@@ -8,7 +8,9 @@ segments between slots) bent through :func:`foldprint.kinematics.hinge_map`, eva
 here, per frame (the page only interpolates between frames, it has no hinge map of its
 own). :func:`viewer_page` wraps the data in a page that loads three.js and the viewer
 script from ``../viewer/`` (written once by :func:`write_assets`): classic scripts, no
-network, so it opens from ``file://``.
+network, so it opens from ``file://``. The printed part is built with arc hinges; a
+``point``-model simulation (the paper's ROM, a comparison mode) moves the same panels about
+the fold lines, and its ribbons collapse onto them.
 
 Size: arrays are base64 (poses float32, ribbon vertices quantised to 16 bits over the
 scene's bounds, 1.5 um steps on a 100 mm part). With :data:`FRAMES` frames the templates'

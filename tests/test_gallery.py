@@ -529,3 +529,13 @@ def test_fold_time_table_equals_the_recovery_curves(lib):
             else:
                 assert g == pytest.approx(want, rel=1e-12, abs=1e-12), (name, b)
         assert got[0] is None  # 20 C: no hinge material recovers
+
+
+def test_a_design_without_printable_geometry_gets_a_note_not_a_crash(tmp_path):
+    """A flat hinge (angle 0) has no printed strip: no viewer and no files, both said."""
+    d = strip("flat", [10.0, 10.0], [0.0], ["H-1"])
+    index = build_gallery([d], tmp_path / "site", gif_frames=3, jobs=1)
+    text = index.read_text(encoding="utf-8")
+    assert "No 3D viewer:" in text and "Export failed:" in text
+    assert not (tmp_path / "site" / "flat" / "viewer.html").exists()
+    assert (tmp_path / "site" / "flat" / "simulation.json").is_file()
