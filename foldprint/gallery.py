@@ -259,7 +259,7 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
         # the biggest designs first, so the last task to finish is a small one
         order = [0] + sorted(range(1, len(tasks)), key=lambda k: -len(designs[k - 1].hinges))
         with pool:
-            futures = {pool.submit(*tasks[k][:1], *tasks[k][1]): k for k in order}
+            futures = {pool.submit(tasks[k][0], *tasks[k][1]): k for k in order}
             for fut in as_completed(futures):
                 k = futures[fut]
                 results[k] = fut.result()
