@@ -465,9 +465,11 @@ def gallery(
     designs: Optional[List[str]] = typer.Argument(None, help="Designs or template names (default: every template)."),
     out: Path = typer.Option(Path("output") / "gallery", "--out", help="Output directory."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    jobs: Optional[int] = typer.Option(None, "--jobs", min=1, help="Worker processes (default: one per CPU)."),
 ):
     """Simulate, check, render and export designs into an offline HTML gallery
-    (index.html with renders, fold animations, plots, check summaries and 3MF/STL links).
+    (index.html with an interactive 3D viewer per design, renders, fold animations, plots,
+    check summaries and 3MF/STL links); designs are built in parallel processes.
 
     Example: foldprint gallery --out output/gallery
     """
@@ -483,16 +485,20 @@ def gallery(
         raise FoldprintError("no designs given and no templates found")
     loaded = [load_design(resolve_design_path(n), lib) for n in names]
     ensure_dir(out)
-    if _STATE["quiet"] or not sys.stderr.isatty():
-        index = build_gallery(loaded, out, progress=lambda msg: _note(msg) if _STATE["verbose"] else None,
-                              library=lib)
+    if _STATE["quiet"]:
+        index = build_gallery(loaded, out, library=lib, jobs=jobs)
+    elif not sys.stderr.isatty():  # a log: one line per finished part
+        index = build_gallery(loaded, out, library=lib, jobs=jobs,
+                              progress=lambda done, total, msg: print(f"[{done}/{total}] {msg}", file=sys.stderr))
     else:
-        from rich.progress import Progress
+        from rich.console import Console
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-        with Progress(transient=True, console=__import__("rich.console").console.Console(stderr=True)) as bar:
-            task = bar.add_task("gallery", total=None)
-            index = build_gallery(loaded, out, progress=lambda msg: bar.update(task, description=msg),
-                                  library=lib)
+        with Progress(TextColumn("gallery"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                      TextColumn("{task.description}"), transient=True, console=Console(stderr=True)) as bar:
+            task = bar.add_task(f"building {len(loaded)} design(s)", total=len(loaded) + 2)
+            index = build_gallery(loaded, out, library=lib, jobs=jobs, progress=lambda done, total, msg: bar.update(
+                task, completed=done, total=total, description=msg))
     _note(f"wrote {index}")
 
 

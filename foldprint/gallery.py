@@ -1,7 +1,10 @@
-"""A static, offline HTML gallery of designs: renders, plots, checks, simulation and files.
+"""A static, offline HTML gallery of designs: an interactive 3D viewer, renders, plots,
+checks, simulation and files.
 
 :func:`build_gallery` writes, for every design, into ``out_dir/<name>/``:
 
+* ``viewer.html``: the interactive fold viewer (:mod:`foldprint.viewer`; three.js and the
+  viewer script are written once into ``out_dir/viewer/``), opens from ``file://``;
 * ``programmed.png`` and ``permanent.png``: the flat sheet and the printed shape;
 * ``frames.png``: four mid-fold frames; ``fold.gif``: the fold as an animation;
 * ``hinge_angles.png`` (paper Fig. 3b style) and, for planar strips,
@@ -13,10 +16,11 @@
 
 and, once, ``out_dir/materials.png`` (fold time against bath temperature) and
 ``out_dir/index.html``, one self-contained page (inline CSS, no scripts, relative links)
-that ties everything together. Every file goes through
+that ties everything together. Designs are built in parallel worker processes (the
+collision checks hold the GIL); every file goes through
 :func:`foldprint.exchange.files.write_atomic`; nothing is printed, progress is logged and
-reported to an optional callback. The output is deterministic: building twice gives the
-same bytes (export files aside, which belong to the exporter).
+reported to an optional callback. The output is deterministic: building twice, with any
+number of processes, gives the same bytes (export files aside, which belong to the exporter).
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ from urllib.parse import quote
 
 from . import __version__
 from .design import Design
+from .errors import FoldprintError
 from .materials import MaterialLibrary, default_library
 
 log = logging.getLogger(__name__)
@@ -81,6 +86,9 @@ class _Entry:
     files: list = field(default_factory=list)
     data_links: list = field(default_factory=list)
     export_note: str = ""
+    viewer: _Link | None = None  # the design's interactive 3D viewer page
+    viewer_note: str = ""  # why there is none
+    jam: tuple | None = None  # (jam probability, (lo, hi) 95 % CI) when robust was run
 
 
 # -- helpers --------------------------------------------------------------------------
@@ -132,34 +140,56 @@ def _fmt_s(t: float | None, nd: int = 2) -> str:
     return "\u2014" if t is None else f"{t:.{nd}f} s"
 
 
-def _import_exporter():
-    """``export_design``, or None (logged) when the exporter cannot be imported."""
-    try:
-        from .pipeline import export as export_design
-    except Exception as exc:  # noqa: BLE001 - any failure only costs the download links
-        log.warning("printable-file export unavailable (%s: %s); the gallery has no download links",
-                    type(exc).__name__, exc)
-        return None
-    return export_design
-
-
 # -- building -------------------------------------------------------------------------
 
+Progress = Callable[[int, int, str], None]
+"""``progress(done, total, message)``: called as each part of the gallery is finished."""
+
+
+#: Monte-Carlo samples of the jam probability per design in the gallery: none by default,
+#: so the gallery builds in seconds (``foldprint check`` runs 20); the page says so.
+GALLERY_SAMPLES = 0
+
+
+def _evaluate(design: Design, lib: MaterialLibrary, dt: float, samples: int = GALLERY_SAMPLES):
+    """Simulation (once), design-rule findings and the jam-probability result (None: not
+    run) of one design, from :func:`foldprint.pipeline.evaluate`."""
+    from .pipeline import evaluate, run_simulation
+
+    result, _ = run_simulation(design, dt=dt, library=lib)
+    ev = evaluate(design, library=lib, dt=dt, simulation=result, samples=samples, workers=1)
+    return result, ev.findings, ev.robust
+
+
+def _pool(jobs: int, n_tasks: int):
+    """A process pool (FCL holds the GIL, so threads would not help), or None for one job."""
+    import multiprocessing as mp
+    import sys
+    from concurrent.futures import ProcessPoolExecutor
+
+    workers = max(1, min(jobs, n_tasks))
+    if workers == 1:
+        return None
+    ctx = mp.get_context("fork") if sys.platform.startswith("linux") else None
+    return ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+
+
 def build_gallery(designs: Sequence[Design], out_dir: str | Path,
-                  progress: Callable[[str], None] | None = None, *,
+                  progress: Progress | None = None, *,
                   library: MaterialLibrary | None = None, dt: float = SIM_DT,
-                  gif_frames: int = GIF_FRAMES) -> Path:
+                  gif_frames: int = GIF_FRAMES, jobs: int | None = None) -> Path:
     """Simulate, check, render and export ``designs`` into a static HTML gallery.
 
     Parameters
     ----------
     designs : sequence of Design
         The designs, in page order (e.g. every template, via
-        :func:`foldprint.templates.list_templates` and :func:`foldprint.design_io.load_design`).
+        :func:`foldprint.templates.list_templates` and :func:`foldprint.load.load_design`).
     out_dir : str or Path
         Output directory (created if needed); each design gets ``out_dir/<name>/``.
     progress : callable, optional
-        Called with a short description of each step (``"helix_graded: simulating"``).
+        ``progress(done, total, message)``, called as the material chart, each design and
+        the index are finished (for a progress bar).
     library : MaterialLibrary, optional
         Materials for simulation, colours and the material chart; the default library if
         omitted.
@@ -167,6 +197,9 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
         Time step (s) of the simulations behind the renders.
     gif_frames : int
         Frames of each fold animation.
+    jobs : int, optional
+        Worker processes (default: the number of CPUs); designs are built in parallel,
+        the page is the same whatever the number.
 
     Returns
     -------
@@ -179,57 +212,88 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
         If ``out_dir`` or a file in it cannot be written. A design whose printable files
         cannot be built is reported on the page (and logged), not raised.
     """
-    from . import render
+    import os
+
     from .exchange.files import ensure_dir, write_atomic
+    from .viewer import ASSETS, asset_bytes
 
     lib = library or default_library()
     out = ensure_dir(out_dir)
     t_start = time.perf_counter()
+    dirnames = _unique_dirnames(designs)
+    total = len(designs) + 2
+    done = 0
 
     def step(msg: str) -> None:
-        log.info("gallery: %s", msg)
+        nonlocal done
+        done += 1
+        log.info("gallery: [%d/%d] %s", done, total, msg)
         if progress is not None:
-            progress(msg)
+            progress(done, total, msg)
 
-    export_design = _import_exporter()
-    step("material chart")
-    chart = render.figure_bytes(render.fold_time_chart(lib, MATERIAL_TEMPERATURES), "png", PLOT_DPI)
-    temps = ", ".join(f"{t:g}" for t in MATERIAL_TEMPERATURES)
-    materials_img = _write_image(
-        out, "materials.png", chart,
-        f"Glass transition temperature of each hinge material and its fold time at {temps} \u00b0C",
-        f"Hinge materials: Tg and 98 % fold time against bath temperature ({temps} \u00b0C marked).")
+    for name in ASSETS:
+        write_atomic(out / "viewer" / name, asset_bytes(name))
+    tasks = [(_chart_task, (out, lib))] + [
+        (_build_design, (d, out, dn, lib, dt, gif_frames)) for d, dn in zip(designs, dirnames)]
+    results: list = [None] * len(tasks)
+    pool = _pool(jobs or os.cpu_count() or 1, len(tasks))
+    labels = ["material chart"] + [f"{d.name}: simulated, checked, rendered, exported" for d in designs]
+    if pool is None:
+        for k, (fn, args) in enumerate(tasks):
+            results[k] = fn(*args)
+            step(labels[k])
+    else:
+        from concurrent.futures import as_completed
 
-    entries = []
-    for design, dirname in zip(designs, _unique_dirnames(designs)):
-        entries.append(_build_design(design, out, dirname, lib, dt, gif_frames, export_design, step))
+        # the workers fork from here: import what they all need once, before the fork
+        from . import checks, geometry, render, render_anim, simulate, viewer  # noqa: F401
 
-    step("index.html")
+        # the biggest designs first, so the last task to finish is a small one
+        order = [0] + sorted(range(1, len(tasks)), key=lambda k: -len(designs[k - 1].hinges))
+        with pool:
+            futures = {pool.submit(tasks[k][0], *tasks[k][1]): k for k in order}
+            for fut in as_completed(futures):
+                k = futures[fut]
+                results[k] = fut.result()
+                step(labels[k])
+    materials_img = results[0]
+    entries = results[1:]
+    for entry, design in zip(entries, designs):
+        entry.design = design  # the worker's copy came back pickled; keep the caller's
+
     page = _page(entries, materials_img, lib, dt)
     index = write_atomic(out / "index.html", page)
+    step("index.html")
     log.info("gallery: %d design(s) in %s (%.1f s)", len(entries), out, time.perf_counter() - t_start)
     return index
 
 
+def _chart_task(out: Path, lib: MaterialLibrary) -> _Image:
+    from . import render
+
+    chart = render.figure_bytes(render.fold_time_chart(lib, MATERIAL_TEMPERATURES), "png", PLOT_DPI)
+    temps = ", ".join(f"{t:g}" for t in MATERIAL_TEMPERATURES)
+    return _write_image(
+        out, "materials.png", chart,
+        f"Glass transition temperature of each hinge material and its fold time at {temps} \u00b0C",
+        f"Hinge materials: Tg and 98 % fold time against bath temperature ({temps} \u00b0C marked).")
+
+
 def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary, dt: float,
-                  gif_frames: int, export_design, step) -> _Entry:
-    from . import render, render3d
+                  gif_frames: int) -> _Entry:
+    """Every file of one design (runs in a worker process); the entry for the page."""
+    from . import render, render3d, render_anim, viewer
     from .checks import default_printer_key
     from .exchange.files import write_atomic
-    from .pipeline import evaluate, run_simulation
     from .report import simulation_json
 
     name = design.name
     base = out / dirname
-    step(f"{name}: simulating")
-    result, _ = run_simulation(design, dt=dt, library=lib)
+    log.info("gallery: %s: simulating and checking", name)
+    result, findings, robust = _evaluate(design, lib, dt)
     sim = simulation_json(result)
     write_atomic(base / "simulation.json", _json_bytes(sim))
-
-    step(f"{name}: design-rule checks")
-    ev = evaluate(design, library=lib, simulation=result, samples=0, dt=dt)
-    findings = ev.findings
-    n_err = ev.errors
+    n_err = sum(f.severity == "error" for f in findings)
     checks = {"design": name, "printer": default_printer_key(), "ok": n_err == 0, "errors": n_err,
               "warnings": sum(f.severity == "warning" for f in findings),
               "findings": [f.to_json() for f in findings]}
@@ -243,12 +307,26 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
     entry = _Entry(design, dirname, sim, checks, fold_time=fold_time,
                    contacts=[(c.panels[0], c.panels[1], c.time, c.method) for c in result.contacts],
                    hinge_done=list(result.hinge_done))
+    if robust is not None:
+        entry.jam = (float(robust.jam_probability), tuple(float(x) for x in robust.ci95))
     entry.data_links = [_Link(_url(f"{dirname}/simulation.json"), "simulation (JSON)"),
                         _Link(_url(f"{dirname}/check.json"), "design-rule checks (JSON)")]
     model = result.trajectory.model
     bath = result.trajectory.bath_c
 
-    step(f"{name}: rendering states")
+    log.info("gallery: %s: viewer", name)
+    ok, status = _status(entry)
+    try:
+        data = viewer.viewer_data(result, lib, robust)
+    except FoldprintError as exc:  # the printed part cannot be built: said on the page
+        log.warning("gallery: %s: no 3D viewer: %s", name, exc)
+        entry.viewer_note = f"No 3D viewer: {exc}"
+    else:
+        page = viewer.viewer_page(data, status, ok, f"../index.html#{quote('d-' + dirname)}", __version__)
+        size = len(write_atomic(base / "viewer.html", page).read_bytes())
+        entry.viewer = _Link(_url(f"{dirname}/viewer.html"), "interactive 3D viewer", size)
+
+    log.info("gallery: %s: rendering", name)
     for state, what in (("programmed", "programmed (flat) state, as it goes into the bath"),
                         ("permanent", "permanent state: the printed shape every hinge recovers to")):
         fig = render3d.render_state(design, render3d.state_poses(design, state, model),
@@ -256,8 +334,6 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
         entry.images.append(_write_image(
             out, f"{dirname}/{state}.png", render.figure_bytes(fig, "png", STATE_DPI),
             f"3D view of {name} in the {state} state", f"The {what}."))
-
-    step(f"{name}: rendering mid-fold frames")
     times = render3d.frame_times(result, 4)
     fig = render3d.render_frames(result, 4, library=lib)
     t_list = ", ".join(f"{t:.2f}" for t in times)
@@ -266,9 +342,7 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
         f"Four 3D views of {name} while folding, at {t_list} s",
         f"Mid-fold frames at {t_list} s (same camera and scale); panels in contact in red.",
         wide=True))
-
-    step(f"{name}: rendering fold animation")
-    gif = render3d.fold_animation_gif(result, gif_frames, dpi=GIF_DPI, library=lib)
+    gif = render_anim.fold_animation_gif(result, gif_frames, dpi=GIF_DPI, library=lib)
     end = render3d.motion_end(result)
     entry.images.append(_write_image(
         out, f"{dirname}/fold.gif", gif,
@@ -276,8 +350,6 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
         f"The fold from 0 to {end:.2f} s ({gif_frames} frames, looping)."
         + (" After the first contact the model's motion is kinematic only: the real part jams."
            if result.contacts else "")))
-
-    step(f"{name}: plots")
     entry.images.append(_write_image(
         out, f"{dirname}/hinge_angles.png",
         render.figure_bytes(render.hinge_angle_figure(result), "png", PLOT_DPI),
@@ -291,21 +363,20 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
             "The paper's collision index S_ij (Fig. 4 style): contact where it enters the shaded "
             "band (0, 1); red points are contacts."))
 
-    if export_design is not None:
-        step(f"{name}: exporting printable files")
-        try:
-            records = export_design(design, base / "files", state="permanent",
-                                    formats=("3mf", "prusa3mf", "stl"))
-        except Exception as exc:  # noqa: BLE001 - the exporter's failure is shown, not raised
-            log.warning("gallery: %s: export failed: %s: %s", name, type(exc).__name__, exc)
-            entry.export_note = f"Export failed: {type(exc).__name__}: {exc}"
-        else:
-            for rec in records:
-                fname = Path(rec["path"]).name
-                entry.files.append(_Link(_url(f"{dirname}/files/{fname}"),
-                                         _format_label(rec, fname), rec.get("bytes")))
+    from .pipeline import export as export_design
+
+    log.info("gallery: %s: exporting printable files", name)
+    try:
+        records = export_design(design, base / "files", state="permanent",
+                                formats=("3mf", "prusa3mf", "stl"), library=lib)
+    except FoldprintError as exc:  # a part that cannot be built is shown, not raised
+        log.warning("gallery: %s: export failed: %s", name, exc)
+        entry.export_note = f"Export failed: {exc}"
     else:
-        entry.export_note = "Printable-file export is not available in this installation."
+        for rec in records:
+            fname = Path(rec["path"]).name
+            entry.files.append(_Link(_url(f"{dirname}/files/{fname}"),
+                                     _format_label(rec, fname), rec.get("bytes")))
     return entry
 
 
@@ -349,6 +420,8 @@ img { max-width: 100%; height: auto; border: 1px solid #eee; }
 .pics figure.wide { grid-column: 1 / -1; }
 .muted { color: #666; }
 code { font-size: 0.92em; }
+a.button { display: inline-block; padding: 0.3em 0.9em; border-radius: 4px; background: #2f5d9e; color: #fff;
+           text-decoration: none; font-weight: 600; }
 """
 
 
@@ -403,6 +476,12 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
     if d.description:
         parts.append(f'<p class="desc">{_e(d.description)}</p>')
     parts.append(f'<p class="status {"ok" if ok else "fail"}">{_e(status)}</p>')
+    if entry.viewer is not None:
+        parts.append(f'<p class="viewer"><a class="button" href="{_e(entry.viewer.href)}">Open the interactive '
+                     f'3D viewer</a> <span class="muted">(orbit, zoom, scrub the fold; programmed and permanent '
+                     f'states; {_e(_size(entry.viewer.size))} page)</span></p>')
+    elif entry.viewer_note:
+        parts.append(f'<p class="muted">{_e(entry.viewer_note)}</p>')
     kind = "planar strip (side view)" if d.is_planar_strip else "3D crease pattern"
     fold = (f"{_fmt_s(entry.fold_time)} (every hinge at 98 %)" if entry.fold_time is not None
             else "\u2014 (does not complete)")
@@ -413,7 +492,9 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
         f"<tr><th>structure</th><td>{len(d.panels)} panels, {len(d.hinges)} hinges, {_e(kind)}</td></tr>"
         f"<tr><th>model</th><td>{_e(sim['hinge_model'])} hinges, collision check {_e(sim['method'])}, "
         f"after contact: {_e(sim['after_contact'])}, dt {_e(sim['dt_s'])} s</td></tr>"
-        "</tbody></table>")
+        + (f"<tr><th>jam probability</th><td>{100 * entry.jam[0]:.1f} % (95 % CI {100 * entry.jam[1][0]:.1f}"
+           f"\u2013{100 * entry.jam[1][1]:.1f} %)</td></tr>" if entry.jam is not None else "")
+        + "</tbody></table>")
     if entry.contacts:
         rows = "".join(f"<tr><td>{_e(a)}\u2013{_e(b)}</td><td class=\"num\">{t:.3f} s</td><td>{_e(m)}</td></tr>"
                        for a, b, t, m in entry.contacts)
@@ -477,7 +558,8 @@ def _page(entries: list[_Entry], materials_img: _Image, lib: MaterialLibrary, dt
         first = (f"{_e(en.contacts[0][0])}\u2013{_e(en.contacts[0][1])} at {en.contacts[0][2]:.3f} s"
                  if en.contacts else "none")
         ft = _fmt_s(en.fold_time)
-        rows.append(f'<tr><td><a href="#{_e("d-" + en.dirname)}">{_e(en.design.name)}</a></td>'
+        view = (f' <a class="muted" href="{_e(en.viewer.href)}">3D viewer</a>' if en.viewer is not None else "")
+        rows.append(f'<tr><td><a href="#{_e("d-" + en.dirname)}">{_e(en.design.name)}</a>{view}</td>'
                     f'<td class="{"ok" if ok else "fail"}">{"completes" if ok else "does not complete"}</td>'
                     f'<td class="num">{_e(ft)}</td><td>{first}</td>'
                     f'<td class="num">{en.checks["errors"]}</td><td class="num">{en.checks["warnings"]}</td></tr>')

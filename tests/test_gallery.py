@@ -10,11 +10,9 @@ from __future__ import annotations
 import html
 import io
 import json
-import logging
 import re
 import shutil
 import subprocess
-import sys
 import threading
 from functools import partial
 from html.parser import HTMLParser
@@ -30,9 +28,10 @@ from foldprint.load import load_design
 from foldprint.gallery import build_gallery
 from foldprint.templates import templates_dir
 
-DESIGNS = ("helix_graded", "self_lock_uniform")
+FAILING = "self_lock_uniform"  # collides (panels p1 and p6) with the printed, arc hinges
+DESIGNS = ("helix_graded", FAILING)
 PER_DESIGN = ("programmed.png", "permanent.png", "frames.png", "fold.gif", "hinge_angles.png",
-              "collision_index.png", "check.json", "simulation.json")
+              "collision_index.png", "check.json", "simulation.json", "viewer.html")
 VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source",
         "track", "wbr"}
 
@@ -41,9 +40,9 @@ VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "met
 def gallery(tmp_path_factory):
     root = tmp_path_factory.mktemp("gallery")
     out = root / "site"
-    steps: list[str] = []
+    steps: list[tuple[int, int, str]] = []
     designs = [load_design(templates_dir() / f"{n}.toml") for n in DESIGNS]
-    index = build_gallery(designs, out, progress=steps.append)
+    index = build_gallery(designs, out, progress=lambda *a: steps.append(a), jobs=2)
     return root, out, index, steps
 
 
@@ -115,7 +114,11 @@ def test_gallery_writes_every_file(gallery):
     for name in DESIGNS:
         for f in PER_DESIGN:
             assert (out / name / f).is_file(), f"{name}/{f} missing"
-        assert f"{name}: simulating" in steps
+    # progress: one step per part (chart, each design, the index), counted up to the total
+    total = len(DESIGNS) + 2
+    assert [(d, t) for d, t, _ in steps] == [(k, total) for k in range(1, total + 1)]
+    assert {m for *_, m in steps} >= {"material chart", "index.html"} | {
+        f"{n}: simulated, checked, rendered, exported" for n in DESIGNS}
     assert not list(out.rglob("*.tmp")), "write_atomic left temporary files"
 
 
@@ -144,10 +147,10 @@ def test_json_outputs(gallery):
     graded = json.loads((out / "helix_graded" / "simulation.json").read_text())
     assert graded["design"] == "helix_graded" and graded["completed"] is True
     assert graded["first_collision"] is None and len(graded["hinges"]) == 9
-    failing = json.loads((out / "self_lock_uniform" / "simulation.json").read_text())
-    assert failing["completed"] is False and failing["hinge_model"] == "arc"
-    assert failing["first_collision"] is not None or not all(g["met"] for g in failing["goals"])
-    check = json.loads((out / "self_lock_uniform" / "check.json").read_text())
+    failing = json.loads((out / FAILING / "simulation.json").read_text())
+    assert failing["completed"] is False
+    assert sorted(failing["first_collision"]["panels"]) == ["p1", "p6"]
+    check = json.loads((out / FAILING / "check.json").read_text())
     assert check["ok"] is False and check["errors"] >= 1
     assert any(f["code"] == "FP170" for f in check["findings"])  # the collision rule
 
@@ -209,14 +212,14 @@ def test_index_is_offline_valid_html5(gallery):
 def test_page_reports_status_collision_hinges_and_checks(gallery):
     _, out, index, _ = gallery
     page = _parse(index)
-    failing = json.loads((out / "self_lock_uniform" / "simulation.json").read_text())
+    failing = json.loads((out / FAILING / "simulation.json").read_text())
     t = failing["first_collision"]["time_s"]
     a, b = failing["first_collision"]["panels"]
-    bad = " ".join(page.text["d-self_lock_uniform"])
+    bad = " ".join(page.text[f"d-{FAILING}"])
     assert "Does not complete" in bad
     assert f"panels {a} and {b} touch at {t:.3f} s" in bad
     assert "NOT met" in bad  # the two holes
-    errors = json.loads((out / "self_lock_uniform" / "check.json").read_text())["errors"]
+    errors = json.loads((out / FAILING / "check.json").read_text())["errors"]
     assert f"{errors} error(s)" in bad and "FP170" in bad  # the check summary with messages
     good = " ".join(page.text["d-helix_graded"])
     graded = json.loads((out / "helix_graded" / "simulation.json").read_text())
@@ -230,23 +233,18 @@ def test_page_reports_status_collision_hinges_and_checks(gallery):
     assert "p1\u2013p6 at" in summary
 
 
-def test_export_import_failure_is_skipped_gracefully(tmp_path, monkeypatch, caplog):
-    monkeypatch.setitem(sys.modules, "foldprint.pipeline", None)  # import raises
+def test_descriptions_are_escaped(tmp_path):
     d = strip("tiny", [10.0, 10.0], [90.0], ["H-1"], description="two panels <&> one hinge")
-    with caplog.at_level(logging.WARNING, logger="foldprint.gallery"):
-        index = build_gallery([d], tmp_path / "site", gif_frames=4)
-    assert any("export unavailable" in r.getMessage() for r in caplog.records)
-    assert not (tmp_path / "site" / "tiny" / "files").exists()
+    index = build_gallery([d], tmp_path / "site", gif_frames=4, jobs=1)
     text = index.read_text(encoding="utf-8")
-    assert "not available" in text
-    assert "two panels &lt;&amp;&gt; one hinge" in text  # escaped
+    assert "two panels &lt;&amp;&gt; one hinge" in text and "<&>" not in text
+    assert (tmp_path / "site" / "tiny" / "files").is_dir()  # the printable files are linked
 
 
 def test_gallery_is_deterministic(tmp_path, monkeypatch):
-    monkeypatch.setitem(sys.modules, "foldprint.pipeline", None)  # exports are not ours
     d = strip("tiny", [10.0, 12.0, 8.0], [90.0, -60.0], ["H-1", "H-4"])
-    a = build_gallery([d], tmp_path / "a", gif_frames=6).parent
-    b = build_gallery([d], tmp_path / "b", gif_frames=6).parent
+    a = build_gallery([d], tmp_path / "a", gif_frames=6, jobs=2).parent  # chart and design in parallel
+    b = build_gallery([d], tmp_path / "b", gif_frames=6, jobs=1).parent
     files_a = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
     files_b = sorted(p.relative_to(b) for p in b.rglob("*") if p.is_file())
     assert files_a == files_b and files_a
@@ -257,7 +255,7 @@ def test_gallery_is_deterministic(tmp_path, monkeypatch):
 # -- render3d -----------------------------------------------------------------------------
 
 def test_render3d_states_frames_and_gif():
-    from foldprint import render3d
+    from foldprint import render3d, render_anim
     from foldprint.render import figure_bytes
     from foldprint.simulate import simulate
 
@@ -274,8 +272,8 @@ def test_render3d_states_frames_and_gif():
     # the arc model draws its hinges as ribbons; poses (1, n, 4, 4) are accepted too
     arc = render3d.state_poses(d, "permanent", "arc")[None]
     assert figure_bytes(render3d.render_state(d, arc, "arc", model="arc"))
-    gif1 = render3d.fold_animation_gif(res, 5)
-    gif2 = render3d.fold_animation_gif(res, 5)
+    gif1 = render_anim.fold_animation_gif(res, 5)
+    gif2 = render_anim.fold_animation_gif(res, 5)
     assert gif1 == gif2
     with Image.open(io.BytesIO(gif1)) as im:
         assert im.n_frames == 5 and im.info["loop"] == 0
@@ -374,3 +372,163 @@ def test_page_in_headless_chromium(gallery, tmp_path):
     assert res["links"] and all(link["status"] == 200 for link in res["links"]), \
         [link for link in res["links"] if link["status"] != 200]
     assert "Does not complete" in res["text"] and "p1 and p6 touch at" in res["text"]
+
+
+# -- the interactive viewer ------------------------------------------------------------------
+
+def _viewer_data(page: Path) -> dict:
+    raw = page.read_text(encoding="utf-8")
+    m = re.search(r'<script type="application/json" id="fold-data">(.*?)</script>', raw, re.S)
+    assert m, f"{page}: no data block"
+    return json.loads(m.group(1))
+
+
+def test_viewer_pages_are_offline_and_linked(gallery):
+    _, out, index, _ = gallery
+    page = _parse(index)
+    for name in DESIGNS:
+        assert f"{name}/viewer.html" in page.links  # index.html links a viewer per design
+    assets = out / "viewer"
+    assert (assets / "three-viewer.min.js").stat().st_size > 100_000
+    assert "MIT License" in (assets / "LICENSE-three.txt").read_text(encoding="utf-8")
+    for html_file in sorted(out.rglob("*.html")):
+        raw = html_file.read_text(encoding="utf-8")
+        urls = re.findall(r'<(?:script|link)\b[^>]*?(?:src|href)="([^"]*)"', raw)
+        for url in urls:  # scripts and stylesheets: relative files that exist
+            assert "://" not in url and not url.startswith("/"), (html_file, url)
+            assert (html_file.parent / unquote(url)).is_file(), (html_file, url)
+        assert not re.search(r"https?://", raw), f"{html_file}: a network URL"
+        assert not re.search(r"@import|url\(", raw), f"{html_file}: external CSS"
+
+
+def test_viewer_data_is_the_printed_part_in_the_simulated_poses():
+    """Decoded page data: panel poses are the simulation's forward kinematics (flat at t=0,
+    the printed state in the 'permanent' slot); every hinge ribbon starts on its parent
+    panel's edge and ends on its child's (to the 16-bit quantisation step)."""
+    import base64
+
+    import numpy as np
+
+    from foldprint.geometry.hinges import hinge_segments
+    from foldprint.kinematics import forward, hinge_frames, target_angles
+    from foldprint.materials import default_library
+    from foldprint.render_scene import motion_end
+    from foldprint.simulate import simulate
+    from foldprint.viewer import RIBBON_SECTIONS, viewer_data
+
+    d = load_design(templates_dir() / "self_lock.toml")
+    res = simulate(d, dt=0.02, hinge_model="arc")
+    data = json.loads(json.dumps(viewer_data(res, default_library())))  # as the page gets it
+    dec = lambda s, t: np.frombuffer(base64.b64decode(s), dtype=t)  # noqa: E731
+    n_f, n_p = data["frames"], len(d.panels)
+    poses = dec(data["poses"], "<f4").reshape(n_f + 2, n_p, 4, 4).swapaxes(-1, -2)
+    assert data["times"][0] == 0.0 and data["times"][-1] == pytest.approx(motion_end(res))
+    np.testing.assert_allclose(poses[0], np.broadcast_to(np.eye(4), (n_p, 4, 4)), atol=1e-6)
+    np.testing.assert_allclose(poses[-1], forward(d, target_angles(d)[None], "arc")[0], atol=1e-4)
+    k = n_f // 2
+    traj = res.trajectory
+    angles = [np.interp(data["times"][k], traj.times, traj.angles[:, i]) for i in range(len(d.hinges))]
+    np.testing.assert_allclose(poses[k], forward(d, np.array([angles]), "arc")[0], atol=1e-4)
+    # panels: the printed solids, as thick as the panels
+    for it in data["items"]:
+        v = dec(it["v"], "<f4").reshape(-1, 3)
+        if it["kind"] == "panel":
+            assert np.ptp(v[:, 2]) == pytest.approx(d.panels[it["panel"]].thickness, rel=1e-5)
+    # ribbons: both ends on the panels they join, in every frame
+    lo, hi = np.array(data["bounds"][0]), np.array(data["bounds"][1])
+    q = dec(data["ribbon"]["q"], "<u2").reshape(n_f + 2, data["ribbon"]["n"], 3)
+    rib = lo + q / 65535.0 * (hi - lo)
+    step = float((hi - lo).max()) / 65535.0
+    frames = {f.index: f for f in hinge_frames(d)}
+    owners = data["ribbon"]["owners"]
+    assert len(owners) == sum(len(hinge_segments(h)) for h in d.hinges)
+    seg_of: dict[int, int] = {}
+    for h_idx, start, count in owners:
+        fr = frames[h_idx]
+        h = fr.hinge
+        j = seg_of.get(h_idx, 0)
+        seg_of[h_idx] = j + 1
+        v0, v1 = hinge_segments(h)[j]
+        a, b = np.asarray(h.line, float)
+        dvec = np.array([*(b - a) / np.linalg.norm(b - a), 0.0])
+        assert count == 4 * (RIBBON_SECTIONS + 1)
+        for side, pidx, block in ((-1, fr.parent, slice(start, start + 4)),
+                                  (1, fr.child, slice(start + count - 4, start + count))):
+            edge = np.array([a[0], a[1], 0.0]) + side * 0.5 * fr.width * fr.normal
+            corners = np.array([edge + v * dvec + np.array([0, 0, 0.5 * z * h.thickness])
+                                for v, z in ((v0, -1), (v1, -1), (v1, 1), (v0, 1))])
+            for f in (0, k, n_f - 1, n_f + 1):
+                want = corners @ poses[f, pidx][:3, :3].T + poses[f, pidx][:3, 3]
+                np.testing.assert_allclose(rib[f, block], want, atol=2 * step + 1e-4)
+
+
+def _chromium_run(args: list[str], profile: Path) -> subprocess.CompletedProcess:
+    cmd = [_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+           "--disable-background-networking", "--disable-component-update", "--disable-sync",
+           "--disable-extensions", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+           f"--user-data-dir={profile}", "--window-size=1100,900", "--hide-scrollbars",
+           "--virtual-time-budget=8000", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.skipif(_chromium() is None, reason="chromium is not on PATH: the viewer check needs a "
+                    "headless Chromium (SwiftShader WebGL)")
+def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
+    """Opened from file:// with no network: the page at load (t = 0), at #t=0.5 and in the
+    permanent state give different pictures, and the 3D canvas is drawn (not one colour)."""
+    import numpy as np
+
+    _, out, _, _ = gallery
+    url = (out / FAILING / "viewer.html").resolve().as_uri()
+    shots, states = [], []
+    for k, suffix in enumerate(("", "#t=0.5", "#state=permanent")):
+        dom = _chromium_run(["--dump-dom", url + suffix], tmp_path / f"p{k}")
+        m = re.search(r'<body[^>]*data-canvas="(\d+),(\d+),(\d+),(\d+)"[^>]*>', dom.stdout)
+        assert m and 'data-ready="1"' in m.group(0), f"viewer did not start: {dom.stderr[-2000:]}"
+        states.append(re.search(r'data-t="([^"]+)"', m.group(0)).group(1))
+        x, y, w, h = (int(v) for v in m.groups())
+        png = tmp_path / f"shot{k}.png"
+        shot = _chromium_run([f"--screenshot={png}", url + suffix], tmp_path / f"s{k}")
+        assert png.is_file(), shot.stderr[-2000:]
+        with Image.open(png) as im:
+            rgb = np.asarray(im.convert("RGB")).astype(int)
+        canvas = rgb[y + 2:y + h - 2, x + 2:x + w - 2]
+        assert canvas.size, (x, y, w, h, rgb.shape)
+        colours = np.unique(canvas.reshape(-1, 3), axis=0)
+        assert len(colours) > 20, f"the 3D view is blank ({len(colours)} colours)"
+        shots.append(canvas)
+    assert states == ["0.000", "0.500", "permanent"]
+    for k in (1, 2):
+        diff = np.abs(shots[0] - shots[k]).sum(axis=-1) > 30
+        assert diff.mean() > 0.005, f"picture {k} is the one at load ({diff.mean():.4f} changed)"
+
+
+# -- the material chart's fold-time table ----------------------------------------------------
+
+def test_fold_time_table_equals_the_recovery_curves(lib):
+    """The vectorised table gives each recovery curve's own 98 % time, including 'never'
+    (a bath far below Tg) and a thicker hinge."""
+    from foldprint.recovery import recovery_curve
+    from foldprint.recovery_table import fold_times
+
+    baths = [20.0, 71.5, 84.0, 100.0]
+    for name, thick in (("H-1", 0.8), ("H-4", 1.2), ("H-7", 0.8)):
+        m = lib[name]
+        got = fold_times(m, baths, thick, 10.0)
+        for b, g in zip(baths, got):
+            want = recovery_curve(m, b, thick, 10.0).fold_time
+            if want is None:
+                assert g is None, (name, b, g)
+            else:
+                assert g == pytest.approx(want, rel=1e-12, abs=1e-12), (name, b)
+        assert got[0] is None  # 20 C: no hinge material recovers
+
+
+def test_a_design_without_printable_geometry_gets_a_note_not_a_crash(tmp_path):
+    """A flat hinge (angle 0) has no printed strip: no viewer and no files, both said."""
+    d = strip("flat", [10.0, 10.0], [0.0], ["H-1"])
+    index = build_gallery([d], tmp_path / "site", gif_frames=3, jobs=1)
+    text = index.read_text(encoding="utf-8")
+    assert "No 3D viewer:" in text and "Export failed:" in text
+    assert not (tmp_path / "site" / "flat" / "viewer.html").exists()
+    assert (tmp_path / "site" / "flat" / "simulation.json").is_file()

@@ -1,0 +1,266 @@
+/* foldprint fold viewer: draws the data block of a design page (see foldprint/viewer.py)
+   with three.js (window.FOLDPRINT_THREE). Panels are the printed solids in the flat sheet,
+   moved by the simulation's panel poses; hinge ribbons come per frame from Python (the
+   hinge map is not re-implemented here). Between frames, poses and ribbon vertices are
+   interpolated linearly. The URL's "#t=<fraction 0..1>" sets the shown moment. */
+(function () {
+  "use strict";
+  var T = window.FOLDPRINT_THREE;
+  var D = JSON.parse(document.getElementById("fold-data").textContent);
+  var canvas = document.getElementById("view");
+  var stage = document.getElementById("stage");
+  var slider = document.getElementById("slider");
+  var clock = document.getElementById("clock");
+  var playBtn = document.getElementById("play");
+  var RED = new T.Color("#d62728");
+
+  function decode(s, Type) {
+    var bin = atob(s), buf = new Uint8Array(bin.length);
+    for (var i = 0; i < bin.length; i++) buf[i] = bin.charCodeAt(i);
+    return new Type(buf.buffer);
+  }
+
+  var nF = D.frames, nP = D.panels.length;
+  var poses = decode(D.poses, Float32Array); // (nF + 2) x nP x 16; the last two: programmed, permanent
+  var lo = D.bounds[0], hi = D.bounds[1];
+  var centre = new T.Vector3((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2);
+  var radius = Math.max(0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]), 1);
+
+  var renderer = new T.WebGLRenderer({canvas: canvas, antialias: true, preserveDrawingBuffer: true});
+  renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
+  renderer.setClearColor(0xf7f7f7, 1);
+  var scene = new T.Scene();
+  scene.add(new T.HemisphereLight(0xffffff, 0x8a8a8a, 1.6));
+  var sun = new T.DirectionalLight(0xffffff, 1.8);
+  sun.position.set(0.35, -0.55, 0.76);
+  scene.add(sun);
+  var camera = new T.PerspectiveCamera(30, 16 / 9, radius / 50, radius * 50);
+  camera.up.set(0, 0, 1);
+  // the still renders' cameras: strips from the side (along +y, 20 deg up), others oblique
+  var el = (D.planar ? 20 : 32) * Math.PI / 180, az = (D.planar ? -90 : -58) * Math.PI / 180;
+  var dist = radius / Math.sin(15 * Math.PI / 180) * 0.62;
+  camera.position.set(centre.x + dist * Math.cos(el) * Math.cos(az),
+                      centre.y + dist * Math.cos(el) * Math.sin(az), centre.z + dist * Math.sin(el));
+  var controls = new T.OrbitControls(camera, canvas);
+  controls.target.copy(centre);
+  controls.update();
+  controls.addEventListener("change", draw);
+
+  // panels and teeth: one mesh each, sheet-frame geometry, pose as the object matrix
+  var items = D.items.map(function (it) {
+    var g = new T.BufferGeometry();
+    g.setAttribute("position", new T.BufferAttribute(decode(it.v, Float32Array), 3));
+    g.setIndex(new T.BufferAttribute(decode(it.f, Uint32Array), 1));
+    g = g.toNonIndexed();
+    g.computeVertexNormals();
+    var base = new T.Color(D.colors[it.material] || "#9a9a9a");
+    var mat = new T.MeshStandardMaterial({color: base.clone(), roughness: 0.8, metalness: 0,
+                                          flatShading: true, side: T.DoubleSide});
+    var mesh = new T.Mesh(g, mat);
+    mesh.matrixAutoUpdate = false;
+    var edges = new T.LineSegments(new T.EdgesGeometry(g, 25),
+                                   new T.LineBasicMaterial({color: base.clone().multiplyScalar(0.45)}));
+    mesh.add(edges);
+    scene.add(mesh);
+    return {mesh: mesh, edges: edges, base: base, panel: it.panel, kind: it.kind};
+  });
+
+  // hinge ribbons: positions rewritten per frame from quantised vertices
+  var R = D.ribbon, nR = R.n;
+  var q = nR ? decode(R.q, Uint16Array) : new Uint16Array(0);
+  var ribbons = R.owners.map(function (o) {
+    var h = D.hinges[o[0]];
+    var g = new T.BufferGeometry();
+    var pos = new Float32Array(o[2] * 3);
+    g.setAttribute("position", new T.BufferAttribute(pos, 3));
+    var all = decode(R.f, Uint32Array), tris = [];
+    for (var i = 0; i < all.length; i += 3) {
+      if (all[i] >= o[1] && all[i] < o[1] + o[2])
+        tris.push(all[i] - o[1], all[i + 1] - o[1], all[i + 2] - o[1]);
+    }
+    g.setIndex(tris);
+    var mat = new T.MeshStandardMaterial({color: new T.Color(D.colors[h.material] || "#9a9a9a"),
+                                          roughness: 0.6, metalness: 0, flatShading: true,
+                                          side: T.DoubleSide});
+    var mesh = new T.Mesh(g, mat);
+    mesh.frustumCulled = false;
+    scene.add(mesh);
+    return {mesh: mesh, start: o[1], count: o[2], pos: pos};
+  });
+
+  // contact markers (hidden until their time)
+  var markers = D.contacts.map(function (c) {
+    var m = new T.Mesh(new T.SphereGeometry(radius * 0.035, 20, 12),
+                       new T.MeshBasicMaterial({color: RED}));
+    m.position.set(c.point[0], c.point[1], c.point[2]);
+    m.visible = false;
+    scene.add(m);
+    return m;
+  });
+
+  var mA = new T.Matrix4(), mB = new T.Matrix4(), tmp = new Float32Array(16);
+
+  function lerpPose(fa, fb, w, p, out) {
+    var a = (fa * nP + p) * 16, b = (fb * nP + p) * 16;
+    for (var i = 0; i < 16; i++) tmp[i] = poses[a + i] * (1 - w) + poses[b + i] * w;
+    out.fromArray(tmp);
+  }
+
+  var state = {frac: 0, named: null};
+
+  function show(fa, fb, w, time) {
+    for (var k = 0; k < items.length; k++) {
+      var it = items[k];
+      lerpPose(fa, fb, w, it.panel, it.mesh.matrix);
+      it.mesh.matrixWorldNeedsUpdate = true;
+      var hit = time !== null && D.contacts.some(function (c) {
+        return c.time <= time + 1e-9 && c.pair.indexOf(it.panel) >= 0;
+      });
+      it.mesh.material.color.copy(it.base);
+      if (hit && it.kind === "panel") it.mesh.material.color.lerp(RED, 0.45);
+      it.edges.material.color.copy(hit ? RED : it.base.clone().multiplyScalar(0.45));
+    }
+    var span = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+    for (var r = 0; r < ribbons.length; r++) {
+      var rb = ribbons[r];
+      for (var v = 0; v < rb.count; v++) {
+        for (var c = 0; c < 3; c++) {
+          var ia = (fa * nR + rb.start + v) * 3 + c, ib = (fb * nR + rb.start + v) * 3 + c;
+          var x = q[ia] * (1 - w) + q[ib] * w;
+          rb.pos[v * 3 + c] = lo[c] + x / 65535 * span[c];
+        }
+      }
+      rb.mesh.geometry.attributes.position.needsUpdate = true;
+      rb.mesh.geometry.computeVertexNormals();
+    }
+    markers.forEach(function (m, i) { m.visible = time !== null && D.contacts[i].time <= time + 1e-9; });
+    draw();
+  }
+
+  function draw() { renderer.render(scene, camera); }
+
+  function setFraction(f, fromUser) {
+    f = Math.min(1, Math.max(0, isFinite(f) ? f : 0));
+    state.frac = f;
+    state.named = null;
+    var x = f * (nF - 1), fa = Math.floor(x), fb = Math.min(fa + 1, nF - 1);
+    var time = f * D.end;
+    show(fa, fb, x - fa, time);
+    slider.value = String(Math.round(f * 1000));
+    clock.textContent = "t = " + time.toFixed(2) + " s";
+    setPressed(null);
+    if (fromUser) history.replaceState(null, "", "#t=" + f.toFixed(3));
+    document.body.setAttribute("data-t", f.toFixed(3));
+  }
+
+  function setNamed(name, fromUser) {
+    var k = name === "programmed" ? nF : nF + 1;
+    if (fromUser) history.replaceState(null, "", "#state=" + name);
+    state.named = name;
+    show(k, k, 0, null);
+    clock.textContent = name + " state";
+    setPressed(name);
+    document.body.setAttribute("data-t", name);
+  }
+
+  function setPressed(name) {
+    ["programmed", "permanent"].forEach(function (n) {
+      document.getElementById(n).setAttribute("aria-pressed", String(n === name));
+    });
+  }
+
+  function fromHash() {  // "#t=0.5" a moment of the fold, "#state=permanent" a named state
+    var st = /(?:^#|&)state=(programmed|permanent)\b/.exec(location.hash);
+    if (st) { setNamed(st[1]); return; }
+    var m = /(?:^#|&)t=([0-9.eE+-]+)/.exec(location.hash);
+    setFraction(m ? parseFloat(m[1]) : 0, false);
+  }
+
+  // play: the fold in real time, but at least 4 s and at most 12 s per pass
+  var playing = false, last = 0;
+  var seconds = Math.min(12, Math.max(4, D.end));
+  function tick(now) {
+    if (!playing) return;
+    var dt = last ? (now - last) / 1000 : 0;
+    last = now;
+    var f = state.named ? 0 : state.frac + dt / seconds;
+    if (f >= 1) { setFraction(1, true); stop(); return; }
+    setFraction(f, false);
+    requestAnimationFrame(tick);
+  }
+  function stop() { playing = false; playBtn.innerHTML = "&#9654; play"; history.replaceState(null, "", "#t=" + state.frac.toFixed(3)); }
+  playBtn.addEventListener("click", function () {
+    if (playing) { stop(); return; }
+    if (state.frac >= 1) setFraction(0, false);
+    playing = true; last = 0; playBtn.innerHTML = "&#10074;&#10074; pause";
+    requestAnimationFrame(tick);
+  });
+  slider.addEventListener("input", function () { if (playing) stop(); setFraction(slider.value / 1000, true); });
+  document.getElementById("programmed").addEventListener("click", function () { if (playing) stop(); setNamed("programmed", true); });
+  document.getElementById("permanent").addEventListener("click", function () { if (playing) stop(); setNamed("permanent", true); });
+  window.addEventListener("hashchange", fromHash);
+
+  function resize() {
+    var w = stage.clientWidth, h = Math.round(Math.min(w * 9 / 16, window.innerHeight * 0.7));
+    renderer.setSize(w, h, true);
+    camera.aspect = w / h;
+    camera.updateProjectionMatrix();
+    draw();
+  }
+  window.addEventListener("resize", resize);
+
+  // legend, facts, contact marks on the time track
+  function esc(s) { return String(s).replace(/[&<>"]/g, function (c) { return {"&": "&amp;", "<": "&lt;", ">": "&gt;", "\"": "&quot;"}[c]; }); }
+  var used = {};
+  D.hinges.forEach(function (h) { (used[h.material] = used[h.material] || []).push(h.id); });
+  var legend = "<h2>Hinge materials</h2><ul>";
+  Object.keys(used).sort().forEach(function (m) {
+    legend += "<li><span class=\"swatch\" style=\"background:" + esc(D.colors[m] || "#9a9a9a") + "\"></span>" +
+      esc(m) + " <span class=\"muted\">(" + esc(used[m].join(", ")) + ")</span></li>";
+  });
+  var panelMats = {};
+  D.panels.forEach(function (p) { panelMats[p.material] = true; });
+  Object.keys(panelMats).sort().forEach(function (m) {
+    legend += "<li><span class=\"swatch\" style=\"background:" + esc(D.colors[m] || "#9a9a9a") + "\"></span>" +
+      esc(m) + " <span class=\"muted\">(panels)</span></li>";
+  });
+  document.getElementById("legend").innerHTML = legend + "</ul>";
+  var facts = "<h2>This fold</h2><ul><li>bath " + D.bath_c + " \u00b0C, " + esc(D.model) +
+    " hinges; the slider spans 0 to " + D.end.toFixed(2) + " s</li>";
+  if (D.contacts.length) {
+    D.contacts.forEach(function (c, i) {
+      facts += "<li class=\"contact\"><button type=\"button\" data-c=\"" + i + "\">" +
+        (i === 0 ? "first contact" : "contact") + "</button> panels " + esc(c.panels[0]) + "\u2013" +
+        esc(c.panels[1]) + " at " + c.time.toFixed(3) + " s (" + esc(c.method) + ")</li>";
+    });
+    if (D.after_contact === "stop")
+      facts += "<li class=\"muted\">After the first contact the model moves on kinematically; the real part jams there.</li>";
+  } else {
+    facts += "<li>no contact</li>";
+  }
+  if (D.robust) {
+    facts += "<li>jam probability " + (100 * D.robust.jam_probability).toFixed(1) + " % (95 % CI " +
+      (100 * D.robust.ci95[0]).toFixed(1) + "\u2013" + (100 * D.robust.ci95[1]).toFixed(1) + " %)</li>";
+  }
+  document.getElementById("facts").innerHTML = facts + "</ul>";
+  var marks = document.getElementById("marks");
+  D.contacts.forEach(function (c) {
+    var f = Math.min(1, c.time / D.end), m = document.createElement("span");
+    m.className = "mark";
+    m.style.left = (100 * f) + "%";
+    m.title = "contact " + c.panels[0] + "\u2013" + c.panels[1] + " at " + c.time.toFixed(3) + " s";
+    marks.appendChild(m);
+  });
+  Array.prototype.forEach.call(document.querySelectorAll("#facts button[data-c]"), function (b) {
+    b.addEventListener("click", function () {
+      if (playing) stop();
+      setFraction(Math.min(1, D.contacts[+b.getAttribute("data-c")].time / D.end), true);
+    });
+  });
+
+  resize();
+  fromHash();
+  var rect = canvas.getBoundingClientRect();  // for tests and screenshots: where the 3D view is
+  document.body.setAttribute("data-canvas", [rect.left, rect.top, rect.width, rect.height].map(Math.round).join(","));
+  document.body.setAttribute("data-ready", "1");
+})();
