@@ -187,6 +187,7 @@ def simulate(
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
 ):
     """Fold the design in the bath: hinge angles, collisions, goals. Exit 0 when it
     completes, 1 when it collides, stalls or misses a goal.
@@ -207,6 +208,7 @@ def simulate(
             raise FoldprintError(f"{name} must be a finite number, got {v}")
     if dt <= 0 or (duration is not None and duration <= 0):
         raise FoldprintError("--dt and --duration must be > 0 s")
+    __import__("foldprint.guards").guards.set_max_memory(max_memory)  # issue 14 resource guard
     d, lib = _load(design, materials_file)
     if plot is not None:
         from .exchange.files import ensure_dir
@@ -254,6 +256,7 @@ def check(
     hinge_model: str = typer.Option("point", "--hinge-model", help="point | arc, for the folding check"),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
 ):
     """Design-rule checks before printing: build volume, walls and gaps, hinge strain and
     size, temperatures, fold time, collisions and goals. Exit 0 without errors, 1 with.
@@ -264,6 +267,7 @@ def check(
 
     if hinge_model not in ("point", "arc"):
         raise FoldprintError(f"--hinge-model must be point or arc, got {hinge_model!r}")
+    __import__("foldprint.guards").guards.set_max_memory(max_memory)  # issue 14 resource guard
     printers = load_printers(printers_file)
     key = printer or default_printer_key()
     if key not in printers:

@@ -9,6 +9,7 @@ import numpy as np
 
 from .collision2d import Index2D, collision_index
 from .collision3d import Contact, SweptChecker, swept_first_contact
+from . import guards
 from .constants import FOLD_LEVEL
 from .design import Design, tree_order
 from .errors import DesignError
@@ -141,6 +142,7 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     keeps the kinematic trajectory and reports the first contact; "arrest" freezes the
     hinges on the tree path between two touching panels from the contact on and goes on.
     """
+    guards.check_simulation(design, dt, duration, method)  # refuse before allocating (issue 14)
     if method not in METHODS:
         raise DesignError(f"method must be one of {METHODS}, got {method!r}")
     if after_contact not in AFTER:
