@@ -2,9 +2,9 @@
 
 This module only writes: the assembly comes built from :mod:`foldprint.pipeline`.
 
-Everything is built in memory first; only then are files written, each atomically
-(:func:`~foldprint.exchange.files.write_atomic`). If a write fails, the files this call
-had already created are removed again, so a failed export leaves no partial set.
+Everything is built in memory first; only then is the set written, as a whole
+(:func:`~foldprint.exchange.files.write_set`: staging directory, commit journal, renames),
+so a failed or killed export leaves the previous complete set or the new one.
 
 File names (``stem`` = the design name, ``<name>_programmed`` for the flat state):
 ``<stem>.3mf`` (spec form + Bambu/Orca/Cura metadata), ``<stem>_prusa.3mf`` (PrusaSlicer),
@@ -13,7 +13,6 @@ File names (``stem`` = the design name, ``<name>_programmed`` for the flat state
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 from typing import Iterable
@@ -22,7 +21,7 @@ from ..design import Design
 from ..errors import ExportError
 from ..geometry import Assembly
 from ..materials import MaterialLibrary, default_library
-from .files import ensure_dir, write_atomic
+from .files import write_set
 from .stl import manifest, stl_bytes
 from .threemf import prusa3mf_bytes, threemf_bytes
 
@@ -89,26 +88,12 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
     """Write ``formats`` ("3mf", "prusa3mf", "stl") of a built assembly into ``out_dir``
     (created if needed; ExportError if it cannot be). Returns one record per file
     written: {path, format, bodies: [{material, volume_mm3}], bytes}; format is "3mf",
-    "prusa3mf", "stl" or "manifest"."""
+    "prusa3mf", "stl" or "manifest".
+
+    The files land as a whole (:func:`~foldprint.exchange.files.write_set`): an
+    interrupted export leaves the previous complete set or the new one, never a mix, and
+    nothing is created when the export fails."""
     files = render(design, assembly, formats, library)
-    out = ensure_dir(out_dir)
-    created: list[Path] = []
-    records = []
-    try:
-        for name, data, fmt, bodies in files:
-            path = out / name
-            existed = path.exists()
-            write_atomic(path, data)
-            if not existed:
-                created.append(path)
-            records.append({"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data)})
-    except (ExportError, OSError) as exc:
-        for p in created:
-            try:
-                os.unlink(p)
-            except OSError:
-                pass
-        if isinstance(exc, ExportError):
-            raise
-        raise ExportError(f"{out}: cannot write: {exc}") from None
-    return records
+    paths = write_set(out_dir, [(name, data) for name, data, _, _ in files])
+    return [{"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data)}
+            for path, (name, data, fmt, bodies) in zip(paths, files)]
