@@ -364,7 +364,7 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
     known_panel = ", ".join(lib.names("panel") + lib.names("base"))
     for p in design.panels:
         item = f"{src}panel {p.id!r}: "
-        if not isinstance(p.id, str) or not isinstance(p.material, str):
+        if not isinstance(p.id, str) or not isinstance(p.material, str):  # API-built panels
             raise DesignError(f"{item}id and material must be strings")
         _length(p.thickness, "thickness_mm", item)
         check_ring(p.outline, "outline", item)
@@ -383,6 +383,7 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
         if p.material not in lib:
             raise DesignError(f"{item}unknown material {p.material!r}; known panel materials: {known_panel}"
                               " (add your own with --materials FILE)")
+    _overlaps(design)
     panel_ids = set(ids)
     by_id = {p.id: p for p in design.panels}
     for h in design.hinges:
@@ -463,7 +464,6 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
             raise DesignError(f"{item}tip has a NaN coordinate")
         if isinstance(g.hole, bool) or not isinstance(g.hole, (int, np.integer)):
             raise DesignError(f"{item}hole must be a whole number, got {schema.describe(g.hole)}")
-    _overlaps(design)
     return design
 
 

@@ -267,3 +267,34 @@ def check_text(text: str, source: str, kind: str) -> None:
                                       f"{MAX_NESTING} levels deep; a design needs at most 5")
         elif tok in "]}":
             depth = max(0, depth - 1)
+
+
+# -- FOLD per-item fields ------------------------------------------------------------------
+
+def check_fold(frame, source: str) -> None:
+    """Types of foldprint's per-face and per-edge FOLD fields (null or the right kind),
+    checked before the FOLD reader indexes them."""
+    if not isinstance(frame, Mapping):
+        return
+    top = Where(source)
+    for key in ("faces_foldprint:holes",):
+        raw = frame.get(key)
+        if raw is None:
+            continue
+        for f, holes in enumerate(array(raw, top / key, MAX_POINTS)):
+            if holes is not None:
+                for k, h in enumerate(array(holes, top / key / f, MAX_HOLES, "null or a list of hole polygons")):
+                    ring(h, top / key / f / k)
+    for key in ("faces_foldprint:thickness_mm", "edges_foldprint:radius_mm", "edges_foldprint:thickness_mm"):
+        raw = frame.get(key)
+        if raw is not None:
+            for i, v in enumerate(array(raw, top / key, 10 * MAX_POINTS)):
+                if v is not None:
+                    length(v, top / key / i)
+    for key in ("faces_foldprint:id", "faces_foldprint:material", "edges_foldprint:hinge_id",
+                "edges_foldprint:material"):
+        raw = frame.get(key)
+        if raw is not None:
+            for i, v in enumerate(array(raw, top / key, 10 * MAX_POINTS)):
+                if v is not None:
+                    ident(v, top / key / i)
