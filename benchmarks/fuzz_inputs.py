@@ -25,6 +25,7 @@ def _run(seed: int) -> dict:
     with tempfile.TemporaryDirectory(prefix="fpfuzz") as tmp:
         r = one(seed, Path(tmp))
     return {cmd: {"code": v["code"], "bad": v["bad"], "seconds": round(v["seconds"], 2),
+                  "cpu_seconds": round(v["cpu_seconds"], 2),
                   "err": v["err"][-300:] if v["bad"] else ""} for cmd, v in r.items()}
 
 
@@ -45,11 +46,17 @@ def main():
                 c[f"exit {v['code']}"] += 1
                 for b in v["bad"]:
                     c[b] += 1
-                if v["seconds"] > 30:
+                if v["cpu_seconds"] > 30 or v["code"] is None:
                     c["> 30 s"] += 1
-                c["max_seconds"] = max(c["max_seconds"], v["seconds"])
+                if v["seconds"] > 30:
+                    c["> 30 s wall (busy machine)"] += 1
+                c["max_cpu_seconds"] = max(c["max_cpu_seconds"], v["cpu_seconds"])
+                c["max_wall_seconds"] = max(c["max_wall_seconds"], v["seconds"])
                 if v["bad"]:
                     failures.append({"seed": seed, "cmd": cmd, **v})
+            if (seed - a.seed_base + 1) % 50 == 0:
+                print(f"after {seed - a.seed_base + 1}: {json.dumps({k: dict(v) for k, v in counts.items()})}",
+                      file=sys.stderr, flush=True)
     report = {"cases": a.cases, "seed_base": a.seed_base, "counts": {k: dict(v) for k, v in counts.items()},
               "failures": failures[:50]}
     print(json.dumps(report, indent=1))

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .design import Design
+from .guards import clearance_stride
 from .errors import DesignError
 from .materials import MaterialLibrary, default_library
 
@@ -297,8 +298,9 @@ def _min_clearance(ctx: CheckContext):
     traj = res.trajectory
     checker = SweptChecker(d, traj.model, None)
     best = None
-    for k in range(0, len(traj.times), max(1, len(traj.times) // 200)):
-        for i, j in non_adjacent_pairs(d):
+    pairs = non_adjacent_pairs(d)
+    for k in range(0, len(traj.times), clearance_stride(len(traj.times), len(pairs))):  # bounded (issue 14)
+        for i, j in pairs:
             dist, _ = checker.distance(i, j, traj.poses[k][i], traj.poses[k][j])
             if best is None or dist < best[0]:
                 best = (dist, d.panels[i].id, d.panels[j].id, float(traj.times[k]))

@@ -111,3 +111,15 @@ def check_simulation(design, dt: float, duration: float | None, method: str) -> 
                             "shorten --duration (or process.duration_s), split the design, or lift the "
                             "bound with the environment variable FOLDPRINT_MAX_WORK")
     return est
+
+
+#: Exact distance queries the clearance margin (check's FP172) may make: about 0.1 ms each,
+#: so 1e5 is ~10 s. Up to 200 frames are sampled; fewer when there are many panel pairs
+#: (at least 10), so the margin of a large design is coarser in time but bounded in work.
+MAX_DISTANCE_QUERIES = 100_000
+
+
+def clearance_stride(n_times: int, n_pairs: int) -> int:
+    """Sampling stride over the trajectory for the clearance margin, bounded in work."""
+    frames = min(200, max(10, MAX_DISTANCE_QUERIES // max(1, n_pairs)))
+    return max(1, n_times // frames)
