@@ -21,6 +21,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_fuzz import one  # noqa: E402
 
 
+def _warm():
+    """Import the CLI and every stage once per worker, so each forked case starts warm."""
+    import foldprint.checks, foldprint.cli, foldprint.load, foldprint.pipeline, foldprint.simulate  # noqa: E401,F401
+    import foldprint.geometry, foldprint.exchange.export  # noqa: E401,F401
+
+
 def _run(seed: int) -> dict:
     with tempfile.TemporaryDirectory(prefix="fpfuzz") as tmp:
         r = one(seed, Path(tmp))
@@ -39,7 +45,7 @@ def main():
     seeds = range(a.seed_base, a.seed_base + a.cases)
     counts = {c: Counter() for c in ("check", "export")}
     failures = []
-    with ProcessPoolExecutor(a.jobs) as ex:
+    with ProcessPoolExecutor(a.jobs, initializer=_warm) as ex:
         for seed, r in zip(seeds, ex.map(_run, seeds, chunksize=4)):
             for cmd, v in r.items():
                 c = counts[cmd]

@@ -57,19 +57,35 @@ def kill_campaign(tmp: Path, kills: int, seed: int = 1) -> dict:
     rng = random.Random(seed)
     designs = {v: _design(tmp, v) for v in VARIANTS}
     sets, runtime = {}, {}
-    for v, d in designs.items():  # reference sets and how long an export takes
+    write_s = 0.05
+    for v, d in designs.items():  # reference sets, how long an export and its write phase take
         ref = tmp / f"ref_{v}"
         t0 = time.monotonic()
-        assert _export(d, ref).wait() == 0
+        proc = _export(d, ref)
+        seen = None
+        while proc.poll() is None:
+            if seen is None and ref.exists() and any(p.name.startswith(".foldprint-staging-") for p in ref.iterdir()):
+                seen = time.monotonic()
+            time.sleep(0.001)
+        assert proc.wait() == 0
         runtime[v] = time.monotonic() - t0
+        if seen is not None:
+            write_s = max(write_s, time.monotonic() - seen)
         sets[v] = _digest(ref)
     out = tmp / "out"
+    assert _export(designs["a"], out).wait() == 0  # a previous complete set
     counts: dict = {}
     killed = 0
     for k in range(kills):
         v = "ab"[k % 2]
         proc = _export(designs[v], out)
-        time.sleep(rng.uniform(0.5, 1.0) * runtime[v])  # the write phase is at the end
+        # aim at the write phase: wait for the staging directory, then kill within 0-40 ms
+        deadline = time.monotonic() + 20 * runtime[v] + 30
+        while proc.poll() is None and time.monotonic() < deadline:
+            if out.exists() and any(p.name.startswith(".foldprint-staging-") for p in out.iterdir()):
+                time.sleep(rng.uniform(0.0, 1.5) * write_s)
+                break
+            time.sleep(0.001)
         if proc.poll() is None:
             proc.send_signal(signal.SIGKILL)
             killed += 1
@@ -81,7 +97,7 @@ def kill_campaign(tmp: Path, kills: int, seed: int = 1) -> dict:
     assert _export(designs["a"], out).wait() == 0
     leftovers = [p.name for p in out.iterdir() if p.name.startswith(".")]
     assert _state(out, sets) == "a" and leftovers == [], leftovers
-    return {"runs": kills, "killed": killed, "states_after_kill": counts}
+    return {"runs": kills, "killed": killed, "write_phase_s": round(write_s, 3), "states_after_kill": counts}
 
 
 def test_killed_exports_never_leave_a_mixed_set(tmp_path):
