@@ -27,6 +27,10 @@ import tomli_w
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
+import foldprint.checks  # noqa: E402,F401  (imported once: every forked case starts warm)
+import foldprint.cli  # noqa: E402,F401
+import foldprint.pipeline  # noqa: E402,F401
+
 ROOT = Path(__file__).resolve().parents[1]
 TEMPLATES = sorted((ROOT / "templates").glob("*.toml"))
 BUDGET_S = 30.0  # CPU seconds of one run (wall time on a shared 2-core machine is not a measure)
