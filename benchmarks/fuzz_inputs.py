@@ -60,8 +60,9 @@ def main():
                 c["max_wall_seconds"] = max(c["max_wall_seconds"], v["seconds"])
                 if v["bad"]:
                     failures.append({"seed": seed, "cmd": cmd, **v})
-            if (seed - a.seed_base + 1) % 50 == 0:
-                print(f"after {seed - a.seed_base + 1}: {json.dumps({k: dict(v) for k, v in counts.items()})}",
+            if (seed - a.seed_base + 1) % 25 == 0:
+                print(f"after {seed - a.seed_base + 1}: {json.dumps({k: dict(v) for k, v in counts.items()})} "
+                      f"failing seeds: {[(f['seed'], f['cmd'], f['bad']) for f in failures]}",
                       file=sys.stderr, flush=True)
     report = {"cases": a.cases, "seed_base": a.seed_base, "counts": {k: dict(v) for k, v in counts.items()},
               "failures": failures[:50]}

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from .design import Design
-from .guards import clearance_stride
+from .guards import check_simulation, clearance_stride
 from .errors import DesignError
 from .materials import MaterialLibrary, default_library
 
@@ -316,6 +316,7 @@ def run_checks(design: Design, printer: Printer | None = None, library: Material
     """Every rule's findings, errors first."""
     lib = library or default_library()
     pr = printer or load_printers()[default_printer_key()]
+    check_simulation(design, 0.01, None, "fcl")  # refuse before any rule's work (issue 14)
     ctx = CheckContext(design, lib, pr, hinge_model=hinge_model)
     findings: list[Finding] = []
     for rule in rules or RULES:
