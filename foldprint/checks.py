@@ -324,7 +324,29 @@ def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
     return [_f("FP182", "info", text)]
 
 
-RULES = [rule_build_volume, rule_buildable, rule_min_wall, rule_min_gap, rule_hinge_strain, rule_hinge_fits,
+def rule_hole_walls(ctx: CheckContext) -> list[Finding]:
+    """FP112: the material left between a hole and the panel's outline (or between two
+    holes) must be at least the printer's minimum wall, or the frame breaks or is not printed."""
+    from itertools import combinations
+
+    from shapely.geometry import LinearRing
+
+    w = ctx.printer.min_wall_mm
+    out = []
+    for p in ctx.design.panels:
+        rings = [LinearRing(h) for h in p.holes]
+        outer = LinearRing(p.outline)
+        walls = [(r.distance(outer), f"hole {k} and the outline") for k, r in enumerate(rings)]
+        walls += [(rings[a].distance(rings[b]), f"holes {a} and {b}") for a, b in combinations(range(len(rings)), 2)]
+        for dist, between in walls:
+            if dist < w:
+                out.append(_f("FP112", "error", f"panel {p.id!r}: the wall between {between} is {dist:.3g} mm, "
+                              f"below the {w:g} mm minimum wall of {ctx.printer.name}",
+                              f"move or shrink the hole to leave at least {w:g} mm", panel=p.id))
+    return out
+
+
+RULES = [rule_build_volume, rule_buildable, rule_min_wall, rule_hole_walls, rule_min_gap, rule_hinge_strain, rule_hinge_fits,
          rule_temperatures, rule_fold_within_duration, rule_folding, rule_jam_probability]
 
 
@@ -336,3 +358,4 @@ def run_checks(ctx: CheckContext, rules=None) -> list[Finding]:
         findings.extend(rule(ctx))
     order = {s: i for i, s in enumerate(SEVERITIES)}
     return sorted(findings, key=lambda f: (order[f.severity], f.code))
+

@@ -223,6 +223,7 @@ def simulate(
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
 ):
     """Fold the design in the bath: hinge angles, collisions, goals. Exit 0 when it
     completes, 1 when it collides, stalls or misses a goal. The printed geometry (arc
@@ -240,6 +241,7 @@ def simulate(
     _finite(temperature=temperature, duration=duration, dt=dt)
     if dt <= 0 or (duration is not None and duration <= 0):
         raise FoldprintError("--dt and --duration must be > 0 s")
+    __import__("foldprint.guards").guards.set_max_memory(max_memory)  # issue 14 resource guard
     d, lib = _load(design, materials_file)
     if plot is not None:
         from .exchange.files import ensure_dir
@@ -324,6 +326,7 @@ def check(
     warn_above: float = typer.Option(0.05, "--warn-above", help="Warn when the jam probability is above this."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
 ):
     """Design-rule checks before printing, on the printed geometry: build volume, walls
     and gaps, hinge strain and size, temperatures, fold time, collisions and goals, and
@@ -337,6 +340,7 @@ def check(
     from .robust import load_scatter
 
     model = _mode(HingeModel, hinge_model, "--hinge-model")
+    __import__("foldprint.guards").guards.set_max_memory(max_memory)  # resource guard (issue 14)
     if samples < 0:
         raise FoldprintError(f"--samples must be >= 0 (0 skips the jam probability), got {samples}")
     if seed < 0:

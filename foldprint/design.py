@@ -13,6 +13,7 @@ Parsing files lives in :mod:`foldprint.design_io` (TOML) and
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Iterable, Sequence
@@ -23,6 +24,7 @@ from shapely.geometry import LineString, Polygon
 
 from .constants import (DEFAULT_BATH_C, DEFAULT_DURATION_S, DEFAULT_FIX_C, DEFAULT_PROGRAM_C,
                         tol)
+from . import schema
 from .errors import DesignError, where
 from .materials import MaterialLibrary, default_library
 
@@ -30,7 +32,10 @@ SCHEMA_VERSION = 1
 
 
 def _frozen_array(a, shape_tail: tuple[int, ...] | None = None, name: str = "array") -> np.ndarray:
-    arr = np.array(a, dtype=float)
+    try:
+        arr = np.array(a, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise DesignError(f"{name} must be numbers, got {str(a)[:60]}") from None
     if shape_tail is not None and (arr.ndim != 1 + len(shape_tail) or arr.shape[1:] != shape_tail):
         raise DesignError(f"{name} must have shape (n, {', '.join(map(str, shape_tail))}), got {arr.shape}")
     arr.setflags(write=False)
@@ -214,13 +219,45 @@ class Design:
 # -- validation ----------------------------------------------------------------------
 
 def _finite(value, what: str, src: str) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.number)):
+        raise DesignError(f"{src}{what} must be a number, got {schema.describe(value)}")
     try:
         v = float(value)
-    except (TypeError, ValueError):
-        raise DesignError(f"{src}{what} must be a number, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise DesignError(f"{src}{what} must be a number, got {schema.describe(value)}") from None
     if not math.isfinite(v):
         raise DesignError(f"{src}{what} must be a finite number, got {value!r}")
     return v
+
+
+def _length(value, what: str, src: str) -> float:
+    """A length in mm within the schema's sanity bounds (1 um .. 10 m)."""
+    v = _positive(value, what, src)
+    if not schema.MIN_LENGTH_MM <= v <= schema.MAX_LENGTH_MM:
+        raise DesignError(f"{src}{what} must be in [{schema.MIN_LENGTH_MM:g}, {schema.MAX_LENGTH_MM:g}] mm "
+                          "(1 um to 10 m), "
+                          f"got {v:g}")
+    return v
+
+
+def _overlaps(design: Design) -> None:
+    """Panels may only touch along edges in the flat sheet: refuse two that overlap."""
+    polys = [p.polygon for p in design.panels]
+    if len(polys) < 2:
+        return
+    tree = shapely.STRtree(polys)
+    a_idx, b_idx = tree.query(polys, predicate="intersects")
+    for a, b in zip(a_idx.tolist(), b_idx.tolist()):
+        if a >= b:
+            continue
+        common = polys[a].intersection(polys[b])
+        area = common.area
+        if area > max(tol.area, 1e-9 * min(polys[a].area, polys[b].area)):
+            c = common.representative_point()
+            raise DesignError(f"{where(design.source)}panels {design.panels[a].id!r} and "
+                              f"{design.panels[b].id!r} overlap in the flat sheet ({area:.3g} mm^2 in "
+                              f"common, near ({c.x:.3g}, {c.y:.3g})); panels may only touch along edges: "
+                              "move or shrink one of them")
 
 
 def _positive(value, what: str, src: str) -> float:
@@ -310,8 +347,11 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
     src = where(design.source)
     if not design.name or not isinstance(design.name, str):
         raise DesignError(f"{src}name must be a non-empty string")
+    schema.name(design.name, schema.Where(design.source, "name"))
     if not design.panels:
         raise DesignError(f"{src}a design needs at least one panel")
+    if len(design.panels) > schema.MAX_PANELS:
+        raise DesignError(f"{src}{len(design.panels)} panels; at most {schema.MAX_PANELS} are accepted")
     ids = [p.id for p in design.panels]
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
@@ -324,8 +364,17 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
     known_panel = ", ".join(lib.names("panel") + lib.names("base"))
     for p in design.panels:
         item = f"{src}panel {p.id!r}: "
-        _positive(p.thickness, "thickness_mm", item)
+        if not isinstance(p.id, str) or not isinstance(p.material, str):  # API-built panels
+            raise DesignError(f"{item}id and material must be strings")
+        _length(p.thickness, "thickness_mm", item)
         check_ring(p.outline, "outline", item)
+        if len(p.outline) > schema.MAX_POINTS or len(p.holes) > schema.MAX_HOLES:
+            raise DesignError(f"{item}at most {schema.MAX_POINTS} outline points and {schema.MAX_HOLES} "
+                              "holes are accepted")
+        for ring in (p.outline, *p.holes):
+            if ring.size and np.abs(ring).max() > schema.MAX_LENGTH_MM:
+                raise DesignError(f"{item}a coordinate is {np.abs(ring).max():g} mm from the origin; at "
+                                  f"most {schema.MAX_LENGTH_MM:g} mm (10 m) is accepted")
         for k, hole in enumerate(p.holes):
             check_ring(hole, f"hole {k}", item)
         if not p.polygon.is_valid:
@@ -334,10 +383,14 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
         if p.material not in lib:
             raise DesignError(f"{item}unknown material {p.material!r}; known panel materials: {known_panel}"
                               " (add your own with --materials FILE)")
+    _overlaps(design)
     panel_ids = set(ids)
     by_id = {p.id: p for p in design.panels}
     for h in design.hinges:
         item = f"{src}hinge {h.id!r}: "
+        if not isinstance(h.id, str) or not isinstance(h.material, str) or not all(
+                isinstance(x, str) for x in h.panels):
+            raise DesignError(f"{item}id, material and panel ids must be strings")
         if len(h.panels) != 2 or h.panels[0] == h.panels[1]:
             raise DesignError(f"{item}panels must name two different panels, got {list(h.panels)}")
         for pid in h.panels:
@@ -347,8 +400,8 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
         if abs(ang) > math.pi + 1e-12:
             raise DesignError(f"{item}angle_deg {math.degrees(ang):g} is outside [-180, 180] "
                               "(FOLD convention: + valley, - mountain, 0 flat)")
-        _positive(h.radius, "radius_mm", item)
-        _positive(h.thickness, "thickness_mm", item)
+        _length(h.radius, "radius_mm", item)
+        _length(h.thickness, "thickness_mm", item)
         fx = _finite(h.fixity, "fixity", item)
         if not 0.0 <= fx <= 1.0:
             raise DesignError(f"{item}fixity must be in [0, 1], got {fx:g}")
@@ -374,10 +427,13 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
         st = h.style
         if st.interface not in ("flat", "triangular"):
             raise DesignError(f"{item}style.interface must be 'flat' or 'triangular', got {st.interface!r}")
+        if not isinstance(st.stepped, (bool, np.bool_)):
+            raise DesignError(f"{item}style.stepped must be true or false, got {schema.describe(st.stepped)}")
         for name in ("step_period_mm", "thin_mm", "tooth_depth_mm", "tooth_pitch_mm", "slot_width_mm"):
-            _positive(getattr(st, name), f"style.{name}", item)
+            _length(getattr(st, name), f"style.{name}", item)
         if _finite(st.max_segment_mm, "style.max_segment_mm", item) < 0:
             raise DesignError(f"{item}style.max_segment_mm must be >= 0 (0 = no slots)")
+        _features(h, item)
     if design.root not in panel_ids:
         raise DesignError(f"{src}root panel {design.root!r} does not exist; panels: {ids}")
     if len(design.hinges) != len(design.panels) - 1:
@@ -391,7 +447,9 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
         _finite(getattr(pr, name), name, item)
     _positive(pr.duration_s, "duration_s", item)
     if design.depth:
-        _positive(design.depth, "depth_mm", src)
+        _length(design.depth, "depth_mm", src)
+    if len(design.goals) > schema.MAX_GOALS:
+        raise DesignError(f"{src}{len(design.goals)} goals; at most {schema.MAX_GOALS} are accepted")
     for g in design.goals:
         item = f"{src}goal {g.id!r}: "
         if g.type != "pass_through":
@@ -404,7 +462,31 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
                               f"hole {g.hole} does not exist (holes count from 0)")
         if not np.all(np.isfinite(g.tip)):
             raise DesignError(f"{item}tip has a NaN coordinate")
+        if isinstance(g.hole, bool) or not isinstance(g.hole, (int, np.integer)):
+            raise DesignError(f"{item}hole must be a whole number, got {schema.describe(g.hole)}")
     return design
+
+
+def _features(h: Hinge, item: str) -> None:
+    """Periodic hinge features: above the feature floor and a bounded number per hinge, so
+    a tiny step period or tooth pitch is refused here instead of hanging the geometry."""
+    st = h.style
+    counts = []
+    if st.stepped:
+        counts.append(("style.step_period_mm", st.step_period_mm, h.width))
+    if st.interface == "triangular":
+        counts.append(("style.tooth_pitch_mm", st.tooth_pitch_mm, h.length))
+    if st.max_segment_mm > 0:
+        counts.append(("style.max_segment_mm", st.max_segment_mm, h.length))
+    for key, period, span in counts:
+        if key != "style.max_segment_mm" and period < schema.FEATURE_FLOOR_MM:
+            raise DesignError(f"{item}{key} = {period:g} mm is below {schema.FEATURE_FLOOR_MM:g} mm, finer "
+                              "than any printer resolves; use a period of at least the printer's minimum "
+                              "wall (foldprint check names it)")
+        if span / period > schema.MAX_FEATURES:
+            raise DesignError(f"{item}{key} = {period:g} mm makes {span / period:.0f} features over "
+                              f"{span:.3g} mm; at most {schema.MAX_FEATURES} per hinge are built: use at "
+                              f"least {span / schema.MAX_FEATURES:.3g} mm")
 
 
 def strip(name: str, lengths: Sequence[float], angles_deg: Sequence[float],
@@ -433,27 +515,27 @@ def strip(name: str, lengths: Sequence[float], angles_deg: Sequence[float],
         raise DesignError(f"{src}materials needs {n - 1} values (one per hinge), got {len(materials)}")
 
     def per(v, count, what):
-        if isinstance(v, (int, float)):
-            return [v] * count
+        if not isinstance(v, (list, tuple, np.ndarray)):
+            return [_length(v, what, src)] * count
         v = list(v)
         if len(v) != count:
             raise DesignError(f"{src}{what} needs 1 or {count} values, got {len(v)}")
-        return v
+        return [_length(x, f"{what}[{k}]", src) for k, x in enumerate(v)]
 
     thick = per(thickness, n, "thickness_mm")
     rad = per(radius, n - 1, "hinge_radius_mm")
     hthick = per(hinge_thickness if hinge_thickness is not None else min(thick), n - 1, "hinge_thickness_mm")
-    _positive(depth, "depth_mm", src)
+    depth = _length(depth, "depth_mm", src)
     x = 0.0
     panels = []
     for i, L in enumerate(lengths):
-        L = _positive(L, f"lengths_mm[{i}]", src)
+        L = _length(L, f"lengths_mm[{i}]", src)
         outline = [[x, 0.0], [x + L, 0.0], [x + L, depth], [x, depth]]
         hs = [np.asarray(hh, float) + [x, 0.0] for hh in (holes or {}).get(i + 1, [])]
         panels.append(Panel(f"p{i + 1}", outline, float(thick[i]), panel_material, tuple(hs)))
         x += L
     hinges = []
-    xs = np.cumsum(lengths)[:-1]
+    xs = np.cumsum([float(v) for v in lengths])[:-1]
     for i in range(n - 1):
         ang = _finite(angles_deg[i], f"angles_deg[{i}]", src)
         hinges.append(Hinge(f"h{i + 1}", (f"p{i + 1}", f"p{i + 2}"),

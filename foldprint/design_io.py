@@ -31,7 +31,7 @@ Layout (see ``templates/`` and ``docs/design-file.md``)::
 from __future__ import annotations
 
 import math
-from dataclasses import fields
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -40,9 +40,11 @@ import tomli_w
 
 from .constants import (DEFAULT_DEPTH_MM, DEFAULT_HINGE_RADIUS_MM, DEFAULT_PANEL_MATERIAL,
                         DEFAULT_THICKNESS_MM)
+from . import schema as sc
 from .design import (SCHEMA_VERSION, Design, Goal, Hinge, HingeStyle, Panel, Process, check_ring,
                      shared_edge, strip, validate)
-from .errors import DesignError, where
+from .errors import DesignError
+from .schema import Where
 from .materials import MaterialLibrary
 
 _TOP = {"schema", "name", "description", "root", "process", "defaults", "strip", "panels", "hinges",
@@ -59,167 +61,206 @@ _STYLE = {f.name for f in fields(HingeStyle)}
 _PROCESS = {f.name for f in fields(Process)}
 
 
-def _keys(table: Any, allowed: set[str], src: str, what: str) -> Mapping:
-    if not isinstance(table, Mapping):
-        raise DesignError(f"{src}{what} must be a table, got {type(table).__name__}")
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise DesignError(f"{src}{what}: unknown key(s) {unknown}; allowed: {sorted(allowed)}")
-    return table
+def _angle(value, at: Where) -> float:
+    v = sc.number(value, at, unit="degrees")
+    if abs(v) > 180:
+        raise at.fail(f"{v:g} is outside [-180, 180] degrees (FOLD convention: + valley, - mountain, "
+                      "0 flat)")
+    return v
 
 
-def _points(value, what: str, src: str) -> np.ndarray:
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise DesignError(f"{src}{what} must be a list of [x, y] pairs of numbers") from None
-    if arr.ndim != 2 or arr.shape[1] != 2:
-        raise DesignError(f"{src}{what} must be a list of [x, y] pairs, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise DesignError(f"{src}{what} has a NaN or infinite coordinate")
-    return arr
+def _fixity(value, at: Where) -> float:
+    return sc.number(value, at, 0.0, 1.0)
 
 
-def _num(value, what: str, src: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise DesignError(f"{src}{what} must be a number, got {value!r}")
-    if not math.isfinite(value):
-        raise DesignError(f"{src}{what} must be a finite number, got {value!r}")
-    return float(value)
-
-
-def _style(raw: Mapping | None, base: HingeStyle, src: str, what: str) -> HingeStyle:
-    if not raw:
+def _style(raw, base: HingeStyle, at: Where) -> HingeStyle:
+    """HingeStyle fields, each type- and range-checked (periods above the feature floor)."""
+    if raw is None:
         return base
-    raw = _keys(raw, _STYLE, src, what)
+    raw = sc.table(raw, at, _STYLE)
     vals = {f.name: getattr(base, f.name) for f in fields(HingeStyle)}
-    vals.update(raw)
+    for key, v in raw.items():
+        k = at / key
+        if key == "stepped":
+            vals[key] = sc.boolean(v, k)
+        elif key == "interface":
+            vals[key] = sc.string(v, k)
+            if vals[key] not in ("flat", "triangular"):
+                raise k.fail(f"must be \"flat\" or \"triangular\", got {sc.describe(v)}")
+        elif key in ("step_period_mm", "tooth_pitch_mm"):
+            vals[key] = sc.number(v, k, sc.FEATURE_FLOOR_MM, sc.MAX_LENGTH_MM, "mm")
+        elif key == "max_segment_mm":
+            vals[key] = sc.number(v, k, 0.0, sc.MAX_LENGTH_MM, "mm (0 = no slots)")
+        else:
+            vals[key] = sc.length(v, k)
     return HingeStyle(**vals)
 
 
+def _per(value, at: Where, count: int, read) -> float | list[float]:
+    """A number, or a list of ``count`` numbers (strip shorthand)."""
+    if isinstance(value, (list, tuple)):
+        vals = sc.array(value, at, count)
+        if len(vals) != count:
+            raise at.fail(f"needs 1 or {count} values, got {len(vals)}")
+        return [read(v, at / i) for i, v in enumerate(vals)]
+    return read(value, at)
+
+
 def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary | None = None) -> Design:
-    """Build and validate a design from parsed TOML (or an equivalent dict)."""
-    src = where(source)
-    _keys(data, _TOP, src, "top level")
-    schema = data.get("schema", SCHEMA_VERSION)
-    if schema != SCHEMA_VERSION:
-        raise DesignError(f"{src}schema = {schema!r} is not supported; this foldprint reads schema {SCHEMA_VERSION}")
-    name = data.get("name") or (Path(source).stem if source else "")
-    if not isinstance(name, str) or not name:
-        raise DesignError(f"{src}name must be a non-empty string")
-    proc_raw = _keys(data.get("process", {}), _PROCESS, src, "[process]")
-    process = Process(**{k: _num(v, f"process.{k}", src) for k, v in proc_raw.items()})
-    dft = _keys(data.get("defaults", {}), _DEFAULTS, src, "[defaults]")
-    thickness = dft.get("thickness_mm", DEFAULT_THICKNESS_MM)
-    depth = dft.get("depth_mm", DEFAULT_DEPTH_MM)
-    pmat = dft.get("panel_material", DEFAULT_PANEL_MATERIAL)
-    radius = dft.get("hinge_radius_mm", DEFAULT_HINGE_RADIUS_MM)
-    hthick = dft.get("hinge_thickness_mm", None)
-    fixity = dft.get("fixity", 1.0)
-    base_style = _style(dft.get("hinge_style"), HingeStyle(), src, "[defaults.hinge_style]")
-    goals = tuple(_goal(g, i, src) for i, g in enumerate(data.get("goals", [])))
+    """Build and validate a design from parsed TOML (or an equivalent dict, or FOLD).
+
+    Every value passes the boundary schema (:mod:`foldprint.schema`) first; errors are
+    DesignError naming the file, the key path and what would be right."""
+    top = Where(source)
+    sc.table(data, top.named("top level") if not source else top, _TOP)
+    if "schema" in data:
+        schema = sc.integer(data["schema"], top / "schema")
+        if schema != SCHEMA_VERSION:
+            raise (top / "schema").fail(f"{schema} is not supported; this foldprint reads schema "
+                                        f"{SCHEMA_VERSION}")
+    if "name" in data:
+        name = sc.name(data["name"], top / "name")
+    else:
+        name = sc.name((Path(source).stem if source else "")[:sc.MAX_NAME] or "design", top / "name")
+    description = sc.string(data.get("description", ""), top / "description", sc.MAX_TEXT)
+    root = sc.ident(data["root"], top / "root") if data.get("root", "") != "" else ""
+    at = top / "process"
+    proc_raw = sc.table(data.get("process", {}), at, _PROCESS)
+    proc = {}
+    for k, v in proc_raw.items():
+        if k == "duration_s":
+            proc[k] = sc.number(v, at / k, 0.0, sc.MAX_DURATION_S, "s", lo_open=True)
+        else:
+            proc[k] = sc.number(v, at / k, *sc.TEMPERATURE_C, "deg C")
+    process = Process(**proc)
+    at = top / "defaults"
+    dft = sc.table(data.get("defaults", {}), at, _DEFAULTS)
+    thickness = sc.length(dft.get("thickness_mm", DEFAULT_THICKNESS_MM), at / "thickness_mm")
+    depth = sc.length(dft.get("depth_mm", DEFAULT_DEPTH_MM), at / "depth_mm")
+    pmat = sc.string(dft.get("panel_material", DEFAULT_PANEL_MATERIAL), at / "panel_material")
+    radius = sc.length(dft.get("hinge_radius_mm", DEFAULT_HINGE_RADIUS_MM), at / "hinge_radius_mm")
+    hthick = (sc.length(dft["hinge_thickness_mm"], at / "hinge_thickness_mm")
+              if "hinge_thickness_mm" in dft else None)
+    fixity = _fixity(dft.get("fixity", 1.0), at / "fixity")
+    base_style = _style(dft.get("hinge_style"), HingeStyle(), at / "hinge_style")
+    goals_raw = sc.array(data.get("goals", []), top / "goals", sc.MAX_GOALS, "a list of [[goals]] tables")
+    goals = tuple(_goal(g, top / "goals" / i, i) for i, g in enumerate(goals_raw))
     has_strip, has_general = "strip" in data, ("panels" in data or "hinges" in data)
     if has_strip and has_general:
-        raise DesignError(f"{src}give either [strip] or [[panels]]/[[hinges]], not both")
+        raise DesignError(f"{top}give either [strip] or [[panels]]/[[hinges]], not both")
     if not has_strip and not has_general:
-        raise DesignError(f"{src}no geometry: add a [strip] table or [[panels]] and [[hinges]]")
+        raise DesignError(f"{top}no geometry: add a [strip] table or [[panels]] and [[hinges]]")
     if has_strip:
-        st = _keys(data["strip"], _STRIP, src, "[strip]")
+        at = top / "strip"
+        st = sc.table(data["strip"], at, _STRIP)
         for key in ("lengths_mm", "angles_deg", "materials"):
-            if key not in st or not isinstance(st[key], list):
-                raise DesignError(f"{src}[strip] needs {key} = [...]")
+            if key not in st:
+                raise at.fail(f"needs {key} = [...]")
+        lengths = [sc.length(v, (at / "lengths_mm" / i).named(f"panel 'p{i + 1}'"))
+                   for i, v in enumerate(sc.array(st["lengths_mm"], at / "lengths_mm", sc.MAX_PANELS))]
+        n = len(lengths)
+        angles = [_angle(v, (at / "angles_deg" / i).named(f"hinge 'h{i + 1}'"))
+                  for i, v in enumerate(sc.array(st["angles_deg"], at / "angles_deg", sc.MAX_PANELS))]
+        mats = [sc.string(v, (at / "materials" / i).named(f"hinge 'h{i + 1}'"))
+                for i, v in enumerate(sc.array(st["materials"], at / "materials", sc.MAX_PANELS))]
         holes: dict[int, list] = {}
-        for k, hraw in enumerate(st.get("holes", [])):
-            h = _keys(hraw, {"panel", "polygon"}, src, f"strip.holes[{k}]")
+        for k, hraw in enumerate(sc.array(st.get("holes", []), at / "holes", sc.MAX_HOLES * 16)):
+            hat = at / "holes" / k
+            h = sc.table(hraw, hat, {"panel", "polygon"})
             if "panel" not in h or "polygon" not in h:
-                raise DesignError(f"{src}strip.holes[{k}] needs panel (1-based index) and polygon")
-            holes.setdefault(int(h["panel"]), []).append(_points(h["polygon"], f"strip.holes[{k}].polygon", src))
-        d = strip(name, [_num(v, f"strip.lengths_mm[{i}]", src) for i, v in enumerate(st["lengths_mm"])],
-                  [_num(v, f"strip.angles_deg[{i}]", src) for i, v in enumerate(st["angles_deg"])],
-                  list(st["materials"]), depth=_num(depth, "defaults.depth_mm", src),
-                  thickness=st.get("thickness_mm", thickness),
-                  radius=st.get("hinge_radius_mm", radius),
-                  hinge_thickness=st.get("hinge_thickness_mm", hthick),
-                  panel_material=pmat, process=process,
-                  description=str(data.get("description", "")), holes=holes, source=source,
-                  goals=goals, style=base_style)
+                raise hat.fail("needs panel (1-based index) and polygon")
+            pnum = sc.integer(h["panel"], hat / "panel", 1, max(n, 1))
+            holes.setdefault(pnum, []).append(sc.ring(h["polygon"], hat / "polygon"))
+        d = strip(name, lengths, angles, mats, depth=depth,
+                  thickness=_per(st.get("thickness_mm", thickness), at / "thickness_mm", n, sc.length),
+                  radius=_per(st.get("hinge_radius_mm", radius), at / "hinge_radius_mm", max(n - 1, 0),
+                              sc.length),
+                  hinge_thickness=(_per(st["hinge_thickness_mm"], at / "hinge_thickness_mm", max(n - 1, 0),
+                                        sc.length) if "hinge_thickness_mm" in st else hthick),
+                  panel_material=pmat, process=process, description=description, holes=holes,
+                  source=source, goals=goals, style=base_style)
         if fixity != 1.0:
-            from dataclasses import replace
-            d = replace(d, hinges=tuple(replace(h, fixity=float(fixity)) for h in d.hinges))
-        if data.get("root"):
-            from dataclasses import replace
-            d = replace(d, root=str(data["root"]))
+            d = replace(d, hinges=tuple(replace(h, fixity=fixity) for h in d.hinges))
+        if root:
+            d = replace(d, root=root)
         return validate(d, library)
     panels = []
-    for i, raw in enumerate(data.get("panels", [])):
-        what = f"panels[{i}]"
-        raw = _keys(raw, _PANEL, src, what)
-        pid = str(raw.get("id", f"p{i + 1}"))
-        what = f"panel {pid!r}"
+    for i, raw in enumerate(sc.array(data.get("panels", []), top / "panels", sc.MAX_PANELS,
+                                     "a list of [[panels]] tables")):
+        at = top / "panels" / i
+        raw = sc.table(raw, at, _PANEL)
+        pid = sc.ident(raw.get("id", f"p{i + 1}"), at / "id")
+        at = at.named(f"panel {pid!r}")
         if "outline" not in raw:
-            raise DesignError(f"{src}{what}: needs outline = [[x, y], ...]")
-        outline = _points(raw["outline"], f"{what}: outline", src)
-        check_ring(outline, "outline", f"{src}{what}: ")
+            raise at.fail("needs outline = [[x, y], ...]")
+        outline = np.array(sc.ring(raw["outline"], at / "outline"))
+        check_ring(outline, "outline", str(at))
+        hole_list = sc.array(raw.get("holes", []), at / "holes", sc.MAX_HOLES, "a list of polygons")
         panels.append(Panel(pid, outline,
-                            _num(raw.get("thickness_mm", thickness), f"{what}: thickness_mm", src),
-                            str(raw.get("material", pmat)),
-                            tuple(_points(h, f"{what}: holes[{k}]", src)
-                                  for k, h in enumerate(raw.get("holes", [])))))
+                            sc.length(raw.get("thickness_mm", thickness), at / "thickness_mm"),
+                            sc.string(raw.get("material", pmat), at / "material"),
+                            tuple(np.array(sc.ring(h, at / "holes" / k)) for k, h in enumerate(hole_list))))
     by_id = {p.id: p for p in panels}
     hinges = []
-    for i, raw in enumerate(data.get("hinges", [])):
-        raw = _keys(raw, _HINGE, src, f"hinges[{i}]")
-        hid = str(raw.get("id", f"h{i + 1}"))
-        what = f"hinge {hid!r}"
+    for i, raw in enumerate(sc.array(data.get("hinges", []), top / "hinges", sc.MAX_PANELS,
+                                     "a list of [[hinges]] tables")):
+        at = top / "hinges" / i
+        raw = sc.table(raw, at, _HINGE)
+        hid = sc.ident(raw.get("id", f"h{i + 1}"), at / "id")
+        at = at.named(f"hinge {hid!r}")
         pp = raw.get("panels")
-        if not isinstance(pp, list) or len(pp) != 2:
-            raise DesignError(f"{src}{what}: panels must be a list of two panel ids")
-        pp = [str(x) for x in pp]
+        if not isinstance(pp, (list, tuple)) or len(pp) != 2:
+            raise (at / "panels").fail(f"must be a list of two panel ids, got {sc.describe(pp)}")
+        pp = [sc.ident(x, at / "panels" / k) for k, x in enumerate(pp)]
         for pid in pp:
             if pid not in by_id:
-                raise DesignError(f"{src}{what}: joins panel {pid!r}, which does not exist; "
-                                  f"panels: {list(by_id)}")
-        if "angle_deg" not in raw or "material" not in raw:
-            raise DesignError(f"{src}{what}: needs angle_deg and material")
+                raise (at / "panels").fail(f"joins panel {pid!r}, which does not exist; "
+                                           f"panels: {list(by_id)[:20]}")
+        for key in ("angle_deg", "material"):
+            if key not in raw:
+                raise at.fail(f"needs {key}")
         if "line" in raw:
-            line = _points(raw["line"], f"{what}: line", src)
-            if line.shape != (2, 2):
-                raise DesignError(f"{src}{what}: line must be two points [[x0, y0], [x1, y1]]")
+            line = np.array(sc.points(raw["line"], at / "line", exact=2))
         else:
             line = shared_edge(by_id[pp[0]], by_id[pp[1]]) if pp[0] != pp[1] else None
             if line is None:
-                raise DesignError(f"{src}{what}: panels {pp[0]!r} and {pp[1]!r} share no edge; a hinge "
-                                  "joins two panels along a common side of their outlines")
-        ang = _num(raw["angle_deg"], f"{what}: angle_deg", src)
-        hinges.append(Hinge(hid, (pp[0], pp[1]), line, math.radians(ang), str(raw["material"]),
-                            _num(raw.get("radius_mm", radius), f"{what}: radius_mm", src),
-                            _num(raw.get("thickness_mm", hthick if hthick is not None else thickness),
-                                 f"{what}: thickness_mm", src),
-                            _num(raw.get("fixity", fixity), f"{what}: fixity", src),
-                            _style(raw.get("style"), base_style, src, f"{what}: style")))
+                raise at.fail(f"panels {pp[0]!r} and {pp[1]!r} share no edge; a hinge joins two panels "
+                              "along a common side of their outlines")
+        ang = _angle(raw["angle_deg"], at / "angle_deg")
+        hinges.append(Hinge(hid, (pp[0], pp[1]), line, math.radians(ang),
+                            sc.string(raw["material"], at / "material"),
+                            sc.length(raw.get("radius_mm", radius), at / "radius_mm"),
+                            sc.length(raw.get("thickness_mm", hthick if hthick is not None else thickness),
+                                      at / "thickness_mm"),
+                            _fixity(raw.get("fixity", fixity), at / "fixity"),
+                            _style(raw.get("style"), base_style, at / "style")))
     d = Design(name=name, panels=tuple(panels), hinges=tuple(hinges), process=process,
-               description=str(data.get("description", "")), root=str(data.get("root", "")),
-               goals=goals, depth=float(dft.get("depth_mm", 0.0)) if "depth_mm" in dft else 0.0,
-               source=source)
+               description=description, root=root, goals=goals,
+               depth=depth if "depth_mm" in dft else 0.0, source=source)
     return validate(d, library)
 
 
-def _goal(raw, i: int, src: str) -> Goal:
-    raw = _keys(raw, _GOAL, src, f"goals[{i}]")
-    gid = str(raw.get("id", f"g{i + 1}"))
+def _goal(raw, at: Where, i: int) -> Goal:
+    raw = sc.table(raw, at, _GOAL)
+    gid = sc.ident(raw.get("id", f"g{i + 1}"), at / "id")
+    at = at.named(f"goal {gid!r}")
     for key in ("type", "panel", "target", "hole", "tip"):
         if key not in raw:
-            raise DesignError(f"{src}goal {gid!r}: needs {key}")
-    tip = np.array(raw["tip"], dtype=float).reshape(-1)
-    if tip.shape != (2,):
-        raise DesignError(f"{src}goal {gid!r}: tip must be [x, y]")
-    return Goal(gid, str(raw["type"]), str(raw["panel"]), str(raw["target"]), int(raw["hole"]), tip,
-                int(raw.get("order", i)))
+            raise at.fail(f"needs {key}")
+    tip = sc.points([raw["tip"]], at / "tip", exact=1)[0]
+    return Goal(gid, sc.string(raw["type"], at / "type"), sc.ident(raw["panel"], at / "panel"),
+                sc.ident(raw["target"], at / "target"), sc.integer(raw["hole"], at / "hole", 0, sc.MAX_HOLES),
+                np.array(tip), sc.integer(raw.get("order", i), at / "order", -10**9, 10**9))
 
 
 def read_text(path: Path, expected: str) -> str:
-    """A UTF-8 text file's contents; DesignError naming the path otherwise."""
+    """A UTF-8 text file's contents; DesignError naming the path otherwise. Files too large
+    or nested too deeply for the parsers are refused here (:func:`foldprint.schema.check_text`)."""
     try:
+        size = path.stat().st_size
+        if size > sc.MAX_FILE_BYTES:
+            raise DesignError(f"{path}: file is {size / 2**20:.0f} MiB; design files of at most "
+                              f"{sc.MAX_FILE_BYTES // 2**20} MiB are accepted")
         raw = path.read_bytes()
     except FileNotFoundError:
         raise DesignError(f"{path}: file not found") from None
@@ -228,9 +269,11 @@ def read_text(path: Path, expected: str) -> str:
     except OSError as exc:
         raise DesignError(f"{path}: cannot read: {exc.strerror}") from None
     try:
-        return raw.decode("utf-8")
+        text = raw.decode("utf-8")
     except UnicodeDecodeError:
         raise DesignError(f"{path}: not a UTF-8 text file; expected {expected}") from None
+    sc.check_text(text, str(path), "toml" if "TOML" in expected else "json")
+    return text
 
 
 def design_to_dict(design: Design) -> dict:

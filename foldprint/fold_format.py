@@ -24,6 +24,7 @@ from .design import Design
 from .design_io import design_from_dict, read_text
 from .errors import DesignError, where
 from .materials import MaterialLibrary
+from .schema import check_fold
 
 UNITS = {"unit": 1.0, "mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "pt": 25.4 / 72.0,
          "um": 1e-3, "nm": 1e-6}
@@ -171,6 +172,7 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     if not isinstance(data, Mapping):
         raise DesignError(f"{src}a FOLD file must hold a JSON object, got {type(data).__name__}")
     frame = _frame(data, src)
+    check_fold(frame, source)  # issue 14: types of the foldprint per-item fields
     unit = str(frame.get("frame_unit", "unit")).lower()
     if scale is not None:
         if not _number(scale) or scale <= 0:

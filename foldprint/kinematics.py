@@ -202,6 +202,8 @@ class HingeDrive:
         """Recovery ratios (n_t, n_hinges) at times ``t``; arrested hinges hold their value."""
         t = np.atleast_1d(np.asarray(t, float))
         n_h = len(self.curves)
+        if n_h == 0:  # a single panel: a valid, trivial design
+            return np.zeros((len(t), 0))
         tt = np.repeat(t[:, None], n_h, axis=1)
         for i, tf in self.frozen_at.items():
             tt[:, i] = np.minimum(t, tf)

@@ -9,6 +9,7 @@ import numpy as np
 
 from .collision2d import Index2D, collision_index
 from .collision3d import Contact, SweptChecker, swept_first_contact
+from . import guards
 from .constants import FOLD_LEVEL, tol
 from .design import Design, tree_order
 from .errors import DesignError
@@ -149,6 +150,7 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     curves of each hinge's material; :mod:`foldprint.robust` passes scattered ones).
     """
     method = parse(Method, method, "method")
+    guards.check_simulation(design, dt, duration, method)  # refuse before allocating (issue 14)
     after_contact = parse(AfterContact, after_contact, "after_contact")
     hinge_model = parse(HingeModel, hinge_model, "hinge_model")
     use2d = method in (Method.INDEX2D, Method.BOTH) and design.is_planar_strip

@@ -394,36 +394,39 @@ def test_unwritable_output_dir_raises_and_writes_nothing(tmp_path):
     assert blocker.read_text() == "not a directory"
 
 
+def _failing_open(monkeypatch, fail_at: int, calls: list):
+    """Make the export's n-th file write fail (disk full), through the writer's ``open``."""
+    from foldprint.exchange import files as files_mod
+
+    def flaky(path, mode="r", *a, **kw):
+        if "w" in mode:
+            calls.append(path)
+            if len(calls) >= fail_at:
+                raise OSError(28, "No space left on device")
+        return open(path, mode, *a, **kw)
+
+    monkeypatch.setattr(files_mod, "open", flaky, raising=False)
+
+
 def test_failed_write_leaves_no_partial_output(tmp_path, monkeypatch):
     design = _build(str(PRINTABLE[0]))[0]
     calls = []
-    real = export_mod.write_atomic
-
-    def flaky(path, data):
-        calls.append(path)
-        if len(calls) == 3:
-            raise ExportError(f"{path}: cannot write: disk full")
-        return real(path, data)
-
-    monkeypatch.setattr(export_mod, "write_atomic", flaky)
+    _failing_open(monkeypatch, 3, calls)
     out = tmp_path / "out"
-    with pytest.raises(ExportError, match="disk full"):
+    with pytest.raises(ExportError, match="No space left"):
         export_design(design, out)
-    assert len(calls) == 3 and list(out.iterdir()) == []
+    assert len(calls) == 3 and not out.exists()  # the directory this export created is gone too
 
 
 def test_failed_write_keeps_files_from_an_earlier_export(tmp_path, monkeypatch):
     design = _build(str(PRINTABLE[0]))[0]
     first = export_design(design, tmp_path, formats=["3mf", "prusa3mf"])
     before = {r["path"]: Path(r["path"]).read_bytes() for r in first}
-
-    def broken(path, data):
-        raise ExportError(f"{path}: cannot write: read-only file system")
-
-    monkeypatch.setattr(export_mod, "write_atomic", broken)
+    _failing_open(monkeypatch, 2, [])
     with pytest.raises(ExportError):
         export_design(design, tmp_path, formats=["3mf", "prusa3mf"])
     assert {p: Path(p).read_bytes() for p in before} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(Path(p).name for p in before)
 
 
 def test_unknown_format_raises_before_building(tmp_path):

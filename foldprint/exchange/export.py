@@ -4,9 +4,9 @@ animated glTF binary.
 
 This module only writes: the assembly comes built from :mod:`foldprint.pipeline`.
 
-Everything is built in memory first; only then are files written, each atomically
-(:func:`~foldprint.exchange.files.write_atomic`). If a write fails, the files this call
-had already created are removed again, so a failed export leaves no partial set.
+Everything is built in memory first; only then is the set written, as a whole
+(:func:`~foldprint.exchange.files.write_set`: staging directory, commit journal, renames),
+so a failed or killed export leaves the previous complete set or the new one.
 
 File names (``stem`` = the design name, ``<name>_programmed`` for the flat state):
 ``<stem>.3mf`` (spec form + Bambu/Orca/Cura metadata), ``<stem>_prusa.3mf`` (PrusaSlicer),
@@ -20,7 +20,6 @@ print frame and the panels/hinges that need support on the bed.
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 from typing import Iterable
@@ -33,7 +32,7 @@ from ..geometry import Assembly, bed_report
 from ..kinematics import Trajectory
 from ..materials import MaterialLibrary, default_library
 from .fem import inp_bytes
-from .files import ensure_dir, write_atomic
+from .files import write_set
 from .fold import fold_bytes
 from .gltf import glb_bytes
 from .stl import manifest, stl_bytes
@@ -165,26 +164,12 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
     (created if needed; ExportError if it cannot be). Returns one record per file
     written: {path, format, bodies, bytes, ...}; format is one of :data:`FORMATS`,
     "manifest" (with stl) or "h5" (the arrays of xdmf); bodies as :func:`body_records`;
-    ``mesh`` (inp) and ``steps``, ``dt_s``, ... (xdmf, glb) describe the file."""
+    ``mesh`` (inp) and ``steps``, ``dt_s``, ... (xdmf, glb) describe the file.
+
+    The files land as a whole (:func:`~foldprint.exchange.files.write_set`): an
+    interrupted export leaves the previous complete set or the new one, never a mix, and
+    nothing is created when the export fails."""
     files = render(design, assembly, formats, library, trajectory)
-    out = ensure_dir(out_dir)
-    created: list[Path] = []
-    records = []
-    try:
-        for name, data, fmt, bodies, more in files:
-            path = out / name
-            existed = path.exists()
-            write_atomic(path, data)
-            if not existed:
-                created.append(path)
-            records.append({"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data), **more})
-    except (ExportError, OSError) as exc:
-        for p in created:
-            try:
-                os.unlink(p)
-            except OSError:
-                pass
-        if isinstance(exc, ExportError):
-            raise
-        raise ExportError(f"{out}: cannot write: {exc}") from None
-    return records
+    paths = write_set(out_dir, [(name, data) for name, data, *_ in files])
+    return [{"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data), **more}
+            for path, (name, data, fmt, bodies, more) in zip(paths, files)]
