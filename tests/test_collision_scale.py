@@ -58,8 +58,9 @@ def _solid_points(d: Design, i: int) -> np.ndarray:
 @settings(max_examples=12, deadline=None)
 @given(data=st.data(), model=st.sampled_from(["point", "arc"]), tree=st.booleans())
 def test_motion_bounds_hold_for_real_motion(data, model, tree):
-    """Over [ta, tb], the distance between any corner of panel i and any corner of panel j,
-    and the panels' FCL distance, change by no more than the narrow-phase bound; the
+    """Over [ta, tb], the distance between any corner of panel i and any corner of panel j
+    changes by no more than the narrow-phase bound (FCL's own distance is not used here:
+    its GJK error exceeds the motion near flat states, see collision3d.FCL_REL); the
     centroids' distance by no more than the broad-phase bound; every panel stays inside
     its hierarchy sphere."""
     d = random_tree(data) if tree else random_strip(data)
@@ -85,11 +86,8 @@ def test_motion_bounds_hold_for_real_motion(data, model, tree):
 
         d0 = corner_dist(0)
         moved = max(np.abs(corner_dist(k) - d0).max() for k in range(len(ts)))
-        f0 = ch.distance(i, j, poses[0, i], poses[0, j])[0]
-        fmoved = max(abs(ch.distance(i, j, poses[k, i], poses[k, j])[0] - f0) for k in range(0, len(ts), 4))
         bound = ch._bound((i, j), ang[0], ang[-1:])[0]
         assert moved <= bound + 1e-9, (i, j, moved, bound)
-        assert fmoved <= bound + 1e-6
         # broad phase: centroid distance change vs the split-panel prefix bound
         a, b = np.array([i]), np.array([j])
         l = tb_.lca(a, b)
