@@ -7,7 +7,7 @@ S_ij = S_i * S_j. The paper flags a collision when 0 < S_ij < 1 except in three 
 Parallel segments have no intersection point: collinear ones that overlap are a contact,
 the others are not (their index is NaN).
 
-Vectorised over time steps and pairs. Hinge-adjacent panels are excluded from contact
+Vectorised over time steps and pairs (one broadcast, chunked over pairs). Hinge-adjacent panels are excluded from contact
 (they share the hinge; ``docs/simulation.md``) but their index is kept for plots.
 """
 
@@ -30,35 +30,52 @@ def index_arrays(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray)
     Returns ``(s_i, s_j, parallel, collinear_overlap)``; s_i and s_j are NaN where the
     segments are parallel.
     """
-    dp, dq, r = p2 - p1, q2 - q1, q1 - p1
-    cross = lambda a, b: a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]  # noqa: E731
-    denom = cross(dp, dq)
-    scale = np.linalg.norm(dp, axis=-1) * np.linalg.norm(dq, axis=-1)
+    return index_components(p1[..., 0], p1[..., 1], p2[..., 0], p2[..., 1],
+                            q1[..., 0], q1[..., 1], q2[..., 0], q2[..., 1])
+
+
+def index_components(p1x, p1y, p2x, p2y, q1x, q1y, q2x, q2y):
+    """:func:`index_arrays` on separate coordinate arrays (contiguous, so fast): Eq. 5 with
+    C_ij the crossing of the two lines, S_i = (r x dq) / (dp x dq), S_j = (r x dp) / (dp x dq)."""
+    dpx, dpy = p2x - p1x, p2y - p1y
+    dqx, dqy = q2x - q1x, q2y - q1y
+    rx, ry = q1x - p1x, q1y - p1y
+    denom = dpx * dqy - dpy * dqx
+    lp0 = np.sqrt(dpx * dpx + dpy * dpy)
+    scale = lp0 * np.sqrt(dqx * dqx + dqy * dqy)
     parallel = np.abs(denom) <= 1e-9 * np.maximum(scale, _EPS)
     safe = np.where(parallel, 1.0, denom)
-    s_i = np.where(parallel, np.nan, cross(r, dq) / safe)
-    s_j = np.where(parallel, np.nan, cross(r, dp) / safe)
-    # collinear: q1 on the line of p (distance below a tolerance), then 1-D overlap
-    lp = np.maximum(np.linalg.norm(dp, axis=-1), _EPS)
-    off = np.abs(cross(r, dp)) / lp
-    collinear = parallel & (off <= 1e-9 * np.maximum(lp, 1.0))
-    u = dp / lp[..., None]
-    a0, a1 = np.zeros_like(lp), lp
-    b0 = np.sum(r * u, axis=-1)
-    b1 = np.sum((q2 - p1) * u, axis=-1)
-    overlap = np.minimum(a1, np.maximum(b0, b1)) - np.maximum(a0, np.minimum(b0, b1)) > 1e-9
-    return s_i, s_j, parallel, collinear & overlap
+    s_i = np.where(parallel, np.nan, (rx * dqy - ry * dqx) / safe)
+    s_j = np.where(parallel, np.nan, (rx * dpy - ry * dpx) / safe)
+    parallel = np.asarray(parallel)
+    coll = np.zeros(parallel.shape, dtype=bool)
+    if parallel.ndim == 0:  # scalars: the same arithmetic on 1-element arrays
+        s_i, s_j, par, c = index_components(*(np.atleast_1d(a) for a in (p1x, p1y, p2x, p2y, q1x, q1y, q2x, q2y)))
+        return s_i[0], s_j[0], par[0], c[0]
+    if parallel.any():  # collinear: q1 on the line of p (within a tolerance), then 1-D overlap
+        sel = np.nonzero(parallel)
+        b = [np.broadcast_to(a, parallel.shape)[sel] for a in (dpx, dpy, rx, ry, q2x - p1x, q2y - p1y, lp0)]
+        ax, ay, bx, by, cx, cy, l0 = b
+        lp = np.maximum(l0, _EPS)
+        off = np.abs(bx * ay - by * ax) / lp
+        ux, uy = ax / lp, ay / lp
+        b0 = bx * ux + by * uy
+        b1 = cx * ux + cy * uy
+        overlap = np.minimum(lp, np.maximum(b0, b1)) - np.maximum(0.0, np.minimum(b0, b1)) > 1e-9
+        coll[sel] = (off <= 1e-9 * np.maximum(lp, 1.0)) & overlap
+    return s_i, s_j, parallel, coll
 
 
 def paper_contact(s_i: np.ndarray, s_j: np.ndarray) -> np.ndarray:
-    """The paper's rule: 0 < S_ij < 1 and none of the three exceptions."""
+    """The paper's rule: 0 < S_ij < 1 and none of the three exceptions (1) 0 < S_i < 1 and
+    S_j > 1, (2) 0 < S_j < 1 and S_i > 1, (3) S_i < 0 and S_j < 0.
+
+    Evaluated in the equivalent form 0 < S_ij < 1, 0 < S_i <= 1, S_j <= 1: with S_ij > 0
+    the signs agree, S_i > 0 removes (3), and for two positive factors with a product
+    below 1, "not (1) and not (2)" is exactly S_i <= 1 and S_j <= 1 (NaN gives False)."""
     with np.errstate(invalid="ignore"):
         s_ij = s_i * s_j
-        flagged = (s_ij > 0) & (s_ij < 1)
-        exc1 = (s_i > 0) & (s_i < 1) & (s_j > 1)
-        exc2 = (s_j > 0) & (s_j < 1) & (s_i > 1)
-        exc3 = (s_i < 0) & (s_j < 0)
-    return flagged & ~(exc1 | exc2 | exc3)
+        return (s_ij > 0) & (s_ij < 1) & (s_i > 0) & (s_i <= 1) & (s_j <= 1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,10 +110,11 @@ def world_side_segments(design: Design, poses: np.ndarray, model: str):
         if len(segs) == 0:
             out.append(np.zeros((poses.shape[0], 0, 2, 2)))
             continue
-        pts = np.concatenate([segs.reshape(-1, 2), np.zeros((2 * len(segs), 1)),
-                              np.ones((2 * len(segs), 1))], axis=1)  # (2k, 4) homogeneous
-        w = np.einsum("tij,kj->tki", poses[:, i], pts)  # (n_t, 2k, 4)
-        out.append(w[..., [0, 2]].reshape(poses.shape[0], len(segs), 2, 2))
+        x, y = segs.reshape(-1, 2).T  # sheet points at z = 0
+        P = poses[:, i]
+        wx = P[:, 0, 0, None] * x + P[:, 0, 1, None] * y + P[:, 0, 3, None]
+        wz = P[:, 2, 0, None] * x + P[:, 2, 1, None] * y + P[:, 2, 3, None]
+        out.append(np.stack([wx, wz], axis=-1).reshape(poses.shape[0], len(segs), 2, 2))
     return out
 
 
@@ -105,35 +123,107 @@ def adjacent_pairs(design: Design) -> set[tuple[int, int]]:
     return {tuple(sorted((idx[h.panels[0]], idx[h.panels[1]]))) for h in design.hinges}
 
 
-def collision_index(traj: Trajectory) -> Index2D:
-    """The paper's index for every panel pair at every time step of ``traj``."""
+#: Working memory (bytes) one chunk of pairs may use beyond the output arrays.
+CHUNK_BYTES = 64 * 2**20
+#: float64 temporaries alive at once per (time, pair, sub-segment pair) in one chunk.
+_TEMPS = 40
+
+
+def index_memory_bytes(n_steps: int, n_pairs: int, max_segments: int = 1,
+                       chunk_bytes: int = CHUNK_BYTES) -> int:
+    """Peak memory (bytes) of :func:`collision_index` for ``n_steps`` samples and ``n_pairs``
+    panel pairs whose panels have at most ``max_segments`` side-view segments: the output
+    (S_ij float64 and contact bool per step and pair) plus one chunk's temporaries (at
+    most ``chunk_bytes``). A guard can refuse a design before it starts."""
+    out = n_steps * n_pairs * (8 + 1)
+    per_pair = n_steps * max_segments**2 * 8 * _TEMPS
+    return int(out + min(chunk_bytes, per_pair * max(n_pairs, 1)) + n_steps * 8 * 4 * max_segments)
+
+
+def collision_index(traj: Trajectory, chunk_bytes: int = CHUNK_BYTES) -> Index2D:
+    """The paper's index for every panel pair at every time step of ``traj``: every pair
+    and step in one broadcast, in chunks of pairs so the temporaries stay under
+    ``chunk_bytes`` (total memory: :func:`index_memory_bytes`)."""
     design = traj.design
     segs = world_side_segments(design, traj.poses, traj.model)
     n = len(design.panels)
-    pairs = np.array([(i, j) for i in range(n) for j in range(i + 1, n)], dtype=int).reshape(-1, 2)
-    adj = adjacent_pairs(design)
     n_t = len(traj.times)
+    iu, ju = np.triu_indices(n, 1)
+    pairs = np.column_stack([iu, ju]).astype(int).reshape(-1, 2)
+    kmax = max([s.shape[1] for s in segs] + [1])
+    S = np.full((4, n_t, n, kmax), np.nan)  # p1x, p1z, p2x, p2z: contiguous components
+    valid = np.zeros((n, kmax), dtype=bool)
+    for i, sg in enumerate(segs):
+        S[:, :, i, :sg.shape[1]] = sg.reshape(n_t, -1, 4).transpose(2, 0, 1)
+        valid[i, :sg.shape[1]] = True
+    # per panel once: direction and length (the same arithmetic as index_components)
+    dx, dz = S[2] - S[0], S[3] - S[1]
+    length = np.sqrt(dx * dx + dz * dz)
+    all_valid = bool(valid.all())
     s_ij = np.full((n_t, len(pairs)), np.nan)
     contact = np.zeros((n_t, len(pairs)), dtype=bool)
-    for k, (i, j) in enumerate(pairs):
-        a, b = segs[i], segs[j]
-        if a.shape[1] == 0 or b.shape[1] == 0:
+    step = max(1, int(chunk_bytes // (n_t * kmax * kmax * 8 * _TEMPS)))
+    for c0 in range(0, len(pairs), step):
+        I, J = iu[c0:c0 + step], ju[c0:c0 + step]
+        si, sj, coll = _pair_index(S, dx, dz, length, I, J)
+        P = len(I)
+        with np.errstate(invalid="ignore"):
+            prod = si * sj
+            hit = (prod > 0) & (prod < 1) & (si > 0) & (si <= 1) & (sj <= 1)  # paper_contact
+        if coll is not None:
+            hit |= coll
+        if not all_valid:
+            ok = (valid[I][:, :, None] & valid[J][:, None, :])[None]  # (1, P, K, K)
+            hit &= ok
+            prod = np.where(ok, prod, np.nan)
+        contact[:, c0:c0 + P] = hit.reshape(n_t, P, -1).any(axis=2)
+        prod = prod.reshape(n_t, P, -1)
+        if prod.shape[2] == 1:
+            s_ij[:, c0:c0 + P] = prod[:, :, 0]
             continue
-        p1, p2 = a[:, :, None, 0], a[:, :, None, 1]  # (n_t, ka, 1, 2)
-        q1, q2 = b[:, None, :, 0], b[:, None, :, 1]  # (n_t, 1, kb, 2)
-        si, sj, _, coll = index_arrays(p1, p2, q1, q2)
-        hit = paper_contact(si, sj) | coll
-        contact[:, k] = hit.reshape(n_t, -1).any(axis=1)
-        prod = (si * sj).reshape(n_t, -1)
         with np.errstate(invalid="ignore"):
             # the value plotted: the sub-segment pair closest to the band (0, 1)
             dist = np.where(np.isnan(prod), np.inf, np.abs(prod - 0.5))
-        pick = np.argmin(dist, axis=1)
-        s_ij[:, k] = prod[np.arange(n_t), pick]
+        pick = np.argmin(dist, axis=2)
+        s_ij[:, c0:c0 + P] = np.take_along_axis(prod, pick[..., None], axis=2)[..., 0]
+    adj = adjacent_pairs(design)
     adjacent = np.array([tuple(p) in adj for p in pairs.tolist()], dtype=bool)
-    for a in (s_ij, contact, adjacent):
-        a.setflags(write=False)
+    for arr in (s_ij, contact, adjacent):
+        arr.setflags(write=False)
     return Index2D(traj.times, pairs, s_ij, contact, adjacent)
+
+
+def _pair_index(S, dx, dz, length, I, J):
+    """S_i, S_j (n_t, P, K, K) and the collinear-overlap mask (or None) for pairs (I, J):
+    :func:`index_components` with the per-panel terms computed once."""
+    p1x, p1z = S[0][:, I, :, None], S[1][:, I, :, None]
+    dpx, dpz, lp0 = dx[:, I, :, None], dz[:, I, :, None], length[:, I, :, None]
+    q1x, q1z = S[0][:, J, None, :], S[1][:, J, None, :]
+    dqx, dqz, lq0 = dx[:, J, None, :], dz[:, J, None, :], length[:, J, None, :]
+    rx, rz = q1x - p1x, q1z - p1z
+    denom = dpx * dqz - dpz * dqx
+    parallel = np.abs(denom) <= 1e-9 * np.maximum(lp0 * lq0, _EPS)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s_i = (rx * dqz - rz * dqx) / denom
+        s_j = (rx * dpz - rz * dpx) / denom
+    coll = None
+    if parallel.any():
+        np.copyto(s_i, np.nan, where=parallel)
+        np.copyto(s_j, np.nan, where=parallel)
+        sel = np.nonzero(parallel)
+        q2x = S[2][:, J, None, :]
+        q2z = S[3][:, J, None, :]
+        part = [np.broadcast_to(a, parallel.shape)[sel] for a in (dpx, dpz, rx, rz, q2x - p1x, q2z - p1z, lp0)]
+        ax, ay, bx, by, cx, cy, l0 = part
+        lp = np.maximum(l0, _EPS)
+        off = np.abs(bx * ay - by * ax) / lp
+        ux, uy = ax / lp, ay / lp
+        b0 = bx * ux + by * uy
+        b1 = cx * ux + cy * uy
+        overlap = np.minimum(lp, np.maximum(b0, b1)) - np.maximum(0.0, np.minimum(b0, b1)) > 1e-9
+        coll = np.zeros(parallel.shape, dtype=bool)
+        coll[sel] = (off <= 1e-9 * np.maximum(lp, 1.0)) & overlap
+    return s_i, s_j, coll
 
 
 def segments_intersect_loop(segs_i: np.ndarray, segs_j: np.ndarray) -> bool:

@@ -1,4 +1,5 @@
-"""3D swept-panel collision with python-fcl: conservative advancement on ``fcl.distance``.
+"""3D swept-panel collision with python-fcl: a broad phase over a panel hierarchy, then
+conservative advancement on ``fcl.distance`` for the pairs that come close.
 
 Panels are real solids: the rigid part of the outline (holes kept) extruded to the panel
 thickness, split into convex prisms (``fcl.Convex``; python-fcl 0.7's continuous
@@ -6,16 +7,25 @@ collision on BVH meshes is unreliable, ``shared/design.md``).
 
 Why no contact is missed between samples: between times t0 and t1 every hinge angle is
 monotone (recovery only grows; an arrested hinge is constant), so a point of panel i moves
-relative to panel j by at most
+relative to panel j by at most F(t1) - F(t0), F(t) = sum_k lever_k |rho_k(t) - rho_k(0)| over
+the hinges k on the tree path i..j, with configuration-free levers (``motion.py``).
+An interval [ta, tb] is safe when d(ta) + d(tb) > F(tb) - F(ta): a contact inside would
+need both distances to be covered by the motion.
 
-    D(t0, t1) = sum over hinges k on the tree path i..j of |rho_k(t1) - rho_k(t0)| * r_k
-
-where r_k bounds the distance of the moving panel's points from hinge k's axis (the
-chain of panel diameters and hinge widths from the hinge to the panel, plus the arc
-hinge's own translation). If the distance d(t0) exceeds D(t0, t1), the panels cannot touch
-in [t0, t1]. Each pair advances by the largest such step (on the trajectory's grid, then
-by bisection in continuous time), so far-apart pairs take few distance queries and the
-first contact is found to within ``contact_tol_mm`` and refined to <= 1 ms.
+* Broad phase (``candidate_runs``): a binary hierarchy of panel groups, each inside a
+  sphere of fixed radius about one of its panels' centroid in every configuration. Pairs of
+  groups and time intervals are certified with the sphere distances and the centre motion
+  bound (prefix sums along the tree, O(1) per pair), all pairs of one level at once;
+  uncertified ones split the bigger group or the interval. What survives is a list of
+  (panel pair, sample interval) runs.
+* Narrow phase (``SweptChecker.first_contact``): per run, FCL distances; far apart a pair
+  jumps from sample to sample while d(t0) > F(t1) - F(t0); close, an interval is split
+  (bisection in continuous time, poses of the two panels only). The pair lever is the
+  smaller of the two sides' levers per hinge (the motion relative to the panel in the
+  middle of the path). A contact is declared at distance <= the contact tolerance and
+  refined to the first touching time within ``time_tol_s``. Splitting stops at
+  time_tol_s / 16: an interval that cannot be certified there is reported as a contact
+  (conservative), so the work is bounded whatever the coordinates.
 
 Hinge-adjacent panels are not checked: they share the hinge, and under the arc model their
 rigid parts stay apart for |rho| <= 180 deg as long as 2R exceeds the thickness (a
@@ -31,8 +41,20 @@ import fcl
 import numpy as np
 
 from .design import Design
-from .kinematics import HingeDrive, forward, hinge_frames
+from .kinematics import HingeDrive, forward, hinge_frames, local_transforms
+from .motion import build_hierarchy, tree_bounds
 from .rigid import convex_pieces, prism, rigid_polygon
+
+#: Relative contact tolerance: a fraction of the sheet's size (coordinates of 1e15 mm
+#: cannot be resolved to 0.01 mm in double precision).
+REL_TOL = 1e-9
+#: FCL's GJK distance between convex prisms is not exact: near flat, coplanar
+#: configurations it was measured 0.064 mm (0.8 %) and once 4.4 mm (16 %) above the distance
+#: a moment before and after, more than the panels could have moved. Certification shrinks
+#: every FCL distance by this fraction (the one-sided jump keeps 10 %), and the narrow
+#: phase never lets a distance exceed the previous one plus the motion bound between them.
+FCL_REL = 0.02
+_REQUEST = fcl.DistanceRequest(enable_nearest_points=True)
 
 
 @dataclass(frozen=True)
@@ -49,11 +71,11 @@ class Contact:
 
 @dataclass
 class SweptChecker:
-    """Holds the FCL geometry of a design and checks pairs along a hinge drive."""
+    """Holds the FCL geometry and motion bounds of a design; checks pairs along a drive."""
 
     design: Design
     model: str
-    drive: HingeDrive
+    drive: HingeDrive | None
     contact_tol_mm: float = 0.01
     time_tol_s: float = 1e-3
     pieces: list = field(default_factory=list)
@@ -61,7 +83,9 @@ class SweptChecker:
 
     def __post_init__(self):
         d = self.design
+        self.model = str(self.model)
         self.frames = hinge_frames(d)
+        self._frame_of = {f.index: f for f in self.frames}
         self.pieces = []
         for i, p in enumerate(d.panels):
             objs = []
@@ -69,73 +93,33 @@ class SweptChecker:
                 v, f = prism(ring, p.thickness)
                 objs.append(fcl.CollisionObject(fcl.Convex(v, len(f) and _count_faces(f), f)))
             self.pieces.append(objs)
-        self._path, self._radius = self._motion_bounds()
+        self.tree = tree_bounds(d, self.model, self.frames)
+        self.hier = build_hierarchy(self.tree)
+        pts = np.concatenate([p.outline for p in d.panels])
+        extent = float(np.max(np.abs(pts))) + float(np.ptp(pts, axis=0).max())
+        self.tol = max(self.contact_tol_mm, REL_TOL * extent)
+        self._pairs: dict = {}
 
-    # -- static bounds --------------------------------------------------------------
-    def _motion_bounds(self):
-        d = self.design
-        n = len(d.panels)
-        parent_of = {f.child: f for f in self.frames}
-        diam = np.array([_diameter(p.outline) for p in d.panels])
-
-        def chain(i):  # hinges from root down to panel i (frames)
-            out = []
-            while i in parent_of:
-                f = parent_of[i]
-                out.append(f)
-                i = f.parent
-            return out[::-1]
-
-        chains = [chain(i) for i in range(n)]
-        path, radius = {}, {}
-        for i in range(n):
-            for j in range(i + 1, n):
-                ci, cj = chains[i], chains[j]
-                common = 0
-                while common < min(len(ci), len(cj)) and ci[common] is cj[common]:
-                    common += 1
-                idx, rad = [], []
-                for side in (ci[common:], cj[common:]):
-                    for pos, f in enumerate(side):
-                        # panels from this hinge's child down to the end of this side
-                        r = sum(diam[g.child] + g.width for g in side[pos:]) + 1.5 * f.width
-                        r = min(r, self._flat_radius(f, [g.child for g in side[pos:]]) + 1.5 * f.width)
-                        idx.append(f.index)
-                        rad.append(r)
-                path[(i, j)] = np.array(idx, dtype=int)
-                radius[(i, j)] = np.array(rad)
-        return path, radius
-
-    def _flat_radius(self, frame, chain_panels: list[int]) -> float:
-        """Distance from the hinge axis to the farthest point of the chain's last panel,
-        measured in the flat sheet: a valid bound when the chain's region is convex (then
-        the straight path lies in the chain, whose rigid pieces and hinges only shorten
-        distances when folded); infinity otherwise."""
-        import shapely
-
-        key = (frame.index, tuple(chain_panels))
-        cache = self.__dict__.setdefault("_flat_cache", {})
-        if key in cache:
-            return cache[key]
-        region = shapely.union_all([self.design.panels[k].polygon for k in chain_panels]
-                                   + [self.design.panels[frame.parent].polygon])
-        hull = region.convex_hull
-        if region.geom_type != "Polygon" or hull.area - region.area > 1e-6 * hull.area:
-            cache[key] = np.inf
-            return np.inf
-        pts = self.design.panels[chain_panels[-1]].outline
-        a, b = frame.hinge.line
-        d = (b - a) / np.linalg.norm(b - a)
-        rel = pts - a
-        cache[key] = float(np.max(np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0])))
-        return cache[key]
-
-    # -- queries ----------------------------------------------------------------------
+    # -- geometry ---------------------------------------------------------------------
     def poses_at(self, t: float) -> np.ndarray:
         return forward(self.design, self.drive.angles([t]), self.model, self.frames)[0]
 
+    def pair_poses(self, pair, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Poses (m, 4, 4) of the two panels in the frame of their lowest common ancestor
+        for hinge angles (m, n_hinges): only the hinges on the path between them."""
+        up_i, down_j = self._path(pair)[:2]
+        m = len(angles)
+
+        def chain(hinges):
+            T = np.broadcast_to(np.eye(4), (m, 4, 4)).copy()
+            for h in hinges:
+                T = T @ local_transforms(self._frame_of[h], angles[:, h], self.model)
+            return T
+
+        return chain(up_i[::-1]), chain(down_j)
+
     def distance(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
-        """Minimum distance (mm; <= 0 when touching) and the nearest point (world)."""
+        """Minimum distance (mm; <= 0 when touching) and the nearest point (pose frame)."""
         best, point = np.inf, None
         ti = fcl.Transform(pose_i[:3, :3], pose_i[:3, 3])
         tj = fcl.Transform(pose_j[:3, :3], pose_j[:3, 3])
@@ -143,9 +127,8 @@ class SweptChecker:
             a.setTransform(ti)
             for b in self.pieces[j]:
                 b.setTransform(tj)
-                req = fcl.DistanceRequest(enable_nearest_points=True)
                 res = fcl.DistanceResult()
-                dist = fcl.distance(a, b, req, res)
+                dist = fcl.distance(a, b, _REQUEST, res)
                 self.n_distance_calls += 1
                 if dist < best:
                     best = dist
@@ -154,108 +137,134 @@ class SweptChecker:
                     return 0.0, point
         return float(best), point
 
+    # -- motion bounds ------------------------------------------------------------------
+    def _path(self, pair):
+        hit = self._pairs.get(pair)
+        if hit is None:
+            i, j = pair
+            t = self.tree
+            up_i, down_j, l = t.path(i, j)
+            idx, lev = t.pair_levers(i, j, t.qp[i] + t.reach[i], t.qp[j] + t.reach[j])
+            hit = self._pairs[pair] = (up_i, down_j, l, idx, lev)
+        return hit
+
     def _bound(self, pair, ang0: np.ndarray, ang: np.ndarray) -> np.ndarray:
-        idx = self._path[pair]
-        return np.abs(ang[..., idx] - ang0[idx]) @ self._radius[pair]
+        _, _, _, idx, lev = self._path(pair)
+        if len(idx) == 0:
+            return np.zeros(ang.shape[:-1])
+        return np.abs(ang[..., idx] - ang0[idx]) @ lev
 
     def cumulative_motion(self, pair, angles: np.ndarray) -> np.ndarray:
-        """F(t) = sum_k r_k |rho_k(t) - rho_k(0)| on the samples (n_t,). Every hinge angle
-        is monotone, so the motion bound over [ta, tb] is exactly F(tb) - F(ta)."""
+        """F(t) = sum_k lever_k |rho_k(t) - rho_k(0)| on the samples (n_t,). Every hinge
+        angle is monotone, so the motion bound over [ta, tb] is exactly F(tb) - F(ta)."""
         return self._bound(pair, angles[0], angles)
 
+    # -- narrow phase -------------------------------------------------------------------
     def first_contact(self, pair: tuple[int, int], times: np.ndarray, angles: np.ndarray,
                       poses: np.ndarray, t_start: float = 0.0) -> Contact | None:
-        """Earliest contact of ``pair`` in [t_start, times[-1]], or None.
-
-        Far apart, a pair jumps from sample to sample as far as the one-sided bound
-        d(t0) > F(t1) - F(t0) allows. Close, an interval [ta, tb] is safe when
-        d(ta) + d(tb) > F(tb) - F(ta) (a contact inside would need both distances to
-        be covered by the motion); otherwise it is split in continuous time."""
-        i, j = pair
-        cum = self.cumulative_motion(pair, angles)
+        """Earliest contact of ``pair`` in [t_start, times[-1]], or None."""
         k = int(np.searchsorted(times, t_start - 1e-12))
-        n = len(times)
-        if k >= n:
+        if k >= len(times):
             return None
+        return self._run(pair, times, angles, poses, k, len(times) - 1, k == 0)
+
+    def _run(self, pair, times, angles, poses, k0: int, k1: int, at_start: bool) -> Contact | None:
+        """Earliest contact of ``pair`` in [times[k0], times[k1]] (world poses at samples)."""
+        steps = self._steps(pair, times, angles, poses, k0, k1, at_start)
+        while True:
+            try:
+                next(steps)
+            except StopIteration as stop:
+                return stop.value
+
+    def _steps(self, pair, times, angles, poses, k0: int, k1: int, at_start: bool):
+        """Generator: yields the sample index each step has certified up to; returns the
+        earliest contact in [times[k0], times[k1]] or None.
+
+        Far apart, a pair jumps from sample to sample as far as d(t0) > F(t1) - F(t0)
+        allows. Close, [ta, tb] is safe when d(ta) + d(tb) > F(tb) - F(ta); otherwise it
+        is split in continuous time."""
+        i, j = pair
+        ang0 = angles[k0]
+        cum = self._bound(pair, ang0, angles[k0:k1 + 1])
+        k = k0
         d, point = self.distance(i, j, poses[k][i], poses[k][j])
-        if d <= self.contact_tol_mm:
-            if k == 0:
+        if d <= self.tol:
+            if at_start:
                 return Contact(float(times[k]), pair, self._ids(pair), _pt(point), d, "initial")
-            return self._refine(pair, float(times[k]), d, point)
-        while k < n - 1:
-            kk = int(np.searchsorted(cum, cum[k] + 0.9 * d, side="right")) - 1
-            if kk >= n - 1:
-                return None  # safe to the end of the trajectory
+            return self._refine(pair, float(times[k]), d)
+        while k < k1:
+            yield k
+            c = k - k0
+            kk = k0 + int(np.searchsorted(cum, cum[c] + 0.9 * d, side="right")) - 1
+            if kk >= k1:
+                return None  # safe to the end of the run
             if kk > k:
+                dprev, cprev = d, cum[c]
                 k = kk
                 d, point = self.distance(i, j, poses[k][i], poses[k][j])
-                if d <= self.contact_tol_mm:
-                    return self._refine(pair, float(times[k]), d, point)
+                d = min(d, dprev + cum[k - k0] - cprev)  # Lipschitz: no GJK overestimate
+                if d <= self.tol:
+                    return self._refine(pair, float(times[k]), d)
                 continue
             d1, p1 = self.distance(i, j, poses[k + 1][i], poses[k + 1][j])
-            if d + d1 <= cum[k + 1] - cum[k]:
-                hit = self._split(pair, angles[0], float(times[k]), d, point, float(cum[k]),
-                                  float(times[k + 1]), d1, p1, float(cum[k + 1]), 0)
+            d1 = min(d1, d + cum[c + 1] - cum[c])
+            if (d + d1) * (1 - FCL_REL) <= cum[c + 1] - cum[c]:
+                hit = self._split(pair, ang0, float(times[k]), d, float(cum[c]),
+                                  float(times[k + 1]), d1, float(cum[c + 1]))
                 if hit is not None:
                     return hit
-            if d1 <= self.contact_tol_mm:
-                return self._refine(pair, float(times[k + 1]), d1, p1)
+            if d1 <= self.tol:
+                return self._refine(pair, float(times[k + 1]), d1)
             k, d, point = k + 1, d1, p1
         return None
 
-    def _split(self, pair, ang0, ta, da, pa, fa, tb, db, pb, fb, depth) -> Contact | None:
+    def _split(self, pair, ang0, ta, da, fa, tb, db, fb) -> Contact | None:
         """Earliest contact in [ta, tb] by recursive two-sided certification."""
-        if da <= self.contact_tol_mm:
-            return self._refine(pair, ta, da, pa)
-        if da + db > fb - fa:
+        if da <= self.tol:
+            return self._refine(pair, ta, da)
+        if (da + db) * (1 - FCL_REL) > fb - fa:
             return None
-        if depth > 40 or tb - ta < 1e-7:
-            return self._refine(pair, ta, da, pa) if min(da, db) <= 10 * self.contact_tol_mm else None
-        # split into 8 sub-intervals at once (one batched kinematics call)
-        ts = np.linspace(ta, tb, 9)[1:-1]
-        ang = self.drive.angles(ts)
-        poses = forward(self.design, ang, self.model, self.frames)
-        fs = self._bound(pair, ang0, ang)
-        prev = (ta, da, pa, fa)
-        for m in range(len(ts) + 1):
-            if m < len(ts):
-                dm, pm = self.distance(pair[0], pair[1], poses[m][pair[0]], poses[m][pair[1]])
-                cur = (float(ts[m]), dm, pm, float(fs[m]))
-            else:
-                cur = (tb, db, pb, fb)
-            hit = self._split(pair, ang0, *prev, *cur, depth + 1)
-            if hit is not None:
-                return hit
-            prev = cur
-        return None
+        if tb - ta <= self.time_tol_s / 16:
+            # not certified at the time resolution: a contact (conservative), bounded work
+            return self._refine(pair, ta, da)
+        tm = 0.5 * (ta + tb)  # bisect: each level costs one distance
+        ang = self.drive.angles([tm])
+        pi, pj = self.pair_poses(pair, ang)
+        dm, _ = self.distance(pair[0], pair[1], pi[0], pj[0])
+        fm = float(self._bound(pair, ang0, ang)[0])
+        dm = min(dm, da + fm - fa, db + fb - fm)  # Lipschitz: no GJK overestimate
+        return (self._split(pair, ang0, ta, da, fa, tm, dm, fm)
+                or self._split(pair, ang0, tm, dm, fm, tb, db, fb))
 
-    def _refine(self, pair, t: float, d: float, point) -> Contact:
-        """``t`` is a safe time with distance <= tol; find the time of actual touching
-        (distance <= 0) to within ``time_tol_s`` if it happens within a short window."""
+    def _dist_at(self, pair, t: float) -> float:
+        pi, pj = self.pair_poses(pair, self.drive.angles([t]))
+        return self.distance(pair[0], pair[1], pi[0], pj[0])[0]
+
+    def _refine(self, pair, t: float, d: float) -> Contact:
+        """``t`` is a time with distance <= tol (or uncertified); find the time of actual
+        touching (distance <= 0) to within ``time_tol_s`` if it happens within ~4 s."""
         i, j = pair
         lo, hi = t, None
         step = self.time_tol_s
-        for _ in range(12):  # look ahead up to ~4 s in doubling steps
-            cand = lo + step
-            pose = self.poses_at(cand)
-            dc, pc = self.distance(i, j, pose[i], pose[j])
-            if dc <= 0:
-                hi = cand
-                break
-            point = pc
-            step *= 2
-        safe_point = point
+        if d > 0:
+            for _ in range(12):  # look ahead in doubling steps
+                cand = lo + step
+                if self._dist_at(pair, cand) <= 0:
+                    hi = cand
+                    break
+                step *= 2
+            if hi is not None:
+                while hi - lo > self.time_tol_s:
+                    mid = 0.5 * (lo + hi)
+                    if self._dist_at(pair, mid) <= 0:
+                        hi = mid
+                    else:
+                        lo = mid
+        pose = self.poses_at(lo)  # world point: nearest points at the last safe time
+        _, point = self.distance(i, j, pose[i], pose[j])
         if hi is not None:
-            while hi - lo > self.time_tol_s:
-                mid = 0.5 * (lo + hi)
-                pose = self.poses_at(mid)
-                dm, pm = self.distance(i, j, pose[i], pose[j])
-                if dm <= 0:
-                    hi = mid
-                else:
-                    lo, safe_point = mid, pm
             t, d = hi, 0.0
-        point = safe_point if safe_point is not None else point
         return Contact(float(t), pair, self._ids(pair), _pt(point), float(d), "fcl")
 
     def _ids(self, pair):
@@ -274,9 +283,11 @@ def _count_faces(flat: np.ndarray) -> int:
     return n
 
 
-def _diameter(pts: np.ndarray) -> float:
-    d = pts[:, None, :] - pts[None, :, :]
-    return float(np.sqrt((d**2).sum(-1)).max())
+def _adjacent_codes(design: Design) -> np.ndarray:
+    idx = design.panel_index()
+    n = len(design.panels)
+    codes = [min(idx[a], idx[b]) * n + max(idx[a], idx[b]) for a, b in (h.panels for h in design.hinges)]
+    return np.array(sorted(codes), dtype=np.int64)
 
 
 def non_adjacent_pairs(design: Design) -> list[tuple[int, int]]:
@@ -286,20 +297,124 @@ def non_adjacent_pairs(design: Design) -> list[tuple[int, int]]:
     return [(i, j) for i in range(n) for j in range(i + 1, n) if (i, j) not in adj]
 
 
+def panel_centres(checker: SweptChecker, poses: np.ndarray) -> np.ndarray:
+    """World centroids (n_t, n, 3) of every panel."""
+    c = checker.tree.centroid
+    R = poses[..., :3, :3]
+    return R[..., 0] * c[:, 0, None] + R[..., 1] * c[:, 1, None] + R[..., 2] * c[:, 2, None] + poses[..., :3, 3]
+
+
+def candidate_runs(checker: SweptChecker, angles: np.ndarray, poses: np.ndarray, k_start: int = 0,
+                   skip=None) -> np.ndarray:
+    """Broad phase: (m, 4) rows (i, j, ka, kb), i < j, sorted by ka: the sample runs in which
+    non-adjacent panels i and j might touch. Every other pair and interval is certified
+    apart (sphere distances at both ends exceed the motion bound between them)."""
+    tb, H = checker.tree, checker.hier
+    n, n_t = tb.n, len(angles)
+    excl = _adjacent_codes(checker.design)
+    if skip:
+        excl = np.union1d(excl, [min(p) * n + max(p) for p in skip]).astype(np.int64)
+    P = tb.prefix(np.asarray(angles))
+    C = panel_centres(checker, poses)
+    xc = tb.qp + tb.cen
+    margin = 1e-9 * float(H.rad[H.root] + 1.0)
+    a = np.array([H.root])
+    b = a.copy()
+    ka = np.array([k_start])
+    kb = np.array([n_t - 1])
+    out = []
+    while len(a):
+        selfp = a == b
+        nxt = []
+        s = a[selfp]
+        s_ka, s_kb = ka[selfp], kb[selfp]
+        inner = H.left[s] >= 0
+        s, s_ka, s_kb = s[inner], s_ka[inner], s_kb[inner]
+        L, R = H.left[s], H.right[s]
+        nxt += [(L, L, s_ka, s_kb), (R, R, s_ka, s_kb), (L, R, s_ka, s_kb)]
+        a, b, ka, kb = a[~selfp], b[~selfp], ka[~selfp], kb[~selfp]
+        if len(a):
+            ra, rb = H.ref[a], H.ref[b]
+            l = tb.lca(ra, rb)
+            sp, on_a = tb.split_panel(ra, rb, l, xc[ra], xc[rb])
+            rsum = H.rad[a] + H.rad[b]
+            da = np.linalg.norm(C[ka, ra] - C[ka, rb], axis=-1) - rsum
+            db = np.linalg.norm(C[kb, ra] - C[kb, rb], axis=-1) - rsum
+
+            args = (ra, rb, l, xc[ra], xc[rb], sp, on_a)
+            dF = tb.pair_motion(P, kb, *args) - tb.pair_motion(P, ka, *args)
+            keep = ~(da + db > dF * (1 + 1e-9) + margin)
+            leaf_a, leaf_b = H.left[a] < 0, H.left[b] < 0
+            both = leaf_a & leaf_b
+            code = np.minimum(ra, rb) * n + np.maximum(ra, rb)
+            keep &= ~(both & np.isin(code, excl))
+            span = kb - ka
+            dmin = np.minimum(da, db)
+            rmax = np.maximum(np.where(leaf_a, 0.0, H.rad[a]), np.where(leaf_b, 0.0, H.rad[b]))
+            tsplit = keep & (span > 1) & (dmin > 0) & (both | (dmin > rmax))
+            narrow = keep & both & ~tsplit
+            nsplit = keep & ~both & ~tsplit
+            if narrow.any():
+                out.append(np.column_stack([np.minimum(ra, rb)[narrow], np.maximum(ra, rb)[narrow],
+                                            ka[narrow], kb[narrow]]))
+            if tsplit.any():
+                km = (ka[tsplit] + kb[tsplit]) // 2
+                nxt += [(a[tsplit], b[tsplit], ka[tsplit], km), (a[tsplit], b[tsplit], km, kb[tsplit])]
+            if nsplit.any():
+                sa = nsplit & ~leaf_a & (leaf_b | (H.rad[a] >= H.rad[b]))
+                sb = nsplit & ~sa
+                for m, x, y in ((sa, a, b), (sb, b, a)):
+                    if m.any():
+                        nxt += [(H.left[x[m]], y[m], ka[m], kb[m]), (H.right[x[m]], y[m], ka[m], kb[m])]
+        if not nxt:
+            break
+        a = np.concatenate([t[0] for t in nxt])
+        b = np.concatenate([t[1] for t in nxt])
+        ka = np.concatenate([t[2] for t in nxt])
+        kb = np.concatenate([t[3] for t in nxt])
+    if not out:
+        return np.zeros((0, 4), dtype=np.int64)
+    rows = np.concatenate(out).astype(np.int64)
+    # merge touching intervals of one pair into runs
+    code = rows[:, 0] * n + rows[:, 1]
+    o = np.lexsort((rows[:, 2], code))
+    rows, code = rows[o], code[o]
+    start = np.ones(len(rows), dtype=bool)
+    start[1:] = (code[1:] != code[:-1]) | (rows[1:, 2] > np.maximum.accumulate(rows[:, 3])[:-1])
+    first = np.nonzero(start)[0]
+    runs = rows[first].copy()
+    runs[:, 3] = np.maximum.reduceat(rows[:, 3], first)
+    return runs[np.argsort(runs[:, 2], kind="stable")]
+
+
 def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: float = 0.0,
                         skip: set | None = None) -> tuple[Contact | None, list[Contact]]:
     """Earliest contact over all non-adjacent pairs (and the pairs touching initially)."""
+    times = np.asarray(times)
+    k_start = int(np.searchsorted(times, t_start - 1e-12))
+    if k_start >= len(times):
+        return None, []
+    runs = candidate_runs(checker, angles, poses, k_start, skip)
     best, initial = None, []
-    horizon = times
-    for pair in non_adjacent_pairs(checker.design):
-        if skip and pair in skip:
+    # advance every candidate pair together in time (a heap on the sample each has
+    # certified): once the earliest open pair is past the best contact, stop
+    import heapq
+
+    heap = []
+    for m, (i, j, ka, kb) in enumerate(runs.tolist()):
+        heapq.heappush(heap, (ka, m, i, j, kb, None))
+    while heap:
+        k, m, i, j, kb, gen = heapq.heappop(heap)
+        if best is not None and times[k] > best.time:
+            break
+        if gen is None:
+            gen = checker._steps((i, j), times, angles, poses, k, kb, k == 0)
+        try:
+            k = next(gen)
+            heapq.heappush(heap, (k, m, i, j, kb, gen))
             continue
-        if best is not None:  # only search up to the best contact found so far
-            n = int(np.searchsorted(times, best.time, side="right")) + 1
-            horizon = times[:n]
-        else:
-            n = len(times)
-        c = checker.first_contact(pair, horizon, angles[:n], poses[:n], t_start)
+        except StopIteration as stop:
+            c = stop.value
         if c is None:
             continue
         if c.method == "initial":
@@ -308,3 +423,39 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
         if best is None or c.time < best.time:
             best = c
     return best, initial
+
+
+def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 20):
+    """Smallest FCL distance between non-adjacent panels over the given poses
+    (n_t, n, 4, 4): ``(distance, (i, j), time index)``, or None without pairs. Exact:
+    sphere lower bounds order the candidates and end the search (branch and bound)."""
+    pairs = np.array(non_adjacent_pairs(checker.design), dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return None
+    C = panel_centres(checker, poses)
+    rc = checker.tree.rc
+    n_t = len(poses)
+    best = (np.inf, None, None)
+    step = max(1, chunk // max(len(pairs), 1))
+    cands = []
+    for k0 in range(0, n_t, step):
+        k = np.arange(k0, min(n_t, k0 + step))
+        lb = (np.linalg.norm(C[k][:, pairs[:, 0]] - C[k][:, pairs[:, 1]], axis=-1)
+              - rc[pairs[:, 0]] - rc[pairs[:, 1]])
+        # keep, per time chunk, the candidates below the chunk's smallest upper bound
+        flat = lb.ravel()
+        o = np.argsort(flat, kind="stable")
+        cands.append((flat[o], k[o // len(pairs)], o % len(pairs)))
+    lbs = np.concatenate([c[0] for c in cands])
+    ks = np.concatenate([c[1] for c in cands])
+    ps = np.concatenate([c[2] for c in cands])
+    o = np.argsort(lbs, kind="stable")
+    for m in o:
+        if lbs[m] >= best[0]:
+            break
+        i, j = pairs[ps[m]]
+        k = int(ks[m])
+        d, _ = checker.distance(int(i), int(j), poses[k][i], poses[k][j])
+        if d < best[0]:
+            best = (d, (int(i), int(j)), k)
+    return best
