@@ -14,7 +14,7 @@ LAYERS = [
     {"recovery", "design"},
     {"design_io", "fold_format", "svg_format", "templates", "load", "recovery_table"},
     {"kinematics", "loops"},
-    {"rigid", "goals"},
+    {"rigid", "goals", "motion"},
     {"collision2d", "collision3d"},
     {"simulate", "clearance"},
     {"robust"},

@@ -176,14 +176,15 @@ def test_long_strip_broad_phase_drops_far_pairs():
     assert c is None and init == [] and ch.n_distance_calls == 0
 
 
-@pytest.mark.parametrize("offset, length", [(0.0, 1e6), (1e15, 10.0)])
-def test_huge_coordinates_cannot_hang(offset, length):
+@pytest.mark.parametrize("offset, scale", [(0.0, 1e5), (1e15, 1.0)])
+def test_huge_coordinates_cannot_hang(offset, scale):
     """A panel 1e6 mm long, or coordinates near 1e15: the check ends with a bounded number
-    of FCL calls (relative tolerance, time-resolution floor)."""
-    d = strip("big", [length, length, length, length], [170, 170, 170], ["H-1", "H-2", "H-1"], radius=1.0)
-    if offset:
-        d = replace(d, panels=tuple(Panel(p.id, p.outline + offset, p.thickness, p.material) for p in d.panels),
-                    hinges=tuple(replace(h, line=h.line + offset) for h in d.hinges))
+    of FCL calls (relative tolerance, time-resolution floor). The boundary schema refuses
+    such designs (issue 14); this builds them past it, to test the check's own bound."""
+    d = strip("big", [10.0] * 4, [170, 170, 170], ["H-1", "H-2", "H-1"], radius=1.0)
+    d = replace(d, panels=tuple(Panel(p.id, p.outline * scale + offset, p.thickness, p.material)
+                                for p in d.panels),
+                hinges=tuple(replace(h, line=h.line * scale + offset) for h in d.hinges))
     tr = simulate_kinematics(d, dt=0.05, duration=6.0, model="point")
     ch = SweptChecker(d, "point", HingeDrive(d))
     swept_first_contact(ch, tr.times, tr.angles, tr.poses)
