@@ -166,13 +166,19 @@ def templates(json_out: bool = typer.Option(False, "--json", help="Print one JSO
         echo(f"{t['name']:<{width}}  {t['description']}")
 
 
-def _load(design: str, materials_file=None):
+def _load(design: str, materials_file=None, scale=None, crease_materials=None):
     from .load import load_design
     from .materials import load_library
     from .templates import resolve_design_path
 
     lib = load_library(materials_file or None)
-    return load_design(resolve_design_path(design), lib), lib
+    if scale is not None and not (math.isfinite(scale) and scale > 0):
+        raise FoldprintError(f"--scale must be a number > 0 (mm per file unit), got {scale}")
+    return load_design(resolve_design_path(design), lib, scale=scale, crease_materials=crease_materials), lib
+
+
+_SCALE = "FOLD/SVG crease patterns: mm per file unit (needed when frame_unit is 'unit' or missing)."
+_CREASE = "FOLD/SVG crease patterns: hinge materials by assignment, e.g. 'M=H-2,V=H-5'."
 
 
 @app.command()
@@ -187,6 +193,8 @@ def simulate(
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    scale: Optional[float] = typer.Option(None, "--scale", help=_SCALE),
+    crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=_CREASE),
 ):
     """Fold the design in the bath: hinge angles, collisions, goals. Exit 0 when it
     completes, 1 when it collides, stalls or misses a goal.
@@ -207,7 +215,7 @@ def simulate(
             raise FoldprintError(f"{name} must be a finite number, got {v}")
     if dt <= 0 or (duration is not None and duration <= 0):
         raise FoldprintError("--dt and --duration must be > 0 s")
-    d, lib = _load(design, materials_file)
+    d, lib = _load(design, materials_file, scale, crease_materials)
     if plot is not None:
         from .exchange.files import ensure_dir
         ensure_dir(plot)
@@ -254,6 +262,8 @@ def check(
     hinge_model: str = typer.Option("point", "--hinge-model", help="point | arc, for the folding check"),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    scale: Optional[float] = typer.Option(None, "--scale", help=_SCALE),
+    crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=_CREASE),
 ):
     """Design-rule checks before printing: build volume, walls and gaps, hinge strain and
     size, temperatures, fold time, collisions and goals. Exit 0 without errors, 1 with.
@@ -269,7 +279,7 @@ def check(
     if key not in printers:
         raise FoldprintError(f"--printer {key!r} is unknown; profiles: {', '.join(printers)} "
                              "(add your own with --printers FILE)")
-    d, lib = _load(design, materials_file)
+    d, lib = _load(design, materials_file, scale, crease_materials)
     findings = run_checks(d, printers[key], lib, hinge_model=hinge_model)
     n_err = sum(f.severity == "error" for f in findings)
     if json_out:
@@ -294,6 +304,8 @@ def export(
     formats: str = typer.Option("3mf,prusa3mf,stl", "--format", help="Comma-separated: 3mf, prusa3mf, stl."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    scale: Optional[float] = typer.Option(None, "--scale", help=_SCALE),
+    crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=_CREASE),
 ):
     """Build the printable part (one watertight body per material) and write multi-body
     3MF (spec + Bambu/Orca/Cura metadata), a PrusaSlicer 3MF, and one STL per material.
@@ -309,7 +321,7 @@ def export(
     bad = [f for f in fmts if f not in FORMATS]
     if bad or not fmts:
         raise FoldprintError(f"--format: unknown format(s) {bad or formats!r}; choose from {', '.join(FORMATS)}")
-    d, lib = _load(design, materials_file)
+    d, lib = _load(design, materials_file, scale, crease_materials)
     out_dir = out if out is not None else Path("output") / d.name
     records = _with_progress(f"building {d.name} ({state})",
                              lambda: export_design(d, out_dir, state, fmts, lib))

@@ -17,6 +17,11 @@ in [t0, t1]. Each pair advances by the largest such step (on the trajectory's gr
 by bisection in continuous time), so far-apart pairs take few distance queries and the
 first contact is found to within ``contact_tol_mm`` and refined to <= 1 ms.
 
+With loops (rigid origami, :mod:`foldprint.loops`) the closed angles need not be
+monotone: they are piecewise linear between the loop solver's grid times, and the bound
+uses each angle's cumulative total variation instead of |rho_k(t1) - rho_k(t0)|, which is
+exact for that piecewise linear motion (``docs/loops.md``).
+
 Hinge-adjacent panels are not checked: they share the hinge, and under the arc model their
 rigid parts stay apart for |rho| <= 180 deg as long as 2R exceeds the thickness (a
 design-rule check). Pairs already touching at the start are reported as ``initial``
@@ -75,7 +80,7 @@ class SweptChecker:
     def _motion_bounds(self):
         d = self.design
         n = len(d.panels)
-        parent_of = {f.child: f for f in self.frames}
+        parent_of = {f.child: f for f in self.frames if f.tree}
         diam = np.array([_diameter(p.outline) for p in d.panels])
 
         def chain(i):  # hinges from root down to panel i (frames)
@@ -158,9 +163,13 @@ class SweptChecker:
         idx = self._path[pair]
         return np.abs(ang[..., idx] - ang0[idx]) @ self._radius[pair]
 
-    def cumulative_motion(self, pair, angles: np.ndarray) -> np.ndarray:
+    def cumulative_motion(self, pair, angles: np.ndarray, times: np.ndarray | None = None) -> np.ndarray:
         """F(t) = sum_k r_k |rho_k(t) - rho_k(0)| on the samples (n_t,). Every hinge angle
-        is monotone, so the motion bound over [ta, tb] is exactly F(tb) - F(ta)."""
+        of a tree is monotone, so the motion bound over [ta, tb] is exactly F(tb) - F(ta).
+        With loops the closed angles need not be monotone: F then sums the cumulative
+        total variation of each angle (``HingeDrive.variation``), still a valid bound."""
+        if getattr(self.drive, "loops", None) is not None and times is not None:
+            return self.drive.variation(times)[:, self._path[pair]] @ self._radius[pair]
         return self._bound(pair, angles[0], angles)
 
     def first_contact(self, pair: tuple[int, int], times: np.ndarray, angles: np.ndarray,
@@ -172,7 +181,7 @@ class SweptChecker:
         d(ta) + d(tb) > F(tb) - F(ta) (a contact inside would need both distances to
         be covered by the motion); otherwise it is split in continuous time."""
         i, j = pair
-        cum = self.cumulative_motion(pair, angles)
+        cum = self.cumulative_motion(pair, angles, times)
         k = int(np.searchsorted(times, t_start - 1e-12))
         n = len(times)
         if k >= n:
@@ -215,7 +224,7 @@ class SweptChecker:
         ts = np.linspace(ta, tb, 9)[1:-1]
         ang = self.drive.angles(ts)
         poses = forward(self.design, ang, self.model, self.frames)
-        fs = self._bound(pair, ang0, ang)
+        fs = self.cumulative_motion(pair, np.vstack([ang0[None], ang]), np.concatenate([[0.0], ts]))[1:]
         prev = (ta, da, pa, fa)
         for m in range(len(ts) + 1):
             if m < len(ts):
