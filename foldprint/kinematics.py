@@ -22,8 +22,8 @@ import numpy as np
 
 from .design import Design, Hinge, has_loops, spanning_tree
 from .errors import DesignError
-from .materials import MaterialLibrary, default_library
 from .loops import LoopSolution, LoopSolver
+from .materials import MaterialLibrary, default_library
 from .recovery import recovery_curve
 
 #: time step of the loop solver's continuation grid (s)

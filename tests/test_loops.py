@@ -92,7 +92,7 @@ def test_every_interior_vertex_closes_at_every_time(trajectories, name):
 def test_degree4_follows_its_closed_form(trajectories):
     """tan(rho2/2) = sin((a+b)/2)/sin((b-a)/2) tan(rho1/2), rho3 = -rho1, rho4 = rho2 at
     every time, and the final state reaches the (consistent) targets."""
-    fold, d, traj = trajectories["degree4"]
+    _, d, traj = trajectories["degree4"]
     k = traj.angles
     # below ~1e-3 rad every small configuration closes to within the solver tolerance
     # (the residual is second order), so the branch is only defined once folding starts
@@ -107,7 +107,7 @@ def test_degree4_follows_its_closed_form(trajectories):
 
 
 def test_miura_is_one_dof_and_reaches_consistent_targets(trajectories):
-    fold, d, traj = trajectories["miura"]
+    _, d, traj = trajectories["miura"]
     assert traj.loops.dof == 1 and traj.loops.n_loops == 4
     np.testing.assert_allclose(np.degrees(traj.angles[-1]), [h.angle_deg for h in d.hinges], atol=0.05)
 
@@ -115,7 +115,7 @@ def test_miura_is_one_dof_and_reaches_consistent_targets(trajectories):
 def test_variation_bounds_every_angle_change(trajectories):
     """The swept check's bound: cumulative total variation is non-decreasing and covers
     |rho(t) - rho(s)| for any s < t, also between grid times."""
-    _, d, traj = trajectories["waterbomb"]
+    _, d, _ = trajectories["waterbomb"]
     drive = HingeDrive(d)
     ts = np.sort(np.random.default_rng(1).uniform(0, DURATION, 400))
     ang, var = drive.angles(ts), drive.variation(ts)
