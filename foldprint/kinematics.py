@@ -279,23 +279,32 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
                       loop)
 
 
-def _with_arc_gap(design: Design, loop: LoopSolution, angles: np.ndarray, poses: np.ndarray) -> LoopSolution:
-    """The arc model's positional gap at each loop hinge: where the hinge's child-side
-    edge lands through the loop hinge vs. down the spanning tree (max over time, mm)."""
-    from dataclasses import replace
-
+def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = "arc",
+                poses: np.ndarray | None = None) -> float:
+    """Largest distance (mm, over the times of ``angles`` (n_t, n_hinges)) between where a
+    loop hinge's child-side edge lands through that hinge and where the spanning tree puts
+    the child: 0 for a tree; for loops of arc hinges the positional misfit that the
+    printed strips would have to absorb (docs/loops.md)."""
+    angles = np.atleast_2d(np.asarray(angles, float))
+    poses = forward(design, angles, model) if poses is None else poses
     gap = 0.0
     for f in hinge_frames(design):
         if f.tree:
             continue
-        loc = local_transforms(f, angles[:, f.index], "arc")
+        loc = local_transforms(f, angles[:, f.index], model)
         via = poses[:, f.parent] @ loc
         for end in design.hinges[f.index].line:
-            p = np.array([end[0], end[1], 0.0]) + 0.5 * f.width * f.normal
+            p = np.array([end[0], end[1], 0.0]) + (0.5 * f.width * f.normal if model == "arc" else 0.0)
             a = via[:, :3, :3] @ p + via[:, :3, 3]
             b = poses[:, f.child, :3, :3] @ p + poses[:, f.child, :3, 3]
             gap = max(gap, float(np.linalg.norm(a - b, axis=1).max(initial=0.0)))
-    return replace(loop, arc_gap_mm=gap)
+    return gap
+
+
+def _with_arc_gap(design: Design, loop: LoopSolution, angles: np.ndarray, poses: np.ndarray) -> LoopSolution:
+    from dataclasses import replace
+
+    return replace(loop, arc_gap_mm=loop_gap_mm(design, angles, "arc", poses))
 
 
 def transform_points(pose: np.ndarray, pts2d: np.ndarray, z: float = 0.0) -> np.ndarray:

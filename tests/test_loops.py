@@ -219,3 +219,93 @@ def test_cli_unit_needs_scale(tmp_path, capsys):
     path.write_text(json.dumps(f), encoding="utf-8")
     assert main(["simulate", str(path), "--scale", "1"]) == 2
     assert "foldedForm" in capsys.readouterr().err
+
+
+# -- printable vertices and the shipped templates ------------------------------------------
+
+def test_relief_keeps_strips_and_panels_apart():
+    """At every vertex of the Miura template the trimmed hinge strips and the relieved
+    panels are pairwise disjoint in the sheet (no shared area, no touching point between
+    different panels), and every hinge keeps most of its length."""
+    import itertools
+
+    import shapely
+    from shapely.geometry import LineString
+
+    from foldprint.load import load_design
+    from foldprint.relief import relief_vertices, relieve
+    from foldprint.templates import templates_dir
+
+    d = load_design(templates_dir() / "miura_3x3.toml")
+    assert len(relief_vertices(d)) >= 4
+    r = relieve(d)
+    strips = [LineString(h.line).buffer(h.width / 2, cap_style="flat") for h in r.hinges]
+    for a, b in itertools.combinations(strips, 2):
+        assert a.intersection(b).area < 1e-9
+    rigid = [p.polygon.difference(shapely.union_all(strips)) for p in r.panels]
+    for a, b in itertools.combinations(rigid, 2):
+        assert a.distance(b) > 0.1  # a strip or the relief always lies between two panels
+    for h0, h1 in zip(d.hinges, r.hinges):
+        assert 0.4 * h0.length < h1.length < h0.length
+
+
+def test_relief_too_thin_is_a_design_rule_error():
+    from foldprint.errors import GeometryError
+    from foldprint.relief import relieve
+
+    d = design_from_fold(cp.miura(2, 2, width=6.0, height=5.0, shift=2.0), default_radius_mm=5.0)
+    with pytest.raises(GeometryError, match="relief"):
+        relieve(d)
+
+
+def test_miura_template_folds_without_collision_and_lock_template_jams(capsys):
+    code = main(["simulate", "miura_3x3", "--json", "--method", "fcl", "--duration", "4"])
+    r = json.loads(capsys.readouterr().out)
+    assert code == 0 and r["completed"] and r["first_collision"] is None
+    code = main(["simulate", "cross_lock_uniform", "--json", "--method", "fcl", "--duration", "4"])
+    r = json.loads(capsys.readouterr().out)
+    assert code == 1 and not r["completed"] and r["loops"]["not_followed"]
+
+
+def test_miura_permanent_state_refused_with_the_misfit(capsys):
+    assert main(["export", "miura_3x3", "--out", "/nonexistent/never"]) == 2
+    err = capsys.readouterr().err
+    assert "misfit" in err and "--state programmed" in err
+
+
+def test_miura_template_exports_and_prusaslicer_slices(tmp_path, capsys):
+    import shutil
+    import subprocess
+
+    code = main(["export", "miura_3x3", "--state", "programmed", "--out", str(tmp_path), "--json",
+                 "--format", "3mf,prusa3mf,stl"])
+    rec = json.loads(capsys.readouterr().out)
+    assert code == 0
+    from foldprint.geometry import build_assembly
+    from foldprint.load import load_design
+    from foldprint.templates import templates_dir
+
+    asm = build_assembly(load_design(templates_dir() / "miura_3x3.toml"), "programmed")
+    import manifold3d as mf
+
+    bodies = [b.to_manifold() for b in asm.bodies]
+    assert len(bodies) == 3  # VeroWhite panels, H-2 and H-4 hinges
+    for m in bodies:
+        assert m.status() == mf.Error.NoError and m.volume() > 0
+    for i in range(len(bodies)):
+        for j in range(i + 1, len(bodies)):
+            assert (bodies[i] ^ bodies[j]).volume() < 1e-6
+    prusa = shutil.which("prusa-slicer")
+    if prusa is None:
+        pytest.skip("prusa-slicer is not on PATH")
+    stls = [f["path"] for f in rec["files"] if f["format"] == "stl"]
+    assert len(stls) == 3
+    for path in stls:
+        res = subprocess.run([prusa, "--info", path], capture_output=True, text=True, timeout=120)
+        assert res.returncode == 0 and "manifold = yes" in res.stdout, res.stdout + res.stderr
+    (p3mf,) = [f["path"] for f in rec["files"] if f["format"] == "prusa3mf"]
+    gcode = tmp_path / "m.gcode"
+    res = subprocess.run([prusa, "--export-gcode", "--nozzle-diameter", "0.4,0.4,0.4", "--layer-height", "0.2",
+                          "--output", str(gcode), p3mf], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    assert ";LAYER_CHANGE" in gcode.read_text()
