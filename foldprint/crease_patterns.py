@@ -103,10 +103,11 @@ def miura(nx: int = 3, ny: int = 3, width: float = 20.0, height: float = 16.0, s
 
 
 def waterbomb(size: float = 40.0, diagonal_deg: float = 90.0, material: str | None = None) -> dict:
-    """A waterbomb base: a square with a degree-8 vertex at its centre, half-diagonals
-    valley (``diagonal_deg``) and half-midlines mountain (target from the symmetric
-    folding path: tan(|rho_m|/2) = tan(rho_d/2) / sqrt(2)... solved by the loop tracker,
-    so the mountain target here is only the drive)."""
+    """A waterbomb base: a square with a degree-8 vertex at its centre, half-midlines
+    mountain and half-diagonals valley, all driven to +-``diagonal_deg``. Equal magnitudes
+    are not on the pattern's folding paths (it has 5 degrees of freedom); the loop tracker
+    finds the nearest closed configuration (-49.0 / +110.6 deg for 90 deg) and reports the
+    creases it cannot follow."""
     h = size / 2
     ring = [(h, 0), (h, h), (0, h), (-h, h), (-h, 0), (-h, -h), (0, -h), (h, -h)]
     verts = [(0.0, 0.0)] + ring
