@@ -166,13 +166,19 @@ def templates(json_out: bool = typer.Option(False, "--json", help="Print one JSO
         echo(f"{t['name']:<{width}}  {t['description']}")
 
 
-def _load(design: str, materials_file=None):
+def _load(design: str, materials_file=None, scale=None, crease_materials=None):
     from .load import load_design
     from .materials import load_library
     from .templates import resolve_design_path
 
     lib = load_library(materials_file or None)
-    return load_design(resolve_design_path(design), lib), lib
+    if scale is not None and not (math.isfinite(scale) and scale > 0):
+        raise FoldprintError(f"--scale must be a number > 0 (mm per file unit), got {scale}")
+    return load_design(resolve_design_path(design), lib, scale=scale, crease_materials=crease_materials), lib
+
+
+_SCALE = "FOLD/SVG crease patterns: mm per file unit (needed when frame_unit is 'unit' or missing)."
+_CREASE = "FOLD/SVG crease patterns: hinge materials by assignment, e.g. 'M=H-2,V=H-5'."
 
 
 def _mode(enum, value: str, option: str):
@@ -224,6 +230,8 @@ def simulate(
     plot: Optional[Path] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
+    scale: Optional[float] = typer.Option(None, "--scale", help=_SCALE),
+    crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=_CREASE),
 ):
     """Fold the design in the bath: hinge angles, collisions, goals. Exit 0 when it
     completes, 1 when it collides, stalls or misses a goal. The printed geometry (arc
@@ -242,7 +250,7 @@ def simulate(
     if dt <= 0 or (duration is not None and duration <= 0):
         raise FoldprintError("--dt and --duration must be > 0 s")
     __import__("foldprint.guards").guards.set_max_memory(max_memory)  # issue 14 resource guard
-    d, lib = _load(design, materials_file)
+    d, lib = _load(design, materials_file, scale, crease_materials)
     if plot is not None:
         from .exchange.files import ensure_dir
         ensure_dir(plot)
@@ -327,6 +335,8 @@ def check(
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
+    scale: Optional[float] = typer.Option(None, "--scale", help=_SCALE),
+    crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=_CREASE),
 ):
     """Design-rule checks before printing, on the printed geometry: build volume, walls
     and gaps, hinge strain and size, temperatures, fold time, collisions and goals, and
@@ -348,7 +358,7 @@ def check(
     th = Thresholds(_fraction(error_above, "--error-above"), _fraction(warn_above, "--warn-above"))
     key, pr = _printer(printer, printers_file)
     sc = load_scatter(scatter_file)
-    d, lib = _load(design, materials_file)
+    d, lib = _load(design, materials_file, scale, crease_materials)
     with _samples_progress(f"{d.name}: scatter samples") as cb:
         ev = evaluate(d, library=lib, printer=pr, hinge_model=model, samples=samples, seed=seed, scatter=sc,
                       thresholds=th, progress=(lambda _s, done, total: cb(done, total)) if cb else None)
@@ -427,6 +437,8 @@ def export(
                                      "inp (Abaqus, planar strips), xdmf (ParaView series), glb (animated glTF)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    scale: Optional[float] = typer.Option(None, "--scale", help=_SCALE),
+    crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=_CREASE),
 ):
     """Build the printable part (one watertight body per material) and write multi-body
     3MF (spec + Bambu/Orca/Cura metadata), a PrusaSlicer 3MF, and one STL per material.
@@ -442,7 +454,7 @@ def export(
     bad = [f for f in fmts if f not in FORMATS]
     if bad or not fmts:
         raise FoldprintError(f"--format: unknown format(s) {bad or formats!r}; choose from {', '.join(FORMATS)}")
-    d, lib = _load(design, materials_file)
+    d, lib = _load(design, materials_file, scale, crease_materials)
     out_dir = out if out is not None else Path("output") / d.name
     records = _with_progress(f"building {d.name} ({state})",
                              lambda: export_design(d, out_dir, state, fmts, lib))

@@ -5,10 +5,13 @@ Panels are real solids: the rigid part of the outline (holes kept) extruded to t
 thickness, split into convex prisms (``fcl.Convex``; python-fcl 0.7's continuous
 collision on BVH meshes is unreliable, ``shared/design.md``).
 
-Why no contact is missed between samples: between times t0 and t1 every hinge angle is
-monotone (recovery only grows; an arrested hinge is constant), so a point of panel i moves
-relative to panel j by at most F(t1) - F(t0), F(t) = sum_k lever_k |rho_k(t) - rho_k(0)| over
-the hinges k on the tree path i..j, with configuration-free levers (``motion.py``).
+Why no contact is missed between samples: a point of panel i moves relative to panel j by
+at most F(t1) - F(t0), F(t) = sum_k lever_k V_k(t) over the hinges k on the tree path i..j,
+with configuration-free levers (``motion.py``) and V_k the cumulative total variation of
+hinge k's angle (``HingeDrive.variation``). For a hinge tree every angle is monotone
+(recovery only grows; an arrested hinge is constant), so V_k(t) = |rho_k(t) - rho_k(0)|;
+the closed angles of a loop pattern need not be monotone, and V_k still bounds them.
+``SweptChecker.bound_coords`` picks the coordinate: callers pass the trajectory's angles.
 An interval [ta, tb] is safe when d(ta) + d(tb) > F(tb) - F(ta): a contact inside would
 need both distances to be covered by the motion.
 
@@ -93,7 +96,8 @@ class SweptChecker:
                 v, f = prism(ring, p.thickness)
                 objs.append(fcl.CollisionObject(fcl.Convex(v, len(f) and _count_faces(f), f)))
             self.pieces.append(objs)
-        self.tree = tree_bounds(d, self.model, self.frames)
+        # bounds follow the spanning tree; hinges closing loops (tree=False) move nothing
+        self.tree = tree_bounds(d, self.model, [f for f in self.frames if f.tree])
         self.hier = build_hierarchy(self.tree)
         pts = np.concatenate([p.outline for p in d.panels])
         extent = float(np.max(np.abs(pts))) + float(np.ptp(pts, axis=0).max())
@@ -101,6 +105,15 @@ class SweptChecker:
         self._pairs: dict = {}
 
     # -- geometry ---------------------------------------------------------------------
+    def bound_coords(self, times, angles: np.ndarray | None = None) -> np.ndarray:
+        """Each hinge's monotone coordinate at ``times`` (n_t, n_hinges), which the motion
+        bounds difference: the angle itself for a hinge tree (``angles`` when given:
+        recovery only grows), the cumulative total variation for a pattern with loops
+        (its closed angles need not be monotone)."""
+        if getattr(self.drive, "loops", None) is not None:
+            return self.drive.variation(times)
+        return np.asarray(angles) if angles is not None else self.drive.angles(times)
+
     def poses_at(self, t: float) -> np.ndarray:
         return forward(self.design, self.drive.angles([t]), self.model, self.frames)[0]
 
@@ -229,10 +242,9 @@ class SweptChecker:
             # not certified at the time resolution: a contact (conservative), bounded work
             return self._refine(pair, ta, da)
         tm = 0.5 * (ta + tb)  # bisect: each level costs one distance
-        ang = self.drive.angles([tm])
-        pi, pj = self.pair_poses(pair, ang)
+        pi, pj = self.pair_poses(pair, self.drive.angles([tm]))
         dm, _ = self.distance(pair[0], pair[1], pi[0], pj[0])
-        fm = float(self._bound(pair, ang0, ang)[0])
+        fm = float(self._bound(pair, ang0, self.bound_coords([tm]))[0])
         dm = min(dm, da + fm - fa, db + fb - fm)  # Lipschitz: no GJK overestimate
         return (self._split(pair, ang0, ta, da, fa, tm, dm, fm)
                 or self._split(pair, ang0, tm, dm, fm, tb, db, fb))
@@ -390,6 +402,7 @@ def candidate_runs(checker: SweptChecker, angles: np.ndarray, poses: np.ndarray,
 def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: float = 0.0,
                         skip: set | None = None) -> tuple[Contact | None, list[Contact]]:
     """Earliest contact over all non-adjacent pairs (and the pairs touching initially)."""
+    angles = checker.bound_coords(times, angles)
     times = np.asarray(times)
     k_start = int(np.searchsorted(times, t_start - 1e-12))
     if k_start >= len(times):

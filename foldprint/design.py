@@ -304,10 +304,13 @@ def shared_edge(a: Panel, b: Panel) -> np.ndarray | None:
     return best
 
 
-def tree_order(design: Design) -> list[tuple[Hinge, str, str]]:
-    """Hinges in breadth-first order from the root: (hinge, parent id, child id).
+def spanning_tree(design: Design) -> tuple[list[tuple[Hinge, str, str]], list[tuple[Hinge, str, str]]]:
+    """The hinge graph split into a breadth-first spanning tree from the root and the
+    hinges that close loops (rigid origami: creases meeting at interior vertices).
 
-    Raises DesignError when the hinge graph is not a tree spanning every panel.
+    Returns ``(tree, loops)``: tree entries are (hinge, parent id, child id) root outward;
+    loop entries are (hinge, panel a, panel b) with a, b = ``hinge.panels``. Raises
+    DesignError when some panel is not connected to the root.
     """
     src = where(design.source)
     adj: dict[str, list[Hinge]] = {p.id: [] for p in design.panels}
@@ -325,10 +328,7 @@ def tree_order(design: Design) -> list[tuple[Hinge, str, str]]:
                 continue
             other = h.panels[1] if h.panels[0] == cur else h.panels[0]
             if other in seen:
-                raise DesignError(
-                    f"{src}hinge {h.id!r}: the hinge graph is not a tree (hinge {h.id!r} closes a loop "
-                    f"through panel {other!r}); a foldable sheet needs exactly one hinge path between "
-                    "two panels: remove a hinge or split a panel")
+                continue  # closes a loop; collected below
             used.add(h.id)
             seen.add(other)
             order.append((h, cur, other))
@@ -336,9 +336,21 @@ def tree_order(design: Design) -> list[tuple[Hinge, str, str]]:
     missing = [p.id for p in design.panels if p.id not in seen]
     if missing:
         raise DesignError(
-            f"{src}the hinge graph is not a tree: panels {missing} are not connected to root "
+            f"{src}the hinge graph is not connected: panels {missing} are not joined to root "
             f"{design.root!r}; add a hinge joining them to the rest")
-    return order
+    loops = [(h, h.panels[0], h.panels[1]) for h in design.hinges if h.id not in used]
+    return order, loops
+
+
+def tree_order(design: Design) -> list[tuple[Hinge, str, str]]:
+    """Spanning-tree hinges in breadth-first order from the root: (hinge, parent id,
+    child id). Hinges closing loops are left out (see :func:`spanning_tree`)."""
+    return spanning_tree(design)[0]
+
+
+def has_loops(design: Design) -> bool:
+    """True when the hinge graph has cycles (more hinges than panels - 1)."""
+    return len(design.hinges) > len(design.panels) - 1
 
 
 def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
@@ -436,11 +448,7 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
         _features(h, item)
     if design.root not in panel_ids:
         raise DesignError(f"{src}root panel {design.root!r} does not exist; panels: {ids}")
-    if len(design.hinges) != len(design.panels) - 1:
-        tree_order(design)  # raises with the loop or the disconnected panels
-        raise DesignError(f"{src}the hinge graph is not a tree: {len(design.panels)} panels need "
-                          f"{len(design.panels) - 1} hinges, got {len(design.hinges)}")
-    tree_order(design)
+    spanning_tree(design)  # raises on disconnected panels; loops are allowed (rigid origami)
     pr = design.process
     item = f"{src}process: "
     for name in ("program_temperature_c", "fix_temperature_c", "bath_temperature_c"):

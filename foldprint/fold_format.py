@@ -26,7 +26,7 @@ from .errors import DesignError, where
 from .materials import MaterialLibrary
 from .schema import check_fold
 
-UNITS = {"unit": 1.0, "mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "pt": 25.4 / 72.0,
+UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "pt": 25.4 / 72.0,
          "um": 1e-3, "nm": 1e-6}
 _LINE_TOL = 1e-3  # mm: how far a fold line may sit from its edge (as in validate)
 _FLAT = {"F", "U", "J"}
@@ -69,16 +69,42 @@ def _number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
+def _classes(frame: Mapping) -> set[str]:
+    c = frame.get("frame_classes")
+    return {str(x) for x in c} if isinstance(c, list) else set()
+
+
 def _frame(data: Mapping, src: str) -> Mapping:
-    """The top level, or (no coordinates there) the top level updated with file_frames[0]."""
-    if "vertices_coords" in data or "file_frames" not in data:
-        return data
-    frames = data["file_frames"]
-    if not isinstance(frames, list) or not frames or not isinstance(frames[0], Mapping):
-        raise DesignError(f"{src}file_frames must be a non-empty list of frame objects")
-    merged = {k: v for k, v in data.items() if k != "file_frames"}
-    merged.update(frames[0])
-    return merged
+    """The crease-pattern frame: the top level, or the first of ``file_frames`` classed
+    ``creasePattern`` (or, without classes, the first with coordinates), merged over the
+    top level (``frame_inherit``). A file holding only folded states is refused."""
+    frames = data.get("file_frames")
+    top_cp = "vertices_coords" in data and "foldedForm" not in _classes(data)
+    if frames is None or top_cp and "creasePattern" in _classes(data):
+        chosen = data
+    else:
+        if not isinstance(frames, list) or not all(isinstance(f, Mapping) for f in frames):
+            raise DesignError(f"{src}file_frames must be a list of frame objects")
+        cands = [f for f in frames if "creasePattern" in _classes(f)]
+        if not cands and top_cp:
+            chosen = data
+        else:
+            cands = cands or [f for f in frames if "foldedForm" not in _classes(f)
+                              and ("vertices_coords" in f or "vertices_coords" not in data)]
+            if not cands:
+                if "vertices_coords" in data or not frames:
+                    chosen = data
+                else:
+                    chosen = None
+            else:
+                merged = {k: v for k, v in data.items() if k != "file_frames"}
+                merged.update(cands[0])
+                chosen = merged
+    if chosen is None or "foldedForm" in _classes(chosen) and "creasePattern" not in _classes(chosen):
+        raise DesignError(f"{src}this FOLD file holds only a folded state (frame_classes: foldedForm); "
+                          "foldprint needs the flat crease pattern: export the crease pattern "
+                          "(frame_classes: creasePattern) instead")
+    return chosen
 
 
 def _coords(frame: Mapping, factor: float, src: str) -> np.ndarray:
@@ -154,6 +180,15 @@ def _fresh(prefix: str, taken: set) -> str:
     return f"{prefix}{k}"
 
 
+def _edge_id(edge: int, taken: set) -> str:
+    """A hinge read from FOLD edge ``edge`` is called ``e<edge>`` (``_k`` if taken)."""
+    hid, k = f"e{edge}", 1
+    while hid in taken:
+        hid, k = f"e{edge}_{k}", k + 1
+    taken.add(hid)
+    return hid
+
+
 def _first(values: list, default):
     return next((v for v in values if v is not None), default)
 
@@ -161,11 +196,16 @@ def _first(values: list, default):
 def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | None = None,
                      scale: float | None = None, default_hinge_material: str = "H-3",
                      default_panel_material: str = "VeroWhite", default_thickness_mm: float = 0.8,
-                     default_radius_mm: float = 5.0) -> Design:
+                     default_radius_mm: float = 5.0,
+                     crease_materials: Mapping[str, str] | None = None) -> Design:
     """Build and validate a design from a parsed FOLD 1.1/1.2 crease pattern.
 
-    ``scale`` (mm per file unit) overrides ``frame_unit``; without it a known unit is
-    converted and "unit" (or no unit) is read as mm. Coordinates (vertices, holes, goal
+    ``scale`` (mm per file unit) overrides ``frame_unit``; without it a known unit
+    (mm, cm, m, in, pt, um, nm) is converted, and "unit" (or no unit) is an error that
+    asks for a scale. Hinges from plain FOLD edges are called ``e<edge index>``.
+    ``crease_materials`` maps an assignment letter (M, V, F, U) to the hinge material of
+    creases that name none (``edges_foldprint:material``); others get
+    ``default_hinge_material``. Coordinates (vertices, holes, goal
     tips, strip depth) are scaled; the ``*_mm`` quantities are mm already.
     """
     src = where(source)
@@ -173,19 +213,25 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
         raise DesignError(f"{src}a FOLD file must hold a JSON object, got {type(data).__name__}")
     frame = _frame(data, src)
     check_fold(frame, source)  # issue 14: types of the foldprint per-item fields
-    unit = str(frame.get("frame_unit", "unit")).lower()
-    if scale is not None:
-        if not _number(scale) or scale <= 0:
-            raise DesignError(f"{src}scale must be a number > 0, got {scale!r}")
-        factor = float(scale)
-    elif unit in UNITS:
-        factor = UNITS[unit]
-    else:
-        raise DesignError(f"{src}frame_unit {unit!r} is unknown; known: {sorted(UNITS)} (or give a scale)")
-    xy = _coords(frame, factor, src)
     if "faces_vertices" not in frame:
         raise DesignError(f"{src}faces_vertices is missing; foldprint needs faces (its panels), "
                           "re-export the crease pattern with faces")
+    unit = str(frame.get("frame_unit", "unit")).lower()
+    if scale is not None:
+        if not _number(scale) or scale <= 0:
+            raise DesignError(f"{src}scale must be a number > 0 (mm per file unit), got {scale!r}")
+        factor = float(scale)
+    elif unit in UNITS:
+        factor = UNITS[unit]
+    elif unit == "unit":
+        said = "frame_unit is \"unit\"" if "frame_unit" in frame else "frame_unit is missing"
+        raise DesignError(f"{src}{said}, so the crease pattern has no physical size; give one with "
+                          "--scale MM_PER_UNIT (e.g. --scale 100 makes a 1-unit square 100 mm wide) "
+                          "or set frame_unit to mm, cm, m or in")
+    else:
+        raise DesignError(f"{src}frame_unit {unit!r} is unknown; known: {sorted(UNITS)} "
+                          "(or give --scale MM_PER_UNIT)")
+    xy = _coords(frame, factor, src)
     faces = _index_lists(frame, "faces_vertices", len(xy), src, None)
     if not faces:
         raise DesignError(f"{src}faces_vertices is empty; a design needs at least one face")
@@ -295,7 +341,7 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
             raise DesignError(f"{src}hinge {key!r} has edges between different pairs of panels "
                               f"({sorted({tuple(pid_of[g] for g in p) for p in pairs})})")
         ga, gb = pairs.pop()
-        hid = key if isinstance(key, str) else _fresh("h", htaken)
+        hid = key if isinstance(key, str) else _edge_id(min(ids), htaken)
         degs = [angle[i] if angle[i] is not None else 180.0 if assign[i] == "V" else
                 -180.0 if assign[i] == "M" else 0.0 for i in ids]
         if max(degs) - min(degs) > 1e-6:
@@ -313,7 +359,8 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
         if sorted(map(str, extra.get("panels") or [])) == sorted(pp):
             pp = [str(p) for p in extra["panels"]]
         entry = {"id": hid, "panels": pp, "line": line.tolist(), "angle_deg": float(degs[0]),
-                 "material": str(_first([e_mat[i] for i in ids], default_hinge_material)),
+                 "material": str(_first([e_mat[i] for i in ids], None)
+                                 or (crease_materials or {}).get(assign[ids[0]], default_hinge_material)),
                  "radius_mm": _first([e_rad[i] for i in ids], default_radius_mm),
                  "thickness_mm": _first([e_thk[i] for i in ids], default_thickness_mm)}
         entry.update({k: extra[k] for k in ("fixity", "style") if k in extra})

@@ -19,11 +19,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .design import Design, Hinge, tree_order
+from .design import Design, Hinge, has_loops, spanning_tree
 from .errors import DesignError
+from .loops import LoopSolution, LoopSolver
 from .materials import MaterialLibrary, default_library
 from .modes import DEFAULT_HINGE_MODEL, HingeModel
 from .recovery import recovery_curve
+
+#: time step of the loop solver's continuation grid (s)
+LOOP_DT = 0.01
 
 HINGE_MODELS = tuple(m.value for m in HingeModel)
 
@@ -45,14 +49,17 @@ class HingeFrame:
     axis: np.ndarray
     normal: np.ndarray
     width: float
+    tree: bool = True  # False: the hinge closes a loop; forward kinematics skips it
 
 
 def hinge_frames(design: Design) -> list[HingeFrame]:
-    """Hinges in tree order (root outward) with their axes."""
+    """Every hinge with its axes: the spanning tree's hinges in tree order (root outward),
+    then the hinges closing loops (``tree=False``, parent/child = ``hinge.panels``)."""
     pidx = design.panel_index()
     hidx = {h.id: i for i, h in enumerate(design.hinges)}
     frames = []
-    for h, parent, child in tree_order(design):
+    tree, loops = spanning_tree(design)
+    for h, parent, child in [(h, a, b) for h, a, b in tree] + [(h, a, b) for h, a, b in loops]:
         a, b = h.line
         d = np.array([b[0] - a[0], b[1] - a[1], 0.0])
         d /= np.linalg.norm(d)
@@ -63,7 +70,8 @@ def hinge_frames(design: Design) -> list[HingeFrame]:
             n = -n
         axis = np.cross(n, [0.0, 0.0, 1.0])
         frames.append(HingeFrame(h, hidx[h.id], pidx[parent], pidx[child],
-                                 np.array([mid[0], mid[1], 0.0]), axis, n, h.width))
+                                 np.array([mid[0], mid[1], 0.0]), axis, n, h.width,
+                                 len(frames) < len(tree)))
     return frames
 
 
@@ -144,7 +152,8 @@ def forward(design: Design, angles: np.ndarray, model: HingeModel | str = DEFAUL
     root = design.panel_index()[design.root]
     poses[:, root] = np.eye(4)
     for f in frames:
-        poses[:, f.child] = poses[:, f.parent] @ local_transforms(f, angles[:, f.index], model)
+        if f.tree:
+            poses[:, f.child] = poses[:, f.parent] @ local_transforms(f, angles[:, f.index], model)
     return poses
 
 
@@ -167,6 +176,7 @@ class Trajectory:
     bath_c: float
     fold_times: tuple[float | None, ...]  # per hinge, s (98 % recovery), None = does not fold
     onset_times: tuple[float | None, ...]
+    loops: LoopSolution | None = None  # hinge graphs with loops: the closure solve's report
 
 
 class HingeDrive:
@@ -190,6 +200,11 @@ class HingeDrive:
         self.target = target_angles(design)
         self.fixity = np.array([h.fixity for h in design.hinges])
         self.frozen_at: dict[int, float] = {}  # hinge index -> time it was arrested
+        # loops (rigid origami): angles() gives the closed angles nearest the drive
+        self.loops = LoopSolver(hinge_frames(design), [h.id for h in design.hinges]) \
+            if has_loops(design) else None
+        self._solution: LoopSolution | None = None
+        self._solved_for: tuple | None = None
 
         # every curve lives on the same internal grid: stack them for one fused lookup
         self._grid = self.curves[0].t if self.curves else np.zeros(1)
@@ -218,10 +233,46 @@ class HingeDrive:
         r = lo + (self._stack[k + 1, cols] - lo) * f  # monotone in t (the bound needs it)
         return np.where(tt < 0, 0.0, r)
 
-    def angles(self, t) -> np.ndarray:
-        """rho(t) = rho_target (1 - (1 - R(t)) f), (n_t, n_hinges) rad."""
+    def driven(self, t) -> np.ndarray:
+        """rho(t) = rho_target (1 - (1 - R(t)) f), (n_t, n_hinges) rad: what each hinge's
+        material asks for on its own."""
         r = self.ratios(t)
         return self.target[None] * (1.0 - (1.0 - r) * self.fixity[None])
+
+    def angles(self, t) -> np.ndarray:
+        """Fold angles (n_t, n_hinges) rad: the driven angles for a hinge tree; with loops
+        the closed angles nearest the drive (:mod:`foldprint.loops`), piecewise linear
+        between the solve grid's times."""
+        if self.loops is None:
+            return self.driven(t)
+        t = np.atleast_1d(np.asarray(t, float))
+        return self.solve_loops(t).at(t)
+
+    def variation(self, t) -> np.ndarray:
+        """Cumulative total variation of each angle from 0 to t, (n_t, n_hinges) rad (the
+        swept collision bound; equals |rho(t) - rho(0)| for monotone tree drives)."""
+        if self.loops is None:
+            return np.abs(self.driven(t) - self.driven([0.0]))
+        t = np.atleast_1d(np.asarray(t, float))
+        return self.solve_loops(t).total_variation(t)
+
+    def solve_loops(self, times=None, dt: float = LOOP_DT) -> LoopSolution:
+        """The loop solution on a grid of step ``dt`` covering ``times`` (and holding
+        ``times`` exactly); re-solved when the grid no longer covers the request or an
+        arrest changed the drive."""
+        times = np.atleast_1d(np.asarray(times if times is not None else [0.0], float))
+        end = max(float(times.max(initial=0.0)), float(self.design.process.duration_s))
+        key = tuple(sorted(self.frozen_at.items()))
+        sol = self._solution
+        if sol is not None and self._solved_for == key and sol.times[-1] >= end - 1e-12:
+            return sol
+        grid = np.arange(0.0, end + dt, dt)
+        if sol is not None and self._solved_for == key:
+            grid = np.union1d(grid, sol.times)
+        grid = np.union1d(grid[grid <= end + 1e-12], times[times >= 0])
+        self._solution = self.loops.track(grid, self.driven(grid))
+        self._solved_for = key
+        return self._solution
 
 
 def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath_c: float | None = None,
@@ -240,12 +291,52 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         times = np.linspace(0.0, (n - 1) * dt, n)
     times = np.asarray(times, float)
     ratios = drive.ratios(times)
-    angles = drive.angles(times)
+    loop = None
+    if drive.loops is not None:
+        loop = drive.solve_loops(times, min(LOOP_DT, float(np.diff(times).min(initial=LOOP_DT))))
+        angles = loop.at(times)
+        # the ratio a hinge actually reached: a hinge held back by its loops is not done
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
+        ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
+    else:
+        angles = drive.angles(times)
     poses = forward(design, angles, model)
+    if loop is not None and model == "arc":
+        loop = _with_arc_gap(design, loop, angles, poses)
     for a in (times, ratios, angles, poses):
         a.setflags(write=False)
     return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c,
-                      tuple(c.fold_time for c in drive.curves), tuple(c.onset_time for c in drive.curves))
+                      tuple(c.fold_time for c in drive.curves), tuple(c.onset_time for c in drive.curves),
+                      loop)
+
+
+def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = "arc",
+                poses: np.ndarray | None = None) -> float:
+    """Largest distance (mm, over the times of ``angles`` (n_t, n_hinges)) between where a
+    loop hinge's child-side edge lands through that hinge and where the spanning tree puts
+    the child: 0 for a tree; for loops of arc hinges the positional misfit that the
+    printed strips would have to absorb (docs/loops.md)."""
+    angles = np.atleast_2d(np.asarray(angles, float))
+    poses = forward(design, angles, model) if poses is None else poses
+    gap = 0.0
+    for f in hinge_frames(design):
+        if f.tree:
+            continue
+        loc = local_transforms(f, angles[:, f.index], model)
+        via = poses[:, f.parent] @ loc
+        for end in design.hinges[f.index].line:
+            p = np.array([end[0], end[1], 0.0]) + (0.5 * f.width * f.normal if model == "arc" else 0.0)
+            a = via[:, :3, :3] @ p + via[:, :3, 3]
+            b = poses[:, f.child, :3, :3] @ p + poses[:, f.child, :3, 3]
+            gap = max(gap, float(np.linalg.norm(a - b, axis=1).max(initial=0.0)))
+    return gap
+
+
+def _with_arc_gap(design: Design, loop: LoopSolution, angles: np.ndarray, poses: np.ndarray) -> LoopSolution:
+    from dataclasses import replace
+
+    return replace(loop, arc_gap_mm=loop_gap_mm(design, angles, "arc", poses))
 
 
 def transform_points(pose: np.ndarray, pts2d: np.ndarray, z: float = 0.0) -> np.ndarray:

@@ -155,7 +155,7 @@ class TreeBounds:
 
 
 def tree_bounds(design: Design, model: str, frames: list[HingeFrame] | None = None) -> TreeBounds:
-    frames = frames if frames is not None else hinge_frames(design)
+    frames = frames if frames is not None else [f for f in hinge_frames(design) if f.tree]
     n = len(design.panels)
     nh = len(design.hinges)
     root = design.panel_index()[design.root]

@@ -55,6 +55,7 @@ def simulation_json(result, brief: bool = False) -> dict:
         "duration_s": _r(traj.times[-1]),
         "dt_s": _r(traj.times[1] - traj.times[0]) if len(traj.times) > 1 else None,
         "initial_contacts": [contact_json(c) for c in result.initial_contacts],
+        "loops": loops_json(traj.loops),
     }
 
 
@@ -77,3 +78,13 @@ def robust_json(r) -> dict:
         "scatter": r.scatter.to_json(),
         "nominal": simulation_json(r.nominal, brief=True),
     }
+
+
+def loops_json(sol) -> dict | None:
+    """The loop solver's report (hinge graphs with loops), None for a hinge tree."""
+    if sol is None:
+        return None
+    return {"loops": sol.n_loops, "dof": sol.dof, "closure_residual": float(sol.closure),
+            "locked_at_s": _r(sol.locked_at),
+            "not_followed": [{"time_s": _r(t), "hinges": list(h)} for t, h in sol.stuck],
+            "arc_gap_mm": _r(sol.arc_gap_mm, 4)}

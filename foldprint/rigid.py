@@ -12,7 +12,9 @@ import shapely
 from shapely.geometry import LineString, Polygon
 
 from .design import Design
+from .errors import GeometryError
 from .kinematics import hinge_frames
+from .relief import relieve
 
 
 def rigid_polygon(design: Design, index: int, model: str):
@@ -24,6 +26,10 @@ def _rigid_polygons(design: Design, model: str) -> list:
     cache = design.__dict__.setdefault("_rigid_cache", {})
     if model in cache:
         return cache[model]
+    try:  # vertex reliefs are part of the printed panels
+        design = relieve(design)
+    except GeometryError:  # a relief design-rule failure is export's and check's to report
+        pass
     polys = [p.polygon for p in design.panels]
     if model == "arc":
         for f in hinge_frames(design):

@@ -11,8 +11,8 @@ PKG = Path(__file__).resolve().parent.parent / "foldprint"
 LAYERS = [
     {"constants", "errors", "modes", "parallel", "schema", "guards"},
     {"materials"},
-    {"recovery", "design"},
-    {"design_io", "fold_format", "svg_format", "templates", "load", "recovery_table"},
+    {"recovery", "design", "crease_patterns"},
+    {"design_io", "fold_format", "svg_format", "templates", "load", "recovery_table", "relief"},
     {"kinematics", "loops"},
     {"rigid", "goals", "motion"},
     {"collision2d", "collision3d"},

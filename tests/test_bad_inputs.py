@@ -45,8 +45,8 @@ def _hinge(hid, a, b):
     return f'[[hinges]]\nid = "{hid}"\npanels = ["{a}", "{b}"]\nangle_deg = 90\nmaterial = "H-1"\n'
 
 
-LOOP = ('schema = 1\nname = "loop"\n' + _sq("a", 0, 0) + _sq("b", 10, 0) + _sq("c", 0, 10) + _sq("d", 10, 10)
-        + _hinge("ab", "a", "b") + _hinge("bd", "b", "d") + _hinge("dc", "d", "c") + _hinge("ca", "c", "a"))
+DISCONNECTED = ('schema = 1\nname = "apart"\n' + _sq("a", 0, 0) + _sq("b", 10, 0) + _sq("c", 0, 10)
+                + _sq("d", 30, 30) + _hinge("ab", "a", "b") + _hinge("ca", "c", "a"))
 
 CASES = {
     "malformed_toml": ("bad.toml", 'name = "x"\n[strip\nlengths_mm = [1,', ["bad.toml", "not valid TOML"]),
@@ -56,7 +56,7 @@ CASES = {
     "unknown_material": ("m.toml", GOOD_STRIP.format(name="m").replace('"H-2"', '"H-42"'), ["h2", "H-42"]),
     "dangling_hinge": ("d.toml", BOX.replace('panels = ["base", "side"]', 'panels = ["base", "ghost"]'),
                        ["h2", "ghost"]),
-    "not_a_tree": ("t.toml", LOOP, ["not a tree", "loop"]),
+    "disconnected": ("t.toml", DISCONNECTED, ["not connected", "'d'"]),
     "self_intersecting": ("s.toml", BOX.replace("[[0, 0], [20, 0], [20, 20], [0, 20]]",
                                                 "[[0, 0], [20, 20], [20, 0], [0, 20]]"), ["base", "self-intersecting"]),
     "nan": ("n.toml", GOOD_STRIP.format(name="n").replace("[10, 12, 14]", "[10, nan, 14]"), ["lengths_mm[1]", "finite"]),

@@ -157,11 +157,12 @@ def test_flat_hinge_is_F_and_survives():
 # -- foreign files ------------------------------------------------------------------------
 
 def simulator_cp() -> dict:
-    """Origami Simulator style: 3D coordinates with z = 0, unit "unit", a square split
+    """Origami Simulator style: 3D coordinates with z = 0 (unit mm here: its own "unit" needs
+    a scale, tested in test_loops.py), a square split
     into two triangles by a flat diagonal and a flap joined by a 90 deg valley."""
     return {
         "file_spec": 1.1, "file_creator": "Origami Simulator: http://git.amandaghassaei.com/OrigamiSimulator/",
-        "file_classes": ["singleModel"], "frame_classes": ["creasePattern"], "frame_unit": "unit",
+        "file_classes": ["singleModel"], "frame_classes": ["creasePattern"], "frame_unit": "mm",
         "frame_title": "sim",
         "vertices_coords": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]],
         "faces_vertices": [[0, 1, 2], [0, 2, 3], [1, 4, 5, 2]],
@@ -233,6 +234,7 @@ def test_foreign_unassigned_edge_with_angle_is_a_hinge():
 
 def test_subdivided_crease_merges_into_one_hinge():
     cp = {
+        "frame_unit": "mm",
         "vertices_coords": [[0, 0], [1, 0], [1, 1], [0, 1], [2, 0], [2, 1], [1, 0.5]],
         "faces_vertices": [[0, 1, 6, 2, 3], [1, 4, 5, 2, 6]],
         "edges_vertices": [[0, 1], [1, 6], [6, 2], [2, 3], [3, 0], [1, 4], [4, 5], [5, 2]],
@@ -249,6 +251,7 @@ def test_subdivided_crease_merges_into_one_hinge():
 
 def test_foreign_facets_around_a_hole_give_a_panel_with_a_hole():
     cp = {
+        "frame_unit": "mm",
         "vertices_coords": [[0, 0], [3, 0], [3, 3], [0, 3], [1, 1], [2, 1], [2, 2], [1, 2], [4, 0], [4, 3]],
         "faces_vertices": [[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7], [1, 8, 9, 2]],
         "edges_vertices": [[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4],
@@ -317,6 +320,7 @@ def test_error_missing_file(tmp_path):
 def test_error_crease_inside_one_panel():
     """A crease that dies out inside the sheet does not separate two panels."""
     cp = {
+        "frame_unit": "mm",
         "vertices_coords": [[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5]],
         "faces_vertices": [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]],
         "edges_vertices": [[0, 1], [1, 2], [2, 3], [3, 0], [0, 4], [1, 4], [2, 4], [3, 4]],

@@ -29,7 +29,11 @@ TEMPLATES = sorted((Path(__file__).resolve().parent.parent / "templates").glob("
 TEMPLATE_IDS = [p.stem for p in TEMPLATES]
 #: Templates whose printed (permanent) shape is known not to build, with the finding.
 #: strict: the entry must go once the template is fixed.
-KNOWN_UNPRINTABLE: dict[str, str] = {}  # none: every template builds in both states
+KNOWN_UNPRINTABLE: dict[str, str] = {
+    # loops of arc hinges cannot close in the folded state (docs/loops.md): print them flat
+    "miura_3x3": "arc hinges cannot close the Miura loops when folded (3.07 mm misfit)",
+    "cross_lock_uniform": "its targets (all four creases 90 deg) do not close the loop",
+}
 
 
 def _known(path, state="permanent"):
@@ -110,6 +114,7 @@ def test_template_volume_same_in_both_states(path):
 def test_template_nonadjacent_panels_disjoint_when_folded(path):
     """Panels that fold against each other must not interpenetrate in the printed state;
     the mailbox corners keep >= 0.5 mm."""
+    _known(path)
     design = _design(str(path))
     solids = panel_solids(design, "permanent")
     adjacent = {frozenset(h.panels) for h in design.hinges}

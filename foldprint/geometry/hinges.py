@@ -8,12 +8,16 @@ import math
 import manifold3d as mf
 import numpy as np
 
-from ..design import Design, Hinge
+from ..design import Design, Hinge, has_loops
 from ..errors import GeometryError
-from ..kinematics import HingeFrame, hinge_map
+from ..kinematics import HingeFrame, hinge_map, loop_gap_mm
 from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, _checked, _from_arrays, apply_pose)
 
 # -- kinematics of the printed states ----------------------------------------------------
+
+#: largest loop misfit (mm) a folded (permanent) build of a loop pattern may have
+LOOP_GAP_TOL_MM = 0.01
+
 
 def state_angles(design: Design, state: str) -> np.ndarray:
     """Hinge angles (rad, ``design.hinges`` order) of a build state."""
@@ -21,7 +25,16 @@ def state_angles(design: Design, state: str) -> np.ndarray:
         raise GeometryError(f"state must be one of {STATES}, got {state!r}")
     if state == "programmed":
         return np.zeros(len(design.hinges))
-    return np.array([h.angle for h in design.hinges], dtype=float)
+    angles = np.array([h.angle for h in design.hinges], dtype=float)
+    if has_loops(design):
+        gap = loop_gap_mm(design, angles, "arc")
+        if gap > LOOP_GAP_TOL_MM:
+            raise GeometryError(
+                f"{design.name}: the hinge graph has loops and its arc hinges (flat width R*|angle|) cannot "
+                f"close them in the folded state: a {gap:.2f} mm misfit at a loop hinge, so panels would overlap "
+                "or gap (docs/loops.md); "
+                "print the flat state with --state programmed, or use smaller hinge radii")
+    return angles
 
 
 def _local(frame: HingeFrame, rho: float) -> np.ndarray:
@@ -35,7 +48,8 @@ def _poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.n
     poses = np.zeros((len(design.panels), 4, 4))
     poses[design.panel_index()[design.root]] = np.eye(4)
     for f in frames:
-        poses[f.child] = poses[f.parent] @ _local(f, float(angles[f.index]))
+        if f.tree:  # a hinge closing a loop does not place its child (docs/loops.md)
+            poses[f.child] = poses[f.parent] @ _local(f, float(angles[f.index]))
     return poses
 
 

@@ -13,8 +13,15 @@ from shapely.geometry import Polygon
 from ..design import Design, Hinge
 from ..errors import GeometryError
 from ..kinematics import HingeFrame, hinge_frames
+from ..relief import relieve
 from .hinges import hinge_segments
-from .solids import (TEETH_GAP, TEETH_OVERLAP, TOOTH_END_MARGIN, TOOTH_LAND_FRACTION, _clean)
+from .solids import (
+    TEETH_GAP,
+    TEETH_OVERLAP,
+    TOOTH_END_MARGIN,
+    TOOTH_LAND_FRACTION,
+    _clean,
+)
 
 # -- 2D layout: strips, teeth, rigid panel parts ---------------------------------------
 
@@ -62,7 +69,9 @@ def _teeth_outline(lay: _HingeLayout, side: float) -> list[Polygon]:
 
 def layout(design: Design) -> tuple[list[_HingeLayout], list[object]]:
     """The 2D plan in the sheet: per-hinge strips and teeth, and each panel's rigid
-    part (outline less every hinge strip and every tooth region)."""
+    part (outline less every hinge strip and every tooth region). Vertices where hinges
+    meet get a relief (:func:`relieve`) first."""
+    design = relieve(design)
     frames = hinge_frames(design)
     lays: list[_HingeLayout] = []
     for f in sorted(frames, key=lambda fr: fr.index):

@@ -1,0 +1,311 @@
+"""Hinge graphs with loops (rigid origami): closure at every interior vertex checked by an
+independent formula (local frames: rotations about the creases with the sector angles
+between), the degree-4 vertex against its closed form, the FOLD input rules and the CLI."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from foldprint import crease_patterns as cp
+from foldprint.cli import main
+from foldprint.design import strip
+from foldprint.errors import DesignError
+from foldprint.fold_format import design_from_fold
+from foldprint.kinematics import HingeDrive, simulate_kinematics
+
+DURATION = 3.0  # s: the default H-3 creases finish folding by ~2 s at 90 C
+
+
+def _rx(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def _rz(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def interior_vertices(fold: dict) -> list[list[tuple[int, float]]]:
+    """Per interior vertex: (edge index, direction angle) of its creases, counter-clockwise.
+    A vertex is interior when no border (B) edge touches it."""
+    xy = np.array(fold["vertices_coords"], float)[:, :2]
+    inc: dict[int, list[int]] = {}
+    for i, (a, b) in enumerate(fold["edges_vertices"]):
+        inc.setdefault(a, []).append(i)
+        inc.setdefault(b, []).append(i)
+    out = []
+    for v, es in inc.items():
+        if any(fold["edges_assignment"][e] == "B" for e in es):
+            continue
+        ring = []
+        for e in es:
+            a, b = fold["edges_vertices"][e]
+            o = b if a == v else a
+            d = xy[o] - xy[v]
+            ring.append((e, math.atan2(d[1], d[0]) % (2 * math.pi)))
+        out.append(sorted(ring, key=lambda r: r[1]))
+    return out
+
+
+def vertex_closure(ring, rho: dict[int, float]) -> float:
+    """max |prod_i Rx(rho_i) Rz(sector_i) - I| around one vertex (rho by edge index)."""
+    m = np.eye(3)
+    for i, (e, ang) in enumerate(ring):
+        sector = (ring[(i + 1) % len(ring)][1] - ang) % (2 * math.pi)
+        m = m @ _rx(rho[e]) @ _rz(sector)
+    return float(np.abs(m - np.eye(3)).max())
+
+
+PATTERNS = {"miura": cp.miura, "degree4": cp.degree4, "waterbomb": cp.waterbomb}
+
+
+@pytest.fixture(scope="module")
+def trajectories():
+    out = {}
+    for name, make in PATTERNS.items():
+        fold = make()
+        d = design_from_fold(fold)
+        out[name] = (fold, d, simulate_kinematics(d, model="point", duration=DURATION, dt=0.01))
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(PATTERNS))
+def test_every_interior_vertex_closes_at_every_time(trajectories, name):
+    fold, d, traj = trajectories[name]
+    col = {int(h.id[1:]): k for k, h in enumerate(d.hinges)}  # hinge "e<edge>"
+    rings = interior_vertices(fold)
+    assert rings, "the pattern has an interior vertex"
+    worst = 0.0
+    for row in traj.angles:
+        for ring in rings:
+            worst = max(worst, vertex_closure(ring, {e: row[col[e]] for e, _ in ring}))
+    assert worst < 1e-6
+    assert traj.loops is not None and traj.loops.closure < 1e-6
+    assert np.abs(traj.angles[-1]).max() > math.radians(30)  # it really folded
+
+
+def test_degree4_follows_its_closed_form(trajectories):
+    """tan(rho2/2) = sin((a+b)/2)/sin((b-a)/2) tan(rho1/2), rho3 = -rho1, rho4 = rho2 at
+    every time, and the final state reaches the (consistent) targets."""
+    _, d, traj = trajectories["degree4"]
+    k = traj.angles
+    # below ~1e-3 rad every small configuration closes to within the solver tolerance
+    # (the residual is second order), so the branch is only defined once folding starts
+    moving = np.abs(k[:, 0]) > 1e-3
+    assert moving.sum() > 50
+    ratio = np.tan(k[moving, 1] / 2) / np.tan(k[moving, 0] / 2)
+    expect = cp.degree4_ratio(60.0, 80.0)
+    np.testing.assert_allclose(np.abs(ratio), expect, rtol=1e-6)
+    np.testing.assert_allclose(k[moving, 2], -k[moving, 0], atol=1e-7)
+    np.testing.assert_allclose(k[moving, 3], k[moving, 1], atol=1e-7)
+    np.testing.assert_allclose(np.degrees(k[-1]), [h.angle_deg for h in d.hinges], atol=0.05)
+
+
+def test_miura_is_one_dof_and_reaches_consistent_targets(trajectories):
+    _, d, traj = trajectories["miura"]
+    assert traj.loops.dof == 1 and traj.loops.n_loops == 4
+    np.testing.assert_allclose(np.degrees(traj.angles[-1]), [h.angle_deg for h in d.hinges], atol=0.05)
+
+
+def test_variation_bounds_every_angle_change(trajectories):
+    """The swept check's bound: cumulative total variation is non-decreasing and covers
+    |rho(t) - rho(s)| for any s < t, also between grid times."""
+    _, d, _ = trajectories["waterbomb"]
+    drive = HingeDrive(d)
+    ts = np.sort(np.random.default_rng(1).uniform(0, DURATION, 400))
+    ang, var = drive.angles(ts), drive.variation(ts)
+    assert np.all(np.diff(var, axis=0) >= -1e-12)
+    i, j = np.triu_indices(len(ts), 1)
+    assert np.all(var[j] - var[i] >= np.abs(ang[j] - ang[i]) - 1e-12)
+
+
+def test_tree_keeps_exact_forward_kinematics():
+    d = strip("s", [10, 10, 10], [90, -60], ["H-1", "H-3"])
+    traj = simulate_kinematics(d, model="point", duration=2.0)
+    drive = HingeDrive(d)
+    assert traj.loops is None and drive.loops is None
+    np.testing.assert_array_equal(traj.angles, drive.driven(traj.times))
+
+
+def test_square_of_four_panels_is_locked():
+    """Four squares around a vertex, every crease driven to 90 deg: only one straight
+    line can fold, so the drive cannot be followed; reported with hinge ids and time."""
+    sq = [[0, 0], [10, 0], [20, 0], [0, 10], [10, 10], [20, 10], [0, 20], [10, 20], [20, 20]]
+    faces = [[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]]
+    edges = [[1, 4], [3, 4], [4, 5], [4, 7], [0, 1], [1, 2], [2, 5], [5, 8], [8, 7], [7, 6], [6, 3], [3, 0]]
+    fold = {"frame_unit": "mm", "vertices_coords": sq, "faces_vertices": faces, "edges_vertices": edges,
+            "edges_assignment": ["V"] * 4 + ["B"] * 8, "edges_foldAngle": [90] * 4 + [0] * 8}
+    d = design_from_fold(fold)
+    traj = simulate_kinematics(d, model="point", duration=DURATION)
+    assert traj.loops.stuck and traj.loops.stuck[0][0] < DURATION
+    assert set(traj.loops.stuck[0][1]) <= {"e0", "e1", "e2", "e3"}
+    assert traj.ratios[-1].min() < 0.98  # a held-back hinge is not "done"
+
+
+# -- FOLD input rules ------------------------------------------------------------------
+
+def test_unit_without_scale_is_refused_and_scale_fixes_it():
+    f = cp.degree4()
+    f["frame_unit"] = "unit"
+    with pytest.raises(DesignError, match="--scale MM_PER_UNIT"):
+        design_from_fold(f, source="x.fold")
+    del f["frame_unit"]
+    with pytest.raises(DesignError, match="frame_unit is missing"):
+        design_from_fold(f, source="x.fold")
+    d = design_from_fold(f, scale=2.0)
+    assert d.hinges[0].length == pytest.approx(60.0)
+    f["frame_unit"] = "in"
+    assert design_from_fold(f).hinges[0].length == pytest.approx(30 * 25.4)
+
+
+def test_folded_only_file_is_refused():
+    f = cp.degree4()
+    f["frame_classes"] = ["foldedForm"]
+    with pytest.raises(DesignError, match="only a folded state"):
+        design_from_fold(f, source="x.fold")
+
+
+def test_crease_pattern_frame_is_picked_among_several():
+    cpat = cp.degree4()
+    folded = dict(cpat, frame_classes=["foldedForm"],
+                  vertices_coords=[[x, y, 1.0] for x, y in cpat["vertices_coords"]])
+    keys = [k for k in cpat if k.startswith(("vertices", "edges", "faces", "frame"))]
+    data = {"file_spec": 1.2, "file_frames": [{k: folded[k] for k in keys}, {k: cpat[k] for k in keys}]}
+    d = design_from_fold(data)
+    assert len(d.hinges) == 4 and {h.id for h in d.hinges} == {"e0", "e1", "e2", "e3"}
+
+
+def test_crease_materials_rule():
+    d = design_from_fold(cp.miura(), crease_materials={"M": "H-1", "V": "H-5"})
+    for h in d.hinges:
+        assert h.material == ("H-1" if h.angle < 0 else "H-5")
+
+
+# -- CLI --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", sorted(PATTERNS))
+def test_cli_simulate_fold_with_loops(tmp_path, capsys, name):
+    fold = PATTERNS[name]()
+    path = tmp_path / f"{name}.fold"
+    path.write_text(json.dumps(fold), encoding="utf-8")
+    code = main(["simulate", str(path), "--json", "--duration", str(DURATION), "--method", "fcl"])
+    out, err = capsys.readouterr()
+    assert code in (0, 1), err
+    r = json.loads(out)
+    angles = {h["id"]: math.radians(h["final_angle_deg"]) for h in r["hinges"]}
+    assert all(k.startswith("e") for k in angles)
+    for ring in interior_vertices(fold):
+        # final_angle_deg is rounded to 1e-3 deg in the report
+        assert vertex_closure(ring, {e: angles[f"e{e}"] for e, _ in ring}) < 1e-4
+    assert r["loops"]["closure_residual"] < 1e-6
+
+
+def test_cli_unit_needs_scale(tmp_path, capsys):
+    f = cp.degree4()
+    f["frame_unit"] = "unit"
+    path = tmp_path / "u.fold"
+    path.write_text(json.dumps(f), encoding="utf-8")
+    assert main(["simulate", str(path), "--json"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and "--scale" in err and "Traceback" not in err
+    assert main(["simulate", str(path), "--json", "--scale", "0.5", "--duration", "1"]) in (0, 1)
+    capsys.readouterr()
+    f["frame_classes"] = ["foldedForm"]
+    path.write_text(json.dumps(f), encoding="utf-8")
+    assert main(["simulate", str(path), "--scale", "1"]) == 2
+    assert "foldedForm" in capsys.readouterr().err
+
+
+# -- printable vertices and the shipped templates ------------------------------------------
+
+def test_relief_keeps_strips_and_panels_apart():
+    """At every vertex of the Miura template the trimmed hinge strips and the relieved
+    panels are pairwise disjoint in the sheet (no shared area, no touching point between
+    different panels), and every hinge keeps most of its length."""
+    import itertools
+
+    import shapely
+    from shapely.geometry import LineString
+
+    from foldprint.load import load_design
+    from foldprint.relief import relief_vertices, relieve
+    from foldprint.templates import templates_dir
+
+    d = load_design(templates_dir() / "miura_3x3.toml")
+    assert len(relief_vertices(d)) >= 4
+    r = relieve(d)
+    strips = [LineString(h.line).buffer(h.width / 2, cap_style="flat") for h in r.hinges]
+    for a, b in itertools.combinations(strips, 2):
+        assert a.intersection(b).area < 1e-9
+    rigid = [p.polygon.difference(shapely.union_all(strips)) for p in r.panels]
+    for a, b in itertools.combinations(rigid, 2):
+        assert a.distance(b) > 0.1  # a strip or the relief always lies between two panels
+    for h0, h1 in zip(d.hinges, r.hinges):
+        assert 0.4 * h0.length < h1.length < h0.length
+
+
+def test_relief_too_thin_is_a_design_rule_error():
+    from foldprint.errors import GeometryError
+    from foldprint.relief import relieve
+
+    d = design_from_fold(cp.miura(2, 2, width=6.0, height=5.0, shift=2.0), default_radius_mm=5.0)
+    with pytest.raises(GeometryError, match="relief"):
+        relieve(d)
+
+
+def test_miura_template_folds_without_collision_and_lock_template_jams(capsys):
+    code = main(["simulate", "miura_3x3", "--json", "--method", "fcl", "--duration", "4"])
+    r = json.loads(capsys.readouterr().out)
+    assert code == 0 and r["completed"] and r["first_collision"] is None
+    code = main(["simulate", "cross_lock_uniform", "--json", "--method", "fcl", "--duration", "4"])
+    r = json.loads(capsys.readouterr().out)
+    assert code == 1 and not r["completed"] and r["loops"]["not_followed"]
+
+
+def test_miura_permanent_state_refused_with_the_misfit(capsys):
+    assert main(["export", "miura_3x3", "--out", "/nonexistent/never"]) == 2
+    err = capsys.readouterr().err
+    assert "misfit" in err and "--state programmed" in err
+
+
+def test_miura_template_exports_and_prusaslicer_slices(tmp_path, capsys):
+    import shutil
+    import subprocess
+
+    code = main(["export", "miura_3x3", "--state", "programmed", "--out", str(tmp_path), "--json",
+                 "--format", "3mf,prusa3mf,stl"])
+    rec = json.loads(capsys.readouterr().out)
+    assert code == 0
+    from foldprint.geometry import build_assembly
+    from foldprint.load import load_design
+    from foldprint.templates import templates_dir
+
+    asm = build_assembly(load_design(templates_dir() / "miura_3x3.toml"), "programmed")
+    import manifold3d as mf
+
+    bodies = [b.to_manifold() for b in asm.bodies]
+    assert len(bodies) == 3  # VeroWhite panels, H-2 and H-4 hinges
+    for m in bodies:
+        assert m.status() == mf.Error.NoError and m.volume() > 0
+    for i in range(len(bodies)):
+        for j in range(i + 1, len(bodies)):
+            assert (bodies[i] ^ bodies[j]).volume() < 1e-6
+    prusa = shutil.which("prusa-slicer")
+    if prusa is None:
+        pytest.skip("prusa-slicer is not on PATH")
+    stls = [f["path"] for f in rec["files"] if f["format"] == "stl"]
+    assert len(stls) == 3
+    for path in stls:
+        res = subprocess.run([prusa, "--info", path], capture_output=True, text=True, timeout=120)
+        assert res.returncode == 0 and "manifold = yes" in res.stdout, res.stdout + res.stderr
+    (p3mf,) = [f["path"] for f in rec["files"] if f["format"] == "prusa3mf"]
+    gcode = tmp_path / "m.gcode"
+    res = subprocess.run([prusa, "--export-gcode", "--nozzle-diameter", "0.4,0.4,0.4", "--layer-height", "0.2",
+                          "--output", str(gcode), p3mf], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    assert ";LAYER_CHANGE" in gcode.read_text()
