@@ -57,6 +57,8 @@ MAX_CHILDREN = 48
 #: Share of the budget the pattern search (phase 1) may spend; the rest maps patterns
 #: onto materials and confirms the finalists.
 PHASE1_SHARE = 0.5
+#: Search spaces up to this size (and within the budget) are enumerated outright.
+EXHAUSTIVE_MAX = 128
 #: Material mappings tried per feasible pattern in phase 2.
 PER_PATTERN = 6
 #: Poses sampled along a fold for the clearance of a prefix (ranking the beam only).
@@ -187,6 +189,8 @@ class AssignResult:
     first_feasible_at: int | None
     patterns: int
     permanent_blocked: bool = False
+    confirmed: int = 0
+    exhaustive: bool = False
 
     def to_json(self) -> dict:
         return {"design": self.design.name, "objective": self.objective, "materials": list(self.materials),
@@ -194,6 +198,7 @@ class AssignResult:
                 "evaluated": self.evaluated, "feasible": self.feasible, "search_space": self.search_space,
                 "evaluated_fraction": self.evaluated / self.search_space,
                 "first_feasible_at": self.first_feasible_at, "feasible_patterns": self.patterns,
+                "confirmed": self.confirmed, "exhaustive": self.exhaustive,
                 "best": [c.to_json(self.design) for c in self.best],
                 "blocking": [({"pair": list(w)} if k == "pair" else {"goal": w}) | {"count": n, "kind": k}
                              for k, w, n in self.blocking]}
@@ -258,13 +263,15 @@ class _Ledger:
     goals: dict = field(default_factory=dict)
     first_feasible_at: int | None = None
 
-    def run(self, tasks: list[Task]) -> list[Verdict]:
+    def run(self, tasks: list[Task], cap: int | None = None) -> list[Verdict]:
+        """Verdicts of ``tasks`` (None for those beyond the budget, or ``cap`` evaluations)."""
+        cap = self.budget if cap is None else min(cap, self.budget)
         todo = []
         for t in tasks:
             key = (t.materials, t.bath_c, t.method, t.duration, t.clearance_samples)
             if key not in self.cache and key not in {k for k, _ in todo}:
                 todo.append((key, t))
-        todo = todo[: max(0, self.budget - self.evaluated)]
+        todo = todo[: max(0, cap - self.evaluated)]
         if todo:
             base = self.evaluated
             cb = (lambda done, _n: self.progress(base + done, self.budget)) if self.progress else None
@@ -335,12 +342,17 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     n_free = len(free)
     space = len(mats) ** n_free * len(temps)
     ledger = _Ledger(mapper, budget, progress)
+    n_confirm = max(1, min(max(4 * top, 12), budget // 5) if objective == "time"
+                    else min(max(8 * top, 24), budget // 3))
+    # a space this small is cheaper to try outright than to search: exact within the budget
+    exhaustive = space <= min(EXHAUSTIVE_MAX, budget - n_confirm)
 
-    def result(best=(), feasible=0, patterns=0, blocked=False):
+    def result(best=(), feasible=0, patterns=0, blocked=False, confirmed=0):
         blocking = sorted([("pair", p, n) for p, n in ledger.pairs.items()] +
                           [("goal", g, n) for g, n in ledger.goals.items()], key=lambda x: (-x[2], str(x[1])))
         return AssignResult(design, objective, tuple(mats), temps, ledger.evaluated, space, feasible,
-                            tuple(best), tuple(blocking), ledger.first_feasible_at, patterns, blocked)
+                            tuple(best), tuple(blocking), ledger.first_feasible_at, patterns, blocked, confirmed,
+                            exhaustive)
 
     crossing = permanent_crossings(design)
     if crossing:
@@ -394,6 +406,8 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
         patterns.append(())
     m = len(ranked)
     phase1 = int(budget * PHASE1_SHARE)
+    if exhaustive:
+        frontier = []
     while frontier and ledger.evaluated < phase1:
         children = []
         for waves, _score in frontier:
@@ -405,8 +419,7 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
                 complete = w == rest
                 mt = materials_for(nw, list(range(len(nw))), ranked, complete)
                 children.append((nw, complete, task(mt, t_ref, ft_ref, 0 if complete else PREFIX_CLEARANCE_SAMPLES)))
-        children = children[: max(0, phase1 - ledger.evaluated)]
-        verdicts = ledger.run([c[2] for c in children])
+        verdicts = ledger.run([c[2] for c in children], cap=phase1)
         nxt = []
         for (nw, complete, _t), v in zip(children, verdicts):
             if v is None or not v.completed:
@@ -423,6 +436,18 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     candidates = []
     for t in temps:
         order, ft = usable(t)
+        if exhaustive:
+            for combo in itertools.product(mats, repeat=n_free):
+                mt = [fixed_idx.get(k) for k in range(len(design.hinges))]
+                for k, mname in zip(free, combo):
+                    mt[k] = mname
+                rank = {mname: i for i, mname in enumerate(order)}
+                if any(x not in rank for x in combo):
+                    continue  # a material that does not fold in time at t
+                levels = sorted({rank[x] for x in combo})
+                pat = tuple(frozenset(k for k, x in zip(free, combo) if rank[x] == lv) for lv in levels)
+                candidates.append((pat, None, t, tuple(mt), ft))
+            continue
         for pat in patterns:
             k = len(pat)
             if k > len(order):
@@ -434,7 +459,7 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
                 combos.sort(key=lambda c: (-min([b - a for a, b in zip(c, c[1:])] or [0]), c[-1] if c else 0, c))
             for c in combos[:PER_PATTERN]:
                 candidates.append((pat, c, t, materials_for(pat, c, order, True), ft))
-    verdicts = ledger.run([task(mt, t, ft) for _p, _c, t, mt, ft in candidates])
+    verdicts = ledger.run([task(mt, t, ft) for _p, _c, t, mt, ft in candidates], cap=budget - n_confirm)
     screened = [(p, t, mt, v) for (p, _c, t, mt, _ft), v in zip(candidates, verdicts) if v is not None and v.completed]
     # the same assignment may come from two patterns: keep the first
     seen, unique = set(), []
@@ -444,8 +469,7 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
             unique.append((p, t, mt, v))
     if objective == "time":
         unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
-    n_confirm = max(4 * top, 12)
-    finalists = unique[:n_confirm] if objective == "time" else unique[: max(n_confirm, 3 * n_confirm)]
+    finalists = unique[:n_confirm]  # margin/robust: in screening order (spread mappings first)
     confirmed = ledger.run([task(mt, t, {}, clearance=200, confirm=True) for _p, t, mt, _v in finalists])
     good = [Choice(tuple(mt), t, v.fold_time, None if v.clearance_mm is None or math.isinf(v.clearance_mm)
                    else v.clearance_mm, tuple(tuple(sorted(w)) for w in p))
@@ -464,4 +488,4 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
             robust.append(replace(c, jam_probability=r.jam_probability, jam_ci95=r.ci95))
         robust.sort(key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
         good = robust + good[top + 2:]
-    return result(good[:top], len(unique), len(patterns))
+    return result(good[:top], len(unique), len(patterns), confirmed=len(good))

@@ -446,6 +446,7 @@ def assign(
     seed: int = typer.Option(0, "--seed", help="Seed of the samples."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT",
                                             help="Run the evaluations on this Dask scheduler (default: local cores)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: all cores)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     write: Optional[Path] = typer.Option(None, "--write", help="Save the best assignment as a design file (TOML)."),
 ):
@@ -463,7 +464,7 @@ def assign(
     if temperature is not None and temperature_range is not None:
         raise FoldprintError("give --temperature or --temperature-range, not both")
     _finite(temperature=temperature)
-    for name, v in (("--top", top), ("--budget", budget), ("--samples", samples)):
+    for name, v in (("--top", top), ("--budget", budget), ("--samples", samples), ("--workers", workers or 1)):
         if v < 1:
             raise FoldprintError(f"{name} must be at least 1, got {v}")
     if seed < 0:
@@ -485,7 +486,8 @@ def assign(
         temps = list(temperature_grid(*temperature_range))
     with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: evaluations") as cb:
         r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
-                   top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, progress=cb)
+                   top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, workers=workers,
+                   progress=cb)
     out = r.to_json()
     if write is not None and r.best:
         from .design_io import design_to_toml
