@@ -57,6 +57,10 @@ MAX_CHILDREN = 48
 #: Share of the budget the pattern search (phase 1) may spend; the rest maps patterns
 #: onto materials and confirms the finalists.
 PHASE1_SHARE = 0.5
+#: ``robust``: finalists screened with ROBUST_SCREEN_SAMPLES samples before the best
+#: ``top + 2`` get all of ``samples``.
+ROBUST_POOL = 10
+ROBUST_SCREEN_SAMPLES = 8
 #: Search spaces up to this size (and within the budget) are enumerated outright.
 EXHAUSTIVE_MAX = 128
 #: Material mappings tried per feasible pattern in phase 2.
@@ -191,6 +195,7 @@ class AssignResult:
     permanent_blocked: bool = False
     confirmed: int = 0
     exhaustive: bool = False
+    robust_simulations: int = 0  # Monte-Carlo folds of the finalists (not in ``evaluated``)
 
     def to_json(self) -> dict:
         return {"design": self.design.name, "objective": self.objective, "materials": list(self.materials),
@@ -199,6 +204,7 @@ class AssignResult:
                 "evaluated_fraction": self.evaluated / self.search_space,
                 "first_feasible_at": self.first_feasible_at, "feasible_patterns": self.patterns,
                 "confirmed": self.confirmed, "exhaustive": self.exhaustive,
+                "robust_simulations": self.robust_simulations,
                 "best": [c.to_json(self.design) for c in self.best],
                 "blocking": [({"pair": list(w)} if k == "pair" else {"goal": w}) | {"count": n, "kind": k}
                              for k, w, n in self.blocking]}
@@ -347,12 +353,12 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     # a space this small is cheaper to try outright than to search: exact within the budget
     exhaustive = space <= min(EXHAUSTIVE_MAX, budget - n_confirm)
 
-    def result(best=(), feasible=0, patterns=0, blocked=False, confirmed=0):
+    def result(best=(), feasible=0, patterns=0, blocked=False, confirmed=0, robust_sims=0):
         blocking = sorted([("pair", p, n) for p, n in ledger.pairs.items()] +
                           [("goal", g, n) for g, n in ledger.goals.items()], key=lambda x: (-x[2], str(x[1])))
         return AssignResult(design, objective, tuple(mats), temps, ledger.evaluated, space, feasible,
                             tuple(best), tuple(blocking), ledger.first_feasible_at, patterns, blocked, confirmed,
-                            exhaustive)
+                            exhaustive, robust_sims)
 
     crossing = permanent_crossings(design)
     if crossing:
@@ -479,13 +485,23 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     else:
         good.sort(key=lambda c: (-(c.clearance_mm if c.clearance_mm is not None else math.inf), c.fold_time,
                                  c.materials))
+    n_robust, n_confirmed = 0, len(good)
     if objective == "robust" and good:
-        finals = good[: top + 2]
-        robust = []
-        for c in finals:
-            r = jam_probability(with_materials(design, c.materials, c.bath_c), samples, seed, scatter=scatter,
-                                library=lib, dt=dt, mapper=mapper)
-            robust.append(replace(c, jam_probability=r.jam_probability, jam_ci95=r.ci95))
-        robust.sort(key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
-        good = robust + good[top + 2:]
-    return result(good[:top], len(unique), len(patterns), confirmed=len(good))
+        # two stages: a few samples for a wide pool (by margin), all ``samples`` for the
+        # best of them; the same seed, so the first draws are the same in both
+        def estimate(cands, n):
+            out = []
+            for c in cands:
+                r = jam_probability(with_materials(design, c.materials, c.bath_c), n, seed, scatter=scatter,
+                                    library=lib, dt=dt, mapper=mapper)
+                out.append(replace(c, jam_probability=r.jam_probability, jam_ci95=r.ci95))
+            return sorted(out, key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
+
+        pool = good[: max(3 * top, ROBUST_POOL)]
+        if samples > ROBUST_SCREEN_SAMPLES and len(pool) > top + 2:
+            pool = estimate(pool, ROBUST_SCREEN_SAMPLES)
+            n_robust += len(pool) * (ROBUST_SCREEN_SAMPLES + 1)
+        finals = estimate(pool[: top + 2], samples)
+        n_robust += len(finals) * (samples + 1)
+        good = finals
+    return result(good[:top], len(unique), len(patterns), confirmed=n_confirmed, robust_sims=n_robust)
