@@ -406,37 +406,35 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     # phase 1: patterns (waves of hinges), wave i played by the i-th fastest material
     graph = _hinge_graph(design)
     all_free = frozenset(free)
-    frontier: list[tuple[tuple[frozenset, ...], float]] = [((), math.inf)]
     patterns: list[tuple[frozenset, ...]] = []
     if not free:
         patterns.append(())
     m = len(ranked)
     phase1 = int(budget * PHASE1_SHARE)
-    if exhaustive:
-        frontier = []
-    while frontier and ledger.evaluated < phase1:
+    # best first: a queue of every collision-free prefix; each round expands the ``beam``
+    # best (most hinges placed, then the widest clearance along the motion so far)
+    queue: list = [] if exhaustive or not free else [((0, -math.inf, 0, ()), ())]
+    while queue and ledger.evaluated < phase1:
+        queue.sort(key=lambda x: x[0])
+        batch, queue = queue[:beam], queue[beam:]
         children = []
-        for waves, _score in frontier:
+        for _key, waves in batch:
             rest = all_free - frozenset().union(*waves) if waves else all_free
-            depth = len(waves)
-            options = [rest] if depth == m - 1 else connected_waves(rest, graph)
+            options = [rest] if len(waves) == m - 1 else connected_waves(rest, graph)
             for w in options:
                 nw = waves + (w,)
                 complete = w == rest
                 mt = materials_for(nw, list(range(len(nw))), ranked, complete)
                 children.append((nw, complete, task(mt, t_ref, ft_ref, 0 if complete else PREFIX_CLEARANCE_SAMPLES)))
         verdicts = ledger.run([c[2] for c in children], cap=phase1)
-        nxt = []
         for (nw, complete, _t), v in zip(children, verdicts):
             if v is None or not v.completed:
                 continue
             if complete:
                 patterns.append(nw)
             else:
-                nxt.append((nw, v.clearance_mm if v.clearance_mm is not None else math.inf))
-        # most hinges placed first (few waves fold fast), then the widest clearance
-        nxt.sort(key=lambda x: (-sum(map(len, x[0])), -x[1], len(x[0]), [sorted(w) for w in x[0]]))
-        frontier = nxt[:beam]
+                clear = v.clearance_mm if v.clearance_mm is not None else math.inf
+                queue.append(((-sum(map(len, nw)), -clear, len(nw), [sorted(w) for w in nw]), nw))
 
     # phase 2: map the feasible patterns onto materials (and temperatures)
     candidates = []
@@ -463,8 +461,10 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
                 combos.sort(key=lambda c: (c[-1] if c else 0, sum(c), c))
             else:  # spread the waves: the widest smallest gap between consecutive ranks first
                 combos.sort(key=lambda c: (-min([b - a for a, b in zip(c, c[1:])] or [0]), c[-1] if c else 0, c))
-            for c in combos[:PER_PATTERN]:
-                candidates.append((pat, c, t, materials_for(pat, c, order, True), ft))
+            for j, c in enumerate(combos[:PER_PATTERN]):
+                candidates.append((j, pat, c, t, materials_for(pat, c, order, True), ft))
+    if not exhaustive:  # round robin: every pattern's first mapping, then every second one...
+        candidates = [c[1:] for c in sorted(candidates, key=lambda c: c[0])]
     verdicts = ledger.run([task(mt, t, ft) for _p, _c, t, mt, ft in candidates], cap=budget - n_confirm)
     screened = [(p, t, mt, v) for (p, _c, t, mt, _ft), v in zip(candidates, verdicts) if v is not None and v.completed]
     # the same assignment may come from two patterns: keep the first
