@@ -12,7 +12,8 @@ The search uses the physics instead of enumerating the m^n assignments
    waves) is simulated with every later hinge held in its programmed shape. Until the
    next material's onset this is the real motion of every completion, so a prefix that
    collides is never extended. Waves are connected groups of hinges (sharing panels) or
-   "all the rest"; a beam keeps the prefixes with the widest clearance.
+   "all the rest"; the search is best first (most hinges placed, then the widest
+   clearance), expanding ``beam`` prefixes per round.
 3. **Near-equivalent assignments share a pattern.** Phase 2 maps each feasible pattern
    onto the materials (increasing ranks, at each bath temperature of the range),
    evaluating the mappings the objective prefers first, within a budget.
@@ -50,7 +51,7 @@ from .simulate import simulate
 OBJECTIVES = ("time", "margin", "robust")
 #: Evaluations (simulations) the search may spend by default.
 DEFAULT_BUDGET = 600
-#: Prefixes kept per depth of the pattern search.
+#: Prefixes expanded per round of the best-first pattern search.
 DEFAULT_BEAM = 6
 #: Connected waves offered as children of one prefix (the smallest first).
 MAX_CHILDREN = 48
@@ -65,7 +66,7 @@ ROBUST_SCREEN_SAMPLES = 8
 EXHAUSTIVE_MAX = 128
 #: Material mappings tried per feasible pattern in phase 2.
 PER_PATTERN = 6
-#: Poses sampled along a fold for the clearance of a prefix (ranking the beam only).
+#: Poses sampled along a fold for the clearance of a prefix (ranking the queue only).
 PREFIX_CLEARANCE_SAMPLES = 24
 #: Screening runs stop this long after the slowest active hinge reaches 98 % (s).
 SCREEN_TAIL_S = 0.5
@@ -475,7 +476,9 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
             unique.append((p, t, mt, v))
     if objective == "time":
         unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
-    finalists = unique[:n_confirm]  # margin/robust: in screening order (spread mappings first)
+    if objective == "robust":  # many waves first (see the pool below), stable otherwise
+        unique.sort(key=lambda x: -len(x[0]))
+    finalists = unique[:n_confirm]  # margin: in screening order (spread mappings first)
     confirmed = ledger.run([task(mt, t, {}, clearance=200, confirm=True) for _p, t, mt, _v in finalists])
     good = [Choice(tuple(mt), t, v.fold_time, None if v.clearance_mm is None or math.isinf(v.clearance_mm)
                    else v.clearance_mm, tuple(tuple(sorted(w)) for w in p))
@@ -497,7 +500,9 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
                 out.append(replace(c, jam_probability=r.jam_probability, jam_ci95=r.ci95))
             return sorted(out, key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
 
-        pool = good[: max(3 * top, ROBUST_POOL)]
+        # scatter reorders hinges that share a wave: the pool favours many waves, then margin
+        pool = sorted(good, key=lambda c: (-len(c.pattern), -(c.clearance_mm or 0), c.fold_time, c.materials))
+        pool = pool[: max(3 * top, ROBUST_POOL)]
         if samples > ROBUST_SCREEN_SAMPLES and len(pool) > top + 2:
             pool = estimate(pool, ROBUST_SCREEN_SAMPLES)
             n_robust += len(pool) * (ROBUST_SCREEN_SAMPLES + 1)
