@@ -476,9 +476,7 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
             unique.append((p, t, mt, v))
     if objective == "time":
         unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
-    if objective == "robust":  # many waves first (see the pool below), stable otherwise
-        unique.sort(key=lambda x: -len(x[0]))
-    finalists = unique[:n_confirm]  # margin: in screening order (spread mappings first)
+    finalists = unique[:n_confirm]  # margin/robust: in screening order (spread mappings first)
     confirmed = ledger.run([task(mt, t, {}, clearance=200, confirm=True) for _p, t, mt, _v in finalists])
     good = [Choice(tuple(mt), t, v.fold_time, None if v.clearance_mm is None or math.isinf(v.clearance_mm)
                    else v.clearance_mm, tuple(tuple(sorted(w)) for w in p))
@@ -500,9 +498,7 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
                 out.append(replace(c, jam_probability=r.jam_probability, jam_ci95=r.ci95))
             return sorted(out, key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
 
-        # scatter reorders hinges that share a wave: the pool favours many waves, then margin
-        pool = sorted(good, key=lambda c: (-len(c.pattern), -(c.clearance_mm or 0), c.fold_time, c.materials))
-        pool = pool[: max(3 * top, ROBUST_POOL)]
+        pool = good[: max(3 * top, ROBUST_POOL)]  # the widest margins
         if samples > ROBUST_SCREEN_SAMPLES and len(pool) > top + 2:
             pool = estimate(pool, ROBUST_SCREEN_SAMPLES)
             n_robust += len(pool) * (ROBUST_SCREEN_SAMPLES + 1)
