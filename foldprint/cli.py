@@ -10,7 +10,7 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import List, Optional
+from typing import List, Optional, Tuple
 
 import typer
 from typer import echo
@@ -391,6 +391,8 @@ def robust(
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT",
+                                            help="Run the samples on this Dask scheduler (default: local cores)."),
 ):
     """Jam probability under manufacturing and process scatter: Tg per hinge, hinge
     thickness, heat transfer per hinge and bath temperature (foldprint/data/scatter.toml),
@@ -409,8 +411,9 @@ def robust(
         raise FoldprintError(f"--seed must be >= 0, got {seed}")
     sc = load_scatter(scatter_file)
     d, lib = _load(design, materials_file)
-    with _samples_progress(f"{d.name}: scatter samples") as cb:
-        r = jam_probability(d, samples, seed, scatter=sc, library=lib, hinge_model=model, progress=cb)
+    with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: scatter samples") as cb:
+        r = jam_probability(d, samples, seed, scatter=sc, library=lib, hinge_model=model, progress=cb,
+                            mapper=mapper)
     out = robust_json(r)
     if json_out:
         _echo_json(out)
@@ -425,6 +428,114 @@ def robust(
             echo(f"  fold time of the samples that completed: {ft['p5']:.2f} / {ft['p50']:.2f} / "
                  f"{ft['p95']:.2f} s (5th / 50th / 95th percentile)")
         echo(f"  nominal: {_verdict(out['nominal'])}")
+
+
+def _mapper(scheduler: str | None):
+    """A context giving the mapper of ``--scheduler`` (a Dask cluster), or None (local cores)."""
+    import contextlib
+
+    if scheduler is None:
+        return contextlib.nullcontext(None)
+    from .distributed import cluster_mapper
+
+    return cluster_mapper(scheduler)
+
+
+@app.command()
+def assign(
+    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    materials: Optional[str] = typer.Option(None, "--materials", metavar="H-1,...,H-7",
+                                            help="Hinge materials to choose from (default: every one)."),
+    temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); "
+                                                "default: the design's."),
+    temperature_range: Optional[Tuple[float, float]] = typer.Option(None, "--temperature-range", metavar="LO HI",
+                                                                    help="Also choose the bath temperature "
+                                                                    "(every 5 deg C from LO to HI)."),
+    fixed: Optional[List[str]] = typer.Option(None, "--fixed", metavar="HINGE=MAT", help="Keep this hinge's material."),
+    objective: str = typer.Option("time", "--objective", help="time (fastest fold) | margin (widest smallest "
+                                  "clearance) | robust (lowest jam probability of the finalists)"),
+    top: int = typer.Option(3, "--top", help="How many assignments to report."),
+    budget: int = typer.Option(600, "--budget", help="Most simulations the search may run."),
+    samples: int = typer.Option(40, "--samples", help="Monte-Carlo samples per finalist (--objective robust)."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the samples."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT",
+                                            help="Run the evaluations on this Dask scheduler (default: local cores)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: all cores)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    write: Optional[Path] = typer.Option(None, "--write", help="Save the best assignment as a design file (TOML)."),
+):
+    """Choose the hinge materials (and bath temperature) under which the printed part
+    folds: every hinge to 98 %, no collision, every goal in order. A search over fold
+    orders, not all m^n assignments (docs/assign.md). Exit 0 when something is feasible,
+    1 when nothing is (naming what blocks), 2 on bad input or an unreachable scheduler.
+
+    Example: foldprint assign helix_uniform --objective margin --top 3 --json
+    """
+    from .assign import OBJECTIVES, assign as search, temperature_grid, with_materials
+
+    if objective not in OBJECTIVES:
+        raise FoldprintError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    if temperature is not None and temperature_range is not None:
+        raise FoldprintError("give --temperature or --temperature-range, not both")
+    _finite(temperature=temperature)
+    for name, v in (("--top", top), ("--budget", budget), ("--samples", samples), ("--workers", workers or 1)):
+        if v < 1:
+            raise FoldprintError(f"{name} must be at least 1, got {v}")
+    if seed < 0:
+        raise FoldprintError(f"--seed must be >= 0, got {seed}")
+    fixed_map = {}
+    for item in fixed or []:
+        hid, sep, mat = item.partition("=")
+        if not sep or not hid.strip() or not mat.strip():
+            raise FoldprintError(f"--fixed {item!r}: expected HINGE=MATERIAL, e.g. h1=H-2")
+        fixed_map[hid.strip()] = mat.strip()
+    mats = [m.strip() for m in materials.split(",") if m.strip()] if materials is not None else None
+    if mats is not None and not mats:
+        raise FoldprintError("--materials: give at least one material, e.g. H-1,H-4,H-7")
+    d, lib = _load(design)
+    temps = None
+    if temperature is not None:
+        temps = [temperature]
+    elif temperature_range is not None:
+        temps = list(temperature_grid(*temperature_range))
+    with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: evaluations") as cb:
+        r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
+                   top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, workers=workers,
+                   progress=cb)
+    out = r.to_json()
+    if write is not None and r.best:
+        from .design_io import design_to_toml
+        from .exchange.files import write_atomic
+
+        b = r.best[0]
+        write_atomic(write, design_to_toml(with_materials(d, b.materials, b.bath_c)))
+        _note(f"wrote {write}")
+    if json_out:
+        _echo_json(out)
+    else:
+        echo(f"{d.name}: {r.feasible} feasible assignment(s) in {r.evaluated} evaluations "
+             f"({r.evaluated / r.search_space:.2e} of {r.search_space}), objective {objective}")
+        for k, c in enumerate(out["best"], 1):
+            mats_s = ", ".join(f"{h}={m}" for h, m in c["assignment"].items())
+            extra = "" if c["jam_probability"] is None else f", jam probability {c['jam_probability']:.1%}"
+            clear = "-" if c["min_clearance_mm"] is None else f"{c['min_clearance_mm']:.2f} mm"
+            echo(f"  {k}. {mats_s} at {c['temperature_c']:g} C: folds in {c['fold_time_s']:.2f} s, "
+                 f"smallest clearance {clear}{extra}")
+        for b in out["blocking"][:5]:
+            what = f"{b['pair'][0]}-{b['pair'][1]} collide" if "pair" in b else f"goal {b['goal']} unmet"
+            echo(f"  blocking: {what} in {b['count']} evaluation(s)")
+    if not r.best:
+        top_block = out["blocking"][0] if out["blocking"] else None
+        if top_block is None:
+            why = "no candidate completed within the budget (raise --budget)"
+        elif "pair" in top_block:
+            why = (f"panels {top_block['pair'][0]} and {top_block['pair'][1]} "
+                   + ("cross in the printed (permanent) state" if r.permanent_blocked else
+                      f"collide first in {top_block['count']} of {r.evaluated} evaluations"))
+        else:
+            why = f"goal {top_block['goal']} is not met in order in {top_block['count']} evaluations"
+        _err(f"{d.name}: no feasible assignment: {why}")
+        raise ExitCode(1)
 
 
 @app.command()

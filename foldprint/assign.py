@@ -1,0 +1,508 @@
+"""Inverse design: choose the hinge materials (and the bath temperature) under which the
+printed part folds, fast or with the widest margin or most robustly.
+
+The search uses the physics instead of enumerating the m^n assignments
+(``docs/assign.md``):
+
+1. **Fold order is what matters.** Materials are ranked by their fold time in the bath;
+   an assignment's *pattern* is the sequence of *waves* (groups of hinges sharing a
+   rank), fastest first. Phase 1 searches patterns, each wave ``i`` played by the
+   ``i``-th fastest material.
+2. **A collision found for a partial order prunes its completions.** A prefix (the first
+   waves) is simulated with every later hinge held in its programmed shape. Until the
+   next material's onset this is the real motion of every completion, so a prefix that
+   collides is never extended. Waves are connected groups of hinges (sharing panels) or
+   "all the rest"; the search is best first (most hinges placed, then the widest
+   clearance), expanding ``beam`` prefixes per round.
+3. **Near-equivalent assignments share a pattern.** Phase 2 maps each feasible pattern
+   onto the materials (increasing ranks, at each bath temperature of the range),
+   evaluating the mappings the objective prefers first, within a budget.
+4. **Screen cheap, confirm exact.** Planar strips are screened with the paper's 2D index
+   over the fold's own duration; the finalists are confirmed by the full simulation of
+   record (3D swept FCL check of the printed, arc-hinge geometry, every goal in order)
+   and their smallest clearance along the fold is measured. ``robust`` adds the jam
+   probability of the finalists under the scatter model.
+
+Every evaluation is a module-level function of a picklable task, run by a ``mapper``
+(local processes by default, a Dask cluster with :mod:`foldprint.distributed`); the
+results come back in input order, so the answer does not depend on where it ran.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field, replace
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from .collision3d import SweptChecker
+from .clearance import gaps_in_pose, min_clearance
+from .design import Design
+from .errors import DesignError
+from .kinematics import HingeDrive, forward, target_angles
+from .materials import MaterialLibrary, default_library
+from .modes import HingeModel, Method
+from .recovery import recovery_curve
+from .robust import Scatter, jam_probability
+from .simulate import simulate
+
+OBJECTIVES = ("time", "margin", "robust")
+#: Evaluations (simulations) the search may spend by default.
+DEFAULT_BUDGET = 600
+#: Prefixes expanded per round of the best-first pattern search.
+DEFAULT_BEAM = 6
+#: Connected waves offered as children of one prefix (the smallest first).
+MAX_CHILDREN = 48
+#: Share of the budget the pattern search (phase 1) may spend; the rest maps patterns
+#: onto materials and confirms the finalists.
+PHASE1_SHARE = 0.5
+#: ``robust``: finalists screened with ROBUST_SCREEN_SAMPLES samples before the best
+#: ``top + 2`` get all of ``samples``.
+ROBUST_POOL = 10
+ROBUST_SCREEN_SAMPLES = 8
+#: Search spaces up to this size (and within the budget) are enumerated outright.
+EXHAUSTIVE_MAX = 128
+#: Material mappings tried per feasible pattern in phase 2.
+PER_PATTERN = 6
+#: Poses sampled along a fold for the clearance of a prefix (ranking the queue only).
+PREFIX_CLEARANCE_SAMPLES = 24
+#: Screening runs stop this long after the slowest active hinge reaches 98 % (s).
+SCREEN_TAIL_S = 0.5
+#: Bath temperatures tried across a ``--temperature-range``: every STEP_C, at most MAX_TEMPS.
+TEMPERATURE_STEP_C = 5.0
+MAX_TEMPS = 9
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What one evaluation found. ``pair``: the first colliding panels (ids); ``goal``:
+    the first goal not met in order; ``clearance_mm``: the smallest gap between
+    non-adjacent panels along the fold (when measured)."""
+
+    completed: bool
+    pair: tuple[str, str] | None
+    contact_time: float | None
+    goal: str | None
+    fold_time: float | None
+    clearance_mm: float | None
+    method: str
+
+
+@dataclass(frozen=True)
+class Task:
+    """One simulation: ``materials`` per hinge (None = held in its programmed shape)."""
+
+    design: Design
+    library: MaterialLibrary
+    materials: tuple[str | None, ...]
+    bath_c: float
+    method: Method
+    dt: float
+    duration: float | None
+    clearance_samples: int
+
+
+def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None) -> Design:
+    """``design`` with hinge ``k`` made of ``materials[k]`` (and the bath at ``bath_c``)."""
+    hinges = tuple(replace(h, material=m) for h, m in zip(design.hinges, materials))
+    proc = design.process if bath_c is None else replace(design.process, bath_temperature_c=float(bath_c))
+    return replace(design, hinges=hinges, process=proc)
+
+
+def _drive(task: Task) -> HingeDrive:
+    d, lib = task.design, task.library
+    curves = []
+    for h, m in zip(d.hinges, task.materials):
+        c = recovery_curve(lib[m or h.material], task.bath_c, h.thickness, d.process.fix_temperature_c)
+        curves.append(c if m is not None else replace(c, ratio=np.zeros_like(c.ratio)))
+    return HingeDrive(d, task.bath_c, curves=curves)
+
+
+def run_task(task: Task) -> Verdict:
+    """Fold one (partial) assignment; a module-level function so processes and Dask
+    workers can run it."""
+    d = task.design
+    drive = _drive(task)
+    res = simulate(d, bath_c=task.bath_c, duration=task.duration, dt=task.dt, method=task.method,
+                   hinge_model=HingeModel.ARC, drive=drive)
+    c = res.first_collision
+    partial = any(m is None for m in task.materials)
+    goal = None
+    if c is None and not partial:
+        goal = next((g.goal.id for g in res.goals if not g.met), None)
+    clearance = None
+    if task.clearance_samples and c is None:
+        checker = SweptChecker(d, HingeModel.ARC, None)
+        traj = res.trajectory
+        g = min_clearance(checker, traj.times, traj.poses, n_samples=task.clearance_samples)
+        clearance = math.inf if g is None else float(g.distance)
+    done = (c is None) and (partial or res.completed)
+    ft = None
+    if not partial:
+        ft = res.fold_time
+    return Verdict(bool(done), None if c is None else tuple(c.panels), None if c is None else float(c.time),
+                   goal, ft, clearance, str(task.method))
+
+
+Mapper = Callable[[Callable, list, Callable | None], list]
+
+
+def local_mapper(workers: int | None = None) -> Mapper:
+    """Run on ``workers`` local processes (default: all cores)."""
+    from .parallel import map_ordered
+
+    def mapper(fn, items, progress=None):
+        return map_ordered(fn, items, workers=workers, progress=progress)
+
+    return mapper
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A feasible assignment and how good it is."""
+
+    materials: tuple[str, ...]
+    bath_c: float
+    fold_time: float
+    clearance_mm: float | None
+    pattern: tuple[tuple[int, ...], ...]
+    jam_probability: float | None = None
+    jam_ci95: tuple[float, float] | None = None
+
+    def to_json(self, design: Design) -> dict:
+        return {"assignment": {h.id: m for h, m in zip(design.hinges, self.materials)},
+                "temperature_c": round(self.bath_c, 3), "fold_time_s": round(self.fold_time, 4),
+                "min_clearance_mm": None if self.clearance_mm is None else round(self.clearance_mm, 4),
+                "jam_probability": None if self.jam_probability is None else round(self.jam_probability, 4),
+                "jam_ci95": None if self.jam_ci95 is None else [round(x, 4) for x in self.jam_ci95],
+                "waves": [[design.hinges[k].id for k in w] for w in self.pattern]}
+
+
+@dataclass(frozen=True)
+class AssignResult:
+    design: Design
+    objective: str
+    materials: tuple[str, ...]
+    temperatures: tuple[float, ...]
+    evaluated: int
+    search_space: int
+    feasible: int
+    best: tuple[Choice, ...]
+    blocking: tuple[tuple[str, tuple, int], ...]  # (kind "pair" | "goal", what, count)
+    first_feasible_at: int | None
+    patterns: int
+    permanent_blocked: bool = False
+    confirmed: int = 0
+    exhaustive: bool = False
+    robust_simulations: int = 0  # Monte-Carlo folds of the finalists (not in ``evaluated``)
+
+    def to_json(self) -> dict:
+        return {"design": self.design.name, "objective": self.objective, "materials": list(self.materials),
+                "temperatures_c": [round(t, 3) for t in self.temperatures],
+                "evaluated": self.evaluated, "feasible": self.feasible, "search_space": self.search_space,
+                "evaluated_fraction": self.evaluated / self.search_space,
+                "first_feasible_at": self.first_feasible_at, "feasible_patterns": self.patterns,
+                "confirmed": self.confirmed, "exhaustive": self.exhaustive,
+                "robust_simulations": self.robust_simulations,
+                "best": [c.to_json(self.design) for c in self.best],
+                "blocking": [({"pair": list(w)} if k == "pair" else {"goal": w}) | {"count": n, "kind": k}
+                             for k, w, n in self.blocking]}
+
+
+# -- the search -------------------------------------------------------------------------
+
+
+def temperature_grid(lo: float, hi: float) -> tuple[float, ...]:
+    """Bath temperatures tried across a range: every TEMPERATURE_STEP_C, ends included."""
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi < lo:
+        raise DesignError(f"--temperature-range: need LO <= HI, got {lo} {hi}")
+    n = min(MAX_TEMPS, max(1, int(math.floor((hi - lo) / TEMPERATURE_STEP_C + 1e-9)) + 1))
+    if n == 1:
+        return (float(lo),) if hi == lo else (float(lo), float(hi))
+    return tuple(float(x) for x in np.linspace(lo, hi, n if (hi - lo) / (n - 1) <= TEMPERATURE_STEP_C else n + 1))
+
+
+def _hinge_graph(design: Design) -> list[set[int]]:
+    by_panel: dict[str, list[int]] = {}
+    for k, h in enumerate(design.hinges):
+        for p in h.panels:
+            by_panel.setdefault(p, []).append(k)
+    nb = [set() for _ in design.hinges]
+    for ks in by_panel.values():
+        for a in ks:
+            nb[a] |= set(ks) - {a}
+    return nb
+
+
+def connected_waves(remaining: frozenset, graph: list[set[int]], limit: int = MAX_CHILDREN) -> list[frozenset]:
+    """Nonempty connected groups of ``remaining`` hinges (in the hinge graph restricted to
+    them), smallest first, at most ``limit``; then all of ``remaining`` (possibly
+    disconnected), so every prefix can be completed in one wave."""
+    found: set[frozenset] = set()
+    frontier = [frozenset([k]) for k in sorted(remaining)]
+    out: list[frozenset] = []
+    while frontier and len(out) < limit:
+        nxt = []
+        for s in frontier:
+            if s in found or s == remaining:
+                continue
+            found.add(s)
+            out.append(s)
+            for k in sorted(set().union(*(graph[x] for x in s)) & remaining - s):
+                nxt.append(s | {k})
+        frontier = sorted(set(nxt), key=lambda s: sorted(s))
+    out = sorted(out[:limit], key=lambda s: (len(s), sorted(s)))
+    return [remaining] + out
+
+
+@dataclass
+class _Ledger:
+    """Every evaluation, cached, counted and tallied."""
+
+    mapper: Mapper
+    budget: int
+    progress: Callable[[int, int], None] | None
+    cache: dict = field(default_factory=dict)
+    evaluated: int = 0
+    pairs: dict = field(default_factory=dict)
+    goals: dict = field(default_factory=dict)
+    first_feasible_at: int | None = None
+
+    def run(self, tasks: list[Task], cap: int | None = None) -> list[Verdict]:
+        """Verdicts of ``tasks`` (None for those beyond the budget, or ``cap`` evaluations)."""
+        cap = self.budget if cap is None else min(cap, self.budget)
+        todo = []
+        for t in tasks:
+            key = (t.materials, t.bath_c, t.method, t.duration, t.clearance_samples)
+            if key not in self.cache and key not in {k for k, _ in todo}:
+                todo.append((key, t))
+        todo = todo[: max(0, cap - self.evaluated)]
+        if todo:
+            base = self.evaluated
+            cb = (lambda done, _n: self.progress(base + done, self.budget)) if self.progress else None
+            results = self.mapper(run_task, [t for _, t in todo], cb)
+            for (key, t), v in zip(todo, results):
+                self.cache[key] = v
+                self.evaluated += 1
+                complete = all(m is not None for m in t.materials)
+                if v.pair is not None:
+                    self.pairs[v.pair] = self.pairs.get(v.pair, 0) + 1
+                elif v.goal is not None:
+                    self.goals[v.goal] = self.goals.get(v.goal, 0) + 1
+                if complete and v.completed and self.first_feasible_at is None:
+                    self.first_feasible_at = self.evaluated
+        out = []
+        for t in tasks:
+            key = (t.materials, t.bath_c, t.method, t.duration, t.clearance_samples)
+            out.append(self.cache.get(key))
+        return out
+
+    @property
+    def exhausted(self) -> bool:
+        return self.evaluated >= self.budget
+
+
+def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_c: float) -> dict[str, float | None]:
+    thick = min(h.thickness for h in design.hinges)
+    return {m: recovery_curve(lib[m], bath_c, thick, design.process.fix_temperature_c).time_to(0.98) for m in mats}
+
+
+def permanent_crossings(design: Design) -> list[tuple[str, str]]:
+    """Pairs of non-adjacent panels that overlap in the printed (permanent) state: no
+    assignment can fold such a design."""
+    checker = SweptChecker(design, HingeModel.ARC, None)
+    poses = forward(design, target_angles(design)[None], HingeModel.ARC)[0]
+    # within a hair of 0: FCL reports overlapping solids at distance <= 0
+    return [g.panels for g in gaps_in_pose(checker, poses, 1e-9) if g.distance <= 0.0]
+
+
+def assign(design: Design, *, library: MaterialLibrary | None = None, materials: Sequence[str] | None = None,
+           temperatures: Sequence[float] | None = None, fixed: Mapping[str, str] | None = None,
+           objective: str = "time", top: int = 3, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
+           samples: int = 40, seed: int = 0, scatter: Scatter | None = None, dt: float = 0.01,
+           mapper: Mapper | None = None, workers: int | None = None,
+           progress: Callable[[int, int], None] | None = None) -> AssignResult:
+    """Search hinge-material assignments of ``design`` (see the module docstring)."""
+    lib = library or default_library()
+    if objective not in OBJECTIVES:
+        raise DesignError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    if top < 1 or budget < 1 or beam < 1:
+        raise DesignError("top, budget and beam must be >= 1")
+    hinge_names = lib.names("hinge")
+    mats = list(dict.fromkeys(materials)) if materials else hinge_names
+    for m in mats:
+        if m not in hinge_names:
+            raise DesignError(f"--materials: {m!r} is not a hinge material; hinge materials: "
+                              f"{', '.join(hinge_names)}")
+    fixed = dict(fixed or {})
+    ids = [h.id for h in design.hinges]
+    for hid, m in fixed.items():
+        if hid not in ids:
+            raise DesignError(f"--fixed {hid}={m}: no hinge {hid!r}; hinges: {', '.join(ids)}")
+        if m not in hinge_names:
+            raise DesignError(f"--fixed {hid}={m}: {m!r} is not a hinge material of the library")
+    temps = tuple(float(t) for t in (temperatures or [design.process.bath_temperature_c]))
+    mapper = mapper or local_mapper(workers)
+    free = [k for k, h in enumerate(design.hinges) if h.id not in fixed]
+    n_free = len(free)
+    space = len(mats) ** n_free * len(temps)
+    ledger = _Ledger(mapper, budget, progress)
+    n_confirm = max(1, min(max(4 * top, 12), budget // 5) if objective == "time"
+                    else min(max(8 * top, 24), budget // 3))
+    # a space this small is cheaper to try outright than to search: exact within the budget
+    exhaustive = space <= min(EXHAUSTIVE_MAX, budget - n_confirm)
+
+    def result(best=(), feasible=0, patterns=0, blocked=False, confirmed=0, robust_sims=0):
+        blocking = sorted([("pair", p, n) for p, n in ledger.pairs.items()] +
+                          [("goal", g, n) for g, n in ledger.goals.items()], key=lambda x: (-x[2], str(x[1])))
+        return AssignResult(design, objective, tuple(mats), temps, ledger.evaluated, space, feasible,
+                            tuple(best), tuple(blocking), ledger.first_feasible_at, patterns, blocked, confirmed,
+                            exhaustive, robust_sims)
+
+    crossing = permanent_crossings(design)
+    if crossing:
+        for p in crossing:
+            ledger.pairs[tuple(p)] = ledger.pairs.get(tuple(p), 0) + 1
+        return result(blocked=True)
+
+    t_ref = temps[len(temps) // 2]
+    duration = float(design.process.duration_s)
+    method = Method.INDEX2D if design.is_planar_strip else Method.FCL
+
+    def usable(t):
+        ft = _fold_times(design, lib, mats, t)
+        ok = [m for m in mats if ft[m] is not None and ft[m] <= duration]
+        return sorted(ok, key=lambda m: (ft[m], m)), ft
+
+    ranked, ft_ref = usable(t_ref)
+    if not ranked:
+        raise DesignError(f"{design.name}: none of {', '.join(mats)} folds within {duration:g} s at {t_ref:g} C")
+    fixed_idx = {ids.index(h): m for h, m in fixed.items()}
+
+    def screen_duration(active: Sequence[str], t: float, ft: dict) -> float:
+        times = [ft[m] for m in active if ft.get(m) is not None]
+        if len(times) < len(active) or not times:
+            return duration
+        return min(duration, max(times) + SCREEN_TAIL_S)
+
+    def materials_for(waves: Sequence[frozenset], ranks: Sequence[int], order: list[str], complete: bool):
+        out: list[str | None] = [None] * len(design.hinges)
+        last = ranks[len(waves) - 1] if waves else -1
+        for w, r in zip(waves, ranks):
+            for k in w:
+                out[k] = order[r]
+        for k, m in fixed_idx.items():
+            r = order.index(m) if m in order else len(order)
+            if complete or r <= last:
+                out[k] = m
+        return tuple(out)
+
+    def task(mat_tuple, t, ft, clearance=0, confirm=False):
+        active = [m for m in mat_tuple if m is not None]
+        dur = duration if confirm else screen_duration(active, t, ft)
+        return Task(design, lib, mat_tuple, t, Method.FCL if confirm else method, dt, dur, clearance)
+
+    # phase 1: patterns (waves of hinges), wave i played by the i-th fastest material
+    graph = _hinge_graph(design)
+    all_free = frozenset(free)
+    patterns: list[tuple[frozenset, ...]] = []
+    if not free:
+        patterns.append(())
+    m = len(ranked)
+    phase1 = int(budget * PHASE1_SHARE)
+    # best first: a queue of every collision-free prefix; each round expands the ``beam``
+    # best (most hinges placed, then the widest clearance along the motion so far)
+    queue: list = [] if exhaustive or not free else [((0, -math.inf, 0, ()), ())]
+    while queue and ledger.evaluated < phase1:
+        queue.sort(key=lambda x: x[0])
+        batch, queue = queue[:beam], queue[beam:]
+        children = []
+        for _key, waves in batch:
+            rest = all_free - frozenset().union(*waves) if waves else all_free
+            options = [rest] if len(waves) == m - 1 else connected_waves(rest, graph)
+            for w in options:
+                nw = waves + (w,)
+                complete = w == rest
+                mt = materials_for(nw, list(range(len(nw))), ranked, complete)
+                children.append((nw, complete, task(mt, t_ref, ft_ref, 0 if complete else PREFIX_CLEARANCE_SAMPLES)))
+        verdicts = ledger.run([c[2] for c in children], cap=phase1)
+        for (nw, complete, _t), v in zip(children, verdicts):
+            if v is None or not v.completed:
+                continue
+            if complete:
+                patterns.append(nw)
+            else:
+                clear = v.clearance_mm if v.clearance_mm is not None else math.inf
+                queue.append(((-sum(map(len, nw)), -clear, len(nw), [sorted(w) for w in nw]), nw))
+
+    # phase 2: map the feasible patterns onto materials (and temperatures)
+    candidates = []
+    for t in temps:
+        order, ft = usable(t)
+        if exhaustive:
+            for combo in itertools.product(mats, repeat=n_free):
+                mt = [fixed_idx.get(k) for k in range(len(design.hinges))]
+                for k, mname in zip(free, combo):
+                    mt[k] = mname
+                rank = {mname: i for i, mname in enumerate(order)}
+                if any(x not in rank for x in combo):
+                    continue  # a material that does not fold in time at t
+                levels = sorted({rank[x] for x in combo})
+                pat = tuple(frozenset(k for k, x in zip(free, combo) if rank[x] == lv) for lv in levels)
+                candidates.append((pat, None, t, tuple(mt), ft))
+            continue
+        for pat in patterns:
+            k = len(pat)
+            if k > len(order):
+                continue
+            combos = list(itertools.combinations(range(len(order)), k)) if k else [()]
+            if objective == "time":
+                combos.sort(key=lambda c: (c[-1] if c else 0, sum(c), c))
+            else:  # spread the waves: the widest smallest gap between consecutive ranks first
+                combos.sort(key=lambda c: (-min([b - a for a, b in zip(c, c[1:])] or [0]), c[-1] if c else 0, c))
+            for j, c in enumerate(combos[:PER_PATTERN]):
+                candidates.append((j, pat, c, t, materials_for(pat, c, order, True), ft))
+    if not exhaustive:  # round robin: every pattern's first mapping, then every second one...
+        candidates = [c[1:] for c in sorted(candidates, key=lambda c: c[0])]
+    verdicts = ledger.run([task(mt, t, ft) for _p, _c, t, mt, ft in candidates], cap=budget - n_confirm)
+    screened = [(p, t, mt, v) for (p, _c, t, mt, _ft), v in zip(candidates, verdicts) if v is not None and v.completed]
+    # the same assignment may come from two patterns: keep the first
+    seen, unique = set(), []
+    for p, t, mt, v in screened:
+        if (mt, t) not in seen:
+            seen.add((mt, t))
+            unique.append((p, t, mt, v))
+    if objective == "time":
+        unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
+    finalists = unique[:n_confirm]  # margin/robust: in screening order (spread mappings first)
+    confirmed = ledger.run([task(mt, t, {}, clearance=200, confirm=True) for _p, t, mt, _v in finalists])
+    good = [Choice(tuple(mt), t, v.fold_time, None if v.clearance_mm is None or math.isinf(v.clearance_mm)
+                   else v.clearance_mm, tuple(tuple(sorted(w)) for w in p))
+            for (p, t, mt, _v), v in zip(finalists, confirmed) if v is not None and v.completed]
+    if objective == "time":
+        good.sort(key=lambda c: (c.fold_time, -(c.clearance_mm or 0), c.materials))
+    else:
+        good.sort(key=lambda c: (-(c.clearance_mm if c.clearance_mm is not None else math.inf), c.fold_time,
+                                 c.materials))
+    n_robust, n_confirmed = 0, len(good)
+    if objective == "robust" and good:
+        # two stages: a few samples for a wide pool (by margin), all ``samples`` for the
+        # best of them; the same seed, so the first draws are the same in both
+        def estimate(cands, n):
+            out = []
+            for c in cands:
+                r = jam_probability(with_materials(design, c.materials, c.bath_c), n, seed, scatter=scatter,
+                                    library=lib, dt=dt, mapper=mapper)
+                out.append(replace(c, jam_probability=r.jam_probability, jam_ci95=r.ci95))
+            return sorted(out, key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
+
+        pool = good[: max(3 * top, ROBUST_POOL)]  # the widest margins
+        if samples > ROBUST_SCREEN_SAMPLES and len(pool) > top + 2:
+            pool = estimate(pool, ROBUST_SCREEN_SAMPLES)
+            n_robust += len(pool) * (ROBUST_SCREEN_SAMPLES + 1)
+        finals = estimate(pool[: top + 2], samples)
+        n_robust += len(finals) * (samples + 1)
+        good = finals
+    return result(good[:top], len(unique), len(patterns), confirmed=n_confirmed, robust_sims=n_robust)

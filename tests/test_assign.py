@@ -1,0 +1,182 @@
+"""Inverse design (foldprint assign): the answers are checked against independent runs of
+the simulation of record, the search against its own invariants, and a Dask cluster
+against local processes."""
+
+import json
+import re
+
+import pytest
+
+from foldprint.assign import assign, connected_waves, permanent_crossings, temperature_grid, with_materials
+from foldprint.cli import main
+from foldprint.design import strip
+from foldprint.design_io import design_to_toml
+from foldprint.load import load_design
+from foldprint.modes import Method
+from foldprint.recovery import recovery_curve
+from foldprint.simulate import simulate
+from foldprint.templates import resolve_design_path
+
+CROSSING = """schema = 1
+name = "crossing"
+[process]
+duration_s = 10.0
+[defaults]
+hinge_radius_mm = 2.0
+[strip]
+lengths_mm = [20, 10, 30]
+angles_deg = [120, 120]
+materials = ["H-3", "H-3"]
+"""
+
+
+def _small_spiral(materials=("H-3", "H-3", "H-3")):
+    """The first four panels of the paper's helix (three corner hinges)."""
+    return strip("spiral4", [30, 30, 35.8, 35.8], [90, 90, 90], list(materials), radius=5.0)
+
+
+@pytest.fixture(scope="module")
+def helix():
+    return load_design(resolve_design_path("helix_uniform"))
+
+
+@pytest.fixture(scope="module")
+def helix_margin(helix):
+    # three materials keep the test quick (3^9 assignments); docs/assign.md records the
+    # full seven-material run
+    return assign(helix, materials=["H-1", "H-4", "H-7"], objective="margin", top=3, budget=48)
+
+
+def test_connected_waves_of_a_strip_are_its_intervals():
+    graph = [{1}, {0, 2}, {1, 3}, {2}]  # four hinges in a row
+    rest = frozenset(range(4))
+    waves = connected_waves(rest, graph)
+    assert waves[0] == rest  # "all the rest" first: every prefix can be completed
+    intervals = {frozenset(range(a, b)) for a in range(4) for b in range(a + 1, 5)}
+    assert set(waves) == intervals
+    # a disconnected remainder: its groups and the whole remainder, nothing bridging the gap
+    waves = connected_waves(frozenset({0, 2, 3}), graph)
+    assert set(waves) == {frozenset({0, 2, 3}), frozenset({0}), frozenset({2}), frozenset({3}), frozenset({2, 3})}
+
+
+def test_temperature_grid_spans_the_range_in_5_c_steps():
+    g = temperature_grid(80, 100)
+    assert g[0] == 80 and g[-1] == 100 and len(g) == 5
+    assert max(b - a for a, b in zip(g, g[1:])) <= 5.0 + 1e-9
+    assert temperature_grid(90, 90) == (90.0,)
+
+
+def test_helix_assignments_fold_and_fold_inner_first(helix, helix_margin, lib):
+    r = helix_margin
+    assert r.best, r.to_json()["blocking"]
+    assert r.evaluated <= 48 and r.search_space == 3 ** 9
+    for c in r.best:
+        d = with_materials(helix, c.materials, c.bath_c)
+        # an independent run: the simulation of record, 3D swept check and 2D index together
+        res = simulate(d, method=Method.BOTH)
+        assert res.completed, c.materials
+        assert res.fold_time == pytest.approx(c.fold_time, abs=0.02)
+    # the paper's insight: no hinge folds later than the hinges outside it (h1 innermost)
+    best = r.best[0]
+    ft = [recovery_curve(lib[m], best.bath_c, 0.8, 10.0).time_to(0.98) for m in best.materials]
+    assert all(a <= b + 1e-9 for a, b in zip(ft, ft[1:])), best.materials
+    # ranked by the objective
+    cl = [c.clearance_mm for c in r.best]
+    assert cl == sorted(cl, reverse=True)
+
+
+def test_helix_failures_are_tallied_most_frequent_first(helix_margin):
+    """Some fold orders of the helix collide; the search counts their first pairs."""
+    blocking = helix_margin.to_json()["blocking"]
+    assert blocking and all(b["count"] >= 1 for b in blocking)
+    assert sum(b["count"] for b in blocking) <= helix_margin.evaluated
+    assert [b["count"] for b in blocking] == sorted((b["count"] for b in blocking), reverse=True)
+
+
+def test_crossing_design_exits_1_naming_the_pair(tmp_path, capsys):
+    f = tmp_path / "crossing.toml"
+    f.write_text(CROSSING)
+    assert permanent_crossings(load_design(f)) == [("p1", "p3")]
+    code = main(["assign", str(f), "--json"])
+    cap = capsys.readouterr()
+    assert code == 1
+    out = json.loads(cap.out)
+    assert out["best"] == [] and out["blocking"][0]["pair"] == ["p1", "p3"]
+    assert "p1 and p3" in cap.err and "permanent" in cap.err
+
+
+def test_fixed_hinge_keeps_its_material_and_write_round_trips(tmp_path, capsys):
+    d = _small_spiral()
+    f = tmp_path / "spiral.toml"
+    f.write_text(design_to_toml(d))
+    out_file = tmp_path / "best.toml"
+    code = main(["assign", str(f), "--materials", "H-1,H-4,H-7", "--fixed", "h3=H-7", "--budget", "30",
+                 "--workers", "1", "--json", "--write", str(out_file)])
+    cap = capsys.readouterr()
+    assert code == 0, cap.err
+    out = json.loads(cap.out)
+    assert out["search_space"] == 3 ** 2
+    assert all(b["assignment"]["h3"] == "H-7" for b in out["best"])
+    written = load_design(out_file)
+    assert {h.id: h.material for h in written.hinges} == out["best"][0]["assignment"]
+    assert simulate(written, method=Method.FCL).completed
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--fixed", "h7=H-1"], "no hinge 'h7'"),
+    (["--fixed", "h1"], "HINGE=MATERIAL"),
+    (["--materials", "H-1,VeroWhite"], "not a hinge material"),
+    (["--objective", "fastest"], "--objective"),
+    (["--top", "0"], "--top"),
+    (["--temperature", "90", "--temperature-range", "80", "90"], "not both"),
+])
+def test_bad_assign_options_exit_2(tmp_path, capsys, args, needle):
+    f = tmp_path / "spiral.toml"
+    f.write_text(design_to_toml(_small_spiral()))
+    assert main(["assign", str(f), *args]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("command", [["assign"], ["robust", "--samples", "2"]])
+def test_unreachable_scheduler_exit_2_names_the_address(capsys, command):
+    addr = "tcp://127.0.0.1:9"  # discard port: nothing listens there
+    assert main([command[0], "helix_graded", *command[1:], "--scheduler", addr]) == 2
+    err = capsys.readouterr().err
+    assert addr in err and "scheduler" in err and err.count("\n") == 1
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as c:
+        yield c
+
+
+def test_local_and_cluster_runs_agree(cluster, capsys, tmp_path):
+    f = tmp_path / "spiral.toml"
+    f.write_text(design_to_toml(_small_spiral()))
+    args = ["assign", str(f), "--materials", "H-1,H-3,H-5,H-7", "--objective", "robust", "--top", "2",
+            "--samples", "3", "--seed", "5", "--budget", "40", "--json"]
+    assert main(args) == 0
+    local = json.loads(capsys.readouterr().out)
+    assert main(args + ["--scheduler", cluster.scheduler_address]) == 0
+    remote = json.loads(capsys.readouterr().out)
+    assert local == remote
+    assert local["best"] and all(b["jam_probability"] is not None for b in local["best"])
+    # robust: the same samples on the cluster give the same answer
+    rob = ["robust", str(f), "--samples", "3", "--seed", "2", "--json"]
+    assert main(rob) == 0
+    a = json.loads(capsys.readouterr().out)
+    assert main(rob + ["--scheduler", cluster.scheduler_address]) == 0
+    assert json.loads(capsys.readouterr().out) == a
+
+
+def test_assign_text_output(capsys, tmp_path):
+    f = tmp_path / "spiral.toml"
+    f.write_text(design_to_toml(_small_spiral()))
+    assert main(["assign", str(f), "--materials", "H-2,H-6", "--budget", "20", "--workers", "1"]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"\d+ feasible assignment\(s\) in \d+ evaluations", out)
+    assert "h1=H-" in out
