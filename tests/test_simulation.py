@@ -240,11 +240,17 @@ def test_self_lock_passes_both_holes_in_order():
     assert gap.distance >= SELF_LOCK_MARGIN_MM
 
 
-def test_self_lock_paper_rom_agrees():
-    """The holes are cut for the point-hinge motion too: the paper's ROM also threads both."""
-    r = simulate(template("self_lock"), method="both", hinge_model="point")
-    g = {x.goal.id: x for x in r.goals}
-    assert r.completed and g["hole1"].met and g["hole2"].met and g["hole1"].time < g["hole2"].time
+def test_self_lock_is_robust_to_scatter_and_the_paper_rom_differs():
+    """The holes admit the printed part as it varies (nominal + 20 scatter samples, design
+    seed 100): fresh draws (seed 1) do not jam. The paper's point ROM, which the holes were
+    not cut for, moves differently and strikes the plate (reported as a disagreement)."""
+    from foldprint.robust import jam_probability
+
+    d = template("self_lock")
+    r = jam_probability(d, 12, 1)
+    assert r.jams == 0 and r.nominal.completed
+    p = simulate(d, method="fcl", hinge_model="point")
+    assert not p.completed and p.first_collision is not None
 
 
 def test_self_lock_uniform_fails():
