@@ -105,8 +105,12 @@ class Index2D:
 
 def world_side_segments(design: Design, poses: np.ndarray, model: str):
     """World side-view segments: list over panels of (n_t, k, 2, 2) arrays in (x, z)."""
+    return _world(side_segments(design, model), poses)
+
+
+def _world(sheet, poses):
     out = []
-    for i, segs in enumerate(side_segments(design, model)):
+    for i, segs in enumerate(sheet):
         if len(segs) == 0:
             out.append(np.zeros((poses.shape[0], 0, 2, 2)))
             continue
@@ -145,7 +149,10 @@ def collision_index(traj: Trajectory, chunk_bytes: int = CHUNK_BYTES) -> Index2D
     and step in one broadcast, in chunks of pairs so the temporaries stay under
     ``chunk_bytes`` (total memory: :func:`index_memory_bytes`)."""
     design = traj.design
-    segs = world_side_segments(design, traj.poses, traj.model)
+    sheet = side_segments(design, traj.model)
+    if all(len(sg) == 1 for sg in sheet):  # no holes: one segment per panel, no padding
+        return _index_single(traj, np.concatenate(sheet), chunk_bytes)
+    segs = _world(sheet, traj.poses)
     n = len(design.panels)
     n_t = len(traj.times)
     iu, ju = np.triu_indices(n, 1)
@@ -188,6 +195,110 @@ def collision_index(traj: Trajectory, chunk_bytes: int = CHUNK_BYTES) -> Index2D
         s_ij[:, c0:c0 + P] = np.take_along_axis(prod, pick[..., None], axis=2)[..., 0]
     adj = adjacent_pairs(design)
     adjacent = np.array([tuple(p) in adj for p in pairs.tolist()], dtype=bool)
+    for arr in (s_ij, contact, adjacent):
+        arr.setflags(write=False)
+    return Index2D(traj.times, pairs, s_ij, contact, adjacent)
+
+
+#: float64 temporaries alive at once per (pair, time step) in the single-segment path.
+_TEMPS1 = 20
+
+
+def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Index2D:
+    """:func:`collision_index` when every panel is one segment (``sheet`` (n, 2, 2)): each
+    per-panel term is a contiguous (n, n_t) row block, each chunk of pairs a (P, n_t)
+    broadcast with preallocated temporaries. The arithmetic is that of
+    :func:`index_components` operation for operation, so the values are bit-identical."""
+    design = traj.design
+    poses = traj.poses
+    n = len(design.panels)
+    n_t = len(traj.times)
+    # world (x, z) of both ends, as in _world: (R00 * x + R01 * y) + t0
+    x1, y1, x2, y2 = (np.ascontiguousarray(sheet[:, a, b])[:, None] for a in (0, 1) for b in (0, 1))
+    rows = [np.ascontiguousarray(poses[:, :, r, c].T) for r in (0, 2) for c in (0, 1, 3)]
+    a0, a1, a3, c0_, c1, c3 = rows
+    p1x = a0 * x1 + a1 * y1 + a3
+    p1z = c0_ * x1 + c1 * y1 + c3
+    p2x = a0 * x2 + a1 * y2 + a3
+    p2z = c0_ * x2 + c1 * y2 + c3
+    dx, dz = p2x - p1x, p2z - p1z
+    length = np.sqrt(dx * dx + dz * dz)
+    iu, ju = np.triu_indices(n, 1)
+    pairs = np.column_stack([iu, ju]).astype(int).reshape(-1, 2)
+    n_p = len(pairs)
+    s_ij = np.empty((n_p, n_t))
+    contact = np.empty((n_p, n_t), dtype=bool)
+    step = max(1, int(chunk_bytes // (n_t * 8 * _TEMPS1)))
+    m = min(step, max(n_p, 1))
+    f = [np.empty((m, n_t)) for _ in range(4)]
+    b = [np.empty((m, n_t), dtype=bool) for _ in range(2)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for k0 in range(0, n_p, step):
+            I, J = iu[k0:k0 + step], ju[k0:k0 + step]
+            P = len(I)
+            denom, t, si, sj = (a[:P] for a in f)
+            par, tb = (a[:P] for a in b)
+            p1x_i, p1z_i = p1x[I], p1z[I]
+            rx = p1x[J]
+            rx -= p1x_i
+            rz = p1z[J]
+            rz -= p1z_i
+            dp_x, dp_z, lp0 = dx[I], dz[I], length[I]
+            dqx, dqz = dx[J], dz[J]
+            np.multiply(dp_x, dqz, out=denom)
+            np.subtract(denom, np.multiply(dp_z, dqx, out=t), out=denom)
+            # parallel: |denom| <= 1e-9 * max(lp * lq, eps)
+            np.multiply(lp0, length[J], out=si)
+            np.maximum(si, _EPS, out=si)
+            np.multiply(1e-9, si, out=si)
+            np.less_equal(np.abs(denom, out=t), si, out=par)
+            # S_i = (r x dq) / denom, S_j = (r x dp) / denom
+            np.multiply(rx, dqz, out=si)
+            np.subtract(si, np.multiply(rz, dqx, out=t), out=si)
+            np.divide(si, denom, out=si)
+            np.multiply(rx, dp_z, out=sj)
+            np.subtract(sj, np.multiply(rz, dp_x, out=t), out=sj)
+            np.divide(sj, denom, out=sj)
+            prod = s_ij[k0:k0 + P]
+            np.multiply(si, sj, out=prod)
+            hit = contact[k0:k0 + P]
+            np.greater(prod, 0, out=hit)
+            hit &= np.less(prod, 1, out=tb)
+            hit &= np.greater(si, 0, out=tb)
+            hit &= np.less_equal(si, 1, out=tb)
+            hit &= np.less_equal(sj, 1, out=tb)
+            if par.any():
+                np.copyto(prod, np.nan, where=par)
+                np.logical_not(par, out=tb)
+                hit &= tb
+                # collinear overlap, on the whole block (cheaper than gathering the parallel ones)
+                lp = np.maximum(lp0, _EPS, out=lp0)
+                off = np.multiply(rx, dp_z, out=si)
+                off -= np.multiply(rz, dp_x, out=t)
+                np.abs(off, out=off)
+                off /= lp
+                ux = np.divide(dp_x, lp, out=dp_x)
+                uy = np.divide(dp_z, lp, out=dp_z)
+                b0 = np.multiply(rx, ux, out=rx)
+                b0 += np.multiply(rz, uy, out=t)
+                cx = p2x[J]
+                cx -= p1x_i
+                cy = p2z[J]
+                cy -= p1z_i
+                b1 = np.multiply(cx, ux, out=cx)
+                b1 += np.multiply(cy, uy, out=t)
+                hi = np.minimum(lp, np.maximum(b0, b1, out=sj), out=sj)
+                lo = np.maximum(0.0, np.minimum(b0, b1, out=rz), out=rz)
+                np.subtract(hi, lo, out=hi)
+                np.greater(hi, 1e-9, out=tb)
+                tb &= par
+                np.maximum(lp, 1.0, out=lp)
+                lp *= 1e-9
+                tb &= np.less_equal(off, lp, out=par)
+                hit |= tb
+    adj = adjacent_pairs(design)
+    adjacent = np.array([tuple(p) in adj for p in pairs.tolist()], dtype=bool)
+    s_ij, contact = np.ascontiguousarray(s_ij.T), np.ascontiguousarray(contact.T)
     for arr in (s_ij, contact, adjacent):
         arr.setflags(write=False)
     return Index2D(traj.times, pairs, s_ij, contact, adjacent)
