@@ -226,79 +226,78 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
     iu, ju = np.triu_indices(n, 1)
     pairs = np.column_stack([iu, ju]).astype(int).reshape(-1, 2)
     n_p = len(pairs)
-    s_ij = np.empty((n_p, n_t))
-    contact = np.empty((n_p, n_t), dtype=bool)
+    s_ij = np.empty((n_t, n_p))
+    contact = np.empty((n_t, n_p), dtype=bool)
+    s_rows, c_rows = s_ij.T, contact.T  # (n_p, n_t) views: pair rows
+    # pairs (i, j > i) are consecutive rows: panel i is one broadcast row, panels j a slice
+    # (views, nothing gathered); blocks of at most `step` rows bound the temporaries
     step = max(1, int(chunk_bytes // (n_t * 8 * _TEMPS1)))
-    m = min(step, max(n_p, 1))
-    f = [np.empty((m, n_t)) for _ in range(4)]
-    b = [np.empty((m, n_t), dtype=bool) for _ in range(2)]
+    m_max = max(1, min(step, n - 1))
+    f = [np.empty((m_max, n_t)) for _ in range(8)]
+    b = [np.empty((m_max, n_t), dtype=bool) for _ in range(3)]
+    k = 0
     with np.errstate(divide="ignore", invalid="ignore"):
-        for k0 in range(0, n_p, step):
-            I, J = iu[k0:k0 + step], ju[k0:k0 + step]
-            P = len(I)
-            denom, t, si, sj = (a[:P] for a in f)
-            par, tb = (a[:P] for a in b)
-            p1x_i, p1z_i = p1x[I], p1z[I]
-            rx = p1x[J]
-            rx -= p1x_i
-            rz = p1z[J]
-            rz -= p1z_i
-            dp_x, dp_z, lp0 = dx[I], dz[I], length[I]
-            dqx, dqz = dx[J], dz[J]
-            np.multiply(dp_x, dqz, out=denom)
-            np.subtract(denom, np.multiply(dp_z, dqx, out=t), out=denom)
-            # parallel: |denom| <= 1e-9 * max(lp * lq, eps)
-            np.multiply(lp0, length[J], out=si)
-            np.maximum(si, _EPS, out=si)
-            np.multiply(1e-9, si, out=si)
-            np.less_equal(np.abs(denom, out=t), si, out=par)
-            # S_i = (r x dq) / denom, S_j = (r x dp) / denom
-            np.multiply(rx, dqz, out=si)
-            np.subtract(si, np.multiply(rz, dqx, out=t), out=si)
-            np.divide(si, denom, out=si)
-            np.multiply(rx, dp_z, out=sj)
-            np.subtract(sj, np.multiply(rz, dp_x, out=t), out=sj)
-            np.divide(sj, denom, out=sj)
-            prod = s_ij[k0:k0 + P]
-            np.multiply(si, sj, out=prod)
-            hit = contact[k0:k0 + P]
-            np.greater(prod, 0, out=hit)
-            hit &= np.less(prod, 1, out=tb)
-            hit &= np.greater(si, 0, out=tb)
-            hit &= np.less_equal(si, 1, out=tb)
-            hit &= np.less_equal(sj, 1, out=tb)
-            if par.any():
-                np.copyto(prod, np.nan, where=par)
-                np.logical_not(par, out=tb)
-                hit &= tb
-                # collinear overlap, on the whole block (cheaper than gathering the parallel ones)
-                lp = np.maximum(lp0, _EPS, out=lp0)
-                off = np.multiply(rx, dp_z, out=si)
-                off -= np.multiply(rz, dp_x, out=t)
-                np.abs(off, out=off)
-                off /= lp
-                ux = np.divide(dp_x, lp, out=dp_x)
-                uy = np.divide(dp_z, lp, out=dp_z)
-                b0 = np.multiply(rx, ux, out=rx)
-                b0 += np.multiply(rz, uy, out=t)
-                cx = p2x[J]
-                cx -= p1x_i
-                cy = p2z[J]
-                cy -= p1z_i
-                b1 = np.multiply(cx, ux, out=cx)
-                b1 += np.multiply(cy, uy, out=t)
-                hi = np.minimum(lp, np.maximum(b0, b1, out=sj), out=sj)
-                lo = np.maximum(0.0, np.minimum(b0, b1, out=rz), out=rz)
-                np.subtract(hi, lo, out=hi)
-                np.greater(hi, 1e-9, out=tb)
-                tb &= par
-                np.maximum(lp, 1.0, out=lp)
-                lp *= 1e-9
-                tb &= np.less_equal(off, lp, out=par)
-                hit |= tb
+        for i in range(n - 1):
+            dp_x, dp_z, lp0 = dx[i], dz[i], length[i]
+            for j0 in range(i + 1, n, step):
+                j1 = min(j0 + step, n)
+                m = j1 - j0
+                J = slice(j0, j1)
+                rx, rz, denom, t, si, sj, prod, cx = (a[:m] for a in f)
+                par, tb, hit = (a[:m] for a in b)
+                np.subtract(p1x[J], p1x[i], out=rx)
+                np.subtract(p1z[J], p1z[i], out=rz)
+                dqx, dqz = dx[J], dz[J]
+                np.multiply(dqz, dp_x, out=denom)  # dp_x * dq_z (IEEE products commute)
+                np.subtract(denom, np.multiply(dqx, dp_z, out=t), out=denom)
+                # parallel: |denom| <= 1e-9 * max(lp * lq, eps)
+                np.multiply(length[J], lp0, out=si)
+                np.maximum(si, _EPS, out=si)
+                np.multiply(1e-9, si, out=si)
+                np.less_equal(np.abs(denom, out=t), si, out=par)
+                # S_i = (r x dq) / denom, S_j = (r x dp) / denom
+                np.multiply(rx, dqz, out=si)
+                np.subtract(si, np.multiply(rz, dqx, out=t), out=si)
+                np.divide(si, denom, out=si)
+                np.multiply(rx, dp_z, out=sj)
+                np.subtract(sj, np.multiply(rz, dp_x, out=t), out=sj)
+                np.divide(sj, denom, out=sj)
+                np.multiply(si, sj, out=prod)
+                np.greater(prod, 0, out=hit)
+                hit &= np.less(prod, 1, out=tb)
+                hit &= np.greater(si, 0, out=tb)
+                hit &= np.less_equal(si, 1, out=tb)
+                hit &= np.less_equal(sj, 1, out=tb)
+                if par.any():
+                    np.copyto(prod, np.nan, where=par)
+                    np.logical_not(par, out=tb)
+                    hit &= tb
+                    # collinear overlap (index_components), on the whole block
+                    lp = np.maximum(lp0, _EPS)
+                    off = np.multiply(rx, dp_z, out=si)
+                    off -= np.multiply(rz, dp_x, out=t)
+                    np.abs(off, out=off)
+                    off /= lp
+                    ux, uy = dp_x / lp, dp_z / lp
+                    b0 = np.multiply(rx, ux, out=rx)
+                    b0 += np.multiply(rz, uy, out=t)
+                    np.subtract(p2x[J], p1x[i], out=cx)
+                    b1 = np.multiply(cx, ux, out=cx)
+                    np.subtract(p2z[J], p1z[i], out=sj)
+                    b1 += np.multiply(sj, uy, out=t)
+                    hi = np.minimum(lp, np.maximum(b0, b1, out=sj), out=sj)
+                    lo = np.maximum(0.0, np.minimum(b0, b1, out=rz), out=rz)
+                    np.subtract(hi, lo, out=hi)
+                    np.greater(hi, 1e-9, out=tb)
+                    tb &= par
+                    np.less_equal(off, 1e-9 * np.maximum(lp, 1.0), out=par)
+                    tb &= par
+                    hit |= tb
+                s_rows[k:k + m] = prod
+                c_rows[k:k + m] = hit
+                k += m
     adj = adjacent_pairs(design)
     adjacent = np.array([tuple(p) in adj for p in pairs.tolist()], dtype=bool)
-    s_ij, contact = np.ascontiguousarray(s_ij.T), np.ascontiguousarray(contact.T)
     for arr in (s_ij, contact, adjacent):
         arr.setflags(write=False)
     return Index2D(traj.times, pairs, s_ij, contact, adjacent)
