@@ -233,17 +233,21 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
     # (views, nothing gathered); blocks of at most `step` rows bound the temporaries
     step = max(1, int(chunk_bytes // (n_t * 8 * _TEMPS1)))
     m_max = max(1, min(step, n - 1))
-    f = [np.empty((m_max, n_t)) for _ in range(8)]
+    lp_eps = np.maximum(length, _EPS)
+    ux, uy = dx / lp_eps, dz / lp_eps
+    lim = 1e-9 * np.maximum(lp_eps, 1.0)
+    f = [np.empty((m_max, n_t)) for _ in range(9)]
     b = [np.empty((m_max, n_t), dtype=bool) for _ in range(3)]
     k = 0
     with np.errstate(divide="ignore", invalid="ignore"):
         for i in range(n - 1):
             dp_x, dp_z, lp0 = dx[i], dz[i], length[i]
+            lp_i, ux_i, uy_i, lim_i = lp_eps[i], ux[i], uy[i], lim[i]
             for j0 in range(i + 1, n, step):
                 j1 = min(j0 + step, n)
                 m = j1 - j0
                 J = slice(j0, j1)
-                rx, rz, denom, t, si, sj, prod, cx = (a[:m] for a in f)
+                rx, rz, denom, t, si, sj, prod, cx, nj = (a[:m] for a in f)
                 par, tb, hit = (a[:m] for a in b)
                 np.subtract(p1x[J], p1x[i], out=rx)
                 np.subtract(p1z[J], p1z[i], out=rz)
@@ -259,9 +263,9 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
                 np.multiply(rx, dqz, out=si)
                 np.subtract(si, np.multiply(rz, dqx, out=t), out=si)
                 np.divide(si, denom, out=si)
-                np.multiply(rx, dp_z, out=sj)
-                np.subtract(sj, np.multiply(rz, dp_x, out=t), out=sj)
-                np.divide(sj, denom, out=sj)
+                np.multiply(rx, dp_z, out=nj)  # r x dp: also the collinear offset below
+                np.subtract(nj, np.multiply(rz, dp_x, out=t), out=nj)
+                np.divide(nj, denom, out=sj)
                 np.multiply(si, sj, out=prod)
                 np.greater(prod, 0, out=hit)
                 hit &= np.less(prod, 1, out=tb)
@@ -272,25 +276,22 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
                     np.copyto(prod, np.nan, where=par)
                     np.logical_not(par, out=tb)
                     hit &= tb
-                    # collinear overlap (index_components), on the whole block
-                    lp = np.maximum(lp0, _EPS)
-                    off = np.multiply(rx, dp_z, out=si)
-                    off -= np.multiply(rz, dp_x, out=t)
-                    np.abs(off, out=off)
-                    off /= lp
-                    ux, uy = dp_x / lp, dp_z / lp
-                    b0 = np.multiply(rx, ux, out=rx)
-                    b0 += np.multiply(rz, uy, out=t)
+                    # collinear overlap (index_components), dense on the block, with the
+                    # per-panel terms (lp, u, 1e-9 * max(lp, 1)) computed once per panel
+                    off = np.abs(nj, out=nj)
+                    off /= lp_i
+                    b0 = np.multiply(rx, ux_i, out=rx)
+                    b0 += np.multiply(rz, uy_i, out=t)
                     np.subtract(p2x[J], p1x[i], out=cx)
-                    b1 = np.multiply(cx, ux, out=cx)
+                    b1 = np.multiply(cx, ux_i, out=cx)
                     np.subtract(p2z[J], p1z[i], out=sj)
-                    b1 += np.multiply(sj, uy, out=t)
-                    hi = np.minimum(lp, np.maximum(b0, b1, out=sj), out=sj)
+                    b1 += np.multiply(sj, uy_i, out=t)
+                    hi = np.minimum(lp_i, np.maximum(b0, b1, out=sj), out=sj)
                     lo = np.maximum(0.0, np.minimum(b0, b1, out=rz), out=rz)
                     np.subtract(hi, lo, out=hi)
                     np.greater(hi, 1e-9, out=tb)
                     tb &= par
-                    np.less_equal(off, 1e-9 * np.maximum(lp, 1.0), out=par)
+                    np.less_equal(off, lim_i, out=par)
                     tb &= par
                     hit |= tb
                 s_rows[k:k + m] = prod
