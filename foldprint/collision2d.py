@@ -259,6 +259,9 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
                 np.maximum(si, _EPS, out=si)
                 np.multiply(1e-9, si, out=si)
                 np.less_equal(np.abs(denom, out=t), si, out=par)
+                any_par = par.any()
+                if any_par:  # no C_ij: NaN through S_i, S_j, S_ij (and no paper contact)
+                    np.copyto(denom, np.nan, where=par)
                 # S_i = (r x dq) / denom, S_j = (r x dp) / denom
                 np.multiply(rx, dqz, out=si)
                 np.subtract(si, np.multiply(rz, dqx, out=t), out=si)
@@ -272,10 +275,7 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
                 hit &= np.greater(si, 0, out=tb)
                 hit &= np.less_equal(si, 1, out=tb)
                 hit &= np.less_equal(sj, 1, out=tb)
-                if par.any():
-                    np.copyto(prod, np.nan, where=par)
-                    np.logical_not(par, out=tb)
-                    hit &= tb
+                if any_par:
                     # collinear overlap (index_components), dense on the block, with the
                     # per-panel terms (lp, u, 1e-9 * max(lp, 1)) computed once per panel
                     off = np.abs(nj, out=nj)
