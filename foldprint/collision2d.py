@@ -276,24 +276,29 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
                 hit &= np.less_equal(si, 1, out=tb)
                 hit &= np.less_equal(sj, 1, out=tb)
                 if any_par:
-                    # collinear overlap (index_components), dense on the block, with the
-                    # per-panel terms (lp, u, 1e-9 * max(lp, 1)) computed once per panel
+                    # collinear overlap (index_components), with the per-panel terms (lp, u,
+                    # 1e-9 * max(lp, 1)) computed once per panel: first the offset of q1 from
+                    # the line of p, then the 1-D overlap only over the steps where some
+                    # parallel pair of the block lies on one line
                     off = np.abs(nj, out=nj)
                     off /= lp_i
-                    b0 = np.multiply(rx, ux_i, out=rx)
-                    b0 += np.multiply(rz, uy_i, out=t)
-                    np.subtract(p2x[J], p1x[i], out=cx)
-                    b1 = np.multiply(cx, ux_i, out=cx)
-                    np.subtract(p2z[J], p1z[i], out=sj)
-                    b1 += np.multiply(sj, uy_i, out=t)
-                    hi = np.minimum(lp_i, np.maximum(b0, b1, out=sj), out=sj)
-                    lo = np.maximum(0.0, np.minimum(b0, b1, out=rz), out=rz)
-                    np.subtract(hi, lo, out=hi)
-                    np.greater(hi, 1e-9, out=tb)
+                    np.less_equal(off, lim_i, out=tb)
                     tb &= par
-                    np.less_equal(off, lim_i, out=par)
-                    tb &= par
-                    hit |= tb
+                    steps = np.flatnonzero(tb.any(axis=0))
+                    if len(steps):
+                        T = slice(steps[0], steps[-1] + 1)
+                        close, lpT, uxT, uyT = tb[:, T], lp_i[T], ux_i[T], uy_i[T]
+                        b0 = np.multiply(rx[:, T], uxT, out=rx[:, T])
+                        b0 += np.multiply(rz[:, T], uyT, out=t[:, T])
+                        b1 = np.subtract(p2x[J, T], p1x[i, T], out=cx[:, T])
+                        b1 *= uxT
+                        q = np.subtract(p2z[J, T], p1z[i, T], out=sj[:, T])
+                        b1 += np.multiply(q, uyT, out=t[:, T])
+                        hi = np.minimum(lpT, np.maximum(b0, b1, out=sj[:, T]), out=sj[:, T])
+                        lo = np.maximum(0.0, np.minimum(b0, b1, out=rz[:, T]), out=rz[:, T])
+                        np.subtract(hi, lo, out=hi)
+                        close &= np.greater(hi, 1e-9, out=par[:, T])
+                        hit[:, T] |= close
                 s_rows[k:k + m] = prod
                 c_rows[k:k + m] = hit
                 k += m
