@@ -131,6 +131,8 @@ def adjacent_pairs(design: Design) -> set[tuple[int, int]]:
 CHUNK_BYTES = 64 * 2**20
 #: float64 temporaries alive at once per (time, pair, sub-segment pair) in one chunk.
 _TEMPS = 40
+#: float64 arrays per (time step, panel segment) alive for the whole call (world ends, directions, lengths, rows of poses).
+_PANEL_TERMS = 18
 
 
 def index_memory_bytes(n_steps: int, n_pairs: int, max_segments: int = 1,
@@ -141,7 +143,9 @@ def index_memory_bytes(n_steps: int, n_pairs: int, max_segments: int = 1,
     most ``chunk_bytes``). A guard can refuse a design before it starts."""
     out = n_steps * n_pairs * (8 + 1)
     per_pair = n_steps * max_segments**2 * 8 * _TEMPS
-    return int(out + min(chunk_bytes, per_pair * max(n_pairs, 1)) + n_steps * 8 * 4 * max_segments)
+    n_panels = int(round((1 + (1 + 8 * n_pairs) ** 0.5) / 2))
+    per_panel = n_steps * 8 * _PANEL_TERMS * max_segments * max(n_panels, 1)  # world ends, directions, ...
+    return int(out + min(chunk_bytes, per_pair * max(n_pairs, 1)) + per_panel)
 
 
 def collision_index(traj: Trajectory, chunk_bytes: int = CHUNK_BYTES) -> Index2D:
