@@ -7,7 +7,9 @@ S_ij = S_i * S_j. The paper flags a collision when 0 < S_ij < 1 except in three 
 Parallel segments have no intersection point: collinear ones that overlap are a contact,
 the others are not (their index is NaN).
 
-Vectorised over time steps and pairs (one broadcast, chunked over pairs). Hinge-adjacent panels are excluded from contact
+Vectorised over time steps and pairs: without holes (one segment per panel) each panel's
+pairs are one (pairs, steps) block; with holes one padded broadcast over segment pairs,
+chunked over pairs. Hinge-adjacent panels are excluded from contact
 (they share the hinge; ``docs/simulation.md``) but their index is kept for plots.
 """
 
@@ -149,9 +151,10 @@ def index_memory_bytes(n_steps: int, n_pairs: int, max_segments: int = 1,
 
 
 def collision_index(traj: Trajectory, chunk_bytes: int = CHUNK_BYTES) -> Index2D:
-    """The paper's index for every panel pair at every time step of ``traj``: every pair
-    and step in one broadcast, in chunks of pairs so the temporaries stay under
-    ``chunk_bytes`` (total memory: :func:`index_memory_bytes`)."""
+    """The paper's index for every panel pair at every time step of ``traj``, vectorised
+    over pairs and steps in chunks of pairs so the temporaries stay under ``chunk_bytes``
+    (total memory: :func:`index_memory_bytes`). Designs without holes take
+    :func:`_index_single` (no padding to the largest segment count)."""
     design = traj.design
     sheet = side_segments(design, traj.model)
     if all(len(sg) == 1 for sg in sheet):  # no holes: one segment per panel, no padding
