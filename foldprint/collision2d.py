@@ -277,11 +277,11 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
                 np.subtract(nj, np.multiply(rz, dp_x, out=t), out=nj)
                 np.divide(nj, denom, out=sj)
                 np.multiply(si, sj, out=prod)
-                np.greater(prod, 0, out=hit)
+                # paper_contact: S_ij > 0 and S_i > 0 as min(S_ij, S_i) > 0, S_i <= 1 and
+                # S_j <= 1 as max(S_i, S_j) <= 1 (the same truth values, NaN gives False)
+                np.greater(np.minimum(prod, si, out=t), 0, out=hit)
                 hit &= np.less(prod, 1, out=tb)
-                hit &= np.greater(si, 0, out=tb)
-                hit &= np.less_equal(si, 1, out=tb)
-                hit &= np.less_equal(sj, 1, out=tb)
+                hit &= np.less_equal(np.maximum(si, sj, out=t), 1, out=tb)
                 if any_par:
                     # collinear overlap (index_components), with the per-panel terms (lp, u,
                     # 1e-9 * max(lp, 1)) computed once per panel: first the offset of q1 from
