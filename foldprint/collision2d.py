@@ -145,7 +145,7 @@ def index_memory_bytes(n_steps: int, n_pairs: int, max_segments: int = 1,
     most ``chunk_bytes``). A guard can refuse a design before it starts."""
     out = n_steps * n_pairs * (8 + 1)
     per_pair = n_steps * max_segments**2 * 8 * _TEMPS
-    n_panels = int(round((1 + (1 + 8 * n_pairs) ** 0.5) / 2))
+    n_panels = round((1 + (1 + 8 * n_pairs) ** 0.5) / 2)
     per_panel = n_steps * 8 * _PANEL_TERMS * max_segments * max(n_panels, 1)  # world ends, directions, ...
     return int(out + min(chunk_bytes, per_pair * max(n_pairs, 1)) + per_panel)
 
