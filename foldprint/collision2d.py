@@ -7,7 +7,9 @@ S_ij = S_i * S_j. The paper flags a collision when 0 < S_ij < 1 except in three 
 Parallel segments have no intersection point: collinear ones that overlap are a contact,
 the others are not (their index is NaN).
 
-Vectorised over time steps and pairs (one broadcast, chunked over pairs). Hinge-adjacent panels are excluded from contact
+Vectorised over time steps and pairs: without holes (one segment per panel) each panel's
+pairs are one (pairs, steps) block; with holes one padded broadcast over segment pairs,
+chunked over pairs. Hinge-adjacent panels are excluded from contact
 (they share the hinge; ``docs/simulation.md``) but their index is kept for plots.
 """
 
@@ -105,8 +107,12 @@ class Index2D:
 
 def world_side_segments(design: Design, poses: np.ndarray, model: str):
     """World side-view segments: list over panels of (n_t, k, 2, 2) arrays in (x, z)."""
+    return _world(side_segments(design, model), poses)
+
+
+def _world(sheet, poses):
     out = []
-    for i, segs in enumerate(side_segments(design, model)):
+    for i, segs in enumerate(sheet):
         if len(segs) == 0:
             out.append(np.zeros((poses.shape[0], 0, 2, 2)))
             continue
@@ -127,6 +133,8 @@ def adjacent_pairs(design: Design) -> set[tuple[int, int]]:
 CHUNK_BYTES = 64 * 2**20
 #: float64 temporaries alive at once per (time, pair, sub-segment pair) in one chunk.
 _TEMPS = 40
+#: float64 arrays per (time step, panel segment) alive for the whole call (world ends, directions, lengths, rows of poses).
+_PANEL_TERMS = 18
 
 
 def index_memory_bytes(n_steps: int, n_pairs: int, max_segments: int = 1,
@@ -137,15 +145,21 @@ def index_memory_bytes(n_steps: int, n_pairs: int, max_segments: int = 1,
     most ``chunk_bytes``). A guard can refuse a design before it starts."""
     out = n_steps * n_pairs * (8 + 1)
     per_pair = n_steps * max_segments**2 * 8 * _TEMPS
-    return int(out + min(chunk_bytes, per_pair * max(n_pairs, 1)) + n_steps * 8 * 4 * max_segments)
+    n_panels = round((1 + (1 + 8 * n_pairs) ** 0.5) / 2)
+    per_panel = n_steps * 8 * _PANEL_TERMS * max_segments * max(n_panels, 1)  # world ends, directions, ...
+    return int(out + min(chunk_bytes, per_pair * max(n_pairs, 1)) + per_panel)
 
 
 def collision_index(traj: Trajectory, chunk_bytes: int = CHUNK_BYTES) -> Index2D:
-    """The paper's index for every panel pair at every time step of ``traj``: every pair
-    and step in one broadcast, in chunks of pairs so the temporaries stay under
-    ``chunk_bytes`` (total memory: :func:`index_memory_bytes`)."""
+    """The paper's index for every panel pair at every time step of ``traj``, vectorised
+    over pairs and steps in chunks of pairs so the temporaries stay under ``chunk_bytes``
+    (total memory: :func:`index_memory_bytes`). Designs without holes take
+    :func:`_index_single` (no padding to the largest segment count)."""
     design = traj.design
-    segs = world_side_segments(design, traj.poses, traj.model)
+    sheet = side_segments(design, traj.model)
+    if all(len(sg) == 1 for sg in sheet):  # no holes: one segment per panel, no padding
+        return _index_single(traj, np.concatenate(sheet), chunk_bytes)
+    segs = _world(sheet, traj.poses)
     n = len(design.panels)
     n_t = len(traj.times)
     iu, ju = np.triu_indices(n, 1)
@@ -186,6 +200,115 @@ def collision_index(traj: Trajectory, chunk_bytes: int = CHUNK_BYTES) -> Index2D
             dist = np.where(np.isnan(prod), np.inf, np.abs(prod - 0.5))
         pick = np.argmin(dist, axis=2)
         s_ij[:, c0:c0 + P] = np.take_along_axis(prod, pick[..., None], axis=2)[..., 0]
+    adj = adjacent_pairs(design)
+    adjacent = np.array([tuple(p) in adj for p in pairs.tolist()], dtype=bool)
+    for arr in (s_ij, contact, adjacent):
+        arr.setflags(write=False)
+    return Index2D(traj.times, pairs, s_ij, contact, adjacent)
+
+
+#: float64 temporaries alive at once per (pair, time step) in the single-segment path.
+_TEMPS1 = 20
+
+
+def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Index2D:
+    """:func:`collision_index` when every panel is one segment (``sheet`` (n, 2, 2)): each
+    per-panel term is a contiguous (n, n_t) row block, each chunk of pairs a (P, n_t)
+    broadcast with preallocated temporaries. The arithmetic is that of
+    :func:`index_components` operation for operation, so the values are bit-identical."""
+    design = traj.design
+    poses = traj.poses
+    n = len(design.panels)
+    n_t = len(traj.times)
+    # world (x, z) of both ends, as in _world: (R00 * x + R01 * y) + t0
+    x1, y1, x2, y2 = (np.ascontiguousarray(sheet[:, a, b])[:, None] for a in (0, 1) for b in (0, 1))
+    rows = [np.ascontiguousarray(poses[:, :, r, c].T) for r in (0, 2) for c in (0, 1, 3)]
+    a0, a1, a3, c0_, c1, c3 = rows
+    p1x = a0 * x1 + a1 * y1 + a3
+    p1z = c0_ * x1 + c1 * y1 + c3
+    p2x = a0 * x2 + a1 * y2 + a3
+    p2z = c0_ * x2 + c1 * y2 + c3
+    dx, dz = p2x - p1x, p2z - p1z
+    length = np.sqrt(dx * dx + dz * dz)
+    iu, ju = np.triu_indices(n, 1)
+    pairs = np.column_stack([iu, ju]).astype(int).reshape(-1, 2)
+    n_p = len(pairs)
+    s_ij = np.empty((n_t, n_p))
+    contact = np.empty((n_t, n_p), dtype=bool)
+    s_rows, c_rows = s_ij.T, contact.T  # (n_p, n_t) views: pair rows
+    # pairs (i, j > i) are consecutive rows: panel i is one broadcast row, panels j a slice
+    # (views, nothing gathered); blocks of at most `step` rows bound the temporaries
+    step = max(1, int(chunk_bytes // (n_t * 8 * _TEMPS1)))
+    m_max = max(1, min(step, n - 1))
+    lp_eps = np.maximum(length, _EPS)
+    ux, uy = dx / lp_eps, dz / lp_eps
+    lim = 1e-9 * np.maximum(lp_eps, 1.0)
+    f = [np.empty((m_max, n_t)) for _ in range(9)]
+    b = [np.empty((m_max, n_t), dtype=bool) for _ in range(3)]
+    k = 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for i in range(n - 1):
+            dp_x, dp_z, lp0 = dx[i], dz[i], length[i]
+            lp_i, ux_i, uy_i, lim_i = lp_eps[i], ux[i], uy[i], lim[i]
+            for j0 in range(i + 1, n, step):
+                j1 = min(j0 + step, n)
+                m = j1 - j0
+                J = slice(j0, j1)
+                rx, rz, denom, t, si, sj, prod, cx, nj = (a[:m] for a in f)
+                par, tb, hit = (a[:m] for a in b)
+                np.subtract(p1x[J], p1x[i], out=rx)
+                np.subtract(p1z[J], p1z[i], out=rz)
+                dqx, dqz = dx[J], dz[J]
+                np.multiply(dqz, dp_x, out=denom)  # dp_x * dq_z (IEEE products commute)
+                np.subtract(denom, np.multiply(dqx, dp_z, out=t), out=denom)
+                # parallel: |denom| <= 1e-9 * max(lp * lq, eps)
+                np.multiply(length[J], lp0, out=si)
+                np.maximum(si, _EPS, out=si)
+                np.multiply(1e-9, si, out=si)
+                np.less_equal(np.abs(denom, out=t), si, out=par)
+                any_par = par.any()
+                if any_par:  # no C_ij: NaN through S_i, S_j, S_ij (and no paper contact)
+                    np.copyto(denom, np.nan, where=par)
+                # S_i = (r x dq) / denom, S_j = (r x dp) / denom
+                np.multiply(rx, dqz, out=si)
+                np.subtract(si, np.multiply(rz, dqx, out=t), out=si)
+                np.divide(si, denom, out=si)
+                np.multiply(rx, dp_z, out=nj)  # r x dp: also the collinear offset below
+                np.subtract(nj, np.multiply(rz, dp_x, out=t), out=nj)
+                np.divide(nj, denom, out=sj)
+                np.multiply(si, sj, out=prod)
+                # paper_contact: S_ij > 0 and S_i > 0 as min(S_ij, S_i) > 0, S_i <= 1 and
+                # S_j <= 1 as max(S_i, S_j) <= 1 (the same truth values, NaN gives False)
+                np.greater(np.minimum(prod, si, out=t), 0, out=hit)
+                hit &= np.less(prod, 1, out=tb)
+                hit &= np.less_equal(np.maximum(si, sj, out=t), 1, out=tb)
+                if any_par:
+                    # collinear overlap (index_components), with the per-panel terms (lp, u,
+                    # 1e-9 * max(lp, 1)) computed once per panel: first the offset of q1 from
+                    # the line of p, then the 1-D overlap only over the steps where some
+                    # parallel pair of the block lies on one line
+                    off = np.abs(nj, out=nj)
+                    off /= lp_i
+                    np.less_equal(off, lim_i, out=tb)
+                    tb &= par
+                    steps = np.flatnonzero(tb.any(axis=0))
+                    if len(steps):
+                        T = slice(steps[0], steps[-1] + 1)
+                        close, lpT, uxT, uyT = tb[:, T], lp_i[T], ux_i[T], uy_i[T]
+                        b0 = np.multiply(rx[:, T], uxT, out=rx[:, T])
+                        b0 += np.multiply(rz[:, T], uyT, out=t[:, T])
+                        b1 = np.subtract(p2x[J, T], p1x[i, T], out=cx[:, T])
+                        b1 *= uxT
+                        q = np.subtract(p2z[J, T], p1z[i, T], out=sj[:, T])
+                        b1 += np.multiply(q, uyT, out=t[:, T])
+                        hi = np.minimum(lpT, np.maximum(b0, b1, out=sj[:, T]), out=sj[:, T])
+                        lo = np.maximum(0.0, np.minimum(b0, b1, out=rz[:, T]), out=rz[:, T])
+                        np.subtract(hi, lo, out=hi)
+                        close &= np.greater(hi, 1e-9, out=par[:, T])
+                        hit[:, T] |= close
+                s_rows[k:k + m] = prod
+                c_rows[k:k + m] = hit
+                k += m
     adj = adjacent_pairs(design)
     adjacent = np.array([tuple(p) in adj for p in pairs.tolist()], dtype=bool)
     for arr in (s_ij, contact, adjacent):
