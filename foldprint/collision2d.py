@@ -36,6 +36,18 @@ def index_arrays(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray)
                             q1[..., 0], q1[..., 1], q2[..., 0], q2[..., 1])
 
 
+def _collinear_overlap(ax, ay, bx, by, cx, cy, l0):
+    """Parallel segment pairs: segment q (from p1 to its ends b, c) lies on the line of p
+    (direction a, length l0) within a tolerance and overlaps p in 1-D."""
+    lp = np.maximum(l0, _EPS)
+    off = np.abs(bx * ay - by * ax) / lp
+    ux, uy = ax / lp, ay / lp
+    b0 = bx * ux + by * uy
+    b1 = cx * ux + cy * uy
+    overlap = np.minimum(lp, np.maximum(b0, b1)) - np.maximum(0.0, np.minimum(b0, b1)) > 1e-9
+    return (off <= 1e-9 * np.maximum(lp, 1.0)) & overlap
+
+
 def index_components(p1x, p1y, p2x, p2y, q1x, q1y, q2x, q2y):
     """:func:`index_arrays` on separate coordinate arrays (contiguous, so fast): Eq. 5 with
     C_ij the crossing of the two lines, S_i = (r x dq) / (dp x dq), S_j = (r x dp) / (dp x dq)."""
@@ -57,14 +69,7 @@ def index_components(p1x, p1y, p2x, p2y, q1x, q1y, q2x, q2y):
     if parallel.any():  # collinear: q1 on the line of p (within a tolerance), then 1-D overlap
         sel = np.nonzero(parallel)
         b = [np.broadcast_to(a, parallel.shape)[sel] for a in (dpx, dpy, rx, ry, q2x - p1x, q2y - p1y, lp0)]
-        ax, ay, bx, by, cx, cy, l0 = b
-        lp = np.maximum(l0, _EPS)
-        off = np.abs(bx * ay - by * ax) / lp
-        ux, uy = ax / lp, ay / lp
-        b0 = bx * ux + by * uy
-        b1 = cx * ux + cy * uy
-        overlap = np.minimum(lp, np.maximum(b0, b1)) - np.maximum(0.0, np.minimum(b0, b1)) > 1e-9
-        coll[sel] = (off <= 1e-9 * np.maximum(lp, 1.0)) & overlap
+        coll[sel] = _collinear_overlap(*b)
     return s_i, s_j, parallel, coll
 
 
@@ -337,15 +342,8 @@ def _pair_index(S, dx, dz, length, I, J):
         q2x = S[2][:, J, None, :]
         q2z = S[3][:, J, None, :]
         part = [np.broadcast_to(a, parallel.shape)[sel] for a in (dpx, dpz, rx, rz, q2x - p1x, q2z - p1z, lp0)]
-        ax, ay, bx, by, cx, cy, l0 = part
-        lp = np.maximum(l0, _EPS)
-        off = np.abs(bx * ay - by * ax) / lp
-        ux, uy = ax / lp, ay / lp
-        b0 = bx * ux + by * uy
-        b1 = cx * ux + cy * uy
-        overlap = np.minimum(lp, np.maximum(b0, b1)) - np.maximum(0.0, np.minimum(b0, b1)) > 1e-9
         coll = np.zeros(parallel.shape, dtype=bool)
-        coll[sel] = (off <= 1e-9 * np.maximum(lp, 1.0)) & overlap
+        coll[sel] = _collinear_overlap(*part)
     return s_i, s_j, coll
 
 
