@@ -3,11 +3,13 @@ printed, permanent state: do panels print fused?) and along a trajectory (the ma
 which a fold misses a collision).
 
 Exact distances come from the FCL solids of :class:`foldprint.collision3d.SweptChecker`
-(the rigid parts of the panels under the hinge model, holes kept). A vectorised
-axis-aligned-box prefilter skips the pairs whose boxes are farther apart than the
-distance of interest, so a large design costs few FCL calls. Along a trajectory the
-clearance is sampled (``n_samples`` evenly spaced poses plus the last); between samples
-the swept check, not this module, guarantees that nothing touches.
+(the rigid parts of the panels under the hinge model, holes kept). In one pose a
+vectorised axis-aligned-box prefilter skips the pairs whose boxes are farther apart than
+the distance of interest. Along a trajectory the clearance is sampled (``n_samples``
+evenly spaced poses plus the last) and searched by the swept check's own branch and bound
+(:func:`foldprint.collision3d.min_clearance`); the earliest sampled time of the smallest
+gap is reported. Between samples the swept check, not this module, guarantees that
+nothing touches.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .collision3d import SweptChecker, non_adjacent_pairs
+from .collision3d import min_clearance as swept_min_clearance
 from .rigid import rigid_polygon
 
 
@@ -94,20 +97,17 @@ def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
                   n_samples: int = 200, t_end: float | None = None) -> Gap | None:
     """The smallest gap between non-adjacent panels over ``n_samples`` poses of the
     trajectory up to ``t_end`` (default: its end), or None for a design with no such pair.
-
-    A running bound keeps this cheap: once some pair is at distance g, a pair whose boxes
-    are g or more apart cannot beat it."""
-    pairs = non_adjacent_pairs(checker.design)
-    if not pairs:
-        return None
+    The search over those poses is :func:`foldprint.collision3d.min_clearance` (exact,
+    branch and bound on sphere bounds); this adds the sampling, the time and the point."""
     n = len(times) if t_end is None else int(np.searchsorted(times, t_end, side="right"))
     n = max(n, 1)
     ks = np.unique(np.r_[np.linspace(0, n - 1, min(n, n_samples)).round().astype(int), n - 1])
-    best: Gap | None = None
-    # start from the final pose: printed shapes are usually where panels are closest
-    for k in ks[::-1]:
-        bound = np.inf if best is None else best.distance
-        found = gaps_in_pose(checker, poses[k], bound if np.isfinite(bound) else 1e300, pairs, float(times[k]))
-        if found and (best is None or found[0].distance < best.distance):
-            best = found[0]
-    return best
+    found = swept_min_clearance(checker, poses[ks])
+    if found is None:
+        return None
+    _, (i, j), k = found
+    pose = poses[ks[k]]
+    dist, point = checker.distance(i, j, pose[i], pose[j])
+    design = checker.design
+    return Gap(max(float(dist), 0.0), (i, j), (design.panels[i].id, design.panels[j].id), float(times[ks[k]]),
+               None if point is None else tuple(float(x) for x in point))
