@@ -20,8 +20,9 @@ The search uses the physics instead of enumerating the m^n assignments
 4. **Screen cheap, confirm exact.** Planar strips are screened with the paper's 2D index
    over the fold's own duration; the finalists are confirmed by the full simulation of
    record (3D swept FCL check of the printed, arc-hinge geometry, every goal in order)
-   and their smallest clearance along the fold is measured. ``robust`` adds the jam
-   probability of the finalists under the scatter model.
+   and their smallest clearance along the fold is measured. ``robust`` grows many small
+   waves in phase 1, ranks the screened assignments by a timing proxy (:func:`order_risk`),
+   screens the best under scatter and estimates the jam probability of the finalists.
 
 Every evaluation is a module-level function of a picklable task, run by a ``mapper``
 (local processes by default, a Dask cluster with :mod:`foldprint.distributed`); the
@@ -45,7 +46,7 @@ from .kinematics import HingeDrive, forward, target_angles
 from .materials import MaterialLibrary, default_library
 from .modes import HingeModel, Method
 from .recovery import recovery_curve
-from .robust import Scatter, jam_probability
+from .robust import Sample, Scatter, default_scatter, draw_samples, jam_probability, sample_drive
 from .simulate import simulate
 
 OBJECTIVES = ("time", "margin", "robust")
@@ -58,9 +59,12 @@ MAX_CHILDREN = 48
 #: Share of the budget the pattern search (phase 1) may spend; the rest maps patterns
 #: onto materials and confirms the finalists.
 PHASE1_SHARE = 0.5
-#: ``robust``: finalists screened with ROBUST_SCREEN_SAMPLES samples before the best
-#: ``top + 2`` get all of ``samples``.
-ROBUST_POOL = 10
+#: ``robust``: the ROBUST_POOL (or 3 top) screened-feasible assignments of lowest
+#: :func:`order_risk` are folded ROBUST_SCREEN_SAMPLES times each under scatter with the
+#: cheap screen; the ``top + 2`` with the fewest jams are confirmed and get ``samples``.
+ROBUST_POOL = 24
+#: ``robust`` pattern search: the largest wave it proposes (but the last, "all the rest").
+ROBUST_WAVE_MAX = 2
 ROBUST_SCREEN_SAMPLES = 8
 #: Search spaces up to this size (and within the budget) are enumerated outright.
 EXHAUSTIVE_MAX = 128
@@ -102,6 +106,9 @@ class Task:
     dt: float
     duration: float | None
     clearance_samples: int
+    #: a scatter draw (``robust`` screen): the hinges' materials, thicknesses and bath as
+    #: drawn; the run stops SCREEN_TAIL_S after the slowest drawn hinge reaches 98 %
+    sample: Sample | None = None
 
 
 def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None) -> Design:
@@ -113,6 +120,8 @@ def with_materials(design: Design, materials: Sequence[str], bath_c: float | Non
 
 def _drive(task: Task) -> HingeDrive:
     d, lib = task.design, task.library
+    if task.sample is not None:
+        return sample_drive(with_materials(d, task.materials, task.bath_c), lib, task.sample)
     curves = []
     for h, m in zip(d.hinges, task.materials):
         c = recovery_curve(lib[m or h.material], task.bath_c, h.thickness, d.process.fix_temperature_c)
@@ -125,7 +134,12 @@ def run_task(task: Task) -> Verdict:
     workers can run it."""
     d = task.design
     drive = _drive(task)
-    res = simulate(d, bath_c=task.bath_c, duration=task.duration, dt=task.dt, method=task.method,
+    duration = task.duration
+    if task.sample is not None:
+        times = [c.time_to(0.98) for c in drive.curves]
+        if all(x is not None for x in times):
+            duration = min(duration or d.process.duration_s, max(times) + SCREEN_TAIL_S)
+    res = simulate(d, bath_c=task.bath_c, duration=duration, dt=task.dt, method=task.method,
                    hinge_model=HingeModel.ARC, drive=drive)
     c = res.first_collision
     partial = any(m is None for m in task.materials)
@@ -255,6 +269,19 @@ def connected_waves(remaining: frozenset, graph: list[set[int]], limit: int = MA
         frontier = sorted(set(nxt), key=lambda s: sorted(s))
     out = sorted(out[:limit], key=lambda s: (len(s), sorted(s)))
     return [remaining] + out
+
+
+def growing_waves(remaining: frozenset, placed: frozenset, graph: list[set[int]]) -> list[frozenset]:
+    """The ``robust`` search's children of a prefix: "all the rest", then connected groups
+    of at most ROBUST_WAVE_MAX remaining hinges that touch the hinges already placed (any
+    group for the first wave). Many small waves, growing the folded region one step at a
+    time: what a sequence that scatter cannot reorder looks like, and a narrow enough
+    tree to reach the deep patterns within the budget."""
+    out = [remaining]
+    for g in connected_waves(remaining, graph)[1:]:
+        if len(g) <= ROBUST_WAVE_MAX and (not placed or any(graph[k] & placed for k in g)):
+            out.append(g)
+    return out
 
 
 @dataclass
@@ -414,14 +441,19 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     phase1 = int(budget * PHASE1_SHARE)
     # best first: a queue of every collision-free prefix; each round expands the ``beam``
     # best (most hinges placed, then the widest clearance along the motion so far)
-    queue: list = [] if exhaustive or not free else [((0, -math.inf, 0, ()), ())]
+    queue: list = [] if exhaustive or not free else [((0, 0, -math.inf, ()), ())]
     while queue and ledger.evaluated < phase1:
         queue.sort(key=lambda x: x[0])
         batch, queue = queue[:beam], queue[beam:]
         children = []
         for _key, waves in batch:
             rest = all_free - frozenset().union(*waves) if waves else all_free
-            options = [rest] if len(waves) == m - 1 else connected_waves(rest, graph)
+            if len(waves) == m - 1:
+                options = [rest]
+            elif objective == "robust":
+                options = growing_waves(rest, all_free - rest, graph)
+            else:
+                options = connected_waves(rest, graph)
             for w in options:
                 nw = waves + (w,)
                 complete = w == rest
@@ -435,7 +467,10 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
                 patterns.append(nw)
             else:
                 clear = v.clearance_mm if v.clearance_mm is not None else math.inf
-                queue.append(((-sum(map(len, nw)), -clear, len(nw), [sorted(w) for w in nw]), nw))
+                placed = -sum(map(len, nw))
+                # robust: scatter reorders hinges that share a wave, so the most waves first
+                key = ((-len(nw), placed, -clear) if objective == "robust" else (placed, -clear, len(nw)))
+                queue.append(((*key, [sorted(w) for w in nw]), nw))
 
     # phase 2: map the feasible patterns onto materials (and temperatures)
     candidates = []
@@ -476,7 +511,8 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
             unique.append((p, t, mt, v))
     if objective == "time":
         unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
-    finalists = unique[:n_confirm]  # margin/robust: in screening order (spread mappings first)
+    # margin: in screening order (spread mappings first); robust picks its own finalists
+    finalists = unique[:n_confirm] if objective != "robust" else []
     confirmed = ledger.run([task(mt, t, {}, clearance=200, confirm=True) for _p, t, mt, _v in finalists])
     good = [Choice(tuple(mt), t, v.fold_time, None if v.clearance_mm is None or math.isinf(v.clearance_mm)
                    else v.clearance_mm, tuple(tuple(sorted(w)) for w in p))
@@ -487,22 +523,113 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
         good.sort(key=lambda c: (-(c.clearance_mm if c.clearance_mm is not None else math.inf), c.fold_time,
                                  c.materials))
     n_robust, n_confirmed = 0, len(good)
-    if objective == "robust" and good:
-        # two stages: a few samples for a wide pool (by margin), all ``samples`` for the
-        # best of them; the same seed, so the first draws are the same in both
-        def estimate(cands, n):
-            out = []
-            for c in cands:
-                r = jam_probability(with_materials(design, c.materials, c.bath_c), n, seed, scatter=scatter,
-                                    library=lib, dt=dt, mapper=mapper)
-                out.append(replace(c, jam_probability=r.jam_probability, jam_ci95=r.ci95))
-            return sorted(out, key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
-
-        pool = good[: max(3 * top, ROBUST_POOL)]  # the widest margins
-        if samples > ROBUST_SCREEN_SAMPLES and len(pool) > top + 2:
-            pool = estimate(pool, ROBUST_SCREEN_SAMPLES)
-            n_robust += len(pool) * (ROBUST_SCREEN_SAMPLES + 1)
-        finals = estimate(pool[: top + 2], samples)
-        n_robust += len(finals) * (samples + 1)
-        good = finals
+    if objective == "robust" and unique:
+        good, n_confirmed, n_robust = _robust_finalists(
+            design, lib, unique, ledger, task, top=top, samples=samples, seed=seed,
+            scatter=scatter or default_scatter(), method=method, dt=dt, duration=duration, mapper=mapper,
+            progress=progress)
     return result(good[:top], len(unique), len(patterns), confirmed=n_confirmed, robust_sims=n_robust)
+
+
+def _log_times(material, bath_c: float, thickness: float, fix_c: float) -> np.ndarray:
+    """ln of the times (s) to half and to full (98 %) recovery (inf when not reached)."""
+    c = recovery_curve(material, bath_c, thickness, fix_c)
+    return np.array([math.log(x) if x else math.inf for x in (c.time_to(0.5), c.time_to(0.98))])
+
+
+_SENSITIVITY: dict = {}
+
+
+def _time_spread(lib: MaterialLibrary, name: str, bath_c: float, thickness: float, fix_c: float,
+                 scatter: Scatter) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """ln t50 and ln t98 of a hinge of material ``name`` and, by finite differences, their
+    per-hinge variances under the scatter model (Tg, thickness, heat transfer) and their
+    slopes in the bath temperature (a shift every hinge shares), per bath sd."""
+    key = (name, bath_c, thickness, fix_c, scatter)
+    if key not in _SENSITIVITY:
+        m = lib[name]
+        base = _log_times(m, bath_c, thickness, fix_c)
+        with np.errstate(invalid="ignore"):
+            d_tg = (_log_times(replace(m, tg_c=m.tg_c + 0.5), bath_c, thickness, fix_c) - base) / 0.5
+            d_th = (_log_times(m, bath_c, thickness + 0.02, fix_c) - base) / 0.02
+            rec = replace(m.recovery, h_w_m2k=m.recovery.h_w_m2k * math.exp(0.1))
+            d_h = (_log_times(replace(m, recovery=rec), bath_c, thickness, fix_c) - base) / 0.1
+            d_b = (_log_times(m, bath_c + 0.5, thickness, fix_c) - base) / 0.5
+        var = ((d_tg * scatter.tg_sd_c) ** 2 + (d_th * scatter.thickness_sd_mm) ** 2
+               + (d_h * scatter.h_sigma_ln) ** 2)
+        _SENSITIVITY[key] = (base, np.nan_to_num(var), np.nan_to_num(d_b * scatter.bath_sd_c))
+    return _SENSITIVITY[key]
+
+
+def _phi_upper(z: float) -> float:
+    """P(N(0, 1) > z)."""
+    return 0.5 * math.erfc(z / math.sqrt(2.0))
+
+
+def order_risk(design: Design, lib: MaterialLibrary, materials: Sequence[str], bath_c: float,
+               scatter: Scatter) -> float:
+    """A ranking proxy for the ``robust`` pool (it knows nothing of the geometry; the
+    Monte-Carlo decides): the expected number of hinge pairs whose order of half recovery
+    scatter swaps, Phi(-|ln t50_i - ln t50_j| / sd) per pair with sd from a linearised
+    scatter model (:func:`_time_spread`), so a pair sharing a material counts 1/2; plus,
+    weighted by the number of pairs, the chance that some hinge misses 98 % within the
+    run. Lower is more robust."""
+    fix_c = design.process.fix_temperature_c
+    thick = min(h.thickness for h in design.hinges)
+    spread = [_time_spread(lib, m, bath_c, thick, fix_c, scatter) for m in materials]
+    n = len(spread)
+    pairs = n * (n - 1) / 2
+    log_dur = math.log(float(design.process.duration_s))
+    done = 1.0
+    for lt, var, _b in spread:
+        if not math.isfinite(lt[1]):
+            return 2 * pairs + 1
+        sd = math.sqrt(var[1])
+        done *= 1.0 - (_phi_upper((log_dur - lt[1]) / sd) if sd > 0 else float(lt[1] > log_dur))
+    risk = pairs * (1.0 - done)
+    for a in range(n):
+        for b in range(a + 1, n):
+            (la, va, ba), (lb, vb, bb) = spread[a], spread[b]
+            sd = math.sqrt(va[0] + vb[0] + (ba[0] - bb[0]) ** 2)
+            risk += 0.5 if sd == 0 else _phi_upper(abs(la[0] - lb[0]) / sd)
+    return risk
+
+
+def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, scatter, method, dt, duration,
+                      mapper, progress):
+    """The ``robust`` objective: rank screened-feasible assignments by :func:`order_risk`,
+    fold the ROBUST_POOL least risky ROBUST_SCREEN_SAMPLES times each under the scatter
+    model with the cheap screen (common draws: the same seed for every candidate), confirm
+    the ``top + 2`` with the fewest screened jams in the simulation of record and estimate
+    their jam probability with ``samples`` folds (what ``foldprint robust`` does).
+    Returns (choices sorted by jam probability, confirmed count, Monte-Carlo folds run)."""
+    risk = [order_risk(design, lib, mt, t, scatter) for _p, t, mt, _v in unique]
+    order = sorted(range(len(unique)), key=lambda i: (risk[i], i))[: max(3 * top, ROBUST_POOL)]
+    n_s = min(samples, ROBUST_SCREEN_SAMPLES)
+    tasks = []
+    for i in order:
+        _p, t, mt, _v = unique[i]
+        for smp in draw_samples(with_materials(design, mt, t), scatter, n_s, seed):
+            tasks.append(Task(design, lib, mt, t, method, dt, duration, 0, smp))
+    verdicts = mapper(run_task, tasks, progress and (lambda done, n: progress(done, n)))
+    jams = {i: sum(not v.completed for v in verdicts[j * n_s:(j + 1) * n_s]) for j, i in enumerate(order)}
+    ranked = sorted(order, key=lambda i: (jams[i], risk[i], i))
+    n_robust = len(tasks)
+    picks = ranked[: 2 * (top + 2)]
+    confirmed = ledger.run([task(unique[i][2], unique[i][1], {}, clearance=200, confirm=True) for i in picks])
+    good = []
+    for i, v in zip(picks, confirmed):
+        if v is None or not v.completed or len(good) == top + 2:
+            continue
+        p, t, mt, _v = unique[i]
+        good.append(Choice(tuple(mt), t, v.fold_time,
+                           None if v.clearance_mm is None or math.isinf(v.clearance_mm) else v.clearance_mm,
+                           tuple(tuple(sorted(w)) for w in p)))
+    out = []
+    for c in good:
+        r = jam_probability(with_materials(design, c.materials, c.bath_c), samples, seed, scatter=scatter,
+                            library=lib, dt=dt, mapper=mapper)
+        out.append(replace(c, jam_probability=r.jam_probability, jam_ci95=r.ci95))
+        n_robust += samples + 1
+    out.sort(key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
+    return out, sum(v is not None and v.completed for v in confirmed), n_robust

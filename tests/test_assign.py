@@ -180,3 +180,52 @@ def test_assign_text_output(capsys, tmp_path):
     out = capsys.readouterr().out
     assert re.search(r"\d+ feasible assignment\(s\) in \d+ evaluations", out)
     assert "h1=H-" in out
+
+
+def test_growing_waves_extend_the_folded_region_in_small_steps():
+    """The robust search's children: "all the rest", then connected groups of at most
+    ROBUST_WAVE_MAX hinges touching what is placed (anything at the root)."""
+    from foldprint.assign import ROBUST_WAVE_MAX, _hinge_graph, growing_waves
+
+    graph = _hinge_graph(load_design(resolve_design_path("helix_uniform")))
+    every = frozenset(range(9))
+    root = growing_waves(every, frozenset(), graph)
+    assert root[0] == every and all(len(w) <= ROBUST_WAVE_MAX for w in root[1:])
+    assert len(root) == 1 + 9 + 8  # every single hinge and every adjacent pair of the strip
+    placed = frozenset({3, 4})
+    kids = growing_waves(every - placed, placed, graph)
+    assert kids[0] == every - placed
+    assert set(kids[1:]) == {frozenset({2}), frozenset({5}), frozenset({1, 2}), frozenset({5, 6})}
+
+
+def test_order_risk_matches_sampled_recovery_times(helix, lib):
+    """order_risk's linearised chance that scatter swaps two hinges' half-recovery times,
+    against the times of independently drawn hinges (the scatter model's Tg, thickness
+    and heat-transfer draws, through the recovery model); and its exact limits: a shared
+    material counts 1/2 per pair."""
+    import math
+
+    import numpy as np
+
+    from foldprint.assign import order_risk
+    from foldprint.robust import default_scatter
+
+    sc = default_scatter()
+    assert order_risk(helix, lib, ["H-3"] * 9, 90.0, sc) == pytest.approx(18.0)
+    from dataclasses import replace
+
+    two = replace(helix, hinges=helix.hinges[:2], panels=helix.panels[:3])
+    p_model = order_risk(two, lib, ["H-3", "H-4"], 90.0, sc)
+    rng = np.random.default_rng(3)
+    n, swaps = 40, 0
+    for _ in range(n):
+        t50 = []
+        for name in ("H-3", "H-4"):
+            m = lib[name]
+            rec = replace(m.recovery, h_w_m2k=m.recovery.h_w_m2k * math.exp(sc.h_sigma_ln * rng.standard_normal()))
+            m = replace(m, tg_c=m.tg_c + sc.tg_sd_c * rng.standard_normal(), recovery=rec)
+            t50.append(recovery_curve(m, 90.0, 0.8 + sc.thickness_sd_mm * rng.standard_normal(), 10.0).time_to(0.5))
+        swaps += t50[1] < t50[0]
+    assert 0.0 < p_model < 0.5
+    # binomial sd at n = 40 is <= 0.08; the linearisation adds a little
+    assert abs(swaps / n - p_model) < 0.2, (swaps / n, p_model)
