@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .design import Design
+from .design import Design, has_loops, tangent_factor
 from .constants import tol
 from .errors import DesignError
 from .materials import MaterialLibrary
@@ -200,19 +200,31 @@ def rule_min_gap(ctx: CheckContext) -> list[Finding]:
 
 
 def rule_hinge_strain(ctx: CheckContext) -> list[Finding]:
-    """Bending strain when a hinge of thickness t and radius R is programmed flat:
-    eps = t / (2 R) at its outer fibres."""
+    """Strain when a hinge is programmed flat: bending, eps = t / (2 r) at its outer fibres
+    (r = R for a tree's arc hinge). A hinge of a pattern with loops turns about its fold
+    line, so it is printed as the arc tangent to both panels: radius r = R f and length
+    w f with f = (rho/2)/tan(rho/2) (``docs/loops.md``); flattening also stretches it by
+    1/f - 1, added to the bending strain."""
     out = []
+    centred = has_loops(ctx.design)
     for h in ctx.design.hinges:
         mat = ctx.library[h.material]
-        eps = h.thickness / (2 * h.radius)
+        f = float(tangent_factor(h.angle)) if centred else 1.0
+        r = h.radius * f
+        bend, stretch = h.thickness / (2 * r), 1.0 / f - 1.0
+        eps = bend + stretch
+        how = (f"t = {h.thickness:g} mm, R = {h.radius:g} mm" if not centred else
+               f"bending {bend:.0%} at the printed radius {r:.2f} mm + stretching {stretch:.0%}: "
+               f"a loop hinge is printed {1 - f:.0%} shorter than flat")
+        fix = (f"increase the radius to at least {h.thickness / (2 * mat.max_strain):.2f} mm" if not centred else
+               "use a smaller fold angle (the stretch depends on the angle alone) or a larger radius")
         if eps > mat.max_strain:
             out.append(_f("FP130", "error", f"hinge {h.id!r}: programming strain {eps:.0%} exceeds {mat.name}'s "
-                          f"limit {mat.max_strain:.0%} (t = {h.thickness:g} mm, R = {h.radius:g} mm)",
-                          f"increase the radius to at least {h.thickness / (2 * mat.max_strain):.2f} mm", hinge=h.id))
+                          f"limit {mat.max_strain:.0%} ({how})", fix, hinge=h.id))
         elif eps > 0.8 * mat.max_strain:
             out.append(_f("FP131", "warning", f"hinge {h.id!r}: programming strain {eps:.0%} is within 20 % of "
-                          f"{mat.name}'s limit {mat.max_strain:.0%}", "increase the bend radius", hinge=h.id))
+                          f"{mat.name}'s limit {mat.max_strain:.0%} ({how})",
+                          "increase the bend radius" if not centred else fix, hinge=h.id))
         if 2 * h.radius <= h.thickness and abs(h.angle) > math.radians(150):
             out.append(_f("FP132", "error", f"hinge {h.id!r}: radius {h.radius:g} mm is too tight for a "
                           f"{math.degrees(abs(h.angle)):.0f} deg fold of {h.thickness:g} mm: its faces would meet",

@@ -348,6 +348,16 @@ def tree_order(design: Design) -> list[tuple[Hinge, str, str]]:
     return spanning_tree(design)[0]
 
 
+def tangent_factor(angle) -> np.ndarray:
+    """(rho/2) / tan(rho/2): the arc length, as a share of the flat width w, of the circular
+    arc tangent to two panels that turn by rho about the fold line, each set back w/2
+    from it (1 at rho = 0, even in rho)."""
+    a = 0.5 * np.abs(np.asarray(angle, float))
+    small = a < 1e-6
+    safe = np.where(small, 1.0, a)
+    return np.where(small, 1.0 - a**2 / 3.0, safe / np.tan(np.minimum(safe, np.pi / 2 - 1e-12)))
+
+
 def has_loops(design: Design) -> bool:
     """True when the hinge graph has cycles (more hinges than panels - 1)."""
     return len(design.hinges) > len(design.panels) - 1

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .design import Design, Hinge, has_loops, spanning_tree
+from .design import Design, Hinge, has_loops, spanning_tree, tangent_factor
 from .errors import DesignError
 from .loops import LoopSolution, LoopSolver
 from .materials import MaterialLibrary, default_library
@@ -50,6 +50,9 @@ class HingeFrame:
     normal: np.ndarray
     width: float
     tree: bool = True  # False: the hinge closes a loop; forward kinematics skips it
+    #: the child turns about the fold line itself (hinge graphs with loops): the arc strip
+    #: is the circular arc tangent to both panels (see :func:`hinge_map`)
+    centred: bool = False
 
 
 def hinge_frames(design: Design) -> list[HingeFrame]:
@@ -71,7 +74,7 @@ def hinge_frames(design: Design) -> list[HingeFrame]:
         axis = np.cross(n, [0.0, 0.0, 1.0])
         frames.append(HingeFrame(h, hidx[h.id], pidx[parent], pidx[child],
                                  np.array([mid[0], mid[1], 0.0]), axis, n, h.width,
-                                 len(frames) < len(tree)))
+                                 len(frames) < len(tree), bool(loops)))
     return frames
 
 
@@ -107,6 +110,13 @@ def hinge_map(frame: HingeFrame, angle, model: HingeModel | str = "arc", fractio
     is the parent's edge of the strip. ``point``: a rotation about the fold line (every
     fraction is the fold line). Geometry (``foldprint.geometry``) and rendering build on
     this map, so the printed part and the simulated part move identically.
+
+    ``arc`` on a ``centred`` frame (hinge graphs with loops, ``docs/loops.md``): the child
+    turns about the fold line, as for ``point``, so the rigid-origami closure of the
+    loops holds for the printed panels too; the strip is the circular arc tangent to both
+    panels, of length w (rho/2)/tan(rho/2) (:func:`tangent_factor`) and radius
+    R (rho/2)/tan(rho/2) at the target angle: it is printed shorter than its flat width and
+    programming stretches it (``checks`` FP130 counts that strain).
     """
     angle, fraction = np.broadcast_arrays(np.atleast_1d(np.asarray(angle, float)),
                                           np.atleast_1d(np.asarray(fraction, float)))
@@ -128,8 +138,9 @@ def hinge_map(frame: HingeFrame, angle, model: HingeModel | str = "arc", fractio
     out[:, :3, :3] = rot
     start = q - 0.5 * w * frame.normal
     u = w * fraction
+    arc = u * tangent_factor(angle) if frame.centred else u  # arc length to the line at u
     s, c = _sinc_terms(phi)
-    tip = start[None] + (u * s)[:, None] * frame.normal[None] + (u * c)[:, None] * _EZ[None]
+    tip = start[None] + (arc * s)[:, None] * frame.normal[None] + (arc * c)[:, None] * _EZ[None]
     line = start[None] + u[:, None] * frame.normal[None]
     out[:, :3, 3] = tip - np.einsum("nij,nj->ni", rot, line)
     return out
@@ -315,8 +326,9 @@ def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = "arc",
                 poses: np.ndarray | None = None) -> float:
     """Largest distance (mm, over the times of ``angles`` (n_t, n_hinges)) between where a
     loop hinge's child-side edge lands through that hinge and where the spanning tree puts
-    the child: 0 for a tree; for loops of arc hinges the positional misfit that the
-    printed strips would have to absorb (docs/loops.md)."""
+    the child: 0 for a tree; for loops, the misfit of angles that do not close the loops
+    (loop hinges turn about their fold lines, ``HingeFrame.centred``, so closed angles
+    give round-off; docs/loops.md)."""
     angles = np.atleast_2d(np.asarray(angles, float))
     poses = forward(design, angles, model) if poses is None else poses
     gap = 0.0

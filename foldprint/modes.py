@@ -17,7 +17,9 @@ class HingeModel(str, Enum):
     """How the ROM moves a child panel about its hinge.
 
     ``ARC``: the printed hinge, a strip of flat width w = R |rho| bending with uniform
-    curvature (panels translate as they rotate): the model of record. ``POINT``: the
+    curvature (panels translate as they rotate; in a pattern with loops the child turns
+    about the fold line and the strip is the tangent arc, docs/loops.md): the model of
+    record. ``POINT``: the
     paper's Eq. 2-4, a hinge of zero size (Mao et al. 2015): for comparison."""
 
     ARC = "arc"

@@ -68,7 +68,7 @@ def first_extrusion_z(gcode: str) -> dict[int, float]:
 @pytest.mark.parametrize("state", ["permanent", "programmed"])
 @pytest.mark.parametrize("stem", IDS)
 def test_prusaslicer_prints_every_body_at_its_height(tmp_path, stem, state):
-    from test_geometry import KNOWN_UNPRINTABLE  # loop patterns cannot close arc hinges folded
+    from test_geometry import KNOWN_UNPRINTABLE  # templates whose folded state cannot be built
 
     if state == "permanent" and stem in KNOWN_UNPRINTABLE:
         pytest.skip(f"{stem} does not build folded: {KNOWN_UNPRINTABLE[stem]} (docs/loops.md)")

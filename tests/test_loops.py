@@ -16,6 +16,7 @@ from foldprint.design import strip
 from foldprint.errors import DesignError
 from foldprint.fold_format import design_from_fold
 from foldprint.kinematics import HingeDrive, simulate_kinematics
+from foldprint.materials import default_library
 
 DURATION = 3.0  # s: the default H-3 creases finish folding by ~2 s at 90 C
 
@@ -267,17 +268,72 @@ def test_miura_template_folds_without_collision_and_lock_template_jams(capsys):
     assert code == 1 and not r["completed"] and r["loops"]["not_followed"]
 
 
-def test_miura_permanent_state_refused_with_the_misfit(capsys):
-    assert main(["export", "miura_3x3", "--out", "/nonexistent/never"]) == 2
+def test_targets_off_the_folding_path_are_refused_with_the_misfit(capsys):
+    """cross_lock_uniform drives all four creases of a flat vertex to 90 deg: no rigid
+    configuration has those angles, so its folded state cannot be built."""
+    assert main(["export", "cross_lock_uniform", "--out", "/nonexistent/never"]) == 2
     err = capsys.readouterr().err
-    assert "misfit" in err and "--state programmed" in err
+    assert "do not close the loops" in err and "misfit" in err and "Traceback" not in err
+
+
+def test_loop_hinge_turns_about_its_fold_line_and_prints_the_tangent_arc():
+    """A hinge of a pattern with loops (HingeFrame.centred): the child's pose equals the
+    point-hinge rotation about the fold line, and the strip is the circular arc tangent to
+    both panels (set back w/2 from the fold line): its line at u lies at the distance
+    r = w f / |rho| from the arc's centre, f = (rho/2)/tan(rho/2), and turns by rho u / w."""
+    from foldprint.kinematics import hinge_frames, hinge_map
+    from foldprint.load import load_design
+    from foldprint.templates import templates_dir
+
+    d = load_design(templates_dir() / "miura_3x3.toml")
+    for f in hinge_frames(d):
+        assert f.centred
+        for rho in (0.2, -0.9, 1.7):
+            child = hinge_map(f, rho, "arc", 1.0)[0]
+            assert np.allclose(child, hinge_map(f, rho, "point", 1.0)[0], atol=1e-12)
+            fr = 0.5 * abs(rho) / math.tan(0.5 * abs(rho))
+            w = f.width
+            r = w * fr / abs(rho)  # = R f at the target angle, where w = R |rho|
+            start = f.origin - 0.5 * w * f.normal  # the parent's edge of the strip
+            centre = start + np.sign(rho) * r * np.array([0.0, 0.0, 1.0])
+            for s in (0.25, 0.5, 1.0):
+                t = hinge_map(f, rho, "arc", s)[0]
+                p = t[:3, :3] @ (start + s * w * f.normal) + t[:3, 3]
+                assert abs(np.linalg.norm(p - centre) - r) < 1e-9
+                # the tangent turns with the line: the strip's direction is rotated by rho s
+                tangent = t[:3, :3] @ f.normal
+                assert abs(np.dot(tangent, f.normal) - math.cos(rho * s)) < 1e-9
+        break
+
+
+def test_loop_hinge_strain_adds_the_stretch_of_the_tangent_arc():
+    """FP130/131 for a loop hinge: bending t / (2 R f) plus stretching 1/f - 1. The
+    Miura template (60 deg, R 5 mm, t 0.8 mm) sits at 19 %, under the 20 % warning; the
+    same patch at 110 deg and R 2.5 mm (the first template) is an error at 73 %."""
+    from foldprint.checks import rule_hinge_strain
+    from foldprint.load import load_design
+    from foldprint.templates import templates_dir
+
+    class Ctx:
+        library = default_library()
+
+    ctx = Ctx()
+    ctx.design = load_design(templates_dir() / "miura_3x3.toml")
+    assert rule_hinge_strain(ctx) == []
+    f = 0.5 * math.radians(60) / math.tan(0.5 * math.radians(60))
+    assert abs((1 / f - 1) + 0.8 / (2 * 5.0 * f) - 0.1913) < 5e-4  # the header's 19 %
+    ctx.design = design_from_fold(cp.miura(3, 3, width=24, height=20, shift=8, zigzag_deg=110),
+                                  default_radius_mm=2.5, crease_materials={"M": "H-2", "V": "H-2"})
+    found = rule_hinge_strain(ctx)
+    zig = [x for x in found if x.code == "FP130" and "73%" in x.message]
+    assert len(zig) == 6 and "stretching 49%" in zig[0].message
 
 
 def test_miura_template_exports_and_prusaslicer_slices(tmp_path, capsys):
     import shutil
     import subprocess
 
-    code = main(["export", "miura_3x3", "--state", "programmed", "--out", str(tmp_path), "--json",
+    code = main(["export", "miura_3x3", "--out", str(tmp_path), "--json",  # folded: the printed state
                  "--format", "3mf,prusa3mf,stl"])
     rec = json.loads(capsys.readouterr().out)
     assert code == 0
@@ -285,7 +341,7 @@ def test_miura_template_exports_and_prusaslicer_slices(tmp_path, capsys):
     from foldprint.load import load_design
     from foldprint.templates import templates_dir
 
-    asm = build_assembly(load_design(templates_dir() / "miura_3x3.toml"), "programmed")
+    asm = build_assembly(load_design(templates_dir() / "miura_3x3.toml"), "permanent")
     import manifold3d as mf
 
     bodies = [b.to_manifold() for b in asm.bodies]
@@ -309,3 +365,25 @@ def test_miura_template_exports_and_prusaslicer_slices(tmp_path, capsys):
                           "--output", str(gcode), p3mf], capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     assert ";LAYER_CHANGE" in gcode.read_text()
+
+
+def test_a_small_programming_bias_selects_the_miura_branch():
+    """The flat sheet is a bifurcation point: from a perfectly flat start (fixity 1) a
+    scattered drive sends the tracker down a branch where creases fold against their
+    targets; the template's 99 % programming (fixity 0.99) keeps every crease on the
+    side of its target for the same draws (docs/loops.md, branch selection)."""
+    from dataclasses import replace
+
+    from foldprint.load import load_design
+    from foldprint.robust import default_scatter, draw_samples, sample_drive
+    from foldprint.templates import templates_dir
+
+    d = load_design(templates_dir() / "miura_3x3.toml")
+    assert all(h.fixity == 0.99 for h in d.hinges)
+    sign = np.sign([h.angle for h in d.hinges])
+    flat = replace(d, hinges=tuple(replace(h, fixity=1.0) for h in d.hinges))
+    for design, wrong_expected in ((flat, True), (d, False)):
+        drawn = draw_samples(design, default_scatter(), 2, 0)
+        wrong = [bool((simulate_kinematics(design, drive=sample_drive(design, default_library(), s),
+                                           duration=2.0, dt=0.05).angles * sign < -1e-6).any()) for s in drawn]
+        assert any(wrong) == wrong_expected, wrong

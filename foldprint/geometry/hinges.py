@@ -10,12 +10,14 @@ import numpy as np
 
 from ..design import Design, Hinge, has_loops
 from ..errors import GeometryError
-from ..kinematics import HingeFrame, hinge_map, loop_gap_mm
+from ..kinematics import HingeFrame, hinge_map, loop_gap_mm, tangent_factor
 from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, _checked, _from_arrays, apply_pose)
 
 # -- kinematics of the printed states ----------------------------------------------------
 
-#: largest loop misfit (mm) a folded (permanent) build of a loop pattern may have
+#: largest loop misfit (mm) a folded (permanent) build of a loop pattern may have: loop
+#: hinges turn about their fold lines (``HingeFrame.centred``), so targets on the
+#: pattern's folding path close to round-off and anything larger is a wrong target
 LOOP_GAP_TOL_MM = 0.01
 
 
@@ -30,10 +32,10 @@ def state_angles(design: Design, state: str) -> np.ndarray:
         gap = loop_gap_mm(design, angles, "arc")
         if gap > LOOP_GAP_TOL_MM:
             raise GeometryError(
-                f"{design.name}: the hinge graph has loops and its arc hinges (flat width R*|angle|) cannot "
-                f"close them in the folded state: a {gap:.2f} mm misfit at a loop hinge, so panels would overlap "
-                "or gap (docs/loops.md); "
-                "print the flat state with --state programmed, or use smaller hinge radii")
+                f"{design.name}: the target angles do not close the loops of the hinge graph (rigid origami): "
+                f"a {gap:.2f} mm misfit at a loop hinge in the folded state, so panels would overlap or gap; "
+                "choose targets on the pattern's folding path (foldprint simulate reports the closed angles, "
+                "hinges[].final_angle_deg; docs/loops.md); --state programmed builds the flat (programmed) shape")
     return angles
 
 
@@ -176,7 +178,10 @@ def strip_solids(hinge: Hinge, frame: HingeFrame, d: np.ndarray, p0: np.ndarray,
     du = np.diff(u)
     dphi = np.abs(rho) * du / w
     sinc = np.where(dphi > 0, np.sin(dphi) / np.where(dphi > 0, dphi, 1.0), 1.0)
-    area = float(np.sum(thick * du * sinc))
+    # centred (loop) hinges: the printed arc is shorter than the flat strip
+    shrink = float(tangent_factor(rho)) if frame.centred else 1.0
+    area = float(np.sum(thick * du * shrink * sinc))
+    radius = hinge.radius * shrink
     out = []
     for v0, v1 in segments:
         vv = np.concatenate([np.full(n_p, v0), np.full(n_p, v1)])
@@ -186,7 +191,7 @@ def strip_solids(hinge: Hinge, frame: HingeFrame, d: np.ndarray, p0: np.ndarray,
             world[sel] = apply_pose(pose, flat[sel])
         what = f"hinge {hinge.id!r} strip [{v0:.3f}, {v1:.3f}] mm"
         solid = _from_arrays(world, faces, what)
-        out.append(_checked(solid, what + f" (bend radius {hinge.radius:g} mm must exceed half the "
+        out.append(_checked(solid, what + f" (bend radius {radius:.3g} mm must exceed half the "
                             f"hinge thickness {hinge.thickness / 2:g} mm)", (v1 - v0) * area))
     return out
 
