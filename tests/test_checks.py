@@ -1,7 +1,6 @@
 """Design-rule checks: each rule on a crafted design, and the templates' verdicts."""
 
 import json
-from dataclasses import replace
 from pathlib import Path
 
 import pytest

@@ -22,7 +22,6 @@ import tomllib
 import traceback
 from pathlib import Path
 
-import pytest
 import tomli_w
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
