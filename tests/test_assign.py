@@ -207,7 +207,7 @@ def test_order_risk_matches_sampled_recovery_times(helix, lib):
 
     import numpy as np
 
-    from foldprint.assign import order_risk
+    from foldprint.timing import order_risk
     from foldprint.robust import default_scatter
 
     sc = default_scatter()
