@@ -6,7 +6,6 @@ Machine output (``--json``) goes to stdout; human messages to stderr.
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
@@ -17,65 +16,22 @@ from typer import echo
 
 from . import __version__
 from .errors import FoldprintError
+from .cli_support import (
+    ExitCode, _CLICK_ERRORS, _CREASE, _SCALE, _STATE, _echo_json, _err, _expand_multi, _finite,
+    _fraction, _load, _mapper, _mode, _note, _number, _print_simulation, _printer,
+    _samples_progress, _verdict, _with_progress)
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                   help="foldprint: design, simulate, check and export sequentially self-folding "
                        "structures printed with digital shape-memory polymers.")
 
-#: Options that take several values after one flag (``--temperature 80 90 100``).
-_MULTI = {"--temperature"}
 
-
-def _click_exceptions() -> tuple[type, ...]:
-    """ClickException classes: typer >= 0.20 vendors its own click."""
-    found: list[type] = []
-    for mod in ("typer._click.exceptions", "click.exceptions"):
-        try:
-            found.append(__import__(mod, fromlist=["ClickException"]).ClickException)
-        except ImportError:
-            pass
-    return tuple(found)
-
-
-_CLICK_ERRORS = _click_exceptions()
-
-
-class ExitCode(Exception):
-    def __init__(self, code: int):
-        self.code = code
-
-
-def _err(msg: str) -> None:
-    echo(f"foldprint: error: {msg}", err=True)
-
-
-def _echo_json(obj) -> None:
-    echo(json.dumps(obj, indent=2, allow_nan=False))
-
-
-def _number(text: str, what: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise FoldprintError(f"{what} must be a number, got {text!r}") from None
-    if not math.isfinite(v):
-        raise FoldprintError(f"{what} must be a finite number, got {text!r}")
-    return v
 
 
 def _version(value: bool):
     if value:
         echo(f"foldprint {__version__}")
         raise typer.Exit(0)
-
-
-_STATE = {"quiet": False, "verbose": False}
-
-
-def _note(msg: str) -> None:
-    """A human message on stderr (silenced by --quiet)."""
-    if not _STATE["quiet"]:
-        echo(msg, err=True)
 
 
 @app.callback()
@@ -166,56 +122,6 @@ def templates(json_out: bool = typer.Option(False, "--json", help="Print one JSO
         echo(f"{t['name']:<{width}}  {t['description']}")
 
 
-def _load(design: str, materials_file=None, scale=None, crease_materials=None):
-    from .load import load_design
-    from .materials import load_library
-    from .templates import resolve_design_path
-
-    lib = load_library(materials_file or None)
-    if scale is not None and not (math.isfinite(scale) and scale > 0):
-        raise FoldprintError(f"--scale must be a number > 0 (mm per file unit), got {scale}")
-    return load_design(resolve_design_path(design), lib, scale=scale, crease_materials=crease_materials), lib
-
-
-_SCALE = "FOLD/SVG crease patterns: mm per file unit (needed when frame_unit is 'unit' or missing)."
-_CREASE = "FOLD/SVG crease patterns: hinge materials by assignment, e.g. 'M=H-2,V=H-5'."
-
-
-def _mode(enum, value: str, option: str):
-    from .modes import parse
-
-    try:
-        return parse(enum, value, option)
-    except FoldprintError:
-        raise FoldprintError(f"{option} must be one of {', '.join(m.value for m in enum)}, got {value!r}") from None
-
-
-def _finite(**values) -> None:
-    for name, v in values.items():
-        if v is not None and not math.isfinite(v):
-            raise FoldprintError(f"--{name.replace('_', '-')} must be a finite number, got {v}")
-
-
-def _samples_progress(label: str):
-    """A context manager giving a ``progress(done, total)`` callback: a bar on stderr when
-    it is a terminal and not --quiet, else nothing."""
-    import contextlib
-
-    if _STATE["quiet"] or not sys.stderr.isatty():
-        return contextlib.nullcontext(None)
-
-    @contextlib.contextmanager
-    def bar():
-        from rich.console import Console
-        from rich.progress import Progress
-
-        with Progress(transient=True, console=Console(stderr=True)) as p:
-            task = p.add_task(label, total=None)
-            yield lambda done, total: p.update(task, completed=done, total=total)
-
-    return bar()
-
-
 @app.command()
 def simulate(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
@@ -272,50 +178,6 @@ def simulate(
     else:
         _print_simulation(report)
     raise ExitCode(0 if res.completed else 1)
-
-
-def _verdict(r: dict) -> str:
-    if r["completed"]:
-        return "completes"
-    c = r["first_collision"]
-    return "does NOT complete" + (f" ({c['panels'][0]}-{c['panels'][1]} at {c['time_s']:.3f} s)" if c else "")
-
-
-def _print_simulation(r: dict) -> None:
-    echo(f"{r['design']} at {r['temperature_c']:g} C ({r['hinge_model']} hinges, {r['method']}): {_verdict(r)}")
-    if r["fold_time_s"] is not None:
-        echo(f"  folded in {r['fold_time_s']:.2f} s")
-    for c in r["contacts"]:
-        echo(f"  contact {c['panels'][0]}-{c['panels'][1]} at {c['time_s']:.3f} s ({c['method']})")
-    for h in r["hinges"]:
-        ft = "does not fold" if h["fold_time_s"] is None else f"{h['fold_time_s']:.2f} s"
-        extra = f", arrested at {h['arrested_at_s']:.3f} s, {h['angle_error_deg']:.1f} deg short" \
-            if h["arrested_at_s"] is not None else ""
-        echo(f"  {h['id']:<6} {h['material']:<6} {ft}{extra}")
-    for g in r["goals"]:
-        state = f"met at {g['time_s']:.2f} s" if g["met"] else "NOT met"
-        echo(f"  goal {g['id']}: {g['panel']} through hole {g['hole']} of {g['target']}: {state}")
-    if r.get("comparison"):
-        c = r["comparison"]
-        echo(f"  note: the {c['hinge_model']} hinge model disagrees: it {_verdict(c)} "
-             "(docs/simulation.md explains the two models)")
-
-
-def _printer(printer, printers_file):
-    from .checks import default_printer_key, load_printers
-
-    printers = load_printers(printers_file)
-    key = printer or default_printer_key()
-    if key not in printers:
-        raise FoldprintError(f"--printer {key!r} is unknown; profiles: {', '.join(printers)} "
-                             "(add your own with --printers FILE)")
-    return key, printers[key]
-
-
-def _fraction(value: float, option: str) -> float:
-    if not (math.isfinite(value) and 0.0 <= value <= 1.0):
-        raise FoldprintError(f"{option} must be a probability between 0 and 1, got {value}")
-    return value
 
 
 @app.command()
@@ -428,17 +290,6 @@ def robust(
             echo(f"  fold time of the samples that completed: {ft['p5']:.2f} / {ft['p50']:.2f} / "
                  f"{ft['p95']:.2f} s (5th / 50th / 95th percentile)")
         echo(f"  nominal: {_verdict(out['nominal'])}")
-
-
-def _mapper(scheduler: str | None):
-    """A context giving the mapper of ``--scheduler`` (a Dask cluster), or None (local cores)."""
-    import contextlib
-
-    if scheduler is None:
-        return contextlib.nullcontext(None)
-    from .distributed import cluster_mapper
-
-    return cluster_mapper(scheduler)
 
 
 @app.command()
@@ -582,16 +433,6 @@ def export(
             echo(f"{r['path']}  ({r['format']}, {len(r['bodies'])} bodies, {vol:.1f} mm3)")
 
 
-def _with_progress(label: str, fn):
-    """Run ``fn`` with a spinner on stderr when stderr is a terminal and not --quiet."""
-    if _STATE["quiet"] or not sys.stderr.isatty():
-        return fn()
-    from rich.console import Console
-
-    with Console(stderr=True).status(label):
-        return fn()
-
-
 @app.command()
 def gallery(
     designs: Optional[List[str]] = typer.Argument(None, help="Designs or template names (default: every template)."),
@@ -632,33 +473,6 @@ def gallery(
             index = build_gallery(loaded, out, library=lib, jobs=jobs, progress=lambda done, total, msg: bar.update(
                 task, completed=done, total=total, description=msg))
     _note(f"wrote {index}")
-
-
-def _expand_multi(argv: list[str]) -> list[str]:
-    """``--temperature 80 90`` -> ``--temperature 80 --temperature 90``."""
-    out: list[str] = []
-    i = 0
-    while i < len(argv):
-        tok = argv[i]
-        out.append(tok)
-        i += 1
-        if tok in _MULTI:
-            first = True
-            while i < len(argv) and (first or not argv[i].startswith("-") or _is_number(argv[i])):
-                if not first:
-                    out.append(tok)
-                out.append(argv[i])
-                first = False
-                i += 1
-    return out
-
-
-def _is_number(s: str) -> bool:
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -23,7 +23,7 @@ LAYERS = [
     {"exchange", "render", "render3d", "render_scene", "render_anim", "viewer", "animation"},
     {"pipeline"},
     {"gallery", "assign", "distributed"},
-    {"cli", "__main__"},
+    {"cli", "cli_support", "__main__"},
 ]
 TOP = {"__init__"}  # the package facade re-exports; it may import anything below cli
 
