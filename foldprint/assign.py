@@ -515,9 +515,7 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     # margin: in screening order (spread mappings first); robust picks its own finalists
     finalists = unique[:n_confirm] if objective != "robust" else []
     confirmed = ledger.run([task(mt, t, {}, clearance=200, confirm=True) for _p, t, mt, _v in finalists])
-    good = [Choice(tuple(mt), t, v.fold_time, None if v.clearance_mm is None or math.isinf(v.clearance_mm)
-                   else v.clearance_mm, tuple(tuple(sorted(w)) for w in p))
-            for (p, t, mt, _v), v in zip(finalists, confirmed) if v is not None and v.completed]
+    good = [_choice(p, t, mt, v) for (p, t, mt, _v), v in zip(finalists, confirmed) if v is not None and v.completed]
     if objective == "time":
         good.sort(key=lambda c: (c.fold_time, -(c.clearance_mm or 0), c.materials))
     else:
@@ -530,6 +528,12 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
             scatter=scatter or default_scatter(), method=method, dt=dt, duration=duration, mapper=mapper,
             progress=progress)
     return result(good[:top], len(unique), len(patterns), confirmed=n_confirmed, robust_sims=n_robust)
+
+
+def _choice(pattern, bath_c: float, materials, v: Verdict) -> Choice:
+    """A confirmed assignment as reported (an unbounded clearance reads as None)."""
+    clear = None if v.clearance_mm is None or math.isinf(v.clearance_mm) else v.clearance_mm
+    return Choice(tuple(materials), bath_c, v.fold_time, clear, tuple(tuple(sorted(w)) for w in pattern))
 
 
 def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, scatter, method, dt, duration,
@@ -548,7 +552,7 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
         _p, t, mt, _v = unique[i]
         for smp in draw_samples(with_materials(design, mt, t), scatter, n_s, seed):
             tasks.append(Task(design, lib, mt, t, method, dt, duration, 0, smp))
-    verdicts = mapper(run_task, tasks, progress and (lambda done, n: progress(done, n)))
+    verdicts = mapper(run_task, tasks, progress)
     jams = {i: sum(not v.completed for v in verdicts[j * n_s:(j + 1) * n_s]) for j, i in enumerate(order)}
     ranked = sorted(order, key=lambda i: (jams[i], risk[i], i))
     n_robust = len(tasks)
@@ -559,9 +563,7 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
         if v is None or not v.completed or len(good) == top + 2:
             continue
         p, t, mt, _v = unique[i]
-        good.append(Choice(tuple(mt), t, v.fold_time,
-                           None if v.clearance_mm is None or math.isinf(v.clearance_mm) else v.clearance_mm,
-                           tuple(tuple(sorted(w)) for w in p)))
+        good.append(_choice(p, t, mt, v))
     out = []
     for c in good:
         r = jam_probability(with_materials(design, c.materials, c.bath_c), samples, seed, scatter=scatter,

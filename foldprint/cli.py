@@ -376,9 +376,9 @@ def assign(
         for b in out["blocking"][:5]:
             what = f"{b['pair'][0]}-{b['pair'][1]} collide" if "pair" in b else f"goal {b['goal']} unmet"
             echo(f"  blocking: {what} in {b['count']} evaluation(s)")
-    best_jam = r.best[0].jam_probability if r.best else None
-    if best_jam is not None and best_jam > Thresholds().warning and temperature_range is None:
-        _note(f"the best jam probability {best_jam:.0%} is above {Thresholds().warning:.0%}: a cooler bath "
+    best_jam, warn = (r.best[0].jam_probability if r.best else None), Thresholds().warning
+    if best_jam is not None and best_jam > warn and temperature_range is None:
+        _note(f"the best jam probability {best_jam:.0%} is above {warn:.0%}: a cooler bath "
               "spreads the materials' fold times, try --temperature-range 75 90 (docs/assign.md)")
     if not r.best:
         top_block = out["blocking"][0] if out["blocking"] else None

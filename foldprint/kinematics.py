@@ -62,6 +62,7 @@ def hinge_frames(design: Design) -> list[HingeFrame]:
     hidx = {h.id: i for i, h in enumerate(design.hinges)}
     frames = []
     tree, loops = spanning_tree(design)
+    centred = has_loops(design)  # the same test the strain check (FP130) uses
     for h, parent, child in [(h, a, b) for h, a, b in tree] + [(h, a, b) for h, a, b in loops]:
         a, b = h.line
         d = np.array([b[0] - a[0], b[1] - a[1], 0.0])
@@ -74,7 +75,7 @@ def hinge_frames(design: Design) -> list[HingeFrame]:
         axis = np.cross(n, [0.0, 0.0, 1.0])
         frames.append(HingeFrame(h, hidx[h.id], pidx[parent], pidx[child],
                                  np.array([mid[0], mid[1], 0.0]), axis, n, h.width,
-                                 len(frames) < len(tree), bool(loops)))
+                                 len(frames) < len(tree), centred))
     return frames
 
 

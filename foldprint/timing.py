@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
 
 from .design import Design
-from .materials import MaterialLibrary
+from .materials import Material, MaterialLibrary
 from .recovery import recovery_curve
 from .robust import Scatter
 
@@ -23,28 +24,22 @@ def _log_times(material, bath_c: float, thickness: float, fix_c: float) -> np.nd
     return np.array([math.log(x) if x else math.inf for x in (c.time_to(0.5), c.time_to(0.98))])
 
 
-_SENSITIVITY: dict = {}
-
-
-def _time_spread(lib: MaterialLibrary, name: str, bath_c: float, thickness: float, fix_c: float,
+@lru_cache(maxsize=256)
+def _time_spread(m: Material, bath_c: float, thickness: float, fix_c: float,
                  scatter: Scatter) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """ln t50 and ln t98 of a hinge of material ``name`` and, by finite differences, their
+    """ln t50 and ln t98 of a hinge of material ``m`` and, by finite differences, their
     per-hinge variances under the scatter model (Tg, thickness, heat transfer) and their
     slopes in the bath temperature (a shift every hinge shares), per bath sd."""
-    key = (name, bath_c, thickness, fix_c, scatter)
-    if key not in _SENSITIVITY:
-        m = lib[name]
-        base = _log_times(m, bath_c, thickness, fix_c)
-        with np.errstate(invalid="ignore"):
-            d_tg = (_log_times(replace(m, tg_c=m.tg_c + 0.5), bath_c, thickness, fix_c) - base) / 0.5
-            d_th = (_log_times(m, bath_c, thickness + 0.02, fix_c) - base) / 0.02
-            rec = replace(m.recovery, h_w_m2k=m.recovery.h_w_m2k * math.exp(0.1))
-            d_h = (_log_times(replace(m, recovery=rec), bath_c, thickness, fix_c) - base) / 0.1
-            d_b = (_log_times(m, bath_c + 0.5, thickness, fix_c) - base) / 0.5
-        var = ((d_tg * scatter.tg_sd_c) ** 2 + (d_th * scatter.thickness_sd_mm) ** 2
-               + (d_h * scatter.h_sigma_ln) ** 2)
-        _SENSITIVITY[key] = (base, np.nan_to_num(var), np.nan_to_num(d_b * scatter.bath_sd_c))
-    return _SENSITIVITY[key]
+    base = _log_times(m, bath_c, thickness, fix_c)
+    with np.errstate(invalid="ignore"):
+        d_tg = (_log_times(replace(m, tg_c=m.tg_c + 0.5), bath_c, thickness, fix_c) - base) / 0.5
+        d_th = (_log_times(m, bath_c, thickness + 0.02, fix_c) - base) / 0.02
+        rec = replace(m.recovery, h_w_m2k=m.recovery.h_w_m2k * math.exp(0.1))
+        d_h = (_log_times(replace(m, recovery=rec), bath_c, thickness, fix_c) - base) / 0.1
+        d_b = (_log_times(m, bath_c + 0.5, thickness, fix_c) - base) / 0.5
+    var = ((d_tg * scatter.tg_sd_c) ** 2 + (d_th * scatter.thickness_sd_mm) ** 2
+           + (d_h * scatter.h_sigma_ln) ** 2)
+    return base, np.nan_to_num(var), np.nan_to_num(d_b * scatter.bath_sd_c)
 
 
 def _phi_upper(z: float) -> float:
@@ -62,7 +57,7 @@ def order_risk(design: Design, lib: MaterialLibrary, materials: Sequence[str], b
     run. Lower is more robust."""
     fix_c = design.process.fix_temperature_c
     thick = min(h.thickness for h in design.hinges)
-    spread = [_time_spread(lib, m, bath_c, thick, fix_c, scatter) for m in materials]
+    spread = [_time_spread(lib[m], float(bath_c), thick, fix_c, scatter) for m in materials]
     n = len(spread)
     pairs = n * (n - 1) / 2
     log_dur = math.log(float(design.process.duration_s))

@@ -8,9 +8,9 @@ import math
 import manifold3d as mf
 import numpy as np
 
-from ..design import Design, Hinge, has_loops
+from ..design import Design, Hinge, has_loops, tangent_factor
 from ..errors import GeometryError
-from ..kinematics import HingeFrame, hinge_map, loop_gap_mm, tangent_factor
+from ..kinematics import HingeFrame, hinge_map, loop_gap_mm
 from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, _checked, _from_arrays, apply_pose)
 
 # -- kinematics of the printed states ----------------------------------------------------
