@@ -105,7 +105,10 @@ def test_records_and_file_names(exported, stem):
         assert r["format"] in FORMATS + ("manifest",)
         assert all(set(b) == {"material", "extruder", "files", "volume_mm3", "z_range_mm", "needs_support"}
                    for b in r["bodies"])
-    assert sorted(p.name for p in d.iterdir()) == names  # nothing else (no temp files)
+    assert sorted(p.name for p in d.iterdir() if not p.name.startswith(".")) == names
+    assert sorted(p.name for p in d.iterdir() if p.name.startswith(".")) == [".foldprint-current",
+                                                                            ".foldprint-sets"]
+    assert len(list((d / ".foldprint-sets").iterdir())) == 1  # one set, no temp files
     (tm,) = [r for r in records if r["format"] == "3mf"]
     assert [b["material"] for b in tm["bodies"]] == mats
     assert sum(b["volume_mm3"] for b in tm["bodies"]) == pytest.approx(asm.volume, rel=1e-9)
@@ -425,7 +428,9 @@ def test_failed_write_keeps_files_from_an_earlier_export(tmp_path, monkeypatch):
     with pytest.raises(ExportError):
         export_design(design, tmp_path, formats=["3mf", "prusa3mf"])
     assert {p: Path(p).read_bytes() for p in before} == before
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(Path(p).name for p in before)
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".")) == \
+        sorted(Path(p).name for p in before)
+    assert len(list((tmp_path / ".foldprint-sets").iterdir())) == 1  # the failed set is gone
 
 
 def test_unknown_format_raises_before_building(tmp_path):

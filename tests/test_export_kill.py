@@ -1,7 +1,8 @@
-"""SIGKILL ``export`` at random moments: the output directory holds the previous complete
-set or the new one (or a committed journal the next export finishes), never a mix, and no
-temporary file survives the next export (issue 14). ``benchmarks/kill_export.py`` runs
-the same with more kills."""
+"""SIGKILL ``export`` at random moments: the names that can be opened in the output
+directory are exactly the previous complete set or the new one, never a mix, nothing
+pending, and no temporary file survives the next export (issues 14, 20: a set is
+published by one rename, ``foldprint/exchange/files.py``). ``benchmarks/kill_export.py``
+runs the same with 100 kills."""
 
 from __future__ import annotations
 
@@ -34,17 +35,16 @@ def _export(design: Path, out: Path):
 
 
 def _digest(out: Path) -> dict:
-    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(out.iterdir()) if p.is_file()}
+    """name -> sha256 of every visible name that can be opened (links followed)."""
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(out.iterdir())
+            if not p.name.startswith(".") and p.is_file()}
 
 
 def _state(out: Path, sets: dict) -> str:
-    """'a', 'b', 'none' (nothing yet), 'journal' (a committed set pending), or 'MIXED'."""
+    """'a', 'b', 'none' (nothing yet) or 'MIXED' (anything else a reader could see)."""
     if not out.exists():
         return "none"
-    stages = [p for p in out.iterdir() if p.name.startswith(".foldprint-staging-")]
-    if any((p / "COMMIT").is_file() for p in stages):
-        return "journal"
-    files = {k: v for k, v in _digest(out).items()}
+    files = _digest(out)
     if not files:
         return "none"
     for name, ref in sets.items():
@@ -64,7 +64,7 @@ def kill_campaign(tmp: Path, kills: int, seed: int = 1) -> dict:
         proc = _export(d, ref)
         seen = None
         while proc.poll() is None:
-            if seen is None and ref.exists() and any(p.name.startswith(".foldprint-staging-") for p in ref.iterdir()):
+            if seen is None and (ref / ".foldprint-sets").exists():
                 seen = time.monotonic()
             time.sleep(0.001)
         assert proc.wait() == 0
@@ -79,13 +79,19 @@ def kill_campaign(tmp: Path, kills: int, seed: int = 1) -> dict:
     for k in range(kills):
         v = "ab"[k % 2]
         proc = _export(designs[v], out)
-        # aim at the write phase: wait for the staging directory, then kill within 0-40 ms
+        # half the kills aim at the write phase (the set folder appears, then 0-1.5x its
+        # length), half at a uniformly random moment of the whole run
         deadline = time.monotonic() + 20 * runtime[v] + 30
-        while proc.poll() is None and time.monotonic() < deadline:
-            if out.exists() and any(p.name.startswith(".foldprint-staging-") for p in out.iterdir()):
-                time.sleep(rng.uniform(0.0, 1.5) * write_s)
-                break
-            time.sleep(0.001)
+        if k % 4 < 2:
+            sets_dir = out / ".foldprint-sets"
+            before = set(os.listdir(sets_dir)) if sets_dir.exists() else set()
+            while proc.poll() is None and time.monotonic() < deadline:
+                if sets_dir.exists() and set(os.listdir(sets_dir)) - before:
+                    time.sleep(rng.uniform(0.0, 1.5) * write_s)
+                    break
+                time.sleep(0.001)
+        else:
+            time.sleep(rng.uniform(0.0, 1.1) * runtime[v])
         if proc.poll() is None:
             proc.send_signal(signal.SIGKILL)
             killed += 1
@@ -95,11 +101,13 @@ def kill_campaign(tmp: Path, kills: int, seed: int = 1) -> dict:
         assert st != "MIXED", f"kill {k}: mixed set {_digest(out)}"
     # the next export finishes or discards what the kills left, and leaves no temp file
     assert _export(designs["a"], out).wait() == 0
-    leftovers = [p.name for p in out.iterdir() if p.name.startswith(".")]
+    hidden = sorted(p.name for p in out.iterdir() if p.name.startswith("."))
+    leftovers = [n for n in hidden if n not in (".foldprint-current", ".foldprint-sets")]
+    leftovers += [f"set {p.name}" for p in (out / ".foldprint-sets").iterdir()][1:]
     assert _state(out, sets) == "a" and leftovers == [], leftovers
     return {"runs": kills, "killed": killed, "write_phase_s": round(write_s, 3), "states_after_kill": counts}
 
 
 def test_killed_exports_never_leave_a_mixed_set(tmp_path):
-    res = kill_campaign(tmp_path, kills=4)
+    res = kill_campaign(tmp_path, kills=6)
     assert res["killed"] >= 1

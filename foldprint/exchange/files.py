@@ -1,20 +1,31 @@
 """File writes that land as a whole.
 
 * :func:`write_atomic`: one file, via a temp file in the target directory and ``os.replace``.
-* :func:`write_set`: a set of files (an export) via a staging directory inside the target
-  directory and a commit journal:
+* :func:`write_set`: a set of files (an export), published by ONE atomic rename (issue 20).
 
-  1. every file is written and fsynced into ``<out>/.foldprint-staging-XXXX/``;
-  2. the list of names is written, last, as ``COMMIT`` in that directory (atomically);
-  3. each file is renamed into ``<out>`` (same file system: atomic per file), then the
-     staging directory is removed.
+  Layout of ``<out>`` (every name of the set is a fixed relative link through one switch)::
 
-  Killed before step 2, the previous set is untouched and the staging directory is
-  garbage; killed during step 3 (a window of a few renames), the journal says the new set
-  is complete. The next :func:`write_set` into the same directory first calls
-  :func:`recover`: it deletes uncommitted staging directories (and stale ``.NAME.XXXX.tmp``
-  files of :func:`write_atomic`) and finishes committed ones, so the directory always ends
-  with one complete set. A lock (``flock`` on the directory) keeps two writers apart.
+      <out>/.foldprint-sets/<id>/NAME      the files of one complete set
+      <out>/.foldprint-current  ->  .foldprint-sets/<id>      the switch
+      <out>/NAME  ->  .foldprint-current/NAME                  what the user opens
+
+  1. every file is written and fsynced into a new ``.foldprint-sets/<id>/``;
+  2. each name of the new set that is not yet a link gets one (it dangles, unreadable,
+     until step 3 if the current set lacks it); an existing regular file of that name
+     (an export written before this layout, or the user's) is first hard-linked into a
+     copy of the current set, the switch turned to that copy, and only then replaced by
+     the link, so its content does not change in this step;
+  3. ``.foldprint-current`` is replaced by a link to the new set: one ``rename``;
+  4. links of names the new set lacks (now dangling) and the other sets are removed.
+
+  At every instant the names that can be opened are exactly one complete set, the
+  previous one (before 3) or the new one (from 3 on); a kill anywhere leaves that state,
+  and the next :func:`write_set` first calls :func:`recover`, which removes what the
+  killed writer left (sets not switched to, dangling links of ours, our temp names).
+  Only names foldprint makes are touched: ``.foldprint-sets/<id>``, ``.foldprint-current``,
+  links whose target is exactly ``.foldprint-current/<their own name>`` and temp files
+  ``.foldprint-XXXXXXXX.tmp``; a planted switch that points anywhere else is refused.
+  A lock (``flock`` on the directory) keeps two writers apart.
 """
 
 from __future__ import annotations
@@ -24,14 +35,19 @@ import os
 import re
 import shutil
 import tempfile
+import time
 from pathlib import Path
 
 from ..errors import ExportError
 
-STAGING_PREFIX = ".foldprint-staging-"
-COMMIT = "COMMIT"
-_STALE_TMP = re.compile(r"^\..+\.[A-Za-z0-9_]{8}\.tmp$")
+SETS = ".foldprint-sets"
+CURRENT = ".foldprint-current"
+TMP_PREFIX, TMP_SUFFIX = ".foldprint-", ".tmp"
+_TMP = re.compile(r"^\.foldprint-[a-z0-9_]{8}\.tmp$")  # tempfile's 8 random characters
+_SET_ID = re.compile(r"^set-[a-z0-9_]{8}$")
+STALE_TMP_S = 60.0  # a write_atomic temp file older than this is left over from a killed run
 NAME_MAX = 255  # bytes, POSIX file systems
+_RESERVED = (SETS, CURRENT)
 
 
 def ensure_dir(path: str | Path) -> Path:
@@ -67,7 +83,7 @@ def write_atomic(path: str | Path, data: bytes | str) -> Path:
     ensure_dir(p.parent)
     fd, tmp = None, None
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+        fd, tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=p.parent)
         with os.fdopen(fd, "wb") as fh:
             fd = None
             fh.write(data)
@@ -81,7 +97,7 @@ def write_atomic(path: str | Path, data: bytes | str) -> Path:
     finally:
         if fd is not None:
             os.close(fd)
-        if tmp is not None and os.path.exists(tmp):
+        if tmp is not None and os.path.lexists(tmp):
             os.unlink(tmp)
     return p
 
@@ -89,51 +105,80 @@ def write_atomic(path: str | Path, data: bytes | str) -> Path:
 def check_names(out: Path, names: list[str]) -> None:
     """ExportError (before anything is created) for names the file system cannot hold."""
     for n in names:
-        if not n or "/" in n or "\0" in n or n in (".", ".."):
+        if not n or "/" in n or "\0" in n or n in (".", "..") or n in _RESERVED or _TMP.match(n):
             raise ExportError(f"{out}: {n!r} is not a valid file name")
         if len(n.encode("utf-8")) > NAME_MAX:
             raise ExportError(f"{out}: file name {n[:40]}... is {len(n.encode('utf-8'))} bytes long, over the "
                               f"{NAME_MAX}-byte limit of the file system; shorten the design name")
 
 
-def _roll_forward(stage: Path, out: Path) -> None:
-    names = (stage / COMMIT).read_text(encoding="utf-8").splitlines()
-    for n in names:
-        src = stage / n
-        if src.exists():
-            os.replace(src, out / n)
-    _fsync_dir(out)
-    shutil.rmtree(stage, ignore_errors=True)
+def _link_target(name: str) -> str:
+    return f"{CURRENT}/{name}"
+
+
+def _is_our_link(path: Path) -> bool:
+    try:
+        return path.is_symlink() and os.readlink(path) == _link_target(path.name)
+    except OSError:
+        return False
+
+
+def current_set(out: str | Path) -> Path | None:
+    """The directory of the published set, None when there is none; ExportError when
+    ``.foldprint-current`` or ``.foldprint-sets`` is not what foldprint makes (planted)."""
+    out = Path(out)
+    sets, cur = out / SETS, out / CURRENT
+    if os.path.lexists(sets) and (sets.is_symlink() or not sets.is_dir()):
+        raise ExportError(f"{sets}: not a directory foldprint made (a link or a file); remove it or "
+                          "choose another --out")
+    if not os.path.lexists(cur):
+        return None
+    target = os.readlink(cur) if cur.is_symlink() else None
+    head, _, tail = (target or "").partition("/")
+    if target is None or head != SETS or not _SET_ID.match(tail):
+        raise ExportError(f"{cur}: not a link foldprint made (it must point to {SETS}/set-XXXXXXXX, "
+                          f"found {'a file' if target is None else repr(target)}); remove it or choose another --out")
+    d = sets / tail
+    if d.is_symlink() or not d.is_dir():
+        raise ExportError(f"{cur}: points to {target!r}, which is not a directory foldprint made; remove "
+                          f"{cur} or choose another --out")
+    return d
 
 
 def recover(out: str | Path) -> list[str]:
-    """Finish or discard what an interrupted writer left in ``out``: committed staging
-    directories are rolled forward, uncommitted ones and stale temp files removed.
+    """Remove what an interrupted writer left in ``out``: sets that were never switched
+    to, links of ours that no longer resolve, our temp files (those of :func:`write_atomic`
+    only when older than ``STALE_TMP_S``). Never touches a name foldprint does not make.
     Returns what it did (for logs and tests). Call with the directory lock held."""
     out = Path(out)
-    done = []
-    try:
-        entries = list(os.scandir(out))
-    except OSError:
+    done: list[str] = []
+    if not out.is_dir():
         return done
-    stages = sorted((e for e in entries if e.name.startswith(STAGING_PREFIX) and e.is_dir(follow_symlinks=False)),
-                    key=lambda e: e.stat(follow_symlinks=False).st_mtime)
-    for e in stages:
-        stage = Path(e.path)
-        if (stage / COMMIT).is_file():
-            _roll_forward(stage, out)
-            done.append(f"finished {e.name}")
-        else:
-            shutil.rmtree(stage, ignore_errors=True)
-            done.append(f"removed {e.name}")
-    for e in entries:
-        if _STALE_TMP.match(e.name) and e.is_file(follow_symlinks=False):
-            try:
-                os.unlink(e.path)
+    cur = current_set(out)
+    sets = out / SETS
+    if sets.is_dir():
+        for e in os.scandir(sets):
+            if _SET_ID.match(e.name) and e.is_dir(follow_symlinks=False) and (cur is None or e.name != cur.name):
+                shutil.rmtree(e.path, ignore_errors=True)
+                done.append(f"removed {SETS}/{e.name}")
+    now = time.time()
+    for e in os.scandir(out):
+        p = Path(e.path)
+        if _TMP.match(e.name) and (e.is_symlink() or e.is_file(follow_symlinks=False)):
+            if e.is_symlink() or now - e.stat(follow_symlinks=False).st_mtime > STALE_TMP_S:
+                _unlink(p)
                 done.append(f"removed {e.name}")
-            except OSError:
-                pass
+        elif _is_our_link(p) and not p.exists():
+            _unlink(p)
+            done.append(f"removed dangling {e.name}")
     return done
+
+
+def _unlink(p: Path) -> None:
+    try:
+        os.unlink(p)
+    except FileNotFoundError:
+        pass
 
 
 class _Lock:
@@ -150,6 +195,53 @@ class _Lock:
         os.close(self.fd)
 
 
+def _symlink_replace(target: str, dest: Path) -> None:
+    """Make ``dest`` a symlink to ``target`` by one rename (atomic)."""
+    tmp = Path(tempfile.mktemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=dest.parent))
+    os.symlink(target, tmp)
+    try:
+        os.replace(tmp, dest)
+    except BaseException:
+        _unlink(tmp)
+        raise
+
+
+def _new_set(out: Path) -> Path:
+    (out / SETS).mkdir(exist_ok=True)
+    return Path(tempfile.mkdtemp(prefix="set-", dir=out / SETS))
+
+
+def _switch(out: Path, set_dir: Path) -> None:
+    _fsync_dir(set_dir)
+    _fsync_dir(out / SETS)
+    _symlink_replace(f"{SETS}/{set_dir.name}", out / CURRENT)
+    _fsync_dir(out)
+
+
+def _adopt_regular_files(out: Path, names: list[str]) -> None:
+    """Names of the new set held by regular files (a pre-switch export, the user's): copy
+    the current set plus these files into a set of their own, switch to it, then turn each
+    file into a link; the content behind every name stays the same throughout."""
+    plain = [n for n in names if not (out / n).is_symlink() and (out / n).is_file()]
+    if not plain:
+        return
+    cur = current_set(out)
+    legacy = _new_set(out)
+    sources = {e.name: Path(e.path) for e in (os.scandir(cur) if cur else []) if e.is_file(follow_symlinks=False)}
+    sources.update({n: out / n for n in plain})  # a plain file wins over the set's file of its name
+    for name, src in sources.items():
+        try:
+            os.link(src, legacy / name, follow_symlinks=False)
+        except OSError:
+            shutil.copy2(src, legacy / name)
+    _switch(out, legacy)
+    for n in plain:
+        _symlink_replace(_link_target(n), out / n)
+    _fsync_dir(out)
+    if cur is not None:
+        shutil.rmtree(cur, ignore_errors=True)
+
+
 def write_set(out_dir: str | Path, files: list[tuple[str, bytes]]) -> list[Path]:
     """Write ``files`` (name, bytes) into ``out_dir`` as a whole (see the module doc).
 
@@ -160,34 +252,56 @@ def write_set(out_dir: str | Path, files: list[tuple[str, bytes]]) -> list[Path]
     check_names(out, names)
     if len(set(names)) != len(names):
         raise ExportError(f"{out}: two files of one export share a name")
+    for n in names:
+        if (out / n).is_dir() and not (out / n).is_symlink():
+            raise ExportError(f"{out / n}: is a directory, where the export writes a file; move it or "
+                              "choose another --out")
     missing = [p for p in [out, *out.parents] if not p.exists()]
     ensure_dir(out)
-    stage = None
-    committed = False
+    stage, made_links, switched = None, [], False
     try:
         with _Lock(out):
             recover(out)
-            stage = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=out))
+            stage = _new_set(out)
             for name, data in files:
                 with open(stage / name, "wb") as fh:
                     fh.write(data)
                     fh.flush()
                     os.fsync(fh.fileno())
                 os.chmod(stage / name, 0o644)
-            journal = stage / (COMMIT + ".tmp")
-            with open(journal, "w", encoding="utf-8") as fh:
-                fh.write("\n".join(names) + "\n")
-                fh.flush()
-                os.fsync(fh.fileno())
-            _fsync_dir(stage)
-            os.replace(journal, stage / COMMIT)
-            committed = True
-            _fsync_dir(stage)
-            _roll_forward(stage, out)
+            _adopt_regular_files(out, names)
+            for n in names:
+                if not _is_our_link(out / n):
+                    _symlink_replace(_link_target(n), out / n)
+                    made_links.append(n)
+            _switch(out, stage)
+            switched = True
+            keep = set(names)
+            for e in os.scandir(out):
+                if e.name not in keep and _is_our_link(Path(e.path)):
+                    _unlink(Path(e.path))
+            for e in os.scandir(out / SETS):
+                if _SET_ID.match(e.name) and e.name != stage.name and e.is_dir(follow_symlinks=False):
+                    shutil.rmtree(e.path, ignore_errors=True)
+            _fsync_dir(out)
     except BaseException as exc:
-        if stage is not None and not committed:
-            shutil.rmtree(stage, ignore_errors=True)
-        if not committed:
+        if not switched:
+            if stage is not None:
+                shutil.rmtree(stage, ignore_errors=True)
+            for n in made_links:
+                if _is_our_link(out / n) and not (out / n).exists():
+                    _unlink(out / n)
+            if not os.path.lexists(out / CURRENT):
+                try:  # the sets folder this call made in an existing directory
+                    (out / SETS).rmdir()
+                except OSError:
+                    pass
+            if missing:  # this call created out: take back what it made, then the directories
+                for extra in (out / SETS, out / CURRENT):
+                    if extra.is_symlink():
+                        _unlink(extra)
+                    elif extra.is_dir():
+                        shutil.rmtree(extra, ignore_errors=True)
             for p in missing:  # deepest first: only directories this call created, if empty
                 try:
                     p.rmdir()
