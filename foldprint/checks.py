@@ -61,7 +61,7 @@ def load_printers(extra: str | Path | None = None) -> dict[str, Printer]:
             tables.append((str(p), tomllib.loads(p.read_text(encoding="utf-8"))))
         except FileNotFoundError:
             raise DesignError(f"{p}: printer file not found") from None
-        except tomllib.TOMLDecodeError as exc:
+        except ValueError as exc:  # also a >4300-digit integer
             raise DesignError(f"{p}: not valid TOML: {exc}") from None
     out: dict[str, Printer] = {}
     for src, data in tables:

@@ -1,6 +1,7 @@
 """Command line: a thin layer over the library.
 
-Exit codes: 0 ok, 1 the design fails (collision, goal, rule), 2 bad input or usage.
+Exit codes: 0 ok, 1 the design fails (collision, goal, rule), 2 bad input or usage,
+3 an internal error (a bug, with a short report), 130 interrupted.
 Machine output (``--json``) goes to stdout; human messages to stderr.
 """
 
@@ -18,7 +19,7 @@ from . import __version__
 from .errors import FoldprintError
 from .cli_support import (
     ExitCode, _CLICK_ERRORS, _CREASE, _SCALE, _STATE, _echo_json, _err, _expand_multi, _finite,
-    _fraction, _load, _mapper, _mode, _note, _number, _print_simulation, _printer,
+    _fraction, _internal, _load, _mapper, _mode, _note, _number, _print_simulation, _printer,
     _samples_progress, _verdict, _with_progress)
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
@@ -497,6 +498,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         _err("interrupted")
         return 130
+    except Exception as e:  # noqa: BLE001 -- a bug: exit 3 with a short report, never 1
+        return _internal(e, args)
 
 
 def run() -> None:  # console script

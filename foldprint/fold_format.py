@@ -24,7 +24,7 @@ from .design import Design
 from .design_io import design_from_dict, read_text
 from .errors import DesignError, where
 from .materials import MaterialLibrary
-from .schema import check_fold
+from .schema import MAX_FACES, check_fold, parse_error
 
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "pt": 25.4 / 72.0,
          "um": 1e-3, "nm": 1e-6}
@@ -66,7 +66,10 @@ def _project(pts: np.ndarray, a: np.ndarray, b: np.ndarray):
 # -- import -----------------------------------------------------------------------
 
 def _number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    """A finite int or float (an int too large for a float is not one: no OverflowError)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    return abs(v) < 1e300 if isinstance(v, int) else math.isfinite(v)
 
 
 def _classes(frame: Mapping) -> set[str]:
@@ -113,6 +116,8 @@ def _coords(frame: Mapping, factor: float, src: str) -> np.ndarray:
         raise DesignError(f"{src}vertices_coords is missing; a FOLD crease pattern needs vertex coordinates")
     if not isinstance(raw, list):
         raise DesignError(f"{src}vertices_coords must be a list of [x, y] points")
+    if len(raw) > 4 * MAX_FACES:
+        raise DesignError(f"{src}vertices_coords has {len(raw)} points; at most {4 * MAX_FACES} are accepted")
     xyz = np.zeros((len(raw), 3))
     for i, v in enumerate(raw):
         if not isinstance(v, list) or len(v) not in (2, 3) or not all(_number(c) for c in v):
@@ -132,19 +137,36 @@ def _index_lists(frame: Mapping, key: str, nv: int, src: str, size: int | None) 
     raw = frame.get(key)
     if not isinstance(raw, list):
         raise DesignError(f"{src}{key} must be a list of vertex index lists, got {type(raw).__name__}")
+    if len(raw) > MAX_FACES:
+        raise DesignError(f"{src}{key} has {len(raw)} entries; at most {MAX_FACES} are accepted "
+                          "(a printable part has far fewer faces and edges)")
     out = []
     for i, item in enumerate(raw):
-        if not isinstance(item, list) or (len(item) != size if size else len(item) < 3):
-            raise DesignError(f"{src}{key}[{i}] must be a list of {size or 'at least 3'} vertex indices, "
-                              f"got {item!r}")
-        for v in item:  # integral floats (1.0) are accepted as indices
-            if not _number(v) or v != int(v) or not 0 <= v < nv:
-                raise DesignError(f"{src}{key}[{i}] refers to vertex {v!r} but there are {nv} vertices")
-        item = [int(v) for v in item]
+        if not isinstance(item, list) or (len(item) != size if size else not 3 <= len(item) <= MAX_RING):
+            raise DesignError(f"{src}{key}[{i}] must be a list of {size or f'3 to {MAX_RING}'} vertex indices, "
+                              f"got {_short(item)}")
+        for v in item:  # FOLD indices are integers: 2.0 is a float (issue 20), true is a boolean
+            if isinstance(v, bool) or not isinstance(v, int):
+                raise DesignError(f"{src}{key}[{i}] holds {_short(v)}, not a vertex index; indices are whole "
+                                  "numbers written without a decimal point (2, not 2.0)")
+            if not 0 <= v < nv:
+                raise DesignError(f"{src}{key}[{i}] refers to vertex {_short(v)} but there are {nv} vertices "
+                                  f"(indices 0 to {nv - 1})")
         if len(set(item)) != len(item):
             raise DesignError(f"{src}{key}[{i}] repeats a vertex: {item}")
         out.append(item)
     return out
+
+
+MAX_RING = 10_000  # vertices of one face (as schema.MAX_POINTS for a TOML outline)
+
+
+def _short(v) -> str:
+    """A bad value for a message, never thousands of digits long."""
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10 ** 30:
+        return f"an integer of {len(str(abs(v)))} digits"
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _per(frame: Mapping, key: str, n: int, of: str, src: str) -> list:
@@ -408,6 +430,6 @@ def design_from_fold_file(path: str | Path, library: MaterialLibrary | None = No
     text = read_text(path, "a FOLD (JSON) file (.fold)")
     try:
         data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise DesignError(f"{path}: not valid JSON: {exc}") from None
+    except ValueError as exc:  # JSONDecodeError, or an integer of more than 4300 digits
+        raise DesignError(parse_error(exc, text, str(path), "json")) from None
     return design_from_fold(data, source=str(path), library=library, **kw)

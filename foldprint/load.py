@@ -13,6 +13,7 @@ from pathlib import Path
 from .design import Design
 from .design_io import design_from_dict, read_text
 from .errors import DesignError
+from .schema import parse_error
 from .fold_format import design_from_fold_file
 from .materials import MaterialLibrary
 
@@ -58,6 +59,6 @@ def load_design(path: str | Path, library: MaterialLibrary | None = None, *,
     text = read_text(path, "a TOML design (.toml)")
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DesignError(f"{path}: not valid TOML: {exc}") from None
+    except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
+        raise DesignError(parse_error(exc, text, str(path), "toml")) from None
     return design_from_dict(data, str(path), library)

@@ -200,7 +200,7 @@ def _read_toml(path: Path) -> dict:
             return tomllib.load(fh)
     except FileNotFoundError:
         raise MaterialError(f"{path}: file not found") from None
-    except tomllib.TOMLDecodeError as exc:
+    except ValueError as exc:  # also a >4300-digit integer
         raise MaterialError(f"{path}: not valid TOML: {exc}") from None
     except OSError as exc:
         raise MaterialError(f"{path}: cannot read: {exc.strerror}") from None

@@ -110,7 +110,7 @@ def load_scatter(path: str | Path | None = None) -> Scatter:
         raise DesignError(f"{p}: cannot read the scatter file: {exc}") from None
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
+    except ValueError as exc:  # also a >4300-digit integer
         raise DesignError(f"{p}: not valid TOML: {exc}") from None
     return _scatter_from(data, str(p), base)
 

@@ -34,6 +34,10 @@ MAX_PANELS = 5000
 MAX_POINTS = 10_000
 MAX_HOLES = 256
 MAX_GOALS = 1000
+#: FOLD faces or edges, SVG segments (after reading, before noding) and SVG element nesting
+MAX_FACES = 50_000
+MAX_SVG_SEGMENTS = 50_000
+MAX_SVG_DEPTH = 64
 MAX_NAME = 100
 MAX_TEXT = 10_000
 MAX_NESTING = 32
@@ -219,6 +223,22 @@ _TOML_TOKENS = re.compile(r'"""|\'\'\'|"|\'|#|\[|\]|\{|\}|\n|\\')
 _JSON_TOKENS = re.compile(r'"|\[|\]|\{|\}|\\')
 
 
+_LONG_INT = re.compile(r"\d{4000,}")
+
+
+def parse_error(exc: Exception, text: str, source: str, kind: str) -> str:
+    """The message for a parser's ValueError: a file position for an integer literal
+    too long to convert (Python refuses over 4300 digits, raising a bare ValueError that
+    is not a decode error), the parser's own text otherwise."""
+    what = "TOML" if kind == "toml" else "JSON"
+    m = _LONG_INT.search(text) if "digits" in str(exc) else None
+    if m:
+        line = text.count("\n", 0, m.start()) + 1
+        return (f"{source}: line {line}: a number with {len(m.group())}+ digits; no value of a design needs "
+                f"more than 20 (lengths at most {MAX_LENGTH_MM:g} mm, indices at most a few thousand)")
+    return f"{source}: not valid {what}: {exc}"
+
+
 def check_text(text: str, source: str, kind: str) -> None:
     """Refuse files too large or nested too deeply before a recursive parser sees them.
 
@@ -277,6 +297,15 @@ def check_fold(frame, source: str) -> None:
     if not isinstance(frame, Mapping):
         return
     top = Where(source)
+    if "file_spec" in frame:  # FOLD: a number (1, 1.1, 1.2)
+        number(frame["file_spec"], top / "file_spec", 0.0, 100.0)
+    for key in ("frame_title", "file_title", "file_creator", "file_author", "frame_unit", "frame_author",
+                "frame_description", "file_description"):
+        if key in frame and not isinstance(frame[key], str):
+            raise (top / key).fail(f"must be a string, got {describe(frame[key])}")
+    for key in ("frame_classes", "file_classes", "frame_attributes"):
+        if key in frame and not (isinstance(frame[key], list) and all(isinstance(c, str) for c in frame[key])):
+            raise (top / key).fail(f"must be a list of strings, got {describe(frame[key])}")
     for key in ("faces_foldprint:holes",):
         raw = frame.get(key)
         if raw is None:
