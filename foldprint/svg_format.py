@@ -34,6 +34,7 @@ from .design import Design
 from .design_io import read_text
 from .errors import DesignError
 from .fold_format import design_from_fold
+from .schema import MAX_FACES, MAX_LENGTH_MM, MAX_SVG_DEPTH, MAX_SVG_SEGMENTS
 from .materials import MaterialLibrary
 
 _COLOURS = {
@@ -51,6 +52,9 @@ _NAMES = {"B": "border (black)", "M": "mountain (red)", "V": "valley (blue)", "C
 _UNITS_MM = {"mm": 1.0, "cm": 10.0, "in": 25.4, "pt": 25.4 / 72, "pc": 25.4 / 6, "px": 25.4 / 96, "": 25.4 / 96}
 #: Origami Simulator's default vertex merge tolerance (user units, ``globals.vertTol``)
 VERTEX_TOL = 3.0
+#: coordinates after the transforms, in user units: 1e7 (10 km at 1 mm per unit, above the
+#: schema's 10 m at any document scale down to 1 um per unit); 1e300 overflowed the clustering
+MAX_USER_UNITS = 1e7
 _NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 
 
@@ -99,8 +103,23 @@ def _matrix(text: str | None, src: str) -> np.ndarray:
             t[1, 0] = math.tan(math.radians(a[0]))
         else:
             raise DesignError(f"{src}transform {name}({args}) is not understood; flatten transforms in your editor")
+        if not np.isfinite(t).all():
+            raise DesignError(f"{src}transform {name}({args.strip()[:40]}) has a number out of range")
         m = m @ t
+    _check_matrix(m, src, f"transform {text.strip()[:60]!r}")
     return m
+
+
+def _check_matrix(m: np.ndarray, src: str, what: str) -> None:
+    """A transform must keep the drawing finite and two-dimensional."""
+    a = m[:2, :2]
+    big = float(np.abs(m).max()) if np.isfinite(m).all() else math.inf
+    if big > MAX_USER_UNITS * 1e6:
+        raise DesignError(f"{src}{what} scales or moves the drawing out of range (a factor above "
+                          f"{MAX_USER_UNITS * 1e6:g}); give every transform a moderate, finite value")
+    if abs(a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]) <= 1e-12 * max(float(np.abs(a).max()), 1e-300) ** 2:
+        raise DesignError(f"{src}{what} collapses the drawing (its scale is 0 in some direction); give "
+                          "every transform a non-zero scale")
 
 
 def _path_polylines(d: str, src: str, what: str) -> list[list[tuple[float, float]]]:
@@ -165,7 +184,7 @@ def _element_polylines(el, src: str, what: str) -> list[list[tuple[float, float]
             return default
         m = re.match(_NUM, v.strip())
         if not m:
-            raise DesignError(f"{src}{what}: attribute {name}={v!r} is not a number")
+            raise DesignError(f"{src}{what}: attribute {name}={v[:40]!r} is not a number")
         return float(m.group(0))
 
     if tag == "line":
@@ -218,8 +237,15 @@ def svg_segments(root, src: str) -> tuple[list, float]:
     segs, bad = [], {}
     count = {"n": 0}
 
-    def walk(el, m, inherited):
-        m = m @ _matrix(el.get("transform"), src)
+    stack = [(root, np.eye(3), {}, 0)]
+    while stack:  # depth first, document order, without recursion (5000 nested <g> are refused)
+        el, m, inherited, depth = stack.pop()
+        if depth > MAX_SVG_DEPTH:
+            raise DesignError(f"{src}elements nested more than {MAX_SVG_DEPTH} levels deep (<{_tag(el)}> at level "
+                              f"{depth}); a crease pattern needs a few groups: ungroup in your editor")
+        if el.get("transform"):
+            m = m @ _matrix(el.get("transform"), src)
+            _check_matrix(m, src, f"the transforms down to <{_tag(el)}>")
         inh = dict(inherited)
         for name in ("stroke", "stroke-opacity"):
             v = _prop(el, name, inherited)
@@ -227,28 +253,36 @@ def svg_segments(root, src: str) -> tuple[list, float]:
                 inh[name] = v
         tag = _tag(el)
         if tag in ("defs", "metadata", "title", "desc", "namedview", "clipPath", "mask", "symbol"):
-            return
+            continue
         if tag in ("line", "rect", "polygon", "polyline", "path"):
             count["n"] += 1
             what = f"<{tag}> #{count['n']}" + (f" id={el.get('id')!r}" if el.get("id") else "")
             stroke = (inh.get("stroke") or "").replace(" ", "").lower()
             if stroke in ("", "none"):
-                return
+                continue
             kind = _KIND.get(stroke)
             if kind is None:
                 bad.setdefault(stroke, what)
-                return
+                continue
             op = _opacity(el, inherited)
             angle = {"M": -180.0 * op, "V": 180.0 * op}.get(kind, 0.0)
             for line in _element_polylines(el, src, what):
-                pts = np.array([m @ [x, y, 1.0] for x, y in line])[:, :2]
+                raw = np.array(line, float).reshape(-1, 2)
+                with np.errstate(over="ignore", invalid="ignore"):
+                    pts = raw @ m[:2, :2].T + m[:2, 2]
+                if not (np.isfinite(pts).all() and np.abs(pts).max(initial=0.0) <= MAX_USER_UNITS):
+                    k = int(np.argmax(~np.isfinite(pts).all(axis=1) | (np.abs(pts) > MAX_USER_UNITS).any(axis=1)))
+                    raise DesignError(f"{src}{what}: point {k} ({raw[k][0]:g}, {raw[k][1]:g}) lies at "
+                                      f"({pts[k][0]:g}, {pts[k][1]:g}) after the transforms, outside +-{MAX_USER_UNITS:g} "
+                                      "user units; check the coordinates and the transforms")
                 for a, b in zip(pts[:-1], pts[1:]):
-                    if np.linalg.norm(b - a) > 0:
+                    if a[0] != b[0] or a[1] != b[1]:
                         segs.append((a, b, kind, angle, what))
-        for child in el:
-            walk(child, m, inh)
+                if len(segs) > MAX_SVG_SEGMENTS:
+                    raise DesignError(f"{src}more than {MAX_SVG_SEGMENTS} line segments (at {what}); foldprint "
+                                      "reads crease patterns of at most that many segments: simplify the drawing")
+        stack.extend((child, m, inh, depth + 1) for child in reversed(list(el)))
 
-    walk(root, np.eye(3), {})
     if bad:
         stroke, what = next(iter(bad.items()))
         raise DesignError(f"{src}{what} has stroke colour {stroke!r}, which Origami Simulator's convention "
@@ -258,27 +292,121 @@ def svg_segments(root, src: str) -> tuple[list, float]:
 
 
 def _cluster(pts: np.ndarray, tol: float) -> np.ndarray:
-    """Points closer than ``tol`` (transitively) replaced by their cluster's mean."""
-    from scipy.spatial import cKDTree
+    """Points closer than ``tol`` (transitively) replaced by their cluster's mean.
 
-    parent = np.arange(len(pts))
+    The clusters are the connected components of the graph joining points closer than
+    ``tol``. That graph can hold n^2/2 edges (2,000 segments drawn on a few distinct
+    points: 1.2 GB of pairs), but its components are those of its edges that belong to
+    the Euclidean minimum spanning tree, a subgraph of the Delaunay triangulation: so
+    exact duplicates are merged first and, beyond a few thousand distinct points, only the
+    Delaunay edges (at most 3n) shorter than ``tol`` are joined. O(n log n) time, O(n) memory."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
 
-    def root(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
+    pts = np.asarray(pts, float)
+    if len(pts) == 0:
+        return pts.copy()
+    uniq, inv = np.unique(pts, axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    n = len(uniq)
+    pairs = _close_pairs(uniq, tol)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    lab = label[inv]  # per input point
+    counts = np.bincount(lab)
+    means = np.stack([np.bincount(lab, weights=pts[:, k]) / counts for k in range(2)], axis=1)
+    return means[lab]
 
-    for i, j in cKDTree(pts).query_pairs(tol):
-        ri, rj = root(i), root(j)
-        if ri != rj:
-            parent[ri] = rj
-    roots = np.array([root(i) for i in range(len(pts))])
-    out = pts.astype(float).copy()
-    for r in np.unique(roots):
-        idx = roots == r
-        out[idx] = pts[idx].mean(axis=0)
-    return out
+
+#: distinct points up to which the close pairs come straight from a k-d tree
+_KDTREE_POINTS = 1000
+
+
+def _close_pairs(uniq: np.ndarray, tol: float) -> np.ndarray:
+    """(k, 2) index pairs of distinct points closer than ``tol`` whose components are those
+    of all such pairs: every pair (k-d tree) for few points, else the Delaunay edges."""
+    from scipy.spatial import Delaunay, QhullError, cKDTree
+
+    n = len(uniq)
+    if n < 2 or tol <= 0:
+        return np.zeros((0, 2), int)
+    if n <= _KDTREE_POINTS:
+        return cKDTree(uniq).query_pairs(tol, output_type="ndarray").reshape(-1, 2)
+    centred = uniq - uniq.mean(axis=0)
+    try:
+        tri = Delaunay(centred)
+    except QhullError:  # all points on one line: the spanning tree joins neighbours along it
+        order = np.argsort(centred @ np.linalg.svd(centred, full_matrices=False)[2][0])
+        edges = np.stack([order[:-1], order[1:]], axis=1)
+    else:
+        sx = tri.simplices
+        edges = np.concatenate([sx[:, [0, 1]], sx[:, [1, 2]], sx[:, [2, 0]]]
+                               + ([tri.coplanar[:, [0, 2]]] if len(tri.coplanar) else []))
+        # (qhull leaves a point almost on a vertex out of the triangulation, "coplanar";
+        # it is joined to that nearest vertex)
+    d = np.linalg.norm(uniq[edges[:, 0]] - uniq[edges[:, 1]], axis=1)
+    return edges[d < tol]
+
+
+def _close_undershoots(segs, snap: float, eps: float) -> list:
+    """Move an end point that lies within ``snap`` of another segment, but on none, onto
+    the nearest such segment (Origami Simulator's snapping of near intersections).
+    Vectorised: one bulk tree query for all end points."""
+    n = len(segs)
+    lines = shapely.linestrings([[a, b] for a, b, *_ in segs])
+    ends = np.array([sg[0] for sg in segs] + [sg[1] for sg in segs])
+    pts = shapely.points(ends)
+    tree = shapely.STRtree(lines)
+    pi, sj = tree.query(pts, predicate="dwithin", distance=snap)
+    keep = sj != (pi % n)  # not the point's own segment
+    pi, sj = pi[keep], sj[keep]
+    d = shapely.distance(lines[sj], pts[pi])
+    on = np.zeros(2 * n, bool)
+    on[pi[d <= eps]] = True
+    cand = ~on[pi]
+    pi, sj, d = pi[cand], sj[cand], d[cand]
+    new = ends.copy()
+    if len(pi):
+        order = np.lexsort((sj, d, pi))
+        first = np.unique(pi[order], return_index=True)[1]
+        p_idx, s_idx = pi[order][first], sj[order][first]
+        at = shapely.line_interpolate_point(lines[s_idx], shapely.line_locate_point(lines[s_idx], pts[p_idx]))
+        new[p_idx] = shapely.get_coordinates(at)
+    return [(new[k], new[n + k], *segs[k][2:]) for k in range(n)]
+
+
+def crossing_estimate(segs) -> tuple[float, float]:
+    """(estimated crossings, its standard error) of the segments, from the crossings of a
+    fixed sample of 400 (all of them when fewer): noding and the face search grow with the
+    crossings, which a few thousand segments drawn across each other make quadratic."""
+    n = len(segs)
+    lines = shapely.linestrings([[a, b] for a, b, *_ in segs])
+    tree = shapely.STRtree(lines)
+    idx = np.arange(n) if n <= 400 else np.random.default_rng(0).choice(n, 400, replace=False)
+    hits = tree.query(lines[idx], predicate="intersects")
+    per = np.bincount(hits[0], minlength=len(idx)).astype(float)
+    a, b = hits[0], hits[1]
+    # not crossings: a segment and itself, and segments that only share an end point
+    ends = np.array([[s[0], s[1]] for s in segs])
+    share = np.zeros(len(a), bool)
+    for i in range(2):
+        for j in range(2):
+            share |= np.all(ends[idx[a], i] == ends[b, j], axis=1)
+    np.subtract.at(per, a[(idx[a] == b) | share], 1.0)
+    scale = n / len(idx)
+    est = per.sum() * scale / 2
+    se = per.std() * np.sqrt(len(idx)) * scale / 2 * (np.sqrt(1 - len(idx) / n) if n > 1 else 0.0)
+    return float(est), float(se)
+
+
+def _refuse_dense(segs, src: str) -> None:
+    """Refuse a drawing whose crossings alone would make more than MAX_FACES faces."""
+    est, se = crossing_estimate(segs)
+    if est - 3 * se > MAX_FACES:
+        raise DesignError(f"{src}the {len(segs)} line segments cross each other about {est:.3g} times "
+                          f"(estimated from a sample, +-{3 * se:.2g}), which makes as many faces, over the "
+                          f"{MAX_FACES} foldprint accepts; this is not a crease pattern a printer can "
+                          "make: check that the drawing is the crease pattern")
 
 
 def _drop_cut_holes(faces, edges, assign):
@@ -313,6 +441,7 @@ def fold_from_svg(text: str, src: str = "", scale: float | None = None,
                           "Simulator's colours (black border, red mountain, blue valley, ...)")
     pts = np.array([s[0] for s in segs] + [s[1] for s in segs])
     size = float(np.ptp(pts, axis=0).max())
+    _refuse_dense(segs, src)
     # Origami Simulator merges vertices closer than vertTol = 3 user units and snaps near
     # intersections; we do the same, capped at 0.5 % of the pattern for small documents
     vtol = VERTEX_TOL if vertex_tol is None else float(vertex_tol)
@@ -320,21 +449,7 @@ def fold_from_svg(text: str, src: str = "", scale: float | None = None,
     ends = _cluster(pts, snap)
     n = len(segs)
     segs = [(ends[k], ends[n + k]) + tuple(segs[k][2:]) for k in range(n)]
-    lines = [LineString([a, b]) for a, b, *_ in segs]
-    tree = shapely.STRtree(lines)
-    moved = []
-    for k, (a, b, *rest) in enumerate(segs):  # close undershoots: end points near another segment
-        new = []
-        for p in (a, b):
-            pt = shapely.Point(p)
-            near = [j for j in tree.query(pt, predicate="dwithin", distance=snap) if j != k]
-            hit = [j for j in near if lines[j].distance(pt) > 1e-12 * max(size, 1.0)]
-            if hit and not any(lines[j].distance(pt) <= 1e-12 * max(size, 1.0) for j in near):
-                j = min(hit, key=lambda j: lines[j].distance(pt))
-                q = lines[j].interpolate(lines[j].project(pt))
-                p = np.array([q.x, q.y])
-            new.append(p)
-        moved.append((new[0], new[1], *rest))
+    moved = _close_undershoots(segs, snap, 1e-12 * max(size, 1.0))
     segs = [sg for sg in moved if np.linalg.norm(sg[1] - sg[0]) > snap]
     lines = [LineString([a, b]) for a, b, *_ in segs]
     noded = shapely.node(MultiLineString(lines))
@@ -356,16 +471,19 @@ def fold_from_svg(text: str, src: str = "", scale: float | None = None,
     edges, assign, angles, pieces = [], [], [], []
     rank = {"M": 0, "V": 0, "C": 1, "U": 2, "F": 3, "B": 4}
     seen = {}
-    for c0, (e0, e1) in zip(raw, piece_ends):
+    # the segment each piece comes from (the strongest assignment where several overlap),
+    # one bulk query instead of one per piece
+    mids = shapely.points([(c[0] + c[-1]) / 2 for c in raw])
+    pi, sj = tree.query(mids, predicate="dwithin", distance=1e-9 * max(size, 1.0))
+    seg_rank = np.array([rank[sg[2]] for sg in segs])
+    order = np.lexsort((sj, seg_rank[sj], pi))
+    first = np.unique(pi[order], return_index=True)[1]
+    owner = np.full(len(raw), -1)
+    owner[pi[order][first]] = sj[order][first]
+    for c0, (e0, e1), best in zip(raw, piece_ends, owner):
         a, b = vid(e0), vid(e1)
-        if a == b:
+        if a == b or best < 0:
             continue
-        c = c0
-        mid = shapely.Point((c[0] + c[-1]) / 2)
-        owners = [k for k in tree.query(mid, predicate="dwithin", distance=1e-9 * max(size, 1.0))]
-        if not owners:
-            continue
-        best = min(owners, key=lambda k: rank[segs[k][2]])
         key = (min(a, b), max(a, b))
         if key in seen:
             k0 = seen[key]
@@ -421,4 +539,4 @@ def design_from_svg(text: str, source: str = "", library: MaterialLibrary | None
 
 def design_from_svg_file(path: str | Path, library: MaterialLibrary | None = None, **kw) -> Design:
     path = Path(path)
-    return design_from_svg(read_text(path, "an SVG crease pattern (.svg)"), str(path), library, **kw)
+    return design_from_svg(read_text(path, "an SVG crease pattern (.svg)", kind="svg"), str(path), library, **kw)
