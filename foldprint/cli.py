@@ -7,7 +7,6 @@ Machine output (``--json``) goes to stdout; human messages to stderr.
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 from typing import List, Optional, Tuple
@@ -18,8 +17,9 @@ from typer import echo
 from . import __version__
 from .errors import FoldprintError
 from .cli_support import (
-    ExitCode, _CLICK_ERRORS, _CREASE, _SCALE, _STATE, _echo_json, _err, _expand_multi, _finite,
-    _fraction, _internal, _load, _mapper, _mode, _note, _number, _print_simulation, _printer,
+    ExitCode, _CLICK_ERRORS, _CREASE, _SCALE, _STATE, _echo_json, _err, _expand_multi,
+    _count, _fraction, _in_range, _internal, _load, _out_dir, _temperature, _time_options,
+    MAX_BUDGET, MAX_SAMPLES, MAX_TOP, MAX_WORKERS, _mapper, _mode, _note, _number, _print_simulation, _printer,
     _samples_progress, _verdict, _with_progress)
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
@@ -66,9 +66,10 @@ def materials(
 
     lib = load_library(materials_file or None)
     temps_raw = list(temperature) if temperature else ["80", "90", "100"]
-    temps = [(_t, _number(_t, "--temperature")) for _t in temps_raw]
-    if not (thickness > 0 and math.isfinite(thickness)):
-        raise FoldprintError(f"--thickness must be > 0 mm, got {thickness}")
+    temps = [(_t, _temperature(_number(_t, "--temperature"))) for _t in temps_raw]
+    from .schema import MAX_LENGTH_MM, MIN_LENGTH_MM
+
+    _in_range(thickness, "--thickness", MIN_LENGTH_MM, MAX_LENGTH_MM, "mm")
     rows = []
     for m in lib:
         ft = {}
@@ -134,7 +135,7 @@ def simulate(
                                     help="arc (default: the printed hinges) | point (the paper's ROM, Eq. 2-4)"),
     after_contact: str = typer.Option("stop", "--after-contact", help="stop | arrest"),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
-    plot: Optional[Path] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
+    plot: Optional[str] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
     scale: Optional[float] = typer.Option(None, "--scale", help=_SCALE),
@@ -153,9 +154,10 @@ def simulate(
 
     m, model, after = (_mode(Method, method, "--method"), _mode(HingeModel, hinge_model, "--hinge-model"),
                        _mode(AfterContact, after_contact, "--after-contact"))
-    _finite(temperature=temperature, duration=duration, dt=dt)
-    if dt <= 0 or (duration is not None and duration <= 0):
-        raise FoldprintError("--dt and --duration must be > 0 s")
+    if temperature is not None:
+        _temperature(temperature)
+    _time_options(duration, dt)
+    plot = _out_dir(plot, "--plot")
     __import__("foldprint.guards").guards.set_max_memory(max_memory)  # issue 14 resource guard
     d, lib = _load(design, materials_file, scale, crease_materials)
     if plot is not None:
@@ -214,8 +216,7 @@ def check(
 
     model = _mode(HingeModel, hinge_model, "--hinge-model")
     __import__("foldprint.guards").guards.set_max_memory(max_memory)  # resource guard (issue 14)
-    if samples < 0:
-        raise FoldprintError(f"--samples must be >= 0 (0 skips the jam probability), got {samples}")
+    _count(samples, "--samples", 0, MAX_SAMPLES)  # 0 skips the jam probability
     if seed < 0:
         raise FoldprintError(f"--seed must be >= 0, got {seed}")
     th = Thresholds(_fraction(error_above, "--error-above"), _fraction(warn_above, "--warn-above"))
@@ -268,8 +269,7 @@ def robust(
     from .robust import jam_probability, load_scatter
 
     model = _mode(HingeModel, hinge_model, "--hinge-model")
-    if samples < 1:
-        raise FoldprintError(f"--samples must be at least 1, got {samples}")
+    _count(samples, "--samples", 1, MAX_SAMPLES)
     if seed < 0:
         raise FoldprintError(f"--seed must be >= 0, got {seed}")
     sc = load_scatter(scatter_file)
@@ -330,10 +330,15 @@ def assign(
         raise FoldprintError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if temperature is not None and temperature_range is not None:
         raise FoldprintError("give --temperature or --temperature-range, not both")
-    _finite(temperature=temperature)
-    for name, v in (("--top", top), ("--budget", budget), ("--samples", samples), ("--workers", workers or 1)):
-        if v < 1:
-            raise FoldprintError(f"{name} must be at least 1, got {v}")
+    if temperature is not None:
+        _temperature(temperature)
+    if temperature_range is not None:
+        lo, hi = (_temperature(v, "--temperature-range") for v in temperature_range)
+        if lo > hi:
+            raise FoldprintError(f"--temperature-range needs LO <= HI, got {lo:g} {hi:g}")
+    for name, v, hi in (("--top", top, MAX_TOP), ("--budget", budget, MAX_BUDGET), ("--samples", samples, MAX_SAMPLES),
+                        ("--workers", workers or 1, MAX_WORKERS)):
+        _count(v, name, 1, hi)
     if seed < 0:
         raise FoldprintError(f"--seed must be >= 0, got {seed}")
     fixed_map = {}
@@ -398,7 +403,7 @@ def assign(
 @app.command()
 def export(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Output directory (default: output/<design>/)."),
+    out: Optional[str] = typer.Option(None, "--out", help="Output directory (default: output/<design>/)."),
     state: str = typer.Option("permanent", "--state", help="permanent (folded, printed) | programmed (flat)"),
     formats: str = typer.Option("3mf,prusa3mf,stl", "--format",
                                 help="Comma-separated: 3mf, prusa3mf, stl (to print); fold (crease pattern), "
@@ -422,6 +427,7 @@ def export(
     bad = [f for f in fmts if f not in FORMATS]
     if bad or not fmts:
         raise FoldprintError(f"--format: unknown format(s) {bad or formats!r}; choose from {', '.join(FORMATS)}")
+    out = _out_dir(out)
     d, lib = _load(design, materials_file, scale, crease_materials)
     out_dir = out if out is not None else Path("output") / d.name
     records = _with_progress(f"building {d.name} ({state})",
@@ -437,7 +443,7 @@ def export(
 @app.command()
 def gallery(
     designs: Optional[List[str]] = typer.Argument(None, help="Designs or template names (default: every template)."),
-    out: Path = typer.Option(Path("output") / "gallery", "--out", help="Output directory."),
+    out: str = typer.Option(str(Path("output") / "gallery"), "--out", help="Output directory."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     jobs: Optional[int] = typer.Option(None, "--jobs", min=1, help="Worker processes (default: one per CPU)."),
 ):
@@ -453,6 +459,9 @@ def gallery(
     from .materials import load_library
     from .templates import list_templates, resolve_design_path
 
+    out = _out_dir(out)
+    if jobs is not None:
+        _count(jobs, "--jobs", 1, MAX_WORKERS)
     lib = load_library(materials_file or None)
     names = list(designs) if designs else [t["path"] for t in list_templates()]
     if not names:

@@ -97,8 +97,8 @@ def _load(design: str, materials_file=None, scale=None, crease_materials=None):
     from .templates import resolve_design_path
 
     lib = load_library(materials_file or None)
-    if scale is not None and not (math.isfinite(scale) and scale > 0):
-        raise FoldprintError(f"--scale must be a number > 0 (mm per file unit), got {scale}")
+    if scale is not None:
+        _in_range(scale, "--scale", 0.0, 1e6, "mm per file unit", lo_open=True)
     return load_design(resolve_design_path(design), lib, scale=scale, crease_materials=crease_materials), lib
 
 
@@ -115,10 +115,66 @@ def _mode(enum, value: str, option: str):
         raise FoldprintError(f"{option} must be one of {', '.join(m.value for m in enum)}, got {value!r}") from None
 
 
-def _finite(**values) -> None:
-    for name, v in values.items():
-        if v is not None and not math.isfinite(v):
-            raise FoldprintError(f"--{name.replace('_', '-')} must be a finite number, got {v}")
+#: Admissible ranges of the command line's numeric options (issue 20 item 3): outside
+#: them a value is refused with exit 2 naming the option and the range.
+#: --dt: 1 us is 1e4 below the default step and far below any recovery time constant;
+#: --duration: schema.MAX_DURATION_S (the resource guard refuses long runs with an
+#: estimate); temperatures: schema.TEMPERATURE_C.
+DT_RANGE_S = (1e-6, 100.0)
+MAX_SAMPLES = 1_000_000
+MAX_BUDGET = 1_000_000
+MAX_TOP = 1000
+MAX_WORKERS = 1024
+
+
+def _in_range(value, option: str, lo: float, hi: float, unit: str = "", lo_open: bool = False) -> float:
+    """``value`` finite and in [lo, hi] (or (lo, hi]); FoldprintError naming the option."""
+    u = f" {unit}" if unit else ""
+    rng = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]{u}"
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise FoldprintError(f"{option} must be a number in {rng}, got {value!r}") from None
+    if not math.isfinite(v) or v > hi or v < lo or (lo_open and v <= lo):
+        raise FoldprintError(f"{option} must be in {rng}, got {value!r}")
+    return v
+
+
+def _temperature(value, option: str = "--temperature") -> float:
+    from .schema import TEMPERATURE_C
+
+    return _in_range(value, option, *TEMPERATURE_C, "deg C")
+
+
+def _time_options(duration, dt) -> None:
+    from .schema import MAX_DURATION_S
+
+    _in_range(dt, "--dt", *DT_RANGE_S, "s")
+    if duration is not None:
+        _in_range(duration, "--duration", 0.0, MAX_DURATION_S, "s", lo_open=True)
+
+
+def _count(value: int, option: str, lo: int, hi: int) -> int:
+    if not lo <= value <= hi:
+        raise FoldprintError(f"{option} must be a whole number in [{lo}, {hi}], got {value}")
+    return value
+
+
+def _out_dir(value: str | None, option: str = "--out"):
+    """An output directory option: refuses "" (it would mean the current folder without
+    saying so) and the file-system root."""
+    import os
+
+    if value is None:
+        return None
+    if not value.strip():
+        raise FoldprintError(f"{option} is empty; give a directory, e.g. {option} output/mine "
+                             f"(or {option} . for the current folder)")
+    p = Path(value)
+    if os.path.abspath(p) == os.path.abspath(os.sep) or p.resolve() == Path(p.resolve().anchor):
+        raise FoldprintError(f"{option} {value!r} is the root of the file system; give a directory of its own, "
+                             f"e.g. {option} output/mine")
+    return p
 
 
 def _samples_progress(label: str):

@@ -45,8 +45,8 @@ def parse_size(text: str | int | float) -> int:
             raise FoldprintError(f"--max-memory must be a size like 4G, 512M or 2000000000 (bytes), got {text!r}")
         value, unit = float(m.group(1)), m.group(2).upper()
     size = value * {"": 1, "K": 2 ** 10, "M": 2 ** 20, "G": GiB, "T": 2 ** 40}[unit]
-    if not math.isfinite(size) or size <= 0:
-        raise FoldprintError(f"--max-memory must be > 0, got {text!r}")
+    if not (math.isfinite(size) and 1 <= size <= 2 ** 60):  # 1 byte .. 1 EiB
+        raise FoldprintError(f"--max-memory must be a size from 1 byte to 1048576T (1 EiB), got {text!r}")
     return int(size)
 
 
@@ -88,7 +88,7 @@ def check_simulation(design, dt: float, duration: float | None, method: str) -> 
     dur = float(design.process.duration_s if duration is None else duration)
     if not (math.isfinite(dur) and math.isfinite(dt) and dur > 0 and dt > 0):
         return {}  # simulate() reports bad values itself
-    steps = math.ceil(dur / dt) + 1
+    steps = math.ceil(dur / dt) + 1 if dur / dt < 1e300 else math.inf  # 1e300 / 1e-300 overflows
     use2d = str(getattr(method, "value", method)) in ("index2d", "both") and design.is_planar_strip
     n_seg = sum(len(p.outline) + sum(len(h) for h in p.holes) for p in design.panels)
     est = simulation_estimate(len(design.panels), len(design.hinges), steps, use2d, n_seg)

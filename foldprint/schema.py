@@ -42,7 +42,10 @@ MAX_NAME = 100
 MAX_TEXT = 10_000
 MAX_NESTING = 32
 MAX_FILE_BYTES = 32 * 1024 * 1024
-TEMPERATURE_C = (-273.15, 500.0)
+#: Bath, programming and fixing temperatures: -100 C (below dry ice, -78.5 C) .. 500 C. The
+#: recovery model's Arrhenius shift below Tg takes 1/T in kelvin: -273.15 C divided by zero
+#: (numpy warnings, then a verdict), and 1e308 C overflowed.
+TEMPERATURE_C = (-100.0, 500.0)
 MAX_DURATION_S = 1e12  # s; the resource guard (guards.py) refuses long runs with a better message
 
 
