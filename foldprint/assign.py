@@ -39,7 +39,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from .collision3d import SweptChecker
-from .clearance import gaps_in_pose, min_clearance
+from .clearance import gaps_in_pose, min_clearance, permanent_crossings  # noqa: F401 (re-export)
 from .design import Design
 from .errors import DesignError
 from .kinematics import HingeDrive, forward, target_angles
@@ -335,15 +335,6 @@ class _Ledger:
 def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_c: float) -> dict[str, float | None]:
     thick = min(h.thickness for h in design.hinges)
     return {m: recovery_curve(lib[m], bath_c, thick, design.process.fix_temperature_c).time_to(0.98) for m in mats}
-
-
-def permanent_crossings(design: Design) -> list[tuple[str, str]]:
-    """Pairs of non-adjacent panels that overlap in the printed (permanent) state: no
-    assignment can fold such a design."""
-    checker = SweptChecker(design, HingeModel.ARC, None)
-    poses = forward(design, target_angles(design)[None], HingeModel.ARC)[0]
-    # within a hair of 0: FCL reports overlapping solids at distance <= 0
-    return [g.panels for g in gaps_in_pose(checker, poses, 1e-9) if g.distance <= 0.0]
 
 
 def assign(design: Design, *, library: MaterialLibrary | None = None, materials: Sequence[str] | None = None,

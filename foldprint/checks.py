@@ -19,6 +19,7 @@ from .design import Design, has_loops, tangent_factor
 from .constants import tol
 from .errors import DesignError
 from .materials import MaterialLibrary
+from .modes import HingeModel
 
 SEVERITIES = ("error", "warning", "info")
 
@@ -185,7 +186,7 @@ def rule_min_gap(ctx: CheckContext) -> list[Finding]:
             poly = Polygon(hole)
             minx, miny, maxx, maxy = poly.bounds
             if min(maxx - minx, maxy - miny) < g:
-                out.append(_f("FP121", "error", f"panel {p.id!r} hole {k} is narrower than the {g:g} mm minimum gap",
+                out.append(_f("FP121", "error", f"panel {p.id!r} holes[{k}] is narrower than the {g:g} mm minimum gap",
                               "widen the hole", panel=p.id))
     for gap in ctx.printed_gaps:
         if gap.distance >= g:
@@ -299,16 +300,22 @@ def rule_folding(ctx: CheckContext) -> list[Finding]:
     model = res.trajectory.model
     out = []
     c = res.first_collision
+    crossing = {tuple(sorted(g.panels)) for g in ctx.printed_gaps if g.distance <= 0.0}
     if c is not None:
+        # panels that already cross in the printed state (FP122) collide whatever the order:
+        # a lower-Tg hint would send the designer on a search that cannot succeed (issue 18)
+        hint = ("these panels cross in the printed (permanent) state (FP122): no hinge order or material "
+                "avoids it; change the target angles, lengths or holes" if crossing else
+                "give the hinges that must fold first lower-Tg materials, so these panels fold in sequence")
         out.append(_f("FP170", "error", f"panels {c.panels[0]!r} and {c.panels[1]!r} collide at {c.time:.3f} s "
-                      f"while folding ({model} hinges, 3D swept check)",
-                      "give the hinges that must fold first lower-Tg materials, so these panels fold in sequence",
+                      f"while folding ({model} hinges, 3D swept check)", hint,
                       c.point if all(map(math.isfinite, c.point)) else None, panels=list(c.panels)))
     for g in res.goals:
         if not g.met:
             why = "never passes" if g.time is None else "passes out of order"
-            out.append(_f("FP171", "error", f"goal {g.goal.id!r}: panel {g.goal.panel!r} {why} through hole "
-                          f"{g.goal.hole} of {g.goal.target!r}", "adjust the hinge sequence", goal=g.goal.id))
+            out.append(_f("FP171", "error", f"goal {g.goal.id!r}: panel {g.goal.panel!r} {why} through "
+                          f"holes[{g.goal.hole}] of {g.goal.target!r} (holes count from 0)",
+                          "adjust the hinge sequence", goal=g.goal.id))
     gap = ctx.clearance
     if c is None and gap is not None:
         out.append(_f("FP172", "info", f"smallest clearance between non-adjacent panels while folding: "
@@ -325,8 +332,10 @@ def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
     lo, hi = r.ci95
     th = ctx.thresholds
     pairs = ", ".join(f"{a}-{b} ({k}x)" for (a, b), k in r.collisions()[:3])
+    what = ("the printed geometry (arc hinges)" if r.hinge_model == HingeModel.ARC else
+            f"the {r.hinge_model.value}-hinge model (not the printed geometry)")
     text = (f"jam probability {r.jam_probability:.0%} (95 % interval {lo:.0%}-{hi:.0%}) in {r.samples} samples "
-            f"of the printed geometry under scatter" + (f"; colliding: {pairs}" if pairs else ""))
+            f"of {what} under scatter" + (f"; colliding: {pairs}" if pairs else ""))
     hint = "give neighbouring hinges materials further apart in Tg, so scatter cannot swap their order"
     if lo > th.error:
         return [_f("FP180", "error", text + f": above the {th.error:.0%} error threshold even at the interval's "

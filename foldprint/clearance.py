@@ -111,3 +111,16 @@ def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
     design = checker.design
     return Gap(max(float(dist), 0.0), (i, j), (design.panels[i].id, design.panels[j].id), float(times[ks[k]]),
                None if point is None else tuple(float(x) for x in point))
+
+
+def permanent_crossings(design) -> list[tuple[str, str]]:
+    """Pairs of non-adjacent panels that overlap in the printed (permanent) state of the
+    printed geometry (arc hinges at their target angles): such a part can never be printed
+    as designed, and no hinge order or material can fold it."""
+    from .kinematics import forward, target_angles
+    from .modes import HingeModel
+
+    checker = SweptChecker(design, HingeModel.ARC, None)
+    poses = forward(design, target_angles(design)[None], HingeModel.ARC)[0]
+    # within a hair of 0: FCL reports overlapping solids at distance <= 0
+    return [g.panels for g in gaps_in_pose(checker, poses, 1e-9) if g.distance <= 0.0]

@@ -149,7 +149,7 @@ def simulate(
     Example: foldprint simulate helix_graded --json
     """
     from .modes import AfterContact, HingeModel, Method
-    from .pipeline import run_simulation
+    from .pipeline import printed_crossings, run_simulation
     from .report import simulation_json
 
     m, model, after = (_mode(Method, method, "--method"), _mode(HingeModel, hinge_model, "--hinge-model"),
@@ -166,7 +166,9 @@ def simulate(
     res, other = run_simulation(d, library=lib, bath_c=temperature, duration=duration, dt=dt, method=m,
                                 hinge_model=model, after_contact=after, compare=True)
     report = simulation_json(res)
-    report["comparison"] = None if other is None else dict(
+    crossing = printed_crossings(d)  # issue 18: a part that cannot be printed is not "a contact at t"
+    report["printed_crossings"] = [list(pair) for pair in crossing]
+    report["comparison"] = None if other is None or crossing else dict(
         simulation_json(other.result, brief=True), hinge_model=other.hinge_model.value)
     if plot is not None:
         from .render import collision_index_figure, hinge_angle_figure, save_figure
@@ -180,7 +182,7 @@ def simulate(
         _echo_json(report)
     else:
         _print_simulation(report)
-    raise ExitCode(0 if res.completed else 1)
+    raise ExitCode(0 if res.completed and not crossing else 1)
 
 
 @app.command()
@@ -380,8 +382,11 @@ def assign(
             echo(f"  {k}. {mats_s} at {c['temperature_c']:g} C: folds in {c['fold_time_s']:.2f} s, "
                  f"smallest clearance {clear}{extra}")
         for b in out["blocking"][:5]:
+            if r.permanent_blocked:  # found before any evaluation: no count to give
+                echo(f"  blocking: {b['pair'][0]}-{b['pair'][1]} cross in the printed (permanent) state")
+                continue
             what = f"{b['pair'][0]}-{b['pair'][1]} collide" if "pair" in b else f"goal {b['goal']} unmet"
-            echo(f"  blocking: {what} in {b['count']} evaluation(s)")
+            echo(f"  blocking: {what} in {b['count']} of {r.evaluated} evaluation(s)")
     best_jam, warn = (r.best[0].jam_probability if r.best else None), Thresholds().warning
     if best_jam is not None and best_jam > warn and temperature_range is None:
         _note(f"the best jam probability {best_jam:.0%} is above {warn:.0%}: a cooler bath "

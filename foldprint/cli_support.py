@@ -205,6 +205,13 @@ def _verdict(r: dict) -> str:
 
 
 def _print_simulation(r: dict) -> None:
+    crossing = r.get("printed_crossings") or []
+    if crossing:  # the printed part itself overlaps: no fold, no contact time to report
+        pairs = ", ".join(f"{a!r} and {b!r}" for a, b in crossing[:5])
+        echo(f"{r['design']}: can never be printed: panels {pairs} cross in the printed (permanent) state "
+             "(the target angles put them through each other; no hinge order or material can fold it): "
+             "change the target angles, lengths or holes")
+        return
     echo(f"{r['design']} at {r['temperature_c']:g} C ({r['hinge_model']} hinges, {r['method']}): {_verdict(r)}")
     if r["fold_time_s"] is not None:
         echo(f"  folded in {r['fold_time_s']:.2f} s")
@@ -217,7 +224,7 @@ def _print_simulation(r: dict) -> None:
         echo(f"  {h['id']:<6} {h['material']:<6} {ft}{extra}")
     for g in r["goals"]:
         state = f"met at {g['time_s']:.2f} s" if g["met"] else "NOT met"
-        echo(f"  goal {g['id']}: {g['panel']} through hole {g['hole']} of {g['target']}: {state}")
+        echo(f"  goal {g['id']}: {g['panel']} through holes[{g['hole']}] of {g['target']}: {state}")
     if r.get("comparison"):
         c = r["comparison"]
         echo(f"  note: the {c['hinge_model']} hinge model disagrees: it {_verdict(c)} "

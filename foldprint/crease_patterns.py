@@ -29,8 +29,9 @@ def degree4_ratio(alpha_deg: float, beta_deg: float) -> float:
 
         tan(rho2 / 2) = sin((alpha + beta) / 2) / sin((beta - alpha) / 2) * tan(rho1 / 2)
 
-    (the one-degree-of-freedom relation; Huffman 1976, Tachi 2009, Evans et al. 2015),
-    here up to the sign that picks the mountain-valley branch."""
+    (the one-degree-of-freedom relation; Huffman 1976, Tachi 2009, Evans et al. 2015).
+    This returns the magnitude; on the branch :func:`degree4` builds (crease 1 and 2 of
+    opposite sign) ``tan(rho2 / 2) = -ratio * tan(rho1 / 2)``."""
     a, b = math.radians(alpha_deg), math.radians(beta_deg)
     return math.sin((a + b) / 2) / math.sin((b - a) / 2)
 

@@ -513,7 +513,7 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
     if sim["goals"]:
         rows = []
         for g in sim["goals"]:
-            what = f"{g['panel']} passes through hole {g['hole']} of {g['target']}" \
+            what = f"{g['panel']} passes through holes[{g['hole']}] of {g['target']}" \
                 if g["type"] == "pass_through" else g["type"]
             met = f"met at {g['time_s']:.2f} s" if g["met"] else (
                 "passed out of order" if g["passes_s"] else "NOT met")

@@ -85,6 +85,14 @@ def run_simulation(design: Design, *, library: MaterialLibrary | None = None, ba
     return res, (Comparison(other, alt) if verdict(alt) != verdict(res) else None)
 
 
+def printed_crossings(design: Design) -> list[tuple[str, str]]:
+    """Non-adjacent panel pairs that overlap in the printed (permanent) state: the part
+    can never be printed as designed (:func:`foldprint.clearance.permanent_crossings`)."""
+    from .clearance import permanent_crossings
+
+    return permanent_crossings(design)
+
+
 @dataclass(frozen=True)
 class Evaluation:
     """Everything known about a design before printing."""

@@ -387,3 +387,27 @@ def test_a_small_programming_bias_selects_the_miura_branch():
         wrong = [bool((simulate_kinematics(design, drive=sample_drive(design, default_library(), s),
                                            duration=2.0, dt=0.05).angles * sign < -1e-6).any()) for s in drawn]
         assert any(wrong) == wrong_expected, wrong
+
+
+def test_degree4_relation_is_signed(trajectories):
+    """On degree4()'s branch (crease 1 mountain, 2 valley) the ratio is negative: the
+    closed form holds with its sign, not only in magnitude (issue 18)."""
+    _, _, traj = trajectories["degree4"]
+    k = traj.angles
+    moving = np.abs(k[:, 0]) > 1e-3
+    ratio = np.tan(k[moving, 1] / 2) / np.tan(k[moving, 0] / 2)
+    np.testing.assert_allclose(ratio, -cp.degree4_ratio(60.0, 80.0), rtol=1e-6)
+
+
+def test_degree4_docs_formula_matches_its_targets():
+    """docs/loops.md's worked example: its numeric relation applied to its listed rho1
+    gives its listed rho2 (the sign was once the opposite of the targets)."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "loops.md").read_text()
+    coef = float(re.search(r"= (-?\d+\.\d+) tan\(rho1 / 2\)\n", text).group(1))
+    targets = [float(x) for x in re.search(r"targets\s+rho = \(([^)]*)\) deg", text).group(1).split(",")]
+    rho1, rho2 = np.radians(targets[0]), np.radians(targets[1])
+    assert np.tan(rho2 / 2) == pytest.approx(coef * np.tan(rho1 / 2), rel=1e-4)
+    assert coef == pytest.approx(-cp.degree4_ratio(60.0, 80.0), rel=1e-4)

@@ -47,11 +47,26 @@ def _local(frame: HingeFrame, rho: float) -> np.ndarray:
 
 
 def _poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.ndarray:
+    """Each panel's pose, placed from the root outward along the spanning tree, whatever
+    the order of ``frames`` (the layout lists them in hinge order: placing a child before
+    its parent left the pose all zeros, an empty solid; issue 18, the 8-crease waterbomb)."""
     poses = np.zeros((len(design.panels), 4, 4))
-    poses[design.panel_index()[design.root]] = np.eye(4)
+    root = design.panel_index()[design.root]
+    poses[root] = np.eye(4)
+    below: dict[int, list[HingeFrame]] = {}
     for f in frames:
         if f.tree:  # a hinge closing a loop does not place its child (docs/loops.md)
-            poses[f.child] = poses[f.parent] @ _local(f, float(angles[f.index]))
+            below.setdefault(f.parent, []).append(f)
+    todo, placed = [root], {root}
+    while todo:
+        parent = todo.pop()
+        for f in below.get(parent, []):
+            poses[f.child] = poses[parent] @ _local(f, float(angles[f.index]))
+            placed.add(f.child)
+            todo.append(f.child)
+    if len(placed) != len(design.panels):
+        missing = [design.panels[k].id for k in range(len(design.panels)) if k not in placed][:5]
+        raise GeometryError(f"panels {missing} are not reached from the root {design.root!r} by the hinge tree")
     return poses
 
 
