@@ -24,7 +24,7 @@ from .design import Design
 from .design_io import design_from_dict, read_text
 from .errors import DesignError, where
 from .materials import MaterialLibrary
-from .schema import MAX_FACES, check_fold, parse_error
+from .schema import MAX_FACES, MAX_LENGTH_MM, check_fold, parse_error
 
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "pt": 25.4 / 72.0,
          "um": 1e-3, "nm": 1e-6}
@@ -123,6 +123,13 @@ def _coords(frame: Mapping, factor: float, src: str) -> np.ndarray:
         if not isinstance(v, list) or len(v) not in (2, 3) or not all(_number(c) for c in v):
             raise DesignError(f"{src}vertices_coords[{i}] must be [x, y] or [x, y, z] finite numbers, got {v!r}")
         xyz[i, :len(v)] = v
+    with np.errstate(over="ignore", invalid="ignore"):
+        big = np.abs(xyz * factor).max(axis=1) if len(xyz) else np.zeros(0)
+    if len(big) and not np.all(big <= MAX_LENGTH_MM):  # also inf/nan: 1e306 m overflows
+        i = int(np.argmax(~(big <= MAX_LENGTH_MM)))
+        raise DesignError(f"{src}vertices_coords[{i}] is {_short(raw[i])}, {big[i]:.3g} mm from the origin at "
+                          f"{factor:g} mm per unit, beyond the {MAX_LENGTH_MM:g} mm foldprint accepts; check "
+                          "frame_unit or --scale")
     flat = np.abs(xyz) <= 1e-9 * max(1.0, float(np.abs(xyz).max(initial=0.0)))
     if flat[:, 2].all():
         return xyz[:, :2] * factor

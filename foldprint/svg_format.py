@@ -526,6 +526,11 @@ def fold_from_svg(text: str, src: str = "", scale: float | None = None,
                 f"{src}{owner}: the {_NAMES[assign[i]]} crease from ({coords[a][0]:g}, {coords[a][1]:g}) to "
                 f"({coords[b][0]:g}, {coords[b][1]:g}) borders {n} face(s); a crease must run between two "
                 "faces: extend it to the border or to another crease, or delete it")
+    span = size * factor
+    if not (math.isfinite(factor) and factor > 0 and math.isfinite(span) and span <= MAX_LENGTH_MM):
+        raise DesignError(f"{src}the pattern is {size:g} user units wide at {factor:g} mm per unit (from the "
+                          f"document's width/viewBox), beyond the {MAX_LENGTH_MM:g} mm foldprint accepts; fix "
+                          "width and viewBox or give --scale MM_PER_UNIT")
     xy = [[x * factor, -y * factor] for x, y in coords]  # y up
     faces = [r[::-1] for r in faces]  # keep counter-clockwise after the mirror
     return {"file_spec": 1.2, "file_creator": "foldprint.svg_format", "frame_classes": ["creasePattern"],

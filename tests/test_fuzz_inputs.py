@@ -1,0 +1,154 @@
+"""Property-based fuzz of the input boundary (issue 20 item 8): SVG, FOLD, command lines and
+planted output folders from the strategies of ``tests/fuzz_gen.py``. A failure is shrunk by
+hypothesis to its minimal input. The suite runs a small budget (``FOLDPRINT_FUZZ_CASES``
+scales it); ``benchmarks/fuzz_inputs.py`` runs 10,000 cases with peak memory.
+
+Contracts: a design file is read into a Design or refused with a FoldprintError (one line
+naming the file) within the time budget; a command exits 0, 1 or 2, never with a
+traceback, one line on stderr and nothing written on 2; an export into a planted folder
+writes its set or refuses with an ExportError, and never changes, follows or deletes
+what it did not make."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import signal
+import tempfile
+import warnings
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as hs
+
+from fuzz_gen import (FILE_NAMES, PLANTS, SMALL_DESIGN, command_lines, fold_documents, plant,
+                      svg_documents)
+from foldprint.errors import ExportError, FoldprintError
+from foldprint.exchange.files import write_set
+from foldprint.load import load_design
+
+SCALE = float(os.environ.get("FOLDPRINT_FUZZ_CASES", "200")) / 200  # 1 at the suite's default
+LOAD_BUDGET_S = 30.0
+
+
+class _Slow(Exception):
+    pass
+
+
+def _alarm(signum, frame):
+    raise _Slow()
+
+
+def load_contract(name: str, raw: bytes, budget: float = LOAD_BUDGET_S) -> str:
+    """'ok' or 'refused'; raises AssertionError on a contract violation."""
+    with tempfile.TemporaryDirectory() as tmp:
+        f = Path(tmp) / name
+        f.write_bytes(raw)
+        old = signal.signal(signal.SIGALRM, _alarm)
+        signal.setitimer(signal.ITIMER_REAL, budget)
+        try:
+            with warnings.catch_warnings():  # a numpy overflow warning means an unchecked value
+                warnings.simplefilter("error", RuntimeWarning)
+                load_design(f)
+            return "ok"
+        except FoldprintError as exc:
+            msg = str(exc)
+            assert "\n" not in msg.strip() and name in msg and len(msg) < 2000, msg
+            return "refused"
+        except _Slow:
+            raise AssertionError(f"reading took over {budget} s") from None
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, old)
+
+
+FAST = settings(max_examples=max(10, int(60 * SCALE)), deadline=None, database=None, derandomize=True,
+                suppress_health_check=list(HealthCheck))
+
+
+@FAST
+@given(raw=svg_documents())
+def test_svg_inputs_are_read_or_refused_cleanly(raw):
+    load_contract("case.svg", raw)
+
+
+@FAST
+@given(raw=fold_documents())
+def test_fold_inputs_are_read_or_refused_cleanly(raw):
+    load_contract("case.fold", raw)
+
+
+def _tree(root: Path) -> dict:
+    """Every entry under ``root`` without following links: type and content or target."""
+    out = {}
+    for dirpath, dirnames, filenames in os.walk(root, followlinks=False):
+        for n in dirnames + filenames:
+            p = Path(dirpath) / n
+            rel = str(p.relative_to(root))
+            if p.is_symlink():
+                out[rel] = ("link", os.readlink(p))
+            elif p.is_dir():
+                out[rel] = ("dir", None)
+            else:
+                out[rel] = ("file", hashlib.sha256(p.read_bytes()).hexdigest())
+    return out
+
+
+@settings(max_examples=max(20, int(150 * SCALE)), deadline=None, database=None, derandomize=True,
+          suppress_health_check=list(HealthCheck))
+@given(plants=hs.lists(hs.sampled_from(PLANTS), max_size=3, unique=True), names=FILE_NAMES,
+       twice=hs.booleans())
+def test_planted_output_folders(plants, names, twice):
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        keep = tmp / "keep.txt"
+        keep.write_text("mine")
+        out = tmp / "out"
+        for k in plants:
+            plant(out, k, names)
+        files = [(n, f"{n} v1".encode()) for n in names]
+        for attempt in range(2 if twice else 1):
+            before = _tree(tmp)
+            try:
+                write_set(out, files)
+            except ExportError as exc:
+                assert "\n" not in str(exc) and str(out) in str(exc), exc
+                assert _tree(tmp) == before, "a refused export changed the folder"
+                break
+            else:
+                for n, data in files:
+                    assert (out / n).read_bytes() == data
+                after = _tree(tmp)
+                theirs = {k: v for k, v in before.items()
+                          if not k.startswith("out/.foldprint-") and k not in {f"out/{n}" for n in names}}
+                assert {k: after.get(k) for k in theirs} == theirs, "an entry foldprint did not make changed"
+            files = [(n, f"{n} v2".encode()) for n in names]
+        assert keep.read_text() == "mine"
+
+
+@pytest.fixture(scope="module")
+def cli_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli")
+    (d / "d.toml").write_text(SMALL_DESIGN)
+    return d
+
+
+@settings(max_examples=max(6, int(25 * SCALE)), deadline=None, database=None, derandomize=True,
+          suppress_health_check=list(HealthCheck))
+@given(args=command_lines())
+def test_command_lines_keep_the_contract(cli_dir, args):
+    from test_fuzz import run_case
+
+    with tempfile.TemporaryDirectory(dir=cli_dir) as case:
+        case = Path(case)
+        (case / "d.toml").write_text(SMALL_DESIGN)
+        before = sorted(p.name for p in case.iterdir())
+        res = run_case(args, case)
+        assert not res["timeout"], args
+        assert "Traceback" not in res["err"], (args, res["err"][-1500:])
+        assert res["code"] in (0, 1, 2), (args, res["code"], res["err"][-1500:])
+        if res["code"] == 2:
+            assert res["err"].count("\n") == 1, (args, res["err"])
+            after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
+            assert after == before, (args, after)
