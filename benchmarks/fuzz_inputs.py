@@ -1,10 +1,22 @@
-"""Fresh fuzz campaign (issue 14): N mutated designs through ``check --json`` and ``export``.
+"""Fresh fuzz campaigns (issues 14, 20): hostile inputs through the command line.
 
-    PYTHONPATH=$PWD python benchmarks/fuzz_inputs.py --cases 1000 --seed-base 7000000 --jobs 2
+    PYTHONPATH=$PWD python benchmarks/fuzz_inputs.py --kind all --cases 10000 --jobs 2 --json out.json
 
-Seeds start at ``--seed-base`` (the suite's hypothesis seeds are drawn from another
-stream). Prints the counts per command: exit 0/1/2, tracebacks, other exit codes,
-> 30 s, one-line-on-2 and nothing-written-on-2 violations, and the failing seeds.
+Kinds (``--kind``, comma-separated or ``all``; ``--cases`` is split evenly between them):
+
+* ``design``: mutated templates and a FOLD sheet (``tests/test_fuzz.py:mutate``) through
+  ``check --json`` and ``export``, seeds from ``--seed-base``;
+* ``svg``, ``fold``: documents from the hypothesis strategies of ``tests/fuzz_gen.py``
+  through ``check --samples 0 --json`` (the whole pipeline when the file is valid);
+* ``cli``: command lines with hostile option values on a small strip design;
+* ``planted``: an export (``write_set``) into an output folder with planted entries,
+  in process (it only writes files).
+
+Every command runs in a forked child with a budget of 30 s of its own CPU time (wall time
+on the shared machine is reported, not used). Prints per kind: the exit codes,
+tracebacks, exits other than 0/1/2, runs over 30 s (CPU), one-line-on-2 violations, the
+largest CPU and wall time and the peak memory (max RSS of one child, MiB), and the first
+failing inputs (saved under ``--keep`` for replay).
 """
 
 from __future__ import annotations
@@ -13,60 +25,170 @@ import argparse
 import json
 import sys
 import tempfile
+import time
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_fuzz import one  # noqa: E402
+from test_fuzz import one, run_case  # noqa: E402
+
+KINDS = ("design", "svg", "fold", "cli", "planted")
 
 
 def _warm():
     """Import the CLI and every stage once per worker, so each forked case starts warm."""
     import foldprint.checks, foldprint.cli, foldprint.load, foldprint.pipeline, foldprint.simulate  # noqa: E401,F401
-    import foldprint.geometry, foldprint.exchange.export  # noqa: E401,F401
+    import foldprint.geometry, foldprint.exchange.export, foldprint.svg_format  # noqa: E401,F401
 
 
-def _run(seed: int) -> dict:
+def _summary(kind: str, code, bad: list, seconds: float, cpu: float, peak: float, err: str, case) -> dict:
+    return {"kind": kind, "code": code, "bad": bad, "seconds": round(seconds, 2), "cpu_seconds": round(cpu, 2),
+            "peak_mib": round(peak, 1), "err": err[-300:] if bad else "", "case": case if bad else None}
+
+
+def _run_design(seed: int) -> list[dict]:
     with tempfile.TemporaryDirectory(prefix="fpfuzz") as tmp:
         r = one(seed, Path(tmp))
-    return {cmd: {"code": v["code"], "bad": v["bad"], "seconds": round(v["seconds"], 2),
-                  "cpu_seconds": round(v["cpu_seconds"], 2),
-                  "err": v["err"][-300:] if v["bad"] else ""} for cmd, v in r.items()}
+    return [_summary(f"design/{cmd}", v["code"], v["bad"], v["seconds"], v["cpu_seconds"], v.get("peak_mib", 0.0),
+                     v["err"], seed) for cmd, v in r.items()]
+
+
+def _contract(res: dict, before: list, after: list) -> list[str]:
+    bad = []
+    if res["timeout"]:
+        return ["timeout"]
+    if "Traceback" in res["err"]:
+        bad.append("traceback")
+    if res["code"] not in (0, 1, 2):
+        bad.append(f"exit {res['code']}")
+    if res["code"] == 2:
+        if res["err"].count("\n") != 1:
+            bad.append("not one line on stderr")
+        if after != before:
+            bad.append("wrote on exit 2")
+    if "Warning" in res["err"]:
+        bad.append("warning printed")
+    return bad
+
+
+def _run_file(kind: str, name: str, raw: bytes, args: list[str]) -> list[dict]:
+    from fuzz_gen import SMALL_DESIGN
+
+    with tempfile.TemporaryDirectory(prefix="fpfuzz") as tmp:
+        case = Path(tmp)
+        if name:
+            (case / name).write_bytes(raw)
+        (case / "d.toml").write_text(SMALL_DESIGN)
+        before = sorted(p.name for p in case.iterdir())
+        res = run_case(args, case)
+        after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
+    bad = _contract(res, before, after)
+    return [_summary(kind, res["code"], bad, res["seconds"], res["cpu_seconds"], res["peak_mib"], res["err"],
+                     {"args": args, "file": raw.decode("utf-8", "replace")[:20000] if name else None})]
+
+
+def _run_planted(plants, names, twice) -> list[dict]:
+    import resource
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from test_fuzz_inputs import test_planted_output_folders
+
+    t0, c0 = time.monotonic(), time.process_time()
+    bad, err = [], ""
+    try:
+        test_planted_output_folders.hypothesis.inner_test(plants, names, twice)
+    except AssertionError as exc:
+        bad, err = ["contract"], str(exc)
+    except Exception as exc:  # noqa: BLE001
+        bad, err = ["traceback"], f"{type(exc).__name__}: {exc}"
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return [_summary("planted", 0 if not bad else None, bad, time.monotonic() - t0, time.process_time() - c0, peak,
+                     err, {"plants": plants, "names": names, "twice": twice})]
+
+
+def _jobs(kind: str, n: int, seed_base: int):
+    """(function, args) of ``n`` cases of ``kind``, drawn from the hypothesis strategies."""
+    if kind == "design":
+        return [(_run_design, (seed_base + i,)) for i in range(n)]
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as hs
+
+    from fuzz_gen import FILE_NAMES, PLANTS, command_lines, fold_documents, svg_documents
+
+    out = []
+    strat = {"svg": svg_documents(), "fold": fold_documents(), "cli": command_lines(),
+             "planted": hs.tuples(hs.lists(hs.sampled_from(PLANTS), max_size=3, unique=True), FILE_NAMES,
+                                  hs.booleans())}[kind]
+
+    @settings(max_examples=n, deadline=None, database=None, derandomize=True,
+              suppress_health_check=list(HealthCheck))
+    @given(strat)
+    def draw(x):
+        if len(out) >= n:
+            return
+        if kind == "svg":
+            out.append((_run_file, ("svg", "case.svg", x, ["check", "case.svg", "--samples", "0", "--json"])))
+        elif kind == "fold":
+            out.append((_run_file, ("fold", "case.fold", x, ["check", "case.fold", "--samples", "0", "--json"])))
+        elif kind == "cli":
+            out.append((_run_file, ("cli", "", b"", x)))
+        else:
+            out.append((_run_planted, x))
+
+    draw()
+    return out
+
+
+def _call(job):
+    fn, args = job
+    return fn(*args)
 
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--cases", type=int, default=1000)
+    ap.add_argument("--kind", default="all")
+    ap.add_argument("--cases", type=int, default=10_000)
     ap.add_argument("--seed-base", type=int, default=7_000_000)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--keep", type=Path, help="directory for the failing inputs")
     a = ap.parse_args()
-    seeds = range(a.seed_base, a.seed_base + a.cases)
-    counts = {c: Counter() for c in ("check", "export")}
+    kinds = KINDS if a.kind == "all" else tuple(a.kind.split(","))
+    per = max(1, a.cases // len(kinds))
+    jobs = [j for k in kinds for j in _jobs(k, per, a.seed_base)]
+    counts: dict[str, Counter] = {}
+    peaks: dict[str, float] = {}
     failures = []
+    t0 = time.monotonic()
     with ProcessPoolExecutor(a.jobs, initializer=_warm) as ex:
-        for seed, r in zip(seeds, ex.map(_run, seeds, chunksize=4)):
-            for cmd, v in r.items():
-                c = counts[cmd]
+        for i, rows in enumerate(ex.map(_call, jobs, chunksize=4), 1):
+            for v in rows:
+                c = counts.setdefault(v["kind"], Counter())
+                c["cases"] += 1
                 c[f"exit {v['code']}"] += 1
                 for b in v["bad"]:
                     c[b] += 1
-                if v["cpu_seconds"] > 30 or v["code"] is None:
-                    c["> 30 s"] += 1
+                if v["cpu_seconds"] > 30 or "timeout" in v["bad"]:
+                    c["over 30 s CPU"] += 1
                 if v["seconds"] > 30:
-                    c["> 30 s wall (busy machine)"] += 1
+                    c["over 30 s wall (busy machine)"] += 1
                 c["max_cpu_seconds"] = max(c["max_cpu_seconds"], v["cpu_seconds"])
                 c["max_wall_seconds"] = max(c["max_wall_seconds"], v["seconds"])
+                peaks[v["kind"]] = max(peaks.get(v["kind"], 0.0), v["peak_mib"])
                 if v["bad"]:
-                    failures.append({"seed": seed, "cmd": cmd, **v})
-            if (seed - a.seed_base + 1) % 25 == 0:
-                print(f"after {seed - a.seed_base + 1}: {json.dumps({k: dict(v) for k, v in counts.items()})} "
-                      f"failing seeds: {[(f['seed'], f['cmd'], f['bad']) for f in failures]}",
-                      file=sys.stderr, flush=True)
-    report = {"cases": a.cases, "seed_base": a.seed_base, "counts": {k: dict(v) for k, v in counts.items()},
-              "failures": failures[:50]}
-    print(json.dumps(report, indent=1))
+                    failures.append(v)
+            if i % 100 == 0:
+                print(f"{i}/{len(jobs)} after {time.monotonic() - t0:.0f} s: "
+                      f"{json.dumps({k: dict(v) for k, v in counts.items()})}", file=sys.stderr, flush=True)
+    report = {"cases": len(jobs), "kinds": list(kinds), "wall_s": round(time.monotonic() - t0),
+              "counts": {k: dict(v) for k, v in counts.items()}, "peak_mib": peaks, "failures": failures[:50]}
+    if a.keep and failures:
+        a.keep.mkdir(parents=True, exist_ok=True)
+        for k, f in enumerate(failures[:50]):
+            (a.keep / f"failure_{k}.json").write_text(json.dumps(f, indent=1))
+    print(json.dumps({k: v for k, v in report.items() if k != "failures"}, indent=1))
+    print(json.dumps([{k: f[k] for k in ("kind", "bad", "err")} for f in failures[:10]], indent=1))
     if a.json:
         a.json.write_text(json.dumps(report, indent=1))
 

@@ -155,11 +155,11 @@ def run_case(args: list[str], cwd: Path, budget: float = BUDGET_S) -> dict:
                 os._exit(code)
     timed_out = False
     clk = os.sysconf("SC_CLK_TCK")
-    cpu = 0.0
+    cpu, rss = 0.0, 0.0
     while True:
         done, status, usage = os.wait4(pid, os.WNOHANG)
         if done:
-            cpu = usage.ru_utime + usage.ru_stime
+            cpu, rss = usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024  # KiB on Linux -> MiB
             break
         try:  # the child's own CPU time (utime + stime): the budget, robust to a busy machine
             fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
@@ -175,7 +175,7 @@ def run_case(args: list[str], cwd: Path, budget: float = BUDGET_S) -> dict:
     code = os.waitstatus_to_exitcode(status) if not timed_out else None
     return {"code": code, "out": out_f.read_text(errors="replace") if out_f.exists() else "",
             "err": err_f.read_text(errors="replace") if err_f.exists() else "",
-            "seconds": time.monotonic() - t0, "cpu_seconds": cpu, "timeout": timed_out}
+            "seconds": time.monotonic() - t0, "cpu_seconds": cpu, "timeout": timed_out, "peak_mib": rss}
 
 
 def classify(res: dict, command: str, out_dir: Path) -> list[str]:
