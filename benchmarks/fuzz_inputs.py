@@ -153,10 +153,13 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", type=Path)
     ap.add_argument("--keep", type=Path, help="directory for the failing inputs")
+    ap.add_argument("--limit", type=int, help="run only the first N cases drawn (a partial campaign)")
     a = ap.parse_args()
     kinds = KINDS if a.kind == "all" else tuple(a.kind.split(","))
     per = max(1, a.cases // len(kinds))
     jobs = [j for k in kinds for j in _jobs(k, per, a.seed_base)]
+    if a.limit:  # evenly over the kinds: every kind's first cases
+        jobs = [j for k in range(len(kinds)) for j in jobs[k * per:k * per + a.limit // len(kinds)]]
     counts: dict[str, Counter] = {}
     peaks: dict[str, float] = {}
     failures = []
@@ -178,15 +181,15 @@ def main():
                 peaks[v["kind"]] = max(peaks.get(v["kind"], 0.0), v["peak_mib"])
                 if v["bad"]:
                     failures.append(v)
+                    print(f"FAILURE {json.dumps(v)[:3000]}", file=sys.stderr, flush=True)
+                    if a.keep:
+                        a.keep.mkdir(parents=True, exist_ok=True)
+                        (a.keep / f"failure_{len(failures) - 1}.json").write_text(json.dumps(v, indent=1))
             if i % 100 == 0:
                 print(f"{i}/{len(jobs)} after {time.monotonic() - t0:.0f} s: "
                       f"{json.dumps({k: dict(v) for k, v in counts.items()})}", file=sys.stderr, flush=True)
     report = {"cases": len(jobs), "kinds": list(kinds), "wall_s": round(time.monotonic() - t0),
               "counts": {k: dict(v) for k, v in counts.items()}, "peak_mib": peaks, "failures": failures[:50]}
-    if a.keep and failures:
-        a.keep.mkdir(parents=True, exist_ok=True)
-        for k, f in enumerate(failures[:50]):
-            (a.keep / f"failure_{k}.json").write_text(json.dumps(f, indent=1))
     print(json.dumps({k: v for k, v in report.items() if k != "failures"}, indent=1))
     print(json.dumps([{k: f[k] for k in ("kind", "bad", "err")} for f in failures[:10]], indent=1))
     if a.json:

@@ -83,6 +83,8 @@ def _matrix(text: str | None, src: str) -> np.ndarray:
         return m
     for name, args in re.findall(r"(\w+)\s*\(([^)]*)\)", text):
         a = [float(x) for x in re.findall(_NUM, args)]
+        if not all(math.isfinite(x) and abs(x) < 1e300 for x in a):
+            raise DesignError(f"{src}transform {name}({args.strip()[:40]}) has a number out of range")
         t = np.eye(3)
         if name == "matrix" and len(a) == 6:
             t = np.array([[a[0], a[2], a[4]], [a[1], a[3], a[5]], [0, 0, 1]])

@@ -10,6 +10,7 @@ from foldprint.cli import main
 from foldprint.design import Process, strip
 from foldprint.load import load_design
 from foldprint.materials import default_library
+from foldprint.modes import HingeModel
 from foldprint.pipeline import evaluate
 from foldprint.robust import wilson
 
@@ -93,7 +94,9 @@ def test_jam_probability_decides_the_helices(capsys):
 
 
 class _Fake:
-    """A stand-in robust result with k jams in n samples."""
+    """A stand-in robust result with k jams in n samples (of the printed geometry)."""
+
+    hinge_model = HingeModel.ARC
 
     def __init__(self, k, n):
         self.samples, self.jams, self.jam_probability, self.ci95 = n, k, k / n, wilson(k, n)

@@ -59,6 +59,8 @@ BAD = {  # name: (file name, text, words the message must hold)
                     ["scale(0)", "collapses"]),
     "svg_translate_1e308": ("t.svg", _svg(BOX.replace('stroke="#00f"', 'stroke="#00f" transform="translate(1e308 1e308)"')),
                             ["translate(1e308 1e308)", "out of range"]),
+    "svg_skew_400_digits": ("k.svg", _svg(BOX.replace('stroke="#00f"', 'stroke="#00f" transform="skewX(' + "9" * 400 + ')"')),
+                            ["skewX(", "out of range"]),  # found by benchmarks/fuzz_inputs.py: math domain error
     "svg_5000_nested_groups": ("n.svg", _svg("<g>" * 5000 + BOX + "</g>" * 5000), ["nested more than 64"]),
     "svg_2000_crossing_segments": ("p.svg", _svg(BOX + f'<path d="{_random_path(2000)}" stroke="#f00"/>'),
                                    ["cross each other about", "50000"]),
