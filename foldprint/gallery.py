@@ -373,6 +373,9 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
         log.warning("gallery: %s: export failed: %s", name, exc)
         entry.export_note = f"Export failed: {exc}"
     else:
+        from .exchange.files import flatten
+
+        flatten(base / "files")  # plain files: web hosts skip the export's dot-folder layout
         for rec in records:
             fname = Path(rec["path"]).name
             entry.files.append(_Link(_url(f"{dirname}/files/{fname}"),

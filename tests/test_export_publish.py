@@ -145,3 +145,15 @@ def test_a_directory_where_a_file_goes_is_refused_before_writing(tmp_path):
     with pytest.raises(ExportError, match="is a directory"):
         write_set(out, NEW)
     assert sorted(os.listdir(out)) == ["a.3mf"]
+
+
+def test_flatten_leaves_plain_files_and_the_next_export_adopts_them(tmp_path):
+    from foldprint.exchange.files import flatten
+
+    out = tmp_path / "out"
+    write_set(out, OLD)
+    flatten(out)
+    assert sorted(os.listdir(out)) == sorted(n for n, _ in OLD)
+    assert all(not (out / n).is_symlink() for n, _ in OLD) and readable(out) == dict(OLD)
+    write_set(out, NEW)
+    assert {k: v for k, v in readable(out).items() if k in dict(NEW)} == dict(NEW)

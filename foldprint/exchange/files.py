@@ -311,3 +311,29 @@ def write_set(out_dir: str | Path, files: list[tuple[str, bytes]]) -> list[Path]
             raise ExportError(f"{out}: cannot write: {exc.strerror or exc}") from None
         raise
     return [out / n for n in names]
+
+
+def flatten(out_dir: str | Path) -> None:
+    """Turn a published export folder into plain files: each link of ours is replaced by
+    the file it shows (a hard link, else a copy; one rename per name, its content never
+    changes), then the switch and the sets folder are removed. For folders served as a web
+    site (the gallery), whose hosts often skip or refuse dot-folders; the next
+    :func:`write_set` into it adopts the plain files again."""
+    out = Path(out_dir)
+    with _Lock(out):
+        cur = current_set(out)
+        if cur is None:
+            return
+        for e in os.scandir(out):
+            p = Path(e.path)
+            if not (_is_our_link(p) and (cur / e.name).is_file()):
+                continue
+            tmp = Path(tempfile.mktemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=out))
+            try:
+                os.link(cur / e.name, tmp)
+            except OSError:
+                shutil.copy2(cur / e.name, tmp)
+            os.replace(tmp, p)
+        _fsync_dir(out)
+        _unlink(out / CURRENT)
+        shutil.rmtree(out / SETS, ignore_errors=True)
