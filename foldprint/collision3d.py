@@ -44,7 +44,7 @@ import fcl
 import numpy as np
 
 from .design import Design
-from .kinematics import HingeDrive, forward, hinge_frames, local_transforms
+from .kinematics import HingeDrive, TreeTransforms, hinge_frames
 from .motion import build_hierarchy, tree_bounds
 from .rigid import convex_pieces, prism, rigid_polygon
 
@@ -103,6 +103,8 @@ class SweptChecker:
         extent = float(np.max(np.abs(pts))) + float(np.ptp(pts, axis=0).max())
         self.tol = max(self.contact_tol_mm, REL_TOL * extent)
         self._pairs: dict = {}
+        self.transforms = TreeTransforms(d, self.model, self.frames)
+        self._world: dict = {}  # time -> world poses of every panel (bounded cache)
 
     # -- geometry ---------------------------------------------------------------------
     def bound_coords(self, times, angles: np.ndarray | None = None) -> np.ndarray:
@@ -115,21 +117,17 @@ class SweptChecker:
         return np.asarray(angles) if angles is not None else self.drive.angles(times)
 
     def poses_at(self, t: float) -> np.ndarray:
-        return forward(self.design, self.drive.angles([t]), self.model, self.frames)[0]
-
-    def pair_poses(self, pair, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Poses (m, 4, 4) of the two panels in the frame of their lowest common ancestor
-        for hinge angles (m, n_hinges): only the hinges on the path between them."""
-        up_i, down_j = self._path(pair)[:2]
-        m = len(angles)
-
-        def chain(hinges):
-            T = np.broadcast_to(np.eye(4), (m, 4, 4)).copy()
-            for h in hinges:
-                T = T @ local_transforms(self._frame_of[h], angles[:, h], self.model)
-            return T
-
-        return chain(up_i[::-1]), chain(down_j)
+        """World poses (n_panels, 4, 4) at time ``t``: every hinge's transform once and
+        prefix products along the tree (:class:`~foldprint.kinematics.TreeTransforms`),
+        cached per time, so the pairs bisecting the same sample interval (at the same
+        dyadic times) share them."""
+        key = (float(t), tuple(sorted(getattr(self.drive, "frozen_at", {}).items())))  # arrests change poses
+        hit = self._world.get(key)
+        if hit is None:
+            if len(self._world) >= 64:
+                self._world.pop(next(iter(self._world)))
+            hit = self._world[key] = self.transforms.poses(self.drive.angles([t]))[0]
+        return hit
 
     def distance(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
         """Minimum distance (mm; <= 0 when touching) and the nearest point (pose frame)."""
@@ -242,16 +240,16 @@ class SweptChecker:
             # not certified at the time resolution: a contact (conservative), bounded work
             return self._refine(pair, ta, da)
         tm = 0.5 * (ta + tb)  # bisect: each level costs one distance
-        pi, pj = self.pair_poses(pair, self.drive.angles([tm]))
-        dm, _ = self.distance(pair[0], pair[1], pi[0], pj[0])
+        w = self.poses_at(tm)
+        dm, _ = self.distance(pair[0], pair[1], w[pair[0]], w[pair[1]])
         fm = float(self._bound(pair, ang0, self.bound_coords([tm]))[0])
         dm = min(dm, da + fm - fa, db + fb - fm)  # Lipschitz: no GJK overestimate
         return (self._split(pair, ang0, ta, da, fa, tm, dm, fm)
                 or self._split(pair, ang0, tm, dm, fm, tb, db, fb))
 
     def _dist_at(self, pair, t: float) -> float:
-        pi, pj = self.pair_poses(pair, self.drive.angles([t]))
-        return self.distance(pair[0], pair[1], pi[0], pj[0])[0]
+        w = self.poses_at(t)
+        return self.distance(pair[0], pair[1], w[pair[0]], w[pair[1]])[0]
 
     def _refine(self, pair, t: float, d: float) -> Contact:
         """``t`` is a time with distance <= tol (or uncertified); find the time of actual
