@@ -504,11 +504,19 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
     # certified): once the earliest open pair is past the best contact, stop
     import heapq
 
+    from .guards import narrow_deadline
+
+    tick = narrow_deadline()
     heap = []
     for m, (i, j, ka, kb) in enumerate(runs.tolist()):
         heapq.heappush(heap, (ka, m, i, j, kb, None))
+    rounds = 0
     while heap:
         k, m, i, j, kb, gen = heapq.heappop(heap)
+        rounds += 1
+        if rounds % 512 == 0:  # the narrow phase's work is known only as it goes: bound its time
+            tick(f"{len(runs)} panel-pair runs left by the broad phase, {len(heap)} open, certified to "
+                 f"{float(times[k]):.3g} s of {float(times[-1]):.3g} s")
         if best is not None and times[k] > best.time:
             break
         if gen is None:
