@@ -68,11 +68,11 @@ def hinge_frames(design: Design) -> list[HingeFrame]:
         d = np.array([b[0] - a[0], b[1] - a[1], 0.0])
         d /= np.linalg.norm(d)
         n = np.array([-d[1], d[0], 0.0])
-        centroid = design.panel(child).polygon.centroid
+        centroid = design.panels[pidx[child]].polygon.centroid  # by index: panel(id) scans
         mid = 0.5 * (a + b)
         if (centroid.x - mid[0]) * n[0] + (centroid.y - mid[1]) * n[1] < 0:
             n = -n
-        axis = np.cross(n, [0.0, 0.0, 1.0])
+        axis = np.array([n[1], -n[0], 0.0])  # n x e_z (np.cross costs 0.7 ms a call)
         frames.append(HingeFrame(h, hidx[h.id], pidx[parent], pidx[child],
                                  np.array([mid[0], mid[1], 0.0]), axis, n, h.width,
                                  len(frames) < len(tree), centred))
