@@ -227,11 +227,61 @@ def check_samples(design, samples: float, workers: int | None = None, dt: float 
     if est["bytes"] > limit:
         raise ResourceError(f"{src}{what} refused: {samples:.3g} samples hold {_fmt(est['bytes'])} "
                             f"({_fmt(per_b)} each), over the {_fmt(limit)} memory limit; use fewer --samples "
-                            f"or lift the limit with {_lift(est)}")
+                            f"or lift the limit with {_lift(est)} (check) or the environment variable "
+                            "FOLDPRINT_MAX_MEMORY")
     if est["seconds"] > budget:
         raise ResourceError(f"{src}{what} refused: {samples:.3g} samples take about {_fmt_s(est['seconds'])} "
                             f"({per_s:.2g} s each on {cores} core(s)), over the {_fmt_s(budget)} time budget; "
                             "use fewer --samples or lift the budget with the environment variable "
+                            "FOLDPRINT_TIME_BUDGET (seconds)")
+    return est
+
+
+#: export: seconds and bytes per geometric feature (panel outline points, hinge bend
+#: slices per segment, teeth), measured with benchmarks/bench_scale.py (docs/robustness.md)
+EXPORT_S_PER_FEATURE = 1.5e-3
+EXPORT_BYTES_PER_FEATURE = 8_000
+
+
+def export_features(design) -> float:
+    """Geometric features of the printed part, counted from the design alone (no
+    geometry built): outline points of every panel, and per hinge its segments (slots)
+    x its bend slices (5 deg each, plus the step edges of a stepped hinge) and teeth."""
+    feats = 0.0
+    for p in design.panels:
+        feats += len(p.outline) + sum(len(h) for h in p.holes)
+    for h in design.hinges:
+        st = h.style
+        length = float(h.length)
+        segs = 1.0
+        if st.max_segment_mm > 0 and length > st.max_segment_mm:
+            segs = max(2.0, math.ceil((length + st.slot_width_mm) / (st.max_segment_mm + st.slot_width_mm)))
+        slices = max(1.0, math.ceil(abs(float(h.angle)) / math.radians(5.0)))
+        if st.stepped and st.step_period_mm > 0:
+            slices += 2 * max(1.0, round(float(h.width) / st.step_period_mm))
+        teeth = 2 * length / st.tooth_pitch_mm if st.interface == "triangular" and st.tooth_pitch_mm > 0 else 0.0
+        feats += segs * (slices + 2) + teeth
+    return feats
+
+
+def check_export(design) -> dict:
+    """Refuse an export whose estimated time (booleans and meshing grow with the part's
+    features) or memory exceeds the limits, before any geometry is built."""
+    feats = export_features(design)
+    est = {"features": feats, "seconds": feats * EXPORT_S_PER_FEATURE,
+           "bytes": BASE_BYTES + feats * EXPORT_BYTES_PER_FEATURE}
+    src = f"{design.source}: " if design.source else f"{design.name}: "
+    limit, budget = max_memory(), time_budget()
+    what = (f"{len(design.panels)} panels and {len(design.hinges)} hinges ({feats:.3g} features: outline "
+            "points, hinge slices x segments, teeth)")
+    if est["bytes"] > limit:
+        raise ResourceError(f"{src}export refused: {what} need about {_fmt(est['bytes'])}, over the "
+                            f"{_fmt(limit)} memory limit; split the design, or lift the limit with the "
+                            f"environment variable FOLDPRINT_MAX_MEMORY (e.g. {_fmt(est['bytes'] * 1.2).replace(' ', '')})")
+    if est["seconds"] > budget:
+        raise ResourceError(f"{src}export refused: {what} take about {_fmt_s(est['seconds'])} to build, over "
+                            f"the {_fmt_s(budget)} time budget; split the design, use a plain hinge style "
+                            "(fewer slices and teeth), or lift the budget with the environment variable "
                             "FOLDPRINT_TIME_BUDGET (seconds)")
     return est
 
