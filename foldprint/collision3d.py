@@ -44,7 +44,7 @@ import fcl
 import numpy as np
 
 from .design import Design
-from .kinematics import HingeDrive, forward, hinge_frames, local_transforms
+from .kinematics import HingeDrive, TreeTransforms, hinge_frames
 from .motion import build_hierarchy, tree_bounds
 from .rigid import convex_pieces, prism, rigid_polygon
 
@@ -103,6 +103,8 @@ class SweptChecker:
         extent = float(np.max(np.abs(pts))) + float(np.ptp(pts, axis=0).max())
         self.tol = max(self.contact_tol_mm, REL_TOL * extent)
         self._pairs: dict = {}
+        self.transforms = TreeTransforms(d, self.model, self.frames)
+        self._world: dict = {}  # time -> world poses of every panel (bounded cache)
 
     # -- geometry ---------------------------------------------------------------------
     def bound_coords(self, times, angles: np.ndarray | None = None) -> np.ndarray:
@@ -115,21 +117,17 @@ class SweptChecker:
         return np.asarray(angles) if angles is not None else self.drive.angles(times)
 
     def poses_at(self, t: float) -> np.ndarray:
-        return forward(self.design, self.drive.angles([t]), self.model, self.frames)[0]
-
-    def pair_poses(self, pair, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Poses (m, 4, 4) of the two panels in the frame of their lowest common ancestor
-        for hinge angles (m, n_hinges): only the hinges on the path between them."""
-        up_i, down_j = self._path(pair)[:2]
-        m = len(angles)
-
-        def chain(hinges):
-            T = np.broadcast_to(np.eye(4), (m, 4, 4)).copy()
-            for h in hinges:
-                T = T @ local_transforms(self._frame_of[h], angles[:, h], self.model)
-            return T
-
-        return chain(up_i[::-1]), chain(down_j)
+        """World poses (n_panels, 4, 4) at time ``t``: every hinge's transform once and
+        prefix products along the tree (:class:`~foldprint.kinematics.TreeTransforms`),
+        cached per time, so the pairs bisecting the same sample interval (at the same
+        dyadic times) share them."""
+        key = (float(t), tuple(sorted(getattr(self.drive, "frozen_at", {}).items())))  # arrests change poses
+        hit = self._world.get(key)
+        if hit is None:
+            if len(self._world) >= 64:
+                self._world.pop(next(iter(self._world)))
+            hit = self._world[key] = self.transforms.poses(self.drive.angles([t]))[0]
+        return hit
 
     def distance(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
         """Minimum distance (mm; <= 0 when touching) and the nearest point (pose frame)."""
@@ -242,16 +240,16 @@ class SweptChecker:
             # not certified at the time resolution: a contact (conservative), bounded work
             return self._refine(pair, ta, da)
         tm = 0.5 * (ta + tb)  # bisect: each level costs one distance
-        pi, pj = self.pair_poses(pair, self.drive.angles([tm]))
-        dm, _ = self.distance(pair[0], pair[1], pi[0], pj[0])
+        w = self.poses_at(tm)
+        dm, _ = self.distance(pair[0], pair[1], w[pair[0]], w[pair[1]])
         fm = float(self._bound(pair, ang0, self.bound_coords([tm]))[0])
         dm = min(dm, da + fm - fa, db + fb - fm)  # Lipschitz: no GJK overestimate
         return (self._split(pair, ang0, ta, da, fa, tm, dm, fm)
                 or self._split(pair, ang0, tm, dm, fm, tb, db, fb))
 
     def _dist_at(self, pair, t: float) -> float:
-        pi, pj = self.pair_poses(pair, self.drive.angles([t]))
-        return self.distance(pair[0], pair[1], pi[0], pj[0])[0]
+        w = self.poses_at(t)
+        return self.distance(pair[0], pair[1], w[pair[0]], w[pair[1]])[0]
 
     def _refine(self, pair, t: float, d: float) -> Contact:
         """``t`` is a time with distance <= tol (or uncertified); find the time of actual
@@ -316,25 +314,108 @@ def panel_centres(checker: SweptChecker, poses: np.ndarray) -> np.ndarray:
     return R[..., 0] * c[:, 0, None] + R[..., 1] * c[:, 1, None] + R[..., 2] * c[:, 2, None] + poses[..., :3, 3]
 
 
+#: Sub-intervals per sample interval at each refinement level of the broad phase, and
+#: the levels: a far-apart group pair the motion bound cannot certify over one sample step
+#: (long tree paths: the bound grows with the square of the path length) is re-tested on
+#: 4, 16, 64 sub-intervals (poses by prefix products, in chunks) before it is split into
+#: panel pairs for the narrow phase.
+REFINE_SUB = 4
+REFINE_LEVELS = 3
+#: Bytes of world poses the refinement evaluates at once (its working memory).
+REFINE_CHUNK_BYTES = 32 * 2 ** 20
+
+
 def candidate_runs(checker: SweptChecker, angles: np.ndarray, poses: np.ndarray, k_start: int = 0,
-                   skip=None) -> np.ndarray:
+                   skip=None, times: np.ndarray | None = None) -> np.ndarray:
     """Broad phase: (m, 4) rows (i, j, ka, kb), i < j, sorted by ka: the sample runs in which
     non-adjacent panels i and j might touch. Every other pair and interval is certified
-    apart (sphere distances at both ends exceed the motion bound between them)."""
+    apart (sphere distances at both ends exceed the motion bound between them). With
+    ``times`` (the samples' times), group pairs that are far apart but not certified over
+    one sample step are re-tested between the samples (``REFINE_SUB`` ** level
+    sub-intervals) before they reach the narrow phase."""
     tb, H = checker.tree, checker.hier
     n, n_t = tb.n, len(angles)
     excl = _adjacent_codes(checker.design)
     if skip:
         excl = np.union1d(excl, [min(p) * n + max(p) for p in skip]).astype(np.int64)
-    P = tb.prefix(np.asarray(angles))
+    angles = np.asarray(angles)
+    P = tb.prefix(angles)
     C = panel_centres(checker, poses)
+    refine = times is not None
+    out, pend = _descend(checker, P, C, excl, np.array([H.root]), np.array([H.root]),
+                         np.array([k_start]), np.array([n_t - 1]), refine)
+    del P, C
+    if refine and len(pend[0]):
+        times = np.asarray(times, float)
+        a, b, ka = pend[0], pend[1], pend[2]
+        t0, t1, korig = times[ka], times[ka + 1], ka
+        for level in range(REFINE_LEVELS):
+            last = level == REFINE_LEVELS - 1
+            rows, nxt = _refine(checker, angles[0], excl, a, b, t0, t1, korig, refine=not last)
+            out += rows
+            a, b, t0, t1, korig = nxt
+            if not len(a):
+                break
+    if not out:
+        return np.zeros((0, 4), dtype=np.int64)
+    rows = np.concatenate(out).astype(np.int64)
+    return _merge_runs(rows, n)
+
+
+def _refine(checker, ang0, excl, a, b, t0, t1, korig, refine: bool):
+    """Re-test group pairs (a, b) on (t0, t1) (inside the sample interval korig) on
+    ``REFINE_SUB`` sub-intervals; returns narrow rows on the samples (korig, korig + 1)
+    and the pairs still pending (on their sub-intervals)."""
+    n = checker.tree.n
+    sub = REFINE_SUB
+    iv, inv = np.unique(np.column_stack([t0, t1]), axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    per = max(1, REFINE_CHUNK_BYTES // (n * 16 * 8 * 3 * (sub + 1)))  # intervals per chunk
+    rows_out, nxt = [], [[], [], [], [], []]
+    frac = np.linspace(0.0, 1.0, sub + 1)
+    order = np.argsort(inv, kind="stable")
+    bounds = np.searchsorted(inv[order], np.arange(0, len(iv) + per, per))
+    for c0 in range(0, len(iv), per):
+        sel = order[bounds[c0 // per]:bounds[c0 // per + 1]]
+        if not len(sel):
+            continue
+        ivc = iv[c0:c0 + per]
+        tg = (ivc[:, :1] + (ivc[:, 1:] - ivc[:, :1]) * frac[None]).ravel()
+        coords = checker.bound_coords(tg)
+        P = checker.tree.prefix(np.vstack([ang0[None], coords]))
+        P = tuple(x[1:] for x in P)
+        C = panel_centres(checker, checker.transforms.poses(checker.drive.angles(tg)))
+        base = (inv[sel] - c0) * (sub + 1)
+        out, pend = _descend(checker, P, C, excl, a[sel], b[sel], base, base + sub, refine)
+        ko = korig[sel]
+        # local grid index -> interval (block) -> the original sample interval
+        blk_k = np.full(len(ivc), -1, dtype=np.int64)
+        blk_k[inv[sel] - c0] = ko
+        for r in out:
+            k = blk_k[r[:, 2] // (sub + 1)]
+            rows_out.append(np.column_stack([r[:, 0], r[:, 1], k, k + 1]))
+        if len(pend[0]):
+            pa, pb, pk = pend
+            nxt[0].append(pa)
+            nxt[1].append(pb)
+            nxt[2].append(tg[pk])
+            nxt[3].append(tg[pk + 1])
+            nxt[4].append(blk_k[pk // (sub + 1)])
+    nxt = [np.concatenate(x) if x else np.zeros(0) for x in nxt]
+    nxt[0], nxt[1], nxt[4] = (x.astype(np.int64) for x in (nxt[0], nxt[1], nxt[4]))
+    return rows_out, nxt
+
+
+def _descend(checker, P, C, excl, a, b, ka, kb, refine: bool):
+    """The hierarchy descent over grid indices of P and C: certified (group pair,
+    interval)s are dropped, others split the interval or the bigger group. Returns narrow
+    rows (i, j, ka, kb) and, with ``refine``, the pairs (a, b, k) that are far apart but
+    uncertified over one grid step (else they are split down to panel pairs)."""
+    tb, H = checker.tree, checker.hier
+    n = tb.n
     xc = tb.qp + tb.cen
     margin = 1e-9 * float(H.rad[H.root] + 1.0)
-    a = np.array([H.root])
-    b = a.copy()
-    ka = np.array([k_start])
-    kb = np.array([n_t - 1])
-    out = []
+    out, pend = [], [[], [], []]
     while len(a):
         selfp = a == b
         nxt = []
@@ -363,7 +444,15 @@ def candidate_runs(checker: SweptChecker, angles: np.ndarray, poses: np.ndarray,
             span = kb - ka
             dmin = np.minimum(da, db)
             rmax = np.maximum(np.where(leaf_a, 0.0, H.rad[a]), np.where(leaf_b, 0.0, H.rad[b]))
-            tsplit = keep & (span > 1) & (dmin > 0) & (both | (dmin > rmax))
+            far = keep & (dmin > 0) & (both | (dmin > rmax))
+            if refine:
+                later = far & (span == 1)
+                if later.any():
+                    pend[0].append(a[later])
+                    pend[1].append(b[later])
+                    pend[2].append(ka[later])
+                    keep &= ~later
+            tsplit = far & keep & (span > 1)
             narrow = keep & both & ~tsplit
             nsplit = keep & ~both & ~tsplit
             if narrow.any():
@@ -384,10 +473,12 @@ def candidate_runs(checker: SweptChecker, angles: np.ndarray, poses: np.ndarray,
         b = np.concatenate([t[1] for t in nxt])
         ka = np.concatenate([t[2] for t in nxt])
         kb = np.concatenate([t[3] for t in nxt])
-    if not out:
-        return np.zeros((0, 4), dtype=np.int64)
-    rows = np.concatenate(out).astype(np.int64)
-    # merge touching intervals of one pair into runs
+    pend = [np.concatenate(x) if x else np.zeros(0, dtype=np.int64) for x in pend]
+    return out, pend
+
+
+def _merge_runs(rows: np.ndarray, n: int) -> np.ndarray:
+    """Merge touching intervals of one pair into runs, sorted by their first sample."""
     code = rows[:, 0] * n + rows[:, 1]
     o = np.lexsort((rows[:, 2], code))
     rows, code = rows[o], code[o]
@@ -407,17 +498,25 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
     k_start = int(np.searchsorted(times, t_start - 1e-12))
     if k_start >= len(times):
         return None, []
-    runs = candidate_runs(checker, angles, poses, k_start, skip)
+    runs = candidate_runs(checker, angles, poses, k_start, skip, times)
     best, initial = None, []
     # advance every candidate pair together in time (a heap on the sample each has
     # certified): once the earliest open pair is past the best contact, stop
     import heapq
 
+    from .guards import narrow_deadline
+
+    tick = narrow_deadline()
     heap = []
     for m, (i, j, ka, kb) in enumerate(runs.tolist()):
         heapq.heappush(heap, (ka, m, i, j, kb, None))
+    rounds = 0
     while heap:
         k, m, i, j, kb, gen = heapq.heappop(heap)
+        rounds += 1
+        if rounds % 512 == 0:  # the narrow phase's work is known only as it goes: bound its time
+            tick(f"{len(runs)} panel-pair runs left by the broad phase, {len(heap)} open, certified to "
+                 f"{float(times[k]):.3g} s of {float(times[-1]):.3g} s")
         if best is not None and times[k] > best.time:
             break
         if gen is None:

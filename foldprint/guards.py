@@ -1,16 +1,22 @@
-"""Resource guards: estimate a run's memory and work before allocating, and refuse with a
-:class:`ResourceError` (exit 2) that names the limit and how to lift it, never a MemoryError.
+"""Resource guards: estimate a run's memory and time before allocating, and refuse with a
+:class:`ResourceError` (exit 2) that names the estimate, the limit and how to lift it,
+never a MemoryError and never a run that would fit.
 
-The estimate (``docs/robustness.md``) counts the arrays a simulation holds at once:
+The estimates (``docs/robustness.md`` has a table of estimate vs measured) count:
 
-* the trajectory: ``n_t`` time steps x (panels x a 4x4 pose + hinges x ratios/angles and
-  their temporaries), 8-byte floats;
+* the trajectory: ``n_t`` time steps x (panels x a 4x4 pose + hinges x ratios, angles and
+  the drive's temporaries), 8-byte floats;
+* the 3D swept check's broad phase: per step and panel the prefix sums and centroids with
+  their temporaries (``BROAD_BYTES_PER_PANEL_STEP``); its narrow phase works on the pairs the
+  broad phase leaves, so it is bounded while it runs (:func:`narrow_deadline`), not before;
 * the paper's 2D index (``method`` index2d/both on a planar strip): ``n_t`` x panel pairs x
   (index value 8 B + contact flags 3 x 1 B), plus the side segments per step;
-* the 3D swept check works pair by pair; its work is ``n_t`` x non-adjacent pairs.
+* time: kinematics per hinge and step, broad phase per panel and step (measured constants).
 
 The memory limit defaults to :data:`DEFAULT_MAX_MEMORY` (2 GiB, or the environment
-variable ``FOLDPRINT_MAX_MEMORY``); the CLI's ``--max-memory`` sets it for one run.
+variable ``FOLDPRINT_MAX_MEMORY``); the CLI's ``--max-memory`` sets it for one run. The time
+budget is :data:`DEFAULT_TIME_BUDGET_S` (or ``FOLDPRINT_TIME_BUDGET`` in seconds).
+Estimates are computed in floats, so absurd sizes (1e300 steps) are refused, not overflowed.
 """
 
 from __future__ import annotations
@@ -23,12 +29,34 @@ from .errors import FoldprintError
 
 GiB = 2 ** 30
 DEFAULT_MAX_MEMORY = 2 * GiB
-#: Pair-steps the 3D swept check may visit (n_t x non-adjacent pairs), or the environment
-#: variable ``FOLDPRINT_MAX_WORK``. Measured with ``foldprint check`` on uniform strips:
-#: 60 panels (3.4e6 pair-steps) 6 s, 120 panels (1.4e7) 47 s; 5e6 keeps a check near 10 s.
-MAX_WORK = 5e6
+#: Wall-time budget of one run (s): a stated bound, so a guard refuses only runs whose
+#: estimate exceeds it (15 min), or the environment variable ``FOLDPRINT_TIME_BUDGET``.
+DEFAULT_TIME_BUDGET_S = 900.0
 
-_LIMIT = {"bytes": None}
+# Cost model. Measured on the 2-core sandbox with benchmarks/bench_scale.py (strips of 100
+# to 1000 panels, 2001 steps; peak RSS of fresh processes, docs/robustness.md):
+#: resident memory of the imported package (numpy, fcl, shapely, manifold3d), bytes
+BASE_BYTES = 110 * 2 ** 20
+#: trajectory bytes per panel and step (one 4x4 pose) and per hinge and step (ratios,
+#: angles, the drive's lookup temporaries)
+TRAJ_BYTES_PER_PANEL_STEP = 128
+TRAJ_BYTES_PER_HINGE_STEP = 64
+#: broad phase of the 3D check: prefix sums (3 x 8 B), centroids (24 B) and the
+#: centroid temporaries (3 x 24 B) per panel and step, held with the trajectory
+BROAD_BYTES_PER_PANEL_STEP = 120
+#: kinematics (recovery lookup, hinge transforms, forward poses) per hinge and step, s
+KIN_S_PER_HINGE_STEP = 1.5e-6
+#: broad phase per panel and step, s
+BROAD_S_PER_PANEL_STEP = 0.6e-6
+#: one Monte-Carlo sample beyond its fold: drawing, recovery curves per hinge, s (issue 19
+#: measured 158 ms of recovery curves per sample of the 9-hinge helix on main c868fe1)
+SAMPLE_S_PER_HINGE = 0.02
+#: memory one sample holds until the end (drawn parameters, task, outcome), bytes, plus
+#: per hinge
+SAMPLE_BYTES = 4096
+SAMPLE_BYTES_PER_HINGE = 256
+
+_LIMIT = {"bytes": None, "seconds": None}
 
 
 class ResourceError(FoldprintError, MemoryError):
@@ -55,6 +83,28 @@ def set_max_memory(text: str | int | float | None) -> None:
     _LIMIT["bytes"] = None if text is None else parse_size(text)
 
 
+def set_time_budget(seconds: float | None) -> None:
+    """Set the time budget (s) for this process (None: back to the default)."""
+    if seconds is not None and not (math.isfinite(float(seconds)) and float(seconds) > 0):
+        raise FoldprintError(f"the time budget must be a number of seconds > 0, got {seconds!r}")
+    _LIMIT["seconds"] = None if seconds is None else float(seconds)
+
+
+def time_budget() -> float:
+    if _LIMIT["seconds"] is not None:
+        return _LIMIT["seconds"]
+    env = os.environ.get("FOLDPRINT_TIME_BUDGET")
+    if env:
+        try:
+            value = float(env)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value > 0):
+            raise FoldprintError(f"FOLDPRINT_TIME_BUDGET must be a number of seconds > 0, got {env!r}")
+        return value
+    return DEFAULT_TIME_BUDGET_S
+
+
 def max_memory() -> int:
     if _LIMIT["bytes"] is not None:
         return _LIMIT["bytes"]
@@ -63,53 +113,177 @@ def max_memory() -> int:
 
 
 def _fmt(n: float) -> str:
+    if not math.isfinite(n):
+        return "more than 1e308 bytes"
     for unit, size in (("TiB", 2 ** 40), ("GiB", GiB), ("MiB", 2 ** 20)):
         if n >= size:
             return f"{n / size:.3g} {unit}"
     return f"{n / 1024:.3g} KiB"
 
 
+def _fmt_s(sec: float) -> str:
+    if not math.isfinite(sec):
+        return "more than 1e308 s"
+    if sec >= 3600 * 24 * 365:
+        return f"{sec / (3600 * 24 * 365):.3g} years"
+    if sec >= 3600:
+        return f"{sec / 3600:.3g} h"
+    if sec >= 60:
+        return f"{sec / 60:.3g} min"
+    return f"{sec:.3g} s"
+
+
 def simulation_estimate(n_panels: int, n_hinges: int, n_steps: float, use2d: bool,
-                        n_segments: int | None = None) -> dict:
-    """Bytes held at once and pair-steps of work for one simulation run."""
-    pairs = n_panels * (n_panels - 1) / 2
-    segs = n_panels if n_segments is None else n_segments
-    traj = n_steps * (n_panels * 16 * 8 * 2 + n_hinges * 8 * 12 + 8)
-    index = n_steps * (pairs * (8 + 3) + segs * 4 * 8 * 3) if use2d else 0.0
-    nonadj = max(0.0, pairs - max(0, n_hinges))
-    return {"bytes": traj + index, "trajectory_bytes": traj, "index2d_bytes": index,
-            "work": n_steps * nonadj, "steps": n_steps, "pairs": pairs}
+                        n_segments: int | None = None, use3d: bool = True) -> dict:
+    """Peak bytes and seconds of one simulation run before its narrow phase (floats, so
+    any size is compared, never overflowed)."""
+    n, nh, steps = float(n_panels), float(n_hinges), float(n_steps)
+    pairs = n * (n - 1) / 2
+    segs = n if n_segments is None else float(n_segments)
+    traj = steps * (n * TRAJ_BYTES_PER_PANEL_STEP + nh * TRAJ_BYTES_PER_HINGE_STEP + 8)
+    broad = steps * n * BROAD_BYTES_PER_PANEL_STEP if use3d else 0.0
+    index = steps * (pairs * (8 + 3) + segs * 4 * 8 * 3) if use2d else 0.0
+    seconds = steps * nh * KIN_S_PER_HINGE_STEP + (steps * n * BROAD_S_PER_PANEL_STEP if use3d else 0.0)
+    return {"bytes": BASE_BYTES + traj + max(broad, index), "trajectory_bytes": traj, "broad_bytes": broad,
+            "index2d_bytes": index, "seconds": seconds, "steps": steps, "pairs": pairs}
+
+
+def _lift(est: dict) -> str:
+    if not est["bytes"] * 1.2 < 2.0 ** 60:  # beyond any machine (or not finite): no size to suggest
+        return "--max-memory (no machine holds this run)"
+    return f"--max-memory {_fmt(est['bytes'] * 1.2).replace(' ', '')}"
 
 
 def check_simulation(design, dt: float, duration: float | None, method: str) -> dict:
-    """Refuse a simulation that would exceed the memory limit or the work bound.
+    """Refuse a simulation whose memory estimate exceeds the memory limit or whose time
+    estimate (kinematics and the 3D broad phase) exceeds the time budget.
 
     Called at the top of :func:`foldprint.simulate.simulate` (one line)."""
     dur = float(design.process.duration_s if duration is None else duration)
     if not (math.isfinite(dur) and math.isfinite(dt) and dur > 0 and dt > 0):
         return {}  # simulate() reports bad values itself
-    steps = math.ceil(dur / dt) + 1 if dur / dt < 1e300 else math.inf  # 1e300 / 1e-300 overflows
-    use2d = str(getattr(method, "value", method)) in ("index2d", "both") and design.is_planar_strip
+    steps = math.floor(dur / dt) + 2.0 if dur / dt < 1e15 else dur / dt  # float: 1e300 steps are fine
+    m = str(getattr(method, "value", method))
+    use2d = m in ("index2d", "both") and design.is_planar_strip
     n_seg = sum(len(p.outline) + sum(len(h) for h in p.holes) for p in design.panels)
-    est = simulation_estimate(len(design.panels), len(design.hinges), steps, use2d, n_seg)
+    est = simulation_estimate(len(design.panels), len(design.hinges), steps, use2d, n_seg,
+                              use3d=m in ("fcl", "both"))
     limit = max_memory()
     src = f"{design.source}: " if design.source else f"{design.name}: "
     if est["bytes"] > limit:
         part = (f"the 2D collision index needs {_fmt(est['index2d_bytes'])} "
                 f"({steps:.3g} steps x {est['pairs']:.0f} panel pairs)" if est["index2d_bytes"] > est["trajectory_bytes"]
-                else f"the trajectory needs {_fmt(est['trajectory_bytes'])} ({steps:.3g} steps of {dt:g} s "
-                     f"over {dur:g} s x {len(design.panels)} panels)")
+                else f"the trajectory and the 3D check's broad phase need {_fmt(est['bytes'])} "
+                     f"({steps:.3g} steps of {dt:g} s over {dur:g} s x {len(design.panels)} panels)"
+                     .replace("inf steps", "more than 1e308 steps"))
         lift = "use --method fcl, " if est["index2d_bytes"] > est["trajectory_bytes"] else ""
         raise ResourceError(f"{src}simulation refused: {part}, over the {_fmt(limit)} memory limit; "
                             f"{lift}raise --dt, shorten --duration (or process.duration_s), or lift the "
-                            f"limit with --max-memory (e.g. --max-memory {_fmt(est['bytes'] * 1.2).replace(' ', '')})")
-    max_work = float(os.environ.get("FOLDPRINT_MAX_WORK") or MAX_WORK)
-    if str(getattr(method, "value", method)) in ("fcl", "both") and est["work"] > max_work:
-        raise ResourceError(f"{src}simulation refused: the 3D swept check would visit {est['work']:.3g} "
-                            f"pair-steps ({steps:.3g} steps x {est['pairs'] - len(design.hinges):.0f} "
-                            f"non-adjacent panel pairs), over the bound of {max_work:.3g}; raise --dt or "
-                            "shorten --duration (or process.duration_s), split the design, or lift the "
-                            "bound with the environment variable FOLDPRINT_MAX_WORK")
+                            f"limit with {_lift(est)}")
+    budget = time_budget()
+    if est["seconds"] > budget:
+        raise ResourceError(f"{src}simulation refused: estimated {_fmt_s(est['seconds'])} for {steps:.3g} steps x "
+                            f"{len(design.hinges)} hinges, over the {_fmt_s(budget)} time budget; raise --dt, "
+                            "shorten --duration (or process.duration_s), or lift the budget with the "
+                            "environment variable FOLDPRINT_TIME_BUDGET (seconds)")
+    return est
+
+
+def narrow_deadline(what: str = "the 3D swept check"):
+    """A callable ``tick(progress)`` for a long loop: refuses (ResourceError) once the
+    loop has run past the time budget, naming how far it got. The narrow phase's work
+    depends on how close the panels come, known only while it runs: it is bounded here,
+    at the budget, not estimated ahead."""
+    import time
+
+    budget = time_budget()
+    t0 = time.perf_counter()
+
+    def tick(progress: str = "") -> None:
+        spent = time.perf_counter() - t0
+        if spent > budget:
+            raise ResourceError(f"{what} refused after {_fmt_s(spent)}, over the {_fmt_s(budget)} time budget"
+                                f"{' (' + progress + ')' if progress else ''}; raise --dt, shorten --duration, "
+                                "or lift the budget with the environment variable FOLDPRINT_TIME_BUDGET (seconds)")
+
+    return tick
+
+
+def check_samples(design, samples: float, workers: int | None = None, dt: float = 0.01,
+                  what: str = "the Monte-Carlo jam probability") -> dict:
+    """Refuse ``samples`` Monte-Carlo folds whose memory (every sample's parameters and
+    outcome are held to the end) or time (a fold each, spread over the workers) would
+    exceed the limits. One call from :func:`foldprint.robust.jam_probability`."""
+    n, nh = len(design.panels), len(design.hinges)
+    samples = float(samples)
+    steps = float(design.process.duration_s) / float(dt) + 2.0
+    fold = simulation_estimate(n, nh, steps, False)
+    per_s = fold["seconds"] + nh * SAMPLE_S_PER_HINGE
+    per_b = SAMPLE_BYTES + nh * SAMPLE_BYTES_PER_HINGE
+    cores = max(1, workers or os.cpu_count() or 1)
+    est = {"bytes": BASE_BYTES + fold["bytes"] - BASE_BYTES + samples * per_b,
+           "seconds": samples * per_s / cores, "per_sample_s": per_s, "per_sample_bytes": per_b}
+    src = f"{design.source}: " if design.source else f"{design.name}: "
+    limit, budget = max_memory(), time_budget()
+    if est["bytes"] > limit:
+        raise ResourceError(f"{src}{what} refused: {samples:.3g} samples hold {_fmt(est['bytes'])} "
+                            f"({_fmt(per_b)} each), over the {_fmt(limit)} memory limit; use fewer --samples "
+                            f"or lift the limit with {_lift(est)} (check) or the environment variable "
+                            "FOLDPRINT_MAX_MEMORY")
+    if est["seconds"] > budget:
+        raise ResourceError(f"{src}{what} refused: {samples:.3g} samples take about {_fmt_s(est['seconds'])} "
+                            f"({per_s:.2g} s each on {cores} core(s)), over the {_fmt_s(budget)} time budget; "
+                            "use fewer --samples or lift the budget with the environment variable "
+                            "FOLDPRINT_TIME_BUDGET (seconds)")
+    return est
+
+
+#: export: seconds and bytes per geometric feature (panel outline points, hinge bend
+#: slices per segment, teeth), measured with benchmarks/bench_scale.py (docs/robustness.md)
+EXPORT_S_PER_FEATURE = 1.5e-3
+EXPORT_BYTES_PER_FEATURE = 8_000
+
+
+def export_features(design) -> float:
+    """Geometric features of the printed part, counted from the design alone (no
+    geometry built): outline points of every panel, and per hinge its segments (slots)
+    x its bend slices (5 deg each, plus the step edges of a stepped hinge) and teeth."""
+    feats = 0.0
+    for p in design.panels:
+        feats += len(p.outline) + sum(len(h) for h in p.holes)
+    for h in design.hinges:
+        st = h.style
+        length = float(h.length)
+        segs = 1.0
+        if st.max_segment_mm > 0 and length > st.max_segment_mm:
+            segs = max(2.0, math.ceil((length + st.slot_width_mm) / (st.max_segment_mm + st.slot_width_mm)))
+        slices = max(1.0, math.ceil(abs(float(h.angle)) / math.radians(5.0)))
+        if st.stepped and st.step_period_mm > 0:
+            slices += 2 * max(1.0, round(float(h.width) / st.step_period_mm))
+        teeth = 2 * length / st.tooth_pitch_mm if st.interface == "triangular" and st.tooth_pitch_mm > 0 else 0.0
+        feats += segs * (slices + 2) + teeth
+    return feats
+
+
+def check_export(design) -> dict:
+    """Refuse an export whose estimated time (booleans and meshing grow with the part's
+    features) or memory exceeds the limits, before any geometry is built."""
+    feats = export_features(design)
+    est = {"features": feats, "seconds": feats * EXPORT_S_PER_FEATURE,
+           "bytes": BASE_BYTES + feats * EXPORT_BYTES_PER_FEATURE}
+    src = f"{design.source}: " if design.source else f"{design.name}: "
+    limit, budget = max_memory(), time_budget()
+    what = (f"{len(design.panels)} panels and {len(design.hinges)} hinges ({feats:.3g} features: outline "
+            "points, hinge slices x segments, teeth)")
+    if est["bytes"] > limit:
+        raise ResourceError(f"{src}export refused: {what} need about {_fmt(est['bytes'])}, over the "
+                            f"{_fmt(limit)} memory limit; split the design, or lift the limit with the "
+                            f"environment variable FOLDPRINT_MAX_MEMORY (e.g. {_fmt(est['bytes'] * 1.2).replace(' ', '')})")
+    if est["seconds"] > budget:
+        raise ResourceError(f"{src}export refused: {what} take about {_fmt_s(est['seconds'])} to build, over "
+                            f"the {_fmt_s(budget)} time budget; split the design, use a plain hinge style "
+                            "(fewer slices and teeth), or lift the budget with the environment variable "
+                            "FOLDPRINT_TIME_BUDGET (seconds)")
     return est
 
 

@@ -68,11 +68,11 @@ def hinge_frames(design: Design) -> list[HingeFrame]:
         d = np.array([b[0] - a[0], b[1] - a[1], 0.0])
         d /= np.linalg.norm(d)
         n = np.array([-d[1], d[0], 0.0])
-        centroid = design.panel(child).polygon.centroid
+        centroid = design.panels[pidx[child]].polygon.centroid  # by index: panel(id) scans
         mid = 0.5 * (a + b)
         if (centroid.x - mid[0]) * n[0] + (centroid.y - mid[1]) * n[1] < 0:
             n = -n
-        axis = np.cross(n, [0.0, 0.0, 1.0])
+        axis = np.array([n[1], -n[0], 0.0])  # n x e_z (np.cross costs 0.7 ms a call)
         frames.append(HingeFrame(h, hidx[h.id], pidx[parent], pidx[child],
                                  np.array([mid[0], mid[1], 0.0]), axis, n, h.width,
                                  len(frames) < len(tree), centred))
@@ -167,6 +167,71 @@ def forward(design: Design, angles: np.ndarray, model: HingeModel | str = DEFAUL
         if f.tree:
             poses[:, f.child] = poses[:, f.parent] @ local_transforms(f, angles[:, f.index], model)
     return poses
+
+
+class TreeTransforms:
+    """Every tree hinge's child transform at once and the panel poses as prefix products
+    along the tree (pointer doubling): world poses of all panels at a few times in
+    O(log depth) batched products, instead of one 4x4 product per hinge and time
+    (:func:`forward`) or per hinge on a pair's tree path (the swept check's old
+    ``pair_poses``). Same map as :func:`hinge_map` at the child's edge."""
+
+    def __init__(self, design: Design, model: HingeModel | str, frames: list[HingeFrame] | None = None):
+        frames = [f for f in (frames if frames is not None else hinge_frames(design)) if f.tree]
+        self.model = str(model)
+        if self.model not in HINGE_MODELS:
+            raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+        n = len(design.panels)
+        self.n = n
+        self.hinge = np.array([f.index for f in frames], dtype=np.int64)
+        self.child = np.array([f.child for f in frames], dtype=np.int64)
+        parent = np.arange(n)
+        parent[self.child] = [f.parent for f in frames]
+        depth = np.zeros(n, dtype=np.int64)
+        for f in frames:  # tree order: parents first
+            depth[f.child] = depth[f.parent] + 1
+        self.up = [parent]
+        while (1 << len(self.up)) <= int(depth.max(initial=0)):
+            self.up.append(self.up[-1][self.up[-1]])
+        q = np.array([f.origin for f in frames]).reshape(-1, 3)
+        ax = np.array([f.axis for f in frames]).reshape(-1, 3)
+        nrm = np.array([f.normal for f in frames]).reshape(-1, 3)
+        w = np.array([f.width for f in frames])
+        self.q, self.nrm, self.w = q, nrm, w
+        self.centred = np.array([f.centred for f in frames], dtype=bool)
+        k = np.zeros((len(frames), 3, 3))
+        k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -ax[:, 2], ax[:, 1], -ax[:, 0]
+        k -= k.transpose(0, 2, 1)
+        self.k, self.kk = k, k @ k
+        self.start = q - 0.5 * w[:, None] * nrm
+        self.line = self.start + w[:, None] * nrm
+
+    def local(self, angles: np.ndarray) -> np.ndarray:
+        """(m, n_tree_hinges, 4, 4) child transforms for hinge angles (m, n_hinges)."""
+        a = np.atleast_2d(np.asarray(angles, float))[:, self.hinge]
+        m, nh = a.shape
+        out = np.zeros((m, nh, 4, 4))
+        out[..., 3, 3] = 1.0
+        rot = _EYE3 + np.sin(a)[..., None, None] * self.k + (1 - np.cos(a))[..., None, None] * self.kk
+        out[..., :3, :3] = rot
+        if self.model == "point":
+            out[..., :3, 3] = self.q - np.einsum("mhij,hj->mhi", rot, self.q)
+            return out
+        arc = np.where(self.centred, self.w * tangent_factor(a), self.w)
+        s, c = _sinc_terms(a)
+        tip = self.start + (arc * s)[..., None] * self.nrm + (arc * c)[..., None] * _EZ
+        out[..., :3, 3] = tip - np.einsum("mhij,hj->mhi", rot, self.line)
+        return out
+
+    def poses(self, angles: np.ndarray) -> np.ndarray:
+        """World poses (m, n_panels, 4, 4) for hinge angles (m, n_hinges): prefix products
+        root outward by pointer doubling (A <- A[ancestor] @ A, log2(depth) rounds)."""
+        loc = self.local(angles)
+        A = np.broadcast_to(np.eye(4), (len(loc), self.n, 4, 4)).copy()
+        A[:, self.child] = loc
+        for up in self.up:
+            A = A[:, up] @ A
+        return A
 
 
 def target_angles(design: Design) -> np.ndarray:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterable
 
+from . import guards
 from .checks import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
 from .clearance import Gap, gaps_in_pose, min_clearance
 from .collision3d import SweptChecker
@@ -48,6 +49,7 @@ def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STA
     hinges, the defaults) only when a format shows it over time (xdmf, glb)."""
     lib = library or default_library()
     formats = check_formats(formats)  # before the (slower) build
+    guards.check_export(design)  # time and memory of the build, estimated from the design
     trajectory = None
     if any(f in TRAJECTORY_FORMATS for f in formats):
         trajectory = simulate(design, dt=ANIMATION_DT_S, library=lib).trajectory

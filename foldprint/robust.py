@@ -24,6 +24,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from . import guards
 from .design import Design
 from .errors import DesignError
 from .kinematics import HingeDrive
@@ -259,6 +260,7 @@ def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter
     model = parse(HingeModel, hinge_model, "hinge_model")
     if nominal is None:
         nominal = simulate(design, dt=dt, method=Method.FCL, hinge_model=model, library=lib)
+    guards.check_samples(design, samples, workers, dt)  # refuse before drawing (memory, time budget)
     drawn = draw_samples(design, scatter, samples, seed)
     tasks = [(design, lib, s, model, dt) for s in drawn]
     if mapper is None:

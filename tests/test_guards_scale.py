@@ -1,0 +1,118 @@
+"""Guards bound what they claim (issue 19): runs that finish are not refused, refusals
+name the estimate and the limit and come before any work, the memory estimate bounds
+the memory a simulation really allocates."""
+
+import time
+import tracemalloc
+
+import pytest
+
+from foldprint import guards
+from foldprint.cli import main
+from foldprint.crease_patterns import miura
+from foldprint.design import strip
+from foldprint.fold_format import design_from_fold
+from foldprint.load import load_design
+from foldprint.simulate import simulate
+from pathlib import Path
+
+TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
+
+
+def _strip(n, angle=30.0):
+    return strip(f"s{n}", [10.0] * n, [angle if k % 2 == 0 else -angle for k in range(n - 1)], ["H-3"] * (n - 1))
+
+
+@pytest.fixture(autouse=True)
+def _defaults(monkeypatch):
+    monkeypatch.delenv("FOLDPRINT_TIME_BUDGET", raising=False)
+    monkeypatch.delenv("FOLDPRINT_MAX_MEMORY", raising=False)
+    guards.set_max_memory(None)
+    guards.set_time_budget(None)
+    yield
+    guards.set_max_memory(None)
+    guards.set_time_budget(None)
+
+
+def test_runs_that_finish_in_seconds_are_not_refused():
+    """The 100- and 1000-panel strips and a 10x10 Miura sheet pass the default guards
+    (the old n_t x all-pairs work bound refused the 100-panel strip)."""
+    sheet = design_from_fold(miura(10, 10), "miura10")
+    for d in (_strip(100), _strip(1000), sheet):
+        est = guards.check_simulation(d, 0.01, None, "fcl")
+        assert est["bytes"] < guards.max_memory() and est["seconds"] < guards.time_budget()
+    assert guards.check_samples(load_design(TEMPLATES / "helix_graded.toml"), 60, 2)["seconds"] < 60
+    assert guards.check_export(_strip(1000))["seconds"] < guards.time_budget()
+
+
+def test_memory_estimate_bounds_what_a_simulation_allocates():
+    d = _strip(200)
+    est = guards.check_simulation(d, 0.01, None, "fcl")
+    tracemalloc.start()
+    simulate(d, method="fcl")
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    arrays = est["bytes"] - guards.BASE_BYTES
+    assert peak <= arrays, (peak, arrays)
+    assert peak >= 0.25 * arrays, (peak, arrays)  # and is not a wild overestimate
+
+
+@pytest.mark.parametrize("dur, dt", [(1e300, 1e-300), (1e9, 0.01), (1e308, 1e-10)])
+def test_absurd_sizes_are_refused_cleanly(dur, dt):
+    with pytest.raises(guards.ResourceError, match="memory limit") as ei:
+        guards.check_simulation(_strip(3), dt, dur, "fcl")
+    assert "inf" not in str(ei.value).replace("info", "")
+
+
+def test_samples_refused_by_memory_and_by_time_naming_both_numbers():
+    d = load_design(TEMPLATES / "helix_graded.toml")
+    with pytest.raises(guards.ResourceError, match=r"1e\+09 samples hold .* over the 2 GiB memory limit"):
+        guards.check_samples(d, 1e9, 2)
+    with pytest.raises(guards.ResourceError, match=r"2e\+04 samples take about .* over the 15 min time budget"):
+        guards.check_samples(d, 20000, 2)
+    guards.set_time_budget(1e6)
+    assert guards.check_samples(d, 20000, 2)["seconds"] > 900
+
+
+def test_robust_cli_refuses_a_billion_samples_at_once(capsys):
+    t0 = time.perf_counter()
+    assert main(["robust", "helix_graded", "--samples", "1000000000", "--json"]) == 2
+    assert time.perf_counter() - t0 < 10
+    out, err = capsys.readouterr()
+    assert out == "" and "memory limit" in err and err.count("\n") == 1
+
+
+def test_export_refused_before_building(tmp_path, monkeypatch, capsys):
+    """Over the time budget, export refuses from the design alone: no geometry is built
+    and no output directory is left."""
+    import foldprint.pipeline as pipeline
+
+    def boom(*a, **k):
+        raise AssertionError("built despite the refusal")
+
+    monkeypatch.setattr(pipeline, "build_assembly", boom)
+    monkeypatch.setenv("FOLDPRINT_TIME_BUDGET", "1")
+    f = tmp_path / "s.toml"
+    n = 300
+    f.write_text(f'schema = 1\nname = "s"\n[strip]\nlengths_mm = {[10] * n}\nangles_deg = {[30] * (n - 1)}\n'
+                 f'materials = {["H-3"] * (n - 1)}\n'.replace("'", '"'))
+    out = tmp_path / "out"
+    assert main(["export", str(f), "--out", str(out), "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "export refused" in err and "time budget" in err and "300 panels" in err
+    assert not out.exists()
+
+
+def test_narrow_phase_deadline_refuses_past_the_budget():
+    guards.set_time_budget(0.05)
+    tick = guards.narrow_deadline()
+    tick("early")
+    time.sleep(0.1)
+    with pytest.raises(guards.ResourceError, match=r"over the 0\.05 s time budget \(late\)"):
+        tick("late")
+
+
+def test_bad_time_budget_is_a_clear_error(monkeypatch):
+    monkeypatch.setenv("FOLDPRINT_TIME_BUDGET", "nan")
+    with pytest.raises(guards.FoldprintError, match="FOLDPRINT_TIME_BUDGET"):
+        guards.time_budget()
