@@ -123,3 +123,40 @@ def clearance_stride(n_times: int, n_pairs: int) -> int:
     """Sampling stride over the trajectory for the clearance margin, bounded in work."""
     frames = min(200, max(10, MAX_DISTANCE_QUERIES // max(1, n_pairs)))
     return max(1, n_times // frames)
+
+
+#: Seconds a Monte-Carlo run (``robust``, ``check``'s jam probability) may be estimated to
+#: take before it is refused, or the environment variable ``FOLDPRINT_MAX_SECONDS``.
+#: One hour: a run that long is a decision, not a default (1000 helix samples take ~25 s).
+DEFAULT_MAX_SECONDS = 3600.0
+
+
+def max_seconds() -> float:
+    env = os.environ.get("FOLDPRINT_MAX_SECONDS")
+    if not env:
+        return DEFAULT_MAX_SECONDS
+    try:
+        value = float(env)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise FoldprintError(f"FOLDPRINT_MAX_SECONDS must be a number of seconds > 0, got {env!r}")
+    return value
+
+
+def check_samples(samples: int, seconds_per_sample: float, workers: int, name: str = "") -> float:
+    """Refuse ``samples`` Monte-Carlo samples when their estimated wall time (the measured
+    seconds per sample of the first chunk x samples / workers) exceeds :func:`max_seconds`.
+    Returns the estimate (s). Memory does not grow with the count (samples are streamed in
+    chunks); only time does."""
+    est = float(samples) * max(0.0, seconds_per_sample) / max(1, int(workers))
+    limit = max_seconds()
+    if est > limit:
+        src = f"{name}: " if name else ""
+        fits = max(1, int(limit * max(1, int(workers)) / max(seconds_per_sample, 1e-9)))
+        raise ResourceError(f"{src}--samples {samples} refused: estimated {est:.3g} s "
+                            f"({seconds_per_sample * 1e3:.3g} ms per sample measured on the first samples, "
+                            f"on {workers} worker(s)), over the {limit:g} s budget; use at most about "
+                            f"{fits} samples, or raise the budget with the environment variable "
+                            "FOLDPRINT_MAX_SECONDS")
+    return est
