@@ -7,6 +7,7 @@ import pytest
 
 from foldprint.checks import CheckContext, Thresholds, load_printers, rule_jam_probability
 from foldprint.cli import main
+from foldprint.constants import CHECK_SAMPLES
 from foldprint.design import Process, strip
 from foldprint.load import load_design
 from foldprint.materials import default_library
@@ -86,7 +87,7 @@ def test_jam_probability_decides_the_helices(capsys):
     assert main(["check", "helix_uniform", "--json"]) == 1
     out = json.loads(capsys.readouterr().out)
     assert [f["code"] for f in out["findings"] if f["severity"] == "error"] == ["FP180"]
-    assert out["robust"]["samples"] == 20 and out["robust"]["ci95"][0] > 0.2
+    assert out["robust"]["samples"] == CHECK_SAMPLES and out["robust"]["ci95"][0] > 0.2
     assert main(["check", "helix_graded", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["robust"]["ci95"][0] <= 0.2
