@@ -231,6 +231,7 @@ def test_order_risk_matches_sampled_recovery_times(helix, lib):
     assert abs(swaps / n - p_model) < 0.2, (swaps / n, p_model)
 
 
+@pytest.mark.slow
 def test_robust_best_is_no_worse_than_the_papers_graded_helix(helix, monkeypatch):
     """Issue 19: with its finalists confirmed under scatter, ``assign --objective robust``
     on the uniform helix at the design's 90 C bath finds an assignment that jams no more
