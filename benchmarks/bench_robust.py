@@ -13,7 +13,8 @@ Prints, in one run (helix_graded, Mao 2015 Sample 2, 9 hinges, seed 1):
 2. ``foldprint robust helix_graded --samples N`` end to end (a subprocess on all cores):
    wall and CPU seconds, against the old path run beside it on a pool like the old one
    (``--compare`` samples, no BLAS limit in the workers), per sample and as a ratio;
-3. ``foldprint assign helix_uniform --objective robust --seed 1 --samples 60 --write``:
+3. ``foldprint check`` of both helices at the default samples (exit, finding, interval);
+4. ``foldprint assign helix_uniform --objective robust --seed 1 --samples 60 --write``:
    the jam probability ``foldprint robust`` gives the written best (60 samples, seed 1)
    beside the paper's graded helix under the same seed, and both on an independent seed
    (7, 200 samples): the finalists were chosen on seed 1's draws.
@@ -38,6 +39,7 @@ from foldprint.load import load_design
 from foldprint.materials import default_library
 from foldprint.modes import Method
 from foldprint.parallel import default_workers
+from foldprint.recovery import _curve
 from foldprint.robust import (default_scatter, draw_samples, jam_probability, outcome_of, run_end, run_sample,
                               sample_drive, sample_drives)
 from foldprint.simulate import simulate
@@ -75,6 +77,7 @@ def per_sample(d, lib, n: int) -> dict:
     drawn = draw_samples(d, default_scatter(), n, 1)
     until = run_end(d, 0.01)
     res: dict = {"samples": n}
+    _curve.cache_clear()
     c0, t0 = _cpu(), time.perf_counter()
     old_drives = [sample_drive(d, lib, s, exact=True) for s in drawn]
     res["old_curves_cpu_s"], res["old_curves_wall_s"] = (_cpu() - c0) / n, (time.perf_counter() - t0) / n
@@ -105,6 +108,7 @@ def robust_run(d, lib, n: int, n_old: int) -> dict:
     res = {"samples": n, "wall_s": wall, "cpu_s": cpu, "exit": code,
            "cpu_s_per_sample": cpu / n, "wall_s_per_sample": wall / n,
            "jam_probability": out and out["jam_probability"], "ci95": out and out["ci95"]}
+    _curve.cache_clear()  # the old path caches curves: part 1 computed these very draws
     c0, t0 = _cpu(), time.perf_counter()
     old = jam_probability(d, n_old, 1, library=lib, exact=True, mapper=_old_mapper)
     w_old, c_old = time.perf_counter() - t0, _cpu() - c0
@@ -113,6 +117,19 @@ def robust_run(d, lib, n: int, n_old: int) -> dict:
                        "estimated_wall_s_for_samples": w_old / n_old * n}
     res["wall_ratio_old_over_new"] = (w_old / n_old) / (wall / n)
     res["cpu_ratio_old_over_new"] = (c_old / n_old) / (cpu / n)
+    return res
+
+
+def check_runs() -> dict:
+    """``foldprint check`` of both helices at the default (CHECK_SAMPLES) samples."""
+    res = {}
+    for name in ("helix_uniform", "helix_graded"):
+        out, wall, cpu, code = _cli(["check", name, "--json"])
+        jam = [f for f in (out or {}).get("findings", []) if f["code"] in ("FP180", "FP181", "FP182")]
+        res[name] = {"exit": code, "wall_s": wall, "cpu_s": cpu, "finding": jam and jam[0]["code"],
+                     "samples": out and out["robust"]["samples"],
+                     "jam_probability": out and out["robust"]["jam_probability"],
+                     "ci95": out and out["robust"]["ci95"]}
     return res
 
 
@@ -148,6 +165,7 @@ def main() -> None:
     res = {"machine": {"cores": default_workers(), "load_average_start": os.getloadavg()}}
     res["per_sample"] = per_sample(d, lib, a.compare)
     res["robust"] = robust_run(d, lib, a.samples, a.compare)
+    res["check"] = check_runs()
     if not a.no_assign:
         res["assign"] = assign_run()
     res["machine"]["load_average_end"] = os.getloadavg()
