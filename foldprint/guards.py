@@ -127,7 +127,8 @@ def clearance_stride(n_times: int, n_pairs: int) -> int:
 
 #: Seconds a Monte-Carlo run (``robust``, ``check``'s jam probability) may be estimated to
 #: take before it is refused, or the environment variable ``FOLDPRINT_MAX_SECONDS``.
-#: One hour: a run that long is a decision, not a default (1000 helix samples take ~25 s).
+#: One hour: a run that long is a decision, not a default (1000 helix samples: 54 CPU-s,
+#: measured, docs/robustness-model.md).
 DEFAULT_MAX_SECONDS = 3600.0
 
 
