@@ -117,6 +117,6 @@ def test_jam_thresholds(k, n, code):
 def test_user_printer_profile(tmp_path, capsys):
     f = tmp_path / "p.toml"
     f.write_text('[printers.tiny]\nname = "Tiny"\nbuild_mm = [30, 30, 30]\nmin_wall_mm = 0.5\nmin_gap_mm = 0.2\n')
-    code = main(["check", "helix_graded", "--printers", str(f), "--printer", "tiny", "--json"])
+    code = main(["check", "helix_graded", "--printers", str(f), "--printer", "tiny", "--samples", "0", "--json"])
     out = json.loads(capsys.readouterr().out)
     assert code == 1 and any(x["code"] == "FP100" for x in out["findings"])
