@@ -4,12 +4,17 @@ local cores, in processes: python-fcl holds the GIL, so threads would not help.
 Results come back in the order of the inputs, whatever the number of workers, so a run
 with the same inputs (and seeds) gives the same answer on one core, on many, or on a
 cluster. ``progress(done, total)`` is called as results arrive.
+
+Items are consumed lazily and at most ``2 x workers`` are in flight, so a long stream
+(Monte-Carlo chunks) never sits in memory at once. Each worker process limits its BLAS
+(OpenBLAS / MKL / OpenMP) pools to one thread (:func:`limit_blas_threads`): the
+processes are the parallelism, and a worker's BLAS threads would fight the others.
 """
 
 from __future__ import annotations
 
 import os
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Callable, Iterable, Sequence, TypeVar
 
 T = TypeVar("T")
@@ -24,12 +29,42 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS",
+                "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
+
+
+def limit_blas_threads(n: int = 1) -> bool:
+    """Limit this process's BLAS and OpenMP thread pools to ``n`` threads: the pools
+    already loaded through threadpoolctl (a worker forked after numpy was imported), the
+    environment variables for libraries loaded later and for child processes. True when
+    the loaded pools could be limited (threadpoolctl installed)."""
+    for var in _THREAD_VARS:
+        os.environ[var] = str(n)
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+        return False
+    threadpool_limits(limits=n)
+    return True
+
+
+def _worker_init() -> None:
+    limit_blas_threads(1)
+
+
 def map_ordered(fn: Callable[[T], R], items: Sequence[T] | Iterable[T], *, workers: int | None = None,
-                progress: Callable[[int, int], None] | None = None, chunksize: int = 1) -> list[R]:
+                progress: Callable[[int, int], None] | None = None, chunksize: int = 1,
+                total: int | None = None) -> list[R]:
     """``[fn(x) for x in items]`` on ``workers`` processes (default: all cores; 1 runs in
-    this process). ``fn`` and the items must pickle (module-level functions)."""
-    items = list(items)
-    n = len(items)
+    this process). ``fn`` and the items must pickle (module-level functions). ``items``
+    may be a generator; ``total`` is then its length (for ``progress`` and the pool size)."""
+    if total is None:
+        try:
+            total = len(items)  # type: ignore[arg-type]
+        except TypeError:
+            items = list(items)
+            total = len(items)
+    n = int(total)
     workers = default_workers() if workers is None else max(1, int(workers))
     if workers == 1 or n <= 1:
         out = []
@@ -38,15 +73,26 @@ def map_ordered(fn: Callable[[T], R], items: Sequence[T] | Iterable[T], *, worke
             if progress:
                 progress(k + 1, n)
         return out
-    out: list = [None] * n
-    with ProcessPoolExecutor(max_workers=min(workers, n)) as pool:
-        futures = {pool.submit(fn, x): k for k, x in enumerate(items)}
+    results: dict[int, R] = {}
+    with ProcessPoolExecutor(max_workers=min(workers, n), initializer=_worker_init) as pool:
+        it = iter(items)
+        pending: dict = {}
+        k = 0
         done = 0
-        from concurrent.futures import as_completed
-
-        for fut in as_completed(futures):
-            out[futures[fut]] = fut.result()
-            done += 1
-            if progress:
-                progress(done, n)
-    return out
+        while True:
+            while len(pending) < 2 * workers:
+                try:
+                    x = next(it)
+                except StopIteration:
+                    break
+                pending[pool.submit(fn, x)] = k
+                k += 1
+            if not pending:
+                break
+            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                results[pending.pop(fut)] = fut.result()
+                done += 1
+                if progress:
+                    progress(done, n)
+    return [results[j] for j in range(k)]

@@ -18,6 +18,7 @@ from . import guards
 from .checks import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
 from .clearance import Gap, gaps_in_pose, min_clearance
 from .collision3d import SweptChecker
+from .constants import CHECK_SAMPLES  # Monte-Carlo samples ``check`` runs by default (the reason there)
 from .design import Design
 from .errors import GeometryError
 from .exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
@@ -29,8 +30,6 @@ from .modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, 
 from .robust import RobustResult, Scatter, jam_probability
 from .simulate import SimulationResult, simulate
 
-#: Monte-Carlo samples ``check`` runs by default (about 10 s for a helix on 2 cores).
-CHECK_SAMPLES = 20
 #: Seed of the default check (a fixed seed: the same design gives the same verdict).
 CHECK_SEED = 0
 

@@ -9,28 +9,36 @@ values, and folds the printed geometry (arc hinges, the 3D swept check, every go
 with :func:`foldprint.simulate.simulate`. A sample *jams* when it does not complete: a
 collision, a goal unmet or out of order, or a hinge short of 98 %.
 
-Samples are drawn up front from one seeded generator, in order, and evaluated in any
-order on any number of processes: the same seed gives the same answer.
+Samples are drawn from one seeded generator, in order, streamed in chunks of
+:data:`CHUNK` (memory stays bounded whatever ``--samples`` is), and evaluated in any
+order on any number of processes: the same seed gives the same answer. The recovery
+curves of a chunk are computed in one array pass per hinge material
+(:func:`sample_drives`, :mod:`foldprint.recovery_batch`), equal to the per-curve model to
+round-off; a run whose estimated time exceeds the budget of
+:func:`foldprint.guards.check_samples` is refused after its first chunk.
 """
 
 from __future__ import annotations
 
 import math
+import time
 import tomllib
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
-from typing import Callable, Mapping
+from itertools import islice
+from typing import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
 from . import guards
 from .design import Design
-from .errors import DesignError
+from .errors import DesignError, MaterialError
 from .kinematics import HingeDrive
 from .materials import MaterialLibrary, default_library
 from .modes import DEFAULT_HINGE_MODEL, HingeModel, Method, parse
-from .recovery import recovery_curve
+from .recovery import RecoveryCurve, recovery_curve
+from .recovery_batch import batch_ratios, grid_until
 from .simulate import SimulationResult, simulate
 
 #: z of a two-sided 95 % interval.
@@ -38,6 +46,9 @@ Z95 = 1.959963984540054
 #: Normal draws are truncated to mean +/- this many standard deviations (a printed
 #: hinge is never 5 sd off: the printer's QA would reject it).
 TRUNCATE_SD = 3.0
+#: Samples per task: drawn, given their curves in one array pass and folded together.
+#: Fixed (not tied to the number of workers), though the answer does not depend on it.
+CHUNK = 16
 
 _FIELDS = {"tg": {"sd_c"}, "thickness": {"sd_mm"}, "bath": {"sd_c"}, "heat_transfer": {"sigma_ln"}}
 
@@ -131,23 +142,33 @@ def _truncnorm(rng: np.random.Generator, sd: float, size) -> np.ndarray:
     return np.clip(rng.standard_normal(size), -TRUNCATE_SD, TRUNCATE_SD) * sd
 
 
-def draw_samples(design: Design, scatter: Scatter, n: int, seed: int) -> list[Sample]:
-    """``n`` samples from one generator seeded with ``seed``, drawn in order."""
+def iter_samples(design: Design, scatter: Scatter, n: int, seed: int) -> Iterator[Sample]:
+    """``n`` samples from one generator seeded with ``seed``, drawn in order, one at a time."""
     rng = np.random.default_rng(seed)
     n_h = len(design.hinges)
     nominal_t = np.array([h.thickness for h in design.hinges])
-    out = []
     for _ in range(n):
         tg = _truncnorm(rng, scatter.tg_sd_c, n_h)
         th = nominal_t + _truncnorm(rng, scatter.thickness_sd_mm, n_h)
         hs = np.exp(_truncnorm(rng, scatter.h_sigma_ln, n_h))
         bath = design.process.bath_temperature_c + float(_truncnorm(rng, scatter.bath_sd_c, 1)[0])
-        out.append(Sample(tg, np.maximum(th, 0.05 * nominal_t), hs, bath))
-    return out
+        yield Sample(tg, np.maximum(th, 0.05 * nominal_t), hs, bath)
 
 
-def sample_drive(design: Design, library: MaterialLibrary, sample: Sample) -> HingeDrive:
-    """The hinge drive of one sample: each hinge's curve from its perturbed material."""
+def draw_samples(design: Design, scatter: Scatter, n: int, seed: int) -> list[Sample]:
+    """``n`` samples from one generator seeded with ``seed``, drawn in order."""
+    return list(iter_samples(design, scatter, n, seed))
+
+
+def sample_drive(design: Design, library: MaterialLibrary, sample: Sample, *, until_s: float | None = None,
+                 exact: bool = False) -> HingeDrive:
+    """The hinge drive of one sample: each hinge's curve from its perturbed material.
+
+    ``exact``: the reference path, one cached :func:`~foldprint.recovery.recovery_curve`
+    per hinge over the whole model horizon (``until_s`` ignored); otherwise
+    :func:`sample_drives`, equal to it to round-off up to ``until_s``."""
+    if not exact:
+        return sample_drives(design, library, [sample], until_s=until_s)[0]
     curves = []
     for k, h in enumerate(design.hinges):
         mat = library[h.material]
@@ -156,6 +177,64 @@ def sample_drive(design: Design, library: MaterialLibrary, sample: Sample) -> Hi
         curves.append(recovery_curve(mat, sample.bath_c, float(sample.thickness_mm[k]),
                                      design.process.fix_temperature_c))
     return HingeDrive(design, sample.bath_c, curves=curves)
+
+
+def run_end(design: Design, dt: float, duration: float | None = None) -> float:
+    """The last time (s) a simulation of ``design`` at step ``dt`` reaches (its times are
+    0, dt, ... up to the first at or past the duration): the curves are needed up to here."""
+    dur = float(design.process.duration_s if duration is None else duration)
+    return (math.ceil(dur / dt - 1e-9)) * dt
+
+
+def sample_drives(design: Design, library: MaterialLibrary, samples: Sequence[Sample],
+                  until_s: float | None = None) -> list[HingeDrive]:
+    """The hinge drives of ``samples``: the recovery curves of every hinge of every sample
+    in one array pass per hinge material (:func:`foldprint.recovery_batch.batch_ratios`),
+    on the recovery model's grid up to ``until_s`` (default: the whole horizon; a curve
+    holds its last value past it, and its ``time_to`` sees only up to it).
+
+    This is the boundary between drawing the parameters (:func:`iter_samples`) and the
+    physics: a sample is per hinge a Tg shift, a thickness, an h multiplier, and a bath."""
+    samples = list(samples)
+    n_s, n_h = len(samples), len(design.hinges)
+    if n_s == 0:
+        return []
+    t = grid_until(float("inf") if until_s is None else float(until_s))
+    t.setflags(write=False)
+    fix_c = float(design.process.fix_temperature_c)
+    tg_shift = np.array([s.tg_shift_c for s in samples], float).reshape(n_s, n_h)
+    thick = np.array([s.thickness_mm for s in samples], float).reshape(n_s, n_h)
+    h_scale = np.array([s.h_scale for s in samples], float).reshape(n_s, n_h)
+    bath = np.array([s.bath_c for s in samples], float)
+    for name, arr in (("bath temperature", bath), ("Tg shift", tg_shift), ("hinge thickness", thick),
+                      ("heat-transfer multiplier", h_scale)):
+        if not np.all(np.isfinite(arr)):
+            raise MaterialError(f"{design.name}: a drawn {name} is not finite")
+    if np.any(thick <= 0):
+        raise MaterialError(f"{design.name}: a drawn hinge thickness is <= 0 mm")
+    curves: list[list] = [[None] * n_h for _ in range(n_s)]
+    by_material: dict[str, list[int]] = {}
+    for k, h in enumerate(design.hinges):
+        by_material.setdefault(h.material, []).append(k)
+    for name, ks in by_material.items():
+        mat = library[name]
+        p = mat.recovery
+        if p is None:
+            raise MaterialError(f"material {name!r} (role {mat.role}) has no recovery model; "
+                                "hinges need a hinge material such as H-1..H-7")
+        cols = np.array(ks)
+        tg = (mat.tg_c + tg_shift[:, cols]).ravel()  # (n_s * len(ks),), sample-major
+        hw = (p.h_w_m2k * h_scale[:, cols]).ravel()
+        th = thick[:, cols].ravel()
+        tb = np.repeat(bath, len(ks))
+        ratio, mean_t = batch_ratios(p, tg, hw, th, tb, fix_c, t)
+        ratio.setflags(write=False)
+        mean_t.setflags(write=False)
+        for j in range(len(tg)):
+            s, k = divmod(j, len(ks))
+            curves[s][ks[k]] = RecoveryCurve(name, float(tg[j]), float(tb[j]), float(th[j]), fix_c, t,
+                                             ratio[j], mean_t[j])
+    return [HingeDrive(design, smp.bath_c, curves=c) for smp, c in zip(samples, curves)]
 
 
 @dataclass(frozen=True)
@@ -181,11 +260,23 @@ def outcome_of(result: SimulationResult) -> Outcome:
 
 
 def run_sample(args) -> Outcome:
-    """Fold one sample (a module-level function, so processes and clusters can run it)."""
+    """Fold one sample with the exact per-curve drive (the reference path; a module-level
+    function, so processes and clusters can run it)."""
     design, library, sample, hinge_model, dt = args
-    drive = sample_drive(design, library, sample)
+    drive = sample_drive(design, library, sample, exact=True)
     res = simulate(design, dt=dt, method=Method.FCL, hinge_model=hinge_model, drive=drive)
     return outcome_of(res)
+
+
+def run_samples(args) -> list[Outcome]:
+    """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), then one
+    fold each. ``args``: (design, library, samples, hinge_model, dt[, exact])."""
+    design, library, samples, hinge_model, dt, *rest = args
+    if rest and rest[0]:
+        return [run_sample((design, library, s, hinge_model, dt)) for s in samples]
+    drives = sample_drives(design, library, samples, until_s=run_end(design, dt))
+    return [outcome_of(simulate(design, dt=dt, method=Method.FCL, hinge_model=hinge_model, drive=d))
+            for d in drives]
 
 
 def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
@@ -245,28 +336,51 @@ class RobustResult:
 def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter: Scatter | None = None,
                     library: MaterialLibrary | None = None, hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
                     dt: float = 0.01, nominal: SimulationResult | None = None, workers: int | None = None,
-                    progress: Callable[[int, int], None] | None = None, mapper=None) -> RobustResult:
+                    progress: Callable[[int, int], None] | None = None, mapper=None,
+                    exact: bool = False) -> RobustResult:
     """Monte-Carlo estimate of the probability that ``design`` jams.
 
     ``nominal``: the nominal simulation if the caller has it (else it is run here).
-    ``mapper(fn, items, progress)``: how to run the samples (default: all local cores,
-    :func:`foldprint.parallel.map_ordered`)."""
+    ``mapper(fn, items, progress)``: how to run the chunks of samples (default: all local
+    cores, :func:`foldprint.parallel.map_ordered`). ``exact``: the reference path (one
+    cached curve per hinge over the whole horizon, as before the batch path), for
+    comparisons. The first chunk runs here and times the run: a sample count whose
+    estimated time exceeds the budget (:func:`foldprint.guards.check_samples`) is refused."""
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise DesignError(f"samples must be a whole number >= 1, got {samples!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise DesignError(f"seed must be a whole number >= 0, got {seed!r}")
+    from .guards import check_samples
+    from .parallel import default_workers, map_ordered
+
     lib = library or default_library()
     scatter = scatter or default_scatter()
     model = parse(HingeModel, hinge_model, "hinge_model")
     if nominal is None:
         nominal = simulate(design, dt=dt, method=Method.FCL, hinge_model=model, library=lib)
-    guards.check_samples(design, samples, workers, dt)  # refuse before drawing (memory, time budget)
-    drawn = draw_samples(design, scatter, samples, seed)
-    tasks = [(design, lib, s, model, dt) for s in drawn]
-    if mapper is None:
-        from .parallel import map_ordered
+    guards.check_sample_memory(design, samples)  # refuse before drawing: outcomes are held
+    stream = iter_samples(design, scatter, samples, seed)
+    chunks = ((design, lib, chunk, model, dt, exact) for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
+    n_chunks = -(-samples // CHUNK)
+    done = [0]
 
-        outcomes = map_ordered(run_sample, tasks, workers=workers, progress=progress)
+    def report(n: int) -> None:
+        done[0] = min(samples, done[0] + n)
+        if progress:
+            progress(done[0], samples)
+
+    start = time.perf_counter()
+    first = run_samples(next(chunks))  # here: it times the run before the rest is started
+    report(len(first))
+    if n_chunks > 1:
+        n_workers = default_workers() if workers is None else max(1, int(workers))
+        check_samples(samples, (time.perf_counter() - start) / len(first), n_workers, design.name)
+        chunk_done = lambda _d, _n: report(CHUNK)  # noqa: E731 - progress in samples, not chunks
+        if mapper is None:
+            rest = map_ordered(run_samples, chunks, workers=workers, progress=chunk_done, total=n_chunks - 1)
+        else:
+            rest = mapper(run_samples, list(chunks), chunk_done)
     else:
-        outcomes = mapper(run_sample, tasks, progress)
-    return RobustResult(design.name, samples, seed, model, scatter, tuple(outcomes), nominal)
+        rest = []
+    outcomes = tuple(o for chunk in [first, *rest] for o in chunk)
+    return RobustResult(design.name, samples, seed, model, scatter, outcomes, nominal)

@@ -12,7 +12,7 @@ LAYERS = [
     {"constants", "errors", "modes", "parallel", "schema", "guards"},
     {"materials"},
     {"recovery", "design", "crease_patterns"},
-    {"design_io", "fold_format", "svg_format", "templates", "load", "recovery_table", "relief"},
+    {"design_io", "fold_format", "svg_format", "templates", "load", "recovery_table", "recovery_batch", "relief"},
     {"kinematics", "loops"},
     {"rigid", "goals", "motion"},
     {"collision2d", "collision3d"},

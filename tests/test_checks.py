@@ -7,6 +7,7 @@ import pytest
 
 from foldprint.checks import CheckContext, Thresholds, load_printers, rule_jam_probability
 from foldprint.cli import main
+from foldprint.constants import CHECK_SAMPLES
 from foldprint.design import Process, strip
 from foldprint.load import load_design
 from foldprint.materials import default_library
@@ -87,7 +88,7 @@ def test_jam_probability_decides_the_helices(capsys):
     assert main(["check", "helix_uniform", "--json"]) == 1
     out = json.loads(capsys.readouterr().out)
     assert [f["code"] for f in out["findings"] if f["severity"] == "error"] == ["FP180"]
-    assert out["robust"]["samples"] == 20 and out["robust"]["ci95"][0] > 0.2
+    assert out["robust"]["samples"] == CHECK_SAMPLES and out["robust"]["ci95"][0] > 0.2
     assert main(["check", "helix_graded", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["robust"]["ci95"][0] <= 0.2
@@ -119,6 +120,6 @@ def test_jam_thresholds(k, n, code):
 def test_user_printer_profile(tmp_path, capsys):
     f = tmp_path / "p.toml"
     f.write_text('[printers.tiny]\nname = "Tiny"\nbuild_mm = [30, 30, 30]\nmin_wall_mm = 0.5\nmin_gap_mm = 0.2\n')
-    code = main(["check", "helix_graded", "--printers", str(f), "--printer", "tiny", "--json"])
+    code = main(["check", "helix_graded", "--printers", str(f), "--printer", "tiny", "--samples", "0", "--json"])
     out = json.loads(capsys.readouterr().out)
     assert code == 1 and any(x["code"] == "FP100" for x in out["findings"])

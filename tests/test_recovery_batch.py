@@ -1,0 +1,167 @@
+"""The Monte-Carlo's fast path: batched recovery curves (foldprint.recovery_batch) against
+the exact per-curve model, the chunked and guarded jam probability, the worker pool."""
+
+import inspect
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from foldprint.cli import main
+from foldprint.constants import CHECK_SAMPLES
+from foldprint.guards import ResourceError, check_samples
+from foldprint.load import load_design
+from foldprint.recovery import _curve, _slab_roots
+from foldprint.recovery_batch import batch_ratios, grid_until, slab_roots
+from foldprint.robust import (default_scatter, draw_samples, iter_samples, jam_probability, run_end, run_samples,
+                              sample_drive, sample_drives, wilson)
+from foldprint.templates import resolve_design_path
+
+#: What the batch path may differ from the exact curve by: round-off (measured 3e-16).
+ROUND_OFF = 1e-12
+
+
+def _exact(lib, name, tg, hw, th, bath, horizon=600.0):
+    m = lib[name]
+    m = replace(m, tg_c=float(tg), recovery=replace(m.recovery, h_w_m2k=float(hw)))
+    return _curve(m, float(bath), float(th), 10.0, horizon)
+
+
+@settings(max_examples=12, deadline=None)
+@given(name=st.sampled_from(["H-1", "H-3", "H-5", "H-7"]), dtg=st.floats(-3, 3), hs=st.floats(0.55, 1.8),
+       th=st.floats(0.5, 1.3), bath=st.floats(60.0, 95.0), until=st.floats(0.5, 59.0))
+def test_batch_curve_equals_the_exact_model_up_to_the_run_end(lib, name, dtg, hs, th, bath, until):
+    p = lib[name].recovery
+    t = grid_until(until)
+    assert t[-1] >= until and t[-2] < until + 0.01
+    r, mean_t = batch_ratios(p, [lib[name].tg_c + dtg], [p.h_w_m2k * hs], [th], [bath], 10.0, t)
+    ref = _exact(lib, name, lib[name].tg_c + dtg, p.h_w_m2k * hs, th, bath)
+    assert np.array_equal(ref.t[:len(t)], t)
+    assert np.max(np.abs(r[0] - ref.ratio[:len(t)])) < ROUND_OFF
+    assert np.max(np.abs(mean_t[0] - ref.mean_temperature_c[:len(t)])) < 1e-9
+
+
+def test_batch_over_the_whole_horizon_keeps_fold_times(lib):
+    """Past 60 s the grid turns geometric: the full horizon is the exact curve too."""
+    t = grid_until(float("inf"))
+    p = lib["H-7"].recovery
+    r, _ = batch_ratios(p, [65.0, 66.0], [p.h_w_m2k, 0.6 * p.h_w_m2k], [0.8, 1.2], [70.0, 90.0], 10.0, t)
+    for k, args in enumerate([(65.0, p.h_w_m2k, 0.8, 70.0), (66.0, 0.6 * p.h_w_m2k, 1.2, 90.0)]):
+        ref = _exact(lib, "H-7", *args)
+        assert len(t) == len(ref.t) and np.max(np.abs(r[k] - ref.ratio)) < ROUND_OFF
+
+
+def test_a_curve_does_not_depend_on_its_batch(lib):
+    """Negligible terms are cut element by element: alone or among others, bit for bit
+    the same curve (so the answer cannot depend on how samples are chunked)."""
+    p, t = lib["H-1"].recovery, grid_until(20.0)
+    args = ([32.3, 64.5, 40.0], [300.0, 420.0, 361.8], [0.78, 0.85, 0.6], [89.5, 90.7, 75.0])
+    together, _ = batch_ratios(p, *args, 10.0, t)
+    for k in range(3):
+        alone, _ = batch_ratios(p, *([a[k]] for a in args), 10.0, t)
+        assert np.array_equal(alone[0], together[k])
+
+
+def test_vectorised_roots_match_the_scalar_bisection():
+    biot = np.array([1e-4, 0.3, 0.72, 5.0, 80.0])
+    ref = np.array([_slab_roots(b) for b in biot])
+    assert np.max(np.abs(slab_roots(biot) - ref) / ref) < 1e-14
+
+
+@pytest.fixture(scope="module")
+def graded(lib):
+    return load_design(resolve_design_path("helix_graded"), lib)
+
+
+def test_streamed_draws_are_the_listed_draws(graded):
+    a = draw_samples(graded, default_scatter(), 40, 5)
+    b = list(iter_samples(graded, default_scatter(), 40, 5))
+    assert all(np.array_equal(x.tg_shift_c, y.tg_shift_c) and x.bath_c == y.bath_c for x, y in zip(a, b))
+
+
+def test_sample_drives_match_the_exact_drive(graded, lib):
+    drawn = draw_samples(graded, default_scatter(), 2, 3)
+    until = run_end(graded, 0.01)
+    times = np.linspace(0.0, until, 777)
+    for s, fast in zip(drawn, sample_drives(graded, lib, drawn, until_s=until)):
+        exact = sample_drive(graded, lib, s, exact=True)
+        assert np.max(np.abs(fast.ratios(times) - exact.ratios(times))) < ROUND_OFF
+
+
+def test_fast_and_exact_paths_give_the_same_verdicts(graded, lib):
+    """The same draws through the exact per-curve path and the batch path: the same jam
+    verdict per sample (the curves agree to round-off, far inside any contact
+    tolerance), the same fold and contact times. Samples with and without a jam."""
+    drawn = draw_samples(graded, default_scatter(), 32, 1)
+    fast = run_samples((graded, lib, drawn, "arc", 0.01))
+    jammed = [k for k, o in enumerate(fast) if o.jammed]
+    ok = [k for k, o in enumerate(fast) if not o.jammed]
+    assert jammed and ok, "the draws should include both verdicts"
+    pick = jammed[:1] + ok[:2]
+    exact = run_samples((graded, lib, [drawn[k] for k in pick], "arc", 0.01, True))
+    for k, e in zip(pick, exact):
+        f = fast[k]
+        assert (f.jammed, f.reason, f.pair) == (e.jammed, e.reason, e.pair)
+        for a, b in ((f.fold_time, e.fold_time), (f.time, e.time)):
+            assert (a is None) == (b is None) and (a is None or abs(a - b) <= 1e-3)
+
+
+def test_chunking_and_workers_do_not_change_the_answer(graded, lib):
+    one = jam_probability(graded, 20, 4, library=lib, workers=1)
+    two = jam_probability(graded, 20, 4, library=lib, workers=2, nominal=one.nominal)
+    assert one.outcomes == two.outcomes
+
+
+def test_check_samples_refuses_only_over_budget(monkeypatch):
+    monkeypatch.setenv("FOLDPRINT_TIME_BUDGET", "100")
+    assert check_samples(1000, 0.1, 2) == pytest.approx(50.0)
+    with pytest.raises(ResourceError, match=r"estimated 1e\+08 s .*100 s budget.*about 1000 samples"):
+        check_samples(10 ** 9, 0.2, 2, "helix")
+
+
+def test_millions_of_samples_are_refused_with_the_estimate(capsys):
+    """A million outcomes fit in memory (1 KiB each); their time does not fit the 15 min budget."""
+    code = main(["robust", "helix_graded", "--samples", "1000000"])
+    err = capsys.readouterr().err
+    assert code == 2 and "refused: estimated" in err and "ms per sample" in err and "Traceback" not in err
+
+
+def test_check_default_samples_separate_the_thresholds():
+    """One constant: the CLI and the pipeline use it, and at it the 95 % intervals at 5 %
+    and 20 % jam probability do not overlap (they do at the old 20)."""
+    from foldprint import cli, pipeline
+
+    assert inspect.signature(pipeline.evaluate).parameters["samples"].default == CHECK_SAMPLES
+    assert inspect.signature(cli.check).parameters["samples"].default.default == CHECK_SAMPLES
+    n = CHECK_SAMPLES
+    assert wilson(0.05 * n, n)[1] < wilson(0.2 * n, n)[0]
+    assert wilson(0.05 * 20, 20)[1] > wilson(0.2 * 20, 20)[0]
+
+
+def _blas_threads(_):
+    from threadpoolctl import threadpool_info
+
+    return max((p["num_threads"] for p in threadpool_info()), default=1)
+
+
+def test_workers_run_with_one_blas_thread():
+    from foldprint.parallel import map_ordered
+
+    assert map_ordered(_blas_threads, iter(range(4)), workers=2, total=4) == [1, 1, 1, 1]
+
+
+def test_map_ordered_streams_a_generator_in_order():
+    from foldprint.parallel import map_ordered
+
+    seen = []
+    out = map_ordered(abs, (-k for k in range(30)), workers=2, total=30, progress=lambda d, n: seen.append((d, n)))
+    assert out == list(range(30)) and seen[-1] == (30, 30)
+
+
+def test_robust_json_reports_what_it_ran(capsys):
+    assert main(["robust", "helix_graded", "--samples", "20", "--seed", "2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["samples"] == 20 and 0.0 <= out["jam_probability"] <= 1.0
