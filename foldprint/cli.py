@@ -188,12 +188,17 @@ def check(
     hinge_model: str = typer.Option("arc", "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
     samples: int = typer.Option(20, "--samples", help="Monte-Carlo samples for the jam probability "
-                                "(0 skips it; 20 take about 10 s for a helix on 2 cores)."),
+                                "(0 skips it; 20 take about 10 s for a helix on 2 cores, once per "
+                                "sigma scale)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the samples."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
     error_above: float = typer.Option(0.2, "--error-above", help="Fail when the 95 % interval's lower end "
                                       "of the jam probability is above this."),
     warn_above: float = typer.Option(0.05, "--warn-above", help="Warn when the jam probability is above this."),
+    sensitivity: bool = typer.Option(True, "--sensitivity/--no-sensitivity",
+                                     help="Also estimate it with the scatter spreads scaled by --scales and say "
+                                     "(FP183) when the verdict flips in that range."),
+    scales: str = typer.Option("0.5,2", "--scales", help="Sigma scales of the sensitivity (comma-separated)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
@@ -202,7 +207,8 @@ def check(
 ):
     """Design-rule checks before printing, on the printed geometry: build volume, walls
     and gaps, hinge strain and size, temperatures, fold time, collisions and goals, and
-    the jam probability under manufacturing scatter. Exit 0 without errors, 1 with.
+    the jam probability under manufacturing scatter, also with the spreads at 0.5x and 2x
+    (FP183 says when the verdict flips in that range). Exit 0 without errors, 1 with.
 
     Example: foldprint check helix_uniform --json
     """
@@ -210,6 +216,7 @@ def check(
     from .modes import HingeModel
     from .pipeline import evaluate
     from .robust import load_scatter
+    from .sensitivity import parse_scales
 
     model = _mode(HingeModel, hinge_model, "--hinge-model")
     __import__("foldprint.guards").guards.set_max_memory(max_memory)  # resource guard (issue 14)
@@ -218,21 +225,23 @@ def check(
     if seed < 0:
         raise FoldprintError(f"--seed must be >= 0, got {seed}")
     th = Thresholds(_fraction(error_above, "--error-above"), _fraction(warn_above, "--warn-above"))
+    ks = parse_scales(scales) if sensitivity else ()
     key, pr = _printer(printer, printers_file)
     sc = load_scatter(scatter_file)
     d, lib = _load(design, materials_file, scale, crease_materials)
     with _samples_progress(f"{d.name}: scatter samples") as cb:
         ev = evaluate(d, library=lib, printer=pr, hinge_model=model, samples=samples, seed=seed, scatter=sc,
-                      thresholds=th, progress=(lambda _s, done, total: cb(done, total)) if cb else None)
+                      thresholds=th, scales=ks, progress=(lambda _s, done, total: cb(done, total)) if cb else None)
     findings = ev.findings
     n_err = ev.errors
     if json_out:
-        from .report import robust_json
+        from .report import robust_json, sweep_json
 
         _echo_json({"design": d.name, "printer": key, "hinge_model": model.value, "ok": n_err == 0,
                     "errors": n_err, "warnings": sum(f.severity == "warning" for f in findings),
                     "findings": [f.to_json() for f in findings],
-                    "robust": None if ev.robust is None else robust_json(ev.robust)})
+                    "robust": None if ev.robust is None else robust_json(ev.robust),
+                    "sensitivity": sweep_json(ev.sweep) if ev.sweep else None})
     else:
         for f in findings:
             where = ", ".join(f"{k} {v}" for k, v in f.where.items())

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from foldprint.checks import CheckContext, Thresholds, load_printers, rule_jam_probability
+from foldprint.checks import CheckContext, Thresholds, load_printers, rule_jam_probability, rule_jam_sensitivity
 from foldprint.cli import main
 from foldprint.design import Process, strip
 from foldprint.load import load_design
@@ -113,9 +113,38 @@ def test_jam_thresholds(k, n, code):
     assert (f.severity == "error") == (lo > 0.2)
 
 
+class _Point:
+    def __init__(self, scale, k, n):
+        self.scale, self.result = scale, _Fake(k, n)
+
+
+@pytest.mark.parametrize("at_half,at_one,at_two,expect", [
+    (0, 0, 0, None),  # passes everywhere: nothing to say
+    (20, 20, 20, None),  # fails everywhere
+    (0, 0, 12, "warning"),  # passes at 1x, fails at 2x
+    (0, 3, 3, "info"),  # warning at 1x and 2x, passes at 0.5x: only better inside the range
+    (0, 12, 20, "info"),  # fails at 1x, passes at 0.5x
+    (2, 3, 3, None),  # warning at every scale
+])
+def test_verdict_flip_inside_the_swept_range(at_half, at_one, at_two, expect):
+    """FP183 compares the verdict (FP180/181/182) at each swept scale with the one at 1x."""
+    ctx = CheckContext(strip("x", [20, 20], [90], ["H-3"]), default_library(), load_printers()["connex260"],
+                       robust=_Fake(at_one, 20), thresholds=Thresholds(error=0.2, warning=0.05),
+                       sweep=(_Point(0.5, at_half, 20), _Point(1.0, at_one, 20), _Point(2.0, at_two, 20)))
+    found = rule_jam_sensitivity(ctx)
+    (main_finding,) = rule_jam_probability(ctx)
+    assert "0.5x" in main_finding.message and "2x" in main_finding.message
+    if expect is None:
+        assert found == []
+    else:
+        (f,) = found
+        flipped = "2x" if expect == "warning" else "0.5x"
+        assert f.code == "FP183" and f.severity == expect and f"at {flipped}:" in f.message
+
+
 def test_user_printer_profile(tmp_path, capsys):
     f = tmp_path / "p.toml"
     f.write_text('[printers.tiny]\nname = "Tiny"\nbuild_mm = [30, 30, 30]\nmin_wall_mm = 0.5\nmin_gap_mm = 0.2\n')
-    code = main(["check", "helix_graded", "--printers", str(f), "--printer", "tiny", "--json"])
+    code = main(["check", "helix_graded", "--printers", str(f), "--printer", "tiny", "--json", "--no-sensitivity"])
     out = json.loads(capsys.readouterr().out)
     assert code == 1 and any(x["code"] == "FP100" for x in out["findings"])

@@ -114,3 +114,10 @@ def test_robust_cli_contributions_and_sensitivity(tmp_path, capsys):
     assert [p["scale"] for p in out["sensitivity"]] == [0.0, 1.0]
     assert out["sensitivity"][1]["jams"] == out["jams"]
     assert set(out["scatter"]) == set(KEYS) and all(out["scatter"][k]["source"] for k in KEYS)
+
+
+@pytest.mark.parametrize("args", [["check", "helix_graded", "--scales", "x"], ["robust", "helix_graded", "--scales", "-1"]])
+def test_bad_scales_exit_2(capsys, args):
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--scales" in err[0]
