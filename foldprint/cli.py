@@ -326,10 +326,10 @@ def robust(
 
     if out["contributions"] is not None:
         echo("  contribution of each scatter component (same draws; alone = the others at zero):")
-        echo(f"    {'component':<48} {'spread':>8}  {'alone':<24} all but it")
+        echo(f"    {'component':<42} {'spread':>9}  {'alone':<24} all but it")
         for c in out["contributions"]:
             name = f"{c['label']} [{c['scope']}]"
-            echo(f"    {name:<48} {c['spread']:>6g} {c['unit']:<2} {est(c['alone']):<24} {est(c['all_but'])}")
+            echo(f"    {name:<42} {c['spread']:>6g} {c['unit']:<2}  {est(c['alone']):<24} {est(c['all_but'])}")
     if out["sensitivity"] is not None:
         echo("  sensitivity: every spread scaled by k (same draws):")
         for p in out["sensitivity"]:

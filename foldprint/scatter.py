@@ -60,11 +60,11 @@ class Component:
 COMPONENTS: tuple[Component, ...] = (
     Component("bath", ScatterScope.SHARED, "bath", "sd_c", "bath_sd_c", "bath temperature", "C"),
     Component("h_shared", ScatterScope.SHARED, "heat_transfer", "sigma_ln", "h_shared_sigma_ln",
-              "heat transfer, correlation error (whole part)", "ln"),
+              "heat transfer: correlation error", "ln"),
     Component("tg", ScatterScope.HINGE, "tg", "sd_c", "tg_sd_c", "Tg", "C"),
     Component("thickness", ScatterScope.HINGE, "thickness", "sd_mm", "thickness_sd_mm", "hinge thickness", "mm"),
     Component("h_local", ScatterScope.HINGE, "heat_transfer", "sigma_ln", "h_local_sigma_ln",
-              "heat transfer, local (per hinge)", "ln"),
+              "heat transfer: local", "ln"),
 )
 KEYS = tuple(c.key for c in COMPONENTS)
 _BY_KEY = {c.key: c for c in COMPONENTS}

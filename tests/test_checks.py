@@ -83,13 +83,24 @@ def test_paper_rom_collision_names_panels_and_time(capsys):
 def test_jam_probability_decides_the_helices(capsys):
     """Issue 8's done-when: at the shipped geometry and the default scatter, the graded
     helix passes the pre-print check and the uniform one fails on its jam probability."""
-    assert main(["check", "helix_uniform", "--json"]) == 1
+    assert main(["check", "helix_uniform", "--json", "--no-sensitivity"]) == 1
     out = json.loads(capsys.readouterr().out)
     assert [f["code"] for f in out["findings"] if f["severity"] == "error"] == ["FP180"]
     assert out["robust"]["samples"] == 20 and out["robust"]["ci95"][0] > 0.2
+    assert out["sensitivity"] is None
     assert main(["check", "helix_graded", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["robust"]["ci95"][0] <= 0.2
+    # the default sweep (0.5x, 1x, 2x, the same draws): FP183 exactly when the verdict
+    # a scale earns differs from the one at 1x
+    sweep = {p["scale"]: p for p in out["sensitivity"]}
+    assert sorted(sweep) == [0.5, 1.0, 2.0] and sweep[1.0]["jams"] == out["robust"]["jams"]
+
+    def verdict(p):
+        return "error" if p["ci95"][0] > 0.2 else "warning" if p["jam_probability"] > 0.05 else "info"
+
+    flips = {verdict(sweep[k]) for k in (0.5, 2.0)} - {verdict(sweep[1.0])}
+    assert any(f["code"] == "FP183" for f in out["findings"]) == bool(flips)
 
 
 class _Fake:
