@@ -107,7 +107,9 @@ class CheckContext:
     when it could not run); ``assembly``: the printed part (None with
     ``assembly_error`` when it could not be built); ``printed_gaps``: panel pairs closer
     than the printer's minimum gap in the permanent state; ``clearance``: the smallest
-    gap along the fold; ``robust``: the jam probability (or None when not run)."""
+    gap along the fold; ``robust``: the jam probability (or None when not run);
+    ``sweep``: the same estimate with the scatter spreads scaled (points with ``.scale``
+    and ``.result``, :func:`foldprint.sensitivity.sweep`; empty when not run)."""
 
     design: Design
     library: MaterialLibrary
@@ -119,6 +121,7 @@ class CheckContext:
     clearance: object | None = None
     robust: object | None = None
     thresholds: Thresholds = Thresholds()
+    sweep: tuple = ()
 
 
 def _f(code, sev, msg, hint="", point=None, **where):
@@ -324,6 +327,19 @@ def rule_folding(ctx: CheckContext) -> list[Finding]:
     return out
 
 
+def jam_verdict(r, th: Thresholds) -> str:
+    """The severity a jam-probability estimate earns: error when the interval's lower end
+    is above ``th.error``, warning when the estimate is above ``th.warning``, else info."""
+    if r.ci95[0] > th.error:
+        return "error"
+    return "warning" if r.jam_probability > th.warning else "info"
+
+
+def _pct(r) -> str:
+    lo, hi = r.ci95
+    return f"{r.jam_probability:.0%} ({lo:.0%}-{hi:.0%})"
+
+
 def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
     """The fold under manufacturing and process scatter (``foldprint robust``)."""
     r = ctx.robust
@@ -336,13 +352,43 @@ def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
             f"the {r.hinge_model.value}-hinge model (not the printed geometry)")
     text = (f"jam probability {r.jam_probability:.0%} (95 % interval {lo:.0%}-{hi:.0%}) in {r.samples} samples "
             f"of {what} under scatter" + (f"; colliding: {pairs}" if pairs else ""))
+    others = [p for p in ctx.sweep if p.scale != 1.0]
+    if others:
+        text += "; with the spreads scaled " + ", ".join(f"{p.scale:g}x: {_pct(p.result)}" for p in others)
     hint = "give neighbouring hinges materials further apart in Tg, so scatter cannot swap their order"
-    if lo > th.error:
+    verdict = jam_verdict(r, th)
+    if verdict == "error":
         return [_f("FP180", "error", text + f": above the {th.error:.0%} error threshold even at the interval's "
                    "lower end", hint)]
-    if r.jam_probability > th.warning:
+    if verdict == "warning":
         return [_f("FP181", "warning", text + f": above the {th.warning:.0%} warning threshold", hint)]
     return [_f("FP182", "info", text)]
+
+
+def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
+    """FP183: the jam verdict flips inside the swept range of scatter spreads: a warning
+    when it is worse at some scale than at the model's own spreads, info when only better."""
+    r = ctx.robust
+    if r is None or not ctx.sweep:
+        return []
+    th = ctx.thresholds
+    rank = {"error": 0, "warning": 1, "info": 2}
+    word = {"error": "fails (FP180)", "warning": f"jams above {th.warning:.0%} (FP181)", "info": "passes (FP182)"}
+    base = jam_verdict(r, th)
+    flips = [(p, jam_verdict(p.result, th)) for p in ctx.sweep if p.scale != 1.0]
+    worse = [(p, v) for p, v in flips if rank[v] < rank[base]]
+    better = [(p, v) for p, v in flips if rank[v] > rank[base]]
+    if not worse and not better:
+        return []
+    shown = worse or better
+    at = "; ".join(f"{word[v]} at {p.scale:g}x: {_pct(p.result)}" for p, v in shown)
+    text = (f"the jam verdict depends on the scatter model: it {word[base]} at the model's spreads "
+            f"({_pct(r)}) but {at} ({r.samples} samples each, the same draws)")
+    if worse:
+        return [_f("FP183", "warning", text, "most spreads are our choices, not measurements "
+                   "(docs/robustness-model.md): measure your bath, hinges and heat transfer (--scatter FILE) or "
+                   "give the design more margin")]
+    return [_f("FP183", "info", text)]
 
 
 def rule_hole_walls(ctx: CheckContext) -> list[Finding]:
@@ -368,7 +414,7 @@ def rule_hole_walls(ctx: CheckContext) -> list[Finding]:
 
 
 RULES = [rule_build_volume, rule_buildable, rule_min_wall, rule_hole_walls, rule_min_gap, rule_hinge_strain, rule_hinge_fits,
-         rule_temperatures, rule_fold_within_duration, rule_folding, rule_jam_probability]
+         rule_temperatures, rule_fold_within_duration, rule_folding, rule_jam_probability, rule_jam_sensitivity]
 
 
 def run_checks(ctx: CheckContext, rules=None) -> list[Finding]:

@@ -194,12 +194,16 @@ def check(
     hinge_model: str = typer.Option("arc", "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
     samples: int = typer.Option(CHECK_SAMPLES, "--samples", help="Monte-Carlo samples for the jam probability "
-                                f"(0 skips it; {CHECK_SAMPLES}: the 95 % intervals at 5 % and 20 % do not overlap)."),
+                                f"(0 skips it; {CHECK_SAMPLES}: the 95 % intervals at 5 % and 20 % do not overlap; run once per sigma scale of the sweep)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the samples."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
     error_above: float = typer.Option(0.2, "--error-above", help="Fail when the 95 % interval's lower end "
                                       "of the jam probability is above this."),
     warn_above: float = typer.Option(0.05, "--warn-above", help="Warn when the jam probability is above this."),
+    sensitivity: bool = typer.Option(True, "--sensitivity/--no-sensitivity",
+                                     help="Also estimate it with the scatter spreads scaled by --scales and say "
+                                     "(FP183) when the verdict flips in that range."),
+    scales: str = typer.Option("0.5,2", "--scales", help="Sigma scales of the sensitivity (comma-separated)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
@@ -208,7 +212,8 @@ def check(
 ):
     """Design-rule checks before printing, on the printed geometry: build volume, walls
     and gaps, hinge strain and size, temperatures, fold time, collisions and goals, and
-    the jam probability under manufacturing scatter. Exit 0 without errors, 1 with.
+    the jam probability under manufacturing scatter, also with the spreads at 0.5x and 2x
+    (FP183 says when the verdict flips in that range). Exit 0 without errors, 1 with.
 
     Example: foldprint check helix_uniform --json
     """
@@ -216,6 +221,7 @@ def check(
     from .modes import HingeModel
     from .pipeline import evaluate
     from .robust import load_scatter
+    from .sensitivity import parse_scales
 
     model = _mode(HingeModel, hinge_model, "--hinge-model")
     __import__("foldprint.guards").guards.set_max_memory(max_memory)  # resource guard (issue 14)
@@ -223,21 +229,23 @@ def check(
     if seed < 0:
         raise FoldprintError(f"--seed must be >= 0, got {seed}")
     th = Thresholds(_fraction(error_above, "--error-above"), _fraction(warn_above, "--warn-above"))
+    ks = parse_scales(scales) if sensitivity else ()
     key, pr = _printer(printer, printers_file)
     sc = load_scatter(scatter_file)
     d, lib = _load(design, materials_file, scale, crease_materials)
     with _samples_progress(f"{d.name}: scatter samples") as cb:
         ev = evaluate(d, library=lib, printer=pr, hinge_model=model, samples=samples, seed=seed, scatter=sc,
-                      thresholds=th, progress=(lambda _s, done, total: cb(done, total)) if cb else None)
+                      thresholds=th, scales=ks, progress=(lambda _s, done, total: cb(done, total)) if cb else None)
     findings = ev.findings
     n_err = ev.errors
     if json_out:
-        from .report import robust_json
+        from .report import robust_json, sweep_json
 
         _echo_json({"design": d.name, "printer": key, "hinge_model": model.value, "ok": n_err == 0,
                     "errors": n_err, "warnings": sum(f.severity == "warning" for f in findings),
                     "findings": [f.to_json() for f in findings],
-                    "robust": None if ev.robust is None else robust_json(ev.robust)})
+                    "robust": None if ev.robust is None else robust_json(ev.robust),
+                    "sensitivity": sweep_json(ev.sweep) if ev.sweep else None})
     else:
         for f in findings:
             where = ", ".join(f"{k} {v}" for k, v in f.where.items())
@@ -256,44 +264,79 @@ def robust(
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
     hinge_model: str = typer.Option("arc", "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
+    contributions: bool = typer.Option(True, "--contributions/--no-contributions",
+                                       help="Also each scatter component alone and all but each (two more "
+                                       "runs of the samples per component)."),
+    sensitivity: bool = typer.Option(False, "--sensitivity", help="Also sweep every spread by --scales."),
+    scales: str = typer.Option("0.5,1,2", "--scales", help="Sigma scales of --sensitivity (comma-separated)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT",
                                             help="Run the samples on this Dask scheduler (default: local cores)."),
 ):
-    """Jam probability under manufacturing and process scatter: Tg per hinge, hinge
-    thickness, heat transfer per hinge and bath temperature (foldprint/data/scatter.toml),
-    N Monte-Carlo folds of the printed geometry on all cores. Exit 0; 2 on bad input.
+    """Jam probability under manufacturing and process scatter (foldprint/data/scatter.toml):
+    shared by the part and run (bath temperature, the heat-transfer correlation's error)
+    and per hinge (Tg, thickness, local heat transfer); N Monte-Carlo folds of the printed
+    geometry on all cores, with each component's contribution and (--sensitivity) the
+    curve over sigma scales. Exit 0; 2 on bad input.
 
-    Example: foldprint robust helix_uniform --samples 60 --seed 1 --json
+    Example: foldprint robust helix_uniform --samples 60 --seed 1 --sensitivity --json
     """
     from .modes import HingeModel
-    from .report import robust_json
+    from .report import contributions_json, robust_json, sweep_json
     from .robust import jam_probability, load_scatter
+    from .sensitivity import contributions as contributions_of, parse_scales, sweep
 
     model = _mode(HingeModel, hinge_model, "--hinge-model")
     _count(samples, "--samples", 1, MAX_SAMPLES)
     if seed < 0:
         raise FoldprintError(f"--seed must be >= 0, got {seed}")
+    ks = parse_scales(scales)
     sc = load_scatter(scatter_file)
     d, lib = _load(design, materials_file)
-    with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: scatter samples") as cb:
-        r = jam_probability(d, samples, seed, scatter=sc, library=lib, hinge_model=model, progress=cb,
-                            mapper=mapper)
+    with _mapper(scheduler) as mapper:
+        with _samples_progress(f"{d.name}: scatter samples") as cb:
+            r = jam_probability(d, samples, seed, scatter=sc, library=lib, hinge_model=model, progress=cb,
+                                mapper=mapper)
+        parts = None
+        if contributions:
+            with _samples_progress(f"{d.name}: one component at a time") as cb:
+                parts = contributions_of(d, r, library=lib, mapper=mapper, progress=cb)
+        curve = None
+        if sensitivity:
+            with _samples_progress(f"{d.name}: sigma scales") as cb:
+                curve = sweep(d, r, ks, library=lib, mapper=mapper, progress=cb)
     out = robust_json(r)
+    out["contributions"] = None if parts is None else contributions_json(parts)
+    out["sensitivity"] = None if curve is None else sweep_json(curve)
     if json_out:
         _echo_json(out)
-    else:
-        lo, hi = out["ci95"]
-        echo(f"{d.name}: jam probability {out['jam_probability']:.1%} (95 % interval {lo:.1%}-{hi:.1%}) "
-             f"in {samples} samples, seed {seed} ({model.value} hinges)")
-        for c in out["collisions"][:5]:
-            echo(f"  {c['pair'][0]}-{c['pair'][1]} collide in {c['count']} samples")
-        ft = out["fold_time_s"]
-        if ft:
-            echo(f"  fold time of the samples that completed: {ft['p5']:.2f} / {ft['p50']:.2f} / "
-                 f"{ft['p95']:.2f} s (5th / 50th / 95th percentile)")
-        echo(f"  nominal: {_verdict(out['nominal'])}")
+        return
+    lo, hi = out["ci95"]
+    echo(f"{d.name}: jam probability {out['jam_probability']:.1%} (95 % interval {lo:.1%}-{hi:.1%}) "
+         f"in {samples} samples, seed {seed} ({model.value} hinges)")
+    for c in out["collisions"][:5]:
+        echo(f"  {c['pair'][0]}-{c['pair'][1]} collide in {c['count']} samples")
+    ft = out["fold_time_s"]
+    if ft:
+        echo(f"  fold time of the samples that completed: {ft['p5']:.2f} / {ft['p50']:.2f} / "
+             f"{ft['p95']:.2f} s (5th / 50th / 95th percentile)")
+    echo(f"  nominal: {_verdict(out['nominal'])}")
+
+    def est(e):
+        a, b = e["ci95"]
+        return f"{e['jams']:>3}/{e['samples']} {e['jam_probability']:6.1%} ({a:.1%}-{b:.1%})"
+
+    if out["contributions"] is not None:
+        echo("  contribution of each scatter component (same draws; alone = the others at zero):")
+        echo(f"    {'component':<42} {'spread':>9}  {'alone':<24} all but it")
+        for c in out["contributions"]:
+            name = f"{c['label']} [{c['scope']}]"
+            echo(f"    {name:<42} {c['spread']:>6g} {c['unit']:<2}  {est(c['alone']):<24} {est(c['all_but'])}")
+    if out["sensitivity"] is not None:
+        echo("  sensitivity: every spread scaled by k (same draws):")
+        for p in out["sensitivity"]:
+            echo(f"    k = {p['scale']:<5g} jam {est(p)}")
 
 
 @app.command()

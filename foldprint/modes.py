@@ -52,6 +52,19 @@ class AfterContact(str, Enum):
         return self.value
 
 
+class ScatterScope(str, Enum):
+    """Over what a scattered quantity takes one value (:mod:`foldprint.scatter`):
+    ``SHARED`` one draw per sample that every hinge sees (the bath of a run, the error of
+    the heat-transfer correlation for the whole part); ``HINGE`` one independent draw per
+    hinge (Tg, thickness, local heat transfer)."""
+
+    SHARED = "shared"
+    HINGE = "hinge"
+
+    def __str__(self) -> str:
+        return self.value
+
+
 class State(str, Enum):
     """Which shape the geometry is built in: ``PERMANENT`` (printed, folded) or
     ``PROGRAMMED`` (the flat sheet after programming)."""

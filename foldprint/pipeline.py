@@ -28,10 +28,14 @@ from .materials import MaterialLibrary, default_library
 from .modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, AfterContact,
                     HingeModel, Method, State, parse)
 from .robust import RobustResult, Scatter, jam_probability
+from .sensitivity import SweepPoint, sweep
 from .simulate import SimulationResult, simulate
 
 #: Seed of the default check (a fixed seed: the same design gives the same verdict).
 CHECK_SEED = 0
+#: Sigma scales ``check`` also runs (the same samples and seed) to say when its verdict
+#: flips inside that range (FP183).
+CHECK_SCALES = (0.5, 2.0)
 
 
 def build(design: Design, state: State | str = DEFAULT_STATE,
@@ -107,6 +111,7 @@ class Evaluation:
     clearance: Gap | None
     robust: RobustResult | None
     findings: tuple[Finding, ...]
+    sweep: tuple[SweepPoint, ...] = ()
 
     @property
     def errors(self) -> int:
@@ -121,10 +126,12 @@ def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer:
              hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = 0.01,
              samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED, scatter: Scatter | None = None,
              thresholds: Thresholds = Thresholds(), simulation: SimulationResult | None = None,
-             workers: int | None = None, mapper=None,
+             workers: int | None = None, mapper=None, scales: Iterable[float] = (),
              progress: Callable[[str, int, int], None] | None = None) -> Evaluation:
     """Simulate once, build the printed part, measure its gaps and clearance, estimate
-    the jam probability (``samples`` = 0 skips it) and run every design rule.
+    the jam probability (``samples`` = 0 skips it), and again with the scatter spreads
+    times each of ``scales`` (``check`` passes :data:`CHECK_SCALES`), and run every
+    design rule.
 
     ``progress(stage, done, total)`` reports the Monte-Carlo samples."""
     lib = library or default_library()
@@ -150,7 +157,12 @@ def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer:
         cb = (lambda done, total: progress("samples", done, total)) if progress else None
         robust = jam_probability(design, samples, seed, scatter=scatter, library=lib, hinge_model=model,
                                  dt=dt, nominal=simulation, workers=workers, progress=cb, mapper=mapper)
+    points: tuple[SweepPoint, ...] = ()
+    if robust is not None and tuple(scales):
+        cb = (lambda done, total: progress("sigma scales", done, total)) if progress else None
+        points = sweep(design, robust, tuple(scales) + (1.0,), library=lib, dt=dt, workers=workers, mapper=mapper,
+                       progress=cb)
     ctx = CheckContext(design, lib, pr, simulation, assembly, assembly_error, gaps, clearance, robust,
-                       thresholds)
+                       thresholds, points)
     return Evaluation(design, pr, simulation, assembly, assembly_error, gaps, clearance, robust,
-                      tuple(run_checks(ctx)))
+                      tuple(run_checks(ctx)), points)

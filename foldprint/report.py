@@ -80,6 +80,24 @@ def robust_json(r) -> dict:
     }
 
 
+def estimate_json(r) -> dict:
+    """The short form of a jam-probability estimate: jams, samples, p and its interval."""
+    lo, hi = r.ci95
+    return {"jams": r.jams, "samples": r.samples, "jam_probability": _r(r.jam_probability), "ci95": [_r(lo), _r(hi)]}
+
+
+def contributions_json(c) -> list[dict]:
+    """Each scatter component's share (:class:`foldprint.sensitivity.Contributions`)."""
+    return [{"component": it.component.key, "scope": it.component.scope.value, "label": it.component.label,
+             "spread": it.spread, "unit": it.component.unit, "alone": estimate_json(it.alone),
+             "all_but": estimate_json(it.without)} for it in c.items]
+
+
+def sweep_json(points) -> list[dict]:
+    """The sigma-scale sweep (:func:`foldprint.sensitivity.sweep`)."""
+    return [{"scale": p.scale, **estimate_json(p.result)} for p in points]
+
+
 def loops_json(sol) -> dict | None:
     """The loop solver's report (hinge graphs with loops), None for a hinge tree."""
     if sol is None:

@@ -1,12 +1,14 @@
 """Jam probability under manufacturing and process scatter (Monte-Carlo).
 
-Real hinges are not identical: Tg varies from hinge to hinge with the digital-material
-mix, hinge thickness with the printer's tolerance, the heat-transfer coefficient with the
-hinge's place in the bath, and the bath temperature from run to run. Each sample draws
-all four from :class:`Scatter` (defaults and sources in ``foldprint/data/scatter.toml``,
-``docs/robustness-model.md``), builds every hinge's recovery curve from the perturbed
-values, and folds the printed geometry (arc hinges, the 3D swept check, every goal)
-with :func:`foldprint.simulate.simulate`. A sample *jams* when it does not complete: a
+Real parts are not nominal: the bath temperature varies from run to run and the
+heat-transfer coefficient of the whole part by the error of its correlation (both shared
+by every hinge of a sample); Tg varies from hinge to hinge with the digital-material mix,
+hinge thickness with the printer's tolerance, and h locally with the hinge's place on the
+part. Each sample is drawn by :func:`foldprint.scatter.draw_samples` (the model, its
+sources in ``foldprint/data/scatter.toml``, ``docs/robustness-model.md``); this module
+builds every hinge's recovery curve from the perturbed values, and folds the printed
+geometry (arc hinges, the 3D swept check, every goal) with
+:func:`foldprint.simulate.simulate`. A sample *jams* when it does not complete: a
 collision, a goal unmet or out of order, or a hinge short of 98 %.
 
 Samples are drawn from one seeded generator, in order, streamed in chunks of
@@ -22,12 +24,9 @@ from __future__ import annotations
 
 import math
 import time
-import tomllib
-from dataclasses import dataclass, field, replace
-from importlib import resources
-from pathlib import Path
+from dataclasses import dataclass, replace
 from itertools import islice
-from typing import Callable, Iterator, Mapping, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -39,125 +38,18 @@ from .materials import MaterialLibrary, default_library
 from .modes import DEFAULT_HINGE_MODEL, HingeModel, Method, parse
 from .recovery import RecoveryCurve, recovery_curve
 from .recovery_batch import batch_ratios, grid_until
+# What is drawn (the model, its data file, the samples) lives in foldprint.scatter; this
+# module folds what it draws. Re-exported so callers keep importing them from here.
+from .scatter import (TRUNCATE_SD, Sample, Scatter, default_scatter, draw_samples, iter_samples,  # noqa: F401
+                      load_scatter)
 from .simulate import SimulationResult, simulate
 
 #: z of a two-sided 95 % interval.
 Z95 = 1.959963984540054
-#: Normal draws are truncated to mean +/- this many standard deviations (a printed
-#: hinge is never 5 sd off: the printer's QA would reject it).
-TRUNCATE_SD = 3.0
 #: Samples per task: drawn, given their curves in one array pass and folded together.
 #: Fixed (not tied to the number of workers), though the answer does not depend on it.
 CHUNK = 16
 
-_FIELDS = {"tg": {"sd_c"}, "thickness": {"sd_mm"}, "bath": {"sd_c"}, "heat_transfer": {"sigma_ln"}}
-
-
-@dataclass(frozen=True)
-class Scatter:
-    """Standard deviations of the four scattered quantities (see module docstring)."""
-
-    tg_sd_c: float = 1.0
-    thickness_sd_mm: float = 0.04
-    bath_sd_c: float = 1.0
-    h_sigma_ln: float = 0.2
-    sources: Mapping[str, str] = field(default_factory=dict, compare=False)
-
-    def to_json(self) -> dict:
-        return {"tg_sd_c": self.tg_sd_c, "thickness_sd_mm": self.thickness_sd_mm,
-                "bath_sd_c": self.bath_sd_c, "heat_transfer_sigma_ln": self.h_sigma_ln}
-
-
-def _scatter_from(data: Mapping, src: str, base: Scatter | None) -> Scatter:
-    if not isinstance(data, Mapping):
-        raise DesignError(f"{src}: expected a TOML table")
-    values = {} if base is None else {"tg_sd_c": base.tg_sd_c, "thickness_sd_mm": base.thickness_sd_mm,
-                                      "bath_sd_c": base.bath_sd_c, "h_sigma_ln": base.h_sigma_ln}
-    sources = dict(base.sources) if base is not None else {}
-    names = {("tg", "sd_c"): "tg_sd_c", ("thickness", "sd_mm"): "thickness_sd_mm",
-             ("bath", "sd_c"): "bath_sd_c", ("heat_transfer", "sigma_ln"): "h_sigma_ln"}
-    for key, table in data.items():
-        if key == "schema":
-            if table != 1:
-                raise DesignError(f"{src}: schema: expected 1, got {table!r}")
-            continue
-        if key not in _FIELDS:
-            raise DesignError(f"{src}: unknown table [{key}]; expected one of "
-                              f"{', '.join(sorted(_FIELDS))}")
-        if not isinstance(table, Mapping):
-            raise DesignError(f"{src}: {key}: expected a table like [{key}]")
-        for k, v in table.items():
-            if k == "source":
-                sources[key] = str(v)
-                continue
-            if k not in _FIELDS[key]:
-                raise DesignError(f"{src}: {key}.{k}: unknown key; expected "
-                                  f"{', '.join(sorted(_FIELDS[key]))} or source")
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise DesignError(f"{src}: {key}.{k}: must be a finite number >= 0, got {v!r}")
-            values[names[(key, k)]] = float(v)
-    missing = [n for n in names.values() if n not in values]
-    if missing:
-        raise DesignError(f"{src}: missing {', '.join(missing)}")
-    return Scatter(**values, sources=sources)
-
-
-def default_scatter() -> Scatter:
-    """The shipped scatter model (``foldprint/data/scatter.toml``)."""
-    text = (resources.files("foldprint") / "data" / "scatter.toml").read_text(encoding="utf-8")
-    return _scatter_from(tomllib.loads(text), "foldprint/data/scatter.toml", None)
-
-
-def load_scatter(path: str | Path | None = None) -> Scatter:
-    """The shipped model, with the fields a user TOML file names replaced."""
-    base = default_scatter()
-    if path is None:
-        return base
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise DesignError(f"{p}: scatter file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DesignError(f"{p}: cannot read the scatter file: {exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except ValueError as exc:  # also a >4300-digit integer
-        raise DesignError(f"{p}: not valid TOML: {exc}") from None
-    return _scatter_from(data, str(p), base)
-
-
-@dataclass(frozen=True)
-class Sample:
-    """One drawn realisation: per hinge Tg shift (C), thickness (mm), h multiplier; the
-    bath temperature (C)."""
-
-    tg_shift_c: np.ndarray
-    thickness_mm: np.ndarray
-    h_scale: np.ndarray
-    bath_c: float
-
-
-def _truncnorm(rng: np.random.Generator, sd: float, size) -> np.ndarray:
-    return np.clip(rng.standard_normal(size), -TRUNCATE_SD, TRUNCATE_SD) * sd
-
-
-def iter_samples(design: Design, scatter: Scatter, n: int, seed: int) -> Iterator[Sample]:
-    """``n`` samples from one generator seeded with ``seed``, drawn in order, one at a time."""
-    rng = np.random.default_rng(seed)
-    n_h = len(design.hinges)
-    nominal_t = np.array([h.thickness for h in design.hinges])
-    for _ in range(n):
-        tg = _truncnorm(rng, scatter.tg_sd_c, n_h)
-        th = nominal_t + _truncnorm(rng, scatter.thickness_sd_mm, n_h)
-        hs = np.exp(_truncnorm(rng, scatter.h_sigma_ln, n_h))
-        bath = design.process.bath_temperature_c + float(_truncnorm(rng, scatter.bath_sd_c, 1)[0])
-        yield Sample(tg, np.maximum(th, 0.05 * nominal_t), hs, bath)
-
-
-def draw_samples(design: Design, scatter: Scatter, n: int, seed: int) -> list[Sample]:
-    """``n`` samples from one generator seeded with ``seed``, drawn in order."""
-    return list(iter_samples(design, scatter, n, seed))
 
 
 def sample_drive(design: Design, library: MaterialLibrary, sample: Sample, *, until_s: float | None = None,

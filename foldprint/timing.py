@@ -15,7 +15,7 @@ import numpy as np
 from .design import Design
 from .materials import Material, MaterialLibrary
 from .recovery import recovery_curve
-from .robust import Scatter
+from .scatter import Scatter
 
 
 def _log_times(material, bath_c: float, thickness: float, fix_c: float) -> np.ndarray:
@@ -28,8 +28,9 @@ def _log_times(material, bath_c: float, thickness: float, fix_c: float) -> np.nd
 def _time_spread(m: Material, bath_c: float, thickness: float, fix_c: float,
                  scatter: Scatter) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """ln t50 and ln t98 of a hinge of material ``m`` and, by finite differences, their
-    per-hinge variances under the scatter model (Tg, thickness, heat transfer) and their
-    slopes in the bath temperature (a shift every hinge shares), per bath sd."""
+    variances under the per-hinge components of the scatter model (Tg, thickness, local
+    h) and their shifts per sd of the shared ones (rows: bath temperature, the part's h;
+    every hinge of a sample sees the same draw of these)."""
     base = _log_times(m, bath_c, thickness, fix_c)
     with np.errstate(invalid="ignore"):
         d_tg = (_log_times(replace(m, tg_c=m.tg_c + 0.5), bath_c, thickness, fix_c) - base) / 0.5
@@ -38,8 +39,9 @@ def _time_spread(m: Material, bath_c: float, thickness: float, fix_c: float,
         d_h = (_log_times(replace(m, recovery=rec), bath_c, thickness, fix_c) - base) / 0.1
         d_b = (_log_times(m, bath_c + 0.5, thickness, fix_c) - base) / 0.5
     var = ((d_tg * scatter.tg_sd_c) ** 2 + (d_th * scatter.thickness_sd_mm) ** 2
-           + (d_h * scatter.h_sigma_ln) ** 2)
-    return base, np.nan_to_num(var), np.nan_to_num(d_b * scatter.bath_sd_c)
+           + (d_h * scatter.h_local_sigma_ln) ** 2)
+    shared = np.array([d_b * scatter.bath_sd_c, d_h * scatter.h_shared_sigma_ln])
+    return base, np.nan_to_num(var), np.nan_to_num(shared)
 
 
 def _phi_upper(z: float) -> float:
@@ -52,7 +54,8 @@ def order_risk(design: Design, lib: MaterialLibrary, materials: Sequence[str], b
     """A ranking proxy for the ``robust`` pool (it knows nothing of the geometry; the
     Monte-Carlo decides): the expected number of hinge pairs whose order of half recovery
     scatter swaps, Phi(-|ln t50_i - ln t50_j| / sd) per pair with sd from a linearised
-    scatter model (:func:`_time_spread`), so a pair sharing a material counts 1/2; plus,
+    scatter model (:func:`_time_spread`; a shared component moves both hinges, so only the
+    difference of its effects counts), so a pair sharing a material counts 1/2; plus,
     weighted by the number of pairs, the chance that some hinge misses 98 % within the
     run. Lower is more robust."""
     fix_c = design.process.fix_temperature_c
@@ -62,15 +65,15 @@ def order_risk(design: Design, lib: MaterialLibrary, materials: Sequence[str], b
     pairs = n * (n - 1) / 2
     log_dur = math.log(float(design.process.duration_s))
     done = 1.0
-    for lt, var, _b in spread:
+    for lt, var, shared in spread:
         if not math.isfinite(lt[1]):
             return 2 * pairs + 1
-        sd = math.sqrt(var[1])
+        sd = math.sqrt(var[1] + float(np.sum(shared[:, 1] ** 2)))
         done *= 1.0 - (_phi_upper((log_dur - lt[1]) / sd) if sd > 0 else float(lt[1] > log_dur))
     risk = pairs * (1.0 - done)
     for a in range(n):
         for b in range(a + 1, n):
             (la, va, ba), (lb, vb, bb) = spread[a], spread[b]
-            sd = math.sqrt(va[0] + vb[0] + (ba[0] - bb[0]) ** 2)
+            sd = math.sqrt(va[0] + vb[0] + float(np.sum((ba[:, 0] - bb[:, 0]) ** 2)))
             risk += 0.5 if sd == 0 else _phi_upper(abs(la[0] - lb[0]) / sd)
     return risk

@@ -1,7 +1,8 @@
 """Sample 1 under scatter: the jam probability of the paper's two helices (Mao 2015,
 Table 1) with the printed geometry, for the shipped geometry (a = 30 mm) and a compact
 one within the paper's stated dimensions (a = 15 mm), and which scatter component drives
-the graded helix's jams (each component alone, the others at zero).
+the graded helix's jams (each component alone and all but each,
+foldprint.sensitivity.contributions).
 
 Prints one JSON object; docs/simulation.md quotes it.
 Run: python scripts/sample1_scatter.py [--samples 60] [--seed 1]
@@ -11,11 +12,11 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import replace
 
 from foldprint.design import strip
 from foldprint.load import load_design
-from foldprint.robust import Scatter, default_scatter, jam_probability
+from foldprint.robust import default_scatter, jam_probability
+from foldprint.sensitivity import contributions
 
 PITCH = 5.8  # mm: 5 mm clearance + 0.8 mm thickness (paper)
 GRADED = ["H-1", "H-1", "H-2", "H-3", "H-4", "H-5", "H-6", "H-7", "H-7"]
@@ -45,15 +46,10 @@ def main(argv=None):
         for label, mats in (("uniform", ["H-3"] * 9), ("graded", GRADED)):
             d = helix(f"helix_{label}_a{a:g}", a, mats)
             out["helices"][f"{label}, a = {a:g} mm"] = summary(jam_probability(d, args.samples, args.seed))
-    zero = Scatter(0.0, 0.0, 0.0, 0.0)
-    full = default_scatter()
-    parts = {"tg only": replace(zero, tg_sd_c=full.tg_sd_c),
-             "thickness only": replace(zero, thickness_sd_mm=full.thickness_sd_mm),
-             "bath only": replace(zero, bath_sd_c=full.bath_sd_c),
-             "heat transfer only": replace(zero, h_sigma_ln=full.h_sigma_ln)}
     d = helix("helix_graded_a30", 30.0, GRADED)
-    out["graded_a30_by_component"] = {k: summary(jam_probability(d, args.samples, args.seed, scatter=s))
-                                      for k, s in parts.items()}
+    parts = contributions(d, jam_probability(d, args.samples, args.seed))
+    out["graded_a30_by_component"] = {it.component.key: {"alone": summary(it.alone), "all_but": summary(it.without)}
+                                      for it in parts.items}
     print(json.dumps(out, indent=1))
 
 

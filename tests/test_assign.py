@@ -200,9 +200,9 @@ def test_growing_waves_extend_the_folded_region_in_small_steps():
 
 def test_order_risk_matches_sampled_recovery_times(helix, lib):
     """order_risk's linearised chance that scatter swaps two hinges' half-recovery times,
-    against the times of independently drawn hinges (the scatter model's Tg, thickness
-    and heat-transfer draws, through the recovery model); and its exact limits: a shared
-    material counts 1/2 per pair."""
+    against the times of drawn hinges (the scatter model's per-hinge Tg, thickness and
+    local heat transfer, and the bath and the part's heat transfer shared by both, through
+    the recovery model); and its exact limits: a shared material counts 1/2 per pair."""
     import math
 
     import numpy as np
@@ -220,11 +220,14 @@ def test_order_risk_matches_sampled_recovery_times(helix, lib):
     n, swaps = 40, 0
     for _ in range(n):
         t50 = []
+        bath = 90.0 + sc.bath_sd_c * rng.standard_normal()
+        h_part = math.exp(sc.h_shared_sigma_ln * rng.standard_normal())
         for name in ("H-3", "H-4"):
             m = lib[name]
-            rec = replace(m.recovery, h_w_m2k=m.recovery.h_w_m2k * math.exp(sc.h_sigma_ln * rng.standard_normal()))
+            h = h_part * math.exp(sc.h_local_sigma_ln * rng.standard_normal())
+            rec = replace(m.recovery, h_w_m2k=m.recovery.h_w_m2k * h)
             m = replace(m, tg_c=m.tg_c + sc.tg_sd_c * rng.standard_normal(), recovery=rec)
-            t50.append(recovery_curve(m, 90.0, 0.8 + sc.thickness_sd_mm * rng.standard_normal(), 10.0).time_to(0.5))
+            t50.append(recovery_curve(m, bath, 0.8 + sc.thickness_sd_mm * rng.standard_normal(), 10.0).time_to(0.5))
         swaps += t50[1] < t50[0]
     assert 0.0 < p_model < 0.5
     # binomial sd at n = 40 is <= 0.08; the linearisation adds a little

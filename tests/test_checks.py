@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from foldprint.checks import CheckContext, Thresholds, load_printers, rule_jam_probability
+from foldprint.checks import CheckContext, Thresholds, load_printers, rule_jam_probability, rule_jam_sensitivity
 from foldprint.cli import main
 from foldprint.constants import CHECK_SAMPLES
 from foldprint.design import Process, strip
@@ -85,13 +85,24 @@ def test_paper_rom_collision_names_panels_and_time(capsys):
 def test_jam_probability_decides_the_helices(capsys):
     """Issue 8's done-when: at the shipped geometry and the default scatter, the graded
     helix passes the pre-print check and the uniform one fails on its jam probability."""
-    assert main(["check", "helix_uniform", "--json"]) == 1
+    assert main(["check", "helix_uniform", "--json", "--no-sensitivity"]) == 1
     out = json.loads(capsys.readouterr().out)
     assert [f["code"] for f in out["findings"] if f["severity"] == "error"] == ["FP180"]
     assert out["robust"]["samples"] == CHECK_SAMPLES and out["robust"]["ci95"][0] > 0.2
+    assert out["sensitivity"] is None
     assert main(["check", "helix_graded", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["robust"]["ci95"][0] <= 0.2
+    # the default sweep (0.5x, 1x, 2x, the same draws): FP183 exactly when the verdict
+    # a scale earns differs from the one at 1x
+    sweep = {p["scale"]: p for p in out["sensitivity"]}
+    assert sorted(sweep) == [0.5, 1.0, 2.0] and sweep[1.0]["jams"] == out["robust"]["jams"]
+
+    def verdict(p):
+        return "error" if p["ci95"][0] > 0.2 else "warning" if p["jam_probability"] > 0.05 else "info"
+
+    flips = {verdict(sweep[k]) for k in (0.5, 2.0)} - {verdict(sweep[1.0])}
+    assert any(f["code"] == "FP183" for f in out["findings"]) == bool(flips)
 
 
 class _Fake:
@@ -117,9 +128,39 @@ def test_jam_thresholds(k, n, code):
     assert (f.severity == "error") == (lo > 0.2)
 
 
+class _Point:
+    def __init__(self, scale, k, n):
+        self.scale, self.result = scale, _Fake(k, n)
+
+
+@pytest.mark.parametrize("at_half,at_one,at_two,expect", [
+    (0, 0, 0, None),  # passes everywhere: nothing to say
+    (20, 20, 20, None),  # fails everywhere
+    (0, 0, 12, "warning"),  # passes at 1x, fails at 2x
+    (0, 3, 3, "info"),  # warning at 1x and 2x, passes at 0.5x: only better inside the range
+    (0, 12, 20, "info"),  # fails at 1x, passes at 0.5x
+    (2, 3, 3, None),  # warning at every scale
+])
+def test_verdict_flip_inside_the_swept_range(at_half, at_one, at_two, expect):
+    """FP183 compares the verdict (FP180/181/182) at each swept scale with the one at 1x."""
+    ctx = CheckContext(strip("x", [20, 20], [90], ["H-3"]), default_library(), load_printers()["connex260"],
+                       robust=_Fake(at_one, 20), thresholds=Thresholds(error=0.2, warning=0.05),
+                       sweep=(_Point(0.5, at_half, 20), _Point(1.0, at_one, 20), _Point(2.0, at_two, 20)))
+    found = rule_jam_sensitivity(ctx)
+    (main_finding,) = rule_jam_probability(ctx)
+    assert "0.5x" in main_finding.message and "2x" in main_finding.message
+    if expect is None:
+        assert found == []
+    else:
+        (f,) = found
+        flipped = "2x" if expect == "warning" else "0.5x"
+        assert f.code == "FP183" and f.severity == expect and f"at {flipped}:" in f.message
+
+
 def test_user_printer_profile(tmp_path, capsys):
     f = tmp_path / "p.toml"
     f.write_text('[printers.tiny]\nname = "Tiny"\nbuild_mm = [30, 30, 30]\nmin_wall_mm = 0.5\nmin_gap_mm = 0.2\n')
-    code = main(["check", "helix_graded", "--printers", str(f), "--printer", "tiny", "--samples", "0", "--json"])
+    code = main(["check", "helix_graded", "--printers", str(f), "--printer", "tiny", "--samples", "0", "--json",
+                 "--no-sensitivity"])
     out = json.loads(capsys.readouterr().out)
     assert code == 1 and any(x["code"] == "FP100" for x in out["findings"])

@@ -94,8 +94,9 @@ def test_sample_drives_match_the_exact_drive(graded, lib):
 def test_fast_and_exact_paths_give_the_same_verdicts(graded, lib):
     """The same draws through the exact per-curve path and the batch path: the same jam
     verdict per sample (the curves agree to round-off, far inside any contact
-    tolerance), the same fold and contact times. Samples with and without a jam."""
-    drawn = draw_samples(graded, default_scatter(), 32, 1)
+    tolerance), the same fold and contact times. Samples with and without a jam (the
+    spreads doubled: at 1x the split scatter model jams the graded helix too rarely)."""
+    drawn = draw_samples(graded, default_scatter().scaled(2.0), 32, 1)
     fast = run_samples((graded, lib, drawn, "arc", 0.01))
     jammed = [k for k, o in enumerate(fast) if o.jammed]
     ok = [k for k, o in enumerate(fast) if not o.jammed]

@@ -12,6 +12,7 @@ from foldprint.design import strip
 from foldprint.materials import default_library
 from foldprint.robust import (Scatter, default_scatter, draw_samples, jam_probability, load_scatter,
                               sample_drive, wilson)
+from foldprint.scatter import KEYS
 from foldprint.simulate import simulate
 
 
@@ -24,9 +25,12 @@ def test_wilson_matches_scipy(k, n):
 
 def test_default_scatter_carries_sources():
     s = default_scatter()
-    assert s.tg_sd_c > 0 and s.thickness_sd_mm > 0 and s.bath_sd_c > 0 and s.h_sigma_ln > 0
-    assert set(s.sources) == {"tg", "thickness", "bath", "heat_transfer"}
+    assert all(s.spread(k) > 0 for k in KEYS)
+    assert set(s.sources) == set(KEYS)
     assert all(len(v) > 20 for v in s.sources.values())
+    j = s.to_json()
+    assert {k: j[k]["scope"] for k in KEYS} == {"bath": "shared", "h_shared": "shared", "tg": "hinge",
+                                                 "thickness": "hinge", "h_local": "hinge"}
 
 
 def test_samples_are_seeded_and_truncated():
@@ -43,7 +47,7 @@ def test_samples_are_seeded_and_truncated():
 
 def test_zero_scatter_reproduces_the_nominal_fold():
     d = strip("z", [20, 25, 20], [90, 90], ["H-2", "H-5"])
-    zero = Scatter(0.0, 0.0, 0.0, 0.0)
+    zero = Scatter.zero()
     (s,) = draw_samples(d, zero, 1, 0)
     drive = sample_drive(d, default_library(), s)
     nominal = simulate(d, method="fcl")
@@ -54,7 +58,7 @@ def test_hotter_or_thinner_hinges_fold_sooner():
     """A physical direction check on the sampled drive: higher Tg -> later."""
     d = strip("t", [20, 20], [90], ["H-4"])
     lib = default_library()
-    (s,) = draw_samples(d, Scatter(0.0, 0.0, 0.0, 0.0), 1, 0)
+    (s,) = draw_samples(d, Scatter.zero(), 1, 0)
     base = sample_drive(d, lib, s).curves[0].fold_time
     hot = sample_drive(d, lib, type(s)(s.tg_shift_c + 2.0, s.thickness_mm, s.h_scale, s.bath_c)).curves[0].fold_time
     thin = sample_drive(d, lib, type(s)(s.tg_shift_c, s.thickness_mm * 0.9, s.h_scale, s.bath_c)).curves[0].fold_time
@@ -69,7 +73,7 @@ def test_same_seed_same_answer_on_one_or_two_processes():
 
 
 def test_robust_cli_contract(capsys):
-    code = main(["robust", "helix_graded", "--samples", "4", "--seed", "1", "--json"])
+    code = main(["robust", "helix_graded", "--samples", "4", "--seed", "1", "--json", "--no-contributions"])
     out = json.loads(capsys.readouterr().out)
     assert code == 0
     assert {"design", "samples", "seed", "hinge_model", "jam_probability", "ci95", "collisions", "fold_time_s",
@@ -80,16 +84,19 @@ def test_robust_cli_contract(capsys):
     assert out["nominal"]["completed"] is True
     ft = out["fold_time_s"]
     assert ft is None or ft["p5"] <= ft["p50"] <= ft["p95"]
-    assert main(["robust", "helix_graded", "--samples", "4", "--seed", "1", "--json"]) == 0
+    assert main(["robust", "helix_graded", "--samples", "4", "--seed", "1", "--json", "--no-contributions"]) == 0
     assert json.loads(capsys.readouterr().out) == out
 
 
 @pytest.mark.parametrize("text,needle", [
-    ("[tg]\nsd_c = -1.0\n", "tg.sd_c"),
-    ("[tg]\nsd_c = nan\n", "tg.sd_c"),
-    ("[bath]\nsd_c = 1.0\nspread = 2\n", "bath.spread"),
+    ("[hinge.tg]\nsd_c = -1.0\n", "hinge.tg.sd_c"),
+    ("[hinge.tg]\nsd_c = nan\n", "hinge.tg.sd_c"),
+    ("[shared.bath]\nsd_c = 1.0\nspread = 2\n", "shared.bath.spread"),
     ("[wobble]\nsd = 1\n", "[wobble]"),
-    ("[thickness]\nsd_mm = \"x\"\n", "thickness.sd_mm"),
+    ("[shared.wobble]\nsd = 1\n", "[shared.wobble]"),
+    ("[hinge.thickness]\nsd_mm = \"x\"\n", "hinge.thickness.sd_mm"),
+    ("[heat_transfer]\nsigma_ln = 0.2\n", "[shared.heat_transfer]"),  # schema 1: says where it went
+    ("schema = 1\n", "schema"),
 ])
 def test_bad_scatter_file_exit_2(tmp_path, capsys, text, needle):
     f = tmp_path / "s.toml"
@@ -111,7 +118,8 @@ def test_bad_sample_options_exit_2(capsys, args):
 
 def test_override_keeps_other_fields(tmp_path):
     f = tmp_path / "s.toml"
-    f.write_text("[tg]\nsd_c = 2.5\nsource = 'our DMA'\n")
+    f.write_text("[hinge.tg]\nsd_c = 2.5\nsource = 'our DMA'\n")
     s = load_scatter(f)
     assert s.tg_sd_c == 2.5 and s.sources["tg"] == "our DMA"
     assert math.isclose(s.bath_sd_c, default_scatter().bath_sd_c)
+    assert s.sources["bath"] == default_scatter().sources["bath"]
