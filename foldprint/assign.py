@@ -39,10 +39,10 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from .collision3d import SweptChecker
-from .clearance import gaps_in_pose, min_clearance, permanent_crossings  # noqa: F401 (re-export)
+from .clearance import min_clearance, permanent_crossings  # noqa: F401 (permanent_crossings: re-export)
 from .design import Design
 from .errors import DesignError
-from .kinematics import HingeDrive, forward, target_angles
+from .kinematics import HingeDrive
 from .materials import MaterialLibrary, default_library
 from .modes import HingeModel, Method
 from .recovery import recovery_curve

@@ -377,6 +377,25 @@ def _close_undershoots(segs, snap: float, eps: float) -> list:
     return [(new[k], new[n + k], *segs[k][2:]) for k in range(n)]
 
 
+def _node(lines, size: float, src: str):
+    """The lines split at every crossing (GEOS). Noding that does not converge on nearly
+    overlapping segments (a GEOSException, found by the fuzz campaign) is retried on a grid
+    of 1e-9 of the pattern, then refused naming the place."""
+    from shapely.errors import GEOSException
+
+    try:
+        return shapely.node(lines)
+    except GEOSException:
+        pass
+    try:
+        return shapely.node(shapely.set_precision(lines, 1e-9 * max(size, 1.0)))
+    except GEOSException as exc:
+        near = re.search(r"near ([-\d.e+]+ [-\d.e+]+)", str(exc))
+        raise DesignError(f"{src}the lines cannot be split where they cross"
+                          + (f" (near {near.group(1)} user units)" if near else "")
+                          + ": segments there almost overlap; merge or separate them in your editor") from None
+
+
 def _unique_segments(segs) -> list:
     """Drop repeats of a segment (same ends in either direction, same kind and angle): a
     path drawn back and forth over one line 1,000 times is that line (it took 1.3 GB)."""
@@ -461,7 +480,7 @@ def fold_from_svg(text: str, src: str = "", scale: float | None = None,
     moved = _close_undershoots(segs, snap, 1e-12 * max(size, 1.0))
     segs = [sg for sg in moved if np.linalg.norm(sg[1] - sg[0]) > snap]
     lines = [LineString([a, b]) for a, b, *_ in segs]
-    noded = shapely.node(MultiLineString(lines))
+    noded = _node(MultiLineString(lines), size, src)
     tree = shapely.STRtree(lines)
     raw = [np.asarray(g.coords) for g in getattr(noded, "geoms", [noded])]
     allpts = np.array([c[0] for c in raw] + [c[-1] for c in raw])

@@ -200,3 +200,14 @@ def test_vertex_clustering_matches_all_pairs(n, seed, tol, shape, kd):
     finally:
         svg_format._KDTREE_POINTS = old
     np.testing.assert_allclose(got, _brute_clusters(pts, tol), atol=1e-9)
+
+
+def test_svg_whose_noding_does_not_converge_exits_2(capsys):
+    """Found by benchmarks/fuzz_inputs.py: GEOS 'Iterated noding failed to converge' was an
+    internal error (exit 3); the noding is retried on a fine grid, else refused."""
+    from pathlib import Path
+
+    f = Path(__file__).resolve().parent / "data" / "fuzz" / "noding_fails.svg"
+    code = main(["check", str(f), "--samples", "0", "--json"])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err and "internal error" not in err and "noding_fails.svg" in err
