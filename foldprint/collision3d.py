@@ -19,11 +19,14 @@ need both distances to be covered by the motion.
   sphere of fixed radius about one of its panels' centroid in every configuration. Pairs of
   groups and time intervals are certified with the sphere distances and the centre motion
   bound (prefix sums along the tree, O(1) per pair), all pairs of one level at once;
-  uncertified ones split the bigger group or the interval. What survives is a list of
-  (panel pair, sample interval) runs.
+  uncertified ones split the bigger group or the interval. A far-apart group pair still
+  uncertified over one sample step (long tree paths: the bound grows with the path length
+  squared) is re-tested between the samples on 4, 16, 64 sub-intervals before it is split
+  into panel pairs. What survives is a list of (panel pair, sample interval) runs.
 * Narrow phase (``SweptChecker.first_contact``): per run, FCL distances; far apart a pair
   jumps from sample to sample while d(t0) > F(t1) - F(t0); close, an interval is split
-  (bisection in continuous time, poses of the two panels only). The pair lever is the
+  (bisection in continuous time; every panel's pose at a split time by prefix products
+  along the tree, computed once per time and shared by the pairs). The pair lever is the
   smaller of the two sides' levers per hinge (the motion relative to the panel in the
   middle of the path). A contact is declared at distance <= the contact tolerance and
   refined to the first touching time within ``time_tol_s``. Splitting stops at

@@ -258,9 +258,9 @@ def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter
     lib = library or default_library()
     scatter = scatter or default_scatter()
     model = parse(HingeModel, hinge_model, "hinge_model")
+    guards.check_samples(design, samples, workers, dt)  # refuse before any fold (memory, time budget)
     if nominal is None:
         nominal = simulate(design, dt=dt, method=Method.FCL, hinge_model=model, library=lib)
-    guards.check_samples(design, samples, workers, dt)  # refuse before drawing (memory, time budget)
     drawn = draw_samples(design, scatter, samples, seed)
     tasks = [(design, lib, s, model, dt) for s in drawn]
     if mapper is None:
