@@ -157,8 +157,8 @@ class SweptChecker:
         if hit is None:
             i, j = pair
             t = self.tree
-            up_i, down_j, l = t.path(i, j)
-            idx, lev = t.pair_levers(i, j, t.qp[i] + t.reach[i], t.qp[j] + t.reach[j])
+            up_i, down_j, l = path = t.path(i, j)
+            idx, lev = t.pair_levers(i, j, t.qp[i] + t.reach[i], t.qp[j] + t.reach[j], path)
             hit = self._pairs[pair] = (up_i, down_j, l, idx, lev)
         return hit
 
@@ -200,7 +200,18 @@ class SweptChecker:
         is split in continuous time."""
         i, j = pair
         ang0 = angles[k0]
-        cum = self._bound(pair, ang0, angles[k0:k1 + 1])
+        n_run = k1 - k0 + 1
+        # the motion bound over the run, computed as far as the pair gets (doubling): a
+        # pair stopped early (a contact elsewhere first) costs its steps, not its run
+        cum = self._bound(pair, ang0, angles[k0:k0 + min(n_run, 64)])
+
+        def upto(c):
+            nonlocal cum
+            while len(cum) <= c < n_run:
+                m = len(cum)
+                cum = np.concatenate([cum, self._bound(pair, ang0, angles[k0 + m:k0 + min(n_run, 2 * m)])])
+            return cum
+
         k = k0
         d, point = self.distance(i, j, poses[k][i], poses[k][j])
         if d <= self.tol:
@@ -210,7 +221,13 @@ class SweptChecker:
         while k < k1:
             yield k
             c = k - k0
-            kk = k0 + int(np.searchsorted(cum, cum[c] + 0.9 * d, side="right")) - 1
+            target = cum[c] + 0.9 * d
+            while True:
+                jump = int(np.searchsorted(cum, target, side="right")) - 1
+                if jump < len(cum) - 1 or len(cum) >= n_run:
+                    break
+                upto(len(cum))
+            kk = k0 + jump
             if kk >= k1:
                 return None  # safe to the end of the run
             if kk > k:
@@ -222,6 +239,7 @@ class SweptChecker:
                     return self._refine(pair, float(times[k]), d)
                 continue
             d1, p1 = self.distance(i, j, poses[k + 1][i], poses[k + 1][j])
+            upto(c + 1)
             d1 = min(d1, d + cum[c + 1] - cum[c])
             if (d + d1) * (1 - FCL_REL) <= cum[c + 1] - cum[c]:
                 hit = self._split(pair, ang0, float(times[k]), d, float(cum[c]),
