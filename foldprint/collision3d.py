@@ -19,11 +19,14 @@ need both distances to be covered by the motion.
   sphere of fixed radius about one of its panels' centroid in every configuration. Pairs of
   groups and time intervals are certified with the sphere distances and the centre motion
   bound (prefix sums along the tree, O(1) per pair), all pairs of one level at once;
-  uncertified ones split the bigger group or the interval. What survives is a list of
-  (panel pair, sample interval) runs.
+  uncertified ones split the bigger group or the interval. A far-apart group pair still
+  uncertified over one sample step (long tree paths: the bound grows with the path length
+  squared) is re-tested between the samples on 4, 16, 64 sub-intervals before it is split
+  into panel pairs. What survives is a list of (panel pair, sample interval) runs.
 * Narrow phase (``SweptChecker.first_contact``): per run, FCL distances; far apart a pair
   jumps from sample to sample while d(t0) > F(t1) - F(t0); close, an interval is split
-  (bisection in continuous time, poses of the two panels only). The pair lever is the
+  (bisection in continuous time; every panel's pose at a split time by prefix products
+  along the tree, computed once per time and shared by the pairs). The pair lever is the
   smaller of the two sides' levers per hinge (the motion relative to the panel in the
   middle of the path). A contact is declared at distance <= the contact tolerance and
   refined to the first touching time within ``time_tol_s``. Splitting stops at
@@ -154,8 +157,8 @@ class SweptChecker:
         if hit is None:
             i, j = pair
             t = self.tree
-            up_i, down_j, l = t.path(i, j)
-            idx, lev = t.pair_levers(i, j, t.qp[i] + t.reach[i], t.qp[j] + t.reach[j])
+            up_i, down_j, l = path = t.path(i, j)
+            idx, lev = t.pair_levers(i, j, t.qp[i] + t.reach[i], t.qp[j] + t.reach[j], path)
             hit = self._pairs[pair] = (up_i, down_j, l, idx, lev)
         return hit
 
@@ -197,7 +200,18 @@ class SweptChecker:
         is split in continuous time."""
         i, j = pair
         ang0 = angles[k0]
-        cum = self._bound(pair, ang0, angles[k0:k1 + 1])
+        n_run = k1 - k0 + 1
+        # the motion bound over the run, computed as far as the pair gets (doubling): a
+        # pair stopped early (a contact elsewhere first) costs its steps, not its run
+        cum = self._bound(pair, ang0, angles[k0:k0 + min(n_run, 64)])
+
+        def upto(c):
+            nonlocal cum
+            while len(cum) <= c < n_run:
+                m = len(cum)
+                cum = np.concatenate([cum, self._bound(pair, ang0, angles[k0 + m:k0 + min(n_run, 2 * m)])])
+            return cum
+
         k = k0
         d, point = self.distance(i, j, poses[k][i], poses[k][j])
         if d <= self.tol:
@@ -207,7 +221,13 @@ class SweptChecker:
         while k < k1:
             yield k
             c = k - k0
-            kk = k0 + int(np.searchsorted(cum, cum[c] + 0.9 * d, side="right")) - 1
+            target = cum[c] + 0.9 * d
+            while True:
+                jump = int(np.searchsorted(cum, target, side="right")) - 1
+                if jump < len(cum) - 1 or len(cum) >= n_run:
+                    break
+                upto(len(cum))
+            kk = k0 + jump
             if kk >= k1:
                 return None  # safe to the end of the run
             if kk > k:
@@ -219,6 +239,7 @@ class SweptChecker:
                     return self._refine(pair, float(times[k]), d)
                 continue
             d1, p1 = self.distance(i, j, poses[k + 1][i], poses[k + 1][j])
+            upto(c + 1)
             d1 = min(d1, d + cum[c + 1] - cum[c])
             if (d + d1) * (1 - FCL_REL) <= cum[c + 1] - cum[c]:
                 hit = self._split(pair, ang0, float(times[k]), d, float(cum[c]),

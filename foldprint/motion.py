@@ -123,30 +123,39 @@ class TreeBounds:
         return t1 + t2 + t3
 
     def path(self, a: int, b: int) -> tuple[list[int], list[int], int]:
-        """Hinge indices from a up to the lca and from the lca down to b, and the lca."""
-        l = int(self.lca([a], [b])[0])
+        """Hinge indices from a up to the lca and from the lca down to b, and the lca
+        (a walk on Python lists: one pair at a time, the narrow phase's case)."""
+        lists = self.__dict__.get("_lists")
+        if lists is None:
+            lists = self.__dict__["_lists"] = (self.parent.tolist(), self.hinge.tolist(), self.depth.tolist())
+        parent, hinge, depth = lists
+        a, b = int(a), int(b)
         up_a, down_b = [], []
-        v = a
-        while v != l:
-            up_a.append(int(self.hinge[v]))
-            v = int(self.parent[v])
-        v = b
-        while v != l:
-            down_b.append(int(self.hinge[v]))
-            v = int(self.parent[v])
-        return up_a, down_b[::-1], l
+        while depth[a] > depth[b]:
+            up_a.append(hinge[a])
+            a = parent[a]
+        while depth[b] > depth[a]:
+            down_b.append(hinge[b])
+            b = parent[b]
+        while a != b:
+            up_a.append(hinge[a])
+            a = parent[a]
+            down_b.append(hinge[b])
+            b = parent[b]
+        return up_a, down_b[::-1], a
 
-    def pair_levers(self, a: int, b: int, xa: float, xb: float) -> tuple[np.ndarray, np.ndarray]:
+    def pair_levers(self, a: int, b: int, xa: float, xb: float, path=None) -> tuple[np.ndarray, np.ndarray]:
         """Hinges on the path a..b and, per hinge, the smaller of its levers to a point of a
         (X = xa) and to a point of b (X = xb): the motion of a relative to b holding the
         path's panel where the two levers cross fixed. Both levers are monotone along the
         path, so one split point realises every per-hinge minimum."""
-        up_a, down_b, l = self.path(a, b)
+        up_a, down_b, l = path if path is not None else self.path(a, b)
         idx = np.array(up_a + down_b, dtype=int)
         qpl = self.qp[l]
         q = self.y + self._w
-        lev_a = np.array([xa - self.y[h] for h in up_a] + [xa + q[h] - 2 * qpl for h in down_b])
-        lev_b = np.array([xb + q[h] - 2 * qpl for h in up_a] + [xb - self.y[h] for h in down_b])
+        ua, db = np.array(up_a, dtype=int), np.array(down_b, dtype=int)
+        lev_a = np.concatenate([xa - self.y[ua], xa + q[db] - 2 * qpl])
+        lev_b = np.concatenate([xb + q[ua] - 2 * qpl, xb - self.y[db]])
         return idx, np.minimum(lev_a, lev_b).reshape(-1)
 
     @property

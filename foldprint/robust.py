@@ -248,9 +248,9 @@ def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter
     lib = library or default_library()
     scatter = scatter or default_scatter()
     model = parse(HingeModel, hinge_model, "hinge_model")
+    guards.check_sample_memory(design, samples)  # refuse before any fold: the outcomes are held
     if nominal is None:
         nominal = simulate(design, dt=dt, method=Method.FCL, hinge_model=model, library=lib)
-    guards.check_sample_memory(design, samples)  # refuse before drawing: outcomes are held
     stream = iter_samples(design, scatter, samples, seed)
     chunks = ((design, lib, chunk, model, dt, exact) for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
     n_chunks = -(-samples // CHUNK)

@@ -135,6 +135,9 @@ def run_case(args: list[str], cwd: Path, budget: float = BUDGET_S) -> dict:
     if pid == 0:  # child
         code = 70
         try:
+            # the run's own time budget (guards.py) below the harness's: a run the guards
+            # cannot bound ahead (the 3D narrow phase) must refuse (exit 2) before the kill
+            os.environ["FOLDPRINT_TIME_BUDGET"] = str(budget / 2)
             os.chdir(cwd)
             fo, fe = os.open(out_f, os.O_WRONLY | os.O_CREAT | os.O_TRUNC), os.open(err_f, os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
             os.dup2(fo, 1)
