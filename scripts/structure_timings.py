@@ -6,7 +6,10 @@ otherwise), with the paper's point-hinge ROM and ``--after-contact arrest`` wher
 something (foldprint.paper_timings.measure). ``--scatter N`` adds Sample 1 under the
 default scatter, each sample folded with ``--after-contact arrest`` (N samples, seed 1).
 
-Usage:  python scripts/structure_timings.py [--json] [--scatter 60]
+``--materials FILE`` measures under another material file (e.g. the joint fit that was not
+adopted, foldprint/data/recovery_structure_fit.toml).
+
+Usage:  python scripts/structure_timings.py [--json] [--scatter 60] [--materials FILE]
 The table printed is the one in docs/structure-timings.md.
 """
 
@@ -16,6 +19,7 @@ import argparse
 import json
 import time
 
+from foldprint.materials import load_library
 from foldprint.paper_timings import load_statements, measure, sample1_under_scatter, verdict
 
 
@@ -28,10 +32,12 @@ def main():
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--scatter", type=int, default=0, help="Monte-Carlo samples of Sample 1 with arrest")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--materials", help="extra material TOML file (overrides the shipped values)")
     args = ap.parse_args()
     st = load_statements()
     t0 = time.perf_counter()
-    m = measure()
+    lib = load_library(args.materials) if args.materials else None
+    m = measure(lib)
     rows = []
     for s in st.items:
         v = m[s.id]
@@ -41,7 +47,7 @@ def main():
     out = {"approx_tol_s": st.approx_tol_s, "rows": rows, "measure_s": round(time.perf_counter() - t0, 1)}
     if args.scatter:
         t1 = time.perf_counter()
-        out["sample1_scatter_arrest"] = sample1_under_scatter(args.scatter, args.seed)
+        out["sample1_scatter_arrest"] = sample1_under_scatter(args.scatter, args.seed, lib)
         out["scatter_s"] = round(time.perf_counter() - t1, 1)
     if args.json:
         print(json.dumps(out, indent=1))
