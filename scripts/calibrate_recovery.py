@@ -16,7 +16,7 @@ Fixed: thermal properties (textbook), Tg values (materials.toml), hinge 0.8 mm,
 initial temperature 10 C (the fixing temperature of the protocol). Bounds: BOUNDS below
 (h: free convection in water; C1, C2, spectrum: physically admissible ranges).
 
-Usage:  python scripts/calibrate_recovery.py [--joint] [--json] [--plot docs/img/recovery-calibration.png]
+Usage:  python scripts/calibrate_recovery.py [--joint [--restarts 2]] [--json] [--plot docs/img/recovery-calibration.png]
 Prints the fitted parameters as TOML for foldprint/data/materials.toml, every target
 with the fitted model's value, and the objective. Takes a few minutes.
 """
@@ -94,17 +94,25 @@ def main():
     ap.add_argument("--joint", action="store_true",
                     help="add Sample 1's contact time and the mailbox's fold time (structure timings)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument("--restarts", type=int, default=0,
+                    help="restart Nelder-Mead at its result up to this many times while it has not converged")
     args = ap.parse_args()
     lib = default_library()
     base = lib["H-1"].recovery
     r_c = sample1_contact_ratio() if args.joint else None
     x0 = np.array([getattr(base, k) for k in FREE])
-    res = minimize(objective, x0, args=(lib, base, r_c), method="Nelder-Mead",
-                   options=dict(maxiter=args.maxiter, xatol=1e-3, fatol=1e-4))
+    nit = 0
+    for _ in range(args.restarts + 1):  # restart Nelder-Mead at its result until it converges
+        res = minimize(objective, x0, args=(lib, base, r_c), method="Nelder-Mead",
+                       options=dict(maxiter=args.maxiter, xatol=1e-3, fatol=1e-4))
+        nit += int(res.nit)
+        x0 = res.x
+        if res.success:
+            break
     best = replace(base, **dict(zip(FREE, res.x)))
     out = {"joint": bool(args.joint), "sample1_contact_ratio": r_c,
            "start": report(base, lib, base, r_c), "fit": report(best, lib, base, r_c),
-           "iterations": int(res.nit)}
+           "iterations": nit, "converged": bool(res.success)}
     if args.json:
         print(json.dumps(out, indent=1))
     else:

@@ -120,3 +120,22 @@ def test_the_docs_table_is_the_model(model):
             num = float(re.match(r"([0-9.]+)", model_cell).group(1))
             assert num == pytest.approx(v.value_s, abs=0.006), (s.id, model_cell, v.value_s)
         assert verdict_cell == verdict(s, v, st_.approx_tol_s), (s.id, verdict_cell)
+
+
+def test_the_joint_fit_file_is_the_docs_joint_column():
+    """foldprint/data/recovery_structure_fit.toml (the joint fit, not adopted) loads as a
+    user materials file, gives every hinge material the same parameters, and its free-hinge
+    Fig. 1b spreads are the docs' joint-fit column."""
+    from foldprint.materials import load_library
+    from foldprint.recovery_table import fold_times
+
+    path = Path(__file__).resolve().parent.parent / "foldprint" / "data" / "recovery_structure_fit.toml"
+    lib = load_library(path)
+    recs = {m.recovery for m in lib.hinges()}
+    assert len(recs) == 1 and recs != {default_library()["H-1"].recovery}
+    h1, h7 = fold_times(lib["H-1"], (80.0, 100.0)), fold_times(lib["H-7"], (80.0, 100.0))
+    text = DOC.read_text(encoding="utf-8")
+    for label, k in (("Fig. 1b spread, 80 °C", 0), ("Fig. 1b spread, 100 °C", 1)):
+        line = next(ln for ln in text.splitlines() if ln.startswith(f"| {label}"))
+        joint = float(line.rstrip(" |").split("|")[-1].strip(" *"))
+        assert joint == pytest.approx(h7[k] - h1[k], abs=0.006), label
