@@ -17,7 +17,7 @@ LAYERS = [
     {"rigid", "goals", "motion"},
     {"collision2d", "collision3d"},
     {"simulate", "clearance"},
-    {"scatter", "robust", "timing", "sensitivity"},
+    {"scatter", "robust", "timing", "sensitivity", "paper_timings"},
     {"geometry"},
     {"checks", "report"},
     {"exchange", "render", "render3d", "render_scene", "render_anim", "viewer", "animation"},
