@@ -15,6 +15,7 @@ import typer
 from typer import echo
 
 from . import __version__
+from .constants import CHECK_SAMPLES, CHECK_SEED
 from .errors import FoldprintError
 from .cli_support import (
     ExitCode, _CLICK_ERRORS, _CREASE, _SCALE, _STATE, _echo_json, _err, _expand_multi, _finite,
@@ -187,9 +188,9 @@ def check(
     printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML)."),
     hinge_model: str = typer.Option("arc", "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
-    samples: int = typer.Option(20, "--samples", help="Monte-Carlo samples for the jam probability "
+    samples: int = typer.Option(CHECK_SAMPLES, "--samples", help="Monte-Carlo samples for the jam probability "
                                 "(0 skips it; 20 take about 10 s for a helix on 2 cores)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the samples."),
+    seed: int = typer.Option(CHECK_SEED, "--seed", help="Seed of the samples."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
     error_above: float = typer.Option(0.2, "--error-above", help="Fail when the 95 % interval's lower end "
                                       "of the jam probability is above this."),

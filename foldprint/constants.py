@@ -40,3 +40,11 @@ DEFAULT_PROGRAM_C = 90.0
 DEFAULT_FIX_C = 10.0
 DEFAULT_BATH_C = 90.0
 DEFAULT_DURATION_S = 20.0
+
+#: What ``foldprint check`` runs by default, and the gallery with it (one place, so both
+#: give the same verdict for a design): Monte-Carlo samples of the jam probability, the
+#: seed they are drawn with, and the time step (s) of the nominal simulation and of every
+#: sample.
+CHECK_SAMPLES = 20
+CHECK_SEED = 0
+CHECK_DT_S = 0.01
