@@ -670,7 +670,8 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
     if entry.viewer is not None:
         parts.append(f'<p class="viewer"><a class="button" href="{_e(entry.viewer.href)}">Open the interactive '
                      f'3D viewer</a> <span class="muted">(orbit, zoom, scrub the fold; programmed and permanent '
-                     f'states; {_e(_size(entry.viewer.size))} page)</span></p>')
+                     f'states{"; the worst scatter sample" if entry.worst is not None else ""}; '
+                     f'{_e(_size(entry.viewer.size))} page)</span></p>')
     elif entry.viewer_note:
         parts.append(f'<p class="muted">{_e(entry.viewer_note)}</p>')
     kind = "planar strip (side view)" if d.is_planar_strip else "3D crease pattern"

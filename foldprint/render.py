@@ -185,6 +185,7 @@ def sample_outcomes_figure(robust, worst: int | None = None):
     other = sum(o.jammed and o.time is None for o in outs)
     ax0.set_xlabel("time (s)")
     ax0.set_ylabel("samples")
+    ax0.yaxis.get_major_locator().set_params(integer=True)
     ax0.set_title(f"{robust.samples} samples, seed {robust.seed}" +
                   (f" ({other} jam without a collision)" if other else ""), fontsize=10)
     ax0.grid(alpha=0.3)

@@ -477,18 +477,20 @@ def _chromium_run(args: list[str], profile: Path) -> subprocess.CompletedProcess
 @pytest.mark.skipif(_chromium() is None, reason="chromium is not on PATH: the viewer check needs a "
                     "headless Chromium (SwiftShader WebGL)")
 def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
-    """Opened from file:// with no network: the page at load (t = 0), at #t=0.5 and in the
-    permanent state give different pictures, and the 3D canvas is drawn (not one colour)."""
+    """Opened from file:// with no network: the page at load (t = 0), at #t=0.5, in the
+    permanent state and the worst sample at #t=0.5 give different pictures, and the 3D
+    canvas is drawn (not one colour)."""
     import numpy as np
 
     _, out, _, _ = gallery
     url = (out / FAILING / "viewer.html").resolve().as_uri()
-    shots, states = [], []
-    for k, suffix in enumerate(("", "#t=0.5", "#state=permanent")):
+    shots, states, runs = [], [], []
+    for k, suffix in enumerate(("", "#t=0.5", "#state=permanent", "#run=worst&t=0.5")):
         dom = _chromium_run(["--dump-dom", url + suffix], tmp_path / f"p{k}")
         m = re.search(r'<body[^>]*data-canvas="(\d+),(\d+),(\d+),(\d+)"[^>]*>', dom.stdout)
         assert m and 'data-ready="1"' in m.group(0), f"viewer did not start: {dom.stderr[-2000:]}"
         states.append(re.search(r'data-t="([^"]+)"', m.group(0)).group(1))
+        runs.append(re.search(r'data-run="([^"]+)"', m.group(0)).group(1))
         x, y, w, h = (int(v) for v in m.groups())
         png = tmp_path / f"shot{k}.png"
         shot = _chromium_run([f"--screenshot={png}", url + suffix], tmp_path / f"s{k}")
@@ -500,10 +502,13 @@ def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
         colours = np.unique(canvas.reshape(-1, 3), axis=0)
         assert len(colours) > 20, f"the 3D view is blank ({len(colours)} colours)"
         shots.append(canvas)
-    assert states == ["0.000", "0.500", "permanent"]
-    for k in (1, 2):
+    assert states == ["0.000", "0.500", "permanent", "0.500"]
+    assert runs == ["nominal", "nominal", "nominal", "worst"]
+    for k in (1, 2, 3):
         diff = np.abs(shots[0] - shots[k]).sum(axis=-1) > 30
         assert diff.mean() > 0.005, f"picture {k} is the one at load ({diff.mean():.4f} changed)"
+    diff = np.abs(shots[1] - shots[3]).sum(axis=-1) > 30
+    assert diff.mean() > 0.002, f"the worst sample at t=0.5 is the nominal fold ({diff.mean():.4f} changed)"
 
 
 # -- the material chart's fold-time table ----------------------------------------------------
