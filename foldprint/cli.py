@@ -189,7 +189,7 @@ def check(
     hinge_model: str = typer.Option("arc", "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
     samples: int = typer.Option(CHECK_SAMPLES, "--samples", help="Monte-Carlo samples for the jam probability "
-                                "(0 skips it; 20 take about 10 s for a helix on 2 cores)."),
+                                "(0 skips it; the default is the one the gallery runs too)."),
     seed: int = typer.Option(CHECK_SEED, "--seed", help="Seed of the samples."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
     error_above: float = typer.Option(0.2, "--error-above", help="Fail when the 95 % interval's lower end "
