@@ -29,6 +29,10 @@ ONSET_LEVEL = 0.05
 #: How long the recovery model looks ahead before it calls a hinge "does not fold" (s).
 RECOVERY_HORIZON_S = 600.0
 
+#: Monte-Carlo samples ``foldprint check`` draws by default for the jam probability (and the
+#: gallery, which runs the same check).
+CHECK_SAMPLES = 20
+
 #: Defaults for a design that does not say (the paper's helix, Mao et al. 2015, Fig. 2).
 DEFAULT_THICKNESS_MM = 0.8
 DEFAULT_DEPTH_MM = 6.0
@@ -41,10 +45,8 @@ DEFAULT_FIX_C = 10.0
 DEFAULT_BATH_C = 90.0
 DEFAULT_DURATION_S = 20.0
 
-#: What ``foldprint check`` runs by default, and the gallery with it (one place, so both
-#: give the same verdict for a design): Monte-Carlo samples of the jam probability, the
-#: seed they are drawn with, and the time step (s) of the nominal simulation and of every
-#: sample.
-CHECK_SAMPLES = 20
+#: Seed of the Monte-Carlo samples ``foldprint check`` draws by default (a fixed seed: the
+#: same design gives the same verdict), and the time step (s) of its nominal simulation and
+#: of every sample. The gallery runs the same check with these and :data:`CHECK_SAMPLES`.
 CHECK_SEED = 0
 CHECK_DT_S = 0.01
