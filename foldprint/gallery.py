@@ -97,7 +97,6 @@ class _Entry:
     export_note: str = ""
     viewer: _Link | None = None  # the design's interactive 3D viewer page
     viewer_note: str = ""  # why there is none
-    jam: tuple | None = None  # (jam probability, (lo, hi) 95 % CI) when robust was run
     mc: dict | None = None  # the Monte-Carlo summary (:func:`_mc_summary`) when it was run
     worst: dict | None = None  # the worst sample (:func:`_worst_json`)
 
@@ -217,20 +216,15 @@ def _worst_json(replay, design: Design) -> dict:
 
     import numpy as np
 
+    from .viewer import worst_text
+
     o, res = replay.outcome, replay.result
     c = res.first_collision
     params = {}
     for f in dataclasses.fields(replay.sample):
         v = getattr(replay.sample, f.name)
         params[f.name] = [float(x) for x in np.ravel(v)] if np.ndim(v) else float(v)
-    if o.reason == "collision":
-        why = f"the earliest first contact of the samples ({o.pair[0]}\u2013{o.pair[1]} at {o.time:.3f} s)"
-    elif o.jammed:
-        why = "jams without a collision: " + ("a goal is not met" if o.reason == "goal"
-                                              else "a hinge does not reach 98 %")
-    else:
-        why = f"no sample jams; this is the slowest fold ({o.fold_time:.2f} s)"
-    return {"sample": replay.index, "why": why, "jammed": o.jammed, "reason": o.reason,
+    return {"sample": replay.index, "why": worst_text(replay), "jammed": o.jammed, "reason": o.reason,
             "pair": None if o.pair is None else list(o.pair), "contact_s": o.time, "fold_time_s": o.fold_time,
             "replay_agrees": bool(replay.agrees),
             "replay": {"completed": bool(res.completed), "fold_time_s": res.fold_time,
@@ -390,7 +384,6 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
     entry.data_links = [_Link(_url(f"{dirname}/simulation.json"), "simulation (JSON)"),
                         _Link(_url(f"{dirname}/check.json"), "design-rule checks and jam probability (JSON)")]
     if robust is not None:
-        entry.jam = (float(robust.jam_probability), tuple(float(x) for x in robust.ci95))
         entry.mc = _mc_summary(robust)
         entry.worst = None if replay is None else _worst_json(replay, design)
         write_atomic(base / "samples.json", _json_bytes({"design": name, **entry.mc, "worst": entry.worst}))

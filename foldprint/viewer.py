@@ -161,7 +161,8 @@ def _contacts(result, items: list[dict], model: str) -> list[dict]:
     return out
 
 
-def _worst_text(replay) -> str:
+def worst_text(replay) -> str:
+    """Why a replayed sample (:func:`foldprint.pipeline.worst_sample`) is the worst, in words."""
     o = replay.outcome
     if o.reason == "collision":
         return f"the earliest first contact of the samples: panels {o.pair[0]}\u2013{o.pair[1]} at {o.time:.3f} s"
@@ -246,7 +247,7 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
         w = worst.result
         w_times, _, w_end = framed[1]
         data["worst"] = {
-            "sample": int(worst.index), "why": _worst_text(worst), "bath_c": float(w.trajectory.bath_c),
+            "sample": int(worst.index), "why": worst_text(worst), "bath_c": float(w.trajectory.bath_c),
             "end": float(w_end), "times": [float(t) for t in w_times], "completed": bool(w.completed),
             "poses": _b64(col_major(poses[1]), "<f4"), "q": _b64(quant(ribs[1]), "<u2"),
             "contacts": _contacts(w, items, model)}
