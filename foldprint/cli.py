@@ -443,7 +443,9 @@ def gallery(
 ):
     """Simulate, check, render and export designs into an offline HTML gallery
     (index.html with an interactive 3D viewer per design, renders, fold animations, plots,
-    check summaries and 3MF/STL links); designs are built in parallel processes.
+    and 3MF/STL links). Each design gets the same check as `foldprint check` (its samples
+    and seed): the summary gives its verdict and jam probability. Designs are built in
+    parallel processes.
 
     Example: foldprint gallery --out output/gallery
     """
