@@ -15,7 +15,7 @@ import typer
 from typer import echo
 
 from . import __version__
-from .constants import CHECK_SAMPLES
+from .constants import CHECK_SAMPLES, CHECK_SEED
 from .errors import FoldprintError
 from .cli_support import (
     ExitCode, _CLICK_ERRORS, _CREASE, _SCALE, _STATE, _echo_json, _err, _expand_multi,
@@ -194,8 +194,8 @@ def check(
     hinge_model: str = typer.Option("arc", "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
     samples: int = typer.Option(CHECK_SAMPLES, "--samples", help="Monte-Carlo samples for the jam probability "
-                                f"(0 skips it; {CHECK_SAMPLES}: the 95 % intervals at 5 % and 20 % do not overlap; run once per sigma scale of the sweep)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the samples."),
+                                f"(0 skips it; {CHECK_SAMPLES}: the 95 % intervals at 5 % and 20 % do not overlap; run once per sigma scale of the sweep; the gallery runs the same)."),
+    seed: int = typer.Option(CHECK_SEED, "--seed", help="Seed of the samples."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
     error_above: float = typer.Option(0.2, "--error-above", help="Fail when the 95 % interval's lower end "
                                       "of the jam probability is above this."),
@@ -498,7 +498,9 @@ def gallery(
 ):
     """Simulate, check, render and export designs into an offline HTML gallery
     (index.html with an interactive 3D viewer per design, renders, fold animations, plots,
-    check summaries and 3MF/STL links); designs are built in parallel processes.
+    and 3MF/STL links). Each design gets the same check as `foldprint check` (its samples
+    and seed): the summary gives its verdict and jam probability. Designs are built in
+    parallel processes.
 
     Example: foldprint gallery --out output/gallery
     """

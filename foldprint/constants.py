@@ -29,8 +29,8 @@ ONSET_LEVEL = 0.05
 #: How long the recovery model looks ahead before it calls a hinge "does not fold" (s).
 RECOVERY_HORIZON_S = 600.0
 
-#: Monte-Carlo samples ``foldprint check`` (and everything that runs its estimate by default)
-#: draws for the jam probability. The smallest round count whose Wilson 95 % intervals at
+#: Monte-Carlo samples ``foldprint check`` (and everything that runs its estimate by default:
+#: the gallery runs the same check) draws for the jam probability. The smallest round count whose Wilson 95 % intervals at
 #: the check's two thresholds, p = 0.05 (warning) and p = 0.2 (error), do not overlap: at
 #: N = 75 they first separate (0.05 N jams: up to 12.3 %; 0.2 N jams: from 12.6 %) and stay
 #: apart for every larger N; 80 gives 0.020-0.122 vs 0.127-0.300 (tests/test_robust.py).
@@ -47,3 +47,9 @@ DEFAULT_PROGRAM_C = 90.0
 DEFAULT_FIX_C = 10.0
 DEFAULT_BATH_C = 90.0
 DEFAULT_DURATION_S = 20.0
+
+#: Seed of the Monte-Carlo samples ``foldprint check`` draws by default (a fixed seed: the
+#: same design gives the same verdict), and the time step (s) of its nominal simulation and
+#: of every sample. The gallery runs the same check with these and :data:`CHECK_SAMPLES`.
+CHECK_SEED = 0
+CHECK_DT_S = 0.01

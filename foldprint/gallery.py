@@ -9,8 +9,14 @@ checks, simulation and files.
 * ``frames.png``: four mid-fold frames; ``fold.gif``: the fold as an animation;
 * ``hinge_angles.png`` (paper Fig. 3b style) and, for planar strips,
   ``collision_index.png`` (paper Fig. 4 style);
-* ``check.json`` (design-rule findings, as ``foldprint check --json``) and
-  ``simulation.json`` (as ``foldprint simulate --json``);
+* ``check.json`` (design-rule findings and the jam probability, as ``foldprint check
+  --json``: the same check, with check's samples, seed and time step from
+  :mod:`foldprint.constants`), ``simulation.json`` (as ``foldprint simulate --json``) and
+  ``samples.json`` (every Monte-Carlo sample's outcome and the worst sample's drawn
+  parameters);
+* ``samples.png``: the distribution of first-colliding pairs and fold times over the
+  samples; the viewer replays the worst sample (:func:`foldprint.pipeline.worst_sample`)
+  beside the nominal fold;
 * ``files/``: the printable files from :func:`foldprint.pipeline.export`
   (3MF, PrusaSlicer 3MF, STL per material, manifest), when that module is available;
 
@@ -37,6 +43,7 @@ from typing import Callable, Sequence
 from urllib.parse import quote
 
 from . import __version__
+from .constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
 from .design import Design
 from .errors import FoldprintError
 from .materials import MaterialLibrary, default_library
@@ -46,9 +53,11 @@ log = logging.getLogger(__name__)
 MATERIAL_TEMPERATURES = (80.0, 90.0, 100.0)
 """Bath temperatures (deg C) of the material chart."""
 
-SIM_DT = 0.02
-"""Time step (s) of the simulations behind the renders (collision times are refined
-between samples, so the reported first contact does not depend on it)."""
+HINGE_MODEL_TEXT = {
+    "arc": "the printed (arc) hinges: each hinge's radius, thickness and width as exported",
+    "point": "the paper's point-hinge reduced-order model (a comparison mode, not the printed part)",
+}
+"""How the page names the hinge model a design was simulated with."""
 
 GIF_FRAMES = 30
 GIF_DPI = 72
@@ -88,7 +97,8 @@ class _Entry:
     export_note: str = ""
     viewer: _Link | None = None  # the design's interactive 3D viewer page
     viewer_note: str = ""  # why there is none
-    jam: tuple | None = None  # (jam probability, (lo, hi) 95 % CI) when robust was run
+    mc: dict | None = None  # the Monte-Carlo summary (:func:`_mc_summary`) when it was run
+    worst: dict | None = None  # the worst sample (:func:`_worst_json`)
 
 
 # -- helpers --------------------------------------------------------------------------
@@ -146,19 +156,80 @@ Progress = Callable[[int, int, str], None]
 """``progress(done, total, message)``: called as each part of the gallery is finished."""
 
 
-#: Monte-Carlo samples of the jam probability per design in the gallery: none by default,
-#: so the gallery builds in seconds (``foldprint check`` runs 20); the page says so.
-GALLERY_SAMPLES = 0
-
-
-def _evaluate(design: Design, lib: MaterialLibrary, dt: float, samples: int = GALLERY_SAMPLES):
-    """Simulation (once), design-rule findings and the jam-probability result (None: not
-    run) of one design, from :func:`foldprint.pipeline.evaluate`."""
-    from .pipeline import evaluate, run_simulation
+def _evaluate(design: Design, lib: MaterialLibrary, dt: float = CHECK_DT_S, samples: int = CHECK_SAMPLES,
+              seed: int = CHECK_SEED):
+    """The nominal simulation as ``foldprint simulate`` runs it (both collision checks on a
+    planar strip, for the paper's collision index), what ``foldprint check`` computes
+    (:func:`foldprint.pipeline.evaluate` with check's defaults: its own simulation (the 3D
+    swept check), the printed part, gaps, clearance, the jam probability, every rule) and
+    the replay of the worst Monte-Carlo sample (None when no sample was run)."""
+    from .pipeline import CHECK_SCALES, evaluate, replay_sample, run_simulation, worst_sample
 
     result, _ = run_simulation(design, dt=dt, library=lib)
-    ev = evaluate(design, library=lib, dt=dt, simulation=result, samples=samples, workers=1)
-    return result, ev.findings, ev.robust
+    ev = evaluate(design, library=lib, dt=dt, samples=samples, seed=seed, workers=1, scales=CHECK_SCALES)
+    replay = None
+    if ev.robust is not None:
+        k = worst_sample(ev.robust)
+        if k is not None:
+            replay = replay_sample(design, ev.robust, k, library=lib, dt=dt)
+            if not replay.agrees:
+                log.warning("gallery: %s: the replay of sample %d does not give the recorded outcome",
+                            design.name, k)
+    return result, ev, replay
+
+
+def _check_json(ev, printer_key: str) -> dict:
+    """The ``foldprint check --json`` object of an evaluation."""
+    from .report import robust_json
+
+    findings = ev.findings
+    return {"design": ev.design.name, "printer": printer_key, "hinge_model": str(ev.simulation.trajectory.model.value),
+            "ok": ev.errors == 0, "errors": ev.errors,
+            "warnings": sum(f.severity == "warning" for f in findings),
+            "findings": [f.to_json() for f in findings],
+            "robust": None if ev.robust is None else robust_json(ev.robust)}
+
+
+def _mc_summary(robust) -> dict:
+    """What the page shows of the Monte-Carlo: the estimate, and per sample its outcome."""
+    import numpy as np
+
+    pairs = []
+    for (a, b), count in robust.collisions():
+        times = sorted(o.time for o in robust.outcomes if o.pair == (a, b))
+        pairs.append({"pair": [a, b], "count": count, "first_s": times[0],
+                      "median_s": float(np.median(times)), "last_s": times[-1]})
+    reasons = {k: sum(o.reason == k for o in robust.outcomes) for k in ("collision", "goal", "unfolded")}
+    return {"samples": robust.samples, "seed": robust.seed, "hinge_model": str(robust.hinge_model.value),
+            "jams": robust.jams, "jam_probability": float(robust.jam_probability),
+            "ci95": [float(x) for x in robust.ci95], "failures": reasons, "pairs": pairs,
+            "fold_time_s": robust.fold_time_percentiles(),
+            "outcomes": [{"sample": k, "jammed": o.jammed, "reason": o.reason,
+                          "pair": None if o.pair is None else list(o.pair),
+                          "contact_s": o.time, "fold_time_s": o.fold_time}
+                         for k, o in enumerate(robust.outcomes)]}
+
+
+def _worst_json(replay, design: Design) -> dict:
+    """The worst sample: why it is the worst, its replayed verdict and its drawn parameters."""
+    import dataclasses
+
+    import numpy as np
+
+    from .viewer import worst_text
+
+    o, res = replay.outcome, replay.result
+    c = res.first_collision
+    params = {}
+    for f in dataclasses.fields(replay.sample):
+        v = getattr(replay.sample, f.name)
+        params[f.name] = [float(x) for x in np.ravel(v)] if np.ndim(v) else float(v)
+    return {"sample": replay.index, "why": worst_text(replay), "jammed": o.jammed, "reason": o.reason,
+            "pair": None if o.pair is None else list(o.pair), "contact_s": o.time, "fold_time_s": o.fold_time,
+            "replay_agrees": bool(replay.agrees),
+            "replay": {"completed": bool(res.completed), "fold_time_s": res.fold_time,
+                       "first_collision": None if c is None else {"panels": list(c.panels), "time_s": float(c.time)}},
+            "hinges": [h.id for h in design.hinges], "parameters": params}
 
 
 def _pool(jobs: int, n_tasks: int):
@@ -176,8 +247,9 @@ def _pool(jobs: int, n_tasks: int):
 
 def build_gallery(designs: Sequence[Design], out_dir: str | Path,
                   progress: Progress | None = None, *,
-                  library: MaterialLibrary | None = None, dt: float = SIM_DT,
-                  gif_frames: int = GIF_FRAMES, jobs: int | None = None) -> Path:
+                  library: MaterialLibrary | None = None, dt: float = CHECK_DT_S,
+                  gif_frames: int = GIF_FRAMES, jobs: int | None = None, samples: int = CHECK_SAMPLES,
+                  seed: int = CHECK_SEED) -> Path:
     """Simulate, check, render and export ``designs`` into a static HTML gallery.
 
     Parameters
@@ -194,12 +266,16 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
         Materials for simulation, colours and the material chart; the default library if
         omitted.
     dt : float
-        Time step (s) of the simulations behind the renders.
+        Time step (s) of the simulation and of every Monte-Carlo sample (default: check's).
     gif_frames : int
         Frames of each fold animation.
     jobs : int, optional
         Worker processes (default: the number of CPUs); designs are built in parallel,
         the page is the same whatever the number.
+    samples, seed : int
+        Monte-Carlo samples of the jam probability per design and their seed (default:
+        what ``foldprint check`` runs, :data:`foldprint.constants.CHECK_SAMPLES` and
+        :data:`~foldprint.constants.CHECK_SEED`); 0 samples skips it.
 
     Returns
     -------
@@ -234,7 +310,7 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     for name in ASSETS:
         write_atomic(out / "viewer" / name, asset_bytes(name))
     tasks = [(_chart_task, (out, lib))] + [
-        (_build_design, (d, out, dn, lib, dt, gif_frames)) for d, dn in zip(designs, dirnames)]
+        (_build_design, (d, out, dn, lib, dt, gif_frames, samples, seed)) for d, dn in zip(designs, dirnames)]
     results: list = [None] * len(tasks)
     pool = _pool(jobs or os.cpu_count() or 1, len(tasks))
     labels = ["material chart"] + [f"{d.name}: simulated, checked, rendered, exported" for d in designs]
@@ -261,7 +337,7 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     for entry, design in zip(entries, designs):
         entry.design = design  # the worker's copy came back pickled; keep the caller's
 
-    page = _page(entries, materials_img, lib, dt)
+    page = _page(entries, materials_img, lib, dt, samples, seed)
     index = write_atomic(out / "index.html", page)
     step("index.html")
     log.info("gallery: %d design(s) in %s (%.1f s)", len(entries), out, time.perf_counter() - t_start)
@@ -280,7 +356,7 @@ def _chart_task(out: Path, lib: MaterialLibrary) -> _Image:
 
 
 def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary, dt: float,
-                  gif_frames: int) -> _Entry:
+                  gif_frames: int, samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED) -> _Entry:
     """Every file of one design (runs in a worker process); the entry for the page."""
     from . import render, render3d, render_anim, viewer
     from .checks import default_printer_key
@@ -289,14 +365,12 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
 
     name = design.name
     base = out / dirname
-    log.info("gallery: %s: simulating and checking", name)
-    result, findings, robust = _evaluate(design, lib, dt)
+    log.info("gallery: %s: simulating and checking (%d scatter samples, seed %d)", name, samples, seed)
+    result, ev, replay = _evaluate(design, lib, dt, samples, seed)
+    robust = ev.robust
     sim = simulation_json(result)
     write_atomic(base / "simulation.json", _json_bytes(sim))
-    n_err = sum(f.severity == "error" for f in findings)
-    checks = {"design": name, "printer": default_printer_key(), "ok": n_err == 0, "errors": n_err,
-              "warnings": sum(f.severity == "warning" for f in findings),
-              "findings": [f.to_json() for f in findings]}
+    checks = _check_json(ev, default_printer_key())
     write_atomic(base / "check.json", _json_bytes(checks))
 
     # the page's fold time: the latest hinge's 98 % time from its recovery curve, so it
@@ -307,22 +381,28 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
     entry = _Entry(design, dirname, sim, checks, fold_time=fold_time,
                    contacts=[(c.panels[0], c.panels[1], c.time, c.method) for c in result.contacts],
                    hinge_done=list(result.hinge_done))
-    if robust is not None:
-        entry.jam = (float(robust.jam_probability), tuple(float(x) for x in robust.ci95))
     entry.data_links = [_Link(_url(f"{dirname}/simulation.json"), "simulation (JSON)"),
-                        _Link(_url(f"{dirname}/check.json"), "design-rule checks (JSON)")]
+                        _Link(_url(f"{dirname}/check.json"), "design-rule checks and jam probability (JSON)")]
+    if robust is not None:
+        entry.mc = _mc_summary(robust)
+        entry.worst = None if replay is None else _worst_json(replay, design)
+        write_atomic(base / "samples.json", _json_bytes({"design": name, **entry.mc, "worst": entry.worst}))
+        entry.data_links.append(_Link(_url(f"{dirname}/samples.json"),
+                                      "Monte-Carlo samples: each one's outcome, the worst one's parameters (JSON)"))
     model = result.trajectory.model
     bath = result.trajectory.bath_c
 
     log.info("gallery: %s: viewer", name)
     ok, status = _status(entry)
+    passes, verdict = _verdict(entry)
     try:
-        data = viewer.viewer_data(result, lib, robust)
+        data = viewer.viewer_data(result, lib, robust, worst=replay)
     except FoldprintError as exc:  # the printed part cannot be built: said on the page
         log.warning("gallery: %s: no 3D viewer: %s", name, exc)
         entry.viewer_note = f"No 3D viewer: {exc}"
     else:
-        page = viewer.viewer_page(data, status, ok, f"../index.html#{quote('d-' + dirname)}", __version__)
+        page = viewer.viewer_page(data, f"Nominal fold: {status} {verdict}", ok and passes,
+                                  f"../index.html#{quote('d-' + dirname)}", __version__)
         size = len(write_atomic(base / "viewer.html", page).read_bytes())
         entry.viewer = _Link(_url(f"{dirname}/viewer.html"), "interactive 3D viewer", size)
 
@@ -362,6 +442,16 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
             f"Collision index of every non-adjacent panel pair of {name} against time",
             "The paper's collision index S_ij (Fig. 4 style): contact where it enters the shaded "
             "band (0, 1); red points are contacts."))
+
+    if robust is not None:
+        fig = render.sample_outcomes_figure(robust, None if entry.worst is None else entry.worst["sample"])
+        entry.images.append(_write_image(
+            out, f"{dirname}/samples.png", render.figure_bytes(fig, "png", PLOT_DPI),
+            f"Histogram of the fold times and first-contact times of the {robust.samples} scatter samples of "
+            f"{name}, and how often each panel pair collides first",
+            f"The {robust.samples} Monte-Carlo samples (seed {robust.seed}) of the jam probability: when each "
+            "completes (green) or first collides (red), the nominal fold dashed; right, the first-colliding "
+            "pairs.", wide=True))
 
     from .pipeline import export as export_design
 
@@ -451,6 +541,98 @@ def _status(entry: _Entry) -> tuple[bool, str]:
     return False, "Does not complete \u2014 " + "; ".join(reasons) + "."
 
 
+def _verdict(entry: _Entry) -> tuple[bool, str]:
+    """(passes, one line) of ``foldprint check``'s verdict: its exit status and error codes."""
+    chk = entry.checks
+    codes = list(dict.fromkeys(f["code"] for f in chk["findings"] if f["severity"] == "error"))
+    if chk["ok"]:
+        return True, f"foldprint check passes (exit 0; {chk['warnings']} warning(s))."
+    return False, f"foldprint check fails (exit 1): {chk['errors']} error(s), {', '.join(codes)}."
+
+
+def _pct(p: float) -> str:
+    return f"{100 * p:.1f} %"
+
+
+def _jam_text(mc: dict) -> str:
+    lo, hi = mc["ci95"]
+    return f"{_pct(mc['jam_probability'])} (95 % CI {_pct(lo)}\u2013{_pct(hi)})"
+
+
+def _mc_html(entry: _Entry) -> str:
+    """The design's Monte-Carlo: estimate, first-colliding pairs, fold times, worst sample."""
+    mc = entry.mc
+    if mc is None:
+        return ('<h3>Under manufacturing scatter</h3><p class="muted">Not run (0 samples): no jam '
+                "probability.</p>")
+    n, f = mc["samples"], mc["failures"]
+    ways = ", ".join(f"{k} {w}" for w, k in (("collide", f["collision"]), ("miss a goal", f["goal"]),
+                                               ("do not finish folding", f["unfolded"])) if k)
+    parts = [f"<h3>Under manufacturing scatter ({n} samples, seed {mc['seed']})</h3>",
+             f"<p>Jam probability <strong>{_e(_jam_text(mc))}</strong>: {mc['jams']} of {n} samples jam"
+             + (f" ({_e(ways)})" if ways else "") + ". The same samples, seed and time step as "
+             f"<code>foldprint check</code>; each sample draws Tg, thickness and heat transfer per hinge and "
+             f"the bath temperature, and folds the printed part ({_e(mc['hinge_model'])} hinges).</p>"]
+    if mc["pairs"]:
+        rows = "".join(
+            f"<tr><td>{_e(p['pair'][0])}\u2013{_e(p['pair'][1])}</td><td class=\"num\">{p['count']}</td>"
+            f"<td class=\"num\">{_pct(p['count'] / n)}</td><td class=\"num\">{p['first_s']:.3f} s</td>"
+            f"<td class=\"num\">{p['median_s']:.3f} s</td><td class=\"num\">{p['last_s']:.3f} s</td></tr>"
+            for p in mc["pairs"])
+        parts.append("<table><caption>First-colliding panel pairs</caption><thead><tr><th>panels</th>"
+                     "<th>samples</th><th>share</th><th>earliest contact</th><th>median</th><th>latest</th>"
+                     f"</tr></thead><tbody>{rows}</tbody></table>")
+    else:
+        parts.append("<p>No sample collides.</p>")
+    ft = [o["fold_time_s"] for o in mc["outcomes"] if o["fold_time_s"] is not None]
+    if ft:
+        p = mc["fold_time_s"]
+        parts.append("<table><caption>Fold time of the samples that complete</caption><thead><tr><th>samples</th>"
+                     "<th>fastest</th><th>5 %</th><th>median</th><th>95 %</th><th>slowest</th></tr></thead>"
+                     f"<tbody><tr><td class=\"num\">{len(ft)}</td><td class=\"num\">{min(ft):.2f} s</td>"
+                     f"<td class=\"num\">{p['p5']:.2f} s</td><td class=\"num\">{p['p50']:.2f} s</td>"
+                     f"<td class=\"num\">{p['p95']:.2f} s</td><td class=\"num\">{max(ft):.2f} s</td></tr>"
+                     "</tbody></table>")
+    else:
+        parts.append("<p>No sample completes its fold.</p>")
+    w = entry.worst
+    if w is not None:
+        link = (f' <a href="{_e(entry.viewer.href)}#run=worst">Replay it in the 3D viewer</a>.'
+                if entry.viewer is not None else "")
+        rep = w["replay"]
+        again = ("completes" if rep["completed"] else "does not complete") + (
+            f", first contact {rep['first_collision']['panels'][0]}\u2013{rep['first_collision']['panels'][1]} "
+            f"at {rep['first_collision']['time_s']:.3f} s" if rep["first_collision"] else "")
+        note = "" if w["replay_agrees"] else " (the replay does not give the recorded outcome: a bug, please report)"
+        prm = w["parameters"]
+        rows = []
+        for k, hid in enumerate(w["hinges"]):
+            cells = "".join(f'<td class="num">{_e(_param(name, vals[k]))}</td>' for name, vals in prm.items()
+                            if isinstance(vals, list))
+            rows.append(f"<tr><td>{_e(hid)}</td>{cells}</tr>")
+        heads = "".join(f"<th>{_e(_PARAM_NAMES.get(name, name))}</th>" for name, vals in prm.items()
+                        if isinstance(vals, list))
+        shared = ", ".join(f"{_PARAM_NAMES.get(name, name)} {_param(name, v)}" for name, v in prm.items()
+                           if not isinstance(v, list))
+        parts.append(f"<p><strong>Worst sample: #{w['sample']}</strong>, {_e(w['why'])}; replayed, it "
+                     f"{_e(again)}{_e(note)}.{link}</p>"
+                     f"<details><summary>its drawn parameters ({_e(shared)})</summary><table><thead><tr>"
+                     f"<th>hinge</th>{heads}</tr></thead><tbody>{''.join(rows)}</tbody></table></details>")
+    return "\n".join(parts)
+
+
+_PARAM_NAMES = {"tg_shift_c": "Tg shift", "thickness_mm": "thickness", "h_scale": "heat-transfer factor",
+                "bath_c": "bath", "h_part": "part heat-transfer factor"}
+
+
+def _param(name: str, v: float) -> str:
+    if name.endswith("_c"):
+        return f"{v:+.2f} \u00b0C" if name == "tg_shift_c" else f"{v:.2f} \u00b0C"
+    if name.endswith("_mm"):
+        return f"{v:.3f} mm"
+    return f"\u00d7{v:.3f}"
+
+
 def _img_html(img: _Image) -> str:
     cls = ' class="wide"' if img.wide else ""
     return (f'<figure{cls}><img src="{_e(img.src)}" width="{img.width}" height="{img.height}" '
@@ -478,11 +660,14 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
     parts = [f'<section class="design" id="{anchor}">', f"<h2>{_e(d.name)}</h2>"]
     if d.description:
         parts.append(f'<p class="desc">{_e(d.description)}</p>')
-    parts.append(f'<p class="status {"ok" if ok else "fail"}">{_e(status)}</p>')
+    parts.append(f'<p class="status {"ok" if ok else "fail"}">Nominal fold: {_e(status)}</p>')
+    passes, verdict = _verdict(entry)
+    parts.append(f'<p class="status {"ok" if passes else "fail"}">{_e(verdict)}</p>')
     if entry.viewer is not None:
         parts.append(f'<p class="viewer"><a class="button" href="{_e(entry.viewer.href)}">Open the interactive '
                      f'3D viewer</a> <span class="muted">(orbit, zoom, scrub the fold; programmed and permanent '
-                     f'states; {_e(_size(entry.viewer.size))} page)</span></p>')
+                     f'states{"; the worst scatter sample" if entry.worst is not None else ""}; '
+                     f'{_e(_size(entry.viewer.size))} page)</span></p>')
     elif entry.viewer_note:
         parts.append(f'<p class="muted">{_e(entry.viewer_note)}</p>')
     kind = "planar strip (side view)" if d.is_planar_strip else "3D crease pattern"
@@ -493,10 +678,11 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
         f"<tr><th>bath</th><td>{sim['temperature_c']:g} \u00b0C</td></tr>"
         f"<tr><th>fold time</th><td>{_e(fold)}</td></tr>"
         f"<tr><th>structure</th><td>{len(d.panels)} panels, {len(d.hinges)} hinges, {_e(kind)}</td></tr>"
-        f"<tr><th>model</th><td>{_e(sim['hinge_model'])} hinges, collision check {_e(sim['method'])}, "
+        f"<tr><th>model</th><td>{_e(HINGE_MODEL_TEXT.get(sim['hinge_model'], sim['hinge_model'] + ' hinges'))}; "
+        f"collision check {_e(sim['method'])}, "
         f"after contact: {_e(sim['after_contact'])}, dt {_e(sim['dt_s'])} s</td></tr>"
-        + (f"<tr><th>jam probability</th><td>{100 * entry.jam[0]:.1f} % (95 % CI {100 * entry.jam[1][0]:.1f}"
-           f"\u2013{100 * entry.jam[1][1]:.1f} %)</td></tr>" if entry.jam is not None else "")
+        + (f"<tr><th>jam probability</th><td>{_e(_jam_text(entry.mc))} in {entry.mc['samples']} samples"
+           "</td></tr>" if entry.mc is not None else "")
         + "</tbody></table>")
     if entry.contacts:
         rows = "".join(f"<tr><td>{_e(a)}\u2013{_e(b)}</td><td class=\"num\">{t:.3f} s</td><td>{_e(m)}</td></tr>"
@@ -542,6 +728,7 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
     if info:
         parts.append(f"<details><summary>{len(info)} note(s)</summary><ul>"
                      + "".join(finding(f) for f in info) + "</ul></details>")
+    parts.append(_mc_html(entry))
     parts.append("<h3>Pictures</h3>")
     parts.append('<div class="pics">' + "".join(_img_html(i) for i in entry.images) + "</div>")
     parts.append("<h3>Files</h3><ul>")
@@ -554,20 +741,33 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
     return "\n".join(parts)
 
 
-def _page(entries: list[_Entry], materials_img: _Image, lib: MaterialLibrary, dt: float) -> str:
+def _page(entries: list[_Entry], materials_img: _Image, lib: MaterialLibrary, dt: float,
+          samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED) -> str:
     rows = []
     for en in entries:
         ok, _ = _status(en)
+        passes, _ = _verdict(en)
+        codes = ", ".join(dict.fromkeys(f["code"] for f in en.checks["findings"] if f["severity"] == "error"))
         first = (f"{_e(en.contacts[0][0])}\u2013{_e(en.contacts[0][1])} at {en.contacts[0][2]:.3f} s"
                  if en.contacts else "none")
         ft = _fmt_s(en.fold_time)
+        jam = "not run" if en.mc is None else _jam_text(en.mc)
         view = (f' <a class="muted" href="{_e(en.viewer.href)}">3D viewer</a>' if en.viewer is not None else "")
         rows.append(f'<tr><td><a href="#{_e("d-" + en.dirname)}">{_e(en.design.name)}</a>{view}</td>'
+                    f'<td class="{"ok" if passes else "fail"}">'
+                    + (f"passes (exit 0)" if passes else f"fails (exit 1): {_e(codes)}") + "</td>"
                     f'<td class="{"ok" if ok else "fail"}">{"completes" if ok else "does not complete"}</td>'
-                    f'<td class="num">{_e(ft)}</td><td>{first}</td>'
+                    f'<td class="num">{_e(ft)}</td><td>{first}</td><td class="num">{_e(jam)}</td>'
                     f'<td class="num">{en.checks["errors"]}</td><td class="num">{en.checks["warnings"]}</td></tr>')
-    summary = ("<table><thead><tr><th>design</th><th>result</th><th>fold time</th><th>first collision</th>"
-               f"<th>check errors</th><th>warnings</th></tr></thead><tbody>{''.join(rows)}</tbody></table>")
+    summary = ("<table><thead><tr><th>design</th><th>foldprint check</th><th>nominal fold</th><th>fold time</th>"
+               "<th>first collision</th><th>jam probability (95 % CI)</th><th>check errors</th><th>warnings</th>"
+               f"</tr></thead><tbody>{''.join(rows)}</tbody></table>")
+    models = sorted({en.sim["hinge_model"] for en in entries})
+    model_text = "; ".join(HINGE_MODEL_TEXT.get(m, f"{m} hinges") for m in models) or "no design"
+    mc_text = (f"and each folded {samples} more times under manufacturing scatter (seed {seed}) for its jam "
+               "probability: the same check, samples and seed as <code>foldprint check</code>, whose verdict "
+               "(exit status and error codes) the summary gives" if samples else
+               "without the Monte-Carlo jam probability (0 samples; <code>foldprint check</code> runs it)")
     body = "\n".join(_design_html(en, lib) for en in entries)
     return f"""<!DOCTYPE html>
 <html lang="en">
@@ -582,9 +782,10 @@ def _page(entries: list[_Entry], materials_img: _Image, lib: MaterialLibrary, dt
 <header>
 <h1>foldprint gallery</h1>
 <p>Sequentially self-folding structures printed with digital shape-memory polymers (after Mao et al.,
-Sci. Rep. 5, 13616, 2015): {len(entries)} design(s), simulated with the paper's reduced-order model
-(time step {dt:g} s, first contacts refined between samples) and checked against the design rules.
-Generated by foldprint {_e(__version__)}.</p>
+Sci. Rep. 5, 13616, 2015): {len(entries)} design(s), simulated with {_e(model_text)}
+(time step {dt:g} s, first contacts refined between time steps), checked against the design rules
+{mc_text}. The paper's point-hinge reduced-order model is a comparison mode
+(<code>foldprint simulate --hinge-model point</code>). Generated by foldprint {_e(__version__)}.</p>
 </header>
 <main>
 <h2 id="summary">Summary</h2>

@@ -18,7 +18,8 @@ from . import guards
 from .checks import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
 from .clearance import Gap, gaps_in_pose, min_clearance
 from .collision3d import SweptChecker
-from .constants import CHECK_SAMPLES  # Monte-Carlo samples ``check`` runs by default (the reason there)
+# what ``check`` runs by default, defined once (the command line and the gallery read it too)
+from .constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED  # noqa: F401 (re-exported)
 from .design import Design
 from .errors import GeometryError
 from .exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
@@ -27,12 +28,11 @@ from .kinematics import forward, target_angles
 from .materials import MaterialLibrary, default_library
 from .modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, AfterContact,
                     HingeModel, Method, State, parse)
-from .robust import RobustResult, Scatter, jam_probability
+from .robust import (Outcome, RobustResult, Sample, Scatter, draw_samples, jam_probability, outcome_of,
+                     sample_drive)
 from .sensitivity import SweepPoint, sweep
 from .simulate import SimulationResult, simulate
 
-#: Seed of the default check (a fixed seed: the same design gives the same verdict).
-CHECK_SEED = 0
 #: Sigma scales ``check`` also runs (the same samples and seed) to say when its verdict
 #: flips inside that range (FP183).
 CHECK_SCALES = (0.5, 2.0)
@@ -98,6 +98,52 @@ def printed_crossings(design: Design) -> list[tuple[str, str]]:
     return permanent_crossings(design)
 
 
+def worst_sample(robust: RobustResult) -> int | None:
+    """Index of the worst Monte-Carlo sample of ``robust``: the earliest first contact
+    among the samples that collide; else the first sample that jams another way (a goal
+    missed, a hinge short of 98 %); else the slowest fold. None when there is no sample."""
+    outs = robust.outcomes
+    hits = [k for k, o in enumerate(outs) if o.reason == "collision" and o.time is not None]
+    if hits:
+        return min(hits, key=lambda k: (outs[k].time, k))
+    jammed = [k for k, o in enumerate(outs) if o.jammed]
+    if jammed:
+        return jammed[0]
+    done = [k for k, o in enumerate(outs) if o.fold_time is not None]
+    return max(done, key=lambda k: (outs[k].fold_time, -k)) if done else None
+
+
+@dataclass(frozen=True)
+class Replay:
+    """One Monte-Carlo sample folded again with its whole trajectory kept (the
+    Monte-Carlo keeps only each sample's :class:`~foldprint.robust.Outcome`)."""
+
+    index: int
+    sample: Sample  # its drawn parameters
+    outcome: Outcome  # what the Monte-Carlo recorded for it
+    result: SimulationResult
+
+    @property
+    def agrees(self) -> bool:
+        """The replay gives the recorded verdict (jams or not, first colliding pair)."""
+        o = outcome_of(self.result)
+        return (o.jammed, o.reason, o.pair) == (self.outcome.jammed, self.outcome.reason, self.outcome.pair)
+
+
+def replay_sample(design: Design, robust: RobustResult, index: int, *, library: MaterialLibrary | None = None,
+                  dt: float = CHECK_DT_S, after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT) -> Replay:
+    """Sample ``index`` of ``robust`` (a result for ``design`` run with time step ``dt``)
+    drawn again from the same seed and spreads and folded as the Monte-Carlo folds it,
+    keeping the trajectory, e.g. to show the :func:`worst_sample` beside the nominal fold."""
+    if not 0 <= index < robust.samples:
+        raise ValueError(f"sample index {index} is outside 0..{robust.samples - 1}")
+    lib = library or default_library()
+    sample = draw_samples(design, robust.scatter, robust.samples, robust.seed)[index]
+    res = simulate(design, dt=dt, method=Method.FCL, hinge_model=robust.hinge_model, after_contact=after_contact,
+                   drive=sample_drive(design, lib, sample))
+    return Replay(index, sample, robust.outcomes[index], res)
+
+
 @dataclass(frozen=True)
 class Evaluation:
     """Everything known about a design before printing."""
@@ -123,7 +169,7 @@ class Evaluation:
 
 
 def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer: Printer | None = None,
-             hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = 0.01,
+             hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = CHECK_DT_S,
              samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED, scatter: Scatter | None = None,
              thresholds: Thresholds = Thresholds(), simulation: SimulationResult | None = None,
              workers: int | None = None, mapper=None, scales: Iterable[float] = (),

@@ -150,3 +150,61 @@ def collision_index_figure(result):
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
+
+
+def sample_outcomes_figure(robust, worst: int | None = None):
+    """The Monte-Carlo samples of a jam-probability result (:class:`foldprint.robust.RobustResult`):
+    left, when each sample ends (its fold time when it completes, its first contact when it
+    collides) with the nominal fold marked; right, how often each panel pair is the first
+    to collide. ``worst``: the index of a sample to mark (e.g. the one the viewer replays)."""
+    plt = _plt()
+    outs = robust.outcomes
+    nominal = robust.nominal
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 3.6), gridspec_kw={"width_ratios": [3, 2]})
+    done = np.array([o.fold_time for o in outs if o.fold_time is not None], float)
+    hit = np.array([o.time for o in outs if o.time is not None], float)
+    both = np.concatenate([done, hit, [t for t in (nominal.fold_time,) if t is not None]])
+    if both.size:
+        lo, hi = float(both.min()), float(both.max())
+        pad = max(0.05 * (hi - lo), 0.02)
+        bins = np.linspace(lo - pad, hi + pad, 21)
+        if done.size:
+            ax0.hist(done, bins=bins, color="#2ca02c", alpha=0.75, label=f"fold time, {done.size} that complete")
+        if hit.size:
+            ax0.hist(hit, bins=bins, color="#d62728", alpha=0.75, label=f"first contact, {hit.size} that collide")
+    c = nominal.first_collision
+    if nominal.fold_time is not None:
+        ax0.axvline(nominal.fold_time, color="k", ls="--", lw=1, label=f"nominal fold time {nominal.fold_time:.2f} s")
+    elif c is not None:
+        ax0.axvline(c.time, color="k", ls="--", lw=1, label=f"nominal contact {c.time:.2f} s")
+    if worst is not None:
+        o = outs[worst]
+        t = o.time if o.time is not None else o.fold_time
+        if t is not None:
+            ax0.axvline(t, color="#9467bd", ls=":", lw=1.5, label=f"worst sample (#{worst}) {t:.2f} s")
+    other = sum(o.jammed and o.time is None for o in outs)
+    ax0.set_xlabel("time (s)")
+    ax0.set_ylabel("samples")
+    ax0.yaxis.get_major_locator().set_params(integer=True)
+    ax0.set_title(f"{robust.samples} samples, seed {robust.seed}" +
+                  (f" ({other} jam without a collision)" if other else ""), fontsize=10)
+    ax0.grid(alpha=0.3)
+    if ax0.get_legend_handles_labels()[0]:
+        ax0.legend(fontsize=7, loc="upper left")
+    pairs = robust.collisions()
+    if pairs:
+        labels = [f"{a}\u2013{b}" for (a, b), _ in pairs][::-1]
+        counts = [k for _, k in pairs][::-1]
+        ax1.barh(labels, counts, color="#d62728", alpha=0.8)
+        ax1.set_xlabel("samples")
+        ax1.xaxis.get_major_locator().set_params(integer=True)
+    else:
+        ax1.text(0.5, 0.5, "no sample collides", ha="center", va="center", transform=ax1.transAxes)
+        ax1.set_yticks([])
+        ax1.set_xticks([])
+    ax1.set_title("first-colliding panel pairs", fontsize=10)
+    ax1.grid(alpha=0.3, axis="x")
+    fig.suptitle(f"{robust.design}: jam probability {robust.jam_probability:.0%} under scatter "
+                 f"({robust.hinge_model.value} hinges)", fontsize=11)
+    fig.tight_layout()
+    return fig

@@ -16,7 +16,9 @@ Size: arrays are base64 (poses float32, ribbon vertices quantised to 16 bits ove
 scene's bounds, 1.5 um steps on a 100 mm part). With :data:`FRAMES` frames the templates'
 pages are 0.14 MB (self_lock: 6 panels, 5 hinges), 0.24 MB (helix: 10 panels, 9 hinges)
 and 0.45 MB (mailbox: 12 panels, 11 hinges in 17 slotted segments, hinge teeth); the
-ribbons are most of it. three.js (0.56 MB, MIT licence) is written once, beside them.
+ribbons are most of it. The replayed worst sample (``worst``) adds its own poses and
+ribbons: 0.26, 0.45 and 0.81 MB with it. three.js (0.56 MB, MIT licence) is written once,
+beside them.
 """
 
 from __future__ import annotations
@@ -133,7 +135,44 @@ def _contact_point(contact, items: list[dict], poses: np.ndarray) -> list[float]
     return [float(x) for x in 0.5 * (a[i] + b[j])]
 
 
-def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRAMES) -> dict:
+def _run_frames(result, frames: int):
+    """(times, angles incl. the programmed and permanent states, end) of one simulation."""
+    from .render_scene import motion_end
+
+    design = result.design
+    traj = result.trajectory
+    end = motion_end(result)
+    times = np.linspace(0.0, end, frames)
+    angles = np.stack([np.interp(times, traj.times, traj.angles[:, k])
+                       for k in range(traj.angles.shape[1])], axis=1) if len(design.hinges) else \
+        np.zeros((frames, 0))
+    states = np.stack([np.zeros(len(design.hinges)), target_angles(design)])
+    return times, np.concatenate([angles, states]), end
+
+
+def _contacts(result, items: list[dict], model: str) -> list[dict]:
+    design, traj = result.design, result.trajectory
+    out = []
+    for c in result.contacts:
+        k = int(np.clip(np.searchsorted(traj.times, c.time), 0, len(traj.times) - 1))
+        out.append({"panels": list(c.panels), "pair": [int(i) for i in c.pair],
+                    "time": float(c.time), "method": str(c.method),
+                    "point": _contact_point(c, items, forward(design, traj.angles[k:k + 1], model)[0])})
+    return out
+
+
+def worst_text(replay) -> str:
+    """Why a replayed sample (:func:`foldprint.pipeline.worst_sample`) is the worst, in words."""
+    o = replay.outcome
+    if o.reason == "collision":
+        return f"the earliest first contact of the samples: panels {o.pair[0]}\u2013{o.pair[1]} at {o.time:.3f} s"
+    if o.jammed:
+        return "jams without a collision (" + ("a goal is not met" if o.reason == "goal"
+                                               else "a hinge does not reach 98 %") + ")"
+    return f"no sample jams; the slowest fold ({o.fold_time:.2f} s)"
+
+
+def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRAMES, worst=None) -> dict:
     """Everything the page draws, as JSON-ready data.
 
     Parameters
@@ -143,42 +182,45 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
     library : MaterialLibrary
         Material colours and names for the legend.
     robust : object, optional
-        A jam-probability result (``.jam_probability``, ``.ci95``), shown when given.
+        A jam-probability result (``.jam_probability``, ``.ci95``, ``.samples``,
+        ``.seed``), shown when given.
     frames : int
         Frames over the motion, from the flat sheet to :func:`foldprint.render_scene.motion_end`.
+    worst : Replay, optional
+        A Monte-Carlo sample folded again (:func:`foldprint.pipeline.replay_sample`: its
+        ``.result``, ``.index``, ``.outcome``), drawn as a second run under ``"worst"``
+        that the page can show instead of the nominal fold (same geometry, its own
+        times, poses, ribbons and contacts; one quantisation box for both).
     """
-    from .render_scene import motion_end
-
     design = result.design
     traj = result.trajectory
     model = str(getattr(traj.model, "value", traj.model))
-    end = motion_end(result)
-    times = np.linspace(0.0, end, frames)
-    angles = np.stack([np.interp(times, traj.times, traj.angles[:, k])
-                       for k in range(traj.angles.shape[1])], axis=1) if len(design.hinges) else \
-        np.zeros((frames, 0))
-    states = np.stack([np.zeros(len(design.hinges)), target_angles(design)])
-    all_angles = np.concatenate([angles, states])
-    poses = forward(design, all_angles, model)
+    runs = [result] + ([] if worst is None else [worst.result])
+    framed = [_run_frames(r, frames) for r in runs]
+    poses = [forward(design, a, model) for _, a, _ in framed]
     items = _panel_meshes(design)
-    rib, rib_tris, owners = _ribbons(design, all_angles, poses, model)
-    pts = [rib.reshape(-1, 3)] if rib.size else []
-    for it in items:
-        p = poses[:, it["panel"]]
-        pts.append((np.einsum("tij,nj->tni", p[:, :3, :3], it["v"]) + p[:, None, :3, 3]).reshape(-1, 3))
+    ribs = []
+    for (_, a, _), p in zip(framed, poses):
+        rib, rib_tris, owners = _ribbons(design, a, p, model)
+        ribs.append(rib)
+    pts = [r.reshape(-1, 3) for r in ribs if r.size]
+    for p in poses:
+        for it in items:
+            q = p[:, it["panel"]]
+            pts.append((np.einsum("tij,nj->tni", q[:, :3, :3], it["v"]) + q[:, None, :3, 3]).reshape(-1, 3))
     allpts = np.concatenate(pts)
     lo, hi = allpts.min(axis=0), allpts.max(axis=0)
     span = np.maximum(hi - lo, 1e-6)
-    q = np.round((rib - lo) / span * 65535.0).astype(np.uint16) if rib.size else np.zeros(0, np.uint16)
-    col_major = np.swapaxes(poses, -1, -2)  # three.js Matrix4.fromArray is column-major
-    contacts = []
-    for c in result.contacts:
-        k = int(np.clip(np.searchsorted(traj.times, c.time), 0, len(traj.times) - 1))
-        contacts.append({"panels": list(c.panels), "pair": [int(i) for i in c.pair],
-                         "time": float(c.time), "method": str(c.method),
-                         "point": _contact_point(c, items, forward(design, traj.angles[k:k + 1], model)[0])})
+
+    def quant(rib):
+        return np.round((rib - lo) / span * 65535.0).astype(np.uint16) if rib.size else np.zeros(0, np.uint16)
+
+    def col_major(p):  # three.js Matrix4.fromArray is column-major
+        return np.swapaxes(p, -1, -2)
+
+    times, _, end = framed[0]
     used = sorted({h.material for h in design.hinges} | {p.material for p in design.panels})
-    return {
+    data = {
         "name": design.name, "model": model, "bath_c": float(traj.bath_c), "end": float(end),
         "after_contact": str(getattr(result.after_contact, "value", result.after_contact)),
         "planar": bool(design.is_planar_strip), "frames": int(frames), "times": [float(t) for t in times],
@@ -189,15 +231,27 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
         "items": [{"kind": it["kind"], "owner": it["owner"], "material": it["material"],
                    "panel": it["panel"], "v": _b64(it["v"], "<f4"), "f": _b64(it["f"], "<u4")}
                   for it in items],
-        "poses": _b64(col_major, "<f4"),
-        "ribbon": {"q": _b64(q, "<u2"), "f": _b64(rib_tris, "<u4"), "n": int(rib.shape[1]),
+        "poses": _b64(col_major(poses[0]), "<f4"),
+        "ribbon": {"q": _b64(quant(ribs[0]), "<u2"), "f": _b64(rib_tris, "<u4"), "n": int(ribs[0].shape[1]),
                    "owners": [[int(a), int(b), int(c)] for a, b, c in owners]},
         "bounds": [[float(x) for x in lo], [float(x) for x in hi]],
-        "contacts": contacts,
+        "contacts": _contacts(result, items, model),
+        "completed": bool(result.completed),
         "robust": None if robust is None else {
             "jam_probability": float(robust.jam_probability),
-            "ci95": [float(x) for x in robust.ci95]},
+            "ci95": [float(x) for x in robust.ci95],
+            "samples": int(robust.samples), "seed": int(robust.seed)},
+        "worst": None,
     }
+    if worst is not None:
+        w = worst.result
+        w_times, _, w_end = framed[1]
+        data["worst"] = {
+            "sample": int(worst.index), "why": worst_text(worst), "bath_c": float(w.trajectory.bath_c),
+            "end": float(w_end), "times": [float(t) for t in w_times], "completed": bool(w.completed),
+            "poses": _b64(col_major(poses[1]), "<f4"), "q": _b64(quant(ribs[1]), "<u2"),
+            "contacts": _contacts(w, items, model)}
+    return data
 
 
 _PAGE = """<!DOCTYPE html>
@@ -219,11 +273,12 @@ _PAGE = """<!DOCTYPE html>
 <div id="track"><input id="slider" type="range" min="0" max="1000" step="1" value="0" aria-label="time"><div id="marks"></div></div>
 <span id="clock">t = 0.00 s</span>
 <span class="states"><button id="programmed" type="button">programmed</button><button id="permanent" type="button">permanent</button></span>
+<span class="runs" id="runs"></span>
 </div>
 <div id="info"><div id="legend"></div><div id="facts"></div></div>
 <p class="muted">Drag to orbit, scroll to zoom, right-drag to pan. The address ends in <code>#t=</code> the
-fraction of the fold shown (0 = flat, 1 = end of the motion), or <code>#state=</code> programmed or permanent:
-copy it to link this view.
+fraction of the fold shown (0 = flat, 1 = end of the motion), or <code>#state=</code> programmed or permanent,
+after <code>#run=worst&amp;</code> for the worst Monte-Carlo sample where there is one: copy it to link this view.
 Drawn with three.js (MIT licence, <a href="../viewer/LICENSE-three.txt">LICENSE-three.txt</a>).</p>
 </main>
 <script type="application/json" id="fold-data">{data}</script>

@@ -29,9 +29,12 @@ from foldprint.gallery import build_gallery
 from foldprint.templates import templates_dir
 
 FAILING = "self_lock_uniform"  # collides (panels p1 and p6) with the printed, arc hinges
-DESIGNS = ("helix_graded", FAILING)
+JAMS = "helix_uniform"  # the paper's Sample 1: folds nominally, jams under scatter (check: FP180)
+DESIGNS = ("helix_graded", FAILING, JAMS)
 PER_DESIGN = ("programmed.png", "permanent.png", "frames.png", "fold.gif", "hinge_angles.png",
-              "collision_index.png", "check.json", "simulation.json", "viewer.html")
+              "collision_index.png", "samples.png", "check.json", "simulation.json", "samples.json",
+              "viewer.html")
+PNGS_PER_DESIGN = 6  # programmed, permanent, frames, hinge angles, collision index, samples
 VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source",
         "track", "wbr"}
 
@@ -125,7 +128,7 @@ def test_gallery_writes_every_file(gallery):
 def test_images_are_valid(gallery):
     _, out, _, _ = gallery
     pngs = sorted(out.rglob("*.png"))
-    assert len(pngs) == 1 + 5 * len(DESIGNS)
+    assert len(pngs) == 1 + PNGS_PER_DESIGN * len(DESIGNS)
     for p in pngs:
         with Image.open(p) as im:
             assert im.format == "PNG"
@@ -366,7 +369,7 @@ def test_page_in_headless_chromium(gallery, tmp_path):
     res = json.loads(html.unescape(m.group(1)))
     assert res["errors"] == []
     assert res["charset"] == "UTF-8" and res["title"] == "foldprint gallery"
-    assert len(res["images"]) == 1 + 6 * len(DESIGNS)
+    assert len(res["images"]) == 1 + (PNGS_PER_DESIGN + 1) * len(DESIGNS)  # + the GIF
     for img in res["images"]:
         assert img["w"] > 0 and img["h"] > 0, f"{img['src']} did not load"
     assert res["links"] and all(link["status"] == 200 for link in res["links"]), \
@@ -474,18 +477,20 @@ def _chromium_run(args: list[str], profile: Path) -> subprocess.CompletedProcess
 @pytest.mark.skipif(_chromium() is None, reason="chromium is not on PATH: the viewer check needs a "
                     "headless Chromium (SwiftShader WebGL)")
 def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
-    """Opened from file:// with no network: the page at load (t = 0), at #t=0.5 and in the
-    permanent state give different pictures, and the 3D canvas is drawn (not one colour)."""
+    """Opened from file:// with no network: the page at load (t = 0), at #t=0.5, in the
+    permanent state and the worst sample at #t=0.5 give different pictures, and the 3D
+    canvas is drawn (not one colour)."""
     import numpy as np
 
     _, out, _, _ = gallery
     url = (out / FAILING / "viewer.html").resolve().as_uri()
-    shots, states = [], []
-    for k, suffix in enumerate(("", "#t=0.5", "#state=permanent")):
+    shots, states, runs = [], [], []
+    for k, suffix in enumerate(("", "#t=0.5", "#state=permanent", "#run=worst&t=0.5")):
         dom = _chromium_run(["--dump-dom", url + suffix], tmp_path / f"p{k}")
         m = re.search(r'<body[^>]*data-canvas="(\d+),(\d+),(\d+),(\d+)"[^>]*>', dom.stdout)
         assert m and 'data-ready="1"' in m.group(0), f"viewer did not start: {dom.stderr[-2000:]}"
         states.append(re.search(r'data-t="([^"]+)"', m.group(0)).group(1))
+        runs.append(re.search(r'data-run="([^"]+)"', m.group(0)).group(1))
         x, y, w, h = (int(v) for v in m.groups())
         png = tmp_path / f"shot{k}.png"
         shot = _chromium_run([f"--screenshot={png}", url + suffix], tmp_path / f"s{k}")
@@ -497,10 +502,13 @@ def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
         colours = np.unique(canvas.reshape(-1, 3), axis=0)
         assert len(colours) > 20, f"the 3D view is blank ({len(colours)} colours)"
         shots.append(canvas)
-    assert states == ["0.000", "0.500", "permanent"]
-    for k in (1, 2):
+    assert states == ["0.000", "0.500", "permanent", "0.500"]
+    assert runs == ["nominal", "nominal", "nominal", "worst"]
+    for k in (1, 2, 3):
         diff = np.abs(shots[0] - shots[k]).sum(axis=-1) > 30
         assert diff.mean() > 0.005, f"picture {k} is the one at load ({diff.mean():.4f} changed)"
+    diff = np.abs(shots[1] - shots[3]).sum(axis=-1) > 30
+    assert diff.mean() > 0.002, f"the worst sample at t=0.5 is the nominal fold ({diff.mean():.4f} changed)"
 
 
 # -- the material chart's fold-time table ----------------------------------------------------
@@ -532,3 +540,108 @@ def test_a_design_without_printable_geometry_gets_a_note_not_a_crash(tmp_path):
     assert "No 3D viewer:" in text and "Export failed:" in text
     assert not (tmp_path / "site" / "flat" / "viewer.html").exists()
     assert (tmp_path / "site" / "flat" / "simulation.json").is_file()
+
+
+# -- the gallery runs foldprint check -------------------------------------------------------
+
+def test_gallery_gives_the_verdict_of_foldprint_check(gallery, capsys):
+    """helix_uniform (the paper's Sample 1) folds nominally but jams under scatter: the
+    gallery's check, run in a worker process, is the command's own, with its samples and
+    seed (same jam probability, interval, pairs, findings, exit status), and the summary
+    row says so."""
+    from foldprint import constants
+    from foldprint.cli import main
+
+    _, out, index, _ = gallery
+    code = main(["check", JAMS, "--json"])
+    cli = json.loads(capsys.readouterr().out)
+    mine = json.loads((out / JAMS / "check.json").read_text())
+    assert code == 1 and cli["ok"] is False and any(f["code"] == "FP180" for f in cli["findings"])
+    assert cli["robust"]["samples"] == constants.CHECK_SAMPLES and cli["robust"]["seed"] == constants.CHECK_SEED
+    assert mine == cli  # every finding, the estimate, its interval, the colliding pairs, the nominal fold
+    row = next(r for r in re.findall(r"<tr>(.*?)</tr>", index.read_text(encoding="utf-8"), re.S)
+               if f'href="#d-{JAMS}"' in r)
+    text = re.sub(r"<[^>]+>", " ", html.unescape(row))
+    lo, hi = cli["robust"]["ci95"]
+    codes = ", ".join(dict.fromkeys(f["code"] for f in cli["findings"] if f["severity"] == "error"))
+    assert f"fails (exit 1): {codes}" in text
+    assert (f"{100 * cli['robust']['jam_probability']:.1f} % (95 % CI {100 * lo:.1f} %\u2013{100 * hi:.1f} %)"
+            in text)
+    assert "completes" in text and "does not complete" not in text  # the nominal fold, beside the verdict
+    good = next(r for r in re.findall(r"<tr>(.*?)</tr>", index.read_text(encoding="utf-8"), re.S)
+                if 'href="#d-helix_graded"' in r)
+    graded = json.loads((out / "helix_graded" / "check.json").read_text())
+    assert graded["ok"] is ("passes (exit 0)" in good)
+
+
+def test_page_names_the_hinge_model(gallery):
+    _, out, index, _ = gallery
+    page = _parse(index)
+    header = " ".join(page.text[None])
+    assert "printed (arc) hinges" in header
+    assert "simulated with the paper's reduced-order model" not in " ".join(header.split())
+    for name in DESIGNS:
+        assert json.loads((out / name / "simulation.json").read_text())["hinge_model"] == "arc"
+        assert "printed (arc) hinges" in " ".join(page.text[f"d-{name}"])
+
+
+def test_design_page_shows_the_distribution_of_the_samples(gallery):
+    """The pairs table counts what samples.json records per sample; the fold-time table
+    the percentiles of the samples that complete."""
+    from collections import Counter
+
+    import numpy as np
+
+    _, out, index, _ = gallery
+    page = _parse(index)
+    for name in DESIGNS:
+        mc = json.loads((out / name / "samples.json").read_text())
+        assert len(mc["outcomes"]) == mc["samples"]
+        text = " ".join(" ".join(page.text[f"d-{name}"]).split())
+        counts = Counter(tuple(o["pair"]) for o in mc["outcomes"] if o["pair"] is not None)
+        assert sum(counts.values()) == mc["failures"]["collision"] <= mc["jams"]
+        for (a, b), k in counts.items():
+            times = [o["contact_s"] for o in mc["outcomes"] if o["pair"] == [a, b]]
+            assert re.search(rf"{a}\u2013{b} {k} {100 * k / mc['samples']:.1f} % {min(times):.3f} s "
+                             rf"{np.median(times):.3f} s {max(times):.3f} s", text), (name, a, b)
+        ft = [o["fold_time_s"] for o in mc["outcomes"] if o["fold_time_s"] is not None]
+        if ft:
+            p5, p50, p95 = np.percentile(ft, [5, 50, 95])
+            assert f"{len(ft)} {min(ft):.2f} s {p5:.2f} s {p50:.2f} s {p95:.2f} s {max(ft):.2f} s" in text
+        else:
+            assert "No sample completes its fold." in text
+        assert f"{mc['jams']} of {mc['samples']} samples jam" in text
+
+
+def test_viewer_replays_the_worst_sample(gallery):
+    """The viewer data holds a second run: the sample with the earliest first contact,
+    folded again from the same seed, colliding where and when the Monte-Carlo recorded."""
+    import base64
+
+    import numpy as np
+
+    from foldprint.constants import tol
+
+    _, out, _, _ = gallery
+    for name in (JAMS, FAILING):
+        mc = json.loads((out / name / "samples.json").read_text())
+        hits = [o for o in mc["outcomes"] if o["contact_s"] is not None]
+        assert hits, name
+        earliest = min(hits, key=lambda o: (o["contact_s"], o["sample"]))
+        data = _viewer_data(out / name / "viewer.html")
+        w = data["worst"]
+        assert w is not None and w["sample"] == earliest["sample"] == mc["worst"]["sample"]
+        assert mc["worst"]["replay_agrees"] is True
+        assert sorted(w["contacts"][0]["panels"]) == sorted(earliest["pair"])
+        assert w["contacts"][0]["time"] == pytest.approx(earliest["contact_s"], abs=tol.time)
+        assert w["times"][0] == 0.0 and w["times"][-1] == pytest.approx(w["end"])
+        n_f, n_p = data["frames"], len(data["panels"])
+        poses = np.frombuffer(base64.b64decode(w["poses"]), "<f4").reshape(n_f + 2, n_p, 4, 4)
+        nominal = np.frombuffer(base64.b64decode(data["poses"]), "<f4").reshape(n_f + 2, n_p, 4, 4)
+        np.testing.assert_allclose(poses[0], np.broadcast_to(np.eye(4), (n_p, 4, 4)), atol=1e-6)  # flat
+        np.testing.assert_allclose(poses[-2:], nominal[-2:], atol=1e-6)  # same programmed/permanent states
+        assert np.abs(poses[n_f // 2] - nominal[n_f // 2]).max() > 1e-3  # a different fold
+        q = np.frombuffer(base64.b64decode(w["q"]), "<u2")
+        assert q.size == (n_f + 2) * data["ribbon"]["n"] * 3
+        params = mc["worst"]["parameters"]
+        assert len(params["tg_shift_c"]) == len(data["hinges"]) and "bath_c" in params

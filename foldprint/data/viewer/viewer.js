@@ -2,7 +2,9 @@
    with three.js (window.FOLDPRINT_THREE). Panels are the printed solids in the flat sheet,
    moved by the simulation's panel poses; hinge ribbons come per frame from Python (the
    hinge map is not re-implemented here). Between frames, poses and ribbon vertices are
-   interpolated linearly. The URL's "#t=<fraction 0..1>" sets the shown moment. */
+   interpolated linearly. The URL's "#t=<fraction 0..1>" sets the shown moment; when the
+   data holds a replayed Monte-Carlo sample (D.worst), "#run=worst" shows it instead of the
+   nominal fold (same geometry; its own poses, ribbons, contacts and duration). */
 (function () {
   "use strict";
   var T = window.FOLDPRINT_THREE;
@@ -21,7 +23,16 @@
   }
 
   var nF = D.frames, nP = D.panels.length;
-  var poses = decode(D.poses, Float32Array); // (nF + 2) x nP x 16; the last two: programmed, permanent
+  // the runs: the nominal fold and, when present, the worst sample; each (nF + 2) x nP x 16
+  // poses (the last two: programmed, permanent) and (nF + 2) x nR x 3 ribbon vertices
+  var RUNS = {nominal: {poses: decode(D.poses, Float32Array), q: D.ribbon.n ? decode(D.ribbon.q, Uint16Array) : new Uint16Array(0),
+                        end: D.end, contacts: D.contacts, bath_c: D.bath_c, completed: D.completed}};
+  if (D.worst) {
+    RUNS.worst = {poses: decode(D.worst.poses, Float32Array), q: D.ribbon.n ? decode(D.worst.q, Uint16Array) : new Uint16Array(0),
+                  end: D.worst.end, contacts: D.worst.contacts, bath_c: D.worst.bath_c, completed: D.worst.completed};
+  }
+  var run = "nominal", cur = RUNS.nominal;
+  var poses = cur.poses;
   var lo = D.bounds[0], hi = D.bounds[1];
   var centre = new T.Vector3((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2);
   var radius = Math.max(0.5 * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]), 1);
@@ -67,7 +78,7 @@
 
   // hinge ribbons: positions rewritten per frame from quantised vertices
   var R = D.ribbon, nR = R.n;
-  var q = nR ? decode(R.q, Uint16Array) : new Uint16Array(0);
+  var q = cur.q;
   var ribbons = R.owners.map(function (o) {
     var h = D.hinges[o[0]];
     var g = new T.BufferGeometry();
@@ -88,14 +99,16 @@
     return {mesh: mesh, start: o[1], count: o[2], pos: pos};
   });
 
-  // contact markers (hidden until their time)
-  var markers = D.contacts.map(function (c) {
-    var m = new T.Mesh(new T.SphereGeometry(radius * 0.035, 20, 12),
-                       new T.MeshBasicMaterial({color: RED}));
-    m.position.set(c.point[0], c.point[1], c.point[2]);
-    m.visible = false;
-    scene.add(m);
-    return m;
+  // contact markers of each run (hidden until their time, and when their run is not shown)
+  Object.keys(RUNS).forEach(function (name) {
+    RUNS[name].markers = RUNS[name].contacts.map(function (c) {
+      var m = new T.Mesh(new T.SphereGeometry(radius * 0.035, 20, 12),
+                         new T.MeshBasicMaterial({color: RED}));
+      m.position.set(c.point[0], c.point[1], c.point[2]);
+      m.visible = false;
+      scene.add(m);
+      return m;
+    });
   });
 
   var mA = new T.Matrix4(), mB = new T.Matrix4(), tmp = new Float32Array(16);
@@ -113,7 +126,7 @@
       var it = items[k];
       lerpPose(fa, fb, w, it.panel, it.mesh.matrix);
       it.mesh.matrixWorldNeedsUpdate = true;
-      var hit = time !== null && D.contacts.some(function (c) {
+      var hit = time !== null && cur.contacts.some(function (c) {
         return c.time <= time + 1e-9 && c.pair.indexOf(it.panel) >= 0;
       });
       it.mesh.material.color.copy(it.base);
@@ -133,7 +146,11 @@
       rb.mesh.geometry.attributes.position.needsUpdate = true;
       rb.mesh.geometry.computeVertexNormals();
     }
-    markers.forEach(function (m, i) { m.visible = time !== null && D.contacts[i].time <= time + 1e-9; });
+    Object.keys(RUNS).forEach(function (name) {
+      RUNS[name].markers.forEach(function (m, i) {
+        m.visible = name === run && time !== null && RUNS[name].contacts[i].time <= time + 1e-9;
+      });
+    });
     draw();
   }
 
@@ -144,18 +161,34 @@
     state.frac = f;
     state.named = null;
     var x = f * (nF - 1), fa = Math.floor(x), fb = Math.min(fa + 1, nF - 1);
-    var time = f * D.end;
+    var time = f * cur.end;
     show(fa, fb, x - fa, time);
     slider.value = String(Math.round(f * 1000));
     clock.textContent = "t = " + time.toFixed(2) + " s";
     setPressed(null);
-    if (fromUser) history.replaceState(null, "", "#t=" + f.toFixed(3));
+    if (fromUser) history.replaceState(null, "", runHash() + "t=" + f.toFixed(3));
     document.body.setAttribute("data-t", f.toFixed(3));
+  }
+
+  function runHash() { return run === "nominal" ? "#" : "#run=" + run + "&"; }
+
+  function setRun(name) {  // show the nominal fold or the worst sample (same moment or state)
+    if (!RUNS[name]) name = "nominal";
+    run = name;
+    cur = RUNS[name];
+    poses = cur.poses;
+    q = cur.q;
+    document.body.setAttribute("data-run", name);
+    Object.keys(RUNS).forEach(function (n) {
+      var b = document.getElementById("run-" + n);
+      if (b) b.setAttribute("aria-pressed", String(n === name));
+    });
+    describe();
   }
 
   function setNamed(name, fromUser) {
     var k = name === "programmed" ? nF : nF + 1;
-    if (fromUser) history.replaceState(null, "", "#state=" + name);
+    if (fromUser) history.replaceState(null, "", runHash() + "state=" + name);
     state.named = name;
     show(k, k, 0, null);
     clock.textContent = name + " state";
@@ -169,7 +202,10 @@
     });
   }
 
-  function fromHash() {  // "#t=0.5" a moment of the fold, "#state=permanent" a named state
+  function fromHash() {  // "#t=0.5" a moment of the fold, "#state=permanent" a named state, "#run=worst&t=0.5"
+    var rn = /(?:^#|&)run=(nominal|worst)\b/.exec(location.hash);
+    var want = rn && RUNS[rn[1]] ? rn[1] : "nominal";
+    if (want !== run) setRun(want);
     var st = /(?:^#|&)state=(programmed|permanent)\b/.exec(location.hash);
     if (st) { setNamed(st[1]); return; }
     var m = /(?:^#|&)t=([0-9.eE+-]+)/.exec(location.hash);
@@ -178,17 +214,17 @@
 
   // play: the fold in real time, but at least 4 s and at most 12 s per pass
   var playing = false, last = 0;
-  var seconds = Math.min(12, Math.max(4, D.end));
+  function seconds() { return Math.min(12, Math.max(4, cur.end)); }
   function tick(now) {
     if (!playing) return;
     var dt = last ? (now - last) / 1000 : 0;
     last = now;
-    var f = state.named ? 0 : state.frac + dt / seconds;
+    var f = state.named ? 0 : state.frac + dt / seconds();
     if (f >= 1) { setFraction(1, true); stop(); return; }
     setFraction(f, false);
     requestAnimationFrame(tick);
   }
-  function stop() { playing = false; playBtn.innerHTML = "&#9654; play"; history.replaceState(null, "", "#t=" + state.frac.toFixed(3)); }
+  function stop() { playing = false; playBtn.innerHTML = "&#9654; play"; history.replaceState(null, "", runHash() + "t=" + state.frac.toFixed(3)); }
   playBtn.addEventListener("click", function () {
     if (playing) { stop(); return; }
     if (state.frac >= 1) setFraction(0, false);
@@ -225,38 +261,64 @@
       esc(m) + " <span class=\"muted\">(panels)</span></li>";
   });
   document.getElementById("legend").innerHTML = legend + "</ul>";
-  var facts = "<h2>This fold</h2><ul><li>bath " + D.bath_c + " \u00b0C, " + esc(D.model) +
-    " hinges; the slider spans 0 to " + D.end.toFixed(2) + " s</li>";
-  if (D.contacts.length) {
-    D.contacts.forEach(function (c, i) {
-      facts += "<li class=\"contact\"><button type=\"button\" data-c=\"" + i + "\">" +
-        (i === 0 ? "first contact" : "contact") + "</button> panels " + esc(c.panels[0]) + "\u2013" +
-        esc(c.panels[1]) + " at " + c.time.toFixed(3) + " s (" + esc(c.method) + ")</li>";
-    });
-    if (D.after_contact === "stop")
-      facts += "<li class=\"muted\">After the first contact the model moves on kinematically; the real part jams there.</li>";
-  } else {
-    facts += "<li>no contact</li>";
-  }
-  if (D.robust) {
-    facts += "<li>jam probability " + (100 * D.robust.jam_probability).toFixed(1) + " % (95 % CI " +
-      (100 * D.robust.ci95[0]).toFixed(1) + "\u2013" + (100 * D.robust.ci95[1]).toFixed(1) + " %)</li>";
-  }
-  document.getElementById("facts").innerHTML = facts + "</ul>";
+  // the facts and the contact marks on the time track: of the run shown
   var marks = document.getElementById("marks");
-  D.contacts.forEach(function (c) {
-    var f = Math.min(1, c.time / D.end), m = document.createElement("span");
-    m.className = "mark";
-    m.style.left = (100 * f) + "%";
-    m.title = "contact " + c.panels[0] + "\u2013" + c.panels[1] + " at " + c.time.toFixed(3) + " s";
-    marks.appendChild(m);
-  });
-  Array.prototype.forEach.call(document.querySelectorAll("#facts button[data-c]"), function (b) {
-    b.addEventListener("click", function () {
-      if (playing) stop();
-      setFraction(Math.min(1, D.contacts[+b.getAttribute("data-c")].time / D.end), true);
+  function describe() {
+    var c0 = cur.contacts;
+    var facts = "<h2>" + (run === "worst" ? "Worst of " + D.robust.samples + " scatter samples (#" + D.worst.sample + ")"
+                                          : "This fold" + (D.worst ? " (nominal)" : "")) + "</h2><ul>";
+    if (run === "worst") facts += "<li>" + esc(D.worst.why) + "</li>";
+    facts += "<li>bath " + cur.bath_c.toFixed(2).replace(/\.?0+$/, "") + " \u00b0C, " + esc(D.model) +
+      " hinges; the slider spans 0 to " + cur.end.toFixed(2) + " s</li>";
+    if (c0.length) {
+      c0.forEach(function (c, i) {
+        facts += "<li class=\"contact\"><button type=\"button\" data-c=\"" + i + "\">" +
+          (i === 0 ? "first contact" : "contact") + "</button> panels " + esc(c.panels[0]) + "\u2013" +
+          esc(c.panels[1]) + " at " + c.time.toFixed(3) + " s (" + esc(c.method) + ")</li>";
+      });
+      if (D.after_contact === "stop")
+        facts += "<li class=\"muted\">After the first contact the model moves on kinematically; the real part jams there.</li>";
+    } else {
+      facts += "<li>no contact</li>";
+    }
+    if (D.robust) {
+      facts += "<li>jam probability " + (100 * D.robust.jam_probability).toFixed(1) + " % (95 % CI " +
+        (100 * D.robust.ci95[0]).toFixed(1) + "\u2013" + (100 * D.robust.ci95[1]).toFixed(1) + " %) in " +
+        D.robust.samples + " samples, seed " + D.robust.seed + "</li>";
+    }
+    document.getElementById("facts").innerHTML = facts + "</ul>";
+    marks.innerHTML = "";
+    c0.forEach(function (c) {
+      var f = Math.min(1, c.time / cur.end), m = document.createElement("span");
+      m.className = "mark";
+      m.style.left = (100 * f) + "%";
+      m.title = "contact " + c.panels[0] + "\u2013" + c.panels[1] + " at " + c.time.toFixed(3) + " s";
+      marks.appendChild(m);
     });
-  });
+    Array.prototype.forEach.call(document.querySelectorAll("#facts button[data-c]"), function (b) {
+      b.addEventListener("click", function () {
+        if (playing) stop();
+        setFraction(Math.min(1, cur.contacts[+b.getAttribute("data-c")].time / cur.end), true);
+      });
+    });
+  }
+
+  // the run toggle: only when a worst sample was replayed
+  var runsBox = document.getElementById("runs");
+  if (D.worst && runsBox) {
+    runsBox.innerHTML = "<button id=\"run-nominal\" type=\"button\">nominal fold</button>" +
+      "<button id=\"run-worst\" type=\"button\" title=\"" + esc(D.worst.why) + "\">worst sample (#" +
+      D.worst.sample + ")</button>";
+    Object.keys(RUNS).forEach(function (n) {
+      document.getElementById("run-" + n).addEventListener("click", function () {
+        if (playing) stop();
+        var named = state.named;
+        setRun(n);
+        if (named) setNamed(named, true); else setFraction(state.frac, true);
+      });
+    });
+  }
+  setRun("nominal");
 
   resize();
   fromHash();
