@@ -264,9 +264,9 @@ def robust(
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
     hinge_model: str = typer.Option("arc", "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
-    contributions: bool = typer.Option(True, "--contributions/--no-contributions",
+    contributions: bool = typer.Option(False, "--contributions/--no-contributions",
                                        help="Also each scatter component alone and all but each (two more "
-                                       "runs of the samples per component)."),
+                                       "runs of the samples per component: about 11x the cost, so opt-in)."),
     sensitivity: bool = typer.Option(False, "--sensitivity", help="Also sweep every spread by --scales."),
     scales: str = typer.Option("0.5,1,2", "--scales", help="Sigma scales of --sensitivity (comma-separated)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),

@@ -104,7 +104,8 @@ def test_sweep_reuses_the_base_and_scale_zero_is_nominal():
 def test_robust_cli_contributions_and_sensitivity(tmp_path, capsys):
     f = tmp_path / "strip.toml"
     f.write_text(design_to_toml(D))
-    assert main(["robust", str(f), "--samples", "2", "--seed", "1", "--json", "--sensitivity", "--scales", "0,1"]) == 0
+    assert main(["robust", str(f), "--samples", "2", "--seed", "1", "--json", "--contributions", "--sensitivity",
+                 "--scales", "0,1"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert [c["component"] for c in out["contributions"]] == [c.key for c in COMPONENTS]
     assert {c["scope"] for c in out["contributions"]} == {"shared", "hinge"}
@@ -156,3 +157,11 @@ def test_streamed_samples_are_the_drawn_samples():
     for a, b in zip(whole, streamed):
         assert np.array_equal(a.tg_shift_c, b.tg_shift_c) and np.array_equal(a.h_scale, b.h_scale)
         assert np.array_equal(a.thickness_mm, b.thickness_mm) and a.bath_c == b.bath_c
+
+
+def test_robust_leaves_contributions_to_an_opt_in(tmp_path, capsys):
+    """A plain robust folds the samples once (contributions cost about 11x: --contributions)."""
+    f = tmp_path / "strip.toml"
+    f.write_text(design_to_toml(D))
+    assert main(["robust", str(f), "--samples", "2", "--seed", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["contributions"] is None
