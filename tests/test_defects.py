@@ -127,7 +127,7 @@ def test_fp171_names_the_hole_as_an_index(capsys):
 def test_fp180_names_the_hinge_model_it_sampled(model):
     r = SimpleNamespace(ci95=(0.5, 0.9), jam_probability=0.7, samples=20, collisions=lambda: [],
                         hinge_model=model)
-    (f,) = rule_jam_probability(SimpleNamespace(robust=r, thresholds=Thresholds()))
+    (f,) = rule_jam_probability(SimpleNamespace(robust=r, thresholds=Thresholds(), sweep=()))
     assert f.code == "FP180"
     assert ("printed geometry (arc hinges)" in f.message) == (model == HingeModel.ARC)
     if model == HingeModel.POINT:
