@@ -239,13 +239,9 @@ def check(
     findings = ev.findings
     n_err = ev.errors
     if json_out:
-        from .report import robust_json, sweep_json
+        from .report import check_json
 
-        _echo_json({"design": d.name, "printer": key, "hinge_model": model.value, "ok": n_err == 0,
-                    "errors": n_err, "warnings": sum(f.severity == "warning" for f in findings),
-                    "findings": [f.to_json() for f in findings],
-                    "robust": None if ev.robust is None else robust_json(ev.robust),
-                    "sensitivity": sweep_json(ev.sweep) if ev.sweep else None})
+        _echo_json(check_json(ev, key))
     else:
         for f in findings:
             where = ", ".join(f"{k} {v}" for k, v in f.where.items())

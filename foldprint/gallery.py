@@ -179,15 +179,10 @@ def _evaluate(design: Design, lib: MaterialLibrary, dt: float = CHECK_DT_S, samp
 
 
 def _check_json(ev, printer_key: str) -> dict:
-    """The ``foldprint check --json`` object of an evaluation."""
-    from .report import robust_json
+    """The ``foldprint check --json`` object of an evaluation (one writer: report.check_json)."""
+    from .report import check_json
 
-    findings = ev.findings
-    return {"design": ev.design.name, "printer": printer_key, "hinge_model": str(ev.simulation.trajectory.model.value),
-            "ok": ev.errors == 0, "errors": ev.errors,
-            "warnings": sum(f.severity == "warning" for f in findings),
-            "findings": [f.to_json() for f in findings],
-            "robust": None if ev.robust is None else robust_json(ev.robust)}
+    return check_json(ev, printer_key)
 
 
 def _mc_summary(robust) -> dict:

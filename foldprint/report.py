@@ -106,3 +106,16 @@ def loops_json(sol) -> dict | None:
             "locked_at_s": _r(sol.locked_at),
             "not_followed": [{"time_s": _r(t), "hinges": list(h)} for t, h in sol.stuck],
             "arc_gap_mm": _r(sol.arc_gap_mm, 4)}
+
+
+def check_json(ev, printer_key: str) -> dict:
+    """The ``foldprint check --json`` object of an :class:`~foldprint.pipeline.Evaluation`
+    (the command line and the gallery both write this one)."""
+    findings = ev.findings
+    return {"design": ev.design.name, "printer": printer_key,
+            "hinge_model": str(ev.simulation.trajectory.model.value),
+            "ok": ev.errors == 0, "errors": ev.errors,
+            "warnings": sum(f.severity == "warning" for f in findings),
+            "findings": [f.to_json() for f in findings],
+            "robust": None if ev.robust is None else robust_json(ev.robust),
+            "sensitivity": sweep_json(ev.sweep) if ev.sweep else None}
