@@ -21,14 +21,14 @@ import time
 
 import numpy as np
 
-from foldprint.assign import Task, assign, run_task, with_materials
-from foldprint.load import load_design
-from foldprint.materials import default_library
-from foldprint.modes import Method
-from foldprint.parallel import default_workers, map_ordered
-from foldprint.recovery import recovery_curve
-from foldprint.simulate import simulate
-from foldprint.templates import resolve_design_path
+from foldprint.apps.assign import Task, assign, run_task, with_materials
+from foldprint.io.load import load_design
+from foldprint.model.materials import default_library
+from foldprint.core.modes import Method
+from foldprint.core.parallel import default_workers, map_ordered
+from foldprint.physics.recovery import recovery_curve
+from foldprint.simulation.simulate import simulate
+from foldprint.io.templates import resolve_design_path
 
 
 def _naive(args):

@@ -1,5 +1,5 @@
 """Gallery build time: every template, as ``foldprint gallery`` builds it (the check with
-check's Monte-Carlo samples and seed, :data:`foldprint.constants.CHECK_SAMPLES`), against
+check's Monte-Carlo samples and seed, :data:`foldprint.core.constants.CHECK_SAMPLES`), against
 the same gallery without the Monte-Carlo (0 samples: what the gallery did before it ran
 the check), and the material chart's fold-time table against one recovery curve per point.
 
@@ -8,7 +8,7 @@ the check), and the material chart's fold-time table against one recovery curve 
 Prints wall and CPU times and ratios measured in the same run: the cost of the
 Monte-Carlo (the gallery against the one without it), optionally (``--one-process``) the
 speed-up of ``--jobs`` worker processes (default: the CPU count) over one, and of the
-vectorised, cached :func:`foldprint.recovery_table.fold_times` over the loop a user would
+vectorised, cached :func:`foldprint.physics.recovery_table.fold_times` over the loop a user would
 write (``recovery_curve(m, T).fold_time`` per material and bath; each curve computed
 afresh). The target is the whole gallery in under 30 s wall on this 2-core machine; the
 load average is printed because other processes on the machine slow every wall time
@@ -29,13 +29,13 @@ import time
 
 import numpy as np
 
-from foldprint.constants import CHECK_SAMPLES
-from foldprint.gallery import build_gallery
-from foldprint.load import load_design
-from foldprint.materials import default_library
-from foldprint.recovery import _curve, recovery_curve
-from foldprint.recovery_table import _fold_times, fold_times
-from foldprint.templates import list_templates
+from foldprint.core.constants import CHECK_SAMPLES
+from foldprint.apps.gallery import build_gallery
+from foldprint.io.load import load_design
+from foldprint.model.materials import default_library
+from foldprint.physics.recovery import _curve, recovery_curve
+from foldprint.physics.recovery_table import _fold_times, fold_times
+from foldprint.io.templates import list_templates
 
 TARGET_S = 30.0
 

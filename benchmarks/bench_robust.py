@@ -35,15 +35,15 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from foldprint.load import load_design
-from foldprint.materials import default_library
-from foldprint.modes import Method
-from foldprint.parallel import default_workers
-from foldprint.recovery import _curve
-from foldprint.robust import (default_scatter, draw_samples, jam_probability, outcome_of, run_end, run_sample,
+from foldprint.io.load import load_design
+from foldprint.model.materials import default_library
+from foldprint.core.modes import Method
+from foldprint.core.parallel import default_workers
+from foldprint.physics.recovery import _curve
+from foldprint.simulation.robust import (default_scatter, draw_samples, jam_probability, outcome_of, run_end, run_sample,
                               sample_drive, sample_drives)
-from foldprint.simulate import simulate
-from foldprint.templates import resolve_design_path
+from foldprint.simulation.simulate import simulate
+from foldprint.io.templates import resolve_design_path
 
 
 #: Samples of the check on an independent seed (the assign finalists were picked on seed 1).

@@ -40,9 +40,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 _CHILD = r"""
 import json, resource, sys, time
-from foldprint.design import strip
-from foldprint import guards
-from foldprint.simulate import simulate
+from foldprint.model.design import strip
+from foldprint.core import guards
+from foldprint.simulation.simulate import simulate
 kind, n = sys.argv[1], int(sys.argv[2])
 if kind == "staircase":
     d = strip(f"stairs{n}", [6.0] * n, [90.0 if i % 2 == 0 else -90.0 for i in range(n - 1)], ["H-3"] * (n - 1),
@@ -88,7 +88,7 @@ def dense(sizes=(100, 1000)):
 
 
 def _staircase(n):
-    from foldprint.design import strip
+    from foldprint.model.design import strip
 
     return strip(f"stairs{n}", [6.0] * n, [90.0 if i % 2 == 0 else -90.0 for i in range(n - 1)],
                  ["H-3"] * (n - 1), depth=6.0, radius=3.0, thickness=0.8, hinge_thickness=0.8)
@@ -97,9 +97,9 @@ def _staircase(n):
 def prefix_vs_per_pair(n=1000, pairs=200, repeat=3):
     """Old: compose the hinge transforms along each pair's tree path (the narrow phase's
     ``pair_poses`` before issue 19). New: every panel's world pose once (prefix products)."""
-    from foldprint.collision3d import non_adjacent_pairs
-    from foldprint.kinematics import HingeDrive, TreeTransforms, hinge_frames, local_transforms
-    from foldprint.motion import tree_bounds
+    from foldprint.collision.swept3d import non_adjacent_pairs
+    from foldprint.physics.kinematics import HingeDrive, TreeTransforms, hinge_frames, local_transforms
+    from foldprint.physics.motion import tree_bounds
 
     d = _staircase(n)
     drive = HingeDrive(d)
@@ -149,7 +149,7 @@ def _timed(fn):
 
 def swept_vs_trimesh(n=100):
     from bench_simulation import discrete_trimesh, swept
-    from foldprint.kinematics import simulate_kinematics
+    from foldprint.physics.kinematics import simulate_kinematics
 
     d = _staircase(n)
     traj = simulate_kinematics(d, model="arc")
@@ -190,11 +190,11 @@ def guards_bench(tmp: Path):
 
 def export_bench(strip1000: Path, tmp: Path):
     from bench_export import sheet
-    from foldprint import guards
+    from foldprint.core import guards
     from foldprint.exchange.export import export_assembly
     from foldprint.geometry import build_assembly
     from foldprint.geometry import assembly as asm_mod
-    from foldprint.load import load_design
+    from foldprint.io.load import load_design
 
     rows = []
     for d in (sheet(100), load_design(strip1000)):

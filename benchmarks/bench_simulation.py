@@ -31,11 +31,11 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from foldprint.collision2d import collision_index, world_side_segments
-from foldprint.collision3d import SweptChecker, non_adjacent_pairs, swept_first_contact
-from foldprint.kinematics import HingeDrive, simulate_kinematics
-from foldprint.load import load_design
-from foldprint.rigid import rigid_polygon
+from foldprint.collision.index2d import collision_index, world_side_segments
+from foldprint.collision.swept3d import SweptChecker, non_adjacent_pairs, swept_first_contact
+from foldprint.physics.kinematics import HingeDrive, simulate_kinematics
+from foldprint.io.load import load_design
+from foldprint.collision.rigid import rigid_polygon
 
 ROOT = Path(__file__).resolve().parent.parent
 TEMPLATES = ROOT / "templates"
@@ -166,8 +166,8 @@ def bench_2d(repeat):
 
 _CHILD = r"""
 import json, resource, sys, time
-from foldprint.design import strip
-from foldprint.simulate import simulate
+from foldprint.model.design import strip
+from foldprint.simulation.simulate import simulate
 n = int(sys.argv[1])
 d = strip(f"strip{n}", [10.0] * n, [30.0 if k % 2 == 0 else -30.0 for k in range(n - 1)], ["H-3"] * (n - 1))
 t0 = time.perf_counter()

@@ -59,7 +59,7 @@ def backforth_points(k: int = 2000) -> np.ndarray:
 
 
 def _child(which: str, case: str, q):
-    from foldprint.svg_format import _cluster
+    from foldprint.io.svg_format import _cluster
 
     pts = grid_points() if case == "grid" else backforth_points()
     fn = old_cluster if which == "old" else _cluster
@@ -81,7 +81,7 @@ def _svg_grid(n: int = 100) -> str:
 
 
 def _load_child(text: str, q):
-    from foldprint.load import load_design
+    from foldprint.io.load import load_design
 
     with tempfile.TemporaryDirectory() as tmp:
         f = Path(tmp) / "grid.svg"

@@ -38,8 +38,8 @@ KINDS = ("design", "svg", "fold", "cli", "planted")
 
 def _warm():
     """Import the CLI and every stage once per worker, so each forked case starts warm."""
-    import foldprint.checks, foldprint.cli, foldprint.load, foldprint.pipeline, foldprint.simulate  # noqa: E401,F401
-    import foldprint.geometry, foldprint.exchange.export, foldprint.svg_format  # noqa: E401,F401
+    import foldprint.checks.rules, foldprint.cli.commands, foldprint.io.load, foldprint.apps.pipeline, foldprint.simulation.simulate  # noqa: E401,F401
+    import foldprint.geometry, foldprint.exchange.export, foldprint.io.svg_format  # noqa: E401,F401
 
 
 def _summary(kind: str, code, bad: list, seconds: float, cpu: float, peak: float, err: str, case) -> dict:

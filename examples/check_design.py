@@ -8,9 +8,9 @@ DESIGN is a .toml or .fold file or a template name (``foldprint templates`` list
 
 import sys
 
-from foldprint.load import load_design
-from foldprint.pipeline import evaluate
-from foldprint.templates import resolve_design_path
+from foldprint.io.load import load_design
+from foldprint.apps.pipeline import evaluate
+from foldprint.io.templates import resolve_design_path
 
 design = load_design(resolve_design_path(sys.argv[1] if len(sys.argv) > 1 else "self_lock"))
 # simulate the printed part once, build it, estimate its jam probability under scatter

@@ -9,9 +9,9 @@ once, and the end of the strip can no longer thread through the holes in order.
 
 from dataclasses import replace
 
-from foldprint.load import load_design
-from foldprint.simulate import simulate
-from foldprint.templates import resolve_design_path
+from foldprint.io.load import load_design
+from foldprint.simulation.simulate import simulate
+from foldprint.io.templates import resolve_design_path
 
 graded = load_design(resolve_design_path("self_lock"))
 uniform = replace(graded, name="self_lock_all_H-3",

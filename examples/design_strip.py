@@ -8,9 +8,9 @@ Writes a 3MF with one body per material, a PrusaSlicer 3MF and one STL per mater
 import sys
 from pathlib import Path
 
-from foldprint.design import strip
-from foldprint.pipeline import export
-from foldprint.simulate import simulate
+from foldprint.model.design import strip
+from foldprint.apps.pipeline import export
+from foldprint.simulation.simulate import simulate
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "output/examples/design_strip")
 

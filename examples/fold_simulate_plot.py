@@ -12,10 +12,10 @@ import json
 import sys
 from pathlib import Path
 
-from foldprint.load import load_design
-from foldprint.render import hinge_angle_figure, save_figure
-from foldprint.render3d import render_frames
-from foldprint.simulate import simulate
+from foldprint.io.load import load_design
+from foldprint.render.figures import hinge_angle_figure, save_figure
+from foldprint.render.stills import render_frames
+from foldprint.simulation.simulate import simulate
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "output/examples/fold_simulate_plot")
 out.mkdir(parents=True, exist_ok=True)

@@ -9,13 +9,44 @@ __version__ = "0.1.0"
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
-from .design import Design, Goal, Hinge, HingeStyle, Panel, Process, strip, validate  # noqa: E402
-from .design_io import design_from_dict, design_to_dict, design_to_toml  # noqa: E402
-from .load import load_design  # noqa: E402
-from .materials import Material, MaterialLibrary, default_library, load_library  # noqa: E402
-from .recovery import fold_time, recovery_curve, recovery_ratio  # noqa: E402
+from .model.design import Design, Goal, Hinge, HingeStyle, Panel, Process, strip, validate  # noqa: E402
+from .io.design_io import design_from_dict, design_to_dict, design_to_toml  # noqa: E402
+from .io.load import load_design  # noqa: E402
+from .model.materials import Material, MaterialLibrary, default_library, load_library  # noqa: E402
+from .physics.recovery import fold_time, recovery_curve, recovery_ratio  # noqa: E402
 
 __all__ = ["Design", "Goal", "Hinge", "HingeStyle", "Panel", "Process", "strip", "validate",
            "design_from_dict", "design_to_dict", "design_to_toml", "load_design", "Material",
            "MaterialLibrary", "default_library", "load_library", "fold_time", "recovery_curve",
            "recovery_ratio", "__version__"]
+
+
+#: the flat module names of foldprint 0.1 -> where they live now (docs/architecture.md);
+#: ``from foldprint import robust`` keeps working (checks, render and cli are packages now)
+_MOVED = {
+    "constants": "core.constants", "errors": "core.errors", "modes": "core.modes",
+    "parallel": "core.parallel", "schema": "core.schema", "guards": "core.guards",
+    "materials": "model.materials", "design": "model.design",
+    "crease_patterns": "model.crease_patterns", "relief": "model.relief",
+    "design_io": "io.design_io", "fold_format": "io.fold_format", "svg_format": "io.svg_format",
+    "load": "io.load", "templates": "io.templates", "recovery": "physics.recovery",
+    "recovery_table": "physics.recovery_table", "recovery_batch": "physics.recovery_batch",
+    "kinematics": "physics.kinematics", "loops": "physics.loops", "motion": "physics.motion",
+    "rigid": "collision.rigid", "goals": "collision.goals", "collision2d": "collision.index2d",
+    "collision3d": "collision.swept3d", "clearance": "collision.clearance",
+    "simulate": "simulation.simulate", "scatter": "simulation.scatter",
+    "robust": "simulation.robust", "sensitivity": "simulation.sensitivity",
+    "timing": "simulation.timing", "paper_timings": "simulation.paper_timings",
+    "report": "checks.report", "render3d": "render.stills", "render_scene": "render.scene",
+    "render_anim": "render.anim", "viewer": "render.viewer", "pipeline": "apps.pipeline",
+    "gallery": "apps.gallery", "assign": "apps.assign", "distributed": "apps.distributed",
+    "cli_support": "cli.support",
+}
+
+
+def __getattr__(name: str):
+    if name in _MOVED:
+        import importlib
+
+        return importlib.import_module(f"{__name__}.{_MOVED[name]}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

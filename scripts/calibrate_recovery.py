@@ -30,8 +30,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.optimize import minimize
 
-from foldprint.materials import default_library
-from foldprint.recovery import recovery_curve
+from foldprint.model.materials import default_library
+from foldprint.physics.recovery import recovery_curve
 
 FREE = ("h_w_m2k", "c1", "c2", "log10_tau_ref_s", "spectrum_sigma_decades", "spectrum_span_decades")
 BOUNDS = {"h_w_m2k": (100, 1000), "c1": (4, 20), "c2": (15, 80), "log10_tau_ref_s": (-2, 5),
@@ -42,7 +42,7 @@ HORIZON_S = 20.0  # s; a target not reached by then counts as reached at 20 s
 
 def sample1_contact_ratio() -> float:
     """R of H-3 at the first contact of the paper's ROM (point hinges) on helix_uniform."""
-    from foldprint.paper_timings import sample1_contact_ratio as r
+    from foldprint.simulation.paper_timings import sample1_contact_ratio as r
     return r()
 
 
@@ -124,7 +124,7 @@ def main():
             for k, v in rep["targets"].items():
                 print(f"#   {k}: model {v['model']:.2f}, paper {v['paper']:g} (weight {v['weight']:g})")
     if args.plot:
-        from foldprint.render import plot_recovery_calibration
+        from foldprint.render.figures import plot_recovery_calibration
         plot_recovery_calibration(lib, args.plot)
 
 

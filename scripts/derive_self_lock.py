@@ -21,7 +21,7 @@ h1 strip), the end p6 passes hole 1 then hole 2 and the fold completes with arc 
 point hinges, the all-H-3 twin fails under both (a contact or a goal unmet), and the
 printed and programmed states build with every body disjoint. Screening runs at
 ``--screen-dt``; the finalist is confirmed at dt 0.01 s (``simulate``, 15 s). Choice:
-the largest smallest clearance along the fold (``foldprint.clearance.min_clearance``,
+the largest smallest clearance along the fold (``foldprint.collision.clearance.min_clearance``,
 rigid panels, arc model; rounded to 0.01 mm), ties broken by the smallest change from
 the previous dimensions.
 
@@ -38,22 +38,22 @@ from pathlib import Path
 
 import numpy as np
 
-from foldprint.clearance import min_clearance
-from foldprint.collision3d import SweptChecker
-from foldprint.design_io import design_from_dict
-from foldprint.errors import FoldprintError
-from foldprint.kinematics import (
+from foldprint.collision.clearance import min_clearance
+from foldprint.collision.swept3d import SweptChecker
+from foldprint.io.design_io import design_from_dict
+from foldprint.core.errors import FoldprintError
+from foldprint.physics.kinematics import (
     forward,
     hinge_frames,
     hinge_map,
     simulate_kinematics,
     target_angles,
 )
-from foldprint.pipeline import build
-from foldprint.rigid import rigid_polygon
-from foldprint.materials import default_library
-from foldprint.robust import default_scatter, draw_samples, jam_probability, sample_drive
-from foldprint.simulate import simulate
+from foldprint.apps.pipeline import build
+from foldprint.collision.rigid import rigid_polygon
+from foldprint.model.materials import default_library
+from foldprint.simulation.robust import default_scatter, draw_samples, jam_probability, sample_drive
+from foldprint.simulation.simulate import simulate
 
 ROOT = Path(__file__).resolve().parent.parent
 MARGIN = 1.0  # mm of plate cut away around the swept region
@@ -65,7 +65,7 @@ MODELS = ("arc",)  # the holes admit the printed part's motion (the paper's ROM 
 MATERIALS = ("H-2", "H-2", "H-3", "H-6", "H-6")  # paper
 PREVIOUS = {"lengths": (65, 20, 30, 12, 12, 9), "angles": (90, 90, 90, 15, 120)}
 #: The holes admit the part as it really varies: the nominal fold plus this many samples of
-#: the default scatter model (foldprint.robust), drawn with DESIGN_SEED, a seed the pre-print
+#: the default scatter model (foldprint.simulation.robust), drawn with DESIGN_SEED, a seed the pre-print
 #: check (seed 0) does not use, so the check judges the design on fresh draws.
 SCATTER_SAMPLES = 20
 DESIGN_SEED = 100

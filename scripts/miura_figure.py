@@ -5,10 +5,10 @@
 
 from pathlib import Path
 
-from foldprint.load import load_design
-from foldprint.render3d import render_frames
-from foldprint.simulate import simulate
-from foldprint.templates import templates_dir
+from foldprint.io.load import load_design
+from foldprint.render.stills import render_frames
+from foldprint.simulation.simulate import simulate
+from foldprint.io.templates import templates_dir
 
 if __name__ == "__main__":
     d = load_design(templates_dir() / "miura_3x3.toml")

@@ -2,7 +2,7 @@
 Table 1) with the printed geometry, for the shipped geometry (a = 30 mm) and a compact
 one within the paper's stated dimensions (a = 15 mm), and which scatter component drives
 the graded helix's jams (each component alone and all but each,
-foldprint.sensitivity.contributions).
+foldprint.simulation.sensitivity.contributions).
 
 Prints one JSON object; docs/simulation.md quotes it.
 Run: python scripts/sample1_scatter.py [--samples 60] [--seed 1]
@@ -13,10 +13,10 @@ from __future__ import annotations
 import argparse
 import json
 
-from foldprint.design import strip
-from foldprint.load import load_design
-from foldprint.robust import default_scatter, jam_probability
-from foldprint.sensitivity import contributions
+from foldprint.model.design import strip
+from foldprint.io.load import load_design
+from foldprint.simulation.robust import default_scatter, jam_probability
+from foldprint.simulation.sensitivity import contributions
 
 PITCH = 5.8  # mm: 5 mm clearance + 0.8 mm thickness (paper)
 GRADED = ["H-1", "H-1", "H-2", "H-3", "H-4", "H-5", "H-6", "H-7", "H-7"]

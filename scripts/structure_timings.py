@@ -3,7 +3,7 @@
 Statements, quotes and sources: foldprint/data/paper_timings.toml. Model values: the
 model of record (printed arc hinges, nominal materials, 90 C unless the statement says
 otherwise), with the paper's point-hinge ROM and ``--after-contact arrest`` where they tell
-something (foldprint.paper_timings.measure). ``--scatter N`` adds Sample 1 under the
+something (foldprint.simulation.paper_timings.measure). ``--scatter N`` adds Sample 1 under the
 default scatter, each sample folded with ``--after-contact arrest`` (N samples, seed 1).
 
 ``--materials FILE`` measures under another material file (e.g. the joint fit that was not
@@ -19,8 +19,8 @@ import argparse
 import json
 import time
 
-from foldprint.materials import load_library
-from foldprint.paper_timings import load_statements, measure, sample1_under_scatter, verdict
+from foldprint.model.materials import load_library
+from foldprint.simulation.paper_timings import load_statements, measure, sample1_under_scatter, verdict
 
 
 def fmt(v):

@@ -9,6 +9,6 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 @pytest.fixture(scope="session")
 def lib():
-    from foldprint.materials import default_library
+    from foldprint.model.materials import default_library
 
     return default_library()

@@ -1,102 +1,162 @@
-"""The one-way data flow (docs/architecture.md): a module imports only from layers above
-it, and the package's import graph has no cycle."""
+"""The one-way data flow (docs/architecture.md).
+
+The layer table in docs/architecture.md is the single source: its rows name each layer's
+subpackage and every module in it, top of the data flow first. These tests check that the
+table and the tree agree (no module missing, none invented), that a module imports only
+from its own subpackage or one above it (relative, absolute, ``__import__`` and
+``importlib.import_module`` imports alike), and that the module graph has no cycle.
+"""
+
+from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
-PKG = Path(__file__).resolve().parent.parent / "foldprint"
+ROOT = Path(__file__).resolve().parent.parent
+PKG = ROOT / "foldprint"
+DOC = ROOT / "docs" / "architecture.md"
+TOP = {"foldprint", "foldprint.__main__"}  # the facade and the entry point may import anything;
+# modules import only ``__version__`` from the facade
 
-#: Layers from the top of the data flow down. A module may import from its own layer or
-#: any earlier one, never a later one. Unlisted modules fail the test: place new ones.
-LAYERS = [
-    {"constants", "errors", "modes", "parallel", "schema", "guards"},
-    {"materials"},
-    {"recovery", "design", "crease_patterns"},
-    {"design_io", "fold_format", "svg_format", "templates", "load", "recovery_table", "recovery_batch", "relief"},
-    {"kinematics", "loops"},
-    {"rigid", "goals", "motion"},
-    {"collision2d", "collision3d"},
-    {"simulate", "clearance"},
-    {"scatter", "robust", "timing", "sensitivity", "paper_timings"},
-    {"geometry"},
-    {"checks", "report"},
-    {"exchange", "render", "render3d", "render_scene", "render_anim", "viewer", "animation"},
-    {"pipeline"},
-    {"gallery", "assign", "distributed"},
-    {"cli", "cli_support", "__main__"},
-]
-TOP = {"__init__"}  # the package facade re-exports; it may import anything below cli
+_ROW = re.compile(r"^\|\s*(\d+)\s*\|\s*`(\w+)/`\s*\|\s*([^|]*)\|")
 
 
-def _layer(mod: str) -> int:
-    head = mod.split(".")[0]
-    for k, names in enumerate(LAYERS):
-        if head in names:
-            return k
-    raise AssertionError(f"foldprint.{mod} is in no layer of tests/test_architecture.py: place it")
+def layer_table() -> list[tuple[str, set[str]]]:
+    """(subpackage, its modules) per row of the doc's layer table, in layer order."""
+    rows = []
+    for line in DOC.read_text(encoding="utf-8").splitlines():
+        m = _ROW.match(line)
+        if m:
+            assert int(m.group(1)) == len(rows), f"docs/architecture.md: layer {m.group(1)} out of order"
+            mods = {s.strip().strip("`") for s in m.group(3).split(",") if s.strip()}
+            rows.append((m.group(2), mods))
+    assert rows, "docs/architecture.md has no layer table"
+    return rows
 
 
-def _imports():
-    """(module, imported module) for every relative import inside foldprint."""
+def module_name(path: Path) -> str:
+    parts = ["foldprint", *path.relative_to(PKG).with_suffix("").parts]
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _modules() -> dict[str, Path]:
+    return {module_name(p): p for p in PKG.rglob("*.py")}
+
+
+def _resolve(target: str, modules: dict[str, Path]) -> str | None:
+    """The foldprint module a dotted name refers to (a name inside a module -> the module)."""
+    while target and target not in modules:
+        target = target.rpartition(".")[0]
+    return target or None
+
+
+def edges_of(mod: str, is_package: bool, src: str, modules) -> list[tuple[str, str]]:
+    """(mod, imported foldprint module) for every import in one module's source."""
+    pkg = mod if is_package else mod.rpartition(".")[0]
     edges = []
-    for path in PKG.rglob("*.py"):
-        rel = path.relative_to(PKG).with_suffix("")
-        parts = list(rel.parts)
-        mod = ".".join(parts[:-1] if parts[-1] == "__init__" and len(parts) > 1 else parts)
-        pkg_parts = parts[:-1]
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.level:
-                base = pkg_parts[: len(pkg_parts) - (node.level - 1)]
-                target = ".".join(base + ([node.module] if node.module else []))
-                if target:
-                    edges.append((mod, target))
-                else:  # "from . import x": a module, or the package's own attribute (__version__)
-                    edges += [(mod, a.name) for a in node.names if not a.name.startswith("__")]
+    for node in ast.walk(ast.parse(src)):
+        targets: list[str] = []
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg.split(".")[: len(pkg.split(".")) - (node.level - 1)]
+                head = ".".join(base + ([node.module] if node.module else []))
+            else:
+                head = node.module or ""
+            targets = [f"{head}.{a.name}" for a in node.names] if head else []
+            targets = [t if t in modules else head for t in targets]
+        elif isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant) \
+                and isinstance(node.args[0].value, str):
+            fn = node.func
+            name = fn.attr if isinstance(fn, ast.Attribute) else getattr(fn, "id", "")
+            if name in {"__import__", "import_module"}:
+                targets = [node.args[0].value]
+        for t in targets:
+            if t == "foldprint" or t.startswith("foldprint."):
+                r = _resolve(t, modules)
+                if r and r != mod:
+                    edges.append((mod, r))
     return edges
 
 
+def imports() -> list[tuple[str, str]]:
+    """(importing module, imported foldprint module) for every import in the package."""
+    modules = _modules()
+    return [e for mod, path in modules.items()
+            for e in edges_of(mod, path.name == "__init__.py", path.read_text(encoding="utf-8"), modules)]
+
+
+def _layer_of(mod: str, table) -> int:
+    sub = mod.split(".")[1]
+    for k, (name, _) in enumerate(table):
+        if name == sub:
+            return k
+    raise AssertionError(f"{mod}: subpackage foldprint.{sub} is not in docs/architecture.md's layer table")
+
+
+def test_the_layer_table_is_the_tree():
+    table = layer_table()
+    tree: dict[str, set[str]] = {}
+    for mod in _modules():
+        parts = mod.split(".")
+        if len(parts) == 2 and mod not in TOP and (PKG / f"{parts[1]}.py").exists():
+            raise AssertionError(f"{mod} sits flat in foldprint/: put it in its layer's subpackage")
+        if len(parts) >= 3:
+            tree.setdefault(parts[1], set()).add(parts[2])
+    documented = {name: mods for name, mods in table}
+    assert set(documented) == set(tree), (sorted(set(documented) ^ set(tree)), "subpackages differ")
+    for name, mods in tree.items():
+        assert documented[name] == mods, (
+            f"docs/architecture.md layer {name}/ lists {sorted(documented[name])}, the tree has {sorted(mods)}")
+
+
 def test_no_upward_imports():
-    bad = []
-    for mod, target in _imports():
-        if mod in TOP or target.split(".")[0] == "__init__" or target == "":
-            continue
-        if target.split(".")[0] == mod.split(".")[0]:
-            continue  # inside one subpackage
-        if _layer(target) > _layer(mod):
-            bad.append(f"{mod} -> {target}")
+    table = layer_table()
+    bad = [f"{a} -> {b}" for a, b in imports()
+           if a not in TOP and b not in TOP and _layer_of(b, table) > _layer_of(a, table)]
     assert not bad, "upward imports: " + ", ".join(sorted(bad))
 
 
 def test_no_import_cycles():
     graph: dict[str, set[str]] = {}
-    for mod, target in _imports():
-        a, b = mod.split(".")[0], target.split(".")[0]
-        if a != b and a not in TOP and b not in TOP:
+    for a, b in imports():
+        if a not in TOP and b not in TOP and not b.startswith(a + "."):
             graph.setdefault(a, set()).add(b)
-    state: dict[str, int] = {}
-    cycle: list[str] = []
+    done: set[str] = set()
 
     def visit(n, stack):
-        state[n] = 1
+        if n in stack:
+            raise AssertionError("import cycle: " + " -> ".join(stack[stack.index(n):] + [n]))
+        if n in done:
+            return
         for m in graph.get(n, ()):
-            if state.get(m) == 1:
-                cycle.extend(stack[stack.index(m):] + [m] if m in stack else [n, m])
-                return True
-            if state.get(m) is None and visit(m, stack + [m]):
-                return True
-        state[n] = 2
-        return False
+            visit(m, stack + [n])
+        done.add(n)
 
     for n in list(graph):
-        if state.get(n) is None and visit(n, [n]):
-            break
-    assert not cycle, "import cycle: " + " -> ".join(cycle)
+        visit(n, [])
 
 
 def test_only_the_pipeline_chains_simulation_and_checks():
-    """checks import no simulation or collision code; exchange imports no geometry builder."""
-    for mod, target in _imports():
-        if mod == "checks":
-            assert target.split(".")[0] not in {"simulate", "collision3d", "collision2d", "robust", "kinematics"}, target
-        if mod.startswith("exchange"):
-            assert target not in {"geometry.assembly", "simulate", "pipeline"}, (mod, target)
+    """checks compute nothing (no simulation, collision or kinematics); exchange builds nothing."""
+    for a, b in imports():
+        if a.startswith("foldprint.checks."):
+            assert not b.startswith(("foldprint.simulation", "foldprint.collision",
+                                     "foldprint.physics.kinematics")), (a, b)
+        if a.startswith("foldprint.exchange."):
+            assert b not in {"foldprint.geometry.assembly"} and not b.startswith(
+                ("foldprint.simulation", "foldprint.apps")), (a, b)
+
+
+def test_the_import_walker_sees_every_form():
+    """Relative, absolute and dynamic imports all count (a test of the test)."""
+    modules = _modules()
+    src = ("from ..core import errors\nfrom .rules import run_checks\nimport foldprint.model.design\n"
+           "from foldprint.physics.recovery import fold_time\n__import__('foldprint.apps.pipeline')\n"
+           "importlib.import_module('foldprint.render.figures')\nfrom . import report\n")
+    got = {b for _, b in edges_of("foldprint.checks.fake", False, src, modules)}
+    assert got == {"foldprint.core.errors", "foldprint.checks.rules", "foldprint.model.design",
+                   "foldprint.physics.recovery", "foldprint.apps.pipeline", "foldprint.render.figures",
+                   "foldprint.checks.report"}

@@ -7,15 +7,15 @@ import re
 
 import pytest
 
-from foldprint.assign import assign, connected_waves, permanent_crossings, temperature_grid, with_materials
-from foldprint.cli import main
-from foldprint.design import strip
-from foldprint.design_io import design_to_toml
-from foldprint.load import load_design
-from foldprint.modes import Method
-from foldprint.recovery import recovery_curve
-from foldprint.simulate import simulate
-from foldprint.templates import resolve_design_path
+from foldprint.apps.assign import assign, connected_waves, permanent_crossings, temperature_grid, with_materials
+from foldprint.cli.commands import main
+from foldprint.model.design import strip
+from foldprint.io.design_io import design_to_toml
+from foldprint.io.load import load_design
+from foldprint.core.modes import Method
+from foldprint.physics.recovery import recovery_curve
+from foldprint.simulation.simulate import simulate
+from foldprint.io.templates import resolve_design_path
 
 CROSSING = """schema = 1
 name = "crossing"
@@ -185,7 +185,7 @@ def test_assign_text_output(capsys, tmp_path):
 def test_growing_waves_extend_the_folded_region_in_small_steps():
     """The robust search's children: "all the rest", then connected groups of at most
     ROBUST_WAVE_MAX hinges touching what is placed (anything at the root)."""
-    from foldprint.assign import ROBUST_WAVE_MAX, _hinge_graph, growing_waves
+    from foldprint.apps.assign import ROBUST_WAVE_MAX, _hinge_graph, growing_waves
 
     graph = _hinge_graph(load_design(resolve_design_path("helix_uniform")))
     every = frozenset(range(9))
@@ -207,8 +207,8 @@ def test_order_risk_matches_sampled_recovery_times(helix, lib):
 
     import numpy as np
 
-    from foldprint.timing import order_risk
-    from foldprint.robust import default_scatter
+    from foldprint.simulation.timing import order_risk
+    from foldprint.simulation.robust import default_scatter
 
     sc = default_scatter()
     assert order_risk(helix, lib, ["H-3"] * 9, 90.0, sc) == pytest.approx(18.0)
@@ -242,8 +242,8 @@ def test_robust_best_is_no_worse_than_the_papers_graded_helix(helix, monkeypatch
     reports is the one ``foldprint robust`` makes of the written design. Small budgets
     (a smaller pool, fewer samples) keep it quick; it can fail when the finalists are
     chosen badly."""
-    import foldprint.assign as A
-    from foldprint.robust import jam_probability
+    import foldprint.apps.assign as A
+    from foldprint.simulation.robust import jam_probability
 
     monkeypatch.setattr(A, "ROBUST_POOL", 16)
     monkeypatch.setattr(A, "ROBUST_SCREEN_SAMPLES", 6)

@@ -4,7 +4,7 @@ import os
 
 import pytest
 
-from foldprint.cli import main
+from foldprint.cli.commands import main
 
 GOOD_STRIP = """schema = 1
 name = "{name}"
@@ -279,11 +279,11 @@ def test_hole_leaving_a_1um_frame_is_a_min_wall_finding(tmp_path, capsys):
 def test_python_api_raises_the_same_errors():
     import numpy as np
 
-    from foldprint.design import Design, Panel, validate, strip
-    from foldprint.design_io import design_from_dict
-    from foldprint.errors import DesignError, FoldprintError
-    from foldprint.guards import ResourceError
-    from foldprint.simulate import simulate
+    from foldprint.model.design import Design, Panel, validate, strip
+    from foldprint.io.design_io import design_from_dict
+    from foldprint.core.errors import DesignError, FoldprintError
+    from foldprint.core.guards import ResourceError
+    from foldprint.simulation.simulate import simulate
 
     with pytest.raises(DesignError, match="radius_mm"):
         strip("s", [10, 10], [90], ["H-1"], radius="5")

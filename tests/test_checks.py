@@ -5,15 +5,15 @@ from pathlib import Path
 
 import pytest
 
-from foldprint.checks import CheckContext, Thresholds, load_printers, rule_jam_probability, rule_jam_sensitivity
-from foldprint.cli import main
-from foldprint.constants import CHECK_SAMPLES
-from foldprint.design import Process, strip
-from foldprint.load import load_design
-from foldprint.materials import default_library
-from foldprint.modes import HingeModel
-from foldprint.pipeline import evaluate
-from foldprint.robust import wilson
+from foldprint.checks.rules import CheckContext, Thresholds, load_printers, rule_jam_probability, rule_jam_sensitivity
+from foldprint.cli.commands import main
+from foldprint.core.constants import CHECK_SAMPLES
+from foldprint.model.design import Process, strip
+from foldprint.io.load import load_design
+from foldprint.model.materials import default_library
+from foldprint.core.modes import HingeModel
+from foldprint.apps.pipeline import evaluate
+from foldprint.simulation.robust import wilson
 
 
 def run_checks(design, printer=None):

@@ -13,8 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from foldprint.collision2d import collision_index, index_memory_bytes
-from foldprint.collision3d import (
+from foldprint.collision.index2d import collision_index, index_memory_bytes
+from foldprint.collision.swept3d import (
     SweptChecker,
     candidate_runs,
     min_clearance,
@@ -22,9 +22,9 @@ from foldprint.collision3d import (
     panel_centres,
     swept_first_contact,
 )
-from foldprint.design import Design, Panel, strip
-from foldprint.kinematics import HingeDrive, forward, simulate_kinematics
-from foldprint.load import load_design
+from foldprint.model.design import Design, Panel, strip
+from foldprint.physics.kinematics import HingeDrive, forward, simulate_kinematics
+from foldprint.io.load import load_design
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 MATERIALS = ["H-1", "H-2", "H-3", "H-4", "H-5"]
@@ -204,7 +204,7 @@ def test_refined_broad_phase_certifies_long_paths_between_samples():
 def test_prefix_product_poses_equal_forward(data, model, tree):
     """TreeTransforms (every hinge at once, pointer doubling) = forward (one hinge at a
     time), and the swept check's cached poses between samples = forward at that time."""
-    from foldprint.kinematics import TreeTransforms
+    from foldprint.physics.kinematics import TreeTransforms
 
     d = random_tree(data) if tree else random_strip(data, 3, 40)
     drive = HingeDrive(d)

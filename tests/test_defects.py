@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 import shapely
 
-from foldprint.checks import Thresholds, rule_jam_probability
-from foldprint.cli import main
-from foldprint.crease_patterns import waterbomb
-from foldprint.fold_format import design_from_fold
+from foldprint.checks.rules import Thresholds, rule_jam_probability
+from foldprint.cli.commands import main
+from foldprint.model.crease_patterns import waterbomb
+from foldprint.io.fold_format import design_from_fold
 from foldprint.geometry.assembly import build_pieces
 from foldprint.geometry.hinges import _poses, state_angles
-from foldprint.modes import HingeModel
+from foldprint.core.modes import HingeModel
 
 layout = __import__("importlib").import_module("foldprint.geometry.layout").layout
 

@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from foldprint.design import strip, tree_order
-from foldprint.design_io import design_from_dict, design_to_dict, design_to_toml
-from foldprint.load import load_design
-from foldprint.errors import DesignError
+from foldprint.model.design import strip, tree_order
+from foldprint.io.design_io import design_from_dict, design_to_dict, design_to_toml
+from foldprint.io.load import load_design
+from foldprint.core.errors import DesignError
 
 BOX = {
     "schema": 1, "name": "box",
@@ -134,7 +134,7 @@ def test_hinge_graph_with_a_loop_is_accepted():
         "hinges": [{"id": "ab", "panels": ["a", "b"], "angle_deg": 90, "material": "H-1"},
                    {"id": "bc", "panels": ["b", "c"], "angle_deg": 90, "material": "H-1"},
                    {"id": "ca", "panels": ["c", "a"], "angle_deg": 90, "material": "H-1"}]}
-    from foldprint.design import spanning_tree
+    from foldprint.model.design import spanning_tree
     tree, loops = spanning_tree(design_from_dict(data, "loop.toml"))
     assert len(tree) == 2 and [h.id for h, _, _ in loops] == ["bc"]  # BFS from a: ab, ca
 

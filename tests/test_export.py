@@ -21,17 +21,17 @@ import numpy as np
 import pytest
 
 import foldprint
-from foldprint.design import strip
-from foldprint.design_io import design_from_dict
-from foldprint.load import load_design
-from foldprint.errors import ExportError
+from foldprint.model.design import strip
+from foldprint.io.design_io import design_from_dict
+from foldprint.io.load import load_design
+from foldprint.core.errors import ExportError
 from foldprint.exchange.export import FORMATS, export_assembly
-from foldprint.pipeline import export as export_design
+from foldprint.apps.pipeline import export as export_design
 from foldprint.exchange.stl import read_stl_volume
 from foldprint.exchange.threemf import REL_DESIGN
 from foldprint.geometry import build_assembly
-from foldprint.materials import default_library
-from foldprint.recovery import fold_time
+from foldprint.model.materials import default_library
+from foldprint.physics.recovery import fold_time
 
 TEMPLATES = sorted((Path(__file__).resolve().parent.parent / "templates").glob("*.toml"))
 #: see tests/test_geometry.py: templates whose permanent state does not build

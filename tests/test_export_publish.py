@@ -9,7 +9,7 @@ import shutil
 
 import pytest
 
-from foldprint.errors import ExportError
+from foldprint.core.errors import ExportError
 from foldprint.exchange.files import CURRENT, SETS, recover, write_set
 
 OLD = [("a.3mf", b"old a"), ("b.stl", b"old b"), ("only_old.stl", b"old c")]

@@ -11,9 +11,9 @@ import shapely
 from shapely.geometry import Polygon
 import pytest
 
-from foldprint.design import Design, Goal, Hinge, HingeStyle, Panel, Process, strip
-from foldprint.load import load_design
-from foldprint.errors import DesignError
+from foldprint.model.design import Design, Goal, Hinge, HingeStyle, Panel, Process, strip
+from foldprint.io.load import load_design
+from foldprint.core.errors import DesignError
 from foldprint.exchange.fold import (design_from_fold, design_from_fold_file, design_to_fold,
                                      fold_bytes, write_fold)
 

@@ -26,9 +26,9 @@ import tomli_w
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
-import foldprint.checks  # noqa: E402,F401  (imported once: every forked case starts warm)
-import foldprint.cli  # noqa: E402,F401
-import foldprint.pipeline  # noqa: E402,F401
+import foldprint.checks.rules  # noqa: E402,F401  (imported once: every forked case starts warm)
+import foldprint.cli.commands  # noqa: E402,F401
+import foldprint.apps.pipeline  # noqa: E402,F401
 
 ROOT = Path(__file__).resolve().parents[1]
 TEMPLATES = sorted((ROOT / "templates").glob("*.toml"))
@@ -144,7 +144,7 @@ def run_case(args: list[str], cwd: Path, budget: float = BUDGET_S) -> dict:
             os.dup2(fe, 2)
             sys.stdout = io.TextIOWrapper(os.fdopen(1, "wb", closefd=False), write_through=True)
             sys.stderr = io.TextIOWrapper(os.fdopen(2, "wb", closefd=False), write_through=True)
-            from foldprint.cli import main
+            from foldprint.cli.commands import main
 
             code = main(args)
         except BaseException:

@@ -24,9 +24,9 @@ from hypothesis import strategies as hs
 
 from fuzz_gen import (FILE_NAMES, PLANTS, SMALL_DESIGN, command_lines, fold_documents, plant,
                       svg_documents)
-from foldprint.errors import ExportError, FoldprintError
+from foldprint.core.errors import ExportError, FoldprintError
 from foldprint.exchange.files import write_set
-from foldprint.load import load_design
+from foldprint.io.load import load_design
 
 SCALE = float(os.environ.get("FOLDPRINT_FUZZ_CASES", "200")) / 200  # 1 at the suite's default
 LOAD_BUDGET_S = 30.0

@@ -1,4 +1,4 @@
-"""The HTML gallery (foldprint.gallery) and the 3D renders behind it (foldprint.render3d).
+"""The HTML gallery (foldprint.apps.gallery) and the 3D renders behind it (foldprint.render.stills).
 
 One gallery of two small templates is built per module; the page is checked as files
 (every image referenced exists and is valid, every file referenced exists, offline, valid
@@ -23,10 +23,10 @@ from urllib.parse import unquote
 import pytest
 from PIL import Image
 
-from foldprint.design import strip
-from foldprint.load import load_design
-from foldprint.gallery import build_gallery
-from foldprint.templates import templates_dir
+from foldprint.model.design import strip
+from foldprint.io.load import load_design
+from foldprint.apps.gallery import build_gallery
+from foldprint.io.templates import templates_dir
 
 FAILING = "self_lock_uniform"  # collides (panels p1 and p6) with the printed, arc hinges
 JAMS = "helix_uniform"  # the paper's Sample 1: folds nominally, jams under scatter (check: FP180)
@@ -258,9 +258,9 @@ def test_gallery_is_deterministic(tmp_path, monkeypatch):
 # -- render3d -----------------------------------------------------------------------------
 
 def test_render3d_states_frames_and_gif():
-    from foldprint import render3d, render_anim
-    from foldprint.render import figure_bytes
-    from foldprint.simulate import simulate
+    from foldprint.render import stills as render3d, anim as render_anim
+    from foldprint.render.figures import figure_bytes
+    from foldprint.simulation.simulate import simulate
 
     d = load_design(templates_dir() / "self_lock_uniform.toml")
     assert render3d.camera_for(d).azim == -90.0  # a strip: side view along y
@@ -287,9 +287,9 @@ def test_render3d_shows_the_structure():
     flat side view of a strip the drawing spans the strip's length."""
     import numpy as np
 
-    from foldprint import render3d
-    from foldprint.materials import default_library
-    from foldprint.render import figure_bytes
+    from foldprint.render import stills as render3d
+    from foldprint.model.materials import default_library
+    from foldprint.render.figures import figure_bytes
 
     d = strip("bar", [40.0, 40.0], [90.0], ["H-7"])
     png = figure_bytes(render3d.render_state(d, render3d.state_poses(d, "programmed"), "flat"), dpi=100)
@@ -413,11 +413,11 @@ def test_viewer_data_is_the_printed_part_in_the_simulated_poses():
     import numpy as np
 
     from foldprint.geometry.hinges import hinge_segments
-    from foldprint.kinematics import forward, hinge_frames, target_angles
-    from foldprint.materials import default_library
-    from foldprint.render_scene import motion_end
-    from foldprint.simulate import simulate
-    from foldprint.viewer import RIBBON_SECTIONS, viewer_data
+    from foldprint.physics.kinematics import forward, hinge_frames, target_angles
+    from foldprint.model.materials import default_library
+    from foldprint.render.scene import motion_end
+    from foldprint.simulation.simulate import simulate
+    from foldprint.render.viewer import RIBBON_SECTIONS, viewer_data
 
     d = load_design(templates_dir() / "self_lock.toml")
     res = simulate(d, dt=0.02, hinge_model="arc")
@@ -516,8 +516,8 @@ def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
 def test_fold_time_table_equals_the_recovery_curves(lib):
     """The vectorised table gives each recovery curve's own 98 % time, including 'never'
     (a bath far below Tg) and a thicker hinge."""
-    from foldprint.recovery import recovery_curve
-    from foldprint.recovery_table import fold_times
+    from foldprint.physics.recovery import recovery_curve
+    from foldprint.physics.recovery_table import fold_times
 
     baths = [20.0, 71.5, 84.0, 100.0]
     for name, thick in (("H-1", 0.8), ("H-4", 1.2), ("H-7", 0.8)):
@@ -549,8 +549,8 @@ def test_gallery_gives_the_verdict_of_foldprint_check(gallery, capsys):
     gallery's check, run in a worker process, is the command's own, with its samples and
     seed (same jam probability, interval, pairs, findings, exit status), and the summary
     row says so."""
-    from foldprint import constants
-    from foldprint.cli import main
+    from foldprint.core import constants
+    from foldprint.cli.commands import main
 
     _, out, index, _ = gallery
     code = main(["check", JAMS, "--json"])
@@ -620,7 +620,7 @@ def test_viewer_replays_the_worst_sample(gallery):
 
     import numpy as np
 
-    from foldprint.constants import tol
+    from foldprint.core.constants import tol
 
     _, out, _, _ = gallery
     for name in (JAMS, FAILING):

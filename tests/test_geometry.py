@@ -18,13 +18,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import MultiPoint, Polygon
 
-from foldprint.design import Design, Hinge, HingeStyle, Panel, strip, validate
-from foldprint.load import load_design
-from foldprint.errors import GeometryError
+from foldprint.model.design import Design, Hinge, HingeStyle, Panel, strip, validate
+from foldprint.io.load import load_design
+from foldprint.core.errors import GeometryError
 from foldprint.geometry import (BEND_VOLUME_RATIO_MIN, STATES, TEETH_OVERLAP, arc_transform, build_assembly,
                                 build_pieces, hinge_segments, layout, panel_solids, strip_profile)
-from foldprint.design import has_loops, tangent_factor
-from foldprint.kinematics import hinge_frames, local_transforms
+from foldprint.model.design import has_loops, tangent_factor
+from foldprint.physics.kinematics import hinge_frames, local_transforms
 
 TEMPLATES = sorted((Path(__file__).resolve().parent.parent / "templates").glob("*.toml"))
 TEMPLATE_IDS = [p.stem for p in TEMPLATES]
@@ -148,8 +148,8 @@ def test_known_unprintable_templates_still_fail(name):
 @pytest.mark.parametrize("path", TEMPLATES, ids=TEMPLATE_IDS)
 def test_rigid_parts_match_the_collision_model(path):
     """The printed panels (plus the teeth in their notches) are exactly the rigid parts
-    the collision checks use under the arc model (``foldprint.rigid``)."""
-    from foldprint.rigid import rigid_polygon
+    the collision checks use under the arc model (``foldprint.collision.rigid``)."""
+    from foldprint.collision.rigid import rigid_polygon
 
     design = _design(str(path))
     lays, rigid = layout(design)

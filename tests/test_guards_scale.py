@@ -7,13 +7,13 @@ import tracemalloc
 
 import pytest
 
-from foldprint import guards
-from foldprint.cli import main
-from foldprint.crease_patterns import miura
-from foldprint.design import strip
-from foldprint.fold_format import design_from_fold
-from foldprint.load import load_design
-from foldprint.simulate import simulate
+from foldprint.core import guards
+from foldprint.cli.commands import main
+from foldprint.model.crease_patterns import miura
+from foldprint.model.design import strip
+from foldprint.io.fold_format import design_from_fold
+from foldprint.io.load import load_design
+from foldprint.simulation.simulate import simulate
 from pathlib import Path
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
@@ -87,7 +87,7 @@ def test_check_refuses_samples_over_its_memory_limit_at_once(capsys):
 def test_export_refused_before_building(tmp_path, monkeypatch, capsys):
     """Over the time budget, export refuses from the design alone: no geometry is built
     and no output directory is left."""
-    import foldprint.pipeline as pipeline
+    import foldprint.apps.pipeline as pipeline
 
     def boom(*a, **k):
         raise AssertionError("built despite the refusal")

@@ -20,8 +20,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from foldprint.geometry import bed_report, build_assembly
-from foldprint.load import load_design
-from foldprint.pipeline import export as export_design
+from foldprint.io.load import load_design
+from foldprint.apps.pipeline import export as export_design
 
 ROOT = Path(__file__).resolve().parent.parent
 TEMPLATES = sorted((ROOT / "templates").glob("*.toml"))
@@ -292,7 +292,7 @@ def test_xdmf_series_has_every_simulated_step(handoffs):
     import meshio
 
     from foldprint.exchange.export import ANIMATION_DT_S
-    from foldprint.simulate import simulate
+    from foldprint.simulation.simulate import simulate
 
     design, recs = handoffs
     traj = simulate(design, hinge_model="arc", dt=ANIMATION_DT_S).trajectory
@@ -333,7 +333,7 @@ def _glb_json(path) -> dict:
 def test_glb_loads_in_trimesh_with_one_animated_node_per_moving_part(handoffs):
     import trimesh
 
-    from foldprint.materials import default_library
+    from foldprint.model.materials import default_library
 
     design, recs = handoffs
     rec = recs["glb"]
@@ -363,7 +363,7 @@ def test_glb_loads_in_trimesh_with_one_animated_node_per_moving_part(handoffs):
 
 
 def test_trajectory_formats_need_the_trajectory(tmp_path):
-    from foldprint.errors import ExportError
+    from foldprint.core.errors import ExportError
     from foldprint.exchange.export import export_assembly
 
     design = _design("helix_graded")
@@ -435,7 +435,7 @@ def test_glb_last_keyframe_is_the_xdmf_last_step(handoffs):
 def test_fold_holes_round_trip(specs):
     from shapely.geometry import Polygon as P
 
-    from foldprint.design import Design, Hinge, Panel
+    from foldprint.model.design import Design, Hinge, Panel
     from foldprint.exchange.fold import design_from_fold, design_to_fold
 
     holes, taken = [], []

@@ -10,13 +10,13 @@ import math
 import numpy as np
 import pytest
 
-from foldprint import crease_patterns as cp
-from foldprint.cli import main
-from foldprint.design import strip
-from foldprint.errors import DesignError
-from foldprint.fold_format import design_from_fold
-from foldprint.kinematics import HingeDrive, simulate_kinematics
-from foldprint.materials import default_library
+from foldprint.model import crease_patterns as cp
+from foldprint.cli.commands import main
+from foldprint.model.design import strip
+from foldprint.core.errors import DesignError
+from foldprint.io.fold_format import design_from_fold
+from foldprint.physics.kinematics import HingeDrive, simulate_kinematics
+from foldprint.model.materials import default_library
 
 DURATION = 3.0  # s: the default H-3 creases finish folding by ~2 s at 90 C
 
@@ -233,9 +233,9 @@ def test_relief_keeps_strips_and_panels_apart():
     import shapely
     from shapely.geometry import LineString
 
-    from foldprint.load import load_design
-    from foldprint.relief import relief_vertices, relieve
-    from foldprint.templates import templates_dir
+    from foldprint.io.load import load_design
+    from foldprint.model.relief import relief_vertices, relieve
+    from foldprint.io.templates import templates_dir
 
     d = load_design(templates_dir() / "miura_3x3.toml")
     assert len(relief_vertices(d)) >= 4
@@ -251,8 +251,8 @@ def test_relief_keeps_strips_and_panels_apart():
 
 
 def test_relief_too_thin_is_a_design_rule_error():
-    from foldprint.errors import GeometryError
-    from foldprint.relief import relieve
+    from foldprint.core.errors import GeometryError
+    from foldprint.model.relief import relieve
 
     d = design_from_fold(cp.miura(2, 2, width=6.0, height=5.0, shift=2.0), default_radius_mm=5.0)
     with pytest.raises(GeometryError, match="relief"):
@@ -281,9 +281,9 @@ def test_loop_hinge_turns_about_its_fold_line_and_prints_the_tangent_arc():
     point-hinge rotation about the fold line, and the strip is the circular arc tangent to
     both panels (set back w/2 from the fold line): its line at u lies at the distance
     r = w f / |rho| from the arc's centre, f = (rho/2)/tan(rho/2), and turns by rho u / w."""
-    from foldprint.kinematics import hinge_frames, hinge_map
-    from foldprint.load import load_design
-    from foldprint.templates import templates_dir
+    from foldprint.physics.kinematics import hinge_frames, hinge_map
+    from foldprint.io.load import load_design
+    from foldprint.io.templates import templates_dir
 
     d = load_design(templates_dir() / "miura_3x3.toml")
     for f in hinge_frames(d):
@@ -310,9 +310,9 @@ def test_loop_hinge_strain_adds_the_stretch_of_the_tangent_arc():
     """FP130/131 for a loop hinge: bending t / (2 R f) plus stretching 1/f - 1. The
     Miura template (60 deg, R 5 mm, t 0.8 mm) sits at 19 %, under the 20 % warning; the
     same patch at 110 deg and R 2.5 mm (the first template) is an error at 73 %."""
-    from foldprint.checks import rule_hinge_strain
-    from foldprint.load import load_design
-    from foldprint.templates import templates_dir
+    from foldprint.checks.rules import rule_hinge_strain
+    from foldprint.io.load import load_design
+    from foldprint.io.templates import templates_dir
 
     class Ctx:
         library = default_library()
@@ -338,8 +338,8 @@ def test_miura_template_exports_and_prusaslicer_slices(tmp_path, capsys):
     rec = json.loads(capsys.readouterr().out)
     assert code == 0
     from foldprint.geometry import build_assembly
-    from foldprint.load import load_design
-    from foldprint.templates import templates_dir
+    from foldprint.io.load import load_design
+    from foldprint.io.templates import templates_dir
 
     asm = build_assembly(load_design(templates_dir() / "miura_3x3.toml"), "permanent")
     import manifold3d as mf
@@ -374,9 +374,9 @@ def test_a_small_programming_bias_selects_the_miura_branch():
     side of its target for the same draws (docs/loops.md, branch selection)."""
     from dataclasses import replace
 
-    from foldprint.load import load_design
-    from foldprint.robust import default_scatter, draw_samples, sample_drive
-    from foldprint.templates import templates_dir
+    from foldprint.io.load import load_design
+    from foldprint.simulation.robust import default_scatter, draw_samples, sample_drive
+    from foldprint.io.templates import templates_dir
 
     d = load_design(templates_dir() / "miura_3x3.toml")
     assert all(h.fixity == 0.99 for h in d.hinges)

@@ -1,7 +1,7 @@
 import pytest
 
-from foldprint.errors import MaterialError
-from foldprint.materials import default_library, load_library
+from foldprint.core.errors import MaterialError
+from foldprint.model.materials import default_library, load_library
 
 
 def test_seven_hinge_materials_with_rising_tg(lib):

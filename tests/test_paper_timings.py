@@ -9,10 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from foldprint.materials import default_library
-from foldprint.paper_timings import (ModelValue, Statement, load_statements, measure,
+from foldprint.model.materials import default_library
+from foldprint.simulation.paper_timings import (ModelValue, Statement, load_statements, measure,
                                      sample1_contact_ratio, verdict)
-from foldprint.recovery import recovery_curve
+from foldprint.physics.recovery import recovery_curve
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "structure-timings.md"
 
@@ -69,7 +69,7 @@ def test_sample1_contact_ratio_is_set_by_the_geometry():
     another time."""
     lib = default_library()
     r0 = sample1_contact_ratio(lib)
-    from foldprint.materials import MaterialLibrary
+    from foldprint.model.materials import MaterialLibrary
 
     m = lib["H-3"]
     slower = replace(m, recovery=replace(m.recovery, h_w_m2k=m.recovery.h_w_m2k * 0.5))
@@ -126,8 +126,8 @@ def test_the_joint_fit_file_is_the_docs_joint_column():
     """foldprint/data/recovery_structure_fit.toml (the joint fit, not adopted) loads as a
     user materials file, gives every hinge material the same parameters, and its free-hinge
     Fig. 1b spreads are the docs' joint-fit column."""
-    from foldprint.materials import load_library
-    from foldprint.recovery_table import fold_times
+    from foldprint.model.materials import load_library
+    from foldprint.physics.recovery_table import fold_times
 
     path = Path(__file__).resolve().parent.parent / "foldprint" / "data" / "recovery_structure_fit.toml"
     lib = load_library(path)

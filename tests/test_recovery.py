@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from foldprint.recovery import (fold_time, log10_shift, recovery_curve, slab_temperature, spectrum)
+from foldprint.physics.recovery import (fold_time, log10_shift, recovery_curve, slab_temperature, spectrum)
 
 TEMPS = (70.0, 80.0, 90.0, 100.0)
 
@@ -132,14 +132,14 @@ def test_vectorised_evaluation_is_fast(lib):
 
 
 def test_panel_material_has_no_recovery(lib):
-    from foldprint.errors import MaterialError
+    from foldprint.core.errors import MaterialError
 
     with pytest.raises(MaterialError, match="VeroWhite"):
         recovery_curve(lib["VeroWhite"], 90.0)
 
 
 def test_invalid_inputs_raise(lib):
-    from foldprint.errors import MaterialError
+    from foldprint.core.errors import MaterialError
 
     with pytest.raises(MaterialError, match="thickness"):
         recovery_curve(lib["H-1"], 90.0, thickness_mm=0.0)

@@ -1,4 +1,4 @@
-"""The Monte-Carlo's fast path: batched recovery curves (foldprint.recovery_batch) against
+"""The Monte-Carlo's fast path: batched recovery curves (foldprint.physics.recovery_batch) against
 the exact per-curve model, the chunked and guarded jam probability, the worker pool."""
 
 import inspect
@@ -10,15 +10,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from foldprint.cli import main
-from foldprint.constants import CHECK_SAMPLES
-from foldprint.guards import ResourceError, check_samples
-from foldprint.load import load_design
-from foldprint.recovery import _curve, _slab_roots
-from foldprint.recovery_batch import batch_ratios, grid_until, slab_roots
-from foldprint.robust import (default_scatter, draw_samples, iter_samples, jam_probability, run_end, run_samples,
+from foldprint.cli.commands import main
+from foldprint.core.constants import CHECK_SAMPLES
+from foldprint.core.guards import ResourceError, check_samples
+from foldprint.io.load import load_design
+from foldprint.physics.recovery import _curve, _slab_roots
+from foldprint.physics.recovery_batch import batch_ratios, grid_until, slab_roots
+from foldprint.simulation.robust import (default_scatter, draw_samples, iter_samples, jam_probability, run_end, run_samples,
                               sample_drive, sample_drives, wilson)
-from foldprint.templates import resolve_design_path
+from foldprint.io.templates import resolve_design_path
 
 #: What the batch path may differ from the exact curve by: round-off (measured 3e-16).
 ROUND_OFF = 1e-12
@@ -133,7 +133,8 @@ def test_millions_of_samples_are_refused_with_the_estimate(capsys):
 def test_check_default_samples_separate_the_thresholds():
     """One constant: the CLI and the pipeline use it, and at it the 95 % intervals at 5 %
     and 20 % jam probability do not overlap (they do at the old 20)."""
-    from foldprint import cli, pipeline
+    from foldprint.cli import commands as cli
+    from foldprint.apps import pipeline
 
     assert inspect.signature(pipeline.evaluate).parameters["samples"].default == CHECK_SAMPLES
     assert inspect.signature(cli.check).parameters["samples"].default.default == CHECK_SAMPLES
@@ -149,13 +150,13 @@ def _blas_threads(_):
 
 
 def test_workers_run_with_one_blas_thread():
-    from foldprint.parallel import map_ordered
+    from foldprint.core.parallel import map_ordered
 
     assert map_ordered(_blas_threads, iter(range(4)), workers=2, total=4) == [1, 1, 1, 1]
 
 
 def test_map_ordered_streams_a_generator_in_order():
-    from foldprint.parallel import map_ordered
+    from foldprint.core.parallel import map_ordered
 
     seen = []
     out = map_ordered(abs, (-k for k in range(30)), workers=2, total=30, progress=lambda d, n: seen.append((d, n)))

@@ -11,9 +11,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
-from foldprint import svg_format
-from foldprint.cli import main
-from foldprint.load import load_design
+from foldprint.io import svg_format
+from foldprint.cli.commands import main
+from foldprint.io.load import load_design
 
 TOML = (__import__("pathlib").Path(__file__).resolve().parents[1] / "templates" / "helix_graded.toml").read_text()
 FOLD = {"file_spec": 1.2, "frame_unit": "mm", "vertices_coords": [[0, 0], [10, 0], [10, 6], [0, 6], [20, 0], [20, 6]],
@@ -137,13 +137,13 @@ def test_absurd_option_exits_2_naming_it(capsys, argv):
 
 
 def test_internal_error_exits_3_with_a_short_report(capsys, monkeypatch):
-    import foldprint.pipeline
+    import foldprint.apps.pipeline
 
     def boom(*a, **kw):
         raise ZeroDivisionError("a bug")
 
     monkeypatch.delenv("FOLDPRINT_TRACEBACK", raising=False)
-    monkeypatch.setattr(foldprint.pipeline, "run_simulation", boom)
+    monkeypatch.setattr(foldprint.apps.pipeline, "run_simulation", boom)
     code = main(["simulate", "helix_graded"])
     out, err = capsys.readouterr()
     assert code == 3 and out == ""
@@ -152,10 +152,10 @@ def test_internal_error_exits_3_with_a_short_report(capsys, monkeypatch):
 
 
 def test_internal_error_traceback_on_request(capsys, monkeypatch):
-    import foldprint.pipeline
+    import foldprint.apps.pipeline
 
     monkeypatch.setenv("FOLDPRINT_TRACEBACK", "1")
-    monkeypatch.setattr(foldprint.pipeline, "run_simulation", lambda *a, **k: 1 / 0)
+    monkeypatch.setattr(foldprint.apps.pipeline, "run_simulation", lambda *a, **k: 1 / 0)
     assert main(["simulate", "helix_graded"]) == 3
     assert "Traceback" in capsys.readouterr().err
 

@@ -1,4 +1,4 @@
-"""Replaying Monte-Carlo samples (foldprint.pipeline.worst_sample, replay_sample): the
+"""Replaying Monte-Carlo samples (foldprint.apps.pipeline.worst_sample, replay_sample): the
 sample the gallery's viewer shows beside the nominal fold."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from foldprint.constants import tol
-from foldprint.design import strip
-from foldprint.load import load_design
-from foldprint.pipeline import replay_sample, worst_sample
-from foldprint.robust import Outcome, jam_probability, outcome_of
-from foldprint.templates import templates_dir
+from foldprint.core.constants import tol
+from foldprint.model.design import strip
+from foldprint.io.load import load_design
+from foldprint.apps.pipeline import replay_sample, worst_sample
+from foldprint.simulation.robust import Outcome, jam_probability, outcome_of
+from foldprint.io.templates import templates_dir
 
 _PAIRS = [("p1", "p2"), ("p1", "p6"), ("p2", "p5")]
 _outcome = st.one_of(

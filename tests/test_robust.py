@@ -1,4 +1,4 @@
-"""Jam probability under scatter (foldprint.robust, foldprint robust)."""
+"""Jam probability under scatter (foldprint.simulation.robust, foldprint robust)."""
 
 import json
 import math
@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 from scipy.stats import binomtest
 
-from foldprint.cli import main
-from foldprint.design import strip
-from foldprint.materials import default_library
-from foldprint.robust import (Scatter, default_scatter, draw_samples, jam_probability, load_scatter,
+from foldprint.cli.commands import main
+from foldprint.model.design import strip
+from foldprint.model.materials import default_library
+from foldprint.simulation.robust import (Scatter, default_scatter, draw_samples, jam_probability, load_scatter,
                               sample_drive, wilson)
-from foldprint.scatter import KEYS
-from foldprint.simulate import simulate
+from foldprint.simulation.scatter import KEYS
+from foldprint.simulation.simulate import simulate
 
 
 @pytest.mark.parametrize("k,n", [(0, 60), (1, 60), (6, 60), (30, 60), (60, 60), (3, 7)])

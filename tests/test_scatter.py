@@ -1,6 +1,6 @@
-"""The scatter model's split (foldprint.scatter): what a part or run shares, what varies
+"""The scatter model's split (foldprint.simulation.scatter): what a part or run shares, what varies
 hinge to hinge; common random numbers; contributions and the sigma sweep
-(foldprint.sensitivity)."""
+(foldprint.simulation.sensitivity)."""
 
 import json
 
@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from foldprint.cli import main
-from foldprint.design import strip
-from foldprint.design_io import design_to_toml
-from foldprint.errors import DesignError
-from foldprint.robust import jam_probability
-from foldprint.scatter import COMPONENTS, KEYS, Scatter, default_scatter, draw_samples
-from foldprint.sensitivity import contributions, parse_scales, sweep
+from foldprint.cli.commands import main
+from foldprint.model.design import strip
+from foldprint.io.design_io import design_to_toml
+from foldprint.core.errors import DesignError
+from foldprint.simulation.robust import jam_probability
+from foldprint.simulation.scatter import COMPONENTS, KEYS, Scatter, default_scatter, draw_samples
+from foldprint.simulation.sensitivity import contributions, parse_scales, sweep
 
 D = strip("s", [20, 20, 25, 25, 30], [90, 90, 90, 90], ["H-2", "H-3", "H-3", "H-5"])
 
@@ -128,8 +128,8 @@ def test_shared_scatter_keeps_identical_hinges_identical():
     """The physics of the split: a bath or a correlation error shared by the part moves
     every hinge of a uniform strip the same way (the nominal path, at another pace); the
     per-hinge components make them differ."""
-    from foldprint.materials import default_library
-    from foldprint.robust import sample_drive
+    from foldprint.model.materials import default_library
+    from foldprint.simulation.robust import sample_drive
 
     d = strip("u", [20, 22, 24, 26], [90, 90, 90], ["H-3"] * 3)
     sc = default_scatter().scaled(2.0)
@@ -144,10 +144,10 @@ def test_shared_scatter_keeps_identical_hinges_identical():
 
 def test_streamed_samples_are_the_drawn_samples():
     """Streaming in blocks gives the very numbers of one draw (bounded memory, same answer)."""
-    from foldprint.scatter import iter_samples
+    from foldprint.simulation.scatter import iter_samples
 
-    from foldprint.load import load_design
-    from foldprint.templates import resolve_design_path
+    from foldprint.io.load import load_design
+    from foldprint.io.templates import resolve_design_path
 
     d = load_design(resolve_design_path("helix_graded"))
     sc = default_scatter()

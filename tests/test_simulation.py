@@ -9,14 +9,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString
 
-from foldprint.clearance import gaps_in_pose, min_clearance
-from foldprint.collision2d import collision_index, index_arrays, paper_contact, world_side_segments
-from foldprint.collision3d import SweptChecker, non_adjacent_pairs, swept_first_contact
-from foldprint.design import strip
-from foldprint.load import load_design
-from foldprint.kinematics import HingeDrive, forward, simulate_kinematics, transform_points
-from foldprint.pipeline import build
-from foldprint.simulate import simulate
+from foldprint.collision.clearance import gaps_in_pose, min_clearance
+from foldprint.collision.index2d import collision_index, index_arrays, paper_contact, world_side_segments
+from foldprint.collision.swept3d import SweptChecker, non_adjacent_pairs, swept_first_contact
+from foldprint.model.design import strip
+from foldprint.io.load import load_design
+from foldprint.physics.kinematics import HingeDrive, forward, simulate_kinematics, transform_points
+from foldprint.apps.pipeline import build
+from foldprint.simulation.simulate import simulate
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
@@ -121,7 +121,7 @@ def test_index_agrees_with_shapely_on_random_strips(lengths, data):
     angles = data.draw(st.lists(st.floats(-175, 175), min_size=n - 1, max_size=n - 1))
     d = strip("x", lengths, angles, ["H-1"] * (n - 1))
     poses = forward(d, np.linspace(0, 1, 5)[:, None] * np.radians(angles)[None], "point")
-    from foldprint.kinematics import Trajectory
+    from foldprint.physics.kinematics import Trajectory
     tr = Trajectory(d, np.arange(5.0), np.zeros((5, n - 1)), np.zeros((5, n - 1)), poses, "point", 90.0, (), ())
     idx = collision_index(tr)
     segs = world_side_segments(d, poses, "point")
@@ -149,7 +149,7 @@ def test_contact_between_samples_is_found_and_matches_dense_sampling():
     coarse = simulate_kinematics(d, dt=0.5, duration=5.0, model="point")
     drive = HingeDrive(d)
     checker = SweptChecker(d, "point", drive)
-    from foldprint.rigid import rigid_polygon
+    from foldprint.collision.rigid import rigid_polygon
 
     meshes = []
     for i, p in enumerate(d.panels):
@@ -243,7 +243,7 @@ def test_self_lock_is_robust_to_scatter_and_the_paper_rom_differs():
     """The holes admit the printed part as it varies (nominal + 20 scatter samples, design
     seed 100): fresh draws (seed 1) do not jam. The paper's point ROM, which the holes were
     not cut for, moves differently and strikes the plate (reported as a disagreement)."""
-    from foldprint.robust import jam_probability
+    from foldprint.simulation.robust import jam_probability
 
     d = template("self_lock")
     r = jam_probability(d, 12, 1)

@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from foldprint.cli import main
-from foldprint.errors import DesignError
-from foldprint.load import load_design
-from foldprint.svg_format import design_from_svg, fold_from_svg
+from foldprint.cli.commands import main
+from foldprint.core.errors import DesignError
+from foldprint.io.load import load_design
+from foldprint.io.svg_format import design_from_svg, fold_from_svg
 
 DATA = Path(__file__).parent / "data" / "origami_simulator"
 

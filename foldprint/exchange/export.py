@@ -2,7 +2,7 @@
 hand-offs: FOLD crease pattern, Abaqus input (FEM), XDMF time series (ParaView),
 animated glTF binary.
 
-This module only writes: the assembly comes built from :mod:`foldprint.pipeline`.
+This module only writes: the assembly comes built from :mod:`foldprint.apps.pipeline`.
 
 Everything is built in memory first; only then is the set written, as a whole
 (:func:`~foldprint.exchange.files.write_set`: staging directory, commit journal, renames),
@@ -26,11 +26,11 @@ from typing import Iterable
 
 import numpy as np
 
-from ..design import Design
-from ..errors import ExportError
+from ..model.design import Design
+from ..core.errors import ExportError
 from ..geometry import Assembly, bed_report
-from ..kinematics import Trajectory
-from ..materials import MaterialLibrary, default_library
+from ..physics.kinematics import Trajectory
+from ..model.materials import MaterialLibrary, default_library
 from .fem import inp_bytes
 from .files import write_set
 from .fold import fold_bytes
@@ -95,7 +95,7 @@ def _needs_trajectory(formats, trajectory) -> None:
     need = [f for f in formats if f in TRAJECTORY_FORMATS]
     if need and trajectory is None:
         raise ExportError(f"format(s) {need} show the fold over time and need its simulated trajectory; "
-                          "export through foldprint.pipeline.export, which runs the simulation")
+                          "export through foldprint.apps.pipeline.export, which runs the simulation")
 
 
 def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_FORMATS,

@@ -11,7 +11,7 @@ quadrilaterals:
   rows through the thickness at most ``element_size`` and at most t_min / ``through``
   apart; all blocks share one set of through-thickness levels, so a thinner block's rows
   are a subset of a thicker neighbour's and the mesh is conforming at every interface;
-* panels are placed with the arc-model poses (:func:`foldprint.kinematics.forward`), hinge
+* panels are placed with the arc-model poses (:func:`foldprint.physics.kinematics.forward`), hinge
   nodes with the arc map across the strip (:func:`foldprint.geometry.arc_transform`);
 * element sets: ``MAT_<material>`` per material (panels and each hinge material),
   ``HINGE_<id>`` per hinge, ``PANEL_<id>`` per panel; node sets ``ROOT`` (the clamped root
@@ -37,10 +37,10 @@ import meshio
 import numpy as np
 
 from .. import __version__
-from ..design import Design
-from ..errors import ExportError
+from ..model.design import Design
+from ..core.errors import ExportError
 from ..geometry import MAX_SLICE_RAD, arc_transform, state_angles
-from ..kinematics import forward, hinge_frames
+from ..physics.kinematics import forward, hinge_frames
 
 #: Default element size (mm) along the strip and the largest through the thickness.
 ELEMENT_SIZE_MM = 0.25

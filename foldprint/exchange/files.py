@@ -38,7 +38,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..errors import ExportError
+from ..core.errors import ExportError
 
 SETS = ".foldprint-sets"
 CURRENT = ".foldprint-current"

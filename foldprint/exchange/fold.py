@@ -4,7 +4,7 @@ One counter-clockwise face per panel, shared vertices merged, panel sides split 
 vertex or hinge end lying on them, so each hinge is exactly one or more "V"/"M"/"F"
 edges; every other edge (a common side without a hinge too) is "B". foldprint's own data
 rides in ``faces_foldprint:*``, ``edges_foldprint:*`` and ``foldprint:design``; the
-reader is :mod:`foldprint.fold_format`.
+reader is :mod:`foldprint.io.fold_format`.
 
 Holes: a FOLD face is one simple polygon (``faces_vertices`` is a single cycle), so a
 panel with holes is written as several holeless faces, cut at x = the centroid of each
@@ -28,11 +28,11 @@ from shapely.geometry.polygon import orient
 from shapely.ops import split
 
 from .. import __version__
-from ..constants import tol
-from ..design import Design
-from ..design_io import design_to_dict
-from ..errors import DesignError, where
-from ..fold_format import (_DESIGN_KEYS, _HINGE_EXTRA, _LINE_TOL, _index_face_edges, _project, _ring_edges,  # noqa: F401
+from ..core.constants import tol
+from ..model.design import Design
+from ..io.design_io import design_to_dict
+from ..core.errors import DesignError, where
+from ..io.fold_format import (_DESIGN_KEYS, _HINGE_EXTRA, _LINE_TOL, _index_face_edges, _project, _ring_edges,  # noqa: F401
                            design_from_fold, design_from_fold_file)
 from .files import write_atomic
 

@@ -23,9 +23,9 @@ import pygltflib as gl
 from scipy.spatial.transform import Rotation
 
 from .. import __version__
-from ..design import Design
-from ..kinematics import Trajectory
-from ..materials import MaterialLibrary
+from ..model.design import Design
+from ..physics.kinematics import Trajectory
+from ..model.materials import MaterialLibrary
 from .motion import fold_surfaces, frames_of
 
 #: sheet frame (mm, +Z up) -> glTF (m, +Y up): a proper rotation and a scale

@@ -15,11 +15,11 @@ import manifold3d as mf
 import numpy as np
 from shapely.geometry.polygon import orient
 
-from ..design import Design
-from ..errors import ExportError
+from ..model.design import Design
+from ..core.errors import ExportError
 from ..geometry import layout, strip_profile
 from ..geometry.solids import _polygons
-from ..kinematics import HingeFrame, Trajectory, local_transforms
+from ..physics.kinematics import HingeFrame, Trajectory, local_transforms
 
 
 @dataclass(frozen=True, eq=False)

@@ -13,10 +13,10 @@ import math
 import numpy as np
 
 from .. import __version__
-from ..design import Design
+from ..model.design import Design
 from ..geometry import Assembly, Body
-from ..materials import MaterialLibrary, default_library
-from ..recovery import fold_time
+from ..model.materials import MaterialLibrary, default_library
+from ..physics.recovery import fold_time
 
 _RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
 

@@ -29,11 +29,11 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from .. import __version__
-from ..design import Design
-from ..design_io import design_to_toml
-from ..errors import ExportError
+from ..model.design import Design
+from ..io.design_io import design_to_toml
+from ..core.errors import ExportError
 from ..geometry import Assembly, Body
-from ..materials import MaterialLibrary, default_library
+from ..model.materials import MaterialLibrary, default_library
 
 APPLICATION = f"foldprint {__version__}"
 CORE_NS = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"

@@ -20,8 +20,8 @@ from pathlib import Path
 import meshio
 import numpy as np
 
-from ..design import Design
-from ..kinematics import Trajectory
+from ..model.design import Design
+from ..physics.kinematics import Trajectory
 from .motion import fold_surfaces, frames_of
 
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import manifold3d as mf
 import numpy as np
 
-from ..design import Design
-from ..errors import GeometryError
-from ..materials import MaterialLibrary, default_library
+from ..model.design import Design
+from ..core.errors import GeometryError
+from ..model.materials import MaterialLibrary, default_library
 from .hinges import _poses, state_angles, strip_solids
 from .layout import layout
 from .solids import BED_TOL, BOTTOM_FACE_RAD, VOLUME_RTOL, Assembly, Body, Piece, _checked, _extrude

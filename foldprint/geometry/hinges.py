@@ -8,9 +8,9 @@ import math
 import manifold3d as mf
 import numpy as np
 
-from ..design import Design, Hinge, has_loops, tangent_factor
-from ..errors import GeometryError
-from ..kinematics import HingeFrame, hinge_map, loop_gap_mm
+from ..model.design import Design, Hinge, has_loops, tangent_factor
+from ..core.errors import GeometryError
+from ..physics.kinematics import HingeFrame, hinge_map, loop_gap_mm
 from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, _checked, _from_arrays, apply_pose)
 
 # -- kinematics of the printed states ----------------------------------------------------
@@ -72,7 +72,7 @@ def _poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.n
 
 def arc_transform(frame: HingeFrame, rho: float, u: float) -> np.ndarray:
     """(4, 4) map of the strip line at width ``u`` (0 = parent edge, w = child edge) of
-    a hinge bent to ``rho``: :func:`foldprint.kinematics.hinge_map` at fraction u / w.
+    a hinge bent to ``rho``: :func:`foldprint.physics.kinematics.hinge_map` at fraction u / w.
     u = 0 gives the identity, u = w the child transform."""
     if rho == 0.0 or u <= 0.0:
         return np.eye(4)

@@ -10,10 +10,10 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
-from ..design import Design, Hinge
-from ..errors import GeometryError
-from ..kinematics import HingeFrame, hinge_frames
-from ..relief import relieve
+from ..model.design import Design, Hinge
+from ..core.errors import GeometryError
+from ..physics.kinematics import HingeFrame, hinge_frames
+from ..model.relief import relieve
 from .hinges import hinge_segments
 from .solids import (
     TEETH_GAP,

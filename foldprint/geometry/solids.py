@@ -12,7 +12,7 @@ import shapely
 from shapely.geometry import MultiPolygon, Polygon
 from shapely.geometry.polygon import orient
 
-from ..errors import GeometryError
+from ..core.errors import GeometryError
 
 STATES = ("permanent", "programmed")
 #: Largest bend per slice of a curved hinge (rad). A chord slice keeps sin(a)/a of the

@@ -1,0 +1,1 @@
+"""The evaluation pipeline and its callers: gallery, material assignment, Dask."""

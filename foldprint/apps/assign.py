@@ -1,0 +1,582 @@
+"""Inverse design: choose the hinge materials (and the bath temperature) under which the
+printed part folds, fast or with the widest margin or most robustly.
+
+The search uses the physics instead of enumerating the m^n assignments
+(``docs/assign.md``):
+
+1. **Fold order is what matters.** Materials are ranked by their fold time in the bath;
+   an assignment's *pattern* is the sequence of *waves* (groups of hinges sharing a
+   rank), fastest first. Phase 1 searches patterns, each wave ``i`` played by the
+   ``i``-th fastest material.
+2. **A collision found for a partial order prunes its completions.** A prefix (the first
+   waves) is simulated with every later hinge held in its programmed shape. Until the
+   next material's onset this is the real motion of every completion, so a prefix that
+   collides is never extended. Waves are connected groups of hinges (sharing panels) or
+   "all the rest"; the search is best first (most hinges placed, then the widest
+   clearance), expanding ``beam`` prefixes per round.
+3. **Near-equivalent assignments share a pattern.** Phase 2 maps each feasible pattern
+   onto the materials (increasing ranks, at each bath temperature of the range),
+   evaluating the mappings the objective prefers first, within a budget.
+4. **Screen cheap, confirm exact.** Planar strips are screened with the paper's 2D index
+   over the fold's own duration; the finalists are confirmed by the full simulation of
+   record (3D swept FCL check of the printed, arc-hinge geometry, every goal in order)
+   and their smallest clearance along the fold is measured. ``robust`` grows many small
+   waves in phase 1, ranks the screened assignments by a timing proxy (:func:`order_risk`),
+   screens the best under scatter and estimates the jam probability of the finalists.
+
+Every evaluation is a module-level function of a picklable task, run by a ``mapper``
+(local processes by default, a Dask cluster with :mod:`foldprint.apps.distributed`); the
+results come back in input order, so the answer does not depend on where it ran.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field, replace
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from ..collision.swept3d import SweptChecker
+from ..collision.clearance import min_clearance, permanent_crossings  # noqa: F401 (permanent_crossings: re-export)
+from ..model.design import Design
+from ..core.errors import DesignError
+from ..physics.kinematics import HingeDrive
+from ..model.materials import MaterialLibrary, default_library
+from ..core.modes import HingeModel, Method
+from ..physics.recovery import recovery_curve
+from ..simulation.robust import (CHUNK, Sample, Scatter, default_scatter, draw_samples, run_end, run_samples, sample_drive,
+                     wilson)
+from ..simulation.timing import order_risk
+from ..simulation.simulate import simulate
+
+OBJECTIVES = ("time", "margin", "robust")
+#: Evaluations (simulations) the search may spend by default.
+DEFAULT_BUDGET = 600
+#: Prefixes expanded per round of the best-first pattern search.
+DEFAULT_BEAM = 6
+#: Connected waves offered as children of one prefix (the smallest first).
+MAX_CHILDREN = 48
+#: Share of the budget the pattern search (phase 1) may spend; the rest maps patterns
+#: onto materials and confirms the finalists.
+PHASE1_SHARE = 0.5
+#: ``robust``: the ROBUST_POOL (or 3 top) screened-feasible assignments of lowest
+#: :func:`order_risk` are folded ROBUST_SCREEN_SAMPLES times each under scatter with the
+#: cheap screen; the ROBUST_FINALISTS (or ``top + 2``) with the fewest jams are confirmed
+#: and get ``samples`` folds of the printed part each (the batch Monte-Carlo made these
+#: cheap: 12 finalists x 60 samples cost what 5 x 60 did before, issue 19).
+ROBUST_POOL = 48
+#: ``robust`` pattern search: the largest wave it proposes (but the last, "all the rest").
+ROBUST_WAVE_MAX = 2
+ROBUST_SCREEN_SAMPLES = 16
+ROBUST_FINALISTS = 12
+#: Search spaces up to this size (and within the budget) are enumerated outright.
+EXHAUSTIVE_MAX = 128
+#: Material mappings tried per feasible pattern in phase 2.
+PER_PATTERN = 6
+#: Poses sampled along a fold for the clearance of a prefix (ranking the queue only).
+PREFIX_CLEARANCE_SAMPLES = 24
+#: Screening runs stop this long after the slowest active hinge reaches 98 % (s).
+SCREEN_TAIL_S = 0.5
+#: Bath temperatures tried across a ``--temperature-range``: every STEP_C, at most MAX_TEMPS.
+TEMPERATURE_STEP_C = 5.0
+MAX_TEMPS = 9
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What one evaluation found. ``pair``: the first colliding panels (ids); ``goal``:
+    the first goal not met in order; ``clearance_mm``: the smallest gap between
+    non-adjacent panels along the fold (when measured)."""
+
+    completed: bool
+    pair: tuple[str, str] | None
+    contact_time: float | None
+    goal: str | None
+    fold_time: float | None
+    clearance_mm: float | None
+    method: str
+
+
+@dataclass(frozen=True)
+class Task:
+    """One simulation: ``materials`` per hinge (None = held in its programmed shape)."""
+
+    design: Design
+    library: MaterialLibrary
+    materials: tuple[str | None, ...]
+    bath_c: float
+    method: Method
+    dt: float
+    duration: float | None
+    clearance_samples: int
+    #: a scatter draw (``robust`` screen): the hinges' materials, thicknesses and bath as
+    #: drawn; the run stops SCREEN_TAIL_S after the slowest drawn hinge reaches 98 %
+    sample: Sample | None = None
+
+
+def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None) -> Design:
+    """``design`` with hinge ``k`` made of ``materials[k]`` (and the bath at ``bath_c``)."""
+    hinges = tuple(replace(h, material=m) for h, m in zip(design.hinges, materials))
+    proc = design.process if bath_c is None else replace(design.process, bath_temperature_c=float(bath_c))
+    return replace(design, hinges=hinges, process=proc)
+
+
+def _drive(task: Task) -> HingeDrive:
+    d, lib = task.design, task.library
+    if task.sample is not None:
+        return sample_drive(with_materials(d, task.materials, task.bath_c), lib, task.sample,
+                            until_s=run_end(d, task.dt, task.duration))
+    curves = []
+    for h, m in zip(d.hinges, task.materials):
+        c = recovery_curve(lib[m or h.material], task.bath_c, h.thickness, d.process.fix_temperature_c)
+        curves.append(c if m is not None else replace(c, ratio=np.zeros_like(c.ratio)))
+    return HingeDrive(d, task.bath_c, curves=curves)
+
+
+def run_task(task: Task) -> Verdict:
+    """Fold one (partial) assignment; a module-level function so processes and Dask
+    workers can run it."""
+    d = task.design
+    drive = _drive(task)
+    duration = task.duration
+    if task.sample is not None:
+        times = [c.time_to(0.98) for c in drive.curves]
+        if all(x is not None for x in times):
+            duration = min(duration or d.process.duration_s, max(times) + SCREEN_TAIL_S)
+    res = simulate(d, bath_c=task.bath_c, duration=duration, dt=task.dt, method=task.method,
+                   hinge_model=HingeModel.ARC, drive=drive)
+    c = res.first_collision
+    partial = any(m is None for m in task.materials)
+    goal = None
+    if c is None and not partial:
+        goal = next((g.goal.id for g in res.goals if not g.met), None)
+    clearance = None
+    if task.clearance_samples and c is None:
+        checker = SweptChecker(d, HingeModel.ARC, None)
+        traj = res.trajectory
+        g = min_clearance(checker, traj.times, traj.poses, n_samples=task.clearance_samples)
+        clearance = math.inf if g is None else float(g.distance)
+    done = (c is None) and (partial or res.completed)
+    ft = None
+    if not partial:
+        ft = res.fold_time
+    return Verdict(bool(done), None if c is None else tuple(c.panels), None if c is None else float(c.time),
+                   goal, ft, clearance, str(task.method))
+
+
+Mapper = Callable[[Callable, list, Callable | None], list]
+
+
+def local_mapper(workers: int | None = None) -> Mapper:
+    """Run on ``workers`` local processes (default: all cores)."""
+    from ..core.parallel import map_ordered
+
+    def mapper(fn, items, progress=None):
+        return map_ordered(fn, items, workers=workers, progress=progress)
+
+    return mapper
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A feasible assignment and how good it is."""
+
+    materials: tuple[str, ...]
+    bath_c: float
+    fold_time: float
+    clearance_mm: float | None
+    pattern: tuple[tuple[int, ...], ...]
+    jam_probability: float | None = None
+    jam_ci95: tuple[float, float] | None = None
+
+    def to_json(self, design: Design) -> dict:
+        return {"assignment": {h.id: m for h, m in zip(design.hinges, self.materials)},
+                "temperature_c": round(self.bath_c, 3), "fold_time_s": round(self.fold_time, 4),
+                "min_clearance_mm": None if self.clearance_mm is None else round(self.clearance_mm, 4),
+                "jam_probability": None if self.jam_probability is None else round(self.jam_probability, 4),
+                "jam_ci95": None if self.jam_ci95 is None else [round(x, 4) for x in self.jam_ci95],
+                "waves": [[design.hinges[k].id for k in w] for w in self.pattern]}
+
+
+@dataclass(frozen=True)
+class AssignResult:
+    design: Design
+    objective: str
+    materials: tuple[str, ...]
+    temperatures: tuple[float, ...]
+    evaluated: int
+    search_space: int
+    feasible: int
+    best: tuple[Choice, ...]
+    blocking: tuple[tuple[str, tuple, int], ...]  # (kind "pair" | "goal", what, count)
+    first_feasible_at: int | None
+    patterns: int
+    permanent_blocked: bool = False
+    confirmed: int = 0
+    exhaustive: bool = False
+    robust_simulations: int = 0  # Monte-Carlo folds of the finalists (not in ``evaluated``)
+
+    def to_json(self) -> dict:
+        return {"design": self.design.name, "objective": self.objective, "materials": list(self.materials),
+                "temperatures_c": [round(t, 3) for t in self.temperatures],
+                "evaluated": self.evaluated, "feasible": self.feasible, "search_space": self.search_space,
+                "evaluated_fraction": self.evaluated / self.search_space,
+                "first_feasible_at": self.first_feasible_at, "feasible_patterns": self.patterns,
+                "confirmed": self.confirmed, "exhaustive": self.exhaustive,
+                "robust_simulations": self.robust_simulations,
+                "best": [c.to_json(self.design) for c in self.best],
+                "blocking": [({"pair": list(w)} if k == "pair" else {"goal": w}) | {"count": n, "kind": k}
+                             for k, w, n in self.blocking]}
+
+
+# -- the search -------------------------------------------------------------------------
+
+
+def temperature_grid(lo: float, hi: float) -> tuple[float, ...]:
+    """Bath temperatures tried across a range: every TEMPERATURE_STEP_C, ends included."""
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi < lo:
+        raise DesignError(f"--temperature-range: need LO <= HI, got {lo} {hi}")
+    n = min(MAX_TEMPS, max(1, int(math.floor((hi - lo) / TEMPERATURE_STEP_C + 1e-9)) + 1))
+    if n == 1:
+        return (float(lo),) if hi == lo else (float(lo), float(hi))
+    return tuple(float(x) for x in np.linspace(lo, hi, n if (hi - lo) / (n - 1) <= TEMPERATURE_STEP_C else n + 1))
+
+
+def _hinge_graph(design: Design) -> list[set[int]]:
+    by_panel: dict[str, list[int]] = {}
+    for k, h in enumerate(design.hinges):
+        for p in h.panels:
+            by_panel.setdefault(p, []).append(k)
+    nb = [set() for _ in design.hinges]
+    for ks in by_panel.values():
+        for a in ks:
+            nb[a] |= set(ks) - {a}
+    return nb
+
+
+def connected_waves(remaining: frozenset, graph: list[set[int]], limit: int = MAX_CHILDREN) -> list[frozenset]:
+    """Nonempty connected groups of ``remaining`` hinges (in the hinge graph restricted to
+    them), smallest first, at most ``limit``; then all of ``remaining`` (possibly
+    disconnected), so every prefix can be completed in one wave."""
+    found: set[frozenset] = set()
+    frontier = [frozenset([k]) for k in sorted(remaining)]
+    out: list[frozenset] = []
+    while frontier and len(out) < limit:
+        nxt = []
+        for s in frontier:
+            if s in found or s == remaining:
+                continue
+            found.add(s)
+            out.append(s)
+            for k in sorted(set().union(*(graph[x] for x in s)) & remaining - s):
+                nxt.append(s | {k})
+        frontier = sorted(set(nxt), key=lambda s: sorted(s))
+    out = sorted(out[:limit], key=lambda s: (len(s), sorted(s)))
+    return [remaining] + out
+
+
+def growing_waves(remaining: frozenset, placed: frozenset, graph: list[set[int]]) -> list[frozenset]:
+    """The ``robust`` search's children of a prefix: "all the rest", then connected groups
+    of at most ROBUST_WAVE_MAX remaining hinges that touch the hinges already placed (any
+    group for the first wave). Many small waves, growing the folded region one step at a
+    time: what a sequence that scatter cannot reorder looks like, and a narrow enough
+    tree to reach the deep patterns within the budget."""
+    out = [remaining]
+    for g in connected_waves(remaining, graph)[1:]:
+        if len(g) <= ROBUST_WAVE_MAX and (not placed or any(graph[k] & placed for k in g)):
+            out.append(g)
+    return out
+
+
+@dataclass
+class _Ledger:
+    """Every evaluation, cached, counted and tallied."""
+
+    mapper: Mapper
+    budget: int
+    progress: Callable[[int, int], None] | None
+    cache: dict = field(default_factory=dict)
+    evaluated: int = 0
+    pairs: dict = field(default_factory=dict)
+    goals: dict = field(default_factory=dict)
+    first_feasible_at: int | None = None
+
+    def run(self, tasks: list[Task], cap: int | None = None) -> list[Verdict]:
+        """Verdicts of ``tasks`` (None for those beyond the budget, or ``cap`` evaluations)."""
+        cap = self.budget if cap is None else min(cap, self.budget)
+        todo = []
+        for t in tasks:
+            key = (t.materials, t.bath_c, t.method, t.duration, t.clearance_samples)
+            if key not in self.cache and key not in {k for k, _ in todo}:
+                todo.append((key, t))
+        todo = todo[: max(0, cap - self.evaluated)]
+        if todo:
+            base = self.evaluated
+            cb = (lambda done, _n: self.progress(base + done, self.budget)) if self.progress else None
+            results = self.mapper(run_task, [t for _, t in todo], cb)
+            for (key, t), v in zip(todo, results):
+                self.cache[key] = v
+                self.evaluated += 1
+                complete = all(m is not None for m in t.materials)
+                if v.pair is not None:
+                    self.pairs[v.pair] = self.pairs.get(v.pair, 0) + 1
+                elif v.goal is not None:
+                    self.goals[v.goal] = self.goals.get(v.goal, 0) + 1
+                if complete and v.completed and self.first_feasible_at is None:
+                    self.first_feasible_at = self.evaluated
+        out = []
+        for t in tasks:
+            key = (t.materials, t.bath_c, t.method, t.duration, t.clearance_samples)
+            out.append(self.cache.get(key))
+        return out
+
+    @property
+    def exhausted(self) -> bool:
+        return self.evaluated >= self.budget
+
+
+def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_c: float) -> dict[str, float | None]:
+    thick = min(h.thickness for h in design.hinges)
+    return {m: recovery_curve(lib[m], bath_c, thick, design.process.fix_temperature_c).time_to(0.98) for m in mats}
+
+
+def assign(design: Design, *, library: MaterialLibrary | None = None, materials: Sequence[str] | None = None,
+           temperatures: Sequence[float] | None = None, fixed: Mapping[str, str] | None = None,
+           objective: str = "time", top: int = 3, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
+           samples: int = 40, seed: int = 0, scatter: Scatter | None = None, dt: float = 0.01,
+           mapper: Mapper | None = None, workers: int | None = None,
+           progress: Callable[[int, int], None] | None = None) -> AssignResult:
+    """Search hinge-material assignments of ``design`` (see the module docstring)."""
+    lib = library or default_library()
+    if objective not in OBJECTIVES:
+        raise DesignError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    if top < 1 or budget < 1 or beam < 1:
+        raise DesignError("top, budget and beam must be >= 1")
+    hinge_names = lib.names("hinge")
+    mats = list(dict.fromkeys(materials)) if materials else hinge_names
+    for m in mats:
+        if m not in hinge_names:
+            raise DesignError(f"--materials: {m!r} is not a hinge material; hinge materials: "
+                              f"{', '.join(hinge_names)}")
+    fixed = dict(fixed or {})
+    ids = [h.id for h in design.hinges]
+    for hid, m in fixed.items():
+        if hid not in ids:
+            raise DesignError(f"--fixed {hid}={m}: no hinge {hid!r}; hinges: {', '.join(ids)}")
+        if m not in hinge_names:
+            raise DesignError(f"--fixed {hid}={m}: {m!r} is not a hinge material of the library")
+    temps = tuple(float(t) for t in (temperatures or [design.process.bath_temperature_c]))
+    mapper = mapper or local_mapper(workers)
+    free = [k for k, h in enumerate(design.hinges) if h.id not in fixed]
+    n_free = len(free)
+    space = len(mats) ** n_free * len(temps)
+    ledger = _Ledger(mapper, budget, progress)
+    n_confirm = max(1, min(max(4 * top, 12), budget // 5) if objective == "time"
+                    else min(max(8 * top, 24), budget // 3))
+    # a space this small is cheaper to try outright than to search: exact within the budget
+    exhaustive = space <= min(EXHAUSTIVE_MAX, budget - n_confirm)
+
+    def result(best=(), feasible=0, patterns=0, blocked=False, confirmed=0, robust_sims=0):
+        blocking = sorted([("pair", p, n) for p, n in ledger.pairs.items()] +
+                          [("goal", g, n) for g, n in ledger.goals.items()], key=lambda x: (-x[2], str(x[1])))
+        return AssignResult(design, objective, tuple(mats), temps, ledger.evaluated, space, feasible,
+                            tuple(best), tuple(blocking), ledger.first_feasible_at, patterns, blocked, confirmed,
+                            exhaustive, robust_sims)
+
+    crossing = permanent_crossings(design)
+    if crossing:
+        for p in crossing:
+            ledger.pairs[tuple(p)] = ledger.pairs.get(tuple(p), 0) + 1
+        return result(blocked=True)
+
+    t_ref = temps[len(temps) // 2]
+    duration = float(design.process.duration_s)
+    method = Method.INDEX2D if design.is_planar_strip else Method.FCL
+
+    def usable(t):
+        ft = _fold_times(design, lib, mats, t)
+        ok = [m for m in mats if ft[m] is not None and ft[m] <= duration]
+        return sorted(ok, key=lambda m: (ft[m], m)), ft
+
+    ranked, ft_ref = usable(t_ref)
+    if not ranked:
+        raise DesignError(f"{design.name}: none of {', '.join(mats)} folds within {duration:g} s at {t_ref:g} C")
+    fixed_idx = {ids.index(h): m for h, m in fixed.items()}
+
+    def screen_duration(active: Sequence[str], t: float, ft: dict) -> float:
+        times = [ft[m] for m in active if ft.get(m) is not None]
+        if len(times) < len(active) or not times:
+            return duration
+        return min(duration, max(times) + SCREEN_TAIL_S)
+
+    def materials_for(waves: Sequence[frozenset], ranks: Sequence[int], order: list[str], complete: bool):
+        out: list[str | None] = [None] * len(design.hinges)
+        last = ranks[len(waves) - 1] if waves else -1
+        for w, r in zip(waves, ranks):
+            for k in w:
+                out[k] = order[r]
+        for k, m in fixed_idx.items():
+            r = order.index(m) if m in order else len(order)
+            if complete or r <= last:
+                out[k] = m
+        return tuple(out)
+
+    def task(mat_tuple, t, ft, clearance=0, confirm=False):
+        active = [m for m in mat_tuple if m is not None]
+        dur = duration if confirm else screen_duration(active, t, ft)
+        return Task(design, lib, mat_tuple, t, Method.FCL if confirm else method, dt, dur, clearance)
+
+    # phase 1: patterns (waves of hinges), wave i played by the i-th fastest material
+    graph = _hinge_graph(design)
+    all_free = frozenset(free)
+    patterns: list[tuple[frozenset, ...]] = []
+    if not free:
+        patterns.append(())
+    m = len(ranked)
+    phase1 = int(budget * PHASE1_SHARE)
+    # best first: a queue of every collision-free prefix; each round expands the ``beam``
+    # best (most hinges placed, then the widest clearance along the motion so far)
+    queue: list = [] if exhaustive or not free else [((0, 0, -math.inf, ()), ())]
+    while queue and ledger.evaluated < phase1:
+        queue.sort(key=lambda x: x[0])
+        batch, queue = queue[:beam], queue[beam:]
+        children = []
+        for _key, waves in batch:
+            rest = all_free - frozenset().union(*waves) if waves else all_free
+            if len(waves) == m - 1:
+                options = [rest]
+            elif objective == "robust":
+                options = growing_waves(rest, all_free - rest, graph)
+            else:
+                options = connected_waves(rest, graph)
+            for w in options:
+                nw = waves + (w,)
+                complete = w == rest
+                mt = materials_for(nw, list(range(len(nw))), ranked, complete)
+                children.append((nw, complete, task(mt, t_ref, ft_ref, 0 if complete else PREFIX_CLEARANCE_SAMPLES)))
+        verdicts = ledger.run([c[2] for c in children], cap=phase1)
+        for (nw, complete, _t), v in zip(children, verdicts):
+            if v is None or not v.completed:
+                continue
+            if complete:
+                patterns.append(nw)
+            else:
+                clear = v.clearance_mm if v.clearance_mm is not None else math.inf
+                placed = -sum(map(len, nw))
+                # robust: scatter reorders hinges that share a wave, so the most waves first
+                key = ((-len(nw), placed, -clear) if objective == "robust" else (placed, -clear, len(nw)))
+                queue.append(((*key, [sorted(w) for w in nw]), nw))
+
+    # phase 2: map the feasible patterns onto materials (and temperatures)
+    candidates = []
+    for t in temps:
+        order, ft = usable(t)
+        if exhaustive:
+            for combo in itertools.product(mats, repeat=n_free):
+                mt = [fixed_idx.get(k) for k in range(len(design.hinges))]
+                for k, mname in zip(free, combo):
+                    mt[k] = mname
+                rank = {mname: i for i, mname in enumerate(order)}
+                if any(x not in rank for x in combo):
+                    continue  # a material that does not fold in time at t
+                levels = sorted({rank[x] for x in combo})
+                pat = tuple(frozenset(k for k, x in zip(free, combo) if rank[x] == lv) for lv in levels)
+                candidates.append((pat, None, t, tuple(mt), ft))
+            continue
+        for pat in patterns:
+            k = len(pat)
+            if k > len(order):
+                continue
+            combos = list(itertools.combinations(range(len(order)), k)) if k else [()]
+            if objective == "time":
+                combos.sort(key=lambda c: (c[-1] if c else 0, sum(c), c))
+            else:  # spread the waves: the widest smallest gap between consecutive ranks first
+                combos.sort(key=lambda c: (-min([b - a for a, b in zip(c, c[1:])] or [0]), c[-1] if c else 0, c))
+            for j, c in enumerate(combos[:PER_PATTERN]):
+                candidates.append((j, pat, c, t, materials_for(pat, c, order, True), ft))
+    if not exhaustive:  # round robin: every pattern's first mapping, then every second one...
+        candidates = [c[1:] for c in sorted(candidates, key=lambda c: c[0])]
+    verdicts = ledger.run([task(mt, t, ft) for _p, _c, t, mt, ft in candidates], cap=budget - n_confirm)
+    screened = [(p, t, mt, v) for (p, _c, t, mt, _ft), v in zip(candidates, verdicts) if v is not None and v.completed]
+    # the same assignment may come from two patterns: keep the first
+    seen, unique = set(), []
+    for p, t, mt, v in screened:
+        if (mt, t) not in seen:
+            seen.add((mt, t))
+            unique.append((p, t, mt, v))
+    if objective == "time":
+        unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
+    # margin: in screening order (spread mappings first); robust picks its own finalists
+    finalists = unique[:n_confirm] if objective != "robust" else []
+    confirmed = ledger.run([task(mt, t, {}, clearance=200, confirm=True) for _p, t, mt, _v in finalists])
+    good = [_choice(p, t, mt, v) for (p, t, mt, _v), v in zip(finalists, confirmed) if v is not None and v.completed]
+    if objective == "time":
+        good.sort(key=lambda c: (c.fold_time, -(c.clearance_mm or 0), c.materials))
+    else:
+        good.sort(key=lambda c: (-(c.clearance_mm if c.clearance_mm is not None else math.inf), c.fold_time,
+                                 c.materials))
+    n_robust, n_confirmed = 0, len(good)
+    if objective == "robust" and unique:
+        good, n_confirmed, n_robust = _robust_finalists(
+            design, lib, unique, ledger, task, top=top, samples=samples, seed=seed,
+            scatter=scatter or default_scatter(), method=method, dt=dt, duration=duration, mapper=mapper,
+            progress=progress)
+    return result(good[:top], len(unique), len(patterns), confirmed=n_confirmed, robust_sims=n_robust)
+
+
+def _choice(pattern, bath_c: float, materials, v: Verdict) -> Choice:
+    """A confirmed assignment as reported (an unbounded clearance reads as None)."""
+    clear = None if v.clearance_mm is None or math.isinf(v.clearance_mm) else v.clearance_mm
+    return Choice(tuple(materials), bath_c, v.fold_time, clear, tuple(tuple(sorted(w)) for w in pattern))
+
+
+def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, scatter, method, dt, duration,
+                      mapper, progress):
+    """The ``robust`` objective: rank screened-feasible assignments by :func:`order_risk`,
+    fold the ROBUST_POOL least risky ROBUST_SCREEN_SAMPLES times each under the scatter
+    model with the cheap screen (common draws: the same seed for every candidate), confirm
+    the ROBUST_FINALISTS (at least ``top + 2``) with the fewest screened jams in the
+    simulation of record and estimate their jam probability with ``samples`` folds each
+    (the draws and folds of ``foldprint robust --samples N --seed S``, so the estimate
+    equals what ``robust`` gives the written design).
+    Returns (choices sorted by jam probability, confirmed count, Monte-Carlo folds run)."""
+    risk = [order_risk(design, lib, mt, t, scatter) for _p, t, mt, _v in unique]
+    order = sorted(range(len(unique)), key=lambda i: (risk[i], i))[: max(3 * top, ROBUST_POOL)]
+    n_s = min(samples, ROBUST_SCREEN_SAMPLES)
+    tasks = []
+    for i in order:
+        _p, t, mt, _v = unique[i]
+        for smp in draw_samples(with_materials(design, mt, t), scatter, n_s, seed):
+            tasks.append(Task(design, lib, mt, t, method, dt, duration, 0, smp))
+    verdicts = mapper(run_task, tasks, progress)
+    jams = {i: sum(not v.completed for v in verdicts[j * n_s:(j + 1) * n_s]) for j, i in enumerate(order)}
+    ranked = sorted(order, key=lambda i: (jams[i], risk[i], i))
+    n_robust = len(tasks)
+    n_final = max(top + 2, ROBUST_FINALISTS)
+    picks = ranked[: 2 * n_final]
+    confirmed = ledger.run([task(unique[i][2], unique[i][1], {}, clearance=200, confirm=True) for i in picks])
+    good = []
+    for i, v in zip(picks, confirmed):
+        if v is None or not v.completed or len(good) == n_final:
+            continue
+        p, t, mt, _v = unique[i]
+        good.append(_choice(p, t, mt, v))
+    # every finalist's full estimate in one mapped pass: the same draws (seed) for each,
+    # the chunks of all of them spread over the workers at once
+    chunks, owner = [], []
+    for j, c in enumerate(good):
+        variant = with_materials(design, c.materials, c.bath_c)
+        drawn = draw_samples(variant, scatter, samples, seed)
+        for a in range(0, samples, CHUNK):
+            chunks.append((variant, lib, drawn[a:a + CHUNK], HingeModel.ARC, dt))
+            owner.append(j)
+    results = mapper(run_samples, chunks, None) if chunks else []
+    counts = [0] * len(good)
+    for j, outcomes in zip(owner, results):
+        counts[j] += sum(o.jammed for o in outcomes)
+    out = [replace(c, jam_probability=k / samples, jam_ci95=wilson(k, samples)) for c, k in zip(good, counts)]
+    n_robust += samples * len(good)
+    out.sort(key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
+    return out, sum(v is not None and v.completed for v in confirmed), n_robust

@@ -1,0 +1,1 @@
+"""Design-rule findings (read results, compute none) and their JSON report."""

@@ -1,0 +1,296 @@
+"""The command line's shared plumbing: errors and exit codes, messages, loading a design,
+progress, output of a simulation, option parsing (``foldprint.cli.commands`` holds the commands)."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+from typer import echo
+
+from ..core.errors import FoldprintError
+
+#: Options that take several values after one flag (``--temperature 80 90 100``).
+_MULTI = {"--temperature"}
+
+
+def _click_exceptions() -> tuple[type, ...]:
+    """ClickException classes: typer >= 0.20 vendors its own click."""
+    found: list[type] = []
+    for mod in ("typer._click.exceptions", "click.exceptions"):
+        try:
+            found.append(__import__(mod, fromlist=["ClickException"]).ClickException)
+        except ImportError:
+            pass
+    return tuple(found)
+
+
+_CLICK_ERRORS = _click_exceptions()
+
+
+#: Exit codes: 0 ok, 1 the design fails, 2 bad input or a refused run, 3 an internal error
+#: (a bug: never the design's verdict), 130 interrupted.
+EXIT_OK, EXIT_FAILS, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+
+
+class ExitCode(Exception):
+    def __init__(self, code: int):
+        self.code = code
+
+
+def _err(msg: str) -> None:
+    echo(f"foldprint: error: {msg}", err=True)
+
+
+def _internal(exc: BaseException, argv: list[str]) -> int:
+    """An exception no check anticipated: a short report on stderr, exit 3 (never 1, the
+    code of a failing design, nor 2, which promises a message naming the input). The
+    traceback is printed only with FOLDPRINT_TRACEBACK=1."""
+    import os
+    import traceback
+
+    if isinstance(exc, MemoryError):
+        _err(f"out of memory ({type(exc).__name__}); the input is too large for this machine: "
+             "reduce it, raise --dt or lower --max-memory so the guard refuses it early")
+        return EXIT_INPUT
+    frame = traceback.extract_tb(exc.__traceback__)[-1:] if exc.__traceback__ else []
+    at = f" at {Path(frame[0].filename).name}:{frame[0].lineno}" if frame else ""
+    text = str(exc).splitlines()[0][:200] if str(exc) else ""
+    _err(f"internal error: {type(exc).__name__}{at}: {text}")
+    echo(f"foldprint: this is a bug in foldprint, not a verdict on the design (exit {EXIT_INTERNAL}); "
+         f"please report it with the command `foldprint {' '.join(argv)[:300]}` and the input file"
+         + ("" if os.environ.get("FOLDPRINT_TRACEBACK") else "; FOLDPRINT_TRACEBACK=1 prints the traceback"),
+         err=True)
+    if os.environ.get("FOLDPRINT_TRACEBACK"):
+        echo("".join(traceback.format_exception(exc)), err=True)
+    return EXIT_INTERNAL
+
+
+def _echo_json(obj) -> None:
+    echo(json.dumps(obj, indent=2, allow_nan=False))
+
+
+def _number(text: str, what: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise FoldprintError(f"{what} must be a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise FoldprintError(f"{what} must be a finite number, got {text!r}")
+    return v
+
+
+_STATE = {"quiet": False, "verbose": False}
+
+
+def _note(msg: str) -> None:
+    """A human message on stderr (silenced by --quiet)."""
+    if not _STATE["quiet"]:
+        echo(msg, err=True)
+
+
+def _load(design: str, materials_file=None, scale=None, crease_materials=None):
+    from ..io.load import load_design
+    from ..model.materials import load_library
+    from ..io.templates import resolve_design_path
+
+    lib = load_library(materials_file or None)
+    if scale is not None:
+        _in_range(scale, "--scale", 0.0, 1e6, "mm per file unit", lo_open=True)
+    return load_design(resolve_design_path(design), lib, scale=scale, crease_materials=crease_materials), lib
+
+
+_SCALE = "FOLD/SVG crease patterns: mm per file unit (needed when frame_unit is 'unit' or missing)."
+_CREASE = "FOLD/SVG crease patterns: hinge materials by assignment, e.g. 'M=H-2,V=H-5'."
+
+
+def _mode(enum, value: str, option: str):
+    from ..core.modes import parse
+
+    try:
+        return parse(enum, value, option)
+    except FoldprintError:
+        raise FoldprintError(f"{option} must be one of {', '.join(m.value for m in enum)}, got {value!r}") from None
+
+
+#: Admissible ranges of the command line's numeric options (issue 20 item 3): outside
+#: them a value is refused with exit 2 naming the option and the range.
+#: --dt: 1 us is 1e4 below the default step and far below any recovery time constant;
+#: --duration: schema.MAX_DURATION_S (the resource guard refuses long runs with an
+#: estimate); temperatures: schema.TEMPERATURE_C.
+DT_RANGE_S = (1e-6, 100.0)
+MAX_SAMPLES = 1_000_000
+MAX_BUDGET = 1_000_000
+MAX_TOP = 1000
+MAX_WORKERS = 1024
+
+
+def _in_range(value, option: str, lo: float, hi: float, unit: str = "", lo_open: bool = False) -> float:
+    """``value`` finite and in [lo, hi] (or (lo, hi]); FoldprintError naming the option."""
+    u = f" {unit}" if unit else ""
+    rng = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]{u}"
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise FoldprintError(f"{option} must be a number in {rng}, got {value!r}") from None
+    if not math.isfinite(v) or v > hi or v < lo or (lo_open and v <= lo):
+        raise FoldprintError(f"{option} must be in {rng}, got {value!r}")
+    return v
+
+
+def _temperature(value, option: str = "--temperature") -> float:
+    from ..core.schema import TEMPERATURE_C
+
+    return _in_range(value, option, *TEMPERATURE_C, "deg C")
+
+
+def _time_options(duration, dt) -> None:
+    from ..core.schema import MAX_DURATION_S
+
+    _in_range(dt, "--dt", *DT_RANGE_S, "s")
+    if duration is not None:
+        _in_range(duration, "--duration", 0.0, MAX_DURATION_S, "s", lo_open=True)
+
+
+def _count(value: int, option: str, lo: int, hi: int) -> int:
+    if not lo <= value <= hi:
+        raise FoldprintError(f"{option} must be a whole number in [{lo}, {hi}], got {value}")
+    return value
+
+
+def _out_dir(value: str | None, option: str = "--out"):
+    """An output directory option: refuses "" (it would mean the current folder without
+    saying so) and the file-system root."""
+    import os
+
+    if value is None:
+        return None
+    if not value.strip():
+        raise FoldprintError(f"{option} is empty; give a directory, e.g. {option} output/mine "
+                             f"(or {option} . for the current folder)")
+    p = Path(value)
+    if os.path.abspath(p) == os.path.abspath(os.sep) or p.resolve() == Path(p.resolve().anchor):
+        raise FoldprintError(f"{option} {value!r} is the root of the file system; give a directory of its own, "
+                             f"e.g. {option} output/mine")
+    return p
+
+
+def _samples_progress(label: str):
+    """A context manager giving a ``progress(done, total)`` callback: a bar on stderr when
+    it is a terminal and not --quiet, else nothing."""
+    import contextlib
+
+    if _STATE["quiet"] or not sys.stderr.isatty():
+        return contextlib.nullcontext(None)
+
+    @contextlib.contextmanager
+    def bar():
+        from rich.console import Console
+        from rich.progress import Progress
+
+        with Progress(transient=True, console=Console(stderr=True)) as p:
+            task = p.add_task(label, total=None)
+            yield lambda done, total: p.update(task, completed=done, total=total)
+
+    return bar()
+
+
+def _verdict(r: dict) -> str:
+    if r["completed"]:
+        return "completes"
+    c = r["first_collision"]
+    return "does NOT complete" + (f" ({c['panels'][0]}-{c['panels'][1]} at {c['time_s']:.3f} s)" if c else "")
+
+
+def _print_simulation(r: dict) -> None:
+    crossing = r.get("printed_crossings") or []
+    if crossing:  # the printed part itself overlaps: no fold, no contact time to report
+        pairs = ", ".join(f"{a!r} and {b!r}" for a, b in crossing[:5])
+        echo(f"{r['design']}: can never be printed: panels {pairs} cross in the printed (permanent) state "
+             "(the target angles put them through each other; no hinge order or material can fold it): "
+             "change the target angles, lengths or holes")
+        return
+    echo(f"{r['design']} at {r['temperature_c']:g} C ({r['hinge_model']} hinges, {r['method']}): {_verdict(r)}")
+    if r["fold_time_s"] is not None:
+        echo(f"  folded in {r['fold_time_s']:.2f} s")
+    for c in r["contacts"]:
+        echo(f"  contact {c['panels'][0]}-{c['panels'][1]} at {c['time_s']:.3f} s ({c['method']})")
+    for h in r["hinges"]:
+        ft = "does not fold" if h["fold_time_s"] is None else f"{h['fold_time_s']:.2f} s"
+        extra = f", arrested at {h['arrested_at_s']:.3f} s, {h['angle_error_deg']:.1f} deg short" \
+            if h["arrested_at_s"] is not None else ""
+        echo(f"  {h['id']:<6} {h['material']:<6} {ft}{extra}")
+    for g in r["goals"]:
+        state = f"met at {g['time_s']:.2f} s" if g["met"] else "NOT met"
+        echo(f"  goal {g['id']}: {g['panel']} through holes[{g['hole']}] of {g['target']}: {state}")
+    if r.get("comparison"):
+        c = r["comparison"]
+        echo(f"  note: the {c['hinge_model']} hinge model disagrees: it {_verdict(c)} "
+             "(docs/simulation.md explains the two models)")
+
+
+def _printer(printer, printers_file):
+    from ..checks.rules import default_printer_key, load_printers
+
+    printers = load_printers(printers_file)
+    key = printer or default_printer_key()
+    if key not in printers:
+        raise FoldprintError(f"--printer {key!r} is unknown; profiles: {', '.join(printers)} "
+                             "(add your own with --printers FILE)")
+    return key, printers[key]
+
+
+def _fraction(value: float, option: str) -> float:
+    if not (math.isfinite(value) and 0.0 <= value <= 1.0):
+        raise FoldprintError(f"{option} must be a probability between 0 and 1, got {value}")
+    return value
+
+
+def _mapper(scheduler: str | None):
+    """A context giving the mapper of ``--scheduler`` (a Dask cluster), or None (local cores)."""
+    import contextlib
+
+    if scheduler is None:
+        return contextlib.nullcontext(None)
+    from ..apps.distributed import cluster_mapper
+
+    return cluster_mapper(scheduler)
+
+
+def _with_progress(label: str, fn):
+    """Run ``fn`` with a spinner on stderr when stderr is a terminal and not --quiet."""
+    if _STATE["quiet"] or not sys.stderr.isatty():
+        return fn()
+    from rich.console import Console
+
+    with Console(stderr=True).status(label):
+        return fn()
+
+
+def _expand_multi(argv: list[str]) -> list[str]:
+    """``--temperature 80 90`` -> ``--temperature 80 --temperature 90``."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        tok = argv[i]
+        out.append(tok)
+        i += 1
+        if tok in _MULTI:
+            first = True
+            while i < len(argv) and (first or not argv[i].startswith("-") or _is_number(argv[i])):
+                if not first:
+                    out.append(tok)
+                out.append(argv[i])
+                first = False
+                i += 1
+    return out
+
+
+def _is_number(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False

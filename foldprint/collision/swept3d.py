@@ -1,0 +1,594 @@
+"""3D swept-panel collision with python-fcl: a broad phase over a panel hierarchy, then
+conservative advancement on ``fcl.distance`` for the pairs that come close.
+
+Panels are real solids: the rigid part of the outline (holes kept) extruded to the panel
+thickness, split into convex prisms (``fcl.Convex``; python-fcl 0.7's continuous
+collision on BVH meshes is unreliable, ``shared/design.md``).
+
+Why no contact is missed between samples: a point of panel i moves relative to panel j by
+at most F(t1) - F(t0), F(t) = sum_k lever_k V_k(t) over the hinges k on the tree path i..j,
+with configuration-free levers (``motion.py``) and V_k the cumulative total variation of
+hinge k's angle (``HingeDrive.variation``). For a hinge tree every angle is monotone
+(recovery only grows; an arrested hinge is constant), so V_k(t) = |rho_k(t) - rho_k(0)|;
+the closed angles of a loop pattern need not be monotone, and V_k still bounds them.
+``SweptChecker.bound_coords`` picks the coordinate: callers pass the trajectory's angles.
+An interval [ta, tb] is safe when d(ta) + d(tb) > F(tb) - F(ta): a contact inside would
+need both distances to be covered by the motion.
+
+* Broad phase (``candidate_runs``): a binary hierarchy of panel groups, each inside a
+  sphere of fixed radius about one of its panels' centroid in every configuration. Pairs of
+  groups and time intervals are certified with the sphere distances and the centre motion
+  bound (prefix sums along the tree, O(1) per pair), all pairs of one level at once;
+  uncertified ones split the bigger group or the interval. A far-apart group pair still
+  uncertified over one sample step (long tree paths: the bound grows with the path length
+  squared) is re-tested between the samples on 4, 16, 64 sub-intervals before it is split
+  into panel pairs. What survives is a list of (panel pair, sample interval) runs.
+* Narrow phase (``SweptChecker.first_contact``): per run, FCL distances; far apart a pair
+  jumps from sample to sample while d(t0) > F(t1) - F(t0); close, an interval is split
+  (bisection in continuous time; every panel's pose at a split time by prefix products
+  along the tree, computed once per time and shared by the pairs). The pair lever is the
+  smaller of the two sides' levers per hinge (the motion relative to the panel in the
+  middle of the path). A contact is declared at distance <= the contact tolerance and
+  refined to the first touching time within ``time_tol_s``. Splitting stops at
+  time_tol_s / 16: an interval that cannot be certified there is reported as a contact
+  (conservative), so the work is bounded whatever the coordinates.
+
+Hinge-adjacent panels are not checked: they share the hinge, and under the arc model their
+rigid parts stay apart for |rho| <= 180 deg as long as 2R exceeds the thickness (a
+design-rule check). Pairs already touching at the start are reported as ``initial``
+and skipped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import fcl
+import numpy as np
+
+from ..model.design import Design
+from ..physics.kinematics import HingeDrive, TreeTransforms, hinge_frames
+from ..physics.motion import build_hierarchy, tree_bounds
+from .rigid import convex_pieces, prism, rigid_polygon
+
+#: Relative contact tolerance: a fraction of the sheet's size (coordinates of 1e15 mm
+#: cannot be resolved to 0.01 mm in double precision).
+REL_TOL = 1e-9
+#: FCL's GJK distance between convex prisms is not exact: near flat, coplanar
+#: configurations it was measured 0.064 mm (0.8 %) and once 4.4 mm (16 %) above the distance
+#: a moment before and after, more than the panels could have moved. Certification shrinks
+#: every FCL distance by this fraction (the one-sided jump keeps 10 %), and the narrow
+#: phase never lets a distance exceed the previous one plus the motion bound between them.
+FCL_REL = 0.02
+_REQUEST = fcl.DistanceRequest(enable_nearest_points=True)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """First contact of a panel pair: time (s), panel indices and ids, a point (mm, world)."""
+
+    time: float
+    pair: tuple[int, int]
+    panels: tuple[str, str]
+    point: tuple[float, float, float]
+    distance: float
+    method: str = "fcl"
+
+
+@dataclass
+class SweptChecker:
+    """Holds the FCL geometry and motion bounds of a design; checks pairs along a drive."""
+
+    design: Design
+    model: str
+    drive: HingeDrive | None
+    contact_tol_mm: float = 0.01
+    time_tol_s: float = 1e-3
+    pieces: list = field(default_factory=list)
+    n_distance_calls: int = 0
+
+    def __post_init__(self):
+        d = self.design
+        self.model = str(self.model)
+        self.frames = hinge_frames(d)
+        self._frame_of = {f.index: f for f in self.frames}
+        self.pieces = []
+        for i, p in enumerate(d.panels):
+            objs = []
+            for ring in convex_pieces(rigid_polygon(d, i, self.model)):
+                v, f = prism(ring, p.thickness)
+                objs.append(fcl.CollisionObject(fcl.Convex(v, len(f) and _count_faces(f), f)))
+            self.pieces.append(objs)
+        # bounds follow the spanning tree; hinges closing loops (tree=False) move nothing
+        self.tree = tree_bounds(d, self.model, [f for f in self.frames if f.tree])
+        self.hier = build_hierarchy(self.tree)
+        pts = np.concatenate([p.outline for p in d.panels])
+        extent = float(np.max(np.abs(pts))) + float(np.ptp(pts, axis=0).max())
+        self.tol = max(self.contact_tol_mm, REL_TOL * extent)
+        self._pairs: dict = {}
+        self.transforms = TreeTransforms(d, self.model, self.frames)
+        self._world: dict = {}  # time -> world poses of every panel (bounded cache)
+
+    # -- geometry ---------------------------------------------------------------------
+    def bound_coords(self, times, angles: np.ndarray | None = None) -> np.ndarray:
+        """Each hinge's monotone coordinate at ``times`` (n_t, n_hinges), which the motion
+        bounds difference: the angle itself for a hinge tree (``angles`` when given:
+        recovery only grows), the cumulative total variation for a pattern with loops
+        (its closed angles need not be monotone)."""
+        if getattr(self.drive, "loops", None) is not None:
+            return self.drive.variation(times)
+        return np.asarray(angles) if angles is not None else self.drive.angles(times)
+
+    def poses_at(self, t: float) -> np.ndarray:
+        """World poses (n_panels, 4, 4) at time ``t``: every hinge's transform once and
+        prefix products along the tree (:class:`~foldprint.physics.kinematics.TreeTransforms`),
+        cached per time, so the pairs bisecting the same sample interval (at the same
+        dyadic times) share them."""
+        key = (float(t), tuple(sorted(getattr(self.drive, "frozen_at", {}).items())))  # arrests change poses
+        hit = self._world.get(key)
+        if hit is None:
+            if len(self._world) >= 64:
+                self._world.pop(next(iter(self._world)))
+            hit = self._world[key] = self.transforms.poses(self.drive.angles([t]))[0]
+        return hit
+
+    def distance(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
+        """Minimum distance (mm; <= 0 when touching) and the nearest point (pose frame)."""
+        best, point = np.inf, None
+        ti = fcl.Transform(pose_i[:3, :3], pose_i[:3, 3])
+        tj = fcl.Transform(pose_j[:3, :3], pose_j[:3, 3])
+        for a in self.pieces[i]:
+            a.setTransform(ti)
+            for b in self.pieces[j]:
+                b.setTransform(tj)
+                res = fcl.DistanceResult()
+                dist = fcl.distance(a, b, _REQUEST, res)
+                self.n_distance_calls += 1
+                if dist < best:
+                    best = dist
+                    point = 0.5 * (np.asarray(res.nearest_points[0]) + np.asarray(res.nearest_points[1]))
+                if best <= 0:
+                    return 0.0, point
+        return float(best), point
+
+    # -- motion bounds ------------------------------------------------------------------
+    def _path(self, pair):
+        hit = self._pairs.get(pair)
+        if hit is None:
+            i, j = pair
+            t = self.tree
+            up_i, down_j, l = path = t.path(i, j)
+            idx, lev = t.pair_levers(i, j, t.qp[i] + t.reach[i], t.qp[j] + t.reach[j], path)
+            hit = self._pairs[pair] = (up_i, down_j, l, idx, lev)
+        return hit
+
+    def _bound(self, pair, ang0: np.ndarray, ang: np.ndarray) -> np.ndarray:
+        _, _, _, idx, lev = self._path(pair)
+        if len(idx) == 0:
+            return np.zeros(ang.shape[:-1])
+        return np.abs(ang[..., idx] - ang0[idx]) @ lev
+
+    def cumulative_motion(self, pair, angles: np.ndarray) -> np.ndarray:
+        """F(t) = sum_k lever_k |rho_k(t) - rho_k(0)| on the samples (n_t,). Every hinge
+        angle is monotone, so the motion bound over [ta, tb] is exactly F(tb) - F(ta)."""
+        return self._bound(pair, angles[0], angles)
+
+    # -- narrow phase -------------------------------------------------------------------
+    def first_contact(self, pair: tuple[int, int], times: np.ndarray, angles: np.ndarray,
+                      poses: np.ndarray, t_start: float = 0.0) -> Contact | None:
+        """Earliest contact of ``pair`` in [t_start, times[-1]], or None."""
+        k = int(np.searchsorted(times, t_start - 1e-12))
+        if k >= len(times):
+            return None
+        return self._run(pair, times, angles, poses, k, len(times) - 1, k == 0)
+
+    def _run(self, pair, times, angles, poses, k0: int, k1: int, at_start: bool) -> Contact | None:
+        """Earliest contact of ``pair`` in [times[k0], times[k1]] (world poses at samples)."""
+        steps = self._steps(pair, times, angles, poses, k0, k1, at_start)
+        while True:
+            try:
+                next(steps)
+            except StopIteration as stop:
+                return stop.value
+
+    def _steps(self, pair, times, angles, poses, k0: int, k1: int, at_start: bool):
+        """Generator: yields the sample index each step has certified up to; returns the
+        earliest contact in [times[k0], times[k1]] or None.
+
+        Far apart, a pair jumps from sample to sample as far as d(t0) > F(t1) - F(t0)
+        allows. Close, [ta, tb] is safe when d(ta) + d(tb) > F(tb) - F(ta); otherwise it
+        is split in continuous time."""
+        i, j = pair
+        ang0 = angles[k0]
+        n_run = k1 - k0 + 1
+        # the motion bound over the run, computed as far as the pair gets (doubling): a
+        # pair stopped early (a contact elsewhere first) costs its steps, not its run
+        cum = self._bound(pair, ang0, angles[k0:k0 + min(n_run, 64)])
+
+        def upto(c):
+            nonlocal cum
+            while len(cum) <= c < n_run:
+                m = len(cum)
+                cum = np.concatenate([cum, self._bound(pair, ang0, angles[k0 + m:k0 + min(n_run, 2 * m)])])
+            return cum
+
+        k = k0
+        d, point = self.distance(i, j, poses[k][i], poses[k][j])
+        if d <= self.tol:
+            if at_start:
+                return Contact(float(times[k]), pair, self._ids(pair), _pt(point), d, "initial")
+            return self._refine(pair, float(times[k]), d)
+        while k < k1:
+            yield k
+            c = k - k0
+            target = cum[c] + 0.9 * d
+            while True:
+                jump = int(np.searchsorted(cum, target, side="right")) - 1
+                if jump < len(cum) - 1 or len(cum) >= n_run:
+                    break
+                upto(len(cum))
+            kk = k0 + jump
+            if kk >= k1:
+                return None  # safe to the end of the run
+            if kk > k:
+                dprev, cprev = d, cum[c]
+                k = kk
+                d, point = self.distance(i, j, poses[k][i], poses[k][j])
+                d = min(d, dprev + cum[k - k0] - cprev)  # Lipschitz: no GJK overestimate
+                if d <= self.tol:
+                    return self._refine(pair, float(times[k]), d)
+                continue
+            d1, p1 = self.distance(i, j, poses[k + 1][i], poses[k + 1][j])
+            upto(c + 1)
+            d1 = min(d1, d + cum[c + 1] - cum[c])
+            if (d + d1) * (1 - FCL_REL) <= cum[c + 1] - cum[c]:
+                hit = self._split(pair, ang0, float(times[k]), d, float(cum[c]),
+                                  float(times[k + 1]), d1, float(cum[c + 1]))
+                if hit is not None:
+                    return hit
+            if d1 <= self.tol:
+                return self._refine(pair, float(times[k + 1]), d1)
+            k, d, point = k + 1, d1, p1
+        return None
+
+    def _split(self, pair, ang0, ta, da, fa, tb, db, fb) -> Contact | None:
+        """Earliest contact in [ta, tb] by recursive two-sided certification."""
+        if da <= self.tol:
+            return self._refine(pair, ta, da)
+        if (da + db) * (1 - FCL_REL) > fb - fa:
+            return None
+        if tb - ta <= self.time_tol_s / 16:
+            # not certified at the time resolution: a contact (conservative), bounded work
+            return self._refine(pair, ta, da)
+        tm = 0.5 * (ta + tb)  # bisect: each level costs one distance
+        w = self.poses_at(tm)
+        dm, _ = self.distance(pair[0], pair[1], w[pair[0]], w[pair[1]])
+        fm = float(self._bound(pair, ang0, self.bound_coords([tm]))[0])
+        dm = min(dm, da + fm - fa, db + fb - fm)  # Lipschitz: no GJK overestimate
+        return (self._split(pair, ang0, ta, da, fa, tm, dm, fm)
+                or self._split(pair, ang0, tm, dm, fm, tb, db, fb))
+
+    def _dist_at(self, pair, t: float) -> float:
+        w = self.poses_at(t)
+        return self.distance(pair[0], pair[1], w[pair[0]], w[pair[1]])[0]
+
+    def _refine(self, pair, t: float, d: float) -> Contact:
+        """``t`` is a time with distance <= tol (or uncertified); find the time of actual
+        touching (distance <= 0) to within ``time_tol_s`` if it happens within ~4 s."""
+        i, j = pair
+        lo, hi = t, None
+        step = self.time_tol_s
+        if d > 0:
+            for _ in range(12):  # look ahead in doubling steps
+                cand = lo + step
+                if self._dist_at(pair, cand) <= 0:
+                    hi = cand
+                    break
+                step *= 2
+            if hi is not None:
+                while hi - lo > self.time_tol_s:
+                    mid = 0.5 * (lo + hi)
+                    if self._dist_at(pair, mid) <= 0:
+                        hi = mid
+                    else:
+                        lo = mid
+        pose = self.poses_at(lo)  # world point: nearest points at the last safe time
+        _, point = self.distance(i, j, pose[i], pose[j])
+        if hi is not None:
+            t, d = hi, 0.0
+        return Contact(float(t), pair, self._ids(pair), _pt(point), float(d), "fcl")
+
+    def _ids(self, pair):
+        return (self.design.panels[pair[0]].id, self.design.panels[pair[1]].id)
+
+
+def _pt(point) -> tuple[float, float, float]:
+    return tuple(float(x) for x in point) if point is not None else (float("nan"),) * 3
+
+
+def _count_faces(flat: np.ndarray) -> int:
+    n, pos = 0, 0
+    while pos < len(flat):
+        pos += int(flat[pos]) + 1
+        n += 1
+    return n
+
+
+def _adjacent_codes(design: Design) -> np.ndarray:
+    idx = design.panel_index()
+    n = len(design.panels)
+    codes = [min(idx[a], idx[b]) * n + max(idx[a], idx[b]) for a, b in (h.panels for h in design.hinges)]
+    return np.array(sorted(codes), dtype=np.int64)
+
+
+def non_adjacent_pairs(design: Design) -> list[tuple[int, int]]:
+    idx = design.panel_index()
+    adj = {tuple(sorted((idx[h.panels[0]], idx[h.panels[1]]))) for h in design.hinges}
+    n = len(design.panels)
+    return [(i, j) for i in range(n) for j in range(i + 1, n) if (i, j) not in adj]
+
+
+def panel_centres(checker: SweptChecker, poses: np.ndarray) -> np.ndarray:
+    """World centroids (n_t, n, 3) of every panel."""
+    c = checker.tree.centroid
+    R = poses[..., :3, :3]
+    return R[..., 0] * c[:, 0, None] + R[..., 1] * c[:, 1, None] + R[..., 2] * c[:, 2, None] + poses[..., :3, 3]
+
+
+#: Sub-intervals per sample interval at each refinement level of the broad phase, and
+#: the levels: a far-apart group pair the motion bound cannot certify over one sample step
+#: (long tree paths: the bound grows with the square of the path length) is re-tested on
+#: 4, 16, 64 sub-intervals (poses by prefix products, in chunks) before it is split into
+#: panel pairs for the narrow phase.
+REFINE_SUB = 4
+REFINE_LEVELS = 3
+#: Bytes of world poses the refinement evaluates at once (its working memory).
+REFINE_CHUNK_BYTES = 32 * 2 ** 20
+
+
+def candidate_runs(checker: SweptChecker, angles: np.ndarray, poses: np.ndarray, k_start: int = 0,
+                   skip=None, times: np.ndarray | None = None) -> np.ndarray:
+    """Broad phase: (m, 4) rows (i, j, ka, kb), i < j, sorted by ka: the sample runs in which
+    non-adjacent panels i and j might touch. Every other pair and interval is certified
+    apart (sphere distances at both ends exceed the motion bound between them). With
+    ``times`` (the samples' times), group pairs that are far apart but not certified over
+    one sample step are re-tested between the samples (``REFINE_SUB`` ** level
+    sub-intervals) before they reach the narrow phase."""
+    tb, H = checker.tree, checker.hier
+    n, n_t = tb.n, len(angles)
+    excl = _adjacent_codes(checker.design)
+    if skip:
+        excl = np.union1d(excl, [min(p) * n + max(p) for p in skip]).astype(np.int64)
+    angles = np.asarray(angles)
+    P = tb.prefix(angles)
+    C = panel_centres(checker, poses)
+    refine = times is not None
+    out, pend = _descend(checker, P, C, excl, np.array([H.root]), np.array([H.root]),
+                         np.array([k_start]), np.array([n_t - 1]), refine)
+    del P, C
+    if refine and len(pend[0]):
+        times = np.asarray(times, float)
+        a, b, ka = pend[0], pend[1], pend[2]
+        t0, t1, korig = times[ka], times[ka + 1], ka
+        for level in range(REFINE_LEVELS):
+            last = level == REFINE_LEVELS - 1
+            rows, nxt = _refine(checker, angles[0], excl, a, b, t0, t1, korig, refine=not last)
+            out += rows
+            a, b, t0, t1, korig = nxt
+            if not len(a):
+                break
+    if not out:
+        return np.zeros((0, 4), dtype=np.int64)
+    rows = np.concatenate(out).astype(np.int64)
+    return _merge_runs(rows, n)
+
+
+def _refine(checker, ang0, excl, a, b, t0, t1, korig, refine: bool):
+    """Re-test group pairs (a, b) on (t0, t1) (inside the sample interval korig) on
+    ``REFINE_SUB`` sub-intervals; returns narrow rows on the samples (korig, korig + 1)
+    and the pairs still pending (on their sub-intervals)."""
+    n = checker.tree.n
+    sub = REFINE_SUB
+    iv, inv = np.unique(np.column_stack([t0, t1]), axis=0, return_inverse=True)
+    inv = inv.reshape(-1)
+    per = max(1, REFINE_CHUNK_BYTES // (n * 16 * 8 * 3 * (sub + 1)))  # intervals per chunk
+    rows_out, nxt = [], [[], [], [], [], []]
+    frac = np.linspace(0.0, 1.0, sub + 1)
+    order = np.argsort(inv, kind="stable")
+    bounds = np.searchsorted(inv[order], np.arange(0, len(iv) + per, per))
+    for c0 in range(0, len(iv), per):
+        sel = order[bounds[c0 // per]:bounds[c0 // per + 1]]
+        if not len(sel):
+            continue
+        ivc = iv[c0:c0 + per]
+        tg = (ivc[:, :1] + (ivc[:, 1:] - ivc[:, :1]) * frac[None]).ravel()
+        coords = checker.bound_coords(tg)
+        P = checker.tree.prefix(np.vstack([ang0[None], coords]))
+        P = tuple(x[1:] for x in P)
+        C = panel_centres(checker, checker.transforms.poses(checker.drive.angles(tg)))
+        base = (inv[sel] - c0) * (sub + 1)
+        out, pend = _descend(checker, P, C, excl, a[sel], b[sel], base, base + sub, refine)
+        ko = korig[sel]
+        # local grid index -> interval (block) -> the original sample interval
+        blk_k = np.full(len(ivc), -1, dtype=np.int64)
+        blk_k[inv[sel] - c0] = ko
+        for r in out:
+            k = blk_k[r[:, 2] // (sub + 1)]
+            rows_out.append(np.column_stack([r[:, 0], r[:, 1], k, k + 1]))
+        if len(pend[0]):
+            pa, pb, pk = pend
+            nxt[0].append(pa)
+            nxt[1].append(pb)
+            nxt[2].append(tg[pk])
+            nxt[3].append(tg[pk + 1])
+            nxt[4].append(blk_k[pk // (sub + 1)])
+    nxt = [np.concatenate(x) if x else np.zeros(0) for x in nxt]
+    nxt[0], nxt[1], nxt[4] = (x.astype(np.int64) for x in (nxt[0], nxt[1], nxt[4]))
+    return rows_out, nxt
+
+
+def _descend(checker, P, C, excl, a, b, ka, kb, refine: bool):
+    """The hierarchy descent over grid indices of P and C: certified (group pair,
+    interval)s are dropped, others split the interval or the bigger group. Returns narrow
+    rows (i, j, ka, kb) and, with ``refine``, the pairs (a, b, k) that are far apart but
+    uncertified over one grid step (else they are split down to panel pairs)."""
+    tb, H = checker.tree, checker.hier
+    n = tb.n
+    xc = tb.qp + tb.cen
+    margin = 1e-9 * float(H.rad[H.root] + 1.0)
+    out, pend = [], [[], [], []]
+    while len(a):
+        selfp = a == b
+        nxt = []
+        s = a[selfp]
+        s_ka, s_kb = ka[selfp], kb[selfp]
+        inner = H.left[s] >= 0
+        s, s_ka, s_kb = s[inner], s_ka[inner], s_kb[inner]
+        L, R = H.left[s], H.right[s]
+        nxt += [(L, L, s_ka, s_kb), (R, R, s_ka, s_kb), (L, R, s_ka, s_kb)]
+        a, b, ka, kb = a[~selfp], b[~selfp], ka[~selfp], kb[~selfp]
+        if len(a):
+            ra, rb = H.ref[a], H.ref[b]
+            l = tb.lca(ra, rb)
+            sp, on_a = tb.split_panel(ra, rb, l, xc[ra], xc[rb])
+            rsum = H.rad[a] + H.rad[b]
+            da = np.linalg.norm(C[ka, ra] - C[ka, rb], axis=-1) - rsum
+            db = np.linalg.norm(C[kb, ra] - C[kb, rb], axis=-1) - rsum
+
+            args = (ra, rb, l, xc[ra], xc[rb], sp, on_a)
+            dF = tb.pair_motion(P, kb, *args) - tb.pair_motion(P, ka, *args)
+            keep = ~(da + db > dF * (1 + 1e-9) + margin)
+            leaf_a, leaf_b = H.left[a] < 0, H.left[b] < 0
+            both = leaf_a & leaf_b
+            code = np.minimum(ra, rb) * n + np.maximum(ra, rb)
+            keep &= ~(both & np.isin(code, excl))
+            span = kb - ka
+            dmin = np.minimum(da, db)
+            rmax = np.maximum(np.where(leaf_a, 0.0, H.rad[a]), np.where(leaf_b, 0.0, H.rad[b]))
+            far = keep & (dmin > 0) & (both | (dmin > rmax))
+            if refine:
+                later = far & (span == 1)
+                if later.any():
+                    pend[0].append(a[later])
+                    pend[1].append(b[later])
+                    pend[2].append(ka[later])
+                    keep &= ~later
+            tsplit = far & keep & (span > 1)
+            narrow = keep & both & ~tsplit
+            nsplit = keep & ~both & ~tsplit
+            if narrow.any():
+                out.append(np.column_stack([np.minimum(ra, rb)[narrow], np.maximum(ra, rb)[narrow],
+                                            ka[narrow], kb[narrow]]))
+            if tsplit.any():
+                km = (ka[tsplit] + kb[tsplit]) // 2
+                nxt += [(a[tsplit], b[tsplit], ka[tsplit], km), (a[tsplit], b[tsplit], km, kb[tsplit])]
+            if nsplit.any():
+                sa = nsplit & ~leaf_a & (leaf_b | (H.rad[a] >= H.rad[b]))
+                sb = nsplit & ~sa
+                for m, x, y in ((sa, a, b), (sb, b, a)):
+                    if m.any():
+                        nxt += [(H.left[x[m]], y[m], ka[m], kb[m]), (H.right[x[m]], y[m], ka[m], kb[m])]
+        if not nxt:
+            break
+        a = np.concatenate([t[0] for t in nxt])
+        b = np.concatenate([t[1] for t in nxt])
+        ka = np.concatenate([t[2] for t in nxt])
+        kb = np.concatenate([t[3] for t in nxt])
+    pend = [np.concatenate(x) if x else np.zeros(0, dtype=np.int64) for x in pend]
+    return out, pend
+
+
+def _merge_runs(rows: np.ndarray, n: int) -> np.ndarray:
+    """Merge touching intervals of one pair into runs, sorted by their first sample."""
+    code = rows[:, 0] * n + rows[:, 1]
+    o = np.lexsort((rows[:, 2], code))
+    rows, code = rows[o], code[o]
+    start = np.ones(len(rows), dtype=bool)
+    start[1:] = (code[1:] != code[:-1]) | (rows[1:, 2] > np.maximum.accumulate(rows[:, 3])[:-1])
+    first = np.nonzero(start)[0]
+    runs = rows[first].copy()
+    runs[:, 3] = np.maximum.reduceat(rows[:, 3], first)
+    return runs[np.argsort(runs[:, 2], kind="stable")]
+
+
+def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: float = 0.0,
+                        skip: set | None = None) -> tuple[Contact | None, list[Contact]]:
+    """Earliest contact over all non-adjacent pairs (and the pairs touching initially)."""
+    angles = checker.bound_coords(times, angles)
+    times = np.asarray(times)
+    k_start = int(np.searchsorted(times, t_start - 1e-12))
+    if k_start >= len(times):
+        return None, []
+    runs = candidate_runs(checker, angles, poses, k_start, skip, times)
+    best, initial = None, []
+    # advance every candidate pair together in time (a heap on the sample each has
+    # certified): once the earliest open pair is past the best contact, stop
+    import heapq
+
+    from ..core.guards import narrow_deadline
+
+    tick = narrow_deadline()
+    heap = []
+    for m, (i, j, ka, kb) in enumerate(runs.tolist()):
+        heapq.heappush(heap, (ka, m, i, j, kb, None))
+    rounds = 0
+    while heap:
+        k, m, i, j, kb, gen = heapq.heappop(heap)
+        rounds += 1
+        if rounds % 512 == 0:  # the narrow phase's work is known only as it goes: bound its time
+            tick(f"{len(runs)} panel-pair runs left by the broad phase, {len(heap)} open, certified to "
+                 f"{float(times[k]):.3g} s of {float(times[-1]):.3g} s")
+        if best is not None and times[k] > best.time:
+            break
+        if gen is None:
+            gen = checker._steps((i, j), times, angles, poses, k, kb, k == 0)
+        try:
+            k = next(gen)
+            heapq.heappush(heap, (k, m, i, j, kb, gen))
+            continue
+        except StopIteration as stop:
+            c = stop.value
+        if c is None:
+            continue
+        if c.method == "initial":
+            initial.append(c)
+            continue
+        if best is None or c.time < best.time:
+            best = c
+    return best, initial
+
+
+def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 20):
+    """Smallest FCL distance between non-adjacent panels over the given poses
+    (n_t, n, 4, 4): ``(distance, (i, j), time index)``, or None without pairs. Exact:
+    sphere lower bounds order the candidates and end the search (branch and bound)."""
+    pairs = np.array(non_adjacent_pairs(checker.design), dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return None
+    C = panel_centres(checker, poses)
+    rc = checker.tree.rc
+    n_t = len(poses)
+    best = (np.inf, None, None)
+    step = max(1, chunk // max(len(pairs), 1))
+    cands = []
+    for k0 in range(0, n_t, step):
+        k = np.arange(k0, min(n_t, k0 + step))
+        lb = (np.linalg.norm(C[k][:, pairs[:, 0]] - C[k][:, pairs[:, 1]], axis=-1)
+              - rc[pairs[:, 0]] - rc[pairs[:, 1]])
+        # keep, per time chunk, the candidates below the chunk's smallest upper bound
+        flat = lb.ravel()
+        o = np.argsort(flat, kind="stable")
+        cands.append((flat[o], k[o // len(pairs)], o % len(pairs)))
+    lbs = np.concatenate([c[0] for c in cands])
+    ks = np.concatenate([c[1] for c in cands])
+    ps = np.concatenate([c[2] for c in cands])
+    o = np.argsort(lbs, kind="stable")
+    for m in o:
+        if lbs[m] >= best[0]:
+            break
+        i, j = pairs[ps[m]]
+        k = int(ks[m])
+        d, _ = checker.distance(int(i), int(j), poses[k][i], poses[k][j])
+        if d < best[0]:
+            best = (d, (int(i), int(j)), k)
+    return best

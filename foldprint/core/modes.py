@@ -1,0 +1,96 @@
+"""Every mode foldprint has, as an enum with one default, validated in one place.
+
+The enums are ``str`` subclasses, so ``HingeModel.ARC == "arc"`` and they serialise to
+JSON as their value. :func:`parse` turns user text (CLI, files, API) into a member or
+raises :class:`~foldprint.core.errors.DesignError` naming the choices.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+from typing import TypeVar
+
+from .errors import DesignError
+
+
+class HingeModel(str, Enum):
+    """How the ROM moves a child panel about its hinge.
+
+    ``ARC``: the printed hinge, a strip of flat width w = R |rho| bending with uniform
+    curvature (panels translate as they rotate; in a pattern with loops the child turns
+    about the fold line and the strip is the tangent arc, docs/loops.md): the model of
+    record. ``POINT``: the
+    paper's Eq. 2-4, a hinge of zero size (Mao et al. 2015): for comparison."""
+
+    ARC = "arc"
+    POINT = "point"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class Method(str, Enum):
+    """Collision method: the paper's 2D index, the FCL swept check of the 3D panels, or
+    both (the index only where the design is a planar strip)."""
+
+    INDEX2D = "index2d"
+    FCL = "fcl"
+    BOTH = "both"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class AfterContact(str, Enum):
+    """After the first contact: ``STOP`` reports it; ``ARREST`` freezes the hinges between
+    the touching panels and goes on."""
+
+    STOP = "stop"
+    ARREST = "arrest"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class ScatterScope(str, Enum):
+    """Over what a scattered quantity takes one value (:mod:`foldprint.simulation.scatter`):
+    ``SHARED`` one draw per sample that every hinge sees (the bath of a run, the error of
+    the heat-transfer correlation for the whole part); ``HINGE`` one independent draw per
+    hinge (Tg, thickness, local heat transfer)."""
+
+    SHARED = "shared"
+    HINGE = "hinge"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class State(str, Enum):
+    """Which shape the geometry is built in: ``PERMANENT`` (printed, folded) or
+    ``PROGRAMMED`` (the flat sheet after programming)."""
+
+    PERMANENT = "permanent"
+    PROGRAMMED = "programmed"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+DEFAULT_HINGE_MODEL = HingeModel.ARC
+DEFAULT_METHOD = Method.BOTH
+DEFAULT_AFTER_CONTACT = AfterContact.STOP
+DEFAULT_STATE = State.PERMANENT
+
+E = TypeVar("E", bound=Enum)
+
+
+def parse(enum: type[E], value, what: str | None = None) -> E:
+    """``value`` (a member or its text, any case) as a member of ``enum``."""
+    if isinstance(value, enum):
+        return value
+    text = str(value).strip().lower() if value is not None else ""
+    for m in enum:
+        if m.value == text:
+            return m
+    choices = ", ".join(m.value for m in enum)
+    raise DesignError(f"{what or enum.__name__}: {value!r} is not one of {choices}")

@@ -1,0 +1,442 @@
+"""FOLD crease patterns as input: read FOLD 1.1/1.2 (foldprint, Origami Simulator,
+Rabbit Ear) into a :class:`~foldprint.model.design.Design`.
+
+Faces joined by flat edges ("F", "U", "J" without a fold angle) are facets of one panel
+and merged; creases between two panels become hinges (collinear ones one hinge); the
+result ends in :func:`foldprint.model.design.validate`. This is the input layer: the writer,
+:mod:`foldprint.exchange.fold`, imports the shared helpers from here, never the reverse.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+from shapely.geometry.polygon import orient
+
+from ..core.constants import tol
+from ..model.design import Design
+from .design_io import design_from_dict, read_text
+from ..core.errors import DesignError, where
+from ..model.materials import MaterialLibrary
+from ..core.schema import MAX_FACES, MAX_LENGTH_MM, check_fold, parse_error
+
+UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "pt": 25.4 / 72.0,
+         "um": 1e-3, "nm": 1e-6}
+_LINE_TOL = 1e-3  # mm: how far a fold line may sit from its edge (as in validate)
+_FLAT = {"F", "U", "J"}
+_KNOWN = {"B", "C", "M", "V", "F", "U", "J"}
+_DESIGN_KEYS = {"schema", "name", "description", "root", "process", "defaults", "goals", "hinges"}
+_HINGE_EXTRA = {"panels", "fixity", "style"}
+
+
+
+def _index_face_edges(faces, edges: list, lookup: dict) -> list[list[int]]:
+    """The faces bordering each edge. ``lookup`` maps sorted vertex pairs to indices of
+    ``edges``; face sides not in it are appended to ``edges`` (both are updated)."""
+    edge_faces: list[list[int]] = [[] for _ in edges]
+    for f, ring in enumerate(faces):
+        for a, b in _ring_edges(ring):
+            key = (min(a, b), max(a, b))
+            if key not in lookup:
+                lookup[key] = len(edges)
+                edges.append([a, b])
+                edge_faces.append([])
+            edge_faces[lookup[key]].append(f)
+    return edge_faces
+
+
+def _ring_edges(ring: list[int]):
+    return [(ring[k], ring[(k + 1) % len(ring)]) for k in range(len(ring))]
+
+
+def _project(pts: np.ndarray, a: np.ndarray, b: np.ndarray):
+    """Parameter t along a->b, distance to the line and the foot point of every point."""
+    d = b - a
+    t = (pts - a) @ d / (d @ d)
+    foot = a + t[:, None] * d
+    return t, np.hypot(*(pts - foot).T), foot
+
+
+# -- import -----------------------------------------------------------------------
+
+def _number(v) -> bool:
+    """A finite int or float (an int too large for a float is not one: no OverflowError)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    return abs(v) < 1e300 if isinstance(v, int) else math.isfinite(v)
+
+
+def _classes(frame: Mapping) -> set[str]:
+    c = frame.get("frame_classes")
+    return {str(x) for x in c} if isinstance(c, list) else set()
+
+
+def _frame(data: Mapping, src: str) -> Mapping:
+    """The crease-pattern frame: the top level, or the first of ``file_frames`` classed
+    ``creasePattern`` (or, without classes, the first with coordinates), merged over the
+    top level (``frame_inherit``). A file holding only folded states is refused."""
+    frames = data.get("file_frames")
+    top_cp = "vertices_coords" in data and "foldedForm" not in _classes(data)
+    if frames is None or top_cp and "creasePattern" in _classes(data):
+        chosen = data
+    else:
+        if not isinstance(frames, list) or not all(isinstance(f, Mapping) for f in frames):
+            raise DesignError(f"{src}file_frames must be a list of frame objects")
+        cands = [f for f in frames if "creasePattern" in _classes(f)]
+        if not cands and top_cp:
+            chosen = data
+        else:
+            cands = cands or [f for f in frames if "foldedForm" not in _classes(f)
+                              and ("vertices_coords" in f or "vertices_coords" not in data)]
+            if not cands:
+                if "vertices_coords" in data or not frames:
+                    chosen = data
+                else:
+                    chosen = None
+            else:
+                merged = {k: v for k, v in data.items() if k != "file_frames"}
+                merged.update(cands[0])
+                chosen = merged
+    if chosen is None or "foldedForm" in _classes(chosen) and "creasePattern" not in _classes(chosen):
+        raise DesignError(f"{src}this FOLD file holds only a folded state (frame_classes: foldedForm); "
+                          "foldprint needs the flat crease pattern: export the crease pattern "
+                          "(frame_classes: creasePattern) instead")
+    return chosen
+
+
+def _coords(frame: Mapping, factor: float, src: str) -> np.ndarray:
+    raw = frame.get("vertices_coords")
+    if raw is None:
+        raise DesignError(f"{src}vertices_coords is missing; a FOLD crease pattern needs vertex coordinates")
+    if not isinstance(raw, list):
+        raise DesignError(f"{src}vertices_coords must be a list of [x, y] points")
+    if len(raw) > 4 * MAX_FACES:
+        raise DesignError(f"{src}vertices_coords has {len(raw)} points; at most {4 * MAX_FACES} are accepted")
+    xyz = np.zeros((len(raw), 3))
+    for i, v in enumerate(raw):
+        if not isinstance(v, list) or len(v) not in (2, 3) or not all(_number(c) for c in v):
+            raise DesignError(f"{src}vertices_coords[{i}] must be [x, y] or [x, y, z] finite numbers, got {v!r}")
+        xyz[i, :len(v)] = v
+    with np.errstate(over="ignore", invalid="ignore"):
+        big = np.abs(xyz * factor).max(axis=1) if len(xyz) else np.zeros(0)
+    if len(big) and not np.all(big <= MAX_LENGTH_MM):  # also inf/nan: 1e306 m overflows
+        i = int(np.argmax(~(big <= MAX_LENGTH_MM)))
+        raise DesignError(f"{src}vertices_coords[{i}] is {_short(raw[i])}, {big[i]:.3g} mm from the origin at "
+                          f"{factor:g} mm per unit, beyond the {MAX_LENGTH_MM:g} mm foldprint accepts; check "
+                          "frame_unit or --scale")
+    flat = np.abs(xyz) <= 1e-9 * max(1.0, float(np.abs(xyz).max(initial=0.0)))
+    if flat[:, 2].all():
+        return xyz[:, :2] * factor
+    if flat[:, 1].all():  # Origami Simulator writes its flat sheet in the xz plane (y up)
+        return xyz[:, [0, 2]] * factor
+    i = int(np.nonzero(~flat[:, 2])[0][0])
+    raise DesignError(f"{src}vertices_coords is not flat: vertex {i} has z = {xyz[i, 2]:g}; foldprint "
+                      "imports crease patterns (the flat sheet), not folded states")
+
+
+def _index_lists(frame: Mapping, key: str, nv: int, src: str, size: int | None) -> list[list[int]]:
+    raw = frame.get(key)
+    if not isinstance(raw, list):
+        raise DesignError(f"{src}{key} must be a list of vertex index lists, got {type(raw).__name__}")
+    if len(raw) > MAX_FACES:
+        raise DesignError(f"{src}{key} has {len(raw)} entries; at most {MAX_FACES} are accepted "
+                          "(a printable part has far fewer faces and edges)")
+    out = []
+    for i, item in enumerate(raw):
+        if not isinstance(item, list) or (len(item) != size if size else not 3 <= len(item) <= MAX_RING):
+            raise DesignError(f"{src}{key}[{i}] must be a list of {size or f'3 to {MAX_RING}'} vertex indices, "
+                              f"got {_short(item)}")
+        for v in item:  # FOLD indices are integers: 2.0 is a float (issue 20), true is a boolean
+            if isinstance(v, bool) or not isinstance(v, int):
+                raise DesignError(f"{src}{key}[{i}] holds {_short(v)}, not a vertex index; indices are whole "
+                                  "numbers written without a decimal point (2, not 2.0)")
+            if not 0 <= v < nv:
+                raise DesignError(f"{src}{key}[{i}] refers to vertex {_short(v)} but there are {nv} vertices "
+                                  f"(indices 0 to {nv - 1})")
+        if len(set(item)) != len(item):
+            raise DesignError(f"{src}{key}[{i}] repeats a vertex: {item}")
+        out.append(item)
+    return out
+
+
+MAX_RING = 10_000  # vertices of one face (as schema.MAX_POINTS for a TOML outline)
+
+
+def _short(v) -> str:
+    """A bad value for a message, never thousands of digits long."""
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10 ** 30:
+        return f"an integer of {len(str(abs(v)))} digits"
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _per(frame: Mapping, key: str, n: int, of: str, src: str) -> list:
+    raw = frame.get(key)
+    if raw is None:
+        return [None] * n
+    if not isinstance(raw, list) or len(raw) != n:
+        got = f"{len(raw)} entries" if isinstance(raw, list) else f"a {type(raw).__name__}"
+        raise DesignError(f"{src}{key} has {got} but {of} has {n}; give one entry per item")
+    return list(raw)
+
+
+def _clean_ring(ring: np.ndarray) -> np.ndarray:
+    """Drop repeated points and vertices lying straight on the line of their neighbours."""
+    pts = [p for k, p in enumerate(ring) if np.linalg.norm(p - ring[k - 1]) > tol.length] or list(ring)
+    changed = True
+    while changed and len(pts) > 3:
+        changed = False
+        for k in range(len(pts)):
+            u, v = pts[k] - pts[k - 1], pts[(k + 1) % len(pts)] - pts[k]
+            if abs(u[0] * v[1] - u[1] * v[0]) <= 1e-9 * np.linalg.norm(u) * np.linalg.norm(v) and u @ v > 0:
+                del pts[k]
+                changed = True
+                break
+    return np.array(pts)
+
+
+def _fresh(prefix: str, taken: set) -> str:
+    k = 1
+    while f"{prefix}{k}" in taken:
+        k += 1
+    taken.add(f"{prefix}{k}")
+    return f"{prefix}{k}"
+
+
+def _edge_id(edge: int, taken: set) -> str:
+    """A hinge read from FOLD edge ``edge`` is called ``e<edge>`` (``_k`` if taken)."""
+    hid, k = f"e{edge}", 1
+    while hid in taken:
+        hid, k = f"e{edge}_{k}", k + 1
+    taken.add(hid)
+    return hid
+
+
+def _first(values: list, default):
+    return next((v for v in values if v is not None), default)
+
+
+def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | None = None,
+                     scale: float | None = None, default_hinge_material: str = "H-3",
+                     default_panel_material: str = "VeroWhite", default_thickness_mm: float = 0.8,
+                     default_radius_mm: float = 5.0,
+                     crease_materials: Mapping[str, str] | None = None) -> Design:
+    """Build and validate a design from a parsed FOLD 1.1/1.2 crease pattern.
+
+    ``scale`` (mm per file unit) overrides ``frame_unit``; without it a known unit
+    (mm, cm, m, in, pt, um, nm) is converted, and "unit" (or no unit) is an error that
+    asks for a scale. Hinges from plain FOLD edges are called ``e<edge index>``.
+    ``crease_materials`` maps an assignment letter (M, V, F, U) to the hinge material of
+    creases that name none (``edges_foldprint:material``); others get
+    ``default_hinge_material``. Coordinates (vertices, holes, goal
+    tips, strip depth) are scaled; the ``*_mm`` quantities are mm already.
+    """
+    src = where(source)
+    if not isinstance(data, Mapping):
+        raise DesignError(f"{src}a FOLD file must hold a JSON object, got {type(data).__name__}")
+    frame = _frame(data, src)
+    check_fold(frame, source)  # issue 14: types of the foldprint per-item fields
+    if "faces_vertices" not in frame:
+        raise DesignError(f"{src}faces_vertices is missing; foldprint needs faces (its panels), "
+                          "re-export the crease pattern with faces")
+    unit = str(frame.get("frame_unit", "unit")).lower()
+    if scale is not None:
+        if not _number(scale) or scale <= 0:
+            raise DesignError(f"{src}scale must be a number > 0 (mm per file unit), got {scale!r}")
+        factor = float(scale)
+    elif unit in UNITS:
+        factor = UNITS[unit]
+    elif unit == "unit":
+        said = "frame_unit is \"unit\"" if "frame_unit" in frame else "frame_unit is missing"
+        raise DesignError(f"{src}{said}, so the crease pattern has no physical size; give one with "
+                          "--scale MM_PER_UNIT (e.g. --scale 100 makes a 1-unit square 100 mm wide) "
+                          "or set frame_unit to mm, cm, m or in")
+    else:
+        raise DesignError(f"{src}frame_unit {unit!r} is unknown; known: {sorted(UNITS)} "
+                          "(or give --scale MM_PER_UNIT)")
+    xy = _coords(frame, factor, src)
+    faces = _index_lists(frame, "faces_vertices", len(xy), src, None)
+    if not faces:
+        raise DesignError(f"{src}faces_vertices is empty; a design needs at least one face")
+    edges = _index_lists(frame, "edges_vertices", len(xy), src, 2) if "edges_vertices" in frame else []
+    ne = len(edges)
+    assign = [str(a).upper() if a is not None else "U"
+              for a in _per(frame, "edges_assignment", ne, "edges_vertices", src)]
+    for i, a in enumerate(assign):
+        if a not in _KNOWN:
+            raise DesignError(f"{src}edges_assignment[{i}] is {a!r}; FOLD knows {sorted(_KNOWN)}")
+    angle = _per(frame, "edges_foldAngle", ne, "edges_vertices", src)
+    for i, a in enumerate(angle):
+        if a is not None and not (_number(a) and abs(a) <= 180 + 1e-9):
+            raise DesignError(f"{src}edges_foldAngle[{i}] must be a number of degrees in [-180, 180], got {a!r}")
+    nf = len(faces)
+    f_id, f_mat, f_thk, f_holes = (_per(frame, f"faces_foldprint:{k}", nf, "faces_vertices", src)
+                                   for k in ("id", "material", "thickness_mm", "holes"))
+    e_hid, e_mat, e_rad, e_thk = (_per(frame, f"edges_foldprint:{k}", ne, "edges_vertices", src)
+                                  for k in ("hinge_id", "material", "radius_mm", "thickness_mm"))
+    # which faces border which edge; face sides missing from edges_vertices count as "U"
+    lookup = {}
+    for i, (a, b) in enumerate(edges):
+        lookup.setdefault((min(a, b), max(a, b)), i)
+    edge_faces = _index_face_edges(faces, edges, lookup)
+    assign += ["U"] * (len(edges) - ne)
+    for col in (angle, e_hid, e_mat, e_rad, e_thk):
+        col += [None] * (len(edges) - ne)
+    polys = []
+    for f, ring in enumerate(faces):
+        poly = Polygon(xy[ring])
+        if not poly.is_valid or poly.area <= tol.area:
+            why = shapely.is_valid_reason(poly) if not poly.is_valid else "zero area"
+            raise DesignError(f"{src}faces_vertices[{f}] is not a simple polygon ({why})")
+        polys.append(poly)
+    # facets joined by flat edges form one panel (union-find)
+    parent = list(range(nf))
+
+    def root(f: int) -> int:
+        while parent[f] != f:
+            f = parent[f]
+        return f
+
+    crease = []
+    for i, fs in enumerate(edge_faces):
+        if len(fs) > 2:
+            raise DesignError(f"{src}edges_vertices[{i}] borders {len(fs)} faces; an edge of a crease "
+                              "pattern borders at most 2")
+        is_crease = (e_hid[i] is not None or assign[i] in ("M", "V")
+                     or (assign[i] in _FLAT and angle[i] not in (None, 0)))
+        if is_crease:
+            if len(fs) != 2:
+                raise DesignError(f"{src}edges_vertices[{i}] is a {assign[i]} crease but borders {len(fs)} "
+                                  "face(s); a hinge must lie between two faces")
+            crease.append(i)
+        elif assign[i] in _FLAT and len(fs) == 2:
+            parent[root(fs[0])] = root(fs[1])
+    groups: dict[int, list[int]] = {}
+    for f in range(nf):
+        groups.setdefault(root(f), []).append(f)
+    members = sorted(groups.values(), key=min)
+    group_of = {f: g for g, fs in enumerate(members) for f in fs}
+    taken = {str(v) for v in f_id if v is not None}
+    panels, pid_of = [], []
+    for g, fs in enumerate(members):
+        pid = str(_first([f_id[f] for f in fs], None) or _fresh("p", taken))
+        pid_of.append(pid)
+        shape = polys[fs[0]] if len(fs) == 1 else shapely.union_all([polys[f] for f in fs])
+        if shape.geom_type != "Polygon":
+            raise DesignError(f"{src}faces {fs} are joined by flat edges but do not form one polygon")
+        shape = orient(shape, 1.0)
+        holes = [_clean_ring(np.asarray(r.coords)[:-1]).tolist() for r in shape.interiors]
+        for f in fs:
+            for k, hole in enumerate(f_holes[f] or []):
+                arr = np.array(hole, dtype=object)
+                if arr.ndim != 2 or arr.shape[1] != 2 or not all(_number(c) for c in arr.flat):
+                    raise DesignError(f"{src}faces_foldprint:holes[{f}][{k}] must be a list of [x, y] points")
+                holes.append((arr.astype(float) * factor).tolist())
+        entry = {"id": pid, "outline": _clean_ring(np.asarray(shape.exterior.coords)[:-1]).tolist(),
+                 "thickness_mm": _first([f_thk[f] for f in fs], default_thickness_mm),
+                 "material": str(_first([f_mat[f] for f in fs], default_panel_material))}
+        if holes:
+            entry["holes"] = holes
+        panels.append(entry)
+    # creases between the same two panels (or with the same hinge id) form one hinge
+    hgroups: dict[Any, list[int]] = {}
+    for i in crease:
+        ga, gb = sorted(group_of[f] for f in edge_faces[i])
+        if ga == gb:
+            raise DesignError(f"{src}edges_vertices[{i}] is a {assign[i]} crease inside panel {pid_of[ga]!r}: "
+                              "the faces on its two sides are also joined by flat edges, so it does not "
+                              "separate two panels; a foldprint hinge must run between separate panels")
+        hgroups.setdefault(str(e_hid[i]) if e_hid[i] is not None else (ga, gb), []).append(i)
+    fp = frame.get("foldprint:design") or {}
+    if not isinstance(fp, Mapping):
+        raise DesignError(f"{src}foldprint:design must be an object, got {type(fp).__name__}")
+    unknown = sorted(set(fp) - _DESIGN_KEYS)
+    if unknown:
+        raise DesignError(f"{src}foldprint:design: unknown key(s) {unknown}; allowed: {sorted(_DESIGN_KEYS)}")
+    extras = fp.get("hinges") or {}
+    if not isinstance(extras, Mapping):
+        raise DesignError(f"{src}foldprint:design.hinges must be an object keyed by hinge id")
+    htaken = {k for k in hgroups if isinstance(k, str)}
+    hinges = []
+    for key, ids in hgroups.items():
+        pairs = {tuple(sorted(group_of[f] for f in edge_faces[i])) for i in ids}
+        if len(pairs) > 1:
+            raise DesignError(f"{src}hinge {key!r} has edges between different pairs of panels "
+                              f"({sorted({tuple(pid_of[g] for g in p) for p in pairs})})")
+        ga, gb = pairs.pop()
+        hid = key if isinstance(key, str) else _edge_id(min(ids), htaken)
+        degs = [angle[i] if angle[i] is not None else 180.0 if assign[i] == "V" else
+                -180.0 if assign[i] == "M" else 0.0 for i in ids]
+        if max(degs) - min(degs) > 1e-6:
+            raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases with "
+                              f"different fold angles {sorted(set(degs))} (edges_vertices {ids}); one "
+                              "hinge has one angle: split a panel or give the creases one angle")
+        line = _hinge_line(xy, [edges[i] for i in ids])
+        if line is None:
+            raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases that "
+                              f"do not lie on one line (edges_vertices {ids}); a hinge is straight")
+        extra = extras.get(hid) or {}
+        if not isinstance(extra, Mapping) or set(extra) - _HINGE_EXTRA:
+            raise DesignError(f"{src}foldprint:design.hinges.{hid} may only hold {sorted(_HINGE_EXTRA)}")
+        pp = [pid_of[ga], pid_of[gb]]
+        if sorted(map(str, extra.get("panels") or [])) == sorted(pp):
+            pp = [str(p) for p in extra["panels"]]
+        entry = {"id": hid, "panels": pp, "line": line.tolist(), "angle_deg": float(degs[0]),
+                 "material": str(_first([e_mat[i] for i in ids], None)
+                                 or (crease_materials or {}).get(assign[ids[0]], default_hinge_material)),
+                 "radius_mm": _first([e_rad[i] for i in ids], default_radius_mm),
+                 "thickness_mm": _first([e_thk[i] for i in ids], default_thickness_mm)}
+        entry.update({k: extra[k] for k in ("fixity", "style") if k in extra})
+        hinges.append(entry)
+    name = (frame.get("frame_title") or frame.get("file_title") or fp.get("name")
+            or (Path(source).stem if source else "") or "fold")
+    d = {k: v for k, v in fp.items() if k not in ("hinges", "schema", "name")}
+    d.update(name=str(name), panels=panels, hinges=hinges)
+    if "description" not in d and frame.get("frame_description"):
+        d["description"] = str(frame["frame_description"])
+    if factor != 1.0:
+        d = _scaled(d, factor)
+    return design_from_dict(d, source, library)
+
+
+def _hinge_line(xy: np.ndarray, segs: list[list[int]]) -> np.ndarray | None:
+    """The segment spanning collinear edges, or None if they are not collinear."""
+    pts = xy[np.array(segs).reshape(-1)]
+    d = pts[1] - pts[0]
+    d = d / np.linalg.norm(d)
+    s = (pts - pts[0]) @ d
+    off = np.abs((pts - pts[0]) @ np.array([-d[1], d[0]]))
+    if off.max() > max(tol.length, 1e-9 * float(np.ptp(s))):
+        return None
+    return np.array([pts[int(np.argmin(s))], pts[int(np.argmax(s))]])
+
+
+def _scaled(d: dict, factor: float) -> dict:
+    """Scale the sheet coordinates kept in foldprint:design (goal tips, strip depth)."""
+    d = dict(d)
+    if isinstance(d.get("goals"), list):
+        d["goals"] = [dict(g, tip=[c * factor for c in g["tip"]]) if isinstance(g, Mapping)
+                      and isinstance(g.get("tip"), list) and all(map(_number, g["tip"])) else g
+                      for g in d["goals"]]
+    if isinstance(d.get("defaults"), Mapping) and _number(d["defaults"].get("depth_mm")):
+        d["defaults"] = dict(d["defaults"], depth_mm=d["defaults"]["depth_mm"] * factor)
+    return d
+
+
+def design_from_fold_file(path: str | Path, library: MaterialLibrary | None = None, **kw) -> Design:
+    """Read a ``.fold`` file (FOLD 1.1/1.2); the design is named after ``frame_title``,
+    ``file_title`` or the file stem. Keyword arguments go to :func:`design_from_fold`."""
+    path = Path(path)
+
+    text = read_text(path, "a FOLD (JSON) file (.fold)")
+    try:
+        data = json.loads(text)
+    except ValueError as exc:  # JSONDecodeError, or an integer of more than 4300 digits
+        raise DesignError(parse_error(exc, text, str(path), "json")) from None
+    return design_from_fold(data, source=str(path), library=library, **kw)

@@ -1,0 +1,239 @@
+"""The material library: digital SMP hinge materials H-1..H-7, the rigid panel
+material and the rubbery base, with what the recovery model needs.
+
+The shipped library is ``foldprint/data/materials.toml``; a user file given with
+``--materials FILE`` (or :func:`load_library` ``extra=``) adds materials or
+overrides fields of shipped ones.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, fields, replace
+from importlib import resources
+from pathlib import Path
+from typing import Iterable, Mapping
+
+from ..core.errors import MaterialError, where
+
+ROLES = ("hinge", "panel", "base")
+
+
+@dataclass(frozen=True)
+class RecoveryParams:
+    """Parameters of the hinge recovery model (see ``docs/recovery-model.md``).
+
+    Thermal: conductivity ``k_w_mk`` (W/m/K), density ``rho_kg_m3``, heat capacity
+    ``c_j_kgk`` (J/kg/K), bath-side heat-transfer coefficient ``h_w_m2k`` (W/m^2/K).
+    Time-temperature superposition about the material's Tg: WLF constants ``c1``,
+    ``c2`` (K) above Tg, Arrhenius below with the activation energy that makes
+    log a_T and its slope continuous at Tg. Relaxation spectrum: ``n_branches``
+    Prony terms, log-spaced over ``spectrum_span_decades`` about
+    ``log10_tau_ref_s`` (relaxation time at Tg), with Gaussian weights of width
+    ``spectrum_sigma_decades`` in log tau.
+    """
+
+    k_w_mk: float
+    rho_kg_m3: float
+    c_j_kgk: float
+    h_w_m2k: float
+    c1: float
+    c2: float
+    log10_tau_ref_s: float
+    spectrum_sigma_decades: float
+    spectrum_span_decades: float
+    n_branches: int = 16
+
+    def validate(self, src: str) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise MaterialError(f"{src}{f.name} must be a finite number, got {v!r}")
+        for name in ("k_w_mk", "rho_kg_m3", "c_j_kgk", "h_w_m2k", "c1", "c2",
+                     "spectrum_sigma_decades", "spectrum_span_decades"):
+            if getattr(self, name) <= 0:
+                raise MaterialError(f"{src}{name} must be > 0, got {getattr(self, name)}")
+        if self.n_branches < 1:
+            raise MaterialError(f"{src}n_branches must be >= 1, got {self.n_branches}")
+
+
+@dataclass(frozen=True)
+class Material:
+    """One printable material.
+
+    ``tg_c`` is the glass transition (tan delta peak of DMA at 1 Hz, paper Methods).
+    ``max_strain`` is the largest bending strain the material takes during programming
+    (used by the design-rule checks). ``recovery`` is None for non-hinge materials.
+    """
+
+    name: str
+    role: str
+    tg_c: float
+    color: str
+    description: str = ""
+    max_strain: float = 0.2
+    recovery: RecoveryParams | None = None
+    source: str = ""
+
+    @property
+    def rgba(self) -> tuple[float, float, float, float]:
+        """Display colour as floats in [0, 1]."""
+        h = self.color.lstrip("#")
+        vals = [int(h[i:i + 2], 16) / 255.0 for i in (0, 2, 4)]
+        alpha = int(h[6:8], 16) / 255.0 if len(h) == 8 else 1.0
+        return (vals[0], vals[1], vals[2], alpha)
+
+
+@dataclass(frozen=True)
+class MaterialLibrary:
+    """An ordered, immutable collection of materials."""
+
+    materials: tuple[Material, ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        names = [m.name for m in self.materials]
+        if len(set(names)) != len(names):
+            raise MaterialError(f"duplicate material names in library: {names}")
+
+    def __contains__(self, name: object) -> bool:
+        return any(m.name == name for m in self.materials)
+
+    def __iter__(self):
+        return iter(self.materials)
+
+    def __len__(self) -> int:
+        return len(self.materials)
+
+    def get(self, name: str) -> Material:
+        for m in self.materials:
+            if m.name == name:
+                return m
+        raise MaterialError(
+            f"unknown material {name!r}; known materials: {', '.join(self.names())}"
+        )
+
+    __getitem__ = get
+
+    def names(self, role: str | None = None) -> list[str]:
+        return [m.name for m in self.materials if role is None or m.role == role]
+
+    def hinges(self) -> list[Material]:
+        """Hinge materials, in library order (H-1..H-7 for the shipped one)."""
+        return [m for m in self.materials if m.role == "hinge"]
+
+
+_COLOR_CHARS = set("0123456789abcdefABCDEF")
+
+
+def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
+                    previous: Material | None) -> Material:
+    key = where(src, f"materials.{name}")
+    if not isinstance(raw, Mapping):
+        raise MaterialError(f"{key}expected a table, got {type(raw).__name__}")
+    known = {"role", "tg_c", "color", "description", "max_strain", "recovery", "source"}
+    unknown = set(raw) - known
+    if unknown:
+        raise MaterialError(f"{key}unknown keys {sorted(unknown)}; allowed: {sorted(known)}")
+    prev = previous
+    role = raw.get("role", prev.role if prev else None)
+    if role not in ROLES:
+        raise MaterialError(f"{key}role must be one of {ROLES}, got {role!r}")
+    tg = raw.get("tg_c", prev.tg_c if prev else None)
+    if not isinstance(tg, (int, float)) or not math.isfinite(tg):
+        raise MaterialError(f"{key}tg_c must be a finite number in deg C, got {tg!r}")
+    color = raw.get("color", prev.color if prev else "#808080")
+    if not (isinstance(color, str) and color.startswith("#") and len(color) in (7, 9)
+            and set(color[1:]) <= _COLOR_CHARS):
+        raise MaterialError(f"{key}color must be '#RRGGBB' or '#RRGGBBAA', got {color!r}")
+    max_strain = raw.get("max_strain", prev.max_strain if prev else 0.2)
+    if not isinstance(max_strain, (int, float)) or not (0 < max_strain < 10):
+        raise MaterialError(f"{key}max_strain must be a positive fraction, got {max_strain!r}")
+    rec = None
+    if role == "hinge":
+        merged = dict(base_rec)
+        if prev is not None and prev.recovery is not None:
+            merged.update({f.name: getattr(prev.recovery, f.name) for f in fields(prev.recovery)})
+        rec_raw = raw.get("recovery", {})
+        if not isinstance(rec_raw, Mapping):
+            raise MaterialError(f"{key}recovery must be a table")
+        merged.update(rec_raw)
+        allowed = {f.name for f in fields(RecoveryParams)}
+        unknown = set(merged) - allowed
+        if unknown:
+            raise MaterialError(f"{key}recovery: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
+        missing = allowed - set(merged) - {"n_branches"}
+        if missing:
+            raise MaterialError(f"{key}recovery: missing {sorted(missing)}")
+        rec = RecoveryParams(**merged)
+        rec.validate(f"{key}recovery: ")
+    return Material(
+        name=name, role=role, tg_c=float(tg), color=color,
+        description=str(raw.get("description", prev.description if prev else "")),
+        max_strain=float(max_strain), recovery=rec,
+        source=str(raw.get("source", prev.source if prev else "")),
+    )
+
+
+def parse_library(data: Mapping, src: str, base: MaterialLibrary | None = None) -> MaterialLibrary:
+    """Build a library from parsed TOML; entries override same-named ones in ``base``."""
+    existing = {m.name: m for m in (base.materials if base else ())}
+    base_rec = data.get("recovery_defaults", {})
+    if base is not None and not base_rec:
+        first = next((m for m in base.materials if m.recovery is not None), None)
+        if first is not None:
+            base_rec = {f.name: getattr(first.recovery, f.name) for f in fields(first.recovery)}
+    mats = data.get("materials")
+    if not isinstance(mats, Mapping) or not mats:
+        raise MaterialError(f"{where(src)}expected a [materials.NAME] table for each material")
+    order = list(existing)
+    for name, raw in mats.items():
+        existing[name] = _parse_material(name, raw, base_rec, src, existing.get(name))
+        if name not in order:
+            order.append(name)
+    return MaterialLibrary(tuple(existing[n] for n in order))
+
+
+def _read_toml(path: Path) -> dict:
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise MaterialError(f"{path}: file not found") from None
+    except ValueError as exc:  # also a >4300-digit integer
+        raise MaterialError(f"{path}: not valid TOML: {exc}") from None
+    except OSError as exc:
+        raise MaterialError(f"{path}: cannot read: {exc.strerror}") from None
+
+
+_DEFAULT: MaterialLibrary | None = None
+
+
+def default_library() -> MaterialLibrary:
+    """The shipped library (cached; it is immutable)."""
+    global _DEFAULT
+    if _DEFAULT is None:
+        res = resources.files("foldprint") / "data" / "materials.toml"
+        data = tomllib.loads(res.read_text(encoding="utf-8"))
+        _DEFAULT = parse_library(data, "foldprint/data/materials.toml")
+    return _DEFAULT
+
+
+def load_library(extra: str | Path | Iterable[str | Path] | None = None) -> MaterialLibrary:
+    """The shipped library plus user files (later files override earlier ones)."""
+    lib = default_library()
+    if extra is None:
+        return lib
+    paths = [extra] if isinstance(extra, (str, Path)) else list(extra)
+    for p in paths:
+        p = Path(p)
+        lib = parse_library(_read_toml(p), str(p), base=lib)
+    return lib
+
+
+def with_material(lib: MaterialLibrary, material: Material) -> MaterialLibrary:
+    """A new library with ``material`` added or replacing the same-named one."""
+    mats = [material if m.name == material.name else m for m in lib.materials]
+    if material.name not in lib:
+        mats.append(material)
+    return replace(lib, materials=tuple(mats))

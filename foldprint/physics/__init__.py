@@ -1,0 +1,1 @@
+"""Hinge recovery R(t; material, bath, thickness) and the kinematics it drives."""

@@ -1,0 +1,423 @@
+"""The reduced-order model (ROM): hinge angles from recovery curves, panel poses by
+forward kinematics down the hinge tree.
+
+Two hinge models (``docs/simulation.md``):
+
+* ``point``: the paper's Eq. 2-4; a hinge of zero size rotates the child panel about
+  the fold line.
+* ``arc``: a hinge of flat width w = R |rho_target| centred on the fold line bends with
+  uniform curvature, so the child panel also translates; the rigid part of each panel
+  is its outline less a strip of w/2 along each of its hinges.
+
+A pose maps a panel's flat-sheet coordinates (x, y, z) to world coordinates; the root
+panel stays put. Everything is vectorised over time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model.design import Design, Hinge, has_loops, spanning_tree, tangent_factor
+from ..core.errors import DesignError
+from .loops import LoopSolution, LoopSolver
+from ..model.materials import MaterialLibrary, default_library
+from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
+from .recovery import recovery_curve
+
+#: time step of the loop solver's continuation grid (s)
+LOOP_DT = 0.01
+
+HINGE_MODELS = tuple(m.value for m in HingeModel)
+
+
+@dataclass(frozen=True)
+class HingeFrame:
+    """Static data of one hinge in the sheet frame.
+
+    ``origin`` (3,) a point on the fold line; ``axis`` (3,) unit rotation axis such that a
+    positive angle lifts the child toward +z; ``normal`` (3,) unit in-plane direction from
+    the fold line into the child panel; ``width`` the flat width w (mm).
+    """
+
+    hinge: Hinge
+    index: int
+    parent: int
+    child: int
+    origin: np.ndarray
+    axis: np.ndarray
+    normal: np.ndarray
+    width: float
+    tree: bool = True  # False: the hinge closes a loop; forward kinematics skips it
+    #: the child turns about the fold line itself (hinge graphs with loops): the arc strip
+    #: is the circular arc tangent to both panels (see :func:`hinge_map`)
+    centred: bool = False
+
+
+def hinge_frames(design: Design) -> list[HingeFrame]:
+    """Every hinge with its axes: the spanning tree's hinges in tree order (root outward),
+    then the hinges closing loops (``tree=False``, parent/child = ``hinge.panels``)."""
+    pidx = design.panel_index()
+    hidx = {h.id: i for i, h in enumerate(design.hinges)}
+    frames = []
+    tree, loops = spanning_tree(design)
+    centred = has_loops(design)  # the same test the strain check (FP130) uses
+    for h, parent, child in [(h, a, b) for h, a, b in tree] + [(h, a, b) for h, a, b in loops]:
+        a, b = h.line
+        d = np.array([b[0] - a[0], b[1] - a[1], 0.0])
+        d /= np.linalg.norm(d)
+        n = np.array([-d[1], d[0], 0.0])
+        centroid = design.panels[pidx[child]].polygon.centroid  # by index: panel(id) scans
+        mid = 0.5 * (a + b)
+        if (centroid.x - mid[0]) * n[0] + (centroid.y - mid[1]) * n[1] < 0:
+            n = -n
+        axis = np.array([n[1], -n[0], 0.0])  # n x e_z (np.cross costs 0.7 ms a call)
+        frames.append(HingeFrame(h, hidx[h.id], pidx[parent], pidx[child],
+                                 np.array([mid[0], mid[1], 0.0]), axis, n, h.width,
+                                 len(frames) < len(tree), centred))
+    return frames
+
+
+_EYE3 = np.eye(3)
+_EZ = np.array([0.0, 0.0, 1.0])
+
+
+def _rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rodrigues: (n, 3, 3) rotations by ``angle`` (n,) about unit ``axis`` (3,)."""
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
+    return _EYE3 + s * k + (1 - c) * (k @ k)
+
+
+def _sinc_terms(angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sin(a)/a and (1 - cos a)/a, stable at a = 0."""
+    a = np.asarray(angle, float)
+    small = np.abs(a) < 1e-6
+    safe = np.where(small, 1.0, a)
+    s = np.where(small, 1.0 - a**2 / 6.0, np.sin(safe) / safe)
+    c = np.where(small, a / 2.0, (1.0 - np.cos(safe)) / safe)
+    return s, c
+
+
+def hinge_map(frame: HingeFrame, angle, model: HingeModel | str = "arc", fraction=1.0) -> np.ndarray:
+    """The one hinge map: (n, 4, 4) transforms, relative to the parent panel, of the hinge
+    strip's line at ``fraction`` of its flat width (0 = the parent's edge, 1 = the
+    child's edge) when the hinge is bent to ``angle`` (rad). ``angle`` and ``fraction``
+    broadcast to (n,). ``fraction = 1`` is the child panel's transform.
+
+    ``arc``: the strip bends with uniform curvature, so the line at width u = w s turns by
+    rho s and sits at start + u sinc(rho s) n + u (1 - cos(rho s)) / (rho s) z, where start
+    is the parent's edge of the strip. ``point``: a rotation about the fold line (every
+    fraction is the fold line). Geometry (``foldprint.geometry``) and rendering build on
+    this map, so the printed part and the simulated part move identically.
+
+    ``arc`` on a ``centred`` frame (hinge graphs with loops, ``docs/loops.md``): the child
+    turns about the fold line, as for ``point``, so the rigid-origami closure of the
+    loops holds for the printed panels too; the strip is the circular arc tangent to both
+    panels, of length w (rho/2)/tan(rho/2) (:func:`tangent_factor`) and radius
+    R (rho/2)/tan(rho/2) at the target angle: it is printed shorter than its flat width and
+    programming stretches it (``checks`` FP130 counts that strain).
+    """
+    angle, fraction = np.broadcast_arrays(np.atleast_1d(np.asarray(angle, float)),
+                                          np.atleast_1d(np.asarray(fraction, float)))
+    model = str(model)
+    if model not in HINGE_MODELS:
+        raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+    n = len(angle)
+    out = np.zeros((n, 4, 4))
+    out[:, 3, 3] = 1.0
+    q = frame.origin
+    if model == "point":
+        rot = _rotation(frame.axis, angle)
+        out[:, :3, :3] = rot
+        out[:, :3, 3] = q - rot @ q
+        return out
+    w = frame.width
+    phi = angle * fraction
+    rot = _rotation(frame.axis, phi)
+    out[:, :3, :3] = rot
+    start = q - 0.5 * w * frame.normal
+    u = w * fraction
+    arc = u * tangent_factor(angle) if frame.centred else u  # arc length to the line at u
+    s, c = _sinc_terms(phi)
+    tip = start[None] + (arc * s)[:, None] * frame.normal[None] + (arc * c)[:, None] * _EZ[None]
+    line = start[None] + u[:, None] * frame.normal[None]
+    out[:, :3, 3] = tip - np.einsum("nij,nj->ni", rot, line)
+    return out
+
+
+def local_transforms(frame: HingeFrame, angle: np.ndarray, model: HingeModel | str) -> np.ndarray:
+    """(n, 4, 4) transforms of the child relative to the parent for hinge angles (n,):
+    :func:`hinge_map` at the child's edge."""
+    return hinge_map(frame, angle, model, 1.0)
+
+
+def forward(design: Design, angles: np.ndarray, model: HingeModel | str = DEFAULT_HINGE_MODEL,
+            frames: list[HingeFrame] | None = None) -> np.ndarray:
+    """Panel poses (n_t, n_panels, 4, 4) for hinge angles (n_t, n_hinges) in
+    ``design.hinges`` order (rad)."""
+    angles = np.atleast_2d(np.asarray(angles, float))
+    frames = frames if frames is not None else hinge_frames(design)
+    n_t = angles.shape[0]
+    poses = np.zeros((n_t, len(design.panels), 4, 4))
+    root = design.panel_index()[design.root]
+    poses[:, root] = np.eye(4)
+    for f in frames:
+        if f.tree:
+            poses[:, f.child] = poses[:, f.parent] @ local_transforms(f, angles[:, f.index], model)
+    return poses
+
+
+class TreeTransforms:
+    """Every tree hinge's child transform at once and the panel poses as prefix products
+    along the tree (pointer doubling): world poses of all panels at a few times in
+    O(log depth) batched products, instead of one 4x4 product per hinge and time
+    (:func:`forward`) or per hinge on a pair's tree path (the swept check's old
+    ``pair_poses``). Same map as :func:`hinge_map` at the child's edge."""
+
+    def __init__(self, design: Design, model: HingeModel | str, frames: list[HingeFrame] | None = None):
+        frames = [f for f in (frames if frames is not None else hinge_frames(design)) if f.tree]
+        self.model = str(model)
+        if self.model not in HINGE_MODELS:
+            raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+        n = len(design.panels)
+        self.n = n
+        self.hinge = np.array([f.index for f in frames], dtype=np.int64)
+        self.child = np.array([f.child for f in frames], dtype=np.int64)
+        parent = np.arange(n)
+        parent[self.child] = [f.parent for f in frames]
+        depth = np.zeros(n, dtype=np.int64)
+        for f in frames:  # tree order: parents first
+            depth[f.child] = depth[f.parent] + 1
+        self.up = [parent]
+        while (1 << len(self.up)) <= int(depth.max(initial=0)):
+            self.up.append(self.up[-1][self.up[-1]])
+        q = np.array([f.origin for f in frames]).reshape(-1, 3)
+        ax = np.array([f.axis for f in frames]).reshape(-1, 3)
+        nrm = np.array([f.normal for f in frames]).reshape(-1, 3)
+        w = np.array([f.width for f in frames])
+        self.q, self.nrm, self.w = q, nrm, w
+        self.centred = np.array([f.centred for f in frames], dtype=bool)
+        k = np.zeros((len(frames), 3, 3))
+        k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -ax[:, 2], ax[:, 1], -ax[:, 0]
+        k -= k.transpose(0, 2, 1)
+        self.k, self.kk = k, k @ k
+        self.start = q - 0.5 * w[:, None] * nrm
+        self.line = self.start + w[:, None] * nrm
+
+    def local(self, angles: np.ndarray) -> np.ndarray:
+        """(m, n_tree_hinges, 4, 4) child transforms for hinge angles (m, n_hinges)."""
+        a = np.atleast_2d(np.asarray(angles, float))[:, self.hinge]
+        m, nh = a.shape
+        out = np.zeros((m, nh, 4, 4))
+        out[..., 3, 3] = 1.0
+        rot = _EYE3 + np.sin(a)[..., None, None] * self.k + (1 - np.cos(a))[..., None, None] * self.kk
+        out[..., :3, :3] = rot
+        if self.model == "point":
+            out[..., :3, 3] = self.q - np.einsum("mhij,hj->mhi", rot, self.q)
+            return out
+        arc = np.where(self.centred, self.w * tangent_factor(a), self.w)
+        s, c = _sinc_terms(a)
+        tip = self.start + (arc * s)[..., None] * self.nrm + (arc * c)[..., None] * _EZ
+        out[..., :3, 3] = tip - np.einsum("mhij,hj->mhi", rot, self.line)
+        return out
+
+    def poses(self, angles: np.ndarray) -> np.ndarray:
+        """World poses (m, n_panels, 4, 4) for hinge angles (m, n_hinges): prefix products
+        root outward by pointer doubling (A <- A[ancestor] @ A, log2(depth) rounds)."""
+        loc = self.local(angles)
+        A = np.broadcast_to(np.eye(4), (len(loc), self.n, 4, 4)).copy()
+        A[:, self.child] = loc
+        for up in self.up:
+            A = A[:, up] @ A
+        return A
+
+
+def target_angles(design: Design) -> np.ndarray:
+    """(n_hinges,) target fold angles (rad): the permanent, printed state."""
+    return np.array([h.angle for h in design.hinges])
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """The ROM's answer: ``times`` (n_t,) s, ``ratios`` and ``angles`` (n_t, n_hinges)
+    (recovery ratio, fold angle in rad), ``poses`` (n_t, n_panels, 4, 4)."""
+
+    design: Design
+    times: np.ndarray
+    ratios: np.ndarray
+    angles: np.ndarray
+    poses: np.ndarray
+    model: str
+    bath_c: float
+    fold_times: tuple[float | None, ...]  # per hinge, s (98 % recovery), None = does not fold
+    onset_times: tuple[float | None, ...]
+    loops: LoopSolution | None = None  # hinge graphs with loops: the closure solve's report
+
+
+class HingeDrive:
+    """Continuous-time hinge angles: evaluates rho_i(t) at any times (used by the
+    trajectory and by the collision refinement between samples)."""
+
+    def __init__(self, design: Design, bath_c: float | None = None,
+                 library: MaterialLibrary | None = None, curves=None):
+        """Nominal recovery curves of each hinge's material, thickness and the bath, or
+        the given ``curves`` (one :class:`~foldprint.physics.recovery.RecoveryCurve` per hinge, in
+        ``design.hinges`` order: e.g. a scattered sample from :mod:`foldprint.simulation.robust`)."""
+        self.design = design
+        self.bath_c = float(design.process.bath_temperature_c if bath_c is None else bath_c)
+        if curves is None:
+            lib = library or default_library()
+            curves = [recovery_curve(lib[h.material], self.bath_c, h.thickness,
+                                     design.process.fix_temperature_c) for h in design.hinges]
+        elif len(curves) != len(design.hinges):
+            raise DesignError(f"{len(curves)} recovery curves for {len(design.hinges)} hinges")
+        self.curves = list(curves)
+        self.target = target_angles(design)
+        self.fixity = np.array([h.fixity for h in design.hinges])
+        self.frozen_at: dict[int, float] = {}  # hinge index -> time it was arrested
+        # loops (rigid origami): angles() gives the closed angles nearest the drive
+        self.loops = LoopSolver(hinge_frames(design), [h.id for h in design.hinges]) \
+            if has_loops(design) else None
+        self._solution: LoopSolution | None = None
+        self._solved_for: tuple | None = None
+
+        # every curve lives on the same internal grid: stack them for one fused lookup
+        self._grid = self.curves[0].t if self.curves else np.zeros(1)
+        if all(c.t is self._grid or np.array_equal(c.t, self._grid) for c in self.curves):
+            self._stack = np.stack([c.ratio for c in self.curves], axis=1) if self.curves else None
+        else:  # pragma: no cover - custom horizons
+            self._stack = None
+
+    def ratios(self, t) -> np.ndarray:
+        """Recovery ratios (n_t, n_hinges) at times ``t``; arrested hinges hold their value."""
+        t = np.atleast_1d(np.asarray(t, float))
+        n_h = len(self.curves)
+        if n_h == 0:  # a single panel: a valid, trivial design
+            return np.zeros((len(t), 0))
+        tt = np.repeat(t[:, None], n_h, axis=1)
+        for i, tf in self.frozen_at.items():
+            tt[:, i] = np.minimum(t, tf)
+        if self._stack is None:
+            return np.stack([c(tt[:, i]) for i, c in enumerate(self.curves)], axis=1)
+        g = self._grid
+        tc = np.clip(tt, g[0], g[-1])
+        k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
+        f = (tc - g[k]) / (g[k + 1] - g[k])
+        cols = np.arange(n_h)[None, :]
+        lo = self._stack[k, cols]
+        r = lo + (self._stack[k + 1, cols] - lo) * f  # monotone in t (the bound needs it)
+        return np.where(tt < 0, 0.0, r)
+
+    def driven(self, t) -> np.ndarray:
+        """rho(t) = rho_target (1 - (1 - R(t)) f), (n_t, n_hinges) rad: what each hinge's
+        material asks for on its own."""
+        r = self.ratios(t)
+        return self.target[None] * (1.0 - (1.0 - r) * self.fixity[None])
+
+    def angles(self, t) -> np.ndarray:
+        """Fold angles (n_t, n_hinges) rad: the driven angles for a hinge tree; with loops
+        the closed angles nearest the drive (:mod:`foldprint.physics.loops`), piecewise linear
+        between the solve grid's times."""
+        if self.loops is None:
+            return self.driven(t)
+        t = np.atleast_1d(np.asarray(t, float))
+        return self.solve_loops(t).at(t)
+
+    def variation(self, t) -> np.ndarray:
+        """Cumulative total variation of each angle from 0 to t, (n_t, n_hinges) rad (the
+        swept collision bound; equals |rho(t) - rho(0)| for monotone tree drives)."""
+        if self.loops is None:
+            return np.abs(self.driven(t) - self.driven([0.0]))
+        t = np.atleast_1d(np.asarray(t, float))
+        return self.solve_loops(t).total_variation(t)
+
+    def solve_loops(self, times=None, dt: float = LOOP_DT) -> LoopSolution:
+        """The loop solution on a grid of step ``dt`` covering ``times`` (and holding
+        ``times`` exactly); re-solved when the grid no longer covers the request or an
+        arrest changed the drive."""
+        times = np.atleast_1d(np.asarray(times if times is not None else [0.0], float))
+        end = max(float(times.max(initial=0.0)), float(self.design.process.duration_s))
+        key = tuple(sorted(self.frozen_at.items()))
+        sol = self._solution
+        if sol is not None and self._solved_for == key and sol.times[-1] >= end - 1e-12:
+            return sol
+        grid = np.arange(0.0, end + dt, dt)
+        if sol is not None and self._solved_for == key:
+            grid = np.union1d(grid, sol.times)
+        grid = np.union1d(grid[grid <= end + 1e-12], times[times >= 0])
+        self._solution = self.loops.track(grid, self.driven(grid))
+        self._solved_for = key
+        return self._solution
+
+
+def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath_c: float | None = None,
+                        model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = 0.01, duration: float | None = None,
+                        library: MaterialLibrary | None = None,
+                        drive: HingeDrive | None = None) -> Trajectory:
+    """Hinge angles and panel poses over time."""
+    if model not in HINGE_MODELS:
+        raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+    drive = drive or HingeDrive(design, bath_c, library)
+    if times is None:
+        dur = float(design.process.duration_s if duration is None else duration)
+        if not (dur > 0 and dt > 0):
+            raise DesignError(f"duration and dt must be > 0 s, got {dur} and {dt}")
+        n = int(np.ceil(dur / dt - 1e-9)) + 1
+        times = np.linspace(0.0, (n - 1) * dt, n)
+    times = np.asarray(times, float)
+    ratios = drive.ratios(times)
+    loop = None
+    if drive.loops is not None:
+        loop = drive.solve_loops(times, min(LOOP_DT, float(np.diff(times).min(initial=LOOP_DT))))
+        angles = loop.at(times)
+        # the ratio a hinge actually reached: a hinge held back by its loops is not done
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
+        ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
+    else:
+        angles = drive.angles(times)
+    poses = forward(design, angles, model)
+    if loop is not None and model == "arc":
+        loop = _with_arc_gap(design, loop, angles, poses)
+    for a in (times, ratios, angles, poses):
+        a.setflags(write=False)
+    return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c,
+                      tuple(c.fold_time for c in drive.curves), tuple(c.onset_time for c in drive.curves),
+                      loop)
+
+
+def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = "arc",
+                poses: np.ndarray | None = None) -> float:
+    """Largest distance (mm, over the times of ``angles`` (n_t, n_hinges)) between where a
+    loop hinge's child-side edge lands through that hinge and where the spanning tree puts
+    the child: 0 for a tree; for loops, the misfit of angles that do not close the loops
+    (loop hinges turn about their fold lines, ``HingeFrame.centred``, so closed angles
+    give round-off; docs/loops.md)."""
+    angles = np.atleast_2d(np.asarray(angles, float))
+    poses = forward(design, angles, model) if poses is None else poses
+    gap = 0.0
+    for f in hinge_frames(design):
+        if f.tree:
+            continue
+        loc = local_transforms(f, angles[:, f.index], model)
+        via = poses[:, f.parent] @ loc
+        for end in design.hinges[f.index].line:
+            p = np.array([end[0], end[1], 0.0]) + (0.5 * f.width * f.normal if model == "arc" else 0.0)
+            a = via[:, :3, :3] @ p + via[:, :3, 3]
+            b = poses[:, f.child, :3, :3] @ p + poses[:, f.child, :3, 3]
+            gap = max(gap, float(np.linalg.norm(a - b, axis=1).max(initial=0.0)))
+    return gap
+
+
+def _with_arc_gap(design: Design, loop: LoopSolution, angles: np.ndarray, poses: np.ndarray) -> LoopSolution:
+    from dataclasses import replace
+
+    return replace(loop, arc_gap_mm=loop_gap_mm(design, angles, "arc", poses))
+
+
+def transform_points(pose: np.ndarray, pts2d: np.ndarray, z: float = 0.0) -> np.ndarray:
+    """Apply one (4, 4) pose to sheet points (n, 2) at height ``z``; returns (n, 3)."""
+    pts = np.column_stack([pts2d, np.full(len(pts2d), z)])
+    return pts @ pose[:3, :3].T + pose[:3, 3]

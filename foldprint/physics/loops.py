@@ -1,0 +1,273 @@
+"""Rigid-origami kinematics for hinge graphs with loops (``docs/loops.md``).
+
+When creases meet at interior vertices the hinge graph has cycles and the fold angles
+are not independent: going around a loop the rigid transforms must compose to the
+identity. Each hinge is driven toward its material's recovery angle rho_i(t)
+(:class:`foldprint.physics.kinematics.HingeDrive`); at every time step this module finds the
+closed configuration nearest to the driven angles, continuing from the previous step
+(least-squares tracking on the constraint manifold, as in Tachi's Rigid Origami
+Simulator):
+
+    minimise |x - rho(t)|^2   subject to   C(x) = 0,
+
+by Gauss-Newton steps ``dx = J^+ (-C) + (I - J^+ J)(rho - x)`` from the previous x.
+
+Closure is written with the point hinge model (every hinge a rotation about its fold
+line: a zero-pitch twist), one 6-vector constraint per hinge that closes a loop (the
+fundamental cycles of the spanning tree). Arc hinges translate the child panel by an
+amount that depends on the angle, so their axes are not concurrent at a vertex and a
+loop of arc hinges generally has no exact closed configuration; foldprint uses the
+point model's angles for both hinge models and reports the arc model's positional gap
+at every loop hinge (:attr:`LoopSolution.arc_gap_mm`).
+
+This module imports nothing from the pipeline: :mod:`foldprint.physics.kinematics` hands it the
+hinge frames (duck-typed: ``index, parent, child, origin, axis, tree``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: closure residual accepted as closed (rad for rotation, mm for translation)
+CLOSURE_TOL = 1e-9
+#: a hinge whose closed angle stays this far from its driven angle "cannot follow" (rad)
+FOLLOW_TOL = np.radians(2.0)
+#: tracking stops when a Gauss-Newton step moves no angle more than this (rad)
+OPT_TOL = 1e-5
+#: how much farther than the continued answer a restart from the drive may land (rad)
+JUMP = 0.05
+#: below this largest angle (rad) the tracker also restarts from the drive
+NEAR_FLAT = 0.2
+#: a drive that moved less than this since the last solve (rad) is not re-solved
+SKIP_TOL = 1e-8
+#: largest change of any driven angle per continuation sub-step (rad)
+MAX_STEP = 0.1
+
+
+def _hat(w: np.ndarray) -> np.ndarray:
+    return np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+
+
+def _rot(axis: np.ndarray, angle: float) -> np.ndarray:
+    k = _hat(axis)
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * (k @ k)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _rotvec(r: np.ndarray) -> np.ndarray:
+    """Axis-angle vector of a rotation matrix (stable near the identity)."""
+    c = np.clip((np.trace(r) - 1) / 2, -1.0, 1.0)
+    a = np.arccos(c)
+    w = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    s = np.sin(a)
+    if a < 1e-6:
+        return 0.5 * w
+    if np.pi - a < 1e-6:  # pragma: no cover - half-turn residuals never occur near closure
+        m = (r + np.eye(3)) / 2
+        k = int(np.argmax(np.diag(m)))
+        v = m[:, k] / np.sqrt(max(m[k, k], 1e-300))
+        return a * v
+    return a / (2 * s) * w
+
+
+@dataclass(frozen=True, eq=False)
+class LoopSolution:
+    """Closed fold angles on a time grid and what the solver met on the way.
+
+    ``angles`` (n_t, n_hinges) rad satisfy closure at every grid time to ``closure``
+    (max residual over the run, rad/mm). ``stuck`` lists (time s, hinge ids) the first
+    time each hinge's closed angle stayed more than ``FOLLOW_TOL`` from its drive;
+    ``locked_at`` is the first time the configuration had no motion left (rigidly
+    locked) while the drive still asked for some, or None."""
+
+    times: np.ndarray
+    angles: np.ndarray
+    driven: np.ndarray
+    closure: float
+    stuck: tuple[tuple[float, tuple[str, ...]], ...]
+    locked_at: float | None
+    dof: int  # dimension of the tangent space at the first folded step
+    n_loops: int
+    variation: np.ndarray  # (n_t, n_hinges) cumulative total variation of each angle (rad)
+    arc_gap_mm: float = 0.0
+
+    def at(self, t) -> np.ndarray:
+        """Angles (n, n_hinges) at times ``t``, piecewise linear between grid times."""
+        t = np.atleast_1d(np.asarray(t, float))
+        return np.stack([np.interp(t, self.times, self.angles[:, k])
+                         for k in range(self.angles.shape[1])], axis=1)
+
+    def total_variation(self, t) -> np.ndarray:
+        """Cumulative total variation (n, n_hinges) of the piecewise linear angles from
+        time 0 to ``t``: a bound on how far each angle has moved, valid when the angle
+        is not monotone (the swept collision check's motion bound)."""
+        t = np.atleast_1d(np.asarray(t, float))
+        g = self.times
+        k = np.clip(np.searchsorted(g, t, side="right") - 1, 0, len(g) - 1)
+        return self.variation[k] + np.abs(self.at(t) - self.angles[k])
+
+
+class LoopSolver:
+    """Closure constraints of the fundamental cycles and the tracking solve."""
+
+    def __init__(self, frames, hinge_ids: list[str]):
+        self.ids = hinge_ids
+        self.n = len(hinge_ids)
+        self.axis = np.zeros((self.n, 3))
+        self.point = np.zeros((self.n, 3))
+        parent_of = {}
+        for f in frames:
+            self.axis[f.index] = f.axis
+            self.point[f.index] = f.origin
+            if f.tree:
+                parent_of[f.child] = (f.parent, f.index)
+
+        def chain(p):  # hinge indices root -> panel p
+            out = []
+            while p in parent_of:
+                p, k = parent_of[p][0], parent_of[p][1]
+                out.append(k)
+            return out[::-1]
+
+        self.cycles: list[list[tuple[int, float]]] = []
+        for f in frames:
+            if f.tree:
+                continue
+            ca, cb = chain(f.parent), chain(f.child)
+            c = 0
+            while c < min(len(ca), len(cb)) and ca[c] == cb[c]:
+                c += 1
+            cyc = [(k, 1.0) for k in ca[c:]] + [(f.index, 1.0)] + [(k, -1.0) for k in cb[c:][::-1]]
+            self.cycles.append(cyc)
+        # twists [w; v] of the point hinges: rotation about the fold line through origin
+        self.iterations = 0
+        self.twist = np.hstack([self.axis, -np.cross(self.axis, self.point)])
+        self._k = np.array([_hat(a) for a in self.axis]).reshape(self.n, 3, 3)
+        self._k2 = self._k @ self._k
+        self._cyc = [(np.array([k for k, _ in cyc]), np.array([0 if sg > 0 else 1 for _, sg in cyc]),
+                      np.array([sg for _, sg in cyc])) for cyc in self.cycles]
+
+    def _factors(self, x: np.ndarray) -> np.ndarray:
+        """(2, n, 4, 4) transforms exp(+xi_k x_k) and exp(-xi_k x_k)."""
+        ang = np.stack([x, -x])[:, :, None, None]
+        r = np.eye(3) + np.sin(ang) * self._k + (1 - np.cos(ang)) * self._k2
+        g = np.zeros((2, self.n, 4, 4))
+        g[..., :3, :3] = r
+        g[..., :3, 3] = self.point[None] - np.einsum("snij,nj->sni", r, self.point)
+        g[..., 3, 3] = 1.0
+        return g
+
+    def residual(self, x: np.ndarray, jacobian: bool = True):
+        """C (6 m,) and J (6 m, n) of the m cycles at angles x."""
+        m = len(self.cycles)
+        c = np.zeros(6 * m)
+        jac = np.zeros((6 * m, self.n)) if jacobian else None
+        fac = self._factors(x)
+        for ci, (ks, side, sgn) in enumerate(self._cyc):
+            g = np.eye(4)
+            pre = np.empty((len(ks), 4, 4))
+            for m_, (k, sd) in enumerate(zip(ks, side)):
+                pre[m_] = g
+                g = g @ fac[sd, k]
+            c[6 * ci:6 * ci + 3] = _rotvec(g[:3, :3])
+            p = g[:3, 3]
+            c[6 * ci + 3:6 * ci + 6] = p
+            if jacobian:  # columns: Ad(prefix) xi_k; r = [rotvec(R); p] so dp = v + w x p
+                rot, tr = pre[:, :3, :3], pre[:, :3, 3]
+                w = np.einsum("lij,lj->li", rot, self.axis[ks])
+                v = np.einsum("lij,lj->li", rot, self.twist[ks, 3:]) + np.cross(tr, w)
+                v += np.cross(w, p)
+                jac[6 * ci:6 * ci + 3, ks] = (sgn[:, None] * w).T
+                jac[6 * ci + 3:6 * ci + 6, ks] = (sgn[:, None] * v).T
+        return c, jac
+
+    def closure(self, x: np.ndarray) -> float:
+        return float(np.abs(self.residual(x, False)[0]).max(initial=0.0))
+
+    def project(self, x: np.ndarray, target: np.ndarray, iters: int = 8):
+        """Gauss-Newton tracking from ``x`` toward ``target``: at most ``iters`` steps
+        toward the nearest closed configuration, then Newton corrections until closed.
+        Returns (x, |C|, null-space dimension, converged)."""
+        x = x.copy()
+        null, res, done = 0, np.inf, False
+        for it in range(iters + 20):
+            c, jac = self.residual(x)
+            res = float(np.abs(c).max(initial=0.0))
+            u, sv, vt = np.linalg.svd(jac, full_matrices=True)
+            rank = int((sv > 1e-7 * max(1.0, sv.max(initial=0.0))).sum())
+            vr = vt[:rank]
+            null = self.n - rank
+            corr = -(vr.T @ ((u[:, :rank].T @ c) / sv[:rank])) if rank else np.zeros(self.n)
+            if it < iters:
+                d = target - x
+                step = corr + d - vr.T @ (vr @ d)
+            else:  # out of tracking steps: only restore closure
+                step = corr
+            big = np.abs(step).max(initial=0.0)
+            if res < CLOSURE_TOL and (big < OPT_TOL or it >= iters):
+                done = big < OPT_TOL
+                break
+            if big > 0.1:
+                step *= 0.1 / big
+            x = x + step
+            self.iterations += 1
+        else:
+            res = self.closure(x)
+        return x, res, null, done
+
+    def track(self, times: np.ndarray, driven: np.ndarray) -> LoopSolution:
+        """Follow the driven angles (n_t, n) on the closure manifold from the flat sheet."""
+        times = np.asarray(times, float)
+        x = np.zeros(self.n)
+        out = np.zeros_like(driven)
+        worst = 0.0
+        stuck: dict[int, float] = {}
+        locked_at = None
+        dof = -1
+        res_x = 0.0
+        settled = True
+        prev_drive = np.zeros(self.n)
+        for k in range(len(times)):
+            y = driven[k]
+            delta = np.abs(y - prev_drive).max(initial=0.0)
+            if delta > SKIP_TOL or k == 0 or not settled:
+                nsub = max(1, int(np.ceil(delta / MAX_STEP)))
+                for s in range(1, nsub + 1):
+                    ys = prev_drive + (y - prev_drive) * s / nsub
+                    xn, res, null, settled = self.project(x, ys)
+                    if np.abs(x).max(initial=0.0) < NEAR_FLAT and np.abs(xn - ys).max(initial=0.0) > OPT_TOL:
+                        # near the flat state (a bifurcation point) the step from x can
+                        # stall between branches: also start from the drive itself and
+                        # keep whichever closed answer is nearer the drive
+                        xb, rb, nb, sb = self.project(ys, ys)
+                        if (rb <= 1e-7 and np.linalg.norm(xb - ys) < np.linalg.norm(xn - ys) - 1e-9
+                                and np.abs(xb - x).max(initial=0.0) <= np.abs(xn - x).max(initial=0.0) + JUMP):
+                            xn, res, null, settled = xb, rb, nb, sb
+                    if res > 1e-7:  # lost the manifold: hold the last closed configuration
+                        settled = True
+                        if locked_at is None:
+                            locked_at = float(times[k])
+                        break
+                    x, res_x = xn, res
+                    if dof < 0 and np.abs(x).max(initial=0) > 1e-3:
+                        dof = null
+                if locked_at is None and null == 0 and np.abs(x - y).max(initial=0) > FOLLOW_TOL:
+                    locked_at = float(times[k])
+                worst = max(worst, res_x)
+                prev_drive = y
+            out[k] = x
+            for i in np.nonzero(np.abs(x - y) > FOLLOW_TOL)[0]:
+                stuck.setdefault(int(i), float(times[k]))
+        var = np.vstack([np.zeros((1, self.n)), np.cumsum(np.abs(np.diff(out, axis=0)), axis=0)])
+        groups: dict[float, list[str]] = {}
+        for i, t in sorted(stuck.items(), key=lambda it: (it[1], it[0])):
+            groups.setdefault(t, []).append(self.ids[i])
+        for a in (times, out, driven, var):
+            a.setflags(write=False)
+        return LoopSolution(times, out, driven, worst, tuple((t, tuple(h)) for t, h in groups.items()),
+                            locked_at, max(dof, 0), len(self.cycles), var)

@@ -1,0 +1,1 @@
+"""Figures, stills, scenes, animations and the interactive viewer."""

@@ -1,0 +1,210 @@
+"""Figures (matplotlib, headless Agg backend). Functions return the Figure; the
+``save_*`` helpers write PNGs through :mod:`foldprint.exchange.files`."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..model.materials import MaterialLibrary
+from ..physics.recovery import recovery_curve
+from ..physics.recovery_table import fold_times
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def figure_bytes(fig, fmt: str = "png", dpi: int = 110) -> bytes:
+    """Render a figure to bytes (deterministic metadata) and close it."""
+    buf = io.BytesIO()
+    meta = {"Software": None} if fmt == "png" else {}
+    fig.savefig(buf, format=fmt, dpi=dpi, metadata=meta, bbox_inches="tight")
+    _plt().close(fig)
+    return buf.getvalue()
+
+
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    from ..exchange.files import write_atomic
+
+    fmt = Path(path).suffix.lstrip(".").lower() or "png"
+    return write_atomic(path, figure_bytes(fig, fmt, dpi))
+
+
+def fold_time_chart(lib: MaterialLibrary, temperatures: Sequence[float], thickness_mm: float = 0.8,
+                    initial_c: float = 10.0):
+    """Fig. 1b style: 98 % fold time of every hinge material against bath temperature."""
+    plt = _plt()
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 4))
+    hinges = lib.hinges()
+    temps = np.asarray(sorted(temperatures), float)
+    dense = np.linspace(min(temps.min(), 70.0), max(temps.max(), 100.0), 16)
+    for m in hinges:  # one vectorised, cached evaluation per material for the line and the marks
+        ft = fold_times(m, np.concatenate([dense, temps]), thickness_mm, initial_c)
+        y = np.array([np.nan if v is None else v for v in ft])
+        ax1.plot(dense, y[:len(dense)], color=m.color, label=m.name, lw=1.5)
+        ax1.plot(temps, y[len(dense):], "o", color=m.color, ms=4)
+    ax1.set_xlabel("bath temperature (°C)")
+    ax1.set_ylabel("fold time to 98 % recovery (s)")
+    ax1.set_yscale("log")
+    ax1.set_title("fold time (Fig. 1b style)")
+    ax1.grid(alpha=0.3)
+    ax1.legend(fontsize=8, ncol=2)
+    ax0.bar([m.name for m in hinges], [m.tg_c for m in hinges], color=[m.color for m in hinges],
+            edgecolor="k", lw=0.5)
+    ax0.set_ylabel("Tg (°C)")
+    ax0.set_title("glass transition (Fig. 1a style)")
+    fig.tight_layout()
+    return fig
+
+
+def recovery_calibration_figure(lib: MaterialLibrary, thickness_mm: float = 0.8, initial_c: float = 10.0):
+    """R(t) of every hinge material at 80, 90 and 100 C, with the paper's targets."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, 4, figsize=(16, 3.8))
+    t = np.linspace(0, 14, 701)
+    for ax, bath in zip(axes[:3], (80.0, 90.0, 100.0)):
+        for m in lib.hinges():
+            c = recovery_curve(m, bath, thickness_mm, initial_c)
+            ax.plot(t, c(t), color=m.color, label=m.name)
+        ax.axhline(0.98, color="k", ls=":", lw=0.8)
+        ax.set_title(f"bath {bath:g} °C")
+        ax.set_xlabel("time (s)")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("recovery ratio R")
+    axes[0].legend(fontsize=7)
+    ax = axes[3]
+    spreads = []
+    baths = np.linspace(75, 100, 11)
+    h = lib.hinges()
+    for b in baths:
+        f1 = recovery_curve(h[0], b, thickness_mm, initial_c).fold_time
+        f7 = recovery_curve(h[-1], b, thickness_mm, initial_c).fold_time
+        spreads.append(np.nan if f1 is None or f7 is None else f7 - f1)
+    ax.plot(baths, spreads, "k-", label="model")
+    ax.errorbar([80, 100], [7.0, 2.0], yerr=[[1.5, 0.7], [1.5, 0.7]], fmt="rs", capsize=4,
+                label="paper (≈7 s, ≈2 s) with accepted band")
+    ax.set_xlabel("bath temperature (°C)")
+    ax.set_ylabel(f"{h[-1].name} − {h[0].name} fold time (s)")
+    ax.set_title("spread of fold times")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def plot_recovery_calibration(lib: MaterialLibrary, path: str | Path) -> Path:
+    return save_figure(recovery_calibration_figure(lib), path)
+
+
+def hinge_angle_figure(result):
+    """Fig. 3b style: each hinge's fold angle (deg) against time, contacts marked."""
+    plt = _plt()
+    from ..model.materials import default_library
+
+    lib = default_library()
+    traj = result.trajectory
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for k, h in enumerate(result.design.hinges):
+        color = lib[h.material].color if h.material in lib else None
+        ax.plot(traj.times, np.degrees(np.abs(traj.angles[:, k])), color=color, lw=1.4,
+                label=f"{h.id} ({h.material})")
+    for c in result.contacts:
+        ax.axvline(c.time, color="r", ls="--", lw=0.8)
+        ax.text(c.time, ax.get_ylim()[1] * 0.95, f" {c.panels[0]}–{c.panels[1]}", color="r", fontsize=7)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("|fold angle| (deg)")
+    ax.set_title(f"{result.design.name}: hinge angles at {traj.bath_c:g} °C ({traj.model} hinges)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2, loc="lower right")
+    fig.tight_layout()
+    return fig
+
+
+def collision_index_figure(result):
+    """Fig. 4 style: the paper's collision index S_ij of every panel pair against time;
+    contact is S_ij in the band (0, 1) outside the paper's exception cases."""
+    plt = _plt()
+    idx = result.index2d
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.axhspan(0, 1, color="0.9", zorder=0)
+    for k, (i, j) in enumerate(idx.pairs):
+        if idx.adjacent[k]:
+            continue
+        ax.plot(idx.times, idx.s_ij[:, k], lw=0.6, color="0.4", alpha=0.7)
+        hit = idx.contact[:, k]
+        if hit.any():
+            ax.plot(idx.times[hit], idx.s_ij[hit, k], ".", ms=3, color="r")
+    ax.set_ylim(-3, 4)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("collision index $S_{ij}$")
+    ax.set_title(f"{result.design.name}: collision index of {int((~idx.adjacent).sum())} non-adjacent pairs")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def sample_outcomes_figure(robust, worst: int | None = None):
+    """The Monte-Carlo samples of a jam-probability result (:class:`foldprint.simulation.robust.RobustResult`):
+    left, when each sample ends (its fold time when it completes, its first contact when it
+    collides) with the nominal fold marked; right, how often each panel pair is the first
+    to collide. ``worst``: the index of a sample to mark (e.g. the one the viewer replays)."""
+    plt = _plt()
+    outs = robust.outcomes
+    nominal = robust.nominal
+    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 3.6), gridspec_kw={"width_ratios": [3, 2]})
+    done = np.array([o.fold_time for o in outs if o.fold_time is not None], float)
+    hit = np.array([o.time for o in outs if o.time is not None], float)
+    both = np.concatenate([done, hit, [t for t in (nominal.fold_time,) if t is not None]])
+    if both.size:
+        lo, hi = float(both.min()), float(both.max())
+        pad = max(0.05 * (hi - lo), 0.02)
+        bins = np.linspace(lo - pad, hi + pad, 21)
+        if done.size:
+            ax0.hist(done, bins=bins, color="#2ca02c", alpha=0.75, label=f"fold time, {done.size} that complete")
+        if hit.size:
+            ax0.hist(hit, bins=bins, color="#d62728", alpha=0.75, label=f"first contact, {hit.size} that collide")
+    c = nominal.first_collision
+    if nominal.fold_time is not None:
+        ax0.axvline(nominal.fold_time, color="k", ls="--", lw=1, label=f"nominal fold time {nominal.fold_time:.2f} s")
+    elif c is not None:
+        ax0.axvline(c.time, color="k", ls="--", lw=1, label=f"nominal contact {c.time:.2f} s")
+    if worst is not None:
+        o = outs[worst]
+        t = o.time if o.time is not None else o.fold_time
+        if t is not None:
+            ax0.axvline(t, color="#9467bd", ls=":", lw=1.5, label=f"worst sample (#{worst}) {t:.2f} s")
+    other = sum(o.jammed and o.time is None for o in outs)
+    ax0.set_xlabel("time (s)")
+    ax0.set_ylabel("samples")
+    ax0.yaxis.get_major_locator().set_params(integer=True)
+    ax0.set_title(f"{robust.samples} samples, seed {robust.seed}" +
+                  (f" ({other} jam without a collision)" if other else ""), fontsize=10)
+    ax0.grid(alpha=0.3)
+    if ax0.get_legend_handles_labels()[0]:
+        ax0.legend(fontsize=7, loc="upper left")
+    pairs = robust.collisions()
+    if pairs:
+        labels = [f"{a}\u2013{b}" for (a, b), _ in pairs][::-1]
+        counts = [k for _, k in pairs][::-1]
+        ax1.barh(labels, counts, color="#d62728", alpha=0.8)
+        ax1.set_xlabel("samples")
+        ax1.xaxis.get_major_locator().set_params(integer=True)
+    else:
+        ax1.text(0.5, 0.5, "no sample collides", ha="center", va="center", transform=ax1.transAxes)
+        ax1.set_yticks([])
+        ax1.set_xticks([])
+    ax1.set_title("first-colliding panel pairs", fontsize=10)
+    ax1.grid(alpha=0.3, axis="x")
+    fig.suptitle(f"{robust.design}: jam probability {robust.jam_probability:.0%} under scatter "
+                 f"({robust.hinge_model.value} hinges)", fontsize=11)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,1 @@
+"""The fold of a design (nominal) and under scatter (jam probability)."""

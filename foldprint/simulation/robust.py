@@ -1,0 +1,278 @@
+"""Jam probability under manufacturing and process scatter (Monte-Carlo).
+
+Real parts are not nominal: the bath temperature varies from run to run and the
+heat-transfer coefficient of the whole part by the error of its correlation (both shared
+by every hinge of a sample); Tg varies from hinge to hinge with the digital-material mix,
+hinge thickness with the printer's tolerance, and h locally with the hinge's place on the
+part. Each sample is drawn by :func:`foldprint.simulation.scatter.draw_samples` (the model, its
+sources in ``foldprint/data/scatter.toml``, ``docs/robustness-model.md``); this module
+builds every hinge's recovery curve from the perturbed values, and folds the printed
+geometry (arc hinges, the 3D swept check, every goal) with
+:func:`foldprint.simulation.simulate.simulate`. A sample *jams* when it does not complete: a
+collision, a goal unmet or out of order, or a hinge short of 98 %.
+
+Samples are drawn from one seeded generator, in order, streamed in chunks of
+:data:`CHUNK` (memory stays bounded whatever ``--samples`` is), and evaluated in any
+order on any number of processes: the same seed gives the same answer. The recovery
+curves of a chunk are computed in one array pass per hinge material
+(:func:`sample_drives`, :mod:`foldprint.physics.recovery_batch`), equal to the per-curve model to
+round-off; a run whose estimated time exceeds the budget of
+:func:`foldprint.core.guards.check_samples` is refused after its first chunk.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from itertools import islice
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..core import guards
+from ..model.design import Design
+from ..core.errors import DesignError, MaterialError
+from ..physics.kinematics import HingeDrive
+from ..model.materials import MaterialLibrary, default_library
+from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel, Method, parse
+from ..physics.recovery import RecoveryCurve, recovery_curve
+from ..physics.recovery_batch import batch_ratios, grid_until
+# What is drawn (the model, its data file, the samples) lives in foldprint.simulation.scatter; this
+# module folds what it draws. Re-exported so callers keep importing them from here.
+from .scatter import (TRUNCATE_SD, Sample, Scatter, default_scatter, draw_samples, iter_samples,  # noqa: F401
+                      load_scatter)
+from .simulate import SimulationResult, simulate
+
+#: z of a two-sided 95 % interval.
+Z95 = 1.959963984540054
+#: Samples per task: drawn, given their curves in one array pass and folded together.
+#: Fixed (not tied to the number of workers), though the answer does not depend on it.
+CHUNK = 16
+
+
+
+def sample_drive(design: Design, library: MaterialLibrary, sample: Sample, *, until_s: float | None = None,
+                 exact: bool = False) -> HingeDrive:
+    """The hinge drive of one sample: each hinge's curve from its perturbed material.
+
+    ``exact``: the reference path, one cached :func:`~foldprint.physics.recovery.recovery_curve`
+    per hinge over the whole model horizon (``until_s`` ignored); otherwise
+    :func:`sample_drives`, equal to it to round-off up to ``until_s``."""
+    if not exact:
+        return sample_drives(design, library, [sample], until_s=until_s)[0]
+    curves = []
+    for k, h in enumerate(design.hinges):
+        mat = library[h.material]
+        rec = replace(mat.recovery, h_w_m2k=mat.recovery.h_w_m2k * float(sample.h_scale[k]))
+        mat = replace(mat, tg_c=mat.tg_c + float(sample.tg_shift_c[k]), recovery=rec)
+        curves.append(recovery_curve(mat, sample.bath_c, float(sample.thickness_mm[k]),
+                                     design.process.fix_temperature_c))
+    return HingeDrive(design, sample.bath_c, curves=curves)
+
+
+def run_end(design: Design, dt: float, duration: float | None = None) -> float:
+    """The last time (s) a simulation of ``design`` at step ``dt`` reaches (its times are
+    0, dt, ... up to the first at or past the duration): the curves are needed up to here."""
+    dur = float(design.process.duration_s if duration is None else duration)
+    return (math.ceil(dur / dt - 1e-9)) * dt
+
+
+def sample_drives(design: Design, library: MaterialLibrary, samples: Sequence[Sample],
+                  until_s: float | None = None) -> list[HingeDrive]:
+    """The hinge drives of ``samples``: the recovery curves of every hinge of every sample
+    in one array pass per hinge material (:func:`foldprint.physics.recovery_batch.batch_ratios`),
+    on the recovery model's grid up to ``until_s`` (default: the whole horizon; a curve
+    holds its last value past it, and its ``time_to`` sees only up to it).
+
+    This is the boundary between drawing the parameters (:func:`iter_samples`) and the
+    physics: a sample is per hinge a Tg shift, a thickness, an h multiplier, and a bath."""
+    samples = list(samples)
+    n_s, n_h = len(samples), len(design.hinges)
+    if n_s == 0:
+        return []
+    t = grid_until(float("inf") if until_s is None else float(until_s))
+    t.setflags(write=False)
+    fix_c = float(design.process.fix_temperature_c)
+    tg_shift = np.array([s.tg_shift_c for s in samples], float).reshape(n_s, n_h)
+    thick = np.array([s.thickness_mm for s in samples], float).reshape(n_s, n_h)
+    h_scale = np.array([s.h_scale for s in samples], float).reshape(n_s, n_h)
+    bath = np.array([s.bath_c for s in samples], float)
+    for name, arr in (("bath temperature", bath), ("Tg shift", tg_shift), ("hinge thickness", thick),
+                      ("heat-transfer multiplier", h_scale)):
+        if not np.all(np.isfinite(arr)):
+            raise MaterialError(f"{design.name}: a drawn {name} is not finite")
+    if np.any(thick <= 0):
+        raise MaterialError(f"{design.name}: a drawn hinge thickness is <= 0 mm")
+    curves: list[list] = [[None] * n_h for _ in range(n_s)]
+    by_material: dict[str, list[int]] = {}
+    for k, h in enumerate(design.hinges):
+        by_material.setdefault(h.material, []).append(k)
+    for name, ks in by_material.items():
+        mat = library[name]
+        p = mat.recovery
+        if p is None:
+            raise MaterialError(f"material {name!r} (role {mat.role}) has no recovery model; "
+                                "hinges need a hinge material such as H-1..H-7")
+        cols = np.array(ks)
+        tg = (mat.tg_c + tg_shift[:, cols]).ravel()  # (n_s * len(ks),), sample-major
+        hw = (p.h_w_m2k * h_scale[:, cols]).ravel()
+        th = thick[:, cols].ravel()
+        tb = np.repeat(bath, len(ks))
+        ratio, mean_t = batch_ratios(p, tg, hw, th, tb, fix_c, t)
+        ratio.setflags(write=False)
+        mean_t.setflags(write=False)
+        for j in range(len(tg)):
+            s, k = divmod(j, len(ks))
+            curves[s][ks[k]] = RecoveryCurve(name, float(tg[j]), float(tb[j]), float(th[j]), fix_c, t,
+                                             ratio[j], mean_t[j])
+    return [HingeDrive(design, smp.bath_c, curves=c) for smp, c in zip(samples, curves)]
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What became of one sample."""
+
+    jammed: bool
+    reason: str | None  # "collision", "goal", "unfolded" or None
+    pair: tuple[str, str] | None  # the first colliding panels
+    time: float | None  # first contact (s)
+    fold_time: float | None  # every hinge at 98 % (s), when it completed
+
+
+def outcome_of(result: SimulationResult) -> Outcome:
+    c = result.first_collision
+    if result.completed:
+        return Outcome(False, None, None, None, result.fold_time)
+    if c is not None:
+        return Outcome(True, "collision", tuple(sorted(c.panels)), float(c.time), None)
+    if not all(g.met for g in result.goals):
+        return Outcome(True, "goal", None, None, None)
+    return Outcome(True, "unfolded", None, None, None)
+
+
+def run_sample(args) -> Outcome:
+    """Fold one sample with the exact per-curve drive (the reference path; a module-level
+    function, so processes and clusters can run it)."""
+    design, library, sample, hinge_model, dt = args
+    drive = sample_drive(design, library, sample, exact=True)
+    res = simulate(design, dt=dt, method=Method.FCL, hinge_model=hinge_model, drive=drive)
+    return outcome_of(res)
+
+
+def run_samples(args) -> list[Outcome]:
+    """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), then one
+    fold each. ``args``: (design, library, samples, hinge_model, dt[, exact])."""
+    design, library, samples, hinge_model, dt, *rest = args
+    if rest and rest[0]:
+        return [run_sample((design, library, s, hinge_model, dt)) for s in samples]
+    drives = sample_drives(design, library, samples, until_s=run_end(design, dt))
+    return [outcome_of(simulate(design, dt=dt, method=Method.FCL, hinge_model=hinge_model, drive=d))
+            for d in drives]
+
+
+def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion k / n.
+
+    >>> [round(x, 4) for x in wilson(0, 60)]
+    [0.0, 0.0602]
+    """
+    if n <= 0:
+        raise ValueError("n must be > 0")
+    p = k / n
+    den = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+@dataclass(frozen=True)
+class RobustResult:
+    design: str
+    samples: int
+    seed: int
+    hinge_model: HingeModel
+    scatter: Scatter
+    outcomes: tuple[Outcome, ...]
+    nominal: SimulationResult
+
+    @property
+    def jams(self) -> int:
+        return sum(o.jammed for o in self.outcomes)
+
+    @property
+    def jam_probability(self) -> float:
+        return self.jams / self.samples
+
+    @property
+    def ci95(self) -> tuple[float, float]:
+        return wilson(self.jams, self.samples)
+
+    def collisions(self) -> list[tuple[tuple[str, str], int]]:
+        """Colliding pairs, most frequent first (ties by name)."""
+        counts: dict = {}
+        for o in self.outcomes:
+            if o.pair is not None:
+                counts[o.pair] = counts.get(o.pair, 0) + 1
+        return sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))
+
+    def fold_time_percentiles(self) -> dict | None:
+        """5th, 50th, 95th percentile of the fold time of the samples that completed."""
+        ft = np.array([o.fold_time for o in self.outcomes if o.fold_time is not None])
+        if ft.size == 0:
+            return None
+        p5, p50, p95 = np.percentile(ft, [5, 50, 95])
+        return {"p5": float(p5), "p50": float(p50), "p95": float(p95)}
+
+
+def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter: Scatter | None = None,
+                    library: MaterialLibrary | None = None, hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
+                    dt: float = 0.01, nominal: SimulationResult | None = None, workers: int | None = None,
+                    progress: Callable[[int, int], None] | None = None, mapper=None,
+                    exact: bool = False) -> RobustResult:
+    """Monte-Carlo estimate of the probability that ``design`` jams.
+
+    ``nominal``: the nominal simulation if the caller has it (else it is run here).
+    ``mapper(fn, items, progress)``: how to run the chunks of samples (default: all local
+    cores, :func:`foldprint.core.parallel.map_ordered`). ``exact``: the reference path (one
+    cached curve per hinge over the whole horizon, as before the batch path), for
+    comparisons. The first chunk runs here and times the run: a sample count whose
+    estimated time exceeds the budget (:func:`foldprint.core.guards.check_samples`) is refused."""
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise DesignError(f"samples must be a whole number >= 1, got {samples!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise DesignError(f"seed must be a whole number >= 0, got {seed!r}")
+    from ..core.guards import check_samples
+    from ..core.parallel import default_workers, map_ordered
+
+    lib = library or default_library()
+    scatter = scatter or default_scatter()
+    model = parse(HingeModel, hinge_model, "hinge_model")
+    guards.check_sample_memory(design, samples)  # refuse before any fold: the outcomes are held
+    if nominal is None:
+        nominal = simulate(design, dt=dt, method=Method.FCL, hinge_model=model, library=lib)
+    stream = iter_samples(design, scatter, samples, seed)
+    chunks = ((design, lib, chunk, model, dt, exact) for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
+    n_chunks = -(-samples // CHUNK)
+    done = [0]
+
+    def report(n: int) -> None:
+        done[0] = min(samples, done[0] + n)
+        if progress:
+            progress(done[0], samples)
+
+    start = time.perf_counter()
+    first = run_samples(next(chunks))  # here: it times the run before the rest is started
+    report(len(first))
+    if n_chunks > 1:
+        n_workers = default_workers() if workers is None else max(1, int(workers))
+        check_samples(samples, (time.perf_counter() - start) / len(first), n_workers, design.name)
+        chunk_done = lambda _d, _n: report(CHUNK)  # noqa: E731 - progress in samples, not chunks
+        if mapper is None:
+            rest = map_ordered(run_samples, chunks, workers=workers, progress=chunk_done, total=n_chunks - 1)
+        else:
+            rest = mapper(run_samples, list(chunks), chunk_done)
+    else:
+        rest = []
+    outcomes = tuple(o for chunk in [first, *rest] for o in chunk)
+    return RobustResult(design.name, samples, seed, model, scatter, outcomes, nominal)

@@ -1,0 +1,201 @@
+"""Simulation: ROM kinematics + collision (paper index, FCL swept) + goals, with the
+``stop`` or ``arrest`` behaviour after contact. The one place these stages are chained."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..collision.index2d import Index2D, collision_index
+from ..collision.swept3d import Contact, SweptChecker, swept_first_contact
+from ..core import guards
+from ..core.constants import FOLD_LEVEL, tol
+from ..model.design import Design, tree_order
+from ..core.errors import DesignError
+from ..collision.goals import GoalResult, evaluate_goals
+from ..physics.kinematics import HingeDrive, Trajectory, simulate_kinematics
+from ..model.materials import MaterialLibrary
+from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, AfterContact, HingeModel,
+                    Method, parse)
+
+METHODS = tuple(m.value for m in Method)
+AFTER = tuple(m.value for m in AfterContact)
+
+
+@dataclass(frozen=True, eq=False)
+class SimulationResult:
+    design: Design
+    trajectory: Trajectory
+    method: Method
+    after_contact: AfterContact
+    contacts: tuple[Contact, ...]  # in time order; the first is the first collision
+    index2d: Index2D | None
+    goals: tuple[GoalResult, ...]
+    initial_contacts: tuple[Contact, ...] = ()
+    arrested: dict = field(default_factory=dict)  # hinge id -> time frozen
+
+    @property
+    def first_collision(self) -> Contact | None:
+        return self.contacts[0] if self.contacts else None
+
+    @property
+    def hinge_done(self) -> list[bool]:
+        return [bool(r >= FOLD_LEVEL) for r in self.trajectory.ratios[-1]]
+
+    @property
+    def completed(self) -> bool:
+        return (self.first_collision is None and all(self.hinge_done)
+                and all(g.met for g in self.goals))
+
+    @property
+    def fold_time(self) -> float | None:
+        """Time every hinge reached 98 % (s), None if some hinge did not within the run."""
+        ft = []
+        for i in range(len(self.design.hinges)):
+            r = self.trajectory.ratios[:, i]
+            k = np.nonzero(r >= FOLD_LEVEL)[0]
+            if len(k) == 0:
+                return None
+            ft.append(self.trajectory.times[k[0]])
+        return float(max(ft)) if ft else 0.0
+
+    def final_angle_error(self) -> np.ndarray:
+        """|rho_target - rho_final| per hinge (rad)."""
+        target = np.array([h.angle for h in self.design.hinges])
+        return np.abs(target - self.trajectory.angles[-1])
+
+
+def _first_2d(traj: Trajectory, drive: HingeDrive, t_start: float,
+              skip: set) -> tuple[Contact | None, Index2D]:
+    idx = collision_index(traj)
+    hit = idx.contact & ~idx.adjacent[None]
+    for k, pair in enumerate(idx.pairs.tolist()):
+        if tuple(pair) in skip:
+            hit[:, k] = False
+    hit[traj.times < t_start - tol.time_eps] = False
+    rows = np.nonzero(hit.any(axis=1))[0]
+    if len(rows) == 0:
+        return None, idx
+    k = int(rows[0])
+    p = int(np.nonzero(hit[k])[0][0])
+    i, j = idx.pairs[p]
+    ids = (traj.design.panels[i].id, traj.design.panels[j].id)
+    if k > 0 and traj.times[k - 1] >= t_start:  # bisect between the two samples
+        t = _bisect_2d(traj, drive, (int(i), int(j)), traj.times[k - 1], traj.times[k])
+    else:
+        t = float(traj.times[k])
+    return Contact(t, (int(i), int(j)), ids, (float("nan"),) * 3, 0.0, "index2d"), idx
+
+
+def _bisect_2d(traj: Trajectory, drive: HingeDrive, pair, lo: float, hi: float) -> float:
+    from ..collision.index2d import index_arrays, paper_contact, world_side_segments
+    from ..physics.kinematics import forward
+
+    i, j = pair
+    for _ in range(30):
+        if hi - lo < tol.time / 10:  # finer than the 3D check's refinement
+            break
+        mid = 0.5 * (lo + hi)
+        poses = forward(traj.design, drive.angles([mid]), traj.model)
+        segs = world_side_segments(traj.design, poses, traj.model)
+        a, b = segs[i][0], segs[j][0]
+        si, sj, _, coll = index_arrays(a[:, None, 0], a[:, None, 1], b[None, :, 0], b[None, :, 1])
+        if (paper_contact(si, sj) | coll).any():
+            hi = mid
+        else:
+            lo = mid
+    return float(hi)
+
+
+def _path_hinges(design: Design, a: int, b: int) -> list[int]:
+    """Hinge indices on the tree path between panels a and b."""
+    idx = {h.id: k for k, h in enumerate(design.hinges)}
+    parent = {}
+    pidx = design.panel_index()
+    for h, p, c in tree_order(design):
+        parent[pidx[c]] = (pidx[p], idx[h.id])
+
+    def up(x):
+        out = []
+        while x in parent:
+            p, hk = parent[x]
+            out.append((x, hk))
+            x = p
+        return out
+
+    ua, ub = up(a), up(b)
+    anc_a = [a] + [parent[x][0] for x, _ in ua]
+    anc_b = [b] + [parent[x][0] for x, _ in ub]
+    lca = next(x for x in anc_a if x in anc_b)
+    path = [hk for x, hk in ua if anc_a.index(x) < anc_a.index(lca)]
+    path += [hk for x, hk in ub if anc_b.index(x) < anc_b.index(lca)]
+    return path
+
+
+def simulate(design: Design, *, bath_c: float | None = None, duration: float | None = None,
+             dt: float = 0.01, method: Method | str = DEFAULT_METHOD,
+             hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
+             after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT,
+             library: MaterialLibrary | None = None, drive: HingeDrive | None = None,
+             progress=None) -> SimulationResult:
+    """Run the ROM and the collision check(s).
+
+    ``hinge_model``: ``arc`` (default: the printed hinges, :class:`~foldprint.core.modes.HingeModel`)
+    or ``point`` (the paper's Eq. 2-4). ``method``: "index2d" (the paper's index; planar
+    strips only), "fcl" (3D swept) or "both" (index2d only where the design is a planar
+    strip). ``after_contact``: "stop" keeps the kinematic trajectory and reports the first
+    contact; "arrest" freezes the hinges on the tree path between two touching panels from
+    the contact on and goes on. ``drive``: the hinges' recovery (default: the nominal
+    curves of each hinge's material; :mod:`foldprint.simulation.robust` passes scattered ones).
+    """
+    method = parse(Method, method, "method")
+    guards.check_simulation(design, dt, duration, method)  # refuse before allocating (issue 14)
+    after_contact = parse(AfterContact, after_contact, "after_contact")
+    hinge_model = parse(HingeModel, hinge_model, "hinge_model")
+    use2d = method in (Method.INDEX2D, Method.BOTH) and design.is_planar_strip
+    if method == Method.INDEX2D and not design.is_planar_strip:
+        raise DesignError(f"{design.name}: the paper's 2D collision index needs a planar strip "
+                          "(every fold line parallel to y); use --method fcl")
+    use3d = method in (Method.FCL, Method.BOTH)
+    if drive is None:
+        drive = HingeDrive(design, bath_c, library)
+    elif drive.frozen_at:
+        raise DesignError("simulate needs a fresh HingeDrive (this one has arrested hinges)")
+    contacts: list[Contact] = []
+    skip: set = set()
+    initial: list[Contact] = []
+    checker = SweptChecker(design, hinge_model, drive) if use3d else None
+    t_start = 0.0
+    idx2d = None
+    for _round in range(len(design.hinges) + 1):
+        traj = simulate_kinematics(design, bath_c=drive.bath_c, model=hinge_model, dt=dt,
+                                   duration=duration, drive=drive)
+        found: list[Contact] = []
+        if use2d:
+            c2, idx2d = _first_2d(traj, drive, t_start, skip)
+            if c2:
+                found.append(c2)
+        if use3d:
+            c3, init = swept_first_contact(checker, traj.times, traj.angles, traj.poses, t_start, skip)
+            if _round == 0:
+                initial = init
+                skip |= {c.pair for c in init}
+            if c3:
+                found.append(c3)
+        if progress:
+            progress(_round)
+        if not found:
+            break
+        first = min(found, key=lambda c: c.time)
+        contacts.append(first)
+        if after_contact == AfterContact.STOP:
+            break
+        for k in _path_hinges(design, *first.pair):
+            drive.frozen_at.setdefault(k, first.time)
+        skip.add(first.pair)
+        t_start = first.time
+    goals = evaluate_goals(design, traj.times, traj.poses)
+    arrested = {design.hinges[k].id: t for k, t in drive.frozen_at.items()}
+    return SimulationResult(design, traj, method, after_contact, tuple(contacts), idx2d, tuple(goals),
+                            tuple(initial), arrested)
