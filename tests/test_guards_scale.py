@@ -2,6 +2,7 @@
 name the estimate and the limit and come before any work, the memory estimate bounds
 the memory a simulation really allocates."""
 
+import json
 import time
 import tracemalloc
 
@@ -118,3 +119,26 @@ def test_bad_time_budget_is_a_clear_error(monkeypatch):
     monkeypatch.setenv("FOLDPRINT_TIME_BUDGET", "nan")
     with pytest.raises(guards.FoldprintError, match="FOLDPRINT_TIME_BUDGET"):
         guards.time_budget()
+
+
+def test_both_leaves_out_an_index_over_the_limit_and_says_so(tmp_path, capsys):
+    """--method both on a planar strip whose paper index alone would exceed the memory
+    limit runs the 3D check (the verdict) and notes the index left out; --method index2d
+    still asks for it and is refused with the estimate."""
+    from foldprint.io.design_io import design_to_toml
+
+    d = _strip(60)
+    with2d = guards.simulation_estimate(60, 59, 2001, True, 240)["bytes"]
+    without = guards.simulation_estimate(60, 59, 2001, False, 240)["bytes"]
+    limit = int((with2d + without) / 2)
+    assert without < limit < with2d
+    f = tmp_path / "s60.toml"
+    f.write_text(design_to_toml(d))
+    assert main(["simulate", str(f), "--max-memory", str(limit), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["method"] == "both" and out["completed"] and len(out["notes"]) == 1
+    assert "2D collision index was left out" in out["notes"][0]
+    assert main(["simulate", str(f), "--max-memory", str(limit), "--method", "index2d", "--json"]) == 2
+    assert "memory limit" in capsys.readouterr().err
+    guards.set_max_memory(None)
+    assert simulate(d).notes == ()  # under the default limit the index runs

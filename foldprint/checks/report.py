@@ -50,6 +50,7 @@ def simulation_json(result, brief: bool = False) -> dict:
         "hinges": hinges,
         "goals": [g.to_json() for g in result.goals],
         "method": str(result.method),
+        "notes": list(result.notes),
         "hinge_model": str(traj.model),
         "after_contact": str(result.after_contact),
         "duration_s": _r(traj.times[-1]),

@@ -225,6 +225,8 @@ def _print_simulation(r: dict) -> None:
     for g in r["goals"]:
         state = f"met at {g['time_s']:.2f} s" if g["met"] else "NOT met"
         echo(f"  goal {g['id']}: {g['panel']} through holes[{g['hole']}] of {g['target']}: {state}")
+    for n in r.get("notes") or []:
+        echo(f"  note: {n}")
     if r.get("comparison"):
         c = r["comparison"]
         echo(f"  note: the {c['hinge_model']} hinge model disagrees: it {_verdict(c)} "

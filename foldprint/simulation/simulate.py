@@ -34,6 +34,7 @@ class SimulationResult:
     goals: tuple[GoalResult, ...]
     initial_contacts: tuple[Contact, ...] = ()
     arrested: dict = field(default_factory=dict)  # hinge id -> time frozen
+    notes: tuple[str, ...] = ()  # what the run left out and why (e.g. the 2D index over the memory limit)
 
     @property
     def first_collision(self) -> Contact | None:
@@ -150,10 +151,16 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     curves of each hinge's material; :mod:`foldprint.simulation.robust` passes scattered ones).
     """
     method = parse(Method, method, "method")
-    guards.check_simulation(design, dt, duration, method)  # refuse before allocating (issue 14)
+    notes: list[str] = []
+    skip2d = guards.index2d_skip_reason(design, dt, duration) if (
+        method == Method.BOTH and design.is_planar_strip) else None
+    if skip2d:
+        notes.append(skip2d)
+    # refuse before allocating (issue 14)
+    guards.check_simulation(design, dt, duration, Method.FCL if skip2d else method)
     after_contact = parse(AfterContact, after_contact, "after_contact")
     hinge_model = parse(HingeModel, hinge_model, "hinge_model")
-    use2d = method in (Method.INDEX2D, Method.BOTH) and design.is_planar_strip
+    use2d = method in (Method.INDEX2D, Method.BOTH) and design.is_planar_strip and not skip2d
     if method == Method.INDEX2D and not design.is_planar_strip:
         raise DesignError(f"{design.name}: the paper's 2D collision index needs a planar strip "
                           "(every fold line parallel to y); use --method fcl")
@@ -198,4 +205,4 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     goals = evaluate_goals(design, traj.times, traj.poses)
     arrested = {design.hinges[k].id: t for k, t in drive.frozen_at.items()}
     return SimulationResult(design, traj, method, after_contact, tuple(contacts), idx2d, tuple(goals),
-                            tuple(initial), arrested)
+                            tuple(initial), arrested, tuple(notes))
