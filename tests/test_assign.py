@@ -3,6 +3,7 @@ the simulation of record, the search against its own invariants, and a Dask clus
 against local processes."""
 
 import json
+from pathlib import Path
 import re
 
 import pytest
@@ -17,17 +18,8 @@ from foldprint.physics.recovery import recovery_curve
 from foldprint.simulation.simulate import simulate
 from foldprint.io.templates import resolve_design_path
 
-CROSSING = """schema = 1
-name = "crossing"
-[process]
-duration_s = 10.0
-[defaults]
-hinge_radius_mm = 2.0
-[strip]
-lengths_mm = [20, 10, 30]
-angles_deg = [120, 120]
-materials = ["H-3", "H-3"]
-"""
+#: panels p1 and p3 cross in the printed state
+CROSSING = Path(__file__).parent / "data" / "crossing.toml"
 
 
 def _small_spiral(materials=("H-3", "H-3", "H-3")):
@@ -93,9 +85,8 @@ def test_helix_failures_are_tallied_most_frequent_first(helix_margin):
     assert [b["count"] for b in blocking] == sorted((b["count"] for b in blocking), reverse=True)
 
 
-def test_crossing_design_exits_1_naming_the_pair(tmp_path, capsys):
-    f = tmp_path / "crossing.toml"
-    f.write_text(CROSSING)
+def test_crossing_design_exits_1_naming_the_pair(capsys):
+    f = CROSSING
     assert permanent_crossings(load_design(f)) == [("p1", "p3")]
     code = main(["assign", str(f), "--json"])
     cap = capsys.readouterr()

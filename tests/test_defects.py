@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import random
 from types import SimpleNamespace
 
@@ -18,19 +19,8 @@ from foldprint.geometry.assembly import build_pieces
 from foldprint.geometry.hinges import _poses, state_angles
 from foldprint.core.modes import HingeModel
 
-layout = __import__("importlib").import_module("foldprint.geometry.layout").layout
+from foldprint.geometry import layout
 
-CROSSING = """schema = 1
-name = "crossing"
-[process]
-duration_s = 10.0
-[defaults]
-hinge_radius_mm = 2.0
-[strip]
-lengths_mm = [20, 10, 30]
-angles_deg = [120, 120]
-materials = ["H-3", "H-3"]
-"""
 
 
 def _waterbomb_8():
@@ -76,10 +66,9 @@ def test_waterbomb_exports(tmp_path, capsys):
 
 
 @pytest.fixture
-def crossing(tmp_path):
-    f = tmp_path / "crossing.toml"
-    f.write_text(CROSSING)
-    return f
+def crossing():
+    """Panels p1 and p3 cross in the printed state (shared with tests/test_assign.py)."""
+    return Path(__file__).parent / "data" / "crossing.toml"
 
 
 def test_simulate_says_a_crossing_part_can_never_be_printed(crossing, capsys):

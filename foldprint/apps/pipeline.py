@@ -19,7 +19,7 @@ from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_p
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
-from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED  # noqa: F401 (re-exported)
+from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED  # noqa: F401 (re-exported)
 from ..model.design import Design
 from ..core.errors import GeometryError
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
@@ -33,9 +33,6 @@ from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, draw_sa
 from ..simulation.sensitivity import SweepPoint, sweep
 from ..simulation.simulate import SimulationResult, simulate
 
-#: Sigma scales ``check`` also runs (the same samples and seed) to say when its verdict
-#: flips inside that range (FP183).
-CHECK_SCALES = (0.5, 2.0)
 
 
 def build(design: Design, state: State | str = DEFAULT_STATE,

@@ -7,7 +7,6 @@ Machine output (``--json``) goes to stdout; human messages to stderr.
 
 from __future__ import annotations
 
-from ..core import guards
 import sys
 from pathlib import Path
 from typing import List, Optional, Tuple
@@ -16,7 +15,8 @@ import typer
 from typer import echo
 
 from .. import __version__
-from ..core.constants import CHECK_SAMPLES, CHECK_SEED
+from ..core import guards
+from ..core.constants import CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, SWEEP_SCALES
 from ..core.errors import FoldprintError
 from .support import (
     ExitCode, _CLICK_ERRORS, _CREASE, _SCALE, _STATE, _echo_json, _err, _expand_multi,
@@ -204,7 +204,7 @@ def check(
     sensitivity: bool = typer.Option(True, "--sensitivity/--no-sensitivity",
                                      help="Also estimate it with the scatter spreads scaled by --scales and say "
                                      "(FP183) when the verdict flips in that range."),
-    scales: str = typer.Option("0.5,2", "--scales", help="Sigma scales of the sensitivity (comma-separated)."),
+    scales: str = typer.Option(",".join(f"{k:g}" for k in CHECK_SCALES), "--scales", help="Sigma scales of the sensitivity (comma-separated)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
@@ -265,7 +265,8 @@ def robust(
                                        help="Also each scatter component alone and all but each (two more "
                                        "runs of the samples per component: about 11x the cost, so opt-in)."),
     sensitivity: bool = typer.Option(False, "--sensitivity", help="Also sweep every spread by --scales."),
-    scales: str = typer.Option("0.5,1,2", "--scales", help="Sigma scales of --sensitivity (comma-separated)."),
+    scales: str = typer.Option(",".join(f"{k:g}" for k in SWEEP_SCALES), "--scales",
+                               help="Sigma scales of --sensitivity (comma-separated)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT",

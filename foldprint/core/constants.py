@@ -53,3 +53,8 @@ DEFAULT_DURATION_S = 20.0
 #: of every sample. The gallery runs the same check with these and :data:`CHECK_SAMPLES`.
 CHECK_SEED = 0
 CHECK_DT_S = 0.01
+#: Sigma scales ``check`` also runs (the same samples and seed) to say when its verdict
+#: flips inside that range (FP183); the gallery runs the same.
+CHECK_SCALES = (0.5, 2.0)
+#: The sigma scales ``foldprint robust --sensitivity`` sweeps by default.
+SWEEP_SCALES = (0.5, 1.0, 2.0)

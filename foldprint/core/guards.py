@@ -151,6 +151,17 @@ def _lift(est: dict) -> str:
     return f"--max-memory {_fmt(est['bytes'] * 1.2).replace(' ', '')}"
 
 
+def _run_sizes(design, dt: float, duration: float | None) -> tuple[float, float, int] | None:
+    """(duration s, time steps, outline segments) of a run, None for values simulate()
+    refuses itself. Steps are a float: 1e300 of them are compared, never overflowed."""
+    dur = float(design.process.duration_s if duration is None else duration)
+    if not (math.isfinite(dur) and math.isfinite(dt) and dur > 0 and dt > 0):
+        return None
+    steps = math.floor(dur / dt) + 2.0 if dur / dt < 1e15 else dur / dt
+    n_seg = sum(len(p.outline) + sum(len(h) for h in p.holes) for p in design.panels)
+    return dur, steps, n_seg
+
+
 def index2d_skip_reason(design, dt: float, duration: float | None) -> str | None:
     """Why ``--method both`` leaves out the paper's 2D index of a planar strip, or None.
 
@@ -159,11 +170,10 @@ def index2d_skip_reason(design, dt: float, duration: float | None) -> str | None
     the 3D check fits (a 1000-panel strip: ~11 GB of index against ~0.7 GB), the run goes on
     with the 3D check and says so; ``--method index2d`` still asks for the index (and is
     refused with the estimate)."""
-    dur = float(design.process.duration_s if duration is None else duration)
-    if not (math.isfinite(dur) and math.isfinite(dt) and dur > 0 and dt > 0):
+    sizes = _run_sizes(design, dt, duration)
+    if sizes is None:
         return None
-    steps = math.floor(dur / dt) + 2.0 if dur / dt < 1e15 else dur / dt
-    n_seg = sum(len(p.outline) + sum(len(h) for h in p.holes) for p in design.panels)
+    _dur, steps, n_seg = sizes
     n, nh = len(design.panels), len(design.hinges)
     with2d = simulation_estimate(n, nh, steps, True, n_seg, use3d=True)
     without = simulation_estimate(n, nh, steps, False, n_seg, use3d=True)
@@ -180,13 +190,12 @@ def check_simulation(design, dt: float, duration: float | None, method: str) -> 
     estimate (kinematics and the 3D broad phase) exceeds the time budget.
 
     Called at the top of :func:`foldprint.simulation.simulate.simulate` (one line)."""
-    dur = float(design.process.duration_s if duration is None else duration)
-    if not (math.isfinite(dur) and math.isfinite(dt) and dur > 0 and dt > 0):
+    sizes = _run_sizes(design, dt, duration)
+    if sizes is None:
         return {}  # simulate() reports bad values itself
-    steps = math.floor(dur / dt) + 2.0 if dur / dt < 1e15 else dur / dt  # float: 1e300 steps are fine
+    dur, steps, n_seg = sizes
     m = str(getattr(method, "value", method))
     use2d = m in ("index2d", "both") and design.is_planar_strip
-    n_seg = sum(len(p.outline) + sum(len(h) for h in p.holes) for p in design.panels)
     est = simulation_estimate(len(design.panels), len(design.hinges), steps, use2d, n_seg,
                               use3d=m in ("fcl", "both"))
     limit = max_memory()

@@ -242,7 +242,6 @@ def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter
         raise DesignError(f"samples must be a whole number >= 1, got {samples!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise DesignError(f"seed must be a whole number >= 0, got {seed!r}")
-    from ..core.guards import check_samples
     from ..core.parallel import default_workers, map_ordered
 
     lib = library or default_library()
@@ -266,7 +265,7 @@ def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter
     report(len(first))
     if n_chunks > 1:
         n_workers = default_workers() if workers is None else max(1, int(workers))
-        check_samples(samples, (time.perf_counter() - start) / len(first), n_workers, design.name)
+        guards.check_samples(samples, (time.perf_counter() - start) / len(first), n_workers, design.name)
         chunk_done = lambda _d, _n: report(CHUNK)  # noqa: E731 - progress in samples, not chunks
         if mapper is None:
             rest = map_ordered(run_samples, chunks, workers=workers, progress=chunk_done, total=n_chunks - 1)

@@ -226,7 +226,12 @@ def draw_normals(n_hinges: int, n: int, seed: int) -> Normals:
     """The underlying draws of ``n`` samples from one generator seeded with ``seed``, in
     order (sample by sample: the hinges' Tg, thickness and local h, then the bath and the
     part's h), so the first k samples of n are the k samples of k."""
-    rng = np.random.default_rng(seed)
+    return _normals(np.random.default_rng(seed), n_hinges, n)
+
+
+def _normals(rng: np.random.Generator, n_hinges: int, n: int) -> Normals:
+    """The next ``n`` samples' draws from ``rng`` (row-major from one stream, so blocks of
+    rows give the very numbers of one draw)."""
     z = np.clip(rng.standard_normal((n, 3 * n_hinges + 2)), -TRUNCATE_SD, TRUNCATE_SD)
     return Normals(z[:, :3 * n_hinges].reshape(n, 3, n_hinges), z[:, 3 * n_hinges:])
 
@@ -254,8 +259,7 @@ def iter_samples(design: Design, scatter: Scatter, n: int, seed: int, block: int
     done = 0
     while done < n:
         m = min(block, n - done)
-        z = np.clip(rng.standard_normal((m, 3 * nh + 2)), -TRUNCATE_SD, TRUNCATE_SD)
-        yield from realise(design, scatter, Normals(z[:, :3 * nh].reshape(m, 3, nh), z[:, 3 * nh:]))
+        yield from realise(design, scatter, _normals(rng, nh, m))
         done += m
 
 

@@ -22,13 +22,12 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 from ..model.design import Design
+from ..core.constants import SWEEP_SCALES
 from ..core.errors import DesignError
 from ..model.materials import MaterialLibrary
 from .robust import RobustResult, jam_probability, outcome_of
 from .scatter import COMPONENTS, Component, Scatter
 
-#: The sigma scales ``foldprint robust --sensitivity`` sweeps by default.
-SWEEP_SCALES = (0.5, 1.0, 2.0)
 
 
 @dataclass(frozen=True)
