@@ -55,21 +55,9 @@ def _run_design(seed: int) -> list[dict]:
 
 
 def _contract(res: dict, before: list, after: list) -> list[str]:
-    bad = []
-    if res["timeout"]:
-        return ["timeout"]
-    if "Traceback" in res["err"]:
-        bad.append("traceback")
-    if res["code"] not in (0, 1, 2):
-        bad.append(f"exit {res['code']}")
-    if res["code"] == 2:
-        if res["err"].count("\n") != 1:
-            bad.append("not one line on stderr")
-        if after != before:
-            bad.append("wrote on exit 2")
-    if "Warning" in res["err"]:
-        bad.append("warning printed")
-    return bad
+    from fuzz_gen import contract_violations
+
+    return contract_violations(res, wrote_on_exit_2=after != before, warnings_banned=True)
 
 
 def _run_file(kind: str, name: str, raw: bytes, args: list[str]) -> list[dict]:

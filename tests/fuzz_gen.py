@@ -181,6 +181,36 @@ PLANTS = ["current->../keep.txt", "current->/etc", "current->.foldprint-sets/set
           "legacy-file"]
 
 
+
+def contract_violations(res: dict, *, wrote_on_exit_2: bool, json_stdout: bool = False,
+                        warnings_banned: bool = False) -> list[str]:
+    """The exit-and-output contract every foldprint run keeps, as a list of violations (empty:
+    fine): no timeout, no traceback, exit 0/1/2 only, JSON on stdout where ``json_stdout``, and
+    on exit 2 one line on stderr and nothing written (``wrote_on_exit_2`` says whether the
+    caller saw a write). The one definition for tests/test_fuzz.py, tests/test_fuzz_inputs.py
+    and benchmarks/fuzz_inputs.py.
+    """
+    if res["timeout"]:
+        return ["timeout"]
+    bad = []
+    if "Traceback" in res["err"]:
+        bad.append("traceback")
+    if res["code"] not in (0, 1, 2):
+        bad.append(f"exit {res['code']}")
+    if json_stdout and res["code"] in (0, 1):
+        try:
+            json.loads(res["out"])
+        except ValueError:
+            bad.append("no JSON on stdout")
+    if res["code"] == 2:
+        if res["err"].count("\n") != 1:
+            bad.append("not one line on stderr")
+        if wrote_on_exit_2:
+            bad.append("wrote on exit 2")
+    if warnings_banned and "Warning" in res["err"]:
+        bad.append("warning printed")
+    return bad
+
 def plant(out, kind: str, names: list[str]) -> None:
     """Put one planted entry of ``kind`` into ``out`` (created)."""
     out.mkdir(parents=True, exist_ok=True)

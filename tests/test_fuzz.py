@@ -183,24 +183,9 @@ def run_case(args: list[str], cwd: Path, budget: float = BUDGET_S) -> dict:
 
 def classify(res: dict, command: str, out_dir: Path) -> list[str]:
     """The contract violations of one run (empty: fine)."""
-    bad = []
-    if res["timeout"]:
-        return ["timeout"]
-    if "Traceback" in res["err"]:
-        bad.append("traceback")
-    if res["code"] not in (0, 1, 2):
-        bad.append(f"exit {res['code']}")
-    if res["code"] in (0, 1) and command == "check":
-        try:
-            json.loads(res["out"])
-        except ValueError:
-            bad.append("no JSON on stdout")
-    if res["code"] == 2:
-        if res["err"].count("\n") != 1:
-            bad.append("not one line on stderr")
-        if out_dir.exists():
-            bad.append("wrote on exit 2")
-    return bad
+    from fuzz_gen import contract_violations
+
+    return contract_violations(res, wrote_on_exit_2=out_dir.exists(), json_stdout=command == "check")
 
 
 def one(seed: int, tmp: Path, commands=("check", "export")) -> dict:
