@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.modes import HingeModel
 from ..model.design import Design
 from ..physics.kinematics import Trajectory
 from .rigid import side_segments
@@ -110,7 +111,7 @@ class Index2D:
         return k, int(np.nonzero(hit[k])[0][0])
 
 
-def world_side_segments(design: Design, poses: np.ndarray, model: str):
+def world_side_segments(design: Design, poses: np.ndarray, model: HingeModel):
     """World side-view segments: list over panels of (n_t, k, 2, 2) arrays in (x, z)."""
     return _world(side_segments(design, model), poses)
 

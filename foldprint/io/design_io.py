@@ -44,6 +44,7 @@ from ..core import schema as sc
 from ..model.design import (SCHEMA_VERSION, Design, Goal, Hinge, HingeStyle, Panel, Process, check_ring,
                      shared_edge, strip, validate)
 from ..core.errors import DesignError
+from ..core.modes import Interface
 from ..core.schema import Where
 from ..model.materials import MaterialLibrary
 
@@ -85,8 +86,9 @@ def _style(raw, base: HingeStyle, at: Where) -> HingeStyle:
             vals[key] = sc.boolean(v, k)
         elif key == "interface":
             vals[key] = sc.string(v, k)
-            if vals[key] not in ("flat", "triangular"):
+            if vals[key] not in tuple(Interface):
                 raise k.fail(f"must be \"flat\" or \"triangular\", got {sc.describe(v)}")
+            vals[key] = Interface(vals[key])
         elif key in ("step_period_mm", "tooth_pitch_mm"):
             vals[key] = sc.number(v, k, sc.FEATURE_FLOOR_MM, sc.MAX_LENGTH_MM, "mm")
         elif key == "max_segment_mm":

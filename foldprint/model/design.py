@@ -26,6 +26,7 @@ from ..core.constants import (DEFAULT_BATH_C, DEFAULT_DURATION_S, DEFAULT_FIX_C,
                         tol)
 from ..core import schema
 from ..core.errors import DesignError, where
+from ..core.modes import DEFAULT_INTERFACE, Interface
 from .materials import MaterialLibrary, default_library
 
 SCHEMA_VERSION = 1
@@ -82,7 +83,7 @@ class HingeStyle:
     stepped: bool = False
     step_period_mm: float = 2.0
     thin_mm: float = 0.4
-    interface: str = "flat"
+    interface: Interface = DEFAULT_INTERFACE
     tooth_depth_mm: float = 1.5
     tooth_pitch_mm: float = 3.0
     max_segment_mm: float = 0.0
@@ -454,7 +455,7 @@ def _check_style(h: Hinge, item: str) -> None:
     """The hinge's style: a known interface, a boolean ``stepped``, sizes, and features
     above the floor."""
     st = h.style
-    if st.interface not in ("flat", "triangular"):
+    if st.interface not in tuple(Interface):
         raise DesignError(f"{item}style.interface must be 'flat' or 'triangular', got {st.interface!r}")
     if not isinstance(st.stepped, (bool, np.bool_)):
         raise DesignError(f"{item}style.stepped must be true or false, got {schema.describe(st.stepped)}")
@@ -529,7 +530,7 @@ def _features(h: Hinge, item: str) -> None:
     counts = []
     if st.stepped:
         counts.append(("style.step_period_mm", st.step_period_mm, h.width))
-    if st.interface == "triangular":
+    if st.interface == Interface.TRIANGULAR:
         counts.append(("style.tooth_pitch_mm", st.tooth_pitch_mm, h.length))
     if st.max_segment_mm > 0:
         counts.append(("style.max_segment_mm", st.max_segment_mm, h.length))

@@ -79,7 +79,8 @@ class _Runner:
                 cb = lambda done, _n: prog(offset + done, total)  # noqa: E731
             r = jam_probability(self.design, self.base.samples, self.base.seed, scatter=scatter,
                                 library=self.library, hinge_model=self.base.hinge_model, dt=self.dt,
-                                nominal=self.base.nominal, workers=self.workers, progress=cb, mapper=self.mapper)
+                                nominal=self.base.nominal, workers=self.workers, progress=cb, mapper=self.mapper,
+                                method=self.base.method)
         self.done += self.base.samples
         return r
 

@@ -86,7 +86,7 @@ def _first_2d(traj: Trajectory, drive: HingeDrive, t_start: float,
         t = _bisect_2d(traj, drive, (int(i), int(j)), traj.times[k - 1], traj.times[k])
     else:
         t = float(traj.times[k])
-    return Contact(t, (int(i), int(j)), ids, (float("nan"),) * 3, 0.0, "index2d"), idx
+    return Contact(t, (int(i), int(j)), ids, (float("nan"),) * 3, 0.0, Method.INDEX2D), idx
 
 
 def _bisect_2d(traj: Trajectory, drive: HingeDrive, pair, lo: float, hi: float) -> float:
