@@ -19,7 +19,7 @@ from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_p
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
-from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED  # noqa: F401 (re-exported)
+from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S  # noqa: F401 (re-exported)
 from ..model.design import Design
 from ..core.errors import GeometryError
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
@@ -65,7 +65,7 @@ class Comparison:
 
 
 def run_simulation(design: Design, *, library: MaterialLibrary | None = None, bath_c: float | None = None,
-                   duration: float | None = None, dt: float = 0.01, method: Method | str = DEFAULT_METHOD,
+                   duration: float | None = None, dt: float = DEFAULT_DT_S, method: Method | str = DEFAULT_METHOD,
                    hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
                    after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT,
                    compare: bool = False) -> tuple[SimulationResult, Comparison | None]:

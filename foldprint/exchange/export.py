@@ -27,6 +27,7 @@ from typing import Iterable
 import numpy as np
 
 from ..model.design import Design
+from ..core.constants import EXPORT_FORMATS
 from ..core.errors import ExportError
 from ..core.modes import State
 from ..geometry import Assembly, bed_report
@@ -42,7 +43,7 @@ from .xdmf import xdmf_files
 
 #: Every format ``export`` writes; ``DEFAULT_FORMATS`` when none is asked for.
 FORMATS = ("3mf", "prusa3mf", "stl", "fold", "inp", "xdmf", "glb")
-DEFAULT_FORMATS = ("3mf", "prusa3mf", "stl")
+DEFAULT_FORMATS = EXPORT_FORMATS
 #: Formats that show the fold over time: they need the simulated trajectory.
 TRAJECTORY_FORMATS = ("xdmf", "glb")
 #: Time step (s) of the trajectory the time-series formats are written from: 10 frames

@@ -22,8 +22,9 @@ import numpy as np
 import shapely
 from shapely.geometry import LineString, Polygon
 
-from ..core.constants import (DEFAULT_BATH_C, DEFAULT_DURATION_S, DEFAULT_FIX_C, DEFAULT_PROGRAM_C,
-                        tol)
+from ..core.constants import (DEFAULT_BATH_C, DEFAULT_DEPTH_MM, DEFAULT_DURATION_S, DEFAULT_FIX_C,
+                              DEFAULT_HINGE_RADIUS_MM, DEFAULT_PANEL_MATERIAL, DEFAULT_PROGRAM_C,
+                              DEFAULT_THICKNESS_MM, tol)
 from ..core import schema
 from ..core.errors import DesignError, where
 from ..core.modes import DEFAULT_INTERFACE, Interface
@@ -546,10 +547,11 @@ def _features(h: Hinge, item: str) -> None:
 
 
 def strip(name: str, lengths: Sequence[float], angles_deg: Sequence[float],
-          materials: Sequence[str], *, depth: float = 6.0,
-          thickness: float | Sequence[float] = 0.8, radius: float | Sequence[float] = 5.0,
+          materials: Sequence[str], *, depth: float = DEFAULT_DEPTH_MM,
+          thickness: float | Sequence[float] = DEFAULT_THICKNESS_MM,
+          radius: float | Sequence[float] = DEFAULT_HINGE_RADIUS_MM,
           hinge_thickness: float | Sequence[float] | None = None,
-          panel_material: str = "VeroWhite", process: Process | None = None,
+          panel_material: str = DEFAULT_PANEL_MATERIAL, process: Process | None = None,
           description: str = "", holes: dict[int, list] | None = None,
           source: str = "", goals: Iterable[Goal] = (), style: HingeStyle | None = None,
           ) -> Design:

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.design import Design, Hinge, has_loops, spanning_tree, tangent_factor
+from ..core.constants import DEFAULT_DT_S
 from ..core.errors import DesignError
 from .loops import LoopSolution, LoopSolver
 from ..model.materials import MaterialLibrary, default_library
@@ -353,7 +354,7 @@ class HingeDrive:
 
 
 def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath_c: float | None = None,
-                        model: HingeModel = DEFAULT_HINGE_MODEL, dt: float = 0.01, duration: float | None = None,
+                        model: HingeModel = DEFAULT_HINGE_MODEL, dt: float = DEFAULT_DT_S, duration: float | None = None,
                         library: MaterialLibrary | None = None,
                         drive: HingeDrive | None = None) -> Trajectory:
     """Hinge angles and panel poses over time."""

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..core import guards
 from ..model.design import Design
+from ..core.constants import DEFAULT_DT_S, DEFAULT_SEED, ROBUST_SAMPLES
 from ..core.errors import DesignError, MaterialError
 from ..physics.kinematics import HingeDrive
 from ..model.materials import MaterialLibrary, default_library
@@ -230,9 +231,9 @@ class RobustResult:
         return {"p5": float(p5), "p50": float(p50), "p95": float(p95)}
 
 
-def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter: Scatter | None = None,
+def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = DEFAULT_SEED, *, scatter: Scatter | None = None,
                     library: MaterialLibrary | None = None, hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
-                    dt: float = 0.01, nominal: SimulationResult | None = None, workers: int | None = None,
+                    dt: float = DEFAULT_DT_S, nominal: SimulationResult | None = None, workers: int | None = None,
                     progress: Callable[[int, int], None] | None = None, mapper=None,
                     exact: bool = False, method: Method | str = VERDICT_METHOD) -> RobustResult:
     """Monte-Carlo estimate of the probability that ``design`` jams.
