@@ -87,6 +87,18 @@ class Interface(str, Enum):
         return self.value
 
 
+class JamReason(str, Enum):
+    """Why a Monte-Carlo sample jams: a ``COLLISION`` of two panels, a ``GOAL`` not met (a
+    pass-through out of order), or the fold ``UNFOLDED`` (not finished in the run)."""
+
+    COLLISION = "collision"
+    GOAL = "goal"
+    UNFOLDED = "unfolded"
+
+    def __str__(self) -> str:
+        return self.value
+
+
 DEFAULT_HINGE_MODEL = HingeModel.ARC
 DEFAULT_METHOD = Method.BOTH
 #: The collision method of the verdicts that fold a design many times or judge it (``check``,

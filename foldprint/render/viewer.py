@@ -30,7 +30,7 @@ from importlib import resources
 
 import numpy as np
 
-from ..core.modes import HingeModel, State
+from ..core.modes import HingeModel, JamReason, State
 from ..model.design import Design
 from ..physics.kinematics import forward, hinge_frames, hinge_map, target_angles
 from ..model.materials import MaterialLibrary
@@ -165,10 +165,10 @@ def _contacts(result, items: list[dict], model: HingeModel) -> list[dict]:
 def worst_text(replay) -> str:
     """Why a replayed sample (:func:`foldprint.apps.pipeline.worst_sample`) is the worst, in words."""
     o = replay.outcome
-    if o.reason == "collision":
+    if o.reason == JamReason.COLLISION:
         return f"the earliest first contact of the samples: panels {o.pair[0]}\u2013{o.pair[1]} at {o.time:.3f} s"
     if o.jammed:
-        return "jams without a collision (" + ("a goal is not met" if o.reason == "goal"
+        return "jams without a collision (" + ("a goal is not met" if o.reason == JamReason.GOAL
                                                else "a hinge does not reach 98 %") + ")"
     return f"no sample jams; the slowest fold ({o.fold_time:.2f} s)"
 

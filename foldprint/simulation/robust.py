@@ -36,7 +36,7 @@ from ..core.constants import DEFAULT_DT_S, DEFAULT_SEED, ROBUST_SAMPLES
 from ..core.errors import DesignError, MaterialError
 from ..physics.kinematics import HingeDrive
 from ..model.materials import MaterialLibrary, default_library
-from ..core.modes import DEFAULT_HINGE_MODEL, VERDICT_METHOD, HingeModel, Method, parse
+from ..core.modes import DEFAULT_HINGE_MODEL, VERDICT_METHOD, HingeModel, JamReason, Method, parse
 from ..physics.recovery import RecoveryCurve, recovery_curve
 from ..physics.recovery_batch import batch_ratios, grid_until
 # What is drawn (the model, its data file, the samples) lives in foldprint.simulation.scatter; this
@@ -135,7 +135,7 @@ class Outcome:
     """What became of one sample."""
 
     jammed: bool
-    reason: str | None  # "collision", "goal", "unfolded" or None
+    reason: JamReason | None  # None: it did not jam
     pair: tuple[str, str] | None  # the first colliding panels
     time: float | None  # first contact (s)
     fold_time: float | None  # every hinge at 98 % (s), when it completed
@@ -146,10 +146,10 @@ def outcome_of(result: SimulationResult) -> Outcome:
     if result.completed:
         return Outcome(False, None, None, None, result.fold_time)
     if c is not None:
-        return Outcome(True, "collision", tuple(sorted(c.panels)), float(c.time), None)
+        return Outcome(True, JamReason.COLLISION, tuple(sorted(c.panels)), float(c.time), None)
     if not all(g.met for g in result.goals):
-        return Outcome(True, "goal", None, None, None)
-    return Outcome(True, "unfolded", None, None, None)
+        return Outcome(True, JamReason.GOAL, None, None, None)
+    return Outcome(True, JamReason.UNFOLDED, None, None, None)
 
 
 def run_sample(args) -> Outcome:
