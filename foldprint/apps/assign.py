@@ -41,6 +41,7 @@ import numpy as np
 from ..collision.swept3d import SweptChecker
 from ..collision.clearance import min_clearance, permanent_crossings  # noqa: F401 (permanent_crossings: re-export)
 from ..model.design import Design
+from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_DT_S, DEFAULT_SEED
 from ..core.errors import DesignError
 from ..physics.kinematics import HingeDrive
 from ..model.materials import MaterialLibrary, default_library
@@ -53,7 +54,7 @@ from ..simulation.simulate import simulate
 
 OBJECTIVES = ("time", "margin", "robust")
 #: Evaluations (simulations) the search may spend by default.
-DEFAULT_BUDGET = 600
+DEFAULT_BUDGET = ASSIGN_BUDGET
 #: Prefixes expanded per round of the best-first pattern search.
 DEFAULT_BEAM = 6
 #: Connected waves offered as children of one prefix (the smallest first).
@@ -344,8 +345,9 @@ def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_
 
 def assign(design: Design, *, library: MaterialLibrary | None = None, materials: Sequence[str] | None = None,
            temperatures: Sequence[float] | None = None, fixed: Mapping[str, str] | None = None,
-           objective: str = "time", top: int = 3, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
-           samples: int = 40, seed: int = 0, scatter: Scatter | None = None, dt: float = 0.01,
+           objective: str = "time", top: int = ASSIGN_TOP, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
+           samples: int = ASSIGN_SAMPLES, seed: int = DEFAULT_SEED, scatter: Scatter | None = None,
+           dt: float = DEFAULT_DT_S,
            mapper: Mapper | None = None, workers: int | None = None,
            progress: Callable[[int, int], None] | None = None) -> AssignResult:
     """Search hinge-material assignments of ``design`` (see the module docstring)."""

@@ -19,15 +19,15 @@ from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_p
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
-from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED  # noqa: F401 (re-exported)
+from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S  # noqa: F401 (re-exported)
 from ..model.design import Design
 from ..core.errors import GeometryError
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
 from ..geometry import Assembly, build_assembly
 from ..physics.kinematics import forward, target_angles
 from ..model.materials import MaterialLibrary, default_library
-from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, AfterContact,
-                    HingeModel, Method, State, parse)
+from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
+                    AfterContact, HingeModel, Method, State, parse)
 from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, draw_samples, jam_probability, outcome_of,
                      sample_drive)
 from ..simulation.sensitivity import SweepPoint, sweep
@@ -39,7 +39,7 @@ def build(design: Design, state: State | str = DEFAULT_STATE,
           library: MaterialLibrary | None = None) -> Assembly:
     """The printable part in ``state``: one watertight body per material."""
     st = parse(State, state, "state")
-    return build_assembly(design, st.value, library or default_library())
+    return build_assembly(design, st, library or default_library())
 
 
 def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STATE,
@@ -65,7 +65,7 @@ class Comparison:
 
 
 def run_simulation(design: Design, *, library: MaterialLibrary | None = None, bath_c: float | None = None,
-                   duration: float | None = None, dt: float = 0.01, method: Method | str = DEFAULT_METHOD,
+                   duration: float | None = None, dt: float = DEFAULT_DT_S, method: Method | str = DEFAULT_METHOD,
                    hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
                    after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT,
                    compare: bool = False) -> tuple[SimulationResult, Comparison | None]:
@@ -136,7 +136,7 @@ def replay_sample(design: Design, robust: RobustResult, index: int, *, library: 
         raise ValueError(f"sample index {index} is outside 0..{robust.samples - 1}")
     lib = library or default_library()
     sample = draw_samples(design, robust.scatter, robust.samples, robust.seed)[index]
-    res = simulate(design, dt=dt, method=Method.FCL, hinge_model=robust.hinge_model, after_contact=after_contact,
+    res = simulate(design, dt=dt, method=robust.method, hinge_model=robust.hinge_model, after_contact=after_contact,
                    drive=sample_drive(design, lib, sample))
     return Replay(index, sample, robust.outcomes[index], res)
 
@@ -170,20 +170,23 @@ def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer:
              samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED, scatter: Scatter | None = None,
              thresholds: Thresholds = Thresholds(), simulation: SimulationResult | None = None,
              workers: int | None = None, mapper=None, scales: Iterable[float] = (),
-             progress: Callable[[str, int, int], None] | None = None) -> Evaluation:
+             progress: Callable[[str, int, int], None] | None = None,
+             method: Method | str = VERDICT_METHOD) -> Evaluation:
     """Simulate once, build the printed part, measure its gaps and clearance, estimate
     the jam probability (``samples`` = 0 skips it), and again with the scatter spreads
     times each of ``scales`` (``check`` passes :data:`CHECK_SCALES`), and run every
     design rule.
 
-    ``progress(stage, done, total)`` reports the Monte-Carlo samples."""
+    ``progress(stage, done, total)`` reports the Monte-Carlo samples; ``method`` is the
+    collision check of the fold and of every sample."""
     lib = library or default_library()
     pr = printer or load_printers()[default_printer_key()]
     model = parse(HingeModel, hinge_model, "hinge_model")
+    method = parse(Method, method, "method")
     if simulation is None:
-        simulation = simulate(design, dt=dt, method=Method.FCL, hinge_model=model, library=lib)
+        simulation = simulate(design, dt=dt, method=method, hinge_model=model, library=lib)
     try:
-        assembly, assembly_error = build_assembly(design, State.PERMANENT.value, lib), None
+        assembly, assembly_error = build_assembly(design, State.PERMANENT, lib), None
     except GeometryError as exc:
         assembly, assembly_error = None, str(exc)
     # gaps of the printed state: the geometry export writes (arc hinges), whatever model
@@ -199,7 +202,8 @@ def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer:
     if samples:
         cb = (lambda done, total: progress("samples", done, total)) if progress else None
         robust = jam_probability(design, samples, seed, scatter=scatter, library=lib, hinge_model=model,
-                                 dt=dt, nominal=simulation, workers=workers, progress=cb, mapper=mapper)
+                                 dt=dt, nominal=simulation, workers=workers, progress=cb, mapper=mapper,
+                                 method=method)
     points: tuple[SweepPoint, ...] = ()
     if robust is not None and tuple(scales):
         cb = (lambda done, total: progress("sigma scales", done, total)) if progress else None

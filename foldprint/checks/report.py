@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+from ..core.modes import JamReason
+
 
 def _r(x, nd=4):
     if x is None:
@@ -64,7 +66,7 @@ def robust_json(r) -> dict:
     """The ``foldprint robust --json`` object (a :class:`foldprint.simulation.robust.RobustResult`)."""
     lo, hi = r.ci95
     ft = r.fold_time_percentiles()
-    reasons = {k: sum(o.reason == k for o in r.outcomes) for k in ("collision", "goal", "unfolded")}
+    reasons = {k.value: sum(o.reason == k for o in r.outcomes) for k in JamReason}
     return {
         "design": r.design,
         "samples": r.samples,

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..model.design import Design, has_loops, tangent_factor
-from ..core.constants import tol
+from ..core.constants import JAM_ERROR_ABOVE, JAM_WARN_ABOVE, tol
 from ..core.errors import DesignError
 from ..model.materials import MaterialLibrary
 from ..core.modes import HingeModel
@@ -94,8 +94,8 @@ class Thresholds:
     this: the part jams more often than this even on the most favourable reading of the
     samples. ``warning``: a warning when the estimate itself is above this."""
 
-    error: float = 0.2
-    warning: float = 0.05
+    error: float = JAM_ERROR_ABOVE
+    warning: float = JAM_WARN_ABOVE
 
 
 @dataclass(frozen=True)

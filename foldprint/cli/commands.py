@@ -16,7 +16,10 @@ from typer import echo
 
 from .. import __version__
 from ..core import guards
-from ..core.constants import CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, SWEEP_SCALES
+from ..core.constants import (ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED,
+                              DEFAULT_DT_S, DEFAULT_SEED, DEFAULT_THICKNESS_MM, EXPORT_FORMATS, JAM_ERROR_ABOVE,
+                              JAM_WARN_ABOVE, ROBUST_SAMPLES, SWEEP_SCALES)
+from ..core.modes import DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE
 from ..core.errors import FoldprintError
 from .support import (
     ExitCode, _CLICK_ERRORS, _CREASE, _SCALE, _STATE, _echo_json, _err, _expand_multi,
@@ -57,7 +60,7 @@ def materials(
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Write a Fig. 1b-style chart (PNG/SVG/PDF)."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
-    thickness: float = typer.Option(0.8, "--thickness", help="Hinge thickness in mm."),
+    thickness: float = typer.Option(DEFAULT_THICKNESS_MM, "--thickness", help="Hinge thickness in mm."),
 ):
     """Each material's Tg and its hinge fold time (98 % recovery) at each bath temperature.
 
@@ -131,11 +134,11 @@ def simulate(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); default: the design's."),
     duration: Optional[float] = typer.Option(None, "--duration", help="Simulated time (s); default: the design's."),
-    dt: float = typer.Option(0.01, "--dt", help="Time step of the trajectory (s)."),
-    method: str = typer.Option("both", "--method", help="index2d | fcl | both"),
-    hinge_model: str = typer.Option("arc", "--hinge-model",
+    dt: float = typer.Option(DEFAULT_DT_S, "--dt", help="Time step of the trajectory (s)."),
+    method: str = typer.Option(DEFAULT_METHOD.value, "--method", help="index2d | fcl | both"),
+    hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM, Eq. 2-4)"),
-    after_contact: str = typer.Option("stop", "--after-contact", help="stop | arrest"),
+    after_contact: str = typer.Option(DEFAULT_AFTER_CONTACT.value, "--after-contact", help="stop | arrest"),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     plot: Optional[str] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
@@ -192,15 +195,15 @@ def check(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     printer: Optional[str] = typer.Option(None, "--printer", help="Printer profile key (default: connex260)."),
     printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML)."),
-    hinge_model: str = typer.Option("arc", "--hinge-model",
+    hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
     samples: int = typer.Option(CHECK_SAMPLES, "--samples", help="Monte-Carlo samples for the jam probability "
                                 f"(0 skips it; {CHECK_SAMPLES}: the 95 % intervals at 5 % and 20 % do not overlap; run once per sigma scale of the sweep; the gallery runs the same)."),
     seed: int = typer.Option(CHECK_SEED, "--seed", help="Seed of the samples."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
-    error_above: float = typer.Option(0.2, "--error-above", help="Fail when the 95 % interval's lower end "
+    error_above: float = typer.Option(JAM_ERROR_ABOVE, "--error-above", help="Fail when the 95 % interval's lower end "
                                       "of the jam probability is above this."),
-    warn_above: float = typer.Option(0.05, "--warn-above", help="Warn when the jam probability is above this."),
+    warn_above: float = typer.Option(JAM_WARN_ABOVE, "--warn-above", help="Warn when the jam probability is above this."),
     sensitivity: bool = typer.Option(True, "--sensitivity/--no-sensitivity",
                                      help="Also estimate it with the scatter spreads scaled by --scales and say "
                                      "(FP183) when the verdict flips in that range."),
@@ -256,17 +259,16 @@ def check(
 @app.command()
 def robust(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
-    samples: int = typer.Option(60, "--samples", help="Monte-Carlo samples (>= 1)."),
-    seed: int = typer.Option(0, "--seed", help="Seed: the same seed gives the same answer."),
+    samples: int = typer.Option(ROBUST_SAMPLES, "--samples", help="Monte-Carlo samples (>= 1)."),
+    seed: int = typer.Option(DEFAULT_SEED, "--seed", help="Seed: the same seed gives the same answer."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
-    hinge_model: str = typer.Option("arc", "--hinge-model",
+    hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
     contributions: bool = typer.Option(False, "--contributions/--no-contributions",
                                        help="Also each scatter component alone and all but each (two more "
                                        "runs of the samples per component: about 11x the cost, so opt-in)."),
     sensitivity: bool = typer.Option(False, "--sensitivity", help="Also sweep every spread by --scales."),
-    scales: str = typer.Option(",".join(f"{k:g}" for k in SWEEP_SCALES), "--scales",
-                               help="Sigma scales of --sensitivity (comma-separated)."),
+    scales: str = typer.Option(",".join(f"{k:g}" for k in SWEEP_SCALES), "--scales", help="Sigma scales of --sensitivity (comma-separated)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT",
@@ -350,10 +352,10 @@ def assign(
     fixed: Optional[List[str]] = typer.Option(None, "--fixed", metavar="HINGE=MAT", help="Keep this hinge's material."),
     objective: str = typer.Option("time", "--objective", help="time (fastest fold) | margin (widest smallest "
                                   "clearance) | robust (lowest jam probability of the finalists)"),
-    top: int = typer.Option(3, "--top", help="How many assignments to report."),
-    budget: int = typer.Option(600, "--budget", help="Most simulations the search may run."),
-    samples: int = typer.Option(40, "--samples", help="Monte-Carlo samples per finalist (--objective robust)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the samples."),
+    top: int = typer.Option(ASSIGN_TOP, "--top", help="How many assignments to report."),
+    budget: int = typer.Option(ASSIGN_BUDGET, "--budget", help="Most simulations the search may run."),
+    samples: int = typer.Option(ASSIGN_SAMPLES, "--samples", help="Monte-Carlo samples per finalist (--objective robust)."),
+    seed: int = typer.Option(DEFAULT_SEED, "--seed", help="Seed of the samples."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT",
                                             help="Run the evaluations on this Dask scheduler (default: local cores)."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: all cores)."),
@@ -451,8 +453,8 @@ def assign(
 def export(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     out: Optional[str] = typer.Option(None, "--out", help="Output directory (default: output/<design>/)."),
-    state: str = typer.Option("permanent", "--state", help="permanent (folded, printed) | programmed (flat)"),
-    formats: str = typer.Option("3mf,prusa3mf,stl", "--format",
+    state: str = typer.Option(DEFAULT_STATE.value, "--state", help="permanent (folded, printed) | programmed (flat)"),
+    formats: str = typer.Option(",".join(EXPORT_FORMATS), "--format",
                                 help="Comma-separated: 3mf, prusa3mf, stl (to print); fold (crease pattern), "
                                      "inp (Abaqus, planar strips), xdmf (ParaView series), glb (animated glTF)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.modes import HingeModel
 from ..model.design import Design
 from ..physics.kinematics import Trajectory
 from .rigid import side_segments
@@ -110,7 +111,7 @@ class Index2D:
         return k, int(np.nonzero(hit[k])[0][0])
 
 
-def world_side_segments(design: Design, poses: np.ndarray, model: str):
+def world_side_segments(design: Design, poses: np.ndarray, model: HingeModel):
     """World side-view segments: list over panels of (n_t, k, 2, 2) arrays in (x, z)."""
     return _world(side_segments(design, model), poses)
 
@@ -205,26 +206,42 @@ def collision_index(traj: Trajectory, chunk_bytes: int = CHUNK_BYTES) -> Index2D
             dist = np.where(np.isnan(prod), np.inf, np.abs(prod - 0.5))
         pick = np.argmin(dist, axis=2)
         s_ij[:, c0:c0 + P] = np.take_along_axis(prod, pick[..., None], axis=2)[..., 0]
-    adj = adjacent_pairs(design)
-    adjacent = np.array([tuple(p) in adj for p in pairs.tolist()], dtype=bool)
-    for arr in (s_ij, contact, adjacent):
-        arr.setflags(write=False)
-    return Index2D(traj.times, pairs, s_ij, contact, adjacent)
+    return _finish(traj, pairs, s_ij, contact)
 
 
 #: float64 temporaries alive at once per (pair, time step) in the single-segment path.
 _TEMPS1 = 20
 
 
-def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Index2D:
-    """:func:`collision_index` when every panel is one segment (``sheet`` (n, 2, 2)): each
-    per-panel term is a contiguous (n, n_t) row block, each chunk of pairs a (P, n_t)
-    broadcast with preallocated temporaries. The arithmetic is that of
-    :func:`index_components` operation for operation, so the values are bit-identical."""
-    design = traj.design
-    poses = traj.poses
-    n = len(design.panels)
-    n_t = len(traj.times)
+def _finish(traj: Trajectory, pairs: np.ndarray, s_ij: np.ndarray, contact: np.ndarray) -> Index2D:
+    """The index with the hinge-adjacent pairs marked, every array read-only."""
+    adj = adjacent_pairs(traj.design)
+    adjacent = np.array([tuple(p) in adj for p in pairs.tolist()], dtype=bool)
+    for arr in (s_ij, contact, adjacent):
+        arr.setflags(write=False)
+    return Index2D(traj.times, pairs, s_ij, contact, adjacent)
+
+
+@dataclass(frozen=True)
+class _Ends:
+    """World (x, z) of both ends of every one-segment panel, (n, n_t) rows each, with the
+    per-panel terms of :func:`index_components` computed once."""
+
+    p1x: np.ndarray
+    p1z: np.ndarray
+    p2x: np.ndarray
+    p2z: np.ndarray
+    dx: np.ndarray
+    dz: np.ndarray
+    length: np.ndarray
+    lp_eps: np.ndarray
+    ux: np.ndarray
+    uy: np.ndarray
+    lim: np.ndarray
+
+
+def _world_ends(poses: np.ndarray, sheet: np.ndarray) -> _Ends:
+    """:class:`_Ends` of ``sheet`` (n, 2, 2) under ``poses`` (n_t, n, 4, 4)."""
     # world (x, z) of both ends, as in _world: (R00 * x + R01 * y) + t0
     x1, y1, x2, y2 = (np.ascontiguousarray(sheet[:, a, b])[:, None] for a in (0, 1) for b in (0, 1))
     rows = [np.ascontiguousarray(poses[:, :, r, c].T) for r in (0, 2) for c in (0, 1, 3)]
@@ -235,6 +252,83 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
     p2z = c0_ * x2 + c1 * y2 + c3
     dx, dz = p2x - p1x, p2z - p1z
     length = np.sqrt(dx * dx + dz * dz)
+    lp_eps = np.maximum(length, _EPS)
+    return _Ends(p1x, p1z, p2x, p2z, dx, dz, length, lp_eps, dx / lp_eps, dz / lp_eps,
+                 1e-9 * np.maximum(lp_eps, 1.0))
+
+
+def _block_cross(e: _Ends, i: int, J: slice, f: list, b: list) -> bool:
+    """S_ij of panel i against the panels ``J`` into ``f``'s ``prod`` and the paper's contact
+    into ``b``'s ``hit``, in the preallocated temporaries; True when some pair is parallel."""
+    rx, rz, denom, t, si, sj, prod, cx, nj = f
+    par, tb, hit = b
+    dp_x, dp_z, lp0 = e.dx[i], e.dz[i], e.length[i]
+    np.subtract(e.p1x[J], e.p1x[i], out=rx)
+    np.subtract(e.p1z[J], e.p1z[i], out=rz)
+    dqx, dqz = e.dx[J], e.dz[J]
+    np.multiply(dqz, dp_x, out=denom)  # dp_x * dq_z (IEEE products commute)
+    np.subtract(denom, np.multiply(dqx, dp_z, out=t), out=denom)
+    # parallel: |denom| <= 1e-9 * max(lp * lq, eps)
+    np.multiply(e.length[J], lp0, out=si)
+    np.maximum(si, _EPS, out=si)
+    np.multiply(1e-9, si, out=si)
+    np.less_equal(np.abs(denom, out=t), si, out=par)
+    any_par = par.any()
+    if any_par:  # no C_ij: NaN through S_i, S_j, S_ij (and no paper contact)
+        np.copyto(denom, np.nan, where=par)
+    # S_i = (r x dq) / denom, S_j = (r x dp) / denom
+    np.multiply(rx, dqz, out=si)
+    np.subtract(si, np.multiply(rz, dqx, out=t), out=si)
+    np.divide(si, denom, out=si)
+    np.multiply(rx, dp_z, out=nj)  # r x dp: also the collinear offset below
+    np.subtract(nj, np.multiply(rz, dp_x, out=t), out=nj)
+    np.divide(nj, denom, out=sj)
+    np.multiply(si, sj, out=prod)
+    # paper_contact: S_ij > 0 and S_i > 0 as min(S_ij, S_i) > 0, S_i <= 1 and
+    # S_j <= 1 as max(S_i, S_j) <= 1 (the same truth values, NaN gives False)
+    np.greater(np.minimum(prod, si, out=t), 0, out=hit)
+    hit &= np.less(prod, 1, out=tb)
+    hit &= np.less_equal(np.maximum(si, sj, out=t), 1, out=tb)
+    return bool(any_par)
+
+
+def _block_collinear(e: _Ends, i: int, J: slice, f: list, b: list) -> None:
+    """Add the collinear overlaps of the parallel pairs to ``hit`` (index_components), with
+    the per-panel terms (lp, u, 1e-9 * max(lp, 1)) computed once per panel: first the
+    offset of q1 from the line of p, then the 1-D overlap only over the steps where some
+    parallel pair of the block lies on one line. Uses :func:`_block_cross`'s temporaries."""
+    rx, rz, denom, t, si, sj, prod, cx, nj = f
+    par, tb, hit = b
+    lp_i, ux_i, uy_i, lim_i = e.lp_eps[i], e.ux[i], e.uy[i], e.lim[i]
+    off = np.abs(nj, out=nj)
+    off /= lp_i
+    np.less_equal(off, lim_i, out=tb)
+    tb &= par
+    steps = np.flatnonzero(tb.any(axis=0))
+    if len(steps):
+        T = slice(steps[0], steps[-1] + 1)
+        close, lpT, uxT, uyT = tb[:, T], lp_i[T], ux_i[T], uy_i[T]
+        b0 = np.multiply(rx[:, T], uxT, out=rx[:, T])
+        b0 += np.multiply(rz[:, T], uyT, out=t[:, T])
+        b1 = np.subtract(e.p2x[J, T], e.p1x[i, T], out=cx[:, T])
+        b1 *= uxT
+        q = np.subtract(e.p2z[J, T], e.p1z[i, T], out=sj[:, T])
+        b1 += np.multiply(q, uyT, out=t[:, T])
+        hi = np.minimum(lpT, np.maximum(b0, b1, out=sj[:, T]), out=sj[:, T])
+        lo = np.maximum(0.0, np.minimum(b0, b1, out=rz[:, T]), out=rz[:, T])
+        np.subtract(hi, lo, out=hi)
+        close &= np.greater(hi, 1e-9, out=par[:, T])
+        hit[:, T] |= close
+
+
+def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Index2D:
+    """:func:`collision_index` when every panel is one segment (``sheet`` (n, 2, 2)): each
+    per-panel term is a contiguous (n, n_t) row block, each chunk of pairs a (P, n_t)
+    broadcast with preallocated temporaries. The arithmetic is that of
+    :func:`index_components` operation for operation, so the values are bit-identical."""
+    n = len(traj.design.panels)
+    n_t = len(traj.times)
+    e = _world_ends(traj.poses, sheet)
     iu, ju = np.triu_indices(n, 1)
     pairs = np.column_stack([iu, ju]).astype(int).reshape(-1, 2)
     n_p = len(pairs)
@@ -245,80 +339,22 @@ def _index_single(traj: Trajectory, sheet: np.ndarray, chunk_bytes: int) -> Inde
     # (views, nothing gathered); blocks of at most `step` rows bound the temporaries
     step = max(1, int(chunk_bytes // (n_t * 8 * _TEMPS1)))
     m_max = max(1, min(step, n - 1))
-    lp_eps = np.maximum(length, _EPS)
-    ux, uy = dx / lp_eps, dz / lp_eps
-    lim = 1e-9 * np.maximum(lp_eps, 1.0)
     f = [np.empty((m_max, n_t)) for _ in range(9)]
     b = [np.empty((m_max, n_t), dtype=bool) for _ in range(3)]
     k = 0
     with np.errstate(divide="ignore", invalid="ignore"):
         for i in range(n - 1):
-            dp_x, dp_z, lp0 = dx[i], dz[i], length[i]
-            lp_i, ux_i, uy_i, lim_i = lp_eps[i], ux[i], uy[i], lim[i]
             for j0 in range(i + 1, n, step):
                 j1 = min(j0 + step, n)
                 m = j1 - j0
                 J = slice(j0, j1)
-                rx, rz, denom, t, si, sj, prod, cx, nj = (a[:m] for a in f)
-                par, tb, hit = (a[:m] for a in b)
-                np.subtract(p1x[J], p1x[i], out=rx)
-                np.subtract(p1z[J], p1z[i], out=rz)
-                dqx, dqz = dx[J], dz[J]
-                np.multiply(dqz, dp_x, out=denom)  # dp_x * dq_z (IEEE products commute)
-                np.subtract(denom, np.multiply(dqx, dp_z, out=t), out=denom)
-                # parallel: |denom| <= 1e-9 * max(lp * lq, eps)
-                np.multiply(length[J], lp0, out=si)
-                np.maximum(si, _EPS, out=si)
-                np.multiply(1e-9, si, out=si)
-                np.less_equal(np.abs(denom, out=t), si, out=par)
-                any_par = par.any()
-                if any_par:  # no C_ij: NaN through S_i, S_j, S_ij (and no paper contact)
-                    np.copyto(denom, np.nan, where=par)
-                # S_i = (r x dq) / denom, S_j = (r x dp) / denom
-                np.multiply(rx, dqz, out=si)
-                np.subtract(si, np.multiply(rz, dqx, out=t), out=si)
-                np.divide(si, denom, out=si)
-                np.multiply(rx, dp_z, out=nj)  # r x dp: also the collinear offset below
-                np.subtract(nj, np.multiply(rz, dp_x, out=t), out=nj)
-                np.divide(nj, denom, out=sj)
-                np.multiply(si, sj, out=prod)
-                # paper_contact: S_ij > 0 and S_i > 0 as min(S_ij, S_i) > 0, S_i <= 1 and
-                # S_j <= 1 as max(S_i, S_j) <= 1 (the same truth values, NaN gives False)
-                np.greater(np.minimum(prod, si, out=t), 0, out=hit)
-                hit &= np.less(prod, 1, out=tb)
-                hit &= np.less_equal(np.maximum(si, sj, out=t), 1, out=tb)
-                if any_par:
-                    # collinear overlap (index_components), with the per-panel terms (lp, u,
-                    # 1e-9 * max(lp, 1)) computed once per panel: first the offset of q1 from
-                    # the line of p, then the 1-D overlap only over the steps where some
-                    # parallel pair of the block lies on one line
-                    off = np.abs(nj, out=nj)
-                    off /= lp_i
-                    np.less_equal(off, lim_i, out=tb)
-                    tb &= par
-                    steps = np.flatnonzero(tb.any(axis=0))
-                    if len(steps):
-                        T = slice(steps[0], steps[-1] + 1)
-                        close, lpT, uxT, uyT = tb[:, T], lp_i[T], ux_i[T], uy_i[T]
-                        b0 = np.multiply(rx[:, T], uxT, out=rx[:, T])
-                        b0 += np.multiply(rz[:, T], uyT, out=t[:, T])
-                        b1 = np.subtract(p2x[J, T], p1x[i, T], out=cx[:, T])
-                        b1 *= uxT
-                        q = np.subtract(p2z[J, T], p1z[i, T], out=sj[:, T])
-                        b1 += np.multiply(q, uyT, out=t[:, T])
-                        hi = np.minimum(lpT, np.maximum(b0, b1, out=sj[:, T]), out=sj[:, T])
-                        lo = np.maximum(0.0, np.minimum(b0, b1, out=rz[:, T]), out=rz[:, T])
-                        np.subtract(hi, lo, out=hi)
-                        close &= np.greater(hi, 1e-9, out=par[:, T])
-                        hit[:, T] |= close
-                s_rows[k:k + m] = prod
-                c_rows[k:k + m] = hit
+                fm, bm = [a[:m] for a in f], [a[:m] for a in b]
+                if _block_cross(e, i, J, fm, bm):
+                    _block_collinear(e, i, J, fm, bm)
+                s_rows[k:k + m] = fm[6]  # prod
+                c_rows[k:k + m] = bm[2]  # hit
                 k += m
-    adj = adjacent_pairs(design)
-    adjacent = np.array([tuple(p) in adj for p in pairs.tolist()], dtype=bool)
-    for arr in (s_ij, contact, adjacent):
-        arr.setflags(write=False)
-    return Index2D(traj.times, pairs, s_ij, contact, adjacent)
+    return _finish(traj, pairs, s_ij, contact)
 
 
 def _pair_index(S, dx, dz, length, I, J):

@@ -13,16 +13,17 @@ from shapely.geometry import LineString, Polygon
 
 from ..model.design import Design
 from ..core.errors import GeometryError
+from ..core.modes import HingeModel
 from ..physics.kinematics import hinge_frames
 from ..model.relief import relieve
 
 
-def rigid_polygon(design: Design, index: int, model: str):
+def rigid_polygon(design: Design, index: int, model: HingeModel):
     """Shapely polygon (possibly with holes) of panel ``index``'s rigid part, sheet frame."""
     return _rigid_polygons(design, model)[index]
 
 
-def _rigid_polygons(design: Design, model: str) -> list:
+def _rigid_polygons(design: Design, model: HingeModel) -> list:
     cache = design.__dict__.setdefault("_rigid_cache", {})
     if model in cache:
         return cache[model]
@@ -31,7 +32,7 @@ def _rigid_polygons(design: Design, model: str) -> list:
     except GeometryError:  # a relief design-rule failure is export's and check's to report
         pass
     polys = [p.polygon for p in design.panels]
-    if model == "arc":
+    if model == HingeModel.ARC:
         for f in hinge_frames(design):
             if f.width <= 0:
                 continue
@@ -48,7 +49,7 @@ def _rigid_polygons(design: Design, model: str) -> list:
     return out
 
 
-def side_segments(design: Design, model: str, y: float | None = None) -> list[np.ndarray]:
+def side_segments(design: Design, model: HingeModel, y: float | None = None) -> list[np.ndarray]:
     """Side view (xz) of a planar strip: for each panel, the sheet-frame segments
     (k, 2, 2) where its rigid part crosses the line y = ``y`` (default: mid-depth).
     Holes split a panel into several segments."""

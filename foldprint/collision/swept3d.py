@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 import fcl
 import numpy as np
 
+from ..core.modes import HingeModel, Method
 from ..model.design import Design
 from ..physics.kinematics import HingeDrive, TreeTransforms, hinge_frames
 from ..physics.motion import build_hierarchy, tree_bounds
@@ -72,7 +73,7 @@ class Contact:
     panels: tuple[str, str]
     point: tuple[float, float, float]
     distance: float
-    method: str = "fcl"
+    method: Method = Method.FCL
 
 
 @dataclass
@@ -80,7 +81,7 @@ class SweptChecker:
     """Holds the FCL geometry and motion bounds of a design; checks pairs along a drive."""
 
     design: Design
-    model: str
+    model: HingeModel
     drive: HingeDrive | None
     contact_tol_mm: float = 0.01
     time_tol_s: float = 1e-3
@@ -89,7 +90,7 @@ class SweptChecker:
 
     def __post_init__(self):
         d = self.design
-        self.model = str(self.model)
+        self.model = HingeModel(str(self.model))
         self.frames = hinge_frames(d)
         self._frame_of = {f.index: f for f in self.frames}
         self.pieces = []
@@ -296,7 +297,7 @@ class SweptChecker:
         _, point = self.distance(i, j, pose[i], pose[j])
         if hi is not None:
             t, d = hi, 0.0
-        return Contact(float(t), pair, self._ids(pair), _pt(point), float(d), "fcl")
+        return Contact(float(t), pair, self._ids(pair), _pt(point), float(d), Method.FCL)
 
     def _ids(self, pair):
         return (self.design.panels[pair[0]].id, self.design.panels[pair[1]].id)

@@ -41,6 +41,9 @@ DEFAULT_THICKNESS_MM = 0.8
 DEFAULT_DEPTH_MM = 6.0
 DEFAULT_HINGE_RADIUS_MM = 5.0
 DEFAULT_PANEL_MATERIAL = "VeroWhite"
+#: Hinge material of a FOLD crease that names none (our choice: H-3, the material of the
+#: paper's uniform helix, sample 1).
+DEFAULT_HINGE_MATERIAL = "H-3"
 
 #: Process defaults: the paper's protocol (program at 90 C, fix at 10 C, recover at 90 C).
 DEFAULT_PROGRAM_C = 90.0
@@ -48,11 +51,33 @@ DEFAULT_FIX_C = 10.0
 DEFAULT_BATH_C = 90.0
 DEFAULT_DURATION_S = 20.0
 
+#: Time step (s) of a simulation that is not given one (``simulate``, the kinematics, the
+#: Monte-Carlo samples, the material search).
+DEFAULT_DT_S = 0.01
+#: Seed of every Monte-Carlo run that is not given one (``robust``, ``assign``): a fixed
+#: seed, so the same design gives the same answer.
+DEFAULT_SEED = 0
+
 #: Seed of the Monte-Carlo samples ``foldprint check`` draws by default (a fixed seed: the
 #: same design gives the same verdict), and the time step (s) of its nominal simulation and
 #: of every sample. The gallery runs the same check with these and :data:`CHECK_SAMPLES`.
-CHECK_SEED = 0
-CHECK_DT_S = 0.01
+CHECK_SEED = DEFAULT_SEED
+CHECK_DT_S = DEFAULT_DT_S
+#: The jam probability above which ``check`` fails (FP180: the lower end of the 95 %
+#: interval above it) and warns (FP181: the estimate above it); our choices, see
+#: :data:`CHECK_SAMPLES` for why 80 samples separate them.
+JAM_ERROR_ABOVE = 0.2
+JAM_WARN_ABOVE = 0.05
+#: Monte-Carlo samples ``foldprint robust`` (and :func:`~foldprint.simulation.robust.jam_probability`)
+#: draws by default.
+ROBUST_SAMPLES = 60
+#: ``foldprint assign``: assignments reported, most simulations the search may run, and
+#: Monte-Carlo samples per finalist (``--objective robust``).
+ASSIGN_TOP = 3
+ASSIGN_BUDGET = 600
+ASSIGN_SAMPLES = 40
+#: The formats ``export`` writes when none is asked for (the files a printer needs).
+EXPORT_FORMATS = ("3mf", "prusa3mf", "stl")
 #: Sigma scales ``check`` also runs (the same samples and seed) to say when its verdict
 #: flips inside that range (FP183); the gallery runs the same.
 CHECK_SCALES = (0.5, 2.0)

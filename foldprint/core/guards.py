@@ -26,6 +26,7 @@ import os
 import re
 
 from .errors import FoldprintError
+from .modes import Interface, Method
 
 GiB = 2 ** 30
 DEFAULT_MAX_MEMORY = 2 * GiB
@@ -185,7 +186,7 @@ def index2d_skip_reason(design, dt: float, duration: float | None) -> str | None
             "the verdict is the 3D swept check's (--method index2d with a larger --max-memory runs the index)")
 
 
-def check_simulation(design, dt: float, duration: float | None, method: str) -> dict:
+def check_simulation(design, dt: float, duration: float | None, method: Method) -> dict:
     """Refuse a simulation whose memory estimate exceeds the memory limit or whose time
     estimate (kinematics and the 3D broad phase) exceeds the time budget.
 
@@ -194,10 +195,10 @@ def check_simulation(design, dt: float, duration: float | None, method: str) -> 
     if sizes is None:
         return {}  # simulate() reports bad values itself
     dur, steps, n_seg = sizes
-    m = str(getattr(method, "value", method))
-    use2d = m in ("index2d", "both") and design.is_planar_strip
+    m = str(method)
+    use2d = m in (Method.INDEX2D, Method.BOTH) and design.is_planar_strip
     est = simulation_estimate(len(design.panels), len(design.hinges), steps, use2d, n_seg,
-                              use3d=m in ("fcl", "both"))
+                              use3d=m in (Method.FCL, Method.BOTH))
     limit = max_memory()
     src = f"{design.source}: " if design.source else f"{design.name}: "
     if est["bytes"] > limit:
@@ -279,7 +280,7 @@ def export_features(design) -> float:
         slices = max(1.0, math.ceil(abs(float(h.angle)) / math.radians(5.0)))
         if st.stepped and st.step_period_mm > 0:
             slices += 2 * max(1.0, round(float(h.width) / st.step_period_mm))
-        teeth = 2 * length / st.tooth_pitch_mm if st.interface == "triangular" and st.tooth_pitch_mm > 0 else 0.0
+        teeth = 2 * length / st.tooth_pitch_mm if st.interface == Interface.TRIANGULAR and st.tooth_pitch_mm > 0 else 0.0
         feats += segs * (slices + 2) + teeth
     return feats
 

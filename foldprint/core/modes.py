@@ -76,10 +76,38 @@ class State(str, Enum):
         return self.value
 
 
+class Interface(str, Enum):
+    """How a hinge strip meets its panels: ``FLAT`` a straight seam; ``TRIANGULAR`` teeth
+    of the panel material reaching into the strip (:mod:`foldprint.geometry.layout`)."""
+
+    FLAT = "flat"
+    TRIANGULAR = "triangular"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class JamReason(str, Enum):
+    """Why a Monte-Carlo sample jams: a ``COLLISION`` of two panels, a ``GOAL`` not met (a
+    pass-through out of order), or the fold ``UNFOLDED`` (not finished in the run)."""
+
+    COLLISION = "collision"
+    GOAL = "goal"
+    UNFOLDED = "unfolded"
+
+    def __str__(self) -> str:
+        return self.value
+
+
 DEFAULT_HINGE_MODEL = HingeModel.ARC
 DEFAULT_METHOD = Method.BOTH
+#: The collision method of the verdicts that fold a design many times or judge it (``check``,
+#: ``robust``, every Monte-Carlo sample, a replayed sample): the 3D swept check of the
+#: printed panels, whatever the design. ``simulate`` defaults to :data:`DEFAULT_METHOD`.
+VERDICT_METHOD = Method.FCL
 DEFAULT_AFTER_CONTACT = AfterContact.STOP
 DEFAULT_STATE = State.PERMANENT
+DEFAULT_INTERFACE = Interface.FLAT
 
 E = TypeVar("E", bound=Enum)
 

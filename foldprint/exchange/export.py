@@ -27,7 +27,9 @@ from typing import Iterable
 import numpy as np
 
 from ..model.design import Design
+from ..core.constants import EXPORT_FORMATS
 from ..core.errors import ExportError
+from ..core.modes import State
 from ..geometry import Assembly, bed_report
 from ..physics.kinematics import Trajectory
 from ..model.materials import MaterialLibrary, default_library
@@ -41,7 +43,7 @@ from .xdmf import xdmf_files
 
 #: Every format ``export`` writes; ``DEFAULT_FORMATS`` when none is asked for.
 FORMATS = ("3mf", "prusa3mf", "stl", "fold", "inp", "xdmf", "glb")
-DEFAULT_FORMATS = ("3mf", "prusa3mf", "stl")
+DEFAULT_FORMATS = EXPORT_FORMATS
 #: Formats that show the fold over time: they need the simulated trajectory.
 TRAJECTORY_FORMATS = ("xdmf", "glb")
 #: Time step (s) of the trajectory the time-series formats are written from: 10 frames
@@ -55,9 +57,9 @@ def safe_name(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or "part"
 
 
-def stem(design: Design, state: str) -> str:
+def stem(design: Design, state: State) -> str:
     base = safe_name(design.name)
-    return base if state == "permanent" else f"{base}_{state}"
+    return base if state == State.PERMANENT else f"{base}_{state}"
 
 
 def check_formats(formats: Iterable[str]) -> list[str]:
@@ -121,7 +123,7 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
             names[b.material] = name
             out.append((name, stl_bytes(b, f"{design.name} {b.material} {assembly.state} mm"), "stl",
                         [b.material]))
-        man = "manifest.json" if assembly.state == "permanent" else f"manifest_{assembly.state}.json"
+        man = "manifest.json" if assembly.state == State.PERMANENT else f"manifest_{assembly.state}.json"
         out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest", every))
     if "fold" in formats:  # the crease pattern: the same for both states
         out.append((f"{safe_name(design.name)}.fold", fold_bytes(design), "fold", every))

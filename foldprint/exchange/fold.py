@@ -73,16 +73,19 @@ def holeless_facets(panel) -> list[np.ndarray] | None:
     return out if abs(total - poly.area) <= 1e-9 * max(poly.area, 1.0) else None
 
 
-def design_to_fold(design: Design) -> dict:
-    """The design as a FOLD 1.2 crease pattern (a JSON-ready dict)."""
-    eps = tol.length
-    verts = _Vertices(eps)
+def _panel_rings(design: Design, verts: _Vertices) -> list[list[int]]:
+    """Each panel's outline as a counter-clockwise ring of merged vertices."""
     rings: list[list[int]] = []
     for p in design.panels:
         ring_xy = np.asarray(orient(Polygon(p.outline), 1.0).exterior.coords)[:-1]
         ring = [verts.add(q) for q in ring_xy]
         rings.append([v for k, v in enumerate(ring) if v != ring[k - 1]])
-    # faces: the panel's outline, or holeless facets of a panel with holes
+    return rings
+
+
+def _facets(design: Design, rings: list, verts: _Vertices) -> tuple[list, list, list]:
+    """The faces: the panel's outline, or holeless facets of a panel with holes; with the
+    panel of each face and the holes it keeps as foldprint data."""
     face_panel: list[int] = []
     face_holes: list[list] = []
     facets: list[list[int]] = []
@@ -98,8 +101,12 @@ def design_to_fold(design: Design) -> dict:
             facets.append([v for j, v in enumerate(ring) if v != ring[j - 1]])
             face_panel.append(k)
             face_holes.append([])
+    return facets, face_panel, face_holes
+
+
+def _add_hinge_ends(design: Design, rings: list, verts: _Vertices, eps: float) -> None:
+    """Hinge ends that fall inside a panel side become vertices (snapped onto the side)."""
     index = design.panel_index()
-    # hinge ends that fall inside a panel side become vertices (snapped onto the side)
     for h in design.hinges:
         for pid in h.panels:
             for a, b in _ring_edges(rings[index[pid]]):
@@ -109,8 +116,10 @@ def design_to_fold(design: Design) -> dict:
                 for k in range(2):
                     if dist[k] <= _LINE_TOL and eps < t[k] * L < L - eps:
                         verts.add(foot[k])
-    # T-junctions: split every side at the vertices lying on it
-    pts = np.asarray(verts.xy)
+
+
+def _split_sides(facets: list, pts: np.ndarray, eps: float) -> list[list[int]]:
+    """T-junctions: every side of every facet split at the vertices lying on it."""
     faces = []
     for ring in facets:
         out = []
@@ -121,12 +130,17 @@ def design_to_fold(design: Design) -> dict:
             on = np.nonzero((dist <= eps) & (t * L > eps) & ((1 - t) * L > eps))[0]
             out.extend(int(i) for i in sorted(on, key=lambda i: t[i]) if i not in (a, b))
         faces.append(out)
-    edges: list[list[int]] = []
-    edge_faces = _index_face_edges(faces, edges, {})
+    return faces
+
+
+def _edge_columns(design: Design, edges: list, edge_faces: list, face_panel: list,
+                  pts: np.ndarray) -> tuple[list, ...]:
+    """Per edge: assignment, fold angle (deg), hinge id, material, radius and thickness; a
+    hinge's edges "V"/"M"/"F", edges between facets of one panel "F", all others "B"."""
     by_pair: dict[frozenset, list] = {}
     for h in design.hinges:
         by_pair.setdefault(frozenset(h.panels), []).append(h)
-    assign, fangle, e_hid, e_mat, e_rad, e_thk = [], [], [], [], [], []
+    cols: tuple[list, ...] = ([], [], [], [], [], [])
     for (a, b), fs in zip(edges, edge_faces):
         hinge = None
         same_panel = len(fs) == 2 and face_panel[fs[0]] == face_panel[fs[1]]
@@ -144,12 +158,33 @@ def design_to_fold(design: Design) -> dict:
             deg = math.degrees(hinge.angle)
             row = ("V" if deg > 0 else "M" if deg < 0 else "F", deg, hinge.id, hinge.material,
                    float(hinge.radius), float(hinge.thickness))
-        for col, v in zip((assign, fangle, e_hid, e_mat, e_rad, e_thk), row):
+        for col, v in zip(cols, row):
             col.append(v)
-    extra = design_to_dict(design)  # process, root, description, goals, depth; per hinge:
-    extra.pop("panels", None)       # panel order, fixity and style
+    return cols
+
+
+def _design_extra(design: Design) -> dict:
+    """``foldprint:design``: process, root, description, goals, depth; per hinge: panel
+    order, fixity and style."""
+    extra = design_to_dict(design)
+    extra.pop("panels", None)
     extra["hinges"] = {h["id"]: {k: v for k, v in h.items() if k in _HINGE_EXTRA}
                        for h in extra.get("hinges", [])}
+    return extra
+
+
+def design_to_fold(design: Design) -> dict:
+    """The design as a FOLD 1.2 crease pattern (a JSON-ready dict)."""
+    eps = tol.length
+    verts = _Vertices(eps)
+    rings = _panel_rings(design, verts)
+    facets, face_panel, face_holes = _facets(design, rings, verts)
+    _add_hinge_ends(design, rings, verts, eps)
+    pts = np.asarray(verts.xy)
+    faces = _split_sides(facets, pts, eps)
+    edges: list[list[int]] = []
+    edge_faces = _index_face_edges(faces, edges, {})
+    assign, fangle, e_hid, e_mat, e_rad, e_thk = _edge_columns(design, edges, edge_faces, face_panel, pts)
     out: dict[str, Any] = {
         "file_spec": 1.2, "file_creator": f"foldprint {__version__}",
         "file_classes": ["singleModel"], "frame_classes": ["creasePattern"],
@@ -162,7 +197,7 @@ def design_to_fold(design: Design) -> dict:
         "faces_foldprint:holes": face_holes,
         "edges_foldprint:hinge_id": e_hid, "edges_foldprint:material": e_mat,
         "edges_foldprint:radius_mm": e_rad, "edges_foldprint:thickness_mm": e_thk,
-        "foldprint:design": extra,
+        "foldprint:design": _design_extra(design),
     }
     if design.description:
         out["frame_description"] = design.description

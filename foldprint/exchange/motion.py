@@ -17,6 +17,7 @@ from shapely.geometry.polygon import orient
 
 from ..model.design import Design
 from ..core.errors import ExportError
+from ..core.modes import HingeModel
 from ..geometry import layout, strip_profile
 from ..geometry.solids import _polygons
 from ..physics.kinematics import HingeFrame, Trajectory, local_transforms
@@ -54,7 +55,7 @@ class Surface:
         for u in np.unique(self.u):
             sel = self.u == u
             sub = replace(f, origin=start + 0.5 * u * f.normal, width=float(u))
-            pose = poses[:, f.parent] @ local_transforms(sub, angles[:, f.index] * (u / f.width), "arc")
+            pose = poses[:, f.parent] @ local_transforms(sub, angles[:, f.index] * (u / f.width), HingeModel.ARC)
             out[:, sel] = np.einsum("tij,nj->tni", pose[:, :3, :3], self.flat[sel]) + pose[:, None, :3, 3]
         return out
 
@@ -104,7 +105,7 @@ def fold_surfaces(design: Design) -> list[Surface]:
 
 def frames_of(trajectory: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Times (n_t,), panel poses (n_t, n_panels, 4, 4) and hinge angles (n_t, n_hinges)."""
-    if trajectory.model != "arc":
+    if trajectory.model != HingeModel.ARC:
         raise ExportError(f"the fold's time series show the printed (arc) hinges; the trajectory was "
-                          f"simulated with {trajectory.model!r} hinges")
+                          f"simulated with '{trajectory.model}' hinges")
     return np.asarray(trajectory.times), np.asarray(trajectory.poses), np.asarray(trajectory.angles)

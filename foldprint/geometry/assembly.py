@@ -7,6 +7,7 @@ import numpy as np
 
 from ..model.design import Design
 from ..core.errors import GeometryError
+from ..core.modes import DEFAULT_STATE, State
 from ..model.materials import MaterialLibrary, default_library
 from .hinges import _poses, state_angles, strip_solids
 from .layout import layout
@@ -14,7 +15,7 @@ from .solids import BED_TOL, BOTTOM_FACE_RAD, VOLUME_RTOL, Assembly, Body, Piece
 
 # -- pieces and bodies --------------------------------------------------------------------
 
-def build_pieces(design: Design, state: str = "permanent") -> list[Piece]:
+def build_pieces(design: Design, state: State = DEFAULT_STATE) -> list[Piece]:
     """Every solid piece of a build state, in a fixed order (panels, then per hinge its
     strip segments and teeth)."""
     angles = state_angles(design, state)
@@ -39,7 +40,7 @@ def build_pieces(design: Design, state: str = "permanent") -> list[Piece]:
     return pieces
 
 
-def panel_solids(design: Design, state: str = "permanent") -> dict[str, mf.Manifold]:
+def panel_solids(design: Design, state: State = DEFAULT_STATE) -> dict[str, mf.Manifold]:
     """The rigid panel solids of a state, by panel id (for clearance checks)."""
     return {p.owner: p.solid for p in build_pieces(design, state) if p.kind == "panel"}
 
@@ -80,7 +81,7 @@ def _units(pieces: list[Piece]) -> list[Piece]:
     return units
 
 
-def _overlap_message(units: list[Piece], state: str) -> str:
+def _overlap_message(units: list[Piece], state: State) -> str:
     for i, a in enumerate(units):
         for b in units[i + 1:]:
             vol = (a.solid ^ b.solid).volume()
@@ -91,7 +92,7 @@ def _overlap_message(units: list[Piece], state: str) -> str:
     return f"{state} state: pieces overlap"
 
 
-def build_assembly(design: Design, state: str = "permanent", library: MaterialLibrary | None = None,
+def build_assembly(design: Design, state: State = DEFAULT_STATE, library: MaterialLibrary | None = None,
                    check: bool = True) -> Assembly:
     """One watertight body per material for a state (``permanent`` or ``programmed``).
 

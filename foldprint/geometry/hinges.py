@@ -10,6 +10,7 @@ import numpy as np
 
 from ..model.design import Design, Hinge, has_loops, tangent_factor
 from ..core.errors import GeometryError
+from ..core.modes import HingeModel, Interface, State
 from ..physics.kinematics import HingeFrame, hinge_map, loop_gap_mm
 from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, _checked, _from_arrays, apply_pose)
 
@@ -21,15 +22,15 @@ from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, _checked, _from_array
 LOOP_GAP_TOL_MM = 0.01
 
 
-def state_angles(design: Design, state: str) -> np.ndarray:
+def state_angles(design: Design, state: State) -> np.ndarray:
     """Hinge angles (rad, ``design.hinges`` order) of a build state."""
     if state not in STATES:
         raise GeometryError(f"state must be one of {STATES}, got {state!r}")
-    if state == "programmed":
+    if state == State.PROGRAMMED:
         return np.zeros(len(design.hinges))
     angles = np.array([h.angle for h in design.hinges], dtype=float)
     if has_loops(design):
-        gap = loop_gap_mm(design, angles, "arc")
+        gap = loop_gap_mm(design, angles, HingeModel.ARC)
         if gap > LOOP_GAP_TOL_MM:
             raise GeometryError(
                 f"{design.name}: the target angles do not close the loops of the hinge graph (rigid origami): "
@@ -43,7 +44,7 @@ def _local(frame: HingeFrame, rho: float) -> np.ndarray:
     """Child relative to parent: exactly the identity for a flat hinge."""
     if rho == 0.0:
         return np.eye(4)
-    return hinge_map(frame, rho, "arc", 1.0)[0]
+    return hinge_map(frame, rho, HingeModel.ARC, 1.0)[0]
 
 
 def _poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.ndarray:
@@ -76,7 +77,7 @@ def arc_transform(frame: HingeFrame, rho: float, u: float) -> np.ndarray:
     u = 0 gives the identity, u = w the child transform."""
     if rho == 0.0 or u <= 0.0:
         return np.eye(4)
-    return hinge_map(frame, rho, "arc", u / frame.width)[0]
+    return hinge_map(frame, rho, HingeModel.ARC, u / frame.width)[0]
 
 
 # -- hinge strips ------------------------------------------------------------------------
@@ -97,7 +98,7 @@ def strip_profile(hinge: Hinge, rho: float) -> tuple[np.ndarray, np.ndarray]:
         edges = [e for pair in thin for e in pair]
         snap = 1e-4 * max(w, 1.0)
         cuts = [c for c in cuts if all(abs(c - e) > snap for e in edges)] + edges
-    if st.interface == "triangular" and w > 4 * TEETH_OVERLAP:
+    if st.interface == Interface.TRIANGULAR and w > 4 * TEETH_OVERLAP:
         # thin end slices where the teeth reach into the strip: their chords hug the arc
         snap = 1e-4 * max(w, 1.0)
         ends = [TEETH_OVERLAP, w - TEETH_OVERLAP]

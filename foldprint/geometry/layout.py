@@ -12,6 +12,7 @@ from shapely.geometry import Polygon
 
 from ..model.design import Design, Hinge
 from ..core.errors import GeometryError
+from ..core.modes import Interface
 from ..physics.kinematics import HingeFrame, hinge_frames
 from ..model.relief import relieve
 from .hinges import hinge_segments
@@ -67,30 +68,27 @@ def _teeth_outline(lay: _HingeLayout, side: float) -> list[Polygon]:
     return out
 
 
-def layout(design: Design) -> tuple[list[_HingeLayout], list[object]]:
-    """The 2D plan in the sheet: per-hinge strips and teeth, and each panel's rigid
-    part (outline less every hinge strip and every tooth region). Vertices where hinges
-    meet get a relief (:func:`relieve`) first."""
-    design = relieve(design)
-    frames = hinge_frames(design)
-    lays: list[_HingeLayout] = []
-    for f in sorted(frames, key=lambda fr: fr.index):
-        h = f.hinge
-        if h.width < 1e-3:
-            raise GeometryError(f"hinge {h.id!r}: flat width R*|angle| = {h.width:.3g} mm; a printed "
-                                "curved hinge needs a width (angle 0 means no fold: merge the panels)")
-        if h.radius <= h.thickness / 2:
-            raise GeometryError(f"hinge {h.id!r}: bend radius {h.radius:g} mm must exceed half the hinge "
-                                f"thickness ({h.thickness / 2:g} mm) or the bent strip folds through itself")
-        p0, p1 = np.asarray(h.line[0], float), np.asarray(h.line[1], float)
-        d = (p1 - p0) / np.linalg.norm(p1 - p0)
-        n = np.asarray(f.normal[:2], float)
-        lay = _HingeLayout(h, f, d, n, p0, hinge_segments(h), Polygon(), {}, {})
-        lay.rect = _sheet(lay, [(0, -h.width / 2), (h.length, -h.width / 2),
-                                (h.length, h.width / 2), (0, h.width / 2)])
-        lays.append(lay)
-    rects = [lay.rect for lay in lays]
-    tree = shapely.STRtree(np.array(rects, dtype=object))
+def _hinge_layout(f: HingeFrame) -> _HingeLayout:
+    """One hinge's strip in the sheet (without teeth); a strip too narrow to print or
+    bent tighter than half its thickness is refused."""
+    h = f.hinge
+    if h.width < 1e-3:
+        raise GeometryError(f"hinge {h.id!r}: flat width R*|angle| = {h.width:.3g} mm; a printed "
+                            "curved hinge needs a width (angle 0 means no fold: merge the panels)")
+    if h.radius <= h.thickness / 2:
+        raise GeometryError(f"hinge {h.id!r}: bend radius {h.radius:g} mm must exceed half the hinge "
+                            f"thickness ({h.thickness / 2:g} mm) or the bent strip folds through itself")
+    p0, p1 = np.asarray(h.line[0], float), np.asarray(h.line[1], float)
+    d = (p1 - p0) / np.linalg.norm(p1 - p0)
+    n = np.asarray(f.normal[:2], float)
+    lay = _HingeLayout(h, f, d, n, p0, hinge_segments(h), Polygon(), {}, {})
+    lay.rect = _sheet(lay, [(0, -h.width / 2), (h.length, -h.width / 2),
+                            (h.length, h.width / 2), (0, h.width / 2)])
+    return lay
+
+
+def _check_strip_overlaps(lays: list[_HingeLayout], rects: list, tree) -> None:
+    """Two hinge strips may not overlap in the sheet."""
     pairs = tree.query(np.array(rects, dtype=object), predicate="intersects") if rects else np.zeros((2, 0), int)
     for i, j in zip(*pairs):
         if i < j and rects[i].intersection(rects[j]).area > 1e-9:
@@ -98,6 +96,10 @@ def layout(design: Design) -> tuple[list[_HingeLayout], list[object]]:
             raise GeometryError(f"hinges {a!r} and {b!r}: their strips (w/2 = R|angle|/2 on each side of "
                                 "the fold line) overlap in the sheet; shorten the hinge lines (line = ...), "
                                 "use smaller radii or move the fold lines apart")
+
+
+def _rigid_before_teeth(design: Design, rects: list, tree) -> tuple[list, list]:
+    """Each panel less the hinge strips touching it, and the indices of the strips near it."""
     rigid0, near_rects = [], []
     for p in design.panels:
         idx = sorted(tree.query(p.polygon, predicate="dwithin", distance=TEETH_GAP)) if rects else []
@@ -105,39 +107,58 @@ def layout(design: Design) -> tuple[list[_HingeLayout], list[object]]:
         r = p.polygon.difference(shapely.union_all(near)) if near else p.polygon
         rigid0.append(_clean(r))
         near_rects.append(idx)
-    # teeth: the part of each (extended) tooth row inside the panel's rigid part and not
-    # yet taken by an earlier hinge; the panel keeps rigid0 minus the extended rows, so
-    # both come from the same two inputs and share their boundary
+    return rigid0, near_rects
+
+
+def _place_teeth(lay: _HingeLayout, pidx: int, side: float, rigid0: list, near_rects: list,
+                 rects: list, cut: list) -> None:
+    """The teeth of ``lay`` in panel ``pidx``: the part of the (extended) tooth row inside
+    the panel's rigid part and not yet taken by an earlier hinge; the row joins ``cut``."""
+    cand = _teeth_outline(lay, side)
+    if not cand:
+        return
+    rows = shapely.union_all(cand)
+    if rigid0[pidx] is None:
+        return
+    # keep clear of earlier rows and of other hinges' strips: pieces of one
+    # material touching only along an edge would make a non-manifold body
+    others = [rects[k] for k in near_rects[pidx] if rects[k] is not lay.rect]
+    avail = rigid0[pidx]
+    if cut[pidx] or others:
+        taken = shapely.union_all(cut[pidx] + others).buffer(TEETH_GAP, join_style="mitre",
+                                                             mitre_limit=50.0)
+        avail = avail.difference(taken)
+    teeth = _clean(rows.intersection(avail))
+    if teeth is not None and lay.hinge.width > 4 * TEETH_OVERLAP:
+        lay.teeth[pidx] = teeth
+        # the solid also reaches a little into the strip: teeth and strip then
+        # overlap (and merge robustly) instead of touching on nearly coplanar faces
+        half = lay.hinge.width / 2
+        into = _sheet(lay, [(0, side * half), (lay.hinge.length, side * half),
+                            (lay.hinge.length, side * (half - TEETH_OVERLAP)),
+                            (0, side * (half - TEETH_OVERLAP))])
+        lay.teeth_solid[pidx] = _clean(shapely.union_all([teeth, rows.intersection(into)]))
+        cut[pidx].append(rows)
+
+
+def layout(design: Design) -> tuple[list[_HingeLayout], list[object]]:
+    """The 2D plan in the sheet: per-hinge strips and teeth, and each panel's rigid
+    part (outline less every hinge strip and every tooth region). Vertices where hinges
+    meet get a relief (:func:`relieve`) first."""
+    design = relieve(design)
+    lays = [_hinge_layout(f) for f in sorted(hinge_frames(design), key=lambda fr: fr.index)]
+    rects = [lay.rect for lay in lays]
+    tree = shapely.STRtree(np.array(rects, dtype=object))
+    _check_strip_overlaps(lays, rects, tree)
+    rigid0, near_rects = _rigid_before_teeth(design, rects, tree)
+    # teeth: the panel keeps rigid0 minus the extended rows, so teeth and panel come from
+    # the same two inputs and share their boundary
     cut: list[list] = [[] for _ in design.panels]
     for lay in lays:
-        if lay.hinge.style.interface != "triangular":
+        if lay.hinge.style.interface != Interface.TRIANGULAR:
             continue
         for pidx, side in ((lay.frame.parent, -1.0), (lay.frame.child, 1.0)):
-            cand = _teeth_outline(lay, side)
-            if not cand:
-                continue
-            rows = shapely.union_all(cand)
-            if rigid0[pidx] is None:
-                continue
-            # keep clear of earlier rows and of other hinges' strips: pieces of one
-            # material touching only along an edge would make a non-manifold body
-            others = [rects[k] for k in near_rects[pidx] if rects[k] is not lay.rect]
-            avail = rigid0[pidx]
-            if cut[pidx] or others:
-                taken = shapely.union_all(cut[pidx] + others).buffer(TEETH_GAP, join_style="mitre",
-                                                                     mitre_limit=50.0)
-                avail = avail.difference(taken)
-            teeth = _clean(rows.intersection(avail))
-            if teeth is not None and lay.hinge.width > 4 * TEETH_OVERLAP:
-                lay.teeth[pidx] = teeth
-                # the solid also reaches a little into the strip: teeth and strip then
-                # overlap (and merge robustly) instead of touching on nearly coplanar faces
-                half = lay.hinge.width / 2
-                into = _sheet(lay, [(0, side * half), (lay.hinge.length, side * half),
-                                    (lay.hinge.length, side * (half - TEETH_OVERLAP)),
-                                    (0, side * (half - TEETH_OVERLAP))])
-                lay.teeth_solid[pidx] = _clean(shapely.union_all([teeth, rows.intersection(into)]))
-                cut[pidx].append(rows)
+            _place_teeth(lay, pidx, side, rigid0, near_rects, rects, cut)
     rigid = []
     for k, p in enumerate(design.panels):
         r = rigid0[k]

@@ -13,8 +13,9 @@ from shapely.geometry import MultiPolygon, Polygon
 from shapely.geometry.polygon import orient
 
 from ..core.errors import GeometryError
+from ..core.modes import State
 
-STATES = ("permanent", "programmed")
+STATES = tuple(s.value for s in State)  # the build states, as text (messages)
 #: Largest bend per slice of a curved hinge (rad). A chord slice keeps sin(a)/a of the
 #: arc's volume: 5 deg loses at most 0.127 % (see :data:`BEND_VOLUME_RATIO_MIN`).
 MAX_SLICE_RAD = math.radians(5.0)

@@ -16,16 +16,18 @@ import math
 import numbers
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Iterable, Sequence
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 import shapely
 from shapely.geometry import LineString, Polygon
 
-from ..core.constants import (DEFAULT_BATH_C, DEFAULT_DURATION_S, DEFAULT_FIX_C, DEFAULT_PROGRAM_C,
-                        tol)
+from ..core.constants import (DEFAULT_BATH_C, DEFAULT_DEPTH_MM, DEFAULT_DURATION_S, DEFAULT_FIX_C,
+                              DEFAULT_HINGE_RADIUS_MM, DEFAULT_PANEL_MATERIAL, DEFAULT_PROGRAM_C,
+                              DEFAULT_THICKNESS_MM, tol)
 from ..core import schema
 from ..core.errors import DesignError, where
+from ..core.modes import DEFAULT_INTERFACE, Interface
 from .materials import MaterialLibrary, default_library
 
 SCHEMA_VERSION = 1
@@ -82,7 +84,7 @@ class HingeStyle:
     stepped: bool = False
     step_period_mm: float = 2.0
     thin_mm: float = 0.4
-    interface: str = "flat"
+    interface: Interface = DEFAULT_INTERFACE
     tooth_depth_mm: float = 1.5
     tooth_pitch_mm: float = 3.0
     max_segment_mm: float = 0.0
@@ -363,10 +365,8 @@ def has_loops(design: Design) -> bool:
     return len(design.hinges) > len(design.panels) - 1
 
 
-def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
-    """Check a design; raise DesignError naming the file, item and fix. Returns it."""
-    lib = library or default_library()
-    src = where(design.source)
+def _check_ids(design: Design, src: str) -> None:
+    """A name, at least one panel (not too many), and unique panel and hinge ids."""
     if not design.name or not isinstance(design.name, str):
         raise DesignError(f"{src}name must be a non-empty string")
     schema.name(design.name, schema.Where(design.source, "name"))
@@ -382,83 +382,93 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
     dup = sorted({i for i in hids if hids.count(i) > 1})
     if dup:
         raise DesignError(f"{src}duplicate hinge ids {dup}; every hinge needs its own id")
-    known_hinge = ", ".join(lib.names("hinge"))
-    known_panel = ", ".join(lib.names("panel") + lib.names("base"))
-    for p in design.panels:
-        item = f"{src}panel {p.id!r}: "
-        if not isinstance(p.id, str) or not isinstance(p.material, str):  # API-built panels
-            raise DesignError(f"{item}id and material must be strings")
-        _length(p.thickness, "thickness_mm", item)
-        check_ring(p.outline, "outline", item)
-        if len(p.outline) > schema.MAX_POINTS or len(p.holes) > schema.MAX_HOLES:
-            raise DesignError(f"{item}at most {schema.MAX_POINTS} outline points and {schema.MAX_HOLES} "
-                              "holes are accepted")
-        for ring in (p.outline, *p.holes):
-            if ring.size and np.abs(ring).max() > schema.MAX_LENGTH_MM:
-                raise DesignError(f"{item}a coordinate is {np.abs(ring).max():g} mm from the origin; at "
-                                  f"most {schema.MAX_LENGTH_MM:g} mm (10 m) is accepted")
-        for k, hole in enumerate(p.holes):
-            check_ring(hole, f"hole {k}", item)
-        if not p.polygon.is_valid:
-            raise DesignError(f"{item}holes must lie inside the outline and not overlap "
-                              f"({shapely.is_valid_reason(p.polygon)})")
-        if p.material not in lib:
-            raise DesignError(f"{item}unknown material {p.material!r}; known panel materials: {known_panel}"
-                              " (add your own with --materials FILE)")
-    _overlaps(design)
-    panel_ids = set(ids)
-    by_id = {p.id: p for p in design.panels}
-    for h in design.hinges:
-        item = f"{src}hinge {h.id!r}: "
-        if not isinstance(h.id, str) or not isinstance(h.material, str) or not all(
-                isinstance(x, str) for x in h.panels):
-            raise DesignError(f"{item}id, material and panel ids must be strings")
-        if len(h.panels) != 2 or h.panels[0] == h.panels[1]:
-            raise DesignError(f"{item}panels must name two different panels, got {list(h.panels)}")
-        for pid in h.panels:
-            if pid not in panel_ids:
-                raise DesignError(f"{item}joins panel {pid!r}, which does not exist; panels: {ids}")
-        ang = _finite(h.angle, "angle", item)
-        if abs(ang) > math.pi + 1e-12:
-            raise DesignError(f"{item}angle_deg {math.degrees(ang):g} is outside [-180, 180] "
-                              "(FOLD convention: + valley, - mountain, 0 flat)")
-        _length(h.radius, "radius_mm", item)
-        _length(h.thickness, "thickness_mm", item)
-        fx = _finite(h.fixity, "fixity", item)
-        if not 0.0 <= fx <= 1.0:
-            raise DesignError(f"{item}fixity must be in [0, 1], got {fx:g}")
-        if not np.all(np.isfinite(h.line)):
-            raise DesignError(f"{item}fold line has a NaN coordinate")
-        if h.length <= tol.length * 100:
-            raise DesignError(f"{item}fold line has zero length")
-        if h.material not in lib:
-            raise DesignError(f"{item}unknown material {h.material!r}; known hinge materials: {known_hinge}"
-                              " (add your own with --materials FILE)")
-        if lib[h.material].role != "hinge":
-            raise DesignError(f"{item}material {h.material!r} is a {lib[h.material].role} material, "
-                              f"not a shape-memory hinge material; use one of {known_hinge}")
-        a, b = (by_id[pid] for pid in h.panels)
-        edge = shared_edge(a, b)
-        if edge is None:
-            raise DesignError(f"{item}panels {a.id!r} and {b.id!r} share no edge; a hinge joins two "
-                              "panels along a common side of their outlines")
-        line = LineString(h.line)
-        if line.distance(LineString(edge)) > 1e-3 or line.length > LineString(edge).length + 1e-3:
-            raise DesignError(f"{item}fold line {h.line.tolist()} does not lie on the edge shared by "
-                              f"{a.id!r} and {b.id!r} ({edge.tolist()})")
-        st = h.style
-        if st.interface not in ("flat", "triangular"):
-            raise DesignError(f"{item}style.interface must be 'flat' or 'triangular', got {st.interface!r}")
-        if not isinstance(st.stepped, (bool, np.bool_)):
-            raise DesignError(f"{item}style.stepped must be true or false, got {schema.describe(st.stepped)}")
-        for name in ("step_period_mm", "thin_mm", "tooth_depth_mm", "tooth_pitch_mm", "slot_width_mm"):
-            _length(getattr(st, name), f"style.{name}", item)
-        if _finite(st.max_segment_mm, "style.max_segment_mm", item) < 0:
-            raise DesignError(f"{item}style.max_segment_mm must be >= 0 (0 = no slots)")
-        _features(h, item)
-    if design.root not in panel_ids:
-        raise DesignError(f"{src}root panel {design.root!r} does not exist; panels: {ids}")
-    spanning_tree(design)  # raises on disconnected panels; loops are allowed (rigid origami)
+
+
+def _check_panel(p: Panel, item: str, lib: MaterialLibrary, known_panel: str) -> None:
+    """One panel: its thickness, outline and holes (simple, inside, bounded) and material."""
+    if not isinstance(p.id, str) or not isinstance(p.material, str):  # API-built panels
+        raise DesignError(f"{item}id and material must be strings")
+    _length(p.thickness, "thickness_mm", item)
+    check_ring(p.outline, "outline", item)
+    if len(p.outline) > schema.MAX_POINTS or len(p.holes) > schema.MAX_HOLES:
+        raise DesignError(f"{item}at most {schema.MAX_POINTS} outline points and {schema.MAX_HOLES} "
+                          "holes are accepted")
+    for ring in (p.outline, *p.holes):
+        if ring.size and np.abs(ring).max() > schema.MAX_LENGTH_MM:
+            raise DesignError(f"{item}a coordinate is {np.abs(ring).max():g} mm from the origin; at "
+                              f"most {schema.MAX_LENGTH_MM:g} mm (10 m) is accepted")
+    for k, hole in enumerate(p.holes):
+        check_ring(hole, f"hole {k}", item)
+    if not p.polygon.is_valid:
+        raise DesignError(f"{item}holes must lie inside the outline and not overlap "
+                          f"({shapely.is_valid_reason(p.polygon)})")
+    if p.material not in lib:
+        raise DesignError(f"{item}unknown material {p.material!r}; known panel materials: {known_panel}"
+                          " (add your own with --materials FILE)")
+
+
+def _check_hinge_values(h: Hinge, item: str, ids: list, panel_ids: set, lib: MaterialLibrary,
+                        known_hinge: str) -> None:
+    """One hinge's own values: ids, panels that exist, angle, sizes, fixity, line, material."""
+    if not isinstance(h.id, str) or not isinstance(h.material, str) or not all(
+            isinstance(x, str) for x in h.panels):
+        raise DesignError(f"{item}id, material and panel ids must be strings")
+    if len(h.panels) != 2 or h.panels[0] == h.panels[1]:
+        raise DesignError(f"{item}panels must name two different panels, got {list(h.panels)}")
+    for pid in h.panels:
+        if pid not in panel_ids:
+            raise DesignError(f"{item}joins panel {pid!r}, which does not exist; panels: {ids}")
+    ang = _finite(h.angle, "angle", item)
+    if abs(ang) > math.pi + 1e-12:
+        raise DesignError(f"{item}angle_deg {math.degrees(ang):g} is outside [-180, 180] "
+                          "(FOLD convention: + valley, - mountain, 0 flat)")
+    _length(h.radius, "radius_mm", item)
+    _length(h.thickness, "thickness_mm", item)
+    fx = _finite(h.fixity, "fixity", item)
+    if not 0.0 <= fx <= 1.0:
+        raise DesignError(f"{item}fixity must be in [0, 1], got {fx:g}")
+    if not np.all(np.isfinite(h.line)):
+        raise DesignError(f"{item}fold line has a NaN coordinate")
+    if h.length <= tol.length * 100:
+        raise DesignError(f"{item}fold line has zero length")
+    if h.material not in lib:
+        raise DesignError(f"{item}unknown material {h.material!r}; known hinge materials: {known_hinge}"
+                          " (add your own with --materials FILE)")
+    if lib[h.material].role != "hinge":
+        raise DesignError(f"{item}material {h.material!r} is a {lib[h.material].role} material, "
+                          f"not a shape-memory hinge material; use one of {known_hinge}")
+
+
+def _check_hinge_place(h: Hinge, item: str, by_id: Mapping[str, Panel]) -> None:
+    """The hinge's fold line lies on the edge its two panels share."""
+    a, b = (by_id[pid] for pid in h.panels)
+    edge = shared_edge(a, b)
+    if edge is None:
+        raise DesignError(f"{item}panels {a.id!r} and {b.id!r} share no edge; a hinge joins two "
+                          "panels along a common side of their outlines")
+    line = LineString(h.line)
+    if line.distance(LineString(edge)) > 1e-3 or line.length > LineString(edge).length + 1e-3:
+        raise DesignError(f"{item}fold line {h.line.tolist()} does not lie on the edge shared by "
+                          f"{a.id!r} and {b.id!r} ({edge.tolist()})")
+
+
+def _check_style(h: Hinge, item: str) -> None:
+    """The hinge's style: a known interface, a boolean ``stepped``, sizes, and features
+    above the floor."""
+    st = h.style
+    if st.interface not in tuple(Interface):
+        raise DesignError(f"{item}style.interface must be 'flat' or 'triangular', got {st.interface!r}")
+    if not isinstance(st.stepped, (bool, np.bool_)):
+        raise DesignError(f"{item}style.stepped must be true or false, got {schema.describe(st.stepped)}")
+    for name in ("step_period_mm", "thin_mm", "tooth_depth_mm", "tooth_pitch_mm", "slot_width_mm"):
+        _length(getattr(st, name), f"style.{name}", item)
+    if _finite(st.max_segment_mm, "style.max_segment_mm", item) < 0:
+        raise DesignError(f"{item}style.max_segment_mm must be >= 0 (0 = no slots)")
+    _features(h, item)
+
+
+def _check_process(design: Design, src: str) -> None:
+    """Finite process temperatures, a positive duration, a valid strip depth."""
     pr = design.process
     item = f"{src}process: "
     for name in ("program_temperature_c", "fix_temperature_c", "bath_temperature_c"):
@@ -466,6 +476,10 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
     _positive(pr.duration_s, "duration_s", item)
     if design.depth:
         _length(design.depth, "depth_mm", src)
+
+
+def _check_goals(design: Design, src: str, ids: list, by_id: Mapping[str, Panel]) -> None:
+    """Each goal: a known type, panels and a hole that exist, a finite tip."""
     if len(design.goals) > schema.MAX_GOALS:
         raise DesignError(f"{src}{len(design.goals)} goals; at most {schema.MAX_GOALS} are accepted")
     for g in design.goals:
@@ -473,7 +487,7 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
         if g.type != "pass_through":
             raise DesignError(f"{item}unknown goal type {g.type!r}; supported: pass_through")
         for pid in (g.panel, g.target):
-            if pid not in panel_ids:
+            if pid not in by_id:
                 raise DesignError(f"{item}names panel {pid!r}, which does not exist; panels: {ids}")
         if not 0 <= g.hole < len(by_id[g.target].holes):
             raise DesignError(f"{item}panel {g.target!r} has {len(by_id[g.target].holes)} holes; "
@@ -482,6 +496,31 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
             raise DesignError(f"{item}tip has a NaN coordinate")
         if isinstance(g.hole, bool) or not isinstance(g.hole, (int, np.integer)):
             raise DesignError(f"{item}hole must be a whole number, got {schema.describe(g.hole)}")
+
+
+def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
+    """Check a design; raise DesignError naming the file, item and fix. Returns it."""
+    lib = library or default_library()
+    src = where(design.source)
+    _check_ids(design, src)
+    known_hinge = ", ".join(lib.names("hinge"))
+    known_panel = ", ".join(lib.names("panel") + lib.names("base"))
+    for p in design.panels:
+        _check_panel(p, f"{src}panel {p.id!r}: ", lib, known_panel)
+    _overlaps(design)
+    ids = [p.id for p in design.panels]
+    panel_ids = set(ids)
+    by_id = {p.id: p for p in design.panels}
+    for h in design.hinges:
+        item = f"{src}hinge {h.id!r}: "
+        _check_hinge_values(h, item, ids, panel_ids, lib, known_hinge)
+        _check_hinge_place(h, item, by_id)
+        _check_style(h, item)
+    if design.root not in by_id:
+        raise DesignError(f"{src}root panel {design.root!r} does not exist; panels: {ids}")
+    spanning_tree(design)  # raises on disconnected panels; loops are allowed (rigid origami)
+    _check_process(design, src)
+    _check_goals(design, src, ids, by_id)
     return design
 
 
@@ -492,7 +531,7 @@ def _features(h: Hinge, item: str) -> None:
     counts = []
     if st.stepped:
         counts.append(("style.step_period_mm", st.step_period_mm, h.width))
-    if st.interface == "triangular":
+    if st.interface == Interface.TRIANGULAR:
         counts.append(("style.tooth_pitch_mm", st.tooth_pitch_mm, h.length))
     if st.max_segment_mm > 0:
         counts.append(("style.max_segment_mm", st.max_segment_mm, h.length))
@@ -508,10 +547,11 @@ def _features(h: Hinge, item: str) -> None:
 
 
 def strip(name: str, lengths: Sequence[float], angles_deg: Sequence[float],
-          materials: Sequence[str], *, depth: float = 6.0,
-          thickness: float | Sequence[float] = 0.8, radius: float | Sequence[float] = 5.0,
+          materials: Sequence[str], *, depth: float = DEFAULT_DEPTH_MM,
+          thickness: float | Sequence[float] = DEFAULT_THICKNESS_MM,
+          radius: float | Sequence[float] = DEFAULT_HINGE_RADIUS_MM,
           hinge_thickness: float | Sequence[float] | None = None,
-          panel_material: str = "VeroWhite", process: Process | None = None,
+          panel_material: str = DEFAULT_PANEL_MATERIAL, process: Process | None = None,
           description: str = "", holes: dict[int, list] | None = None,
           source: str = "", goals: Iterable[Goal] = (), style: HingeStyle | None = None,
           ) -> Design:

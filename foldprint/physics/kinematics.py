@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.design import Design, Hinge, has_loops, spanning_tree, tangent_factor
+from ..core.constants import DEFAULT_DT_S
 from ..core.errors import DesignError
 from .loops import LoopSolution, LoopSolver
 from ..model.materials import MaterialLibrary, default_library
@@ -100,7 +101,7 @@ def _sinc_terms(angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, c
 
 
-def hinge_map(frame: HingeFrame, angle, model: HingeModel | str = "arc", fraction=1.0) -> np.ndarray:
+def hinge_map(frame: HingeFrame, angle, model: HingeModel = DEFAULT_HINGE_MODEL, fraction=1.0) -> np.ndarray:
     """The one hinge map: (n, 4, 4) transforms, relative to the parent panel, of the hinge
     strip's line at ``fraction`` of its flat width (0 = the parent's edge, 1 = the
     child's edge) when the hinge is bent to ``angle`` (rad). ``angle`` and ``fraction``
@@ -121,14 +122,14 @@ def hinge_map(frame: HingeFrame, angle, model: HingeModel | str = "arc", fractio
     """
     angle, fraction = np.broadcast_arrays(np.atleast_1d(np.asarray(angle, float)),
                                           np.atleast_1d(np.asarray(fraction, float)))
-    model = str(model)
-    if model not in HINGE_MODELS:
-        raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+    if str(model) not in HINGE_MODELS:
+        raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {str(model)!r}")
+    model = HingeModel(str(model))
     n = len(angle)
     out = np.zeros((n, 4, 4))
     out[:, 3, 3] = 1.0
     q = frame.origin
-    if model == "point":
+    if model == HingeModel.POINT:
         rot = _rotation(frame.axis, angle)
         out[:, :3, :3] = rot
         out[:, :3, 3] = q - rot @ q
@@ -147,13 +148,13 @@ def hinge_map(frame: HingeFrame, angle, model: HingeModel | str = "arc", fractio
     return out
 
 
-def local_transforms(frame: HingeFrame, angle: np.ndarray, model: HingeModel | str) -> np.ndarray:
+def local_transforms(frame: HingeFrame, angle: np.ndarray, model: HingeModel) -> np.ndarray:
     """(n, 4, 4) transforms of the child relative to the parent for hinge angles (n,):
     :func:`hinge_map` at the child's edge."""
     return hinge_map(frame, angle, model, 1.0)
 
 
-def forward(design: Design, angles: np.ndarray, model: HingeModel | str = DEFAULT_HINGE_MODEL,
+def forward(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HINGE_MODEL,
             frames: list[HingeFrame] | None = None) -> np.ndarray:
     """Panel poses (n_t, n_panels, 4, 4) for hinge angles (n_t, n_hinges) in
     ``design.hinges`` order (rad)."""
@@ -176,11 +177,11 @@ class TreeTransforms:
     (:func:`forward`) or per hinge on a pair's tree path (the swept check's old
     ``pair_poses``). Same map as :func:`hinge_map` at the child's edge."""
 
-    def __init__(self, design: Design, model: HingeModel | str, frames: list[HingeFrame] | None = None):
+    def __init__(self, design: Design, model: HingeModel, frames: list[HingeFrame] | None = None):
         frames = [f for f in (frames if frames is not None else hinge_frames(design)) if f.tree]
-        self.model = str(model)
-        if self.model not in HINGE_MODELS:
+        if str(model) not in HINGE_MODELS:
             raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+        self.model = HingeModel(str(model))
         n = len(design.panels)
         self.n = n
         self.hinge = np.array([f.index for f in frames], dtype=np.int64)
@@ -214,7 +215,7 @@ class TreeTransforms:
         out[..., 3, 3] = 1.0
         rot = _EYE3 + np.sin(a)[..., None, None] * self.k + (1 - np.cos(a))[..., None, None] * self.kk
         out[..., :3, :3] = rot
-        if self.model == "point":
+        if self.model == HingeModel.POINT:
             out[..., :3, 3] = self.q - np.einsum("mhij,hj->mhi", rot, self.q)
             return out
         arc = np.where(self.centred, self.w * tangent_factor(a), self.w)
@@ -249,7 +250,7 @@ class Trajectory:
     ratios: np.ndarray
     angles: np.ndarray
     poses: np.ndarray
-    model: str
+    model: HingeModel
     bath_c: float
     fold_times: tuple[float | None, ...]  # per hinge, s (98 % recovery), None = does not fold
     onset_times: tuple[float | None, ...]
@@ -353,12 +354,13 @@ class HingeDrive:
 
 
 def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath_c: float | None = None,
-                        model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = 0.01, duration: float | None = None,
+                        model: HingeModel = DEFAULT_HINGE_MODEL, dt: float = DEFAULT_DT_S, duration: float | None = None,
                         library: MaterialLibrary | None = None,
                         drive: HingeDrive | None = None) -> Trajectory:
     """Hinge angles and panel poses over time."""
     if model not in HINGE_MODELS:
         raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+    model = HingeModel(str(model))
     drive = drive or HingeDrive(design, bath_c, library)
     if times is None:
         dur = float(design.process.duration_s if duration is None else duration)
@@ -379,7 +381,7 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
     else:
         angles = drive.angles(times)
     poses = forward(design, angles, model)
-    if loop is not None and model == "arc":
+    if loop is not None and model == HingeModel.ARC:
         loop = _with_arc_gap(design, loop, angles, poses)
     for a in (times, ratios, angles, poses):
         a.setflags(write=False)
@@ -388,7 +390,7 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
                       loop)
 
 
-def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = "arc",
+def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HINGE_MODEL,
                 poses: np.ndarray | None = None) -> float:
     """Largest distance (mm, over the times of ``angles`` (n_t, n_hinges)) between where a
     loop hinge's child-side edge lands through that hinge and where the spanning tree puts
@@ -404,7 +406,7 @@ def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = "arc",
         loc = local_transforms(f, angles[:, f.index], model)
         via = poses[:, f.parent] @ loc
         for end in design.hinges[f.index].line:
-            p = np.array([end[0], end[1], 0.0]) + (0.5 * f.width * f.normal if model == "arc" else 0.0)
+            p = np.array([end[0], end[1], 0.0]) + (0.5 * f.width * f.normal if model == HingeModel.ARC else 0.0)
             a = via[:, :3, :3] @ p + via[:, :3, 3]
             b = poses[:, f.child, :3, :3] @ p + poses[:, f.child, :3, 3]
             gap = max(gap, float(np.linalg.norm(a - b, axis=1).max(initial=0.0)))
@@ -414,7 +416,7 @@ def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = "arc",
 def _with_arc_gap(design: Design, loop: LoopSolution, angles: np.ndarray, poses: np.ndarray) -> LoopSolution:
     from dataclasses import replace
 
-    return replace(loop, arc_gap_mm=loop_gap_mm(design, angles, "arc", poses))
+    return replace(loop, arc_gap_mm=loop_gap_mm(design, angles, HingeModel.ARC, poses))
 
 
 def transform_points(pose: np.ndarray, pts2d: np.ndarray, z: float = 0.0) -> np.ndarray:

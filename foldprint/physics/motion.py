@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.modes import HingeModel
 from ..model.design import Design
 from .kinematics import HingeFrame, hinge_frames
 
@@ -163,7 +164,7 @@ class TreeBounds:
         return self.__dict__["_wvec"]
 
 
-def tree_bounds(design: Design, model: str, frames: list[HingeFrame] | None = None) -> TreeBounds:
+def tree_bounds(design: Design, model: HingeModel, frames: list[HingeFrame] | None = None) -> TreeBounds:
     frames = frames if frames is not None else [f for f in hinge_frames(design) if f.tree]
     n = len(design.panels)
     nh = len(design.hinges)
@@ -182,7 +183,7 @@ def tree_bounds(design: Design, model: str, frames: list[HingeFrame] | None = No
     mp[root] = centroid[root, :2]
     children: list[list[int]] = [[] for _ in range(n)]
     for f in frames:  # tree order: parents first
-        w = f.width if model == "arc" else 0.0
+        w = f.width if model == HingeModel.ARC else 0.0
         m = f.origin[:2]
         parent[f.child], hinge[f.child] = f.parent, f.index
         depth[f.child] = depth[f.parent] + 1

@@ -25,7 +25,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..core.constants import FOLD_LEVEL, ONSET_LEVEL, RECOVERY_HORIZON_S
+from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM, FOLD_LEVEL, ONSET_LEVEL, RECOVERY_HORIZON_S
 from ..core.errors import MaterialError
 from ..model.materials import Material, RecoveryParams
 
@@ -177,8 +177,8 @@ def _curve(material: Material, bath_c: float, thickness_mm: float, initial_c: fl
                          float(initial_c), t, ratio, mean_t)
 
 
-def recovery_curve(material: Material, bath_c: float, thickness_mm: float = 0.8,
-                   initial_c: float = 10.0, horizon_s: float = RECOVERY_HORIZON_S) -> RecoveryCurve:
+def recovery_curve(material: Material, bath_c: float, thickness_mm: float = DEFAULT_THICKNESS_MM,
+                   initial_c: float = DEFAULT_FIX_C, horizon_s: float = RECOVERY_HORIZON_S) -> RecoveryCurve:
     """The (cached) recovery curve of a hinge of ``material`` and ``thickness_mm`` that
     starts at ``initial_c`` (the fixing temperature of the programming protocol) and is
     dropped into a bath at ``bath_c``."""
@@ -197,14 +197,14 @@ def recovery_curve(material: Material, bath_c: float, thickness_mm: float = 0.8,
     return _curve(material, float(bath_c), float(thickness_mm), float(initial_c), float(horizon_s))
 
 
-def recovery_ratio(t, material: Material, bath_c: float, thickness_mm: float = 0.8,
-                   initial_c: float = 10.0) -> np.ndarray:
+def recovery_ratio(t, material: Material, bath_c: float, thickness_mm: float = DEFAULT_THICKNESS_MM,
+                   initial_c: float = DEFAULT_FIX_C) -> np.ndarray:
     """R(t) for times ``t`` (s), vectorised."""
     return recovery_curve(material, bath_c, thickness_mm, initial_c)(t)
 
 
-def fold_time(material: Material, bath_c: float, thickness_mm: float = 0.8,
-              initial_c: float = 10.0, level: float = FOLD_LEVEL) -> float | None:
+def fold_time(material: Material, bath_c: float, thickness_mm: float = DEFAULT_THICKNESS_MM,
+              initial_c: float = DEFAULT_FIX_C, level: float = FOLD_LEVEL) -> float | None:
     """Time (s) to reach ``level`` recovery, or None when the hinge does not fold
     within the model horizon (e.g. a bath below the material's Tg)."""
     return recovery_curve(material, bath_c, thickness_mm, initial_c).time_to(level)

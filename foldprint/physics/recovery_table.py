@@ -14,7 +14,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..core.constants import FOLD_LEVEL, RECOVERY_HORIZON_S
+from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM, FOLD_LEVEL, RECOVERY_HORIZON_S
 from ..model.materials import Material
 from .recovery import _N_LAYERS, _grid, log10_shift, slab_temperature, spectrum
 
@@ -65,7 +65,7 @@ def _fold_times(material: Material, baths: tuple[float, ...], thickness_mm: floa
     return tuple(out)
 
 
-def fold_times(material: Material, baths, thickness_mm: float = 0.8, initial_c: float = 10.0,
+def fold_times(material: Material, baths, thickness_mm: float = DEFAULT_THICKNESS_MM, initial_c: float = DEFAULT_FIX_C,
                horizon_s: float = RECOVERY_HORIZON_S, level: float = FOLD_LEVEL) -> list[float | None]:
     """Time (s) to ``level`` recovery at each bath temperature (deg C) of ``baths``; None
     where the hinge does not get there within the horizon. Cached per arguments."""

@@ -9,6 +9,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM
 from ..model.materials import MaterialLibrary
 from ..physics.recovery import recovery_curve
 from ..physics.recovery_table import fold_times
@@ -39,8 +40,8 @@ def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
     return write_atomic(path, figure_bytes(fig, fmt, dpi))
 
 
-def fold_time_chart(lib: MaterialLibrary, temperatures: Sequence[float], thickness_mm: float = 0.8,
-                    initial_c: float = 10.0):
+def fold_time_chart(lib: MaterialLibrary, temperatures: Sequence[float], thickness_mm: float = DEFAULT_THICKNESS_MM,
+                    initial_c: float = DEFAULT_FIX_C):
     """Fig. 1b style: 98 % fold time of every hinge material against bath temperature."""
     plt = _plt()
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 4))
@@ -66,7 +67,7 @@ def fold_time_chart(lib: MaterialLibrary, temperatures: Sequence[float], thickne
     return fig
 
 
-def recovery_calibration_figure(lib: MaterialLibrary, thickness_mm: float = 0.8, initial_c: float = 10.0):
+def recovery_calibration_figure(lib: MaterialLibrary, thickness_mm: float = DEFAULT_THICKNESS_MM, initial_c: float = DEFAULT_FIX_C):
     """R(t) of every hinge material at 80, 90 and 100 C, with the paper's targets."""
     plt = _plt()
     fig, axes = plt.subplots(1, 4, figsize=(16, 3.8))

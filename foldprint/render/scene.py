@@ -17,6 +17,7 @@ from typing import Iterable
 
 import numpy as np
 
+from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel, State
 from ..model.design import Design
 from ..physics.kinematics import forward, hinge_frames, hinge_map, target_angles
 from ..model.materials import MaterialLibrary
@@ -72,7 +73,7 @@ class Scene:
         return np.concatenate(parts) if parts else np.zeros((1, 3))
 
 
-def _rings(design: Design, model: str) -> list[tuple[np.ndarray, ...]]:
+def _rings(design: Design, model: HingeModel) -> list[tuple[np.ndarray, ...]]:
     """Outline and hole rings (sheet frame, outline counter-clockwise) of each rigid panel
     part, cached on the design."""
     import shapely
@@ -126,7 +127,7 @@ def _hinge_angle(frame, pose_parent: np.ndarray, pose_child: np.ndarray) -> floa
     return math.atan2(float(vee @ frame.axis), 0.5 * (np.trace(rel) - 1.0))
 
 
-def scene(design: Design, poses: np.ndarray, model: str, lib: MaterialLibrary,
+def scene(design: Design, poses: np.ndarray, model: HingeModel, lib: MaterialLibrary,
           highlight: Iterable[int] = ()) -> Scene:
     """The drawables of ``design`` at ``poses`` (n_panels, 4, 4); ``highlight``: panel
     indices in contact (tinted and outlined red)."""
@@ -150,7 +151,7 @@ def scene(design: Design, poses: np.ndarray, model: str, lib: MaterialLibrary,
         h = f.hinge
         color = material_rgb(lib, h.material)
         pp, pc = poses[f.parent], poses[f.child]
-        if model == "point" or f.width <= 0:
+        if model == HingeModel.POINT or f.width <= 0:
             line = np.column_stack([np.asarray(h.line, float), np.zeros(2)])
             sc.lines.append(line @ pp[:3, :3].T + pp[:3, 3])
             sc.line_colors.append(color)
@@ -159,7 +160,7 @@ def scene(design: Design, poses: np.ndarray, model: str, lib: MaterialLibrary,
         # arc: a ribbon of uniform curvature from the parent's rigid edge to the child's,
         # through the same hinge map the simulation and the printed geometry use
         s = np.linspace(0.0, 1.0, _ARC_STEPS + 1)
-        maps = pp[None] @ hinge_map(f, _hinge_angle(f, pp, pc), "arc", s)
+        maps = pp[None] @ hinge_map(f, _hinge_angle(f, pp, pc), HingeModel.ARC, s)
         curves = []
         for e in np.asarray(h.line):
             line = (np.array([e[0], e[1], 0.0]) - 0.5 * f.width * f.normal)[None] \
@@ -185,12 +186,12 @@ def scene(design: Design, poses: np.ndarray, model: str, lib: MaterialLibrary,
 
 # -- poses and times ------------------------------------------------------------------------
 
-def state_poses(design: Design, state: str, model: str = "point") -> np.ndarray:
+def state_poses(design: Design, state: State, model: HingeModel = DEFAULT_HINGE_MODEL) -> np.ndarray:
     """Panel poses (n_panels, 4, 4) of ``state``: ``programmed`` (flat, every angle 0) or
     ``permanent`` (every hinge at its target angle), by the ``model`` kinematics."""
-    if state == "programmed":
+    if state == State.PROGRAMMED:
         angles = np.zeros(len(design.hinges))
-    elif state == "permanent":
+    elif state == State.PERMANENT:
         angles = target_angles(design)
     else:
         raise ValueError(f"state must be 'programmed' or 'permanent', got {state!r}")

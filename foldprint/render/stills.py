@@ -16,6 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
 from ..model.design import Design
 from ..model.materials import MaterialLibrary, default_library
 from .scene import (Camera, Scene, camera_for, contact_state, frame_times, motion_end,  # noqa: F401
@@ -146,7 +147,7 @@ def _as_poses(poses) -> np.ndarray:
     return p
 
 
-def render_state(design: Design, poses, title_text: str, *, model: str = "point",
+def render_state(design: Design, poses, title_text: str, *, model: HingeModel = DEFAULT_HINGE_MODEL,
                  highlight: Sequence[int] = (), library: MaterialLibrary | None = None,
                  max_size_in: tuple[float, float] = (7.0, 6.0), dpi: float = 100.0):
     """The design's panels and hinges at one set of poses.

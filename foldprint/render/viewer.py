@@ -30,6 +30,7 @@ from importlib import resources
 
 import numpy as np
 
+from ..core.modes import HingeModel, JamReason, State
 from ..model.design import Design
 from ..physics.kinematics import forward, hinge_frames, hinge_map, target_angles
 from ..model.materials import MaterialLibrary
@@ -59,7 +60,7 @@ def _panel_meshes(design: Design) -> list[dict]:
 
     pidx = design.panel_index()
     items = []
-    for piece in build_pieces(design, "programmed"):
+    for piece in build_pieces(design, State.PROGRAMMED):
         if piece.kind not in ("panel", "teeth") or piece.solid is None:
             continue
         mesh = piece.solid.to_mesh()
@@ -75,7 +76,7 @@ def _panel_meshes(design: Design) -> list[dict]:
     return items
 
 
-def _ribbons(design: Design, angles: np.ndarray, poses: np.ndarray, model: str):
+def _ribbons(design: Design, angles: np.ndarray, poses: np.ndarray, model: HingeModel):
     """Ribbon vertices (n_t, n_vertices, 3) of every hinge and the shared triangle list.
 
     Per hinge segment: RIBBON_SECTIONS + 1 cross-sections across the strip width, each a
@@ -150,7 +151,7 @@ def _run_frames(result, frames: int):
     return times, np.concatenate([angles, states]), end
 
 
-def _contacts(result, items: list[dict], model: str) -> list[dict]:
+def _contacts(result, items: list[dict], model: HingeModel) -> list[dict]:
     design, traj = result.design, result.trajectory
     out = []
     for c in result.contacts:
@@ -164,10 +165,10 @@ def _contacts(result, items: list[dict], model: str) -> list[dict]:
 def worst_text(replay) -> str:
     """Why a replayed sample (:func:`foldprint.apps.pipeline.worst_sample`) is the worst, in words."""
     o = replay.outcome
-    if o.reason == "collision":
+    if o.reason == JamReason.COLLISION:
         return f"the earliest first contact of the samples: panels {o.pair[0]}\u2013{o.pair[1]} at {o.time:.3f} s"
     if o.jammed:
-        return "jams without a collision (" + ("a goal is not met" if o.reason == "goal"
+        return "jams without a collision (" + ("a goal is not met" if o.reason == JamReason.GOAL
                                                else "a hinge does not reach 98 %") + ")"
     return f"no sample jams; the slowest fold ({o.fold_time:.2f} s)"
 

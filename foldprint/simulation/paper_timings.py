@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.constants import FOLD_LEVEL, ONSET_LEVEL
 from ..core.errors import DesignError
+from ..core.modes import AfterContact, HingeModel, Method
 from ..model.materials import MaterialLibrary, default_library
 from ..physics.recovery import recovery_curve
 from ..physics.recovery_table import fold_times
@@ -127,7 +128,7 @@ def sample1_contact_ratio(library: MaterialLibrary | None = None) -> float:
     by the geometry alone, whatever the recovery parameters."""
     lib = library or default_library()
     d = _design("helix_uniform", lib)
-    res = simulate(d, hinge_model="point", library=lib)
+    res = simulate(d, hinge_model=HingeModel.POINT, library=lib)
     if res.first_collision is None:
         raise DesignError("helix_uniform: the point-hinge ROM no longer collides; "
                           "the Sample 1 contact ratio is undefined")
@@ -156,8 +157,8 @@ def measure(library: MaterialLibrary | None = None) -> dict[str, ModelValue]:
     # Sample 1: nine H-3
     d1 = _design("helix_uniform", lib)
     arc = simulate(d1, library=lib)
-    point = simulate(d1, hinge_model="point", library=lib)
-    point_arrest = simulate(d1, hinge_model="point", after_contact="arrest", library=lib)
+    point = simulate(d1, hinge_model=HingeModel.POINT, library=lib)
+    point_arrest = simulate(d1, hinge_model=HingeModel.POINT, after_contact=AfterContact.ARREST, library=lib)
     c_arc = arc.first_collision
     c_pt = point.first_collision
     out["sample1_contact"] = ModelValue(
@@ -179,7 +180,7 @@ def measure(library: MaterialLibrary | None = None) -> dict[str, ModelValue]:
     g = simulate(d2, library=lib)
     on = crossing_times(g, ONSET_LEVEL)
     fin = crossing_times(g, FOLD_LEVEL)
-    gp = simulate(d2, hinge_model="point", library=lib)
+    gp = simulate(d2, hinge_model=HingeModel.POINT, library=lib)
     out["sample2_whole"] = ModelValue(g.fold_time, "every hinge at 98 %" if g.completed else "does not complete",
                                       {"point_completed": gp.completed})
     out["sample2_inner_start"] = ModelValue(float(np.max(on[:3])), "last of hinges 1-3 at 5 %")
@@ -235,11 +236,10 @@ def verdict(statement: Statement, value: ModelValue, tol_s: float) -> str:
 
 def _arrest_sample(args):
     """One scattered Sample 1 folded with ``--after-contact arrest`` (module level: pickles)."""
-    from ..core.modes import Method
     from .robust import sample_drive
 
     design, library, sample = args
-    res = simulate(design, method=Method.FCL, after_contact="arrest", library=library,
+    res = simulate(design, method=Method.FCL, after_contact=AfterContact.ARREST, library=library,
                    drive=sample_drive(design, library, sample))
     c = res.first_collision
     return (None if c is None else float(c.time), motion_end(res), len(res.arrested))

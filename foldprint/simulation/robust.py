@@ -32,10 +32,11 @@ import numpy as np
 
 from ..core import guards
 from ..model.design import Design
+from ..core.constants import DEFAULT_DT_S, DEFAULT_SEED, ROBUST_SAMPLES
 from ..core.errors import DesignError, MaterialError
 from ..physics.kinematics import HingeDrive
 from ..model.materials import MaterialLibrary, default_library
-from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel, Method, parse
+from ..core.modes import DEFAULT_HINGE_MODEL, VERDICT_METHOD, HingeModel, JamReason, Method, parse
 from ..physics.recovery import RecoveryCurve, recovery_curve
 from ..physics.recovery_batch import batch_ratios, grid_until
 # What is drawn (the model, its data file, the samples) lives in foldprint.simulation.scatter; this
@@ -134,7 +135,7 @@ class Outcome:
     """What became of one sample."""
 
     jammed: bool
-    reason: str | None  # "collision", "goal", "unfolded" or None
+    reason: JamReason | None  # None: it did not jam
     pair: tuple[str, str] | None  # the first colliding panels
     time: float | None  # first contact (s)
     fold_time: float | None  # every hinge at 98 % (s), when it completed
@@ -145,29 +146,33 @@ def outcome_of(result: SimulationResult) -> Outcome:
     if result.completed:
         return Outcome(False, None, None, None, result.fold_time)
     if c is not None:
-        return Outcome(True, "collision", tuple(sorted(c.panels)), float(c.time), None)
+        return Outcome(True, JamReason.COLLISION, tuple(sorted(c.panels)), float(c.time), None)
     if not all(g.met for g in result.goals):
-        return Outcome(True, "goal", None, None, None)
-    return Outcome(True, "unfolded", None, None, None)
+        return Outcome(True, JamReason.GOAL, None, None, None)
+    return Outcome(True, JamReason.UNFOLDED, None, None, None)
 
 
 def run_sample(args) -> Outcome:
     """Fold one sample with the exact per-curve drive (the reference path; a module-level
-    function, so processes and clusters can run it)."""
-    design, library, sample, hinge_model, dt = args
+    function, so processes and clusters can run it). ``args``: (design, library, sample,
+    hinge_model, dt[, method]), the method :data:`~foldprint.core.modes.VERDICT_METHOD` by default."""
+    design, library, sample, hinge_model, dt, *rest = args
+    method = rest[0] if rest else VERDICT_METHOD
     drive = sample_drive(design, library, sample, exact=True)
-    res = simulate(design, dt=dt, method=Method.FCL, hinge_model=hinge_model, drive=drive)
+    res = simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=drive)
     return outcome_of(res)
 
 
 def run_samples(args) -> list[Outcome]:
     """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), then one
-    fold each. ``args``: (design, library, samples, hinge_model, dt[, exact])."""
+    fold each. ``args``: (design, library, samples, hinge_model, dt[, exact[, method]]), the
+    method :data:`~foldprint.core.modes.VERDICT_METHOD` by default."""
     design, library, samples, hinge_model, dt, *rest = args
+    method = rest[1] if len(rest) > 1 else VERDICT_METHOD
     if rest and rest[0]:
-        return [run_sample((design, library, s, hinge_model, dt)) for s in samples]
+        return [run_sample((design, library, s, hinge_model, dt, method)) for s in samples]
     drives = sample_drives(design, library, samples, until_s=run_end(design, dt))
-    return [outcome_of(simulate(design, dt=dt, method=Method.FCL, hinge_model=hinge_model, drive=d))
+    return [outcome_of(simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=d))
             for d in drives]
 
 
@@ -195,6 +200,7 @@ class RobustResult:
     scatter: Scatter
     outcomes: tuple[Outcome, ...]
     nominal: SimulationResult
+    method: Method = VERDICT_METHOD
 
     @property
     def jams(self) -> int:
@@ -225,18 +231,19 @@ class RobustResult:
         return {"p5": float(p5), "p50": float(p50), "p95": float(p95)}
 
 
-def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter: Scatter | None = None,
+def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = DEFAULT_SEED, *, scatter: Scatter | None = None,
                     library: MaterialLibrary | None = None, hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
-                    dt: float = 0.01, nominal: SimulationResult | None = None, workers: int | None = None,
+                    dt: float = DEFAULT_DT_S, nominal: SimulationResult | None = None, workers: int | None = None,
                     progress: Callable[[int, int], None] | None = None, mapper=None,
-                    exact: bool = False) -> RobustResult:
+                    exact: bool = False, method: Method | str = VERDICT_METHOD) -> RobustResult:
     """Monte-Carlo estimate of the probability that ``design`` jams.
 
     ``nominal``: the nominal simulation if the caller has it (else it is run here).
     ``mapper(fn, items, progress)``: how to run the chunks of samples (default: all local
     cores, :func:`foldprint.core.parallel.map_ordered`). ``exact``: the reference path (one
     cached curve per hinge over the whole horizon, as before the batch path), for
-    comparisons. The first chunk runs here and times the run: a sample count whose
+    comparisons. ``method``: the collision check of the nominal fold and of every sample.
+    The first chunk runs here and times the run: a sample count whose
     estimated time exceeds the budget (:func:`foldprint.core.guards.check_samples`) is refused."""
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise DesignError(f"samples must be a whole number >= 1, got {samples!r}")
@@ -247,11 +254,12 @@ def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter
     lib = library or default_library()
     scatter = scatter or default_scatter()
     model = parse(HingeModel, hinge_model, "hinge_model")
+    method = parse(Method, method, "method")
     guards.check_sample_memory(design, samples)  # refuse before any fold: the outcomes are held
     if nominal is None:
-        nominal = simulate(design, dt=dt, method=Method.FCL, hinge_model=model, library=lib)
+        nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib)
     stream = iter_samples(design, scatter, samples, seed)
-    chunks = ((design, lib, chunk, model, dt, exact) for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
+    chunks = ((design, lib, chunk, model, dt, exact, method) for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
     n_chunks = -(-samples // CHUNK)
     done = [0]
 
@@ -274,4 +282,4 @@ def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter
     else:
         rest = []
     outcomes = tuple(o for chunk in [first, *rest] for o in chunk)
-    return RobustResult(design.name, samples, seed, model, scatter, outcomes, nominal)
+    return RobustResult(design.name, samples, seed, model, scatter, outcomes, nominal, method)

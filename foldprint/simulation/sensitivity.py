@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 from ..model.design import Design
-from ..core.constants import SWEEP_SCALES
+from ..core.constants import DEFAULT_DT_S, SWEEP_SCALES
 from ..core.errors import DesignError
 from ..model.materials import MaterialLibrary
 from .robust import RobustResult, jam_probability, outcome_of
@@ -79,13 +79,14 @@ class _Runner:
                 cb = lambda done, _n: prog(offset + done, total)  # noqa: E731
             r = jam_probability(self.design, self.base.samples, self.base.seed, scatter=scatter,
                                 library=self.library, hinge_model=self.base.hinge_model, dt=self.dt,
-                                nominal=self.base.nominal, workers=self.workers, progress=cb, mapper=self.mapper)
+                                nominal=self.base.nominal, workers=self.workers, progress=cb, mapper=self.mapper,
+                                method=self.base.method)
         self.done += self.base.samples
         return r
 
 
 def contributions(design: Design, full: RobustResult, *, library: MaterialLibrary | None = None,
-                  dt: float = 0.01, workers: int | None = None, mapper=None,
+                  dt: float = DEFAULT_DT_S, workers: int | None = None, mapper=None,
                   progress: Callable[[int, int], None] | None = None) -> Contributions:
     """Each component alone and all but each, with the samples, seed and hinge model of
     ``full`` (the estimate under the whole model)."""
@@ -114,7 +115,7 @@ def parse_scales(text: str, option: str = "--scales") -> tuple[float, ...]:
 
 
 def sweep(design: Design, base: RobustResult, scales: Sequence[float] = SWEEP_SCALES, *,
-          library: MaterialLibrary | None = None, dt: float = 0.01, workers: int | None = None, mapper=None,
+          library: MaterialLibrary | None = None, dt: float = DEFAULT_DT_S, workers: int | None = None, mapper=None,
           progress: Callable[[int, int], None] | None = None) -> tuple[SweepPoint, ...]:
     """The estimate with every spread of ``base.scatter`` times each scale (1 reuses
     ``base``), the same samples, seed and hinge model."""

@@ -10,7 +10,7 @@ import numpy as np
 from ..collision.index2d import Index2D, collision_index
 from ..collision.swept3d import Contact, SweptChecker, swept_first_contact
 from ..core import guards
-from ..core.constants import FOLD_LEVEL, tol
+from ..core.constants import DEFAULT_DT_S, FOLD_LEVEL, tol
 from ..model.design import Design, tree_order
 from ..core.errors import DesignError
 from ..collision.goals import GoalResult, evaluate_goals
@@ -86,7 +86,7 @@ def _first_2d(traj: Trajectory, drive: HingeDrive, t_start: float,
         t = _bisect_2d(traj, drive, (int(i), int(j)), traj.times[k - 1], traj.times[k])
     else:
         t = float(traj.times[k])
-    return Contact(t, (int(i), int(j)), ids, (float("nan"),) * 3, 0.0, "index2d"), idx
+    return Contact(t, (int(i), int(j)), ids, (float("nan"),) * 3, 0.0, Method.INDEX2D), idx
 
 
 def _bisect_2d(traj: Trajectory, drive: HingeDrive, pair, lo: float, hi: float) -> float:
@@ -135,7 +135,7 @@ def _path_hinges(design: Design, a: int, b: int) -> list[int]:
 
 
 def simulate(design: Design, *, bath_c: float | None = None, duration: float | None = None,
-             dt: float = 0.01, method: Method | str = DEFAULT_METHOD,
+             dt: float = DEFAULT_DT_S, method: Method | str = DEFAULT_METHOD,
              hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
              after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT,
              library: MaterialLibrary | None = None, drive: HingeDrive | None = None,
