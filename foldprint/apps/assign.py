@@ -116,17 +116,19 @@ class Task:
     sample: Sample | None = None
 
 
-def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None) -> Design:
-    """``design`` with hinge ``k`` made of ``materials[k]`` (and the bath at ``bath_c``)."""
+def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None,
+                   library: MaterialLibrary | None = None) -> Design:
+    """``design`` with hinge ``k`` made of ``materials[k]`` (and the bath at ``bath_c``),
+    validated against ``library``."""
     hinges = tuple(replace(h, material=m) for h, m in zip(design.hinges, materials))
     proc = design.process if bath_c is None else replace(design.process, bath_temperature_c=float(bath_c))
-    return replace(design, hinges=hinges, process=proc)
+    return design.replace(library, hinges=hinges, process=proc)
 
 
 def _drive(task: Task) -> HingeDrive:
     d, lib = task.design, task.library
     if task.sample is not None:
-        return sample_drive(with_materials(d, task.materials, task.bath_c), lib, task.sample,
+        return sample_drive(with_materials(d, task.materials, task.bath_c, lib), lib, task.sample,
                             until_s=run_end(d, task.dt, task.duration))
     curves = []
     for h, m in zip(d.hinges, task.materials):
@@ -548,7 +550,7 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
     tasks = []
     for i in order:
         _p, t, mt, _v = unique[i]
-        for smp in draw_samples(with_materials(design, mt, t), scatter, n_s, seed):
+        for smp in draw_samples(with_materials(design, mt, t, lib), scatter, n_s, seed):
             tasks.append(Task(design, lib, mt, t, method, dt, duration, 0, smp))
     verdicts = mapper(run_task, tasks, progress)
     jams = {i: sum(not v.completed for v in verdicts[j * n_s:(j + 1) * n_s]) for j, i in enumerate(order)}
@@ -567,7 +569,7 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
     # the chunks of all of them spread over the workers at once
     chunks, owner = [], []
     for j, c in enumerate(good):
-        variant = with_materials(design, c.materials, c.bath_c)
+        variant = with_materials(design, c.materials, c.bath_c, lib)
         drawn = draw_samples(variant, scatter, samples, seed)
         for a in range(0, samples, CHUNK):
             chunks.append((variant, lib, drawn[a:a + CHUNK], HingeModel.ARC, dt))

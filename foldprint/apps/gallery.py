@@ -46,6 +46,7 @@ from .. import __version__
 from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
 from ..model.design import Design
 from ..core.errors import FoldprintError
+from ..core.modes import State
 from ..model.materials import MaterialLibrary, default_library
 
 log = logging.getLogger(__name__)
@@ -158,31 +159,20 @@ Progress = Callable[[int, int, str], None]
 
 def _evaluate(design: Design, lib: MaterialLibrary, dt: float = CHECK_DT_S, samples: int = CHECK_SAMPLES,
               seed: int = CHECK_SEED):
-    """The nominal simulation as ``foldprint simulate`` runs it (both collision checks on a
-    planar strip, for the paper's collision index), what ``foldprint check`` computes
-    (:func:`foldprint.apps.pipeline.evaluate` with check's defaults: its own simulation (the 3D
-    swept check), the printed part, gaps, clearance, the jam probability, every rule) and
-    the replay of the worst Monte-Carlo sample (None when no sample was run)."""
-    from .pipeline import CHECK_SCALES, evaluate, replay_sample, run_simulation, worst_sample
+    """The design's :class:`~foldprint.apps.pipeline.Evaluation` with check's options (its
+    simulation is the 3D swept check; the page's nominal fold is its ``simulation_for
+    (both)``, as ``foldprint simulate`` runs it, for the paper's collision index on a
+    planar strip) and the replay of its worst Monte-Carlo sample (None without samples)."""
+    from .pipeline import CHECK_SCALES, EvalOptions, Evaluation, check_scales
 
-    result, _ = run_simulation(design, dt=dt, library=lib)
-    ev = evaluate(design, library=lib, dt=dt, samples=samples, seed=seed, workers=1, scales=CHECK_SCALES)
-    replay = None
-    if ev.robust is not None:
-        k = worst_sample(ev.robust)
-        if k is not None:
-            replay = replay_sample(design, ev.robust, k, library=lib, dt=dt)
-            if not replay.agrees:
-                log.warning("gallery: %s: the replay of sample %d does not give the recorded outcome",
-                            design.name, k)
-    return result, ev, replay
-
-
-def _check_json(ev, printer_key: str) -> dict:
-    """The ``foldprint check --json`` object of an evaluation (one writer: report.check_json)."""
-    from ..checks.report import check_json
-
-    return check_json(ev, printer_key)
+    ev = Evaluation(design, EvalOptions(dt=dt, samples=samples, seed=seed, scales=check_scales(CHECK_SCALES),
+                                        workers=1), library=lib)
+    ev.findings  # noqa: B018 - check's stages, in check's order
+    replay = ev.worst_replay
+    if replay is not None and not replay.agrees:
+        log.warning("gallery: %s: the replay of sample %d does not give the recorded outcome",
+                    design.name, replay.index)
+    return ev, replay
 
 
 def _mc_summary(robust) -> dict:
@@ -356,19 +346,27 @@ def _chart_task(out: Path, lib: MaterialLibrary) -> _Image:
 def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary, dt: float,
                   gif_frames: int, samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED) -> _Entry:
     """Every file of one design (runs in a worker process); the entry for the page."""
+    log.info("gallery: %s: simulating and checking (%d scatter samples, seed %d)", design.name, samples, seed)
+    ev, replay = _evaluate(design, lib, dt, samples, seed)
+    with ev.cache.active():  # the renders below derive from the same design
+        return _build_files(ev, replay, out, dirname, gif_frames)
+
+
+def _build_files(ev, replay, out: Path, dirname: str, gif_frames: int) -> _Entry:
     from ..render import figures as render, stills as render3d, anim as render_anim, viewer
     from ..checks.rules import default_printer_key
+    from ..core.modes import Method
     from ..exchange.files import write_atomic
     from ..checks.report import simulation_json
 
+    design, lib = ev.design, ev.library
     name = design.name
     base = out / dirname
-    log.info("gallery: %s: simulating and checking (%d scatter samples, seed %d)", name, samples, seed)
-    result, ev, replay = _evaluate(design, lib, dt, samples, seed)
+    result = ev.simulation_for(Method.BOTH)
     robust = ev.robust
     sim = simulation_json(result)
     write_atomic(base / "simulation.json", _json_bytes(sim))
-    checks = _check_json(ev, default_printer_key())
+    checks = ev.to_json(default_printer_key())
     write_atomic(base / "check.json", _json_bytes(checks))
 
     # the page's fold time: the latest hinge's 98 % time from its recovery curve, so it
@@ -451,12 +449,9 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
             "completes (green) or first collides (red), the nominal fold dashed; right, the first-colliding "
             "pairs.", wide=True))
 
-    from .pipeline import export as export_design
-
     log.info("gallery: %s: exporting printable files", name)
-    try:
-        records = export_design(design, base / "files", state="permanent",
-                                formats=("3mf", "prusa3mf", "stl"), library=lib)
+    try:  # the printed part the evaluation built (the check's), not a second build
+        records = ev.export(base / "files", State.PERMANENT, ("3mf", "prusa3mf", "stl"))
     except FoldprintError as exc:  # a part that cannot be built is shown, not raised
         log.warning("gallery: %s: export failed: %s", name, exc)
         entry.export_note = f"Export failed: {exc}"

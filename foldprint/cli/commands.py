@@ -151,8 +151,7 @@ def simulate(
     Example: foldprint simulate helix_graded --json
     """
     from ..core.modes import AfterContact, HingeModel, Method
-    from ..apps.pipeline import printed_crossings, run_simulation
-    from ..checks.report import simulation_json
+    from ..apps.pipeline import EvalOptions, Evaluation
 
     m, model, after = (_mode(Method, method, "--method"), _mode(HingeModel, hinge_model, "--hinge-model"),
                        _mode(AfterContact, after_contact, "--after-contact"))
@@ -165,13 +164,10 @@ def simulate(
     if plot is not None:
         from ..exchange.files import ensure_dir
         ensure_dir(plot)
-    res, other = run_simulation(d, library=lib, bath_c=temperature, duration=duration, dt=dt, method=m,
-                                hinge_model=model, after_contact=after, compare=True)
-    report = simulation_json(res)
-    crossing = printed_crossings(d)  # issue 18: a part that cannot be printed is not "a contact at t"
-    report["printed_crossings"] = [list(pair) for pair in crossing]
-    report["comparison"] = None if other is None or crossing else dict(
-        simulation_json(other.result, brief=True), hinge_model=other.hinge_model.value)
+    ev = Evaluation(d, EvalOptions(hinge_model=model, method=m, after_contact=after, dt=dt, bath_c=temperature,
+                                   duration=duration), library=lib)
+    report = ev.simulation_json()  # with the printed crossings (issue 18) and the other hinge model's verdict
+    res, crossing = ev.simulation, ev.printed_crossings
     if plot is not None:
         from ..render.figures import collision_index_figure, hinge_angle_figure, save_figure
 
@@ -220,7 +216,7 @@ def check(
     """
     from ..checks.rules import Thresholds
     from ..core.modes import HingeModel
-    from ..apps.pipeline import evaluate
+    from ..apps.pipeline import EvalOptions, Evaluation, check_scales
     from ..simulation.robust import load_scatter
     from ..simulation.sensitivity import parse_scales
 
@@ -234,15 +230,14 @@ def check(
     key, pr = _printer(printer, printers_file)
     sc = load_scatter(scatter_file)
     d, lib = _load(design, materials_file, scale, crease_materials)
+    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=check_scales(ks), thresholds=th)
     with _samples_progress(f"{d.name}: scatter samples") as cb:
-        ev = evaluate(d, library=lib, printer=pr, hinge_model=model, samples=samples, seed=seed, scatter=sc,
-                      thresholds=th, scales=ks, progress=(lambda _s, done, total: cb(done, total)) if cb else None)
-    findings = ev.findings
+        ev = Evaluation(d, opts, library=lib, printer=pr, scatter=sc,
+                        progress=(lambda _s, done, total: cb(done, total)) if cb else None)
+        findings = ev.findings
     n_err = ev.errors
     if json_out:
-        from ..checks.report import check_json
-
-        _echo_json(check_json(ev, key))
+        _echo_json(ev.to_json(key))
     else:
         for f in findings:
             where = ", ".join(f"{k} {v}" for k, v in f.where.items())
@@ -281,9 +276,9 @@ def robust(
     Example: foldprint robust helix_uniform --samples 60 --seed 1 --sensitivity --json
     """
     from ..core.modes import HingeModel
-    from ..checks.report import contributions_json, robust_json, sweep_json
-    from ..simulation.robust import jam_probability, load_scatter
-    from ..simulation.sensitivity import contributions as contributions_of, parse_scales, sweep
+    from ..apps.pipeline import EvalOptions, Evaluation
+    from ..simulation.robust import load_scatter
+    from ..simulation.sensitivity import parse_scales
 
     model = _mode(HingeModel, hinge_model, "--hinge-model")
     _count(samples, "--samples", 1, MAX_SAMPLES)
@@ -292,21 +287,18 @@ def robust(
     ks = parse_scales(scales)
     sc = load_scatter(scatter_file)
     d, lib = _load(design, materials_file)
+    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=ks if sensitivity else ())
     with _mapper(scheduler) as mapper:
+        ev = Evaluation(d, opts, library=lib, scatter=sc, mapper=mapper)
         with _samples_progress(f"{d.name}: scatter samples") as cb:
-            r = jam_probability(d, samples, seed, scatter=sc, library=lib, hinge_model=model, progress=cb,
-                                mapper=mapper)
-        parts = None
+            ev.run_robust(cb)
         if contributions:
             with _samples_progress(f"{d.name}: one component at a time") as cb:
-                parts = contributions_of(d, r, library=lib, mapper=mapper, progress=cb)
-        curve = None
+                ev.run_contributions(cb)
         if sensitivity:
             with _samples_progress(f"{d.name}: sigma scales") as cb:
-                curve = sweep(d, r, ks, library=lib, mapper=mapper, progress=cb)
-    out = robust_json(r)
-    out["contributions"] = None if parts is None else contributions_json(parts)
-    out["sensitivity"] = None if curve is None else sweep_json(curve)
+                ev.run_sweep(cb)
+    out = ev.robust_json()
     if json_out:
         _echo_json(out)
         return
@@ -410,7 +402,7 @@ def assign(
         from ..exchange.files import write_atomic
 
         b = r.best[0]
-        write_atomic(write, design_to_toml(with_materials(d, b.materials, b.bath_c)))
+        write_atomic(write, design_to_toml(with_materials(d, b.materials, b.bath_c, lib)))
         _note(f"wrote {write}")
     if json_out:
         _echo_json(out)
@@ -466,7 +458,7 @@ def export(
     Example: foldprint export helix_graded --format 3mf,stl --json
     """
     from ..exchange.export import FORMATS
-    from ..apps.pipeline import export as export_design
+    from ..apps.pipeline import EvalOptions, Evaluation
 
     if state not in ("permanent", "programmed"):
         raise FoldprintError(f"--state must be permanent or programmed, got {state!r}")
@@ -478,7 +470,8 @@ def export(
     d, lib = _load(design, materials_file, scale, crease_materials)
     out_dir = out if out is not None else Path("output") / d.name
     records = _with_progress(f"building {d.name} ({state})",
-                             lambda: export_design(d, out_dir, state, fmts, lib))
+                             lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts)),
+                                                library=lib).export(out_dir))
     if json_out:
         _echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records})
     else:

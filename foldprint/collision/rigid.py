@@ -11,6 +11,7 @@ import numpy as np
 import shapely
 from shapely.geometry import LineString, Polygon
 
+from ..model.derived import derived
 from ..model.design import Design
 from ..core.errors import GeometryError
 from ..physics.kinematics import hinge_frames
@@ -23,9 +24,11 @@ def rigid_polygon(design: Design, index: int, model: str):
 
 
 def _rigid_polygons(design: Design, model: str) -> list:
-    cache = design.__dict__.setdefault("_rigid_cache", {})
-    if model in cache:
-        return cache[model]
+    """Every panel's rigid polygon, once per active derived-data cache."""
+    return derived(design, ("rigid_polygons", str(model)), lambda: _compute_rigid_polygons(design, model))
+
+
+def _compute_rigid_polygons(design: Design, model: str) -> list:
     try:  # vertex reliefs are part of the printed panels
         design = relieve(design)
     except GeometryError:  # a relief design-rule failure is export's and check's to report
@@ -44,7 +47,6 @@ def _rigid_polygons(design: Design, model: str) -> list:
         if poly.geom_type == "MultiPolygon":  # keep the largest piece; report the rest
             poly = max(poly.geoms, key=lambda g: g.area)
         out.append(shapely.normalize(poly) if not poly.is_empty else poly)
-    cache[model] = out
     return out
 
 

@@ -26,6 +26,7 @@ from typing import Iterable
 
 import numpy as np
 
+from ..model.derived import scoped
 from ..model.design import Design
 from ..core.errors import ExportError
 from ..geometry import Assembly, bed_report
@@ -157,6 +158,7 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
             for name, data, fmt, mats in out]
 
 
+@scoped
 def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
                     formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
                     trajectory: Trajectory | None = None) -> list[dict]:

@@ -12,6 +12,7 @@ import math
 import numpy as np
 import shapely
 
+from .derived import derived
 from .design import Design
 from ..core.errors import GeometryError
 
@@ -42,12 +43,13 @@ def relieve(design: Design, factor: float = RELIEF_FACTOR, clearance: float = RE
     is cut from the panels, so the hinge strips and panels of a vertex stay disjoint.
     Raises GeometryError when the relief eats a hinge or leaves a panel thinner than
     ``min_wall`` mm. A design without such vertices is returned unchanged."""
-    from dataclasses import replace
+    return derived(design, ("relieve", factor, clearance, min_wall),
+                   lambda: _relieve(design, factor, clearance, min_wall))
 
-    cache = design.__dict__.setdefault("_relief_cache", {})
-    key = (factor, clearance, min_wall)
-    if key in cache:
-        return cache[key]
+
+def _relieve(design: Design, factor: float, clearance: float, min_wall: float) -> Design:
+    from dataclasses import replace  # the relieved panels of a validated design: a derived value
+
     verts = relief_vertices(design)
     lines = [np.array(h.line, float) for h in design.hinges]
     holes = []
@@ -70,7 +72,6 @@ def relieve(design: Design, factor: float = RELIEF_FACTOR, clearance: float = RE
                 if by_id[pid].polygon.intersection(ext).area > 1e-9:
                     own.setdefault(pid, []).append(ext)
     if not verts and not own:
-        cache[key] = design
         return design
     for v, hs in verts.items():
         vv = np.array(v)
@@ -115,6 +116,4 @@ def relieve(design: Design, factor: float = RELIEF_FACTOR, clearance: float = RE
         panels.append(replace(p, outline=np.asarray(poly.exterior.coords)[:-1],
                               holes=tuple(np.asarray(r.coords)[:-1] for r in poly.interiors)))
     hinges = [replace(h, line=lines[k]) for k, h in enumerate(design.hinges)]
-    out = replace(design, panels=tuple(panels), hinges=tuple(hinges))
-    cache[key] = out
-    return out
+    return replace(design, panels=tuple(panels), hinges=tuple(hinges))
