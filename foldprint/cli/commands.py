@@ -359,8 +359,35 @@ def assign(
 
     Example: foldprint assign helix_uniform --objective margin --top 3 --json
     """
-    from ..apps.assign import OBJECTIVES, assign as search, temperature_grid, with_materials
-    from ..checks.rules import Thresholds
+    from ..apps.assign import assign as search, with_materials
+
+    mats, temps, fixed_map = _assign_request(materials, temperature, temperature_range, fixed, objective, top,
+                                             budget, samples, workers, seed)
+    d, lib = _load(design)
+    with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: evaluations") as cb:
+        r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
+                   top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, workers=workers,
+                   progress=cb)
+    out = r.to_json()
+    if write is not None and r.best:
+        from ..io.design_io import design_to_toml
+        from ..exchange.files import write_atomic
+
+        b = r.best[0]
+        write_atomic(write, design_to_toml(with_materials(d, b.materials, b.bath_c, lib)))
+        _note(f"wrote {write}")
+    if json_out:
+        _echo_json(out)
+    else:
+        _print_assign(d.name, r, out, objective)
+    _assign_verdict(d.name, r, out, temperature_range is None)
+
+
+def _assign_request(materials, temperature, temperature_range, fixed, objective, top, budget, samples, workers,
+                    seed) -> tuple[list[str] | None, list[float] | None, dict[str, str]]:
+    """``assign``'s options checked: the materials to choose from, the bath temperatures
+    and the fixed hinges (FoldprintError naming the option)."""
+    from ..apps.assign import OBJECTIVES, temperature_grid
 
     if objective not in OBJECTIVES:
         raise FoldprintError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
@@ -386,57 +413,53 @@ def assign(
     mats = [m.strip() for m in materials.split(",") if m.strip()] if materials is not None else None
     if mats is not None and not mats:
         raise FoldprintError("--materials: give at least one material, e.g. H-1,H-4,H-7")
-    d, lib = _load(design)
     temps = None
     if temperature is not None:
         temps = [temperature]
     elif temperature_range is not None:
         temps = list(temperature_grid(*temperature_range))
-    with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: evaluations") as cb:
-        r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
-                   top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, workers=workers,
-                   progress=cb)
-    out = r.to_json()
-    if write is not None and r.best:
-        from ..io.design_io import design_to_toml
-        from ..exchange.files import write_atomic
+    return mats, temps, fixed_map
 
-        b = r.best[0]
-        write_atomic(write, design_to_toml(with_materials(d, b.materials, b.bath_c, lib)))
-        _note(f"wrote {write}")
-    if json_out:
-        _echo_json(out)
-    else:
-        echo(f"{d.name}: {r.feasible} feasible assignment(s) in {r.evaluated} evaluations "
-             f"({r.evaluated / r.search_space:.2e} of {r.search_space}), objective {objective}")
-        for k, c in enumerate(out["best"], 1):
-            mats_s = ", ".join(f"{h}={m}" for h, m in c["assignment"].items())
-            extra = "" if c["jam_probability"] is None else f", jam probability {c['jam_probability']:.1%}"
-            clear = "-" if c["min_clearance_mm"] is None else f"{c['min_clearance_mm']:.2f} mm"
-            echo(f"  {k}. {mats_s} at {c['temperature_c']:g} C: folds in {c['fold_time_s']:.2f} s, "
-                 f"smallest clearance {clear}{extra}")
-        for b in out["blocking"][:5]:
-            if r.permanent_blocked:  # found before any evaluation: no count to give
-                echo(f"  blocking: {b['pair'][0]}-{b['pair'][1]} cross in the printed (permanent) state")
-                continue
-            what = f"{b['pair'][0]}-{b['pair'][1]} collide" if "pair" in b else f"goal {b['goal']} unmet"
-            echo(f"  blocking: {what} in {b['count']} of {r.evaluated} evaluation(s)")
+
+def _print_assign(name: str, r, out: dict, objective: str) -> None:
+    """``assign``'s human output: the best assignments and what blocks the others."""
+    echo(f"{name}: {r.feasible} feasible assignment(s) in {r.evaluated} evaluations "
+         f"({r.evaluated / r.search_space:.2e} of {r.search_space}), objective {objective}")
+    for k, c in enumerate(out["best"], 1):
+        mats_s = ", ".join(f"{h}={m}" for h, m in c["assignment"].items())
+        extra = "" if c["jam_probability"] is None else f", jam probability {c['jam_probability']:.1%}"
+        clear = "-" if c["min_clearance_mm"] is None else f"{c['min_clearance_mm']:.2f} mm"
+        echo(f"  {k}. {mats_s} at {c['temperature_c']:g} C: folds in {c['fold_time_s']:.2f} s, "
+             f"smallest clearance {clear}{extra}")
+    for b in out["blocking"][:5]:
+        if r.permanent_blocked:  # found before any evaluation: no count to give
+            echo(f"  blocking: {b['pair'][0]}-{b['pair'][1]} cross in the printed (permanent) state")
+            continue
+        what = f"{b['pair'][0]}-{b['pair'][1]} collide" if "pair" in b else f"goal {b['goal']} unmet"
+        echo(f"  blocking: {what} in {b['count']} of {r.evaluated} evaluation(s)")
+
+
+def _assign_verdict(name: str, r, out: dict, single_bath: bool) -> None:
+    """The hint for a cooler bath, and exit 1 naming what blocks when nothing is feasible."""
+    from ..checks.rules import Thresholds
+
     best_jam, warn = (r.best[0].jam_probability if r.best else None), Thresholds().warning
-    if best_jam is not None and best_jam > warn and temperature_range is None:
+    if best_jam is not None and best_jam > warn and single_bath:
         _note(f"the best jam probability {best_jam:.0%} is above {warn:.0%}: a cooler bath "
               "spreads the materials' fold times, try --temperature-range 75 90 (docs/assign.md)")
-    if not r.best:
-        top_block = out["blocking"][0] if out["blocking"] else None
-        if top_block is None:
-            why = "no candidate completed within the budget (raise --budget)"
-        elif "pair" in top_block:
-            why = (f"panels {top_block['pair'][0]} and {top_block['pair'][1]} "
-                   + ("cross in the printed (permanent) state" if r.permanent_blocked else
-                      f"collide first in {top_block['count']} of {r.evaluated} evaluations"))
-        else:
-            why = f"goal {top_block['goal']} is not met in order in {top_block['count']} evaluations"
-        _err(f"{d.name}: no feasible assignment: {why}")
-        raise ExitCode(1)
+    if r.best:
+        return
+    top_block = out["blocking"][0] if out["blocking"] else None
+    if top_block is None:
+        why = "no candidate completed within the budget (raise --budget)"
+    elif "pair" in top_block:
+        why = (f"panels {top_block['pair'][0]} and {top_block['pair'][1]} "
+               + ("cross in the printed (permanent) state" if r.permanent_blocked else
+                  f"collide first in {top_block['count']} of {r.evaluated} evaluations"))
+    else:
+        why = f"goal {top_block['goal']} is not met in order in {top_block['count']} evaluations"
+    _err(f"{name}: no feasible assignment: {why}")
+    raise ExitCode(1)
 
 
 @app.command()
