@@ -153,3 +153,47 @@ def test_export_takes_the_evaluations_assembly(helix, tmp_path, monkeypatch):
     fresh = pipeline.export(helix, tmp_path / "b", formats=("stl",))
     assert [(tmp_path / "a" / r["path"].split("/")[-1]).read_bytes() for r in recs] == \
         [(tmp_path / "b" / r["path"].split("/")[-1]).read_bytes() for r in fresh]
+
+
+def test_the_stl_writer_is_given_the_fold_times(helix, tmp_path, monkeypatch):
+    """The manifest reports the fold times it is given and runs no recovery model; without
+    them the writer refuses (and writes nothing)."""
+    import json
+    import sys
+
+    import foldprint.physics.recovery as recovery
+    from foldprint.core.errors import ExportError
+    from foldprint.exchange.export import export_assembly
+    from foldprint.geometry import build_assembly
+
+    asm = build_assembly(helix)
+    given = {h.id: 1.0 + k for k, h in enumerate(helix.hinges)}
+
+    def boom(*a, **k):
+        raise AssertionError("the writer ran the recovery model")
+
+    monkeypatch.setattr(recovery, "fold_time", boom)
+    monkeypatch.setattr(recovery, "recovery_curve", boom)
+    export_assembly(helix, asm, tmp_path / "a", ["stl"], fold_times=given)
+    doc = json.loads((tmp_path / "a" / "manifest.json").read_text())
+    assert doc["programming"]["hinge_fold_times_s"] == given
+    assert doc["programming"]["expected_fold_time_s"] == max(given.values())
+    with pytest.raises(ExportError, match="fold time"):
+        export_assembly(helix, asm, tmp_path / "b", ["stl"])
+    assert not (tmp_path / "b").exists() or not any((tmp_path / "b").iterdir())
+    stl = sys.modules["foldprint.exchange.stl"]
+    assert not any(getattr(stl, n, None) is not None for n in ("fold_time", "recovery_curve"))
+
+
+def test_the_manifest_fold_times_are_the_recovery_models(helix, tmp_path):
+    import json
+
+    from foldprint.physics.recovery import fold_time
+    from foldprint.model.materials import default_library
+
+    pipeline.export(helix, tmp_path, formats=("stl",))
+    doc = json.loads((tmp_path / "manifest.json").read_text())
+    lib, pr = default_library(), helix.process
+    for h in helix.hinges:  # an independent call of the recovery model, per hinge
+        t = fold_time(lib[h.material], pr.bath_temperature_c, h.thickness, pr.fix_temperature_c)
+        assert doc["programming"]["hinge_fold_times_s"][h.id] == pytest.approx(t, abs=5e-4)

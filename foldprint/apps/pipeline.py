@@ -33,6 +33,7 @@ from ..core.errors import GeometryError
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
 from ..geometry import Assembly, build_assembly
 from ..physics.kinematics import HingeDrive, forward, target_angles
+from ..physics.recovery import hinge_fold_times
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, AfterContact,
                           HingeModel, Method, State, parse)
@@ -343,6 +344,12 @@ class Evaluation:
         return self._stage("animation", lambda: simulate(self.design, dt=ANIMATION_DT_S, library=self.library))
 
     @property
+    def fold_times(self) -> dict[str, float | None]:
+        """Each hinge's 98 % recovery time in the design's bath (s, by hinge id; None where
+        it does not fold): what the export's manifest reports."""
+        return self._stage("fold_times", lambda: hinge_fold_times(self.design, self.library))
+
+    @property
     def worst_replay(self) -> "Replay | None":
         """The worst Monte-Carlo sample (:func:`worst_sample`) folded again, None without samples."""
         def run():
@@ -372,10 +379,11 @@ class Evaluation:
         if assembly is None:
             guards.check_export(self.design)  # time and memory of the build, estimated from the design
         trajectory = self.animation.trajectory if any(f in TRAJECTORY_FORMATS for f in fmts) else None
+        fold_times = self.fold_times if "stl" in fmts else None
         with self.cache.active():
             if assembly is None:
                 assembly = build_assembly(self.design, st.value, self.library)
-            return export_assembly(self.design, assembly, out_dir, fmts, self.library, trajectory)
+            return export_assembly(self.design, assembly, out_dir, fmts, self.library, trajectory, fold_times)
 
     def to_json(self, printer_key: str | None = None) -> dict:
         """The ``foldprint check --json`` object (:func:`foldprint.checks.report.check_json`)."""
