@@ -31,8 +31,9 @@ from ..model.derived import DerivedCache
 from ..model.design import Design
 from ..core.errors import GeometryError
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
-from ..geometry import Assembly, build_assembly
-from ..physics.kinematics import HingeDrive, forward, target_angles
+from ..exchange.fem import PlacedState, check_strip
+from ..geometry import Assembly, build_assembly, state_angles
+from ..physics.kinematics import HingeDrive, forward, hinge_frames, target_angles
 from ..physics.recovery import hinge_fold_times
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, AfterContact,
@@ -349,6 +350,20 @@ class Evaluation:
         it does not fold): what the export's manifest reports."""
         return self._stage("fold_times", lambda: hinge_fold_times(self.design, self.library))
 
+    def placed_state(self, state: State | str) -> PlacedState:
+        """``state`` placed by the kinematics (arc hinges): its angles, hinge frames and panel
+        poses, what the inp writer meshes (refused first when the design is not a strip)."""
+        st = parse(State, state, "state")
+
+        def run():
+            check_strip(self.design)
+            angles = state_angles(self.design, st.value)
+            frames = tuple(hinge_frames(self.design))
+            poses = forward(self.design, angles[None], HingeModel.ARC.value, list(frames))[0]
+            return PlacedState(st.value, angles, frames, poses)
+
+        return self._stage(("placed_state", st), run)
+
     @property
     def worst_replay(self) -> "Replay | None":
         """The worst Monte-Carlo sample (:func:`worst_sample`) folded again, None without samples."""
@@ -383,7 +398,9 @@ class Evaluation:
         with self.cache.active():
             if assembly is None:
                 assembly = build_assembly(self.design, st.value, self.library)
-            return export_assembly(self.design, assembly, out_dir, fmts, self.library, trajectory, fold_times)
+            placed = self.placed_state(st) if "inp" in fmts else None
+            return export_assembly(self.design, assembly, out_dir, fmts, self.library, trajectory, fold_times,
+                                   placed)
 
     def to_json(self, printer_key: str | None = None) -> dict:
         """The ``foldprint check --json`` object (:func:`foldprint.checks.report.check_json`)."""

@@ -11,8 +11,9 @@ quadrilaterals:
   rows through the thickness at most ``element_size`` and at most t_min / ``through``
   apart; all blocks share one set of through-thickness levels, so a thinner block's rows
   are a subset of a thicker neighbour's and the mesh is conforming at every interface;
-* panels are placed with the arc-model poses (:func:`foldprint.physics.kinematics.forward`), hinge
-  nodes with the arc map across the strip (:func:`foldprint.geometry.arc_transform`);
+* panels are placed with the arc-model poses of the state, which the writer is given
+  (:class:`PlacedState`: the pipeline runs the kinematics), hinge nodes with the arc map
+  across the strip (:func:`foldprint.geometry.arc_transform`);
 * element sets: ``MAT_<material>`` per material (panels and each hinge material),
   ``HINGE_<id>`` per hinge, ``PANEL_<id>`` per panel; node sets ``ROOT`` (the clamped root
   panel) and ``ALL``;
@@ -31,6 +32,7 @@ import io
 import math
 import re
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import meshio
@@ -39,8 +41,7 @@ import numpy as np
 from .. import __version__
 from ..model.design import Design
 from ..core.errors import ExportError
-from ..geometry import MAX_SLICE_RAD, arc_transform, state_angles
-from ..physics.kinematics import forward, hinge_frames
+from ..geometry import MAX_SLICE_RAD, arc_transform
 
 #: Default element size (mm) along the strip and the largest through the thickness.
 ELEMENT_SIZE_MM = 0.25
@@ -68,7 +69,20 @@ def _levels(thicknesses: list[float], size: float, through: int) -> np.ndarray:
     return np.array(out)
 
 
-def _check_strip(design: Design) -> None:
+@dataclass(frozen=True)
+class PlacedState:
+    """A build state as the kinematics places it (arc hinges), given to the writer:
+    ``state``, the hinge ``angles`` (rad, ``design.hinges`` order), the hinge ``frames``
+    (tree order) and every panel's ``poses`` (n_panels, 4, 4)."""
+
+    state: str
+    angles: np.ndarray
+    frames: tuple
+    poses: np.ndarray
+
+
+def check_strip(design: Design) -> None:
+    """ExportError unless the inp export can mesh ``design`` (a planar strip, plain hinges)."""
     if not design.is_planar_strip:
         raise ExportError(f"design {design.name!r}: the Abaqus (inp) export meshes the side profile of a "
                           "planar strip (every fold line parallel to y); this design is not one")
@@ -78,18 +92,17 @@ def _check_strip(design: Design) -> None:
                               "plain hinges only (a thickness jump along the strip is not a structured block)")
 
 
-def strip_mesh(design: Design, state: str = "permanent", element_size: float = ELEMENT_SIZE_MM,
+def strip_mesh(design: Design, placed: PlacedState, element_size: float = ELEMENT_SIZE_MM,
                through: int = THROUGH_THICKNESS):
-    """The side-profile mesh: ``points`` (n, 2) (world x, z) mm, ``quads`` (m, 4) counter-
-    clockwise, element sets and node sets (name -> indices), and quality figures."""
+    """The side-profile mesh of the state ``placed``: ``points`` (n, 2) (world x, z) mm,
+    ``quads`` (m, 4) counter-clockwise, element sets and node sets (name -> indices), and
+    quality figures."""
     if not (element_size > 0 and math.isfinite(element_size)):
         raise ExportError(f"element size must be a positive number of mm, got {element_size!r}")
     if through < 1:
         raise ExportError(f"elements through the thickness must be >= 1, got {through!r}")
-    _check_strip(design)
-    angles = state_angles(design, state)
-    frames = hinge_frames(design)
-    poses = forward(design, angles[None], "arc", frames)[0]
+    check_strip(design)
+    angles, frames, poses = placed.angles, placed.frames, placed.poses
     pidx = design.panel_index()
     # the strip in the sheet: hinge strips [xf - w/2, xf + w/2], panels' rigid parts between
     cut: dict[int, list[float]] = {k: [float(p.outline[:, 0].min()), float(p.outline[:, 0].max())]
@@ -179,10 +192,11 @@ def _corner_jacobians(c: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
-def inp_bytes(design: Design, state: str = "permanent", element_size: float = ELEMENT_SIZE_MM,
+def inp_bytes(design: Design, placed: PlacedState, element_size: float = ELEMENT_SIZE_MM,
               through: int = THROUGH_THICKNESS) -> tuple[bytes, dict]:
-    """The Abaqus input (bytes) and its mesh quality figures."""
-    pts, q, cell_sets, point_sets, quality = strip_mesh(design, state, element_size, through)
+    """The Abaqus input (bytes) of the state ``placed`` and its mesh quality figures."""
+    state = placed.state
+    pts, q, cell_sets, point_sets, quality = strip_mesh(design, placed, element_size, through)
     mesh = meshio.Mesh(pts, [("quad", q)], cell_sets={k: [v] for k, v in cell_sets.items()},
                        point_sets=point_sets)
     # meshio names a "quad" CAX4P (an axisymmetric pore-pressure element) and has no
