@@ -195,6 +195,7 @@ def export_bench(strip1000: Path, tmp: Path):
     from foldprint.geometry import build_assembly
     from foldprint.geometry import assembly as asm_mod
     from foldprint.io.load import load_design
+    from foldprint.physics.recovery import hinge_fold_times
 
     rows = []
     for d in (sheet(100), load_design(strip1000)):
@@ -203,7 +204,7 @@ def export_bench(strip1000: Path, tmp: Path):
         asm = build_assembly(d, "permanent")
         t1 = time.perf_counter()
         with tempfile.TemporaryDirectory() as out:
-            export_assembly(d, asm, out, ["3mf", "prusa3mf", "stl"])
+            export_assembly(d, asm, out, ["3mf", "prusa3mf", "stl"], fold_times=hinge_fold_times(d))
         t2 = time.perf_counter()
         rows.append({"design": d.name, "panels": len(d.panels), "features": est["features"],
                      "build_s": round(t1 - t0, 2), "export_s": round(t2 - t1, 2),

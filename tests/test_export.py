@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import foldprint
+from foldprint.physics.recovery import hinge_fold_times
 from foldprint.model.design import strip
 from foldprint.io.design_io import design_from_dict
 from foldprint.io.load import load_design
@@ -57,7 +58,7 @@ def exported(tmp_path_factory):
     for path in PRINTABLE:
         design, asm = _build(str(path))
         d = tmp_path_factory.mktemp(path.stem)
-        out[path.stem] = (design, asm, d, export_assembly(design, asm, d))
+        out[path.stem] = (design, asm, d, export_assembly(design, asm, d, fold_times=hinge_fold_times(design)))
     return out
 
 

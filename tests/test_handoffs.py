@@ -266,11 +266,13 @@ def test_inp_reads_back_as_plane_strain_quads(handoffs):
 
 
 def test_inp_element_size_is_a_parameter():
+    from foldprint.apps.pipeline import Evaluation
     from foldprint.exchange.fem import strip_mesh
 
     design = _design("self_lock")  # hinges 0.6 mm, the holed plate 0.8 mm
-    fine = strip_mesh(design, element_size=0.2)
-    coarse = strip_mesh(design, element_size=0.5)
+    placed = Evaluation(design).placed_state("permanent")  # the writer is given the poses
+    fine = strip_mesh(design, placed, element_size=0.2)
+    coarse = strip_mesh(design, placed, element_size=0.5)
     assert len(coarse[1]) < len(fine[1])
     for pts, quads, _, _, q in (fine, coarse):
         assert _quad_areas(np.column_stack([pts, np.zeros(len(pts))]), quads).min() > 0

@@ -143,7 +143,7 @@ def test_internal_error_exits_3_with_a_short_report(capsys, monkeypatch):
         raise ZeroDivisionError("a bug")
 
     monkeypatch.delenv("FOLDPRINT_TRACEBACK", raising=False)
-    monkeypatch.setattr(foldprint.apps.pipeline, "run_simulation", boom)
+    monkeypatch.setattr(foldprint.apps.pipeline, "simulate", boom)  # the CLI simulates through Evaluation
     code = main(["simulate", "helix_graded"])
     out, err = capsys.readouterr()
     assert code == 3 and out == ""
@@ -155,7 +155,7 @@ def test_internal_error_traceback_on_request(capsys, monkeypatch):
     import foldprint.apps.pipeline
 
     monkeypatch.setenv("FOLDPRINT_TRACEBACK", "1")
-    monkeypatch.setattr(foldprint.apps.pipeline, "run_simulation", lambda *a, **k: 1 / 0)
+    monkeypatch.setattr(foldprint.apps.pipeline, "simulate", lambda *a, **k: 1 / 0)
     assert main(["simulate", "helix_graded"]) == 3
     assert "Traceback" in capsys.readouterr().err
 

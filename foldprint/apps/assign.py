@@ -38,8 +38,8 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..collision.swept3d import SweptChecker
-from ..collision.clearance import min_clearance, permanent_crossings  # noqa: F401 (permanent_crossings: re-export)
+from ..collision.clearance import permanent_crossings  # noqa: F401 (re-export)
+from ..core.constants import CLEARANCE_SAMPLES
 from ..model.design import Design
 from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_DT_S, DEFAULT_SEED
 from ..core.errors import DesignError
@@ -50,7 +50,6 @@ from ..physics.recovery import recovery_curve
 from ..simulation.robust import (CHUNK, Sample, Scatter, default_scatter, draw_samples, run_end, run_samples, sample_drive,
                      wilson)
 from ..simulation.timing import order_risk
-from ..simulation.simulate import simulate
 
 OBJECTIVES = ("time", "margin", "robust")
 #: Evaluations (simulations) the search may spend by default.
@@ -117,17 +116,19 @@ class Task:
     sample: Sample | None = None
 
 
-def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None) -> Design:
-    """``design`` with hinge ``k`` made of ``materials[k]`` (and the bath at ``bath_c``)."""
+def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None,
+                   library: MaterialLibrary | None = None) -> Design:
+    """``design`` with hinge ``k`` made of ``materials[k]`` (and the bath at ``bath_c``),
+    validated against ``library``."""
     hinges = tuple(replace(h, material=m) for h, m in zip(design.hinges, materials))
     proc = design.process if bath_c is None else replace(design.process, bath_temperature_c=float(bath_c))
-    return replace(design, hinges=hinges, process=proc)
+    return design.replace(library, hinges=hinges, process=proc)
 
 
 def _drive(task: Task) -> HingeDrive:
     d, lib = task.design, task.library
     if task.sample is not None:
-        return sample_drive(with_materials(d, task.materials, task.bath_c), lib, task.sample,
+        return sample_drive(with_materials(d, task.materials, task.bath_c, lib), lib, task.sample,
                             until_s=run_end(d, task.dt, task.duration))
     curves = []
     for h, m in zip(d.hinges, task.materials):
@@ -146,18 +147,20 @@ def run_task(task: Task) -> Verdict:
         times = [c.time_to(0.98) for c in drive.curves]
         if all(x is not None for x in times):
             duration = min(duration or d.process.duration_s, max(times) + SCREEN_TAIL_S)
-    res = simulate(d, bath_c=task.bath_c, duration=duration, dt=task.dt, method=task.method,
-                   hinge_model=HingeModel.ARC, drive=drive)
+    from .pipeline import EvalOptions, Evaluation
+
+    opts = EvalOptions(hinge_model=HingeModel.ARC, method=task.method, dt=task.dt, bath_c=task.bath_c,
+                       duration=duration, samples=0, clearance_samples=task.clearance_samples or CLEARANCE_SAMPLES)
+    ev = Evaluation(d, opts, library=task.library, drive=drive)
+    res = ev.simulation
     c = res.first_collision
     partial = any(m is None for m in task.materials)
     goal = None
     if c is None and not partial:
         goal = next((g.goal.id for g in res.goals if not g.met), None)
     clearance = None
-    if task.clearance_samples and c is None:
-        checker = SweptChecker(d, HingeModel.ARC, None)
-        traj = res.trajectory
-        g = min_clearance(checker, traj.times, traj.poses, n_samples=task.clearance_samples)
+    if task.clearance_samples and c is None:  # the clearance along the whole fold (no contact)
+        g = ev.clearance
         clearance = math.inf if g is None else float(g.distance)
     done = (c is None) and (partial or res.completed)
     ft = None
@@ -343,15 +346,11 @@ def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_
     return {m: recovery_curve(lib[m], bath_c, thick, design.process.fix_temperature_c).time_to(0.98) for m in mats}
 
 
-def assign(design: Design, *, library: MaterialLibrary | None = None, materials: Sequence[str] | None = None,
-           temperatures: Sequence[float] | None = None, fixed: Mapping[str, str] | None = None,
-           objective: str = "time", top: int = ASSIGN_TOP, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
-           samples: int = ASSIGN_SAMPLES, seed: int = DEFAULT_SEED, scatter: Scatter | None = None,
-           dt: float = DEFAULT_DT_S,
-           mapper: Mapper | None = None, workers: int | None = None,
-           progress: Callable[[int, int], None] | None = None) -> AssignResult:
-    """Search hinge-material assignments of ``design`` (see the module docstring)."""
-    lib = library or default_library()
+def _check_request(design: Design, lib: MaterialLibrary, materials: Sequence[str] | None,
+                   fixed: Mapping[str, str] | None, objective: str, top: int, budget: int,
+                   beam: int) -> tuple[list[str], dict[str, str]]:
+    """The materials to choose from and the fixed hinges, checked (DesignError naming the
+    option and what to give instead)."""
     if objective not in OBJECTIVES:
         raise DesignError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if top < 1 or budget < 1 or beam < 1:
@@ -369,163 +368,211 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
             raise DesignError(f"--fixed {hid}={m}: no hinge {hid!r}; hinges: {', '.join(ids)}")
         if m not in hinge_names:
             raise DesignError(f"--fixed {hid}={m}: {m!r} is not a hinge material of the library")
-    temps = tuple(float(t) for t in (temperatures or [design.process.bath_temperature_c]))
-    mapper = mapper or local_mapper(workers)
-    free = [k for k, h in enumerate(design.hinges) if h.id not in fixed]
-    n_free = len(free)
-    space = len(mats) ** n_free * len(temps)
-    ledger = _Ledger(mapper, budget, progress)
-    n_confirm = max(1, min(max(4 * top, 12), budget // 5) if objective == "time"
-                    else min(max(8 * top, 24), budget // 3))
-    # a space this small is cheaper to try outright than to search: exact within the budget
-    exhaustive = space <= min(EXHAUSTIVE_MAX, budget - n_confirm)
+    return mats, fixed
 
-    def result(best=(), feasible=0, patterns=0, blocked=False, confirmed=0, robust_sims=0):
-        blocking = sorted([("pair", p, n) for p, n in ledger.pairs.items()] +
-                          [("goal", g, n) for g, n in ledger.goals.items()], key=lambda x: (-x[2], str(x[1])))
-        return AssignResult(design, objective, tuple(mats), temps, ledger.evaluated, space, feasible,
-                            tuple(best), tuple(blocking), ledger.first_feasible_at, patterns, blocked, confirmed,
-                            exhaustive, robust_sims)
 
-    crossing = permanent_crossings(design)
-    if crossing:
-        for p in crossing:
-            ledger.pairs[tuple(p)] = ledger.pairs.get(tuple(p), 0) + 1
-        return result(blocked=True)
+class _Search:
+    """The state of one :func:`assign` run: the request, the ledger of evaluations and
+    the helpers that turn fold orders into tasks (the module docstring's phases)."""
 
-    t_ref = temps[len(temps) // 2]
-    duration = float(design.process.duration_s)
-    method = Method.INDEX2D if design.is_planar_strip else Method.FCL
+    def __init__(self, design: Design, lib: MaterialLibrary, mats: list[str], temps: tuple[float, ...],
+                 fixed: dict[str, str], objective: str, top: int, budget: int, beam: int, dt: float,
+                 ledger: "_Ledger"):
+        self.design, self.lib, self.mats, self.temps = design, lib, mats, temps
+        self.objective, self.top, self.budget, self.beam, self.dt, self.ledger = objective, top, budget, beam, dt, ledger
+        ids = [h.id for h in design.hinges]
+        self.fixed_idx = {ids.index(h): m for h, m in fixed.items()}
+        self.free = [k for k, h in enumerate(design.hinges) if h.id not in fixed]
+        self.space = len(mats) ** len(self.free) * len(temps)
+        self.n_confirm = max(1, min(max(4 * top, 12), budget // 5) if objective == "time"
+                             else min(max(8 * top, 24), budget // 3))
+        # a space this small is cheaper to try outright than to search: exact within the budget
+        self.exhaustive = self.space <= min(EXHAUSTIVE_MAX, budget - self.n_confirm)
+        self.duration = float(design.process.duration_s)
+        self.method = Method.INDEX2D if design.is_planar_strip else Method.FCL
 
-    def usable(t):
-        ft = _fold_times(design, lib, mats, t)
-        ok = [m for m in mats if ft[m] is not None and ft[m] <= duration]
+    def result(self, best=(), feasible=0, patterns=0, blocked=False, confirmed=0, robust_sims=0) -> "AssignResult":
+        led = self.ledger
+        blocking = sorted([("pair", p, n) for p, n in led.pairs.items()] +
+                          [("goal", g, n) for g, n in led.goals.items()], key=lambda x: (-x[2], str(x[1])))
+        return AssignResult(self.design, self.objective, tuple(self.mats), self.temps, led.evaluated, self.space,
+                            feasible, tuple(best), tuple(blocking), led.first_feasible_at, patterns, blocked,
+                            confirmed, self.exhaustive, robust_sims)
+
+    def usable(self, t: float) -> tuple[list[str], dict]:
+        """The materials that fold within the run at bath ``t``, fastest first, and their fold times."""
+        ft = _fold_times(self.design, self.lib, self.mats, t)
+        ok = [m for m in self.mats if ft[m] is not None and ft[m] <= self.duration]
         return sorted(ok, key=lambda m: (ft[m], m)), ft
 
-    ranked, ft_ref = usable(t_ref)
-    if not ranked:
-        raise DesignError(f"{design.name}: none of {', '.join(mats)} folds within {duration:g} s at {t_ref:g} C")
-    fixed_idx = {ids.index(h): m for h, m in fixed.items()}
-
-    def screen_duration(active: Sequence[str], t: float, ft: dict) -> float:
+    def screen_duration(self, active: Sequence[str], ft: dict) -> float:
         times = [ft[m] for m in active if ft.get(m) is not None]
         if len(times) < len(active) or not times:
-            return duration
-        return min(duration, max(times) + SCREEN_TAIL_S)
+            return self.duration
+        return min(self.duration, max(times) + SCREEN_TAIL_S)
 
-    def materials_for(waves: Sequence[frozenset], ranks: Sequence[int], order: list[str], complete: bool):
-        out: list[str | None] = [None] * len(design.hinges)
+    def materials_for(self, waves: Sequence[frozenset], ranks: Sequence[int], order: list[str], complete: bool):
+        out: list[str | None] = [None] * len(self.design.hinges)
         last = ranks[len(waves) - 1] if waves else -1
         for w, r in zip(waves, ranks):
             for k in w:
                 out[k] = order[r]
-        for k, m in fixed_idx.items():
+        for k, m in self.fixed_idx.items():
             r = order.index(m) if m in order else len(order)
             if complete or r <= last:
                 out[k] = m
         return tuple(out)
 
-    def task(mat_tuple, t, ft, clearance=0, confirm=False):
+    def task(self, mat_tuple, t, ft, clearance=0, confirm=False) -> Task:
         active = [m for m in mat_tuple if m is not None]
-        dur = duration if confirm else screen_duration(active, t, ft)
-        return Task(design, lib, mat_tuple, t, Method.FCL if confirm else method, dt, dur, clearance)
+        dur = self.duration if confirm else self.screen_duration(active, ft)
+        return Task(self.design, self.lib, mat_tuple, t, Method.FCL if confirm else self.method, self.dt, dur,
+                    clearance)
 
-    # phase 1: patterns (waves of hinges), wave i played by the i-th fastest material
-    graph = _hinge_graph(design)
-    all_free = frozenset(free)
-    patterns: list[tuple[frozenset, ...]] = []
-    if not free:
-        patterns.append(())
-    m = len(ranked)
-    phase1 = int(budget * PHASE1_SHARE)
-    # best first: a queue of every collision-free prefix; each round expands the ``beam``
-    # best (most hinges placed, then the widest clearance along the motion so far)
-    queue: list = [] if exhaustive or not free else [((0, 0, -math.inf, ()), ())]
-    while queue and ledger.evaluated < phase1:
-        queue.sort(key=lambda x: x[0])
-        batch, queue = queue[:beam], queue[beam:]
-        children = []
-        for _key, waves in batch:
-            rest = all_free - frozenset().union(*waves) if waves else all_free
-            if len(waves) == m - 1:
-                options = [rest]
-            elif objective == "robust":
-                options = growing_waves(rest, all_free - rest, graph)
-            else:
-                options = connected_waves(rest, graph)
-            for w in options:
-                nw = waves + (w,)
-                complete = w == rest
-                mt = materials_for(nw, list(range(len(nw))), ranked, complete)
-                children.append((nw, complete, task(mt, t_ref, ft_ref, 0 if complete else PREFIX_CLEARANCE_SAMPLES)))
-        verdicts = ledger.run([c[2] for c in children], cap=phase1)
-        for (nw, complete, _t), v in zip(children, verdicts):
-            if v is None or not v.completed:
-                continue
-            if complete:
-                patterns.append(nw)
-            else:
+    def patterns(self, ranked: list[str], ft_ref: dict, t_ref: float) -> list[tuple[frozenset, ...]]:
+        """Phase 1: the feasible patterns (waves of hinges), wave i played by the i-th
+        fastest material; best first: a queue of every collision-free prefix, each round
+        expanding the ``beam`` best (most hinges placed, then the widest clearance so far)."""
+        graph = _hinge_graph(self.design)
+        all_free = frozenset(self.free)
+        patterns: list[tuple[frozenset, ...]] = [] if self.free else [()]
+        m = len(ranked)
+        phase1 = int(self.budget * PHASE1_SHARE)
+        queue: list = [] if self.exhaustive or not self.free else [((0, 0, -math.inf, ()), ())]
+        while queue and self.ledger.evaluated < phase1:
+            queue.sort(key=lambda x: x[0])
+            batch, queue = queue[:self.beam], queue[self.beam:]
+            children = []
+            for _key, waves in batch:
+                rest = all_free - frozenset().union(*waves) if waves else all_free
+                if len(waves) == m - 1:
+                    options = [rest]
+                elif self.objective == "robust":
+                    options = growing_waves(rest, all_free - rest, graph)
+                else:
+                    options = connected_waves(rest, graph)
+                for w in options:
+                    nw = waves + (w,)
+                    complete = w == rest
+                    mt = self.materials_for(nw, list(range(len(nw))), ranked, complete)
+                    clear = 0 if complete else PREFIX_CLEARANCE_SAMPLES
+                    children.append((nw, complete, self.task(mt, t_ref, ft_ref, clear)))
+            verdicts = self.ledger.run([c[2] for c in children], cap=phase1)
+            for (nw, complete, _t), v in zip(children, verdicts):
+                if v is None or not v.completed:
+                    continue
+                if complete:
+                    patterns.append(nw)
+                    continue
                 clear = v.clearance_mm if v.clearance_mm is not None else math.inf
                 placed = -sum(map(len, nw))
                 # robust: scatter reorders hinges that share a wave, so the most waves first
-                key = ((-len(nw), placed, -clear) if objective == "robust" else (placed, -clear, len(nw)))
+                key = ((-len(nw), placed, -clear) if self.objective == "robust" else (placed, -clear, len(nw)))
                 queue.append(((*key, [sorted(w) for w in nw]), nw))
+        return patterns
 
-    # phase 2: map the feasible patterns onto materials (and temperatures)
-    candidates = []
-    for t in temps:
-        order, ft = usable(t)
-        if exhaustive:
-            for combo in itertools.product(mats, repeat=n_free):
-                mt = [fixed_idx.get(k) for k in range(len(design.hinges))]
-                for k, mname in zip(free, combo):
-                    mt[k] = mname
-                rank = {mname: i for i, mname in enumerate(order)}
-                if any(x not in rank for x in combo):
-                    continue  # a material that does not fold in time at t
-                levels = sorted({rank[x] for x in combo})
-                pat = tuple(frozenset(k for k, x in zip(free, combo) if rank[x] == lv) for lv in levels)
-                candidates.append((pat, None, t, tuple(mt), ft))
-            continue
-        for pat in patterns:
-            k = len(pat)
-            if k > len(order):
+    def _exhaustive_candidates(self, t: float, order: list[str], ft: dict) -> list:
+        out = []
+        rank = {mname: i for i, mname in enumerate(order)}
+        for combo in itertools.product(self.mats, repeat=len(self.free)):
+            mt = [self.fixed_idx.get(k) for k in range(len(self.design.hinges))]
+            for k, mname in zip(self.free, combo):
+                mt[k] = mname
+            if any(x not in rank for x in combo):
+                continue  # a material that does not fold in time at t
+            levels = sorted({rank[x] for x in combo})
+            pat = tuple(frozenset(k for k, x in zip(self.free, combo) if rank[x] == lv) for lv in levels)
+            out.append((pat, None, t, tuple(mt), ft))
+        return out
+
+    def candidates(self, patterns: list[tuple[frozenset, ...]]) -> list:
+        """Phase 2: the feasible patterns mapped onto materials (and temperatures):
+        (pattern, ranks, bath, materials, fold times) in the order to evaluate them."""
+        candidates = []
+        for t in self.temps:
+            order, ft = self.usable(t)
+            if self.exhaustive:
+                candidates += self._exhaustive_candidates(t, order, ft)
                 continue
-            combos = list(itertools.combinations(range(len(order)), k)) if k else [()]
-            if objective == "time":
-                combos.sort(key=lambda c: (c[-1] if c else 0, sum(c), c))
-            else:  # spread the waves: the widest smallest gap between consecutive ranks first
-                combos.sort(key=lambda c: (-min([b - a for a, b in zip(c, c[1:])] or [0]), c[-1] if c else 0, c))
-            for j, c in enumerate(combos[:PER_PATTERN]):
-                candidates.append((j, pat, c, t, materials_for(pat, c, order, True), ft))
-    if not exhaustive:  # round robin: every pattern's first mapping, then every second one...
-        candidates = [c[1:] for c in sorted(candidates, key=lambda c: c[0])]
-    verdicts = ledger.run([task(mt, t, ft) for _p, _c, t, mt, ft in candidates], cap=budget - n_confirm)
-    screened = [(p, t, mt, v) for (p, _c, t, mt, _ft), v in zip(candidates, verdicts) if v is not None and v.completed]
-    # the same assignment may come from two patterns: keep the first
-    seen, unique = set(), []
-    for p, t, mt, v in screened:
-        if (mt, t) not in seen:
-            seen.add((mt, t))
-            unique.append((p, t, mt, v))
-    if objective == "time":
-        unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
-    # margin: in screening order (spread mappings first); robust picks its own finalists
-    finalists = unique[:n_confirm] if objective != "robust" else []
-    confirmed = ledger.run([task(mt, t, {}, clearance=200, confirm=True) for _p, t, mt, _v in finalists])
-    good = [_choice(p, t, mt, v) for (p, t, mt, _v), v in zip(finalists, confirmed) if v is not None and v.completed]
-    if objective == "time":
-        good.sort(key=lambda c: (c.fold_time, -(c.clearance_mm or 0), c.materials))
-    else:
-        good.sort(key=lambda c: (-(c.clearance_mm if c.clearance_mm is not None else math.inf), c.fold_time,
-                                 c.materials))
+            for pat in patterns:
+                k = len(pat)
+                if k > len(order):
+                    continue
+                combos = list(itertools.combinations(range(len(order)), k)) if k else [()]
+                if self.objective == "time":
+                    combos.sort(key=lambda c: (c[-1] if c else 0, sum(c), c))
+                else:  # spread the waves: the widest smallest gap between consecutive ranks first
+                    combos.sort(key=lambda c: (-min([b - a for a, b in zip(c, c[1:])] or [0]), c[-1] if c else 0, c))
+                for j, c in enumerate(combos[:PER_PATTERN]):
+                    candidates.append((j, pat, c, t, self.materials_for(pat, c, order, True), ft))
+        if not self.exhaustive:  # round robin: every pattern's first mapping, then every second one...
+            candidates = [c[1:] for c in sorted(candidates, key=lambda c: c[0])]
+        return candidates
+
+    def screened(self, candidates: list) -> list:
+        """The candidates that fold in the screen, each assignment once (the first pattern
+        that gave it): (pattern, bath, materials, verdict)."""
+        verdicts = self.ledger.run([self.task(mt, t, ft) for _p, _c, t, mt, ft in candidates],
+                                   cap=self.budget - self.n_confirm)
+        seen, unique = set(), []
+        for (p, _c, t, mt, _ft), v in zip(candidates, verdicts):
+            if v is not None and v.completed and (mt, t) not in seen:
+                seen.add((mt, t))
+                unique.append((p, t, mt, v))
+        if self.objective == "time":
+            unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
+        return unique
+
+    def confirm(self, unique: list) -> list["Choice"]:
+        """The finalists (``time``, ``margin``) confirmed by the simulation of record, best first."""
+        # margin: in screening order (spread mappings first); robust picks its own finalists
+        finalists = unique[:self.n_confirm] if self.objective != "robust" else []
+        confirmed = self.ledger.run([self.task(mt, t, {}, clearance=CLEARANCE_SAMPLES, confirm=True)
+                                     for _p, t, mt, _v in finalists])
+        good = [_choice(p, t, mt, v) for (p, t, mt, _v), v in zip(finalists, confirmed)
+                if v is not None and v.completed]
+        if self.objective == "time":
+            good.sort(key=lambda c: (c.fold_time, -(c.clearance_mm or 0), c.materials))
+        else:
+            good.sort(key=lambda c: (-(c.clearance_mm if c.clearance_mm is not None else math.inf), c.fold_time,
+                                     c.materials))
+        return good
+
+
+def assign(design: Design, *, library: MaterialLibrary | None = None, materials: Sequence[str] | None = None,
+           temperatures: Sequence[float] | None = None, fixed: Mapping[str, str] | None = None,
+           objective: str = "time", top: int = ASSIGN_TOP, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
+           samples: int = ASSIGN_SAMPLES, seed: int = DEFAULT_SEED, scatter: Scatter | None = None,
+           dt: float = DEFAULT_DT_S,
+           mapper: Mapper | None = None, workers: int | None = None,
+           progress: Callable[[int, int], None] | None = None) -> AssignResult:
+    """Search hinge-material assignments of ``design`` (see the module docstring)."""
+    from .pipeline import Evaluation
+
+    lib = library or default_library()
+    mats, fixed = _check_request(design, lib, materials, fixed, objective, top, budget, beam)
+    temps = tuple(float(t) for t in (temperatures or [design.process.bath_temperature_c]))
+    mapper = mapper or local_mapper(workers)
+    s = _Search(design, lib, mats, temps, fixed, objective, top, budget, beam, dt, _Ledger(mapper, budget, progress))
+    crossing = Evaluation(design, library=lib).printed_crossings
+    if crossing:
+        for p in crossing:
+            s.ledger.pairs[tuple(p)] = s.ledger.pairs.get(tuple(p), 0) + 1
+        return s.result(blocked=True)
+    t_ref = temps[len(temps) // 2]
+    ranked, ft_ref = s.usable(t_ref)
+    if not ranked:
+        raise DesignError(f"{design.name}: none of {', '.join(mats)} folds within {s.duration:g} s at {t_ref:g} C")
+    patterns = s.patterns(ranked, ft_ref, t_ref)
+    unique = s.screened(s.candidates(patterns))
+    good = s.confirm(unique)
     n_robust, n_confirmed = 0, len(good)
     if objective == "robust" and unique:
         good, n_confirmed, n_robust = _robust_finalists(
-            design, lib, unique, ledger, task, top=top, samples=samples, seed=seed,
-            scatter=scatter or default_scatter(), method=method, dt=dt, duration=duration, mapper=mapper,
+            design, lib, unique, s.ledger, s.task, top=top, samples=samples, seed=seed,
+            scatter=scatter or default_scatter(), method=s.method, dt=dt, duration=s.duration, mapper=mapper,
             progress=progress)
-    return result(good[:top], len(unique), len(patterns), confirmed=n_confirmed, robust_sims=n_robust)
+    return s.result(good[:top], len(unique), len(patterns), confirmed=n_confirmed, robust_sims=n_robust)
 
 
 def _choice(pattern, bath_c: float, materials, v: Verdict) -> Choice:
@@ -550,7 +597,7 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
     tasks = []
     for i in order:
         _p, t, mt, _v = unique[i]
-        for smp in draw_samples(with_materials(design, mt, t), scatter, n_s, seed):
+        for smp in draw_samples(with_materials(design, mt, t, lib), scatter, n_s, seed):
             tasks.append(Task(design, lib, mt, t, method, dt, duration, 0, smp))
     verdicts = mapper(run_task, tasks, progress)
     jams = {i: sum(not v.completed for v in verdicts[j * n_s:(j + 1) * n_s]) for j, i in enumerate(order)}
@@ -558,7 +605,8 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
     n_robust = len(tasks)
     n_final = max(top + 2, ROBUST_FINALISTS)
     picks = ranked[: 2 * n_final]
-    confirmed = ledger.run([task(unique[i][2], unique[i][1], {}, clearance=200, confirm=True) for i in picks])
+    confirmed = ledger.run([task(unique[i][2], unique[i][1], {}, clearance=CLEARANCE_SAMPLES, confirm=True)
+                          for i in picks])
     good = []
     for i, v in zip(picks, confirmed):
         if v is None or not v.completed or len(good) == n_final:
@@ -569,7 +617,7 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
     # the chunks of all of them spread over the workers at once
     chunks, owner = [], []
     for j, c in enumerate(good):
-        variant = with_materials(design, c.materials, c.bath_c)
+        variant = with_materials(design, c.materials, c.bath_c, lib)
         drawn = draw_samples(variant, scatter, samples, seed)
         for a in range(0, samples, CHUNK):
             chunks.append((variant, lib, drawn[a:a + CHUNK], HingeModel.ARC, dt))

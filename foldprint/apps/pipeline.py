@@ -3,6 +3,11 @@
     design -> simulation (once) -> assembly -> gaps and clearance -> jam probability
            -> checks (given all of these, computing none) -> writers
 
+:class:`Evaluation` ``(design, options)`` computes each stage on first use and keeps it:
+``simulation``, ``assembly``, ``printed_gaps``, ``clearance``, ``robust``, ``sweep``,
+``findings``, ``export(dir)``, ``to_json()``. The derived per-design data every stage
+needs (hinge frames, spanning tree, reliefs, rigid polygons) live in the evaluation's
+one :class:`~foldprint.model.derived.DerivedCache`, active while a stage is computed.
 ``cli``, ``gallery`` and ``assign`` call this module; no stage below it calls another
 stage's entry point. The verdict is about the printed part: the simulation defaults to
 the arc hinges that ``export`` writes (:data:`foldprint.core.modes.DEFAULT_HINGE_MODEL`).
@@ -10,50 +15,70 @@ the arc hinges that ``export`` writes (:data:`foldprint.core.modes.DEFAULT_HINGE
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import Counter
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable
 
 from ..core import guards
 from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
-from ..collision.clearance import Gap, gaps_in_pose, min_clearance
+from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
-from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S  # noqa: F401 (re-exported)
+from ..core.constants import (CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S,  # noqa: F401 (re-exported)
+                              CLEARANCE_SAMPLES)
+from ..model.derived import DerivedCache
 from ..model.design import Design
 from ..core.errors import GeometryError
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
-from ..geometry import Assembly, build_assembly
-from ..physics.kinematics import forward, target_angles
+from ..exchange.fem import PlacedState, check_strip
+from ..geometry import Assembly, build_assembly, state_angles
+from ..physics.kinematics import HingeDrive, forward, hinge_frames, target_angles
+from ..physics.recovery import hinge_fold_times
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
-                    AfterContact, HingeModel, Method, State, parse)
+                          AfterContact, HingeModel, Method, State, parse)
 from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, draw_samples, jam_probability, outcome_of,
-                     sample_drive)
-from ..simulation.sensitivity import SweepPoint, sweep
+                                 sample_drive)
+from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
 from ..simulation.simulate import SimulationResult, simulate
 
+Progress = Callable[[str, int, int], None]
+"""``progress(stage, done, total)``: the Monte-Carlo stages report their samples."""
 
 
-def build(design: Design, state: State | str = DEFAULT_STATE,
-          library: MaterialLibrary | None = None) -> Assembly:
-    """The printable part in ``state``: one watertight body per material."""
-    st = parse(State, state, "state")
-    return build_assembly(design, st, library or default_library())
+@dataclass(frozen=True)
+class EvalOptions:
+    """How a design is evaluated; the defaults are ``foldprint check``'s
+    (:mod:`foldprint.core.constants`). ``method`` is the collision method of the
+    evaluation's simulation (check: the 3D swept check; ``simulate`` passes ``both``);
+    ``samples`` = 0 skips the jam probability; ``scales``: the sigma scales of the
+    sensitivity sweep beside the estimate (empty: none; 1 is the estimate itself, check
+    sweeps :data:`CHECK_SCALES` and 1); ``state``, ``formats``: what
+    :meth:`Evaluation.export` writes by default."""
 
+    hinge_model: HingeModel = DEFAULT_HINGE_MODEL
+    method: Method = Method.FCL
+    after_contact: AfterContact = DEFAULT_AFTER_CONTACT
+    dt: float = CHECK_DT_S
+    bath_c: float | None = None
+    duration: float | None = None
+    samples: int = CHECK_SAMPLES
+    seed: int = CHECK_SEED
+    scales: tuple[float, ...] = ()
+    thresholds: Thresholds = field(default_factory=Thresholds)
+    clearance_samples: int = CLEARANCE_SAMPLES
+    workers: int | None = None
+    state: State = DEFAULT_STATE
+    formats: tuple[str, ...] = tuple(DEFAULT_FORMATS)
 
-def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STATE,
-           formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
-    """Build ``design`` in ``state`` and write ``formats`` into ``out_dir``; the records
-    of :func:`foldprint.exchange.export.export_assembly`. The fold is simulated (arc
-    hinges, the defaults) only when a format shows it over time (xdmf, glb)."""
-    lib = library or default_library()
-    formats = check_formats(formats)  # before the (slower) build
-    guards.check_export(design)  # time and memory of the build, estimated from the design
-    trajectory = None
-    if any(f in TRAJECTORY_FORMATS for f in formats):
-        trajectory = simulate(design, dt=ANIMATION_DT_S, library=lib).trajectory
-    return export_assembly(design, build(design, state, lib), out_dir, formats, lib, trajectory)
+    def __post_init__(self):
+        object.__setattr__(self, "hinge_model", parse(HingeModel, self.hinge_model, "hinge_model"))
+        object.__setattr__(self, "method", parse(Method, self.method, "method"))
+        object.__setattr__(self, "after_contact", parse(AfterContact, self.after_contact, "after_contact"))
+        object.__setattr__(self, "state", parse(State, self.state, "state"))
+        object.__setattr__(self, "scales", tuple(float(k) for k in self.scales))
+        object.__setattr__(self, "formats", tuple(self.formats))
 
 
 @dataclass(frozen=True)
@@ -64,35 +89,9 @@ class Comparison:
     result: SimulationResult
 
 
-def run_simulation(design: Design, *, library: MaterialLibrary | None = None, bath_c: float | None = None,
-                   duration: float | None = None, dt: float = DEFAULT_DT_S, method: Method | str = DEFAULT_METHOD,
-                   hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
-                   after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT,
-                   compare: bool = False) -> tuple[SimulationResult, Comparison | None]:
-    """The simulation, and (``compare``) the other hinge model's result when its verdict
-    (completes or not, first colliding pair) differs."""
-    lib = library or default_library()
-    kw = dict(bath_c=bath_c, duration=duration, dt=dt, method=method, after_contact=after_contact, library=lib)
-    model = parse(HingeModel, hinge_model, "hinge_model")
-    res = simulate(design, hinge_model=model, **kw)
-    if not compare:
-        return res, None
-    other = HingeModel.POINT if model == HingeModel.ARC else HingeModel.ARC
-    alt = simulate(design, hinge_model=other, **kw)
-
-    def verdict(r):
-        c = r.first_collision
-        return r.completed, None if c is None else tuple(sorted(c.panels))
-
-    return res, (Comparison(other, alt) if verdict(alt) != verdict(res) else None)
-
-
-def printed_crossings(design: Design) -> list[tuple[str, str]]:
-    """Non-adjacent panel pairs that overlap in the printed (permanent) state: the part
-    can never be printed as designed (:func:`foldprint.collision.clearance.permanent_crossings`)."""
-    from ..collision.clearance import permanent_crossings
-
-    return permanent_crossings(design)
+def _verdict(r: SimulationResult):
+    c = r.first_collision
+    return r.completed, None if c is None else tuple(sorted(c.panels))
 
 
 def worst_sample(robust: RobustResult) -> int | None:
@@ -141,20 +140,195 @@ def replay_sample(design: Design, robust: RobustResult, index: int, *, library: 
     return Replay(index, sample, robust.outcomes[index], res)
 
 
-@dataclass(frozen=True)
 class Evaluation:
-    """Everything known about a design before printing."""
+    """Everything known about a design before printing, each stage computed on first use
+    and kept.
 
-    design: Design
-    printer: Printer
-    simulation: SimulationResult
-    assembly: Assembly | None
-    assembly_error: str | None
-    printed_gaps: tuple[Gap, ...]
-    clearance: Gap | None
-    robust: RobustResult | None
-    findings: tuple[Finding, ...]
-    sweep: tuple[SweepPoint, ...] = ()
+    ``Evaluation(design, options)``; ``library`` (default: the shipped one), ``printer``
+    (default: the default profile), ``scatter`` (default: the shipped model), ``drive``
+    (the hinges' recovery, default nominal: e.g. a scattered sample), ``simulation`` (a
+    result the caller already has, for ``options.method``), ``mapper`` and ``progress``
+    (how and with what report the Monte-Carlo runs). ``computed`` counts each stage's
+    computations; ``cache`` holds the derived per-design data of this evaluation."""
+
+    def __init__(self, design: Design, options: EvalOptions | None = None, *,
+                 library: MaterialLibrary | None = None, printer: Printer | None = None,
+                 scatter: Scatter | None = None, drive: HingeDrive | None = None,
+                 simulation: SimulationResult | None = None, mapper=None, progress: Progress | None = None):
+        self.design = design
+        self.options = options or EvalOptions()
+        self.library = library or default_library()
+        self.scatter = scatter
+        self.drive = drive
+        self.mapper = mapper
+        self.progress = progress
+        self.cache = DerivedCache()
+        self.computed: Counter = Counter()
+        self._stages: dict = {}
+        self._printer = printer
+        if simulation is not None:
+            self._stages[("simulation", self.options.method)] = simulation
+
+    # -- the machinery ---------------------------------------------------------------
+    def _stage(self, key, compute: Callable):
+        """The value of stage ``key``: ``compute()`` (with this evaluation's cache active)
+        the first time, kept after."""
+        if key not in self._stages:
+            with self.cache.active():
+                self._stages[key] = compute()
+            self.computed[key[0] if isinstance(key, tuple) else key] += 1
+        return self._stages[key]
+
+    def has(self, stage: str) -> bool:
+        """Whether ``stage`` was computed (or given)."""
+        return any((k[0] if isinstance(k, tuple) else k) == stage for k in self._stages)
+
+    def _report(self, stage: str, progress):
+        if progress is not None:
+            return progress
+        if self.progress is None:
+            return None
+        return lambda done, total: self.progress(stage, done, total)
+
+    # -- stages ------------------------------------------------------------------------
+    @property
+    def printer(self) -> Printer:
+        if self._printer is None:
+            self._printer = load_printers()[default_printer_key()]
+        return self._printer
+
+    def simulation_for(self, method: Method | str) -> SimulationResult:
+        """The simulation with collision method ``method`` (the other options as given)."""
+        m = parse(Method, method, "method")
+        o = self.options
+        return self._stage(("simulation", m), lambda: simulate(
+            self.design, bath_c=o.bath_c, duration=o.duration, dt=o.dt, method=m, hinge_model=o.hinge_model,
+            after_contact=o.after_contact, library=self.library, drive=self.drive))
+
+    @property
+    def simulation(self) -> SimulationResult:
+        """The simulation of record: ``options.method``, ``options.hinge_model``."""
+        return self.simulation_for(self.options.method)
+
+    @property
+    def comparison(self) -> Comparison | None:
+        """The other hinge model's simulation when its verdict (completes or not, first
+        colliding pair) differs from :attr:`simulation`'s."""
+        res = self.simulation
+
+        def run():
+            o = self.options
+            other = HingeModel.POINT if o.hinge_model == HingeModel.ARC else HingeModel.ARC
+            alt = simulate(self.design, bath_c=o.bath_c, duration=o.duration, dt=o.dt, method=o.method,
+                           hinge_model=other, after_contact=o.after_contact, library=self.library)
+            return Comparison(other, alt) if _verdict(alt) != _verdict(res) else None
+
+        return self._stage("comparison", run)
+
+    @property
+    def printed_crossings(self) -> list[tuple[str, str]]:
+        """Non-adjacent panel pairs that overlap in the printed (permanent) state: the part
+        can never be printed as designed (:func:`foldprint.collision.clearance.permanent_crossings`)."""
+        return self._stage("printed_crossings", lambda: permanent_crossings(self.design))
+
+    def _build(self) -> tuple[Assembly | None, str | None]:
+        try:
+            return build_assembly(self.design, State.PERMANENT.value, self.library), None
+        except GeometryError as exc:
+            return None, str(exc)
+
+    @property
+    def assembly(self) -> Assembly | None:
+        """The printed part (permanent state), None when it cannot be built."""
+        return self._stage("assembly", self._build)[0]
+
+    @property
+    def assembly_error(self) -> str | None:
+        """Why the printed part cannot be built (None when it can)."""
+        return self._stage("assembly", self._build)[1]
+
+    @property
+    def printed_checker(self) -> SweptChecker:
+        """The swept checker of the printed state (arc hinges: the geometry export writes,
+        whatever model the fold was simulated with)."""
+        return self._stage("printed_checker", lambda: SweptChecker(self.design, HingeModel.ARC, None))
+
+    @property
+    def printed_gaps(self) -> tuple[Gap, ...]:
+        """Gaps narrower than the printer's smallest gap in the printed state."""
+        def run():
+            poses = forward(self.design, target_angles(self.design)[None], HingeModel.ARC)[0]
+            return tuple(gaps_in_pose(self.printed_checker, poses, self.printer.min_gap_mm))
+
+        return self._stage("printed_gaps", run)
+
+    @property
+    def clearance(self) -> Gap | None:
+        """The smallest clearance between non-adjacent panels along the fold, up to the
+        first collision (``options.clearance_samples`` poses)."""
+        def run():
+            sim, model = self.simulation, self.options.hinge_model
+            traj, first = sim.trajectory, sim.first_collision
+            checker = self.printed_checker if model == HingeModel.ARC else SweptChecker(self.design, model, None)
+            return min_clearance(checker, traj.times, traj.poses, n_samples=self.options.clearance_samples,
+                                 t_end=None if first is None else first.time)
+
+        return self._stage("clearance", run)
+
+    def run_robust(self, progress: Callable[[int, int], None] | None = None) -> RobustResult | None:
+        """:attr:`robust`, reporting to ``progress(done, total)`` if it is computed now."""
+        o = self.options
+        if not o.samples:
+            return None
+        sim = self.simulation
+        return self._stage("robust", lambda: jam_probability(
+            self.design, o.samples, o.seed, scatter=self.scatter, library=self.library, hinge_model=o.hinge_model,
+            dt=o.dt, nominal=sim, workers=o.workers, progress=self._report("samples", progress),
+            mapper=self.mapper))
+
+    @property
+    def robust(self) -> RobustResult | None:
+        """The jam probability under scatter (None when ``options.samples`` is 0)."""
+        return self.run_robust()
+
+    def run_sweep(self, progress: Callable[[int, int], None] | None = None) -> tuple[SweepPoint, ...]:
+        """:attr:`sweep`, reporting to ``progress(done, total)`` if it is computed now."""
+        r = self.robust
+        if r is None or not self.options.scales:
+            return ()
+        o = self.options
+        return self._stage("sweep", lambda: sweep(
+            self.design, r, o.scales, library=self.library, dt=o.dt, workers=o.workers,
+            mapper=self.mapper, progress=self._report("sigma scales", progress)))
+
+    @property
+    def sweep(self) -> tuple[SweepPoint, ...]:
+        """The estimate with the spreads times each of ``options.scales`` (1 reuses :attr:`robust`)."""
+        return self.run_sweep()
+
+    def run_contributions(self, progress: Callable[[int, int], None] | None = None) -> Contributions | None:
+        """Each scatter component's share of :attr:`robust` (opt-in: about 11x its cost)."""
+        r = self.robust
+        if r is None:
+            return None
+        o = self.options
+        return self._stage("contributions", lambda: contributions(
+            self.design, r, library=self.library, dt=o.dt, workers=o.workers, mapper=self.mapper,
+            progress=self._report("contributions", progress)))
+
+    @property
+    def findings(self) -> tuple[Finding, ...]:
+        """Every design rule's findings, given the stages above (computed as needed)."""
+        def run():
+            sim = self.simulation
+            asm, err = self.assembly, self.assembly_error
+            gaps, clear = self.printed_gaps, self.clearance
+            robust = self.robust
+            ctx = CheckContext(self.design, self.library, self.printer, sim, asm, err, gaps, clear, robust,
+                               self.options.thresholds, self.sweep)
+            return tuple(run_checks(ctx))
+
+        return self._stage("findings", run)
 
     @property
     def errors(self) -> int:
@@ -164,52 +338,144 @@ class Evaluation:
     def ok(self) -> bool:
         return self.errors == 0
 
+    @property
+    def animation(self) -> SimulationResult:
+        """The fold at the time step of the files that show it over time (xdmf, glb):
+        arc hinges, the default collision method and bath."""
+        return self._stage("animation", lambda: simulate(self.design, dt=ANIMATION_DT_S, library=self.library))
+
+    @property
+    def fold_times(self) -> dict[str, float | None]:
+        """Each hinge's 98 % recovery time in the design's bath (s, by hinge id; None where
+        it does not fold): what the export's manifest reports."""
+        return self._stage("fold_times", lambda: hinge_fold_times(self.design, self.library))
+
+    def placed_state(self, state: State | str) -> PlacedState:
+        """``state`` placed by the kinematics (arc hinges): its angles, hinge frames and panel
+        poses, what the inp writer meshes (refused first when the design is not a strip)."""
+        st = parse(State, state, "state")
+
+        def run():
+            check_strip(self.design)
+            angles = state_angles(self.design, st.value)
+            frames = tuple(hinge_frames(self.design))
+            poses = forward(self.design, angles[None], HingeModel.ARC.value, list(frames))[0]
+            return PlacedState(st.value, angles, frames, poses)
+
+        return self._stage(("placed_state", st), run)
+
+    @property
+    def worst_replay(self) -> "Replay | None":
+        """The worst Monte-Carlo sample (:func:`worst_sample`) folded again, None without samples."""
+        def run():
+            r = self.robust
+            k = None if r is None else worst_sample(r)
+            if k is None:
+                return None
+            return replay_sample(self.design, r, k, library=self.library, dt=self.options.dt,
+                                 after_contact=self.options.after_contact)
+
+        return self._stage("worst_replay", run)
+
+    # -- writers -----------------------------------------------------------------------
+    def export(self, out_dir: str | Path, state: State | str | None = None, formats: Iterable[str] | None = None,
+               assembly: Assembly | None = None) -> list[dict]:
+        """Write ``formats`` of the part in ``state`` (default: ``options``) into
+        ``out_dir``; the records of :func:`foldprint.exchange.export.export_assembly`.
+        The part is ``assembly`` when given, else the evaluation's printed part when it was
+        already built (permanent state), else built here (after the size guard). The fold
+        is simulated only when a format shows it over time (xdmf, glb)."""
+        st = parse(State, self.options.state if state is None else state, "state")
+        fmts = check_formats(self.options.formats if formats is None else formats)  # before the (slower) build
+        if assembly is None and st == State.PERMANENT and self.has("assembly"):
+            assembly = self.assembly
+            if assembly is None:
+                raise GeometryError(self.assembly_error)
+        if assembly is None:
+            guards.check_export(self.design)  # time and memory of the build, estimated from the design
+        trajectory = self.animation.trajectory if any(f in TRAJECTORY_FORMATS for f in fmts) else None
+        fold_times = self.fold_times if "stl" in fmts else None
+        with self.cache.active():
+            if assembly is None:
+                assembly = build_assembly(self.design, st.value, self.library)
+            placed = self.placed_state(st) if "inp" in fmts else None
+            return export_assembly(self.design, assembly, out_dir, fmts, self.library, trajectory, fold_times,
+                                   placed)
+
+    def to_json(self, printer_key: str | None = None) -> dict:
+        """The ``foldprint check --json`` object (:func:`foldprint.checks.report.check_json`)."""
+        from ..checks.report import check_json
+
+        return check_json(self, printer_key or default_printer_key())
+
+    def simulation_json(self) -> dict:
+        """The ``foldprint simulate --json`` object: the simulation, the printed crossings
+        and the other hinge model's verdict (:func:`foldprint.checks.report.simulate_json`)."""
+        from ..checks.report import simulate_json
+
+        sim, other = self.simulation, self.comparison
+        return simulate_json(sim, other, self.printed_crossings)
+
+    def robust_json(self) -> dict:
+        """The ``foldprint robust --json`` object: the estimate, and the contributions and
+        the sweep when computed (:func:`foldprint.checks.report.robust_report_json`)."""
+        from ..checks.report import robust_report_json
+
+        return robust_report_json(self.robust, self._stages.get("contributions"), self._stages.get("sweep"))
+
+
+# -- functions kept for callers of the earlier API (each one evaluation) --------------
+
+def check_scales(scales: Iterable[float] = CHECK_SCALES) -> tuple[float, ...]:
+    """The sweep ``check`` runs for ``scales``: each of them and 1 (none when empty)."""
+    ks = tuple(float(k) for k in scales)
+    return ks + (1.0,) if ks else ()
+
 
 def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer: Printer | None = None,
              hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = CHECK_DT_S,
              samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED, scatter: Scatter | None = None,
              thresholds: Thresholds = Thresholds(), simulation: SimulationResult | None = None,
              workers: int | None = None, mapper=None, scales: Iterable[float] = (),
-             progress: Callable[[str, int, int], None] | None = None,
-             method: Method | str = VERDICT_METHOD) -> Evaluation:
-    """Simulate once, build the printed part, measure its gaps and clearance, estimate
-    the jam probability (``samples`` = 0 skips it), and again with the scatter spreads
-    times each of ``scales`` (``check`` passes :data:`CHECK_SCALES`), and run every
-    design rule.
+             progress: Progress | None = None) -> Evaluation:
+    """Every stage of ``check`` computed now: ``Evaluation(design, EvalOptions(...))``
+    with its findings evaluated (``samples`` = 0 skips the jam probability; ``scales``:
+    the sensitivity sweep, ``check`` passes :data:`CHECK_SCALES`)."""
+    opts = EvalOptions(hinge_model=hinge_model, dt=dt, samples=samples, seed=seed, scales=check_scales(scales),
+                       thresholds=thresholds, workers=workers)
+    ev = Evaluation(design, opts, library=library, printer=printer, scatter=scatter, simulation=simulation,
+                    mapper=mapper, progress=progress)
+    ev.findings  # noqa: B018 - computes every stage the rules read
+    return ev
 
-    ``progress(stage, done, total)`` reports the Monte-Carlo samples; ``method`` is the
-    collision check of the fold and of every sample."""
-    lib = library or default_library()
-    pr = printer or load_printers()[default_printer_key()]
-    model = parse(HingeModel, hinge_model, "hinge_model")
-    method = parse(Method, method, "method")
-    if simulation is None:
-        simulation = simulate(design, dt=dt, method=method, hinge_model=model, library=lib)
-    try:
-        assembly, assembly_error = build_assembly(design, State.PERMANENT, lib), None
-    except GeometryError as exc:
-        assembly, assembly_error = None, str(exc)
-    # gaps of the printed state: the geometry export writes (arc hinges), whatever model
-    # the fold was simulated with
-    printed = SweptChecker(design, HingeModel.ARC, None)
-    poses = forward(design, target_angles(design)[None], HingeModel.ARC)[0]
-    gaps = tuple(gaps_in_pose(printed, poses, pr.min_gap_mm))
-    traj = simulation.trajectory
-    first = simulation.first_collision
-    checker = printed if model == HingeModel.ARC else SweptChecker(design, model, None)
-    clearance = min_clearance(checker, traj.times, traj.poses, t_end=None if first is None else first.time)
-    robust = None
-    if samples:
-        cb = (lambda done, total: progress("samples", done, total)) if progress else None
-        robust = jam_probability(design, samples, seed, scatter=scatter, library=lib, hinge_model=model,
-                                 dt=dt, nominal=simulation, workers=workers, progress=cb, mapper=mapper,
-                                 method=method)
-    points: tuple[SweepPoint, ...] = ()
-    if robust is not None and tuple(scales):
-        cb = (lambda done, total: progress("sigma scales", done, total)) if progress else None
-        points = sweep(design, robust, tuple(scales) + (1.0,), library=lib, dt=dt, workers=workers, mapper=mapper,
-                       progress=cb)
-    ctx = CheckContext(design, lib, pr, simulation, assembly, assembly_error, gaps, clearance, robust,
-                       thresholds, points)
-    return Evaluation(design, pr, simulation, assembly, assembly_error, gaps, clearance, robust,
-                      tuple(run_checks(ctx)), points)
+
+def build(design: Design, state: State | str = DEFAULT_STATE,
+          library: MaterialLibrary | None = None) -> Assembly:
+    """The printable part in ``state``: one watertight body per material."""
+    st = parse(State, state, "state")
+    return build_assembly(design, st.value, library or default_library())
+
+
+def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STATE,
+           formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
+           assembly: Assembly | None = None) -> list[dict]:
+    """Build ``design`` in ``state`` (or take the built ``assembly``) and write
+    ``formats`` into ``out_dir``: :meth:`Evaluation.export`."""
+    return Evaluation(design, library=library).export(out_dir, state, formats, assembly)
+
+
+def run_simulation(design: Design, *, library: MaterialLibrary | None = None, bath_c: float | None = None,
+                   duration: float | None = None, dt: float = DEFAULT_DT_S, method: Method | str = DEFAULT_METHOD,
+                   hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
+                   after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT,
+                   compare: bool = False) -> tuple[SimulationResult, Comparison | None]:
+    """The simulation, and (``compare``) the other hinge model's result when its verdict
+    (completes or not, first colliding pair) differs."""
+    ev = Evaluation(design, EvalOptions(hinge_model=hinge_model, method=method, after_contact=after_contact,
+                                        dt=dt, bath_c=bath_c, duration=duration), library=library)
+    return ev.simulation, (ev.comparison if compare else None)
+
+
+def printed_crossings(design: Design) -> list[tuple[str, str]]:
+    """:attr:`Evaluation.printed_crossings` of ``design``."""
+    return Evaluation(design).printed_crossings

@@ -122,3 +122,25 @@ def check_json(ev, printer_key: str) -> dict:
             "findings": [f.to_json() for f in findings],
             "robust": None if ev.robust is None else robust_json(ev.robust),
             "sensitivity": sweep_json(ev.sweep) if ev.sweep else None}
+
+
+def simulate_json(result, comparison=None, printed_crossings=()) -> dict:
+    """The ``foldprint simulate --json`` object: :func:`simulation_json` of the run, the
+    panel pairs that cross in the printed state (a part that cannot be printed is not "a
+    contact at t": issue 18), and the other hinge model's verdict when it differs (a
+    :class:`foldprint.apps.pipeline.Comparison`, left out when the part cannot be printed)."""
+    report = simulation_json(result)
+    crossing = [list(pair) for pair in printed_crossings]
+    report["printed_crossings"] = crossing
+    report["comparison"] = None if comparison is None or crossing else dict(
+        simulation_json(comparison.result, brief=True), hinge_model=comparison.hinge_model.value)
+    return report
+
+
+def robust_report_json(r, contributions=None, sweep=None) -> dict:
+    """The ``foldprint robust --json`` object: :func:`robust_json` with each component's
+    contribution and the sigma-scale sweep (None when not run)."""
+    out = robust_json(r)
+    out["contributions"] = None if contributions is None else contributions_json(contributions)
+    out["sensitivity"] = None if sweep is None else sweep_json(sweep)
+    return out

@@ -154,8 +154,7 @@ def simulate(
     Example: foldprint simulate helix_graded --json
     """
     from ..core.modes import AfterContact, HingeModel, Method
-    from ..apps.pipeline import printed_crossings, run_simulation
-    from ..checks.report import simulation_json
+    from ..apps.pipeline import EvalOptions, Evaluation
 
     m, model, after = (_mode(Method, method, "--method"), _mode(HingeModel, hinge_model, "--hinge-model"),
                        _mode(AfterContact, after_contact, "--after-contact"))
@@ -168,13 +167,10 @@ def simulate(
     if plot is not None:
         from ..exchange.files import ensure_dir
         ensure_dir(plot)
-    res, other = run_simulation(d, library=lib, bath_c=temperature, duration=duration, dt=dt, method=m,
-                                hinge_model=model, after_contact=after, compare=True)
-    report = simulation_json(res)
-    crossing = printed_crossings(d)  # issue 18: a part that cannot be printed is not "a contact at t"
-    report["printed_crossings"] = [list(pair) for pair in crossing]
-    report["comparison"] = None if other is None or crossing else dict(
-        simulation_json(other.result, brief=True), hinge_model=other.hinge_model.value)
+    ev = Evaluation(d, EvalOptions(hinge_model=model, method=m, after_contact=after, dt=dt, bath_c=temperature,
+                                   duration=duration), library=lib)
+    report = ev.simulation_json()  # with the printed crossings (issue 18) and the other hinge model's verdict
+    res, crossing = ev.simulation, ev.printed_crossings
     if plot is not None:
         from ..render.figures import collision_index_figure, hinge_angle_figure, save_figure
 
@@ -223,7 +219,7 @@ def check(
     """
     from ..checks.rules import Thresholds
     from ..core.modes import HingeModel
-    from ..apps.pipeline import evaluate
+    from ..apps.pipeline import EvalOptions, Evaluation, check_scales
     from ..simulation.robust import load_scatter
     from ..simulation.sensitivity import parse_scales
 
@@ -237,15 +233,14 @@ def check(
     key, pr = _printer(printer, printers_file)
     sc = load_scatter(scatter_file)
     d, lib = _load(design, materials_file, scale, crease_materials)
+    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=check_scales(ks), thresholds=th)
     with _samples_progress(f"{d.name}: scatter samples") as cb:
-        ev = evaluate(d, library=lib, printer=pr, hinge_model=model, samples=samples, seed=seed, scatter=sc,
-                      thresholds=th, scales=ks, progress=(lambda _s, done, total: cb(done, total)) if cb else None)
-    findings = ev.findings
+        ev = Evaluation(d, opts, library=lib, printer=pr, scatter=sc,
+                        progress=(lambda _s, done, total: cb(done, total)) if cb else None)
+        findings = ev.findings
     n_err = ev.errors
     if json_out:
-        from ..checks.report import check_json
-
-        _echo_json(check_json(ev, key))
+        _echo_json(ev.to_json(key))
     else:
         for f in findings:
             where = ", ".join(f"{k} {v}" for k, v in f.where.items())
@@ -283,9 +278,9 @@ def robust(
     Example: foldprint robust helix_uniform --samples 60 --seed 1 --sensitivity --json
     """
     from ..core.modes import HingeModel
-    from ..checks.report import contributions_json, robust_json, sweep_json
-    from ..simulation.robust import jam_probability, load_scatter
-    from ..simulation.sensitivity import contributions as contributions_of, parse_scales, sweep
+    from ..apps.pipeline import EvalOptions, Evaluation
+    from ..simulation.robust import load_scatter
+    from ..simulation.sensitivity import parse_scales
 
     model = _mode(HingeModel, hinge_model, "--hinge-model")
     _count(samples, "--samples", 1, MAX_SAMPLES)
@@ -294,21 +289,18 @@ def robust(
     ks = parse_scales(scales)
     sc = load_scatter(scatter_file)
     d, lib = _load(design, materials_file)
+    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=ks if sensitivity else ())
     with _mapper(scheduler) as mapper:
+        ev = Evaluation(d, opts, library=lib, scatter=sc, mapper=mapper)
         with _samples_progress(f"{d.name}: scatter samples") as cb:
-            r = jam_probability(d, samples, seed, scatter=sc, library=lib, hinge_model=model, progress=cb,
-                                mapper=mapper)
-        parts = None
+            ev.run_robust(cb)
         if contributions:
             with _samples_progress(f"{d.name}: one component at a time") as cb:
-                parts = contributions_of(d, r, library=lib, mapper=mapper, progress=cb)
-        curve = None
+                ev.run_contributions(cb)
         if sensitivity:
             with _samples_progress(f"{d.name}: sigma scales") as cb:
-                curve = sweep(d, r, ks, library=lib, mapper=mapper, progress=cb)
-    out = robust_json(r)
-    out["contributions"] = None if parts is None else contributions_json(parts)
-    out["sensitivity"] = None if curve is None else sweep_json(curve)
+                ev.run_sweep(cb)
+    out = ev.robust_json()
     if json_out:
         _echo_json(out)
         return
@@ -369,8 +361,35 @@ def assign(
 
     Example: foldprint assign helix_uniform --objective margin --top 3 --json
     """
-    from ..apps.assign import OBJECTIVES, assign as search, temperature_grid, with_materials
-    from ..checks.rules import Thresholds
+    from ..apps.assign import assign as search, with_materials
+
+    mats, temps, fixed_map = _assign_request(materials, temperature, temperature_range, fixed, objective, top,
+                                             budget, samples, workers, seed)
+    d, lib = _load(design)
+    with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: evaluations") as cb:
+        r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
+                   top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, workers=workers,
+                   progress=cb)
+    out = r.to_json()
+    if write is not None and r.best:
+        from ..io.design_io import design_to_toml
+        from ..exchange.files import write_atomic
+
+        b = r.best[0]
+        write_atomic(write, design_to_toml(with_materials(d, b.materials, b.bath_c, lib)))
+        _note(f"wrote {write}")
+    if json_out:
+        _echo_json(out)
+    else:
+        _print_assign(d.name, r, out, objective)
+    _assign_verdict(d.name, r, out, temperature_range is None)
+
+
+def _assign_request(materials, temperature, temperature_range, fixed, objective, top, budget, samples, workers,
+                    seed) -> tuple[list[str] | None, list[float] | None, dict[str, str]]:
+    """``assign``'s options checked: the materials to choose from, the bath temperatures
+    and the fixed hinges (FoldprintError naming the option)."""
+    from ..apps.assign import OBJECTIVES, temperature_grid
 
     if objective not in OBJECTIVES:
         raise FoldprintError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
@@ -396,57 +415,53 @@ def assign(
     mats = [m.strip() for m in materials.split(",") if m.strip()] if materials is not None else None
     if mats is not None and not mats:
         raise FoldprintError("--materials: give at least one material, e.g. H-1,H-4,H-7")
-    d, lib = _load(design)
     temps = None
     if temperature is not None:
         temps = [temperature]
     elif temperature_range is not None:
         temps = list(temperature_grid(*temperature_range))
-    with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: evaluations") as cb:
-        r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
-                   top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, workers=workers,
-                   progress=cb)
-    out = r.to_json()
-    if write is not None and r.best:
-        from ..io.design_io import design_to_toml
-        from ..exchange.files import write_atomic
+    return mats, temps, fixed_map
 
-        b = r.best[0]
-        write_atomic(write, design_to_toml(with_materials(d, b.materials, b.bath_c)))
-        _note(f"wrote {write}")
-    if json_out:
-        _echo_json(out)
-    else:
-        echo(f"{d.name}: {r.feasible} feasible assignment(s) in {r.evaluated} evaluations "
-             f"({r.evaluated / r.search_space:.2e} of {r.search_space}), objective {objective}")
-        for k, c in enumerate(out["best"], 1):
-            mats_s = ", ".join(f"{h}={m}" for h, m in c["assignment"].items())
-            extra = "" if c["jam_probability"] is None else f", jam probability {c['jam_probability']:.1%}"
-            clear = "-" if c["min_clearance_mm"] is None else f"{c['min_clearance_mm']:.2f} mm"
-            echo(f"  {k}. {mats_s} at {c['temperature_c']:g} C: folds in {c['fold_time_s']:.2f} s, "
-                 f"smallest clearance {clear}{extra}")
-        for b in out["blocking"][:5]:
-            if r.permanent_blocked:  # found before any evaluation: no count to give
-                echo(f"  blocking: {b['pair'][0]}-{b['pair'][1]} cross in the printed (permanent) state")
-                continue
-            what = f"{b['pair'][0]}-{b['pair'][1]} collide" if "pair" in b else f"goal {b['goal']} unmet"
-            echo(f"  blocking: {what} in {b['count']} of {r.evaluated} evaluation(s)")
+
+def _print_assign(name: str, r, out: dict, objective: str) -> None:
+    """``assign``'s human output: the best assignments and what blocks the others."""
+    echo(f"{name}: {r.feasible} feasible assignment(s) in {r.evaluated} evaluations "
+         f"({r.evaluated / r.search_space:.2e} of {r.search_space}), objective {objective}")
+    for k, c in enumerate(out["best"], 1):
+        mats_s = ", ".join(f"{h}={m}" for h, m in c["assignment"].items())
+        extra = "" if c["jam_probability"] is None else f", jam probability {c['jam_probability']:.1%}"
+        clear = "-" if c["min_clearance_mm"] is None else f"{c['min_clearance_mm']:.2f} mm"
+        echo(f"  {k}. {mats_s} at {c['temperature_c']:g} C: folds in {c['fold_time_s']:.2f} s, "
+             f"smallest clearance {clear}{extra}")
+    for b in out["blocking"][:5]:
+        if r.permanent_blocked:  # found before any evaluation: no count to give
+            echo(f"  blocking: {b['pair'][0]}-{b['pair'][1]} cross in the printed (permanent) state")
+            continue
+        what = f"{b['pair'][0]}-{b['pair'][1]} collide" if "pair" in b else f"goal {b['goal']} unmet"
+        echo(f"  blocking: {what} in {b['count']} of {r.evaluated} evaluation(s)")
+
+
+def _assign_verdict(name: str, r, out: dict, single_bath: bool) -> None:
+    """The hint for a cooler bath, and exit 1 naming what blocks when nothing is feasible."""
+    from ..checks.rules import Thresholds
+
     best_jam, warn = (r.best[0].jam_probability if r.best else None), Thresholds().warning
-    if best_jam is not None and best_jam > warn and temperature_range is None:
+    if best_jam is not None and best_jam > warn and single_bath:
         _note(f"the best jam probability {best_jam:.0%} is above {warn:.0%}: a cooler bath "
               "spreads the materials' fold times, try --temperature-range 75 90 (docs/assign.md)")
-    if not r.best:
-        top_block = out["blocking"][0] if out["blocking"] else None
-        if top_block is None:
-            why = "no candidate completed within the budget (raise --budget)"
-        elif "pair" in top_block:
-            why = (f"panels {top_block['pair'][0]} and {top_block['pair'][1]} "
-                   + ("cross in the printed (permanent) state" if r.permanent_blocked else
-                      f"collide first in {top_block['count']} of {r.evaluated} evaluations"))
-        else:
-            why = f"goal {top_block['goal']} is not met in order in {top_block['count']} evaluations"
-        _err(f"{d.name}: no feasible assignment: {why}")
-        raise ExitCode(1)
+    if r.best:
+        return
+    top_block = out["blocking"][0] if out["blocking"] else None
+    if top_block is None:
+        why = "no candidate completed within the budget (raise --budget)"
+    elif "pair" in top_block:
+        why = (f"panels {top_block['pair'][0]} and {top_block['pair'][1]} "
+               + ("cross in the printed (permanent) state" if r.permanent_blocked else
+                  f"collide first in {top_block['count']} of {r.evaluated} evaluations"))
+    else:
+        why = f"goal {top_block['goal']} is not met in order in {top_block['count']} evaluations"
+    _err(f"{name}: no feasible assignment: {why}")
+    raise ExitCode(1)
 
 
 @app.command()
@@ -468,7 +483,7 @@ def export(
     Example: foldprint export helix_graded --format 3mf,stl --json
     """
     from ..exchange.export import FORMATS
-    from ..apps.pipeline import export as export_design
+    from ..apps.pipeline import EvalOptions, Evaluation
 
     if state not in ("permanent", "programmed"):
         raise FoldprintError(f"--state must be permanent or programmed, got {state!r}")
@@ -480,7 +495,8 @@ def export(
     d, lib = _load(design, materials_file, scale, crease_materials)
     out_dir = out if out is not None else Path("output") / d.name
     records = _with_progress(f"building {d.name} ({state})",
-                             lambda: export_design(d, out_dir, state, fmts, lib))
+                             lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts)),
+                                                library=lib).export(out_dir))
     if json_out:
         _echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records})
     else:

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.constants import CLEARANCE_SAMPLES
+from ..model.derived import scoped
 from .swept3d import SweptChecker, non_adjacent_pairs
 from .swept3d import min_clearance as swept_min_clearance
 from .rigid import rigid_polygon
@@ -94,7 +96,7 @@ def gaps_in_pose(checker: SweptChecker, poses: np.ndarray, within_mm: float,
 
 
 def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
-                  n_samples: int = 200, t_end: float | None = None) -> Gap | None:
+                  n_samples: int = CLEARANCE_SAMPLES, t_end: float | None = None) -> Gap | None:
     """The smallest gap between non-adjacent panels over ``n_samples`` poses of the
     trajectory up to ``t_end`` (default: its end), or None for a design with no such pair.
     The search over those poses is :func:`foldprint.collision.swept3d.min_clearance` (exact,
@@ -113,6 +115,7 @@ def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
                None if point is None else tuple(float(x) for x in point))
 
 
+@scoped
 def permanent_crossings(design) -> list[tuple[str, str]]:
     """Pairs of non-adjacent panels that overlap in the printed (permanent) state of the
     printed geometry (arc hinges at their target angles): such a part can never be printed

@@ -11,6 +11,7 @@ import numpy as np
 import shapely
 from shapely.geometry import LineString, Polygon
 
+from ..model.derived import derived
 from ..model.design import Design
 from ..core.errors import GeometryError
 from ..core.modes import HingeModel
@@ -24,9 +25,11 @@ def rigid_polygon(design: Design, index: int, model: HingeModel):
 
 
 def _rigid_polygons(design: Design, model: HingeModel) -> list:
-    cache = design.__dict__.setdefault("_rigid_cache", {})
-    if model in cache:
-        return cache[model]
+    """Every panel's rigid polygon, once per active derived-data cache."""
+    return derived(design, ("rigid_polygons", str(model)), lambda: _compute_rigid_polygons(design, model))
+
+
+def _compute_rigid_polygons(design: Design, model: HingeModel) -> list:
     try:  # vertex reliefs are part of the printed panels
         design = relieve(design)
     except GeometryError:  # a relief design-rule failure is export's and check's to report
@@ -45,7 +48,6 @@ def _rigid_polygons(design: Design, model: HingeModel) -> list:
         if poly.geom_type == "MultiPolygon":  # keep the largest piece; report the rest
             poly = max(poly.geoms, key=lambda g: g.area)
         out.append(shapely.normalize(poly) if not poly.is_empty else poly)
-    cache[model] = out
     return out
 
 

@@ -83,3 +83,7 @@ EXPORT_FORMATS = ("3mf", "prusa3mf", "stl")
 CHECK_SCALES = (0.5, 2.0)
 #: The sigma scales ``foldprint robust --sensitivity`` sweeps by default.
 SWEEP_SCALES = (0.5, 1.0, 2.0)
+#: Poses sampled along a fold for its smallest clearance (check, the gallery and assign's
+#: confirmed finalists): an even spread over the run, refined exactly between the two
+#: nearest samples (:func:`foldprint.collision.clearance.min_clearance`).
+CLEARANCE_SAMPLES = 200

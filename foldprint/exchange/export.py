@@ -26,6 +26,7 @@ from typing import Iterable
 
 import numpy as np
 
+from ..model.derived import scoped
 from ..model.design import Design
 from ..core.constants import EXPORT_FORMATS
 from ..core.errors import ExportError
@@ -33,7 +34,7 @@ from ..core.modes import State
 from ..geometry import Assembly, bed_report
 from ..physics.kinematics import Trajectory
 from ..model.materials import MaterialLibrary, default_library
-from .fem import inp_bytes
+from .fem import PlacedState, inp_bytes
 from .files import write_set
 from .fold import fold_bytes
 from .gltf import glb_bytes
@@ -93,21 +94,32 @@ def body_records(assembly: Assembly, files: dict[str, list[str]] | None = None) 
     return out
 
 
-def _needs_trajectory(formats, trajectory) -> None:
+def _needs_trajectory(formats, trajectory, fold_times=None, placed=None) -> None:
     need = [f for f in formats if f in TRAJECTORY_FORMATS]
     if need and trajectory is None:
         raise ExportError(f"format(s) {need} show the fold over time and need its simulated trajectory; "
                           "export through foldprint.apps.pipeline.export, which runs the simulation")
+    if "stl" in formats and fold_times is None:
+        raise ExportError("format stl writes a manifest with each hinge's fold time and needs them "
+                          "(foldprint.physics.recovery.hinge_fold_times); export through "
+                          "foldprint.apps.pipeline.export, which computes them")
+    if "inp" in formats and placed is None:
+        raise ExportError("format inp meshes the strip in its placed state and needs it (fem.PlacedState); "
+                          "export through foldprint.apps.pipeline.export, which places it")
 
 
 def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_FORMATS,
            library: MaterialLibrary | None = None,
-           trajectory: Trajectory | None = None) -> list[tuple[str, bytes, str, list[dict], dict]]:
+           trajectory: Trajectory | None = None,
+           fold_times: dict | None = None,
+           placed: PlacedState | None = None) -> list[tuple[str, bytes, str, list[dict], dict]]:
     """The files of an export in memory: (file name, bytes, format, bodies, extra record
-    fields). ``trajectory`` (the simulated fold) is needed by :data:`TRAJECTORY_FORMATS`."""
+    fields). ``trajectory`` (the simulated fold) is needed by :data:`TRAJECTORY_FORMATS`,
+    ``fold_times`` (each hinge's, by id) by stl's manifest, ``placed`` (the state's poses)
+    by inp: the writers compute none of them."""
     lib = library or default_library()
     formats = check_formats(formats)
-    _needs_trajectory(formats, trajectory)
+    _needs_trajectory(formats, trajectory, fold_times, placed)
     st = stem(design, assembly.state)
     every = [b.material for b in assembly.bodies]
     out: list[tuple[str, bytes, str, list[str]]] = []  # (name, data, format, materials held)
@@ -124,11 +136,11 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
             out.append((name, stl_bytes(b, f"{design.name} {b.material} {assembly.state} mm"), "stl",
                         [b.material]))
         man = "manifest.json" if assembly.state == State.PERMANENT else f"manifest_{assembly.state}.json"
-        out.append((man, manifest(design, assembly, names, lib).encode("utf-8"), "manifest", every))
+        out.append((man, manifest(design, assembly, names, fold_times, lib).encode("utf-8"), "manifest", every))
     if "fold" in formats:  # the crease pattern: the same for both states
         out.append((f"{safe_name(design.name)}.fold", fold_bytes(design), "fold", every))
     if "inp" in formats:  # FE mesh of the strip's side profile (panels and hinges)
-        data, quality = inp_bytes(design, assembly.state)
+        data, quality = inp_bytes(design, placed)
         extra[f"{st}.inp"] = {"mesh": quality}
         out.append((f"{st}.inp", data, "inp", every))
     if trajectory is not None and any(f in TRAJECTORY_FORMATS for f in formats):
@@ -159,9 +171,11 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
             for name, data, fmt, mats in out]
 
 
+@scoped
 def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
                     formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
-                    trajectory: Trajectory | None = None) -> list[dict]:
+                    trajectory: Trajectory | None = None, fold_times: dict | None = None,
+                    placed: PlacedState | None = None) -> list[dict]:
     """Write ``formats`` (see :data:`FORMATS`) of a built assembly into ``out_dir``
     (created if needed; ExportError if it cannot be). Returns one record per file
     written: {path, format, bodies, bytes, ...}; format is one of :data:`FORMATS`,
@@ -171,7 +185,7 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
     The files land as a whole (:func:`~foldprint.exchange.files.write_set`): an
     interrupted export leaves the previous complete set or the new one, never a mix, and
     nothing is created when the export fails."""
-    files = render(design, assembly, formats, library, trajectory)
+    files = render(design, assembly, formats, library, trajectory, fold_times, placed)
     paths = write_set(out_dir, [(name, data) for name, data, *_ in files])
     return [{"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data), **more}
             for path, (name, data, fmt, bodies, more) in zip(paths, files)]

@@ -11,8 +11,9 @@ quadrilaterals:
   rows through the thickness at most ``element_size`` and at most t_min / ``through``
   apart; all blocks share one set of through-thickness levels, so a thinner block's rows
   are a subset of a thicker neighbour's and the mesh is conforming at every interface;
-* panels are placed with the arc-model poses (:func:`foldprint.physics.kinematics.forward`), hinge
-  nodes with the arc map across the strip (:func:`foldprint.geometry.arc_transform`);
+* panels are placed with the arc-model poses of the state, which the writer is given
+  (:class:`PlacedState`: the pipeline runs the kinematics), hinge nodes with the arc map
+  across the strip (:func:`foldprint.geometry.arc_transform`);
 * element sets: ``MAT_<material>`` per material (panels and each hinge material),
   ``HINGE_<id>`` per hinge, ``PANEL_<id>`` per panel; node sets ``ROOT`` (the clamped root
   panel) and ``ALL``;
@@ -31,6 +32,7 @@ import io
 import math
 import re
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import meshio
@@ -39,9 +41,7 @@ import numpy as np
 from .. import __version__
 from ..model.design import Design
 from ..core.errors import ExportError
-from ..core.modes import DEFAULT_STATE, HingeModel, State
-from ..geometry import MAX_SLICE_RAD, arc_transform, state_angles
-from ..physics.kinematics import forward, hinge_frames
+from ..geometry import MAX_SLICE_RAD, arc_transform
 
 #: Default element size (mm) along the strip and the largest through the thickness.
 ELEMENT_SIZE_MM = 0.25
@@ -69,7 +69,20 @@ def _levels(thicknesses: list[float], size: float, through: int) -> np.ndarray:
     return np.array(out)
 
 
-def _check_strip(design: Design) -> None:
+@dataclass(frozen=True)
+class PlacedState:
+    """A build state as the kinematics places it (arc hinges), given to the writer:
+    ``state``, the hinge ``angles`` (rad, ``design.hinges`` order), the hinge ``frames``
+    (tree order) and every panel's ``poses`` (n_panels, 4, 4)."""
+
+    state: str
+    angles: np.ndarray
+    frames: tuple
+    poses: np.ndarray
+
+
+def check_strip(design: Design) -> None:
+    """ExportError unless the inp export can mesh ``design`` (a planar strip, plain hinges)."""
     if not design.is_planar_strip:
         raise ExportError(f"design {design.name!r}: the Abaqus (inp) export meshes the side profile of a "
                           "planar strip (every fold line parallel to y); this design is not one")
@@ -79,9 +92,19 @@ def _check_strip(design: Design) -> None:
                               "plain hinges only (a thickness jump along the strip is not a structured block)")
 
 
-def _strip_blocks(design: Design, frames, angles: np.ndarray, element_size: float) -> list[tuple]:
-    """The strip in the sheet: hinge strips [xf - w/2, xf + w/2], the panels' rigid parts
-    between; per block (kind, id, material, x stations, thickness, frame or panel index)."""
+def strip_mesh(design: Design, placed: PlacedState, element_size: float = ELEMENT_SIZE_MM,
+               through: int = THROUGH_THICKNESS):
+    """The side-profile mesh of the state ``placed``: ``points`` (n, 2) (world x, z) mm,
+    ``quads`` (m, 4) counter-clockwise, element sets and node sets (name -> indices), and
+    quality figures."""
+    if not (element_size > 0 and math.isfinite(element_size)):
+        raise ExportError(f"element size must be a positive number of mm, got {element_size!r}")
+    if through < 1:
+        raise ExportError(f"elements through the thickness must be >= 1, got {through!r}")
+    check_strip(design)
+    angles, frames, poses = placed.angles, placed.frames, placed.poses
+    pidx = design.panel_index()
+    # the strip in the sheet: hinge strips [xf - w/2, xf + w/2], panels' rigid parts between
     cut: dict[int, list[float]] = {k: [float(p.outline[:, 0].min()), float(p.outline[:, 0].max())]
                                    for k, p in enumerate(design.panels)}
     blocks = []
@@ -106,34 +129,23 @@ def _strip_blocks(design: Design, frames, angles: np.ndarray, element_size: floa
             raise ExportError(f"panel {p.id!r}: nothing rigid is left between its hinge strips")
         n = max(math.ceil((hi - lo) / element_size - 1e-9), 1)
         blocks.append(("panel", p.id, p.material, np.linspace(lo, hi, n + 1), p.thickness, k))
-    return blocks
-
-
-def _station_pose(kind: str, ref, x: float, poses: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """The pose of the cross-section at sheet x: the panel's, or the arc's at that station."""
-    if kind == "panel":
-        return poses[ref]
-    f = ref
-    s = 1.0 if f.normal[0] > 0 else -1.0
-    u = min(max(s * (x - float(f.hinge.line[0][0])) + f.width / 2, 0.0), f.width)
-    return poses[f.parent] @ arc_transform(f, float(angles[f.index]), u)
-
-
-def _mesh_blocks(design: Design, blocks: list, levels: np.ndarray, poses: np.ndarray,
-                 angles: np.ndarray) -> tuple[list, list, dict, set]:
-    """Nodes (world x, z; shared where blocks meet), quads, the element sets and the nodes of
-    the root panel."""
+    levels = _levels([b[4] for b in blocks], element_size, through)
     key_of: dict[tuple[float, int], int] = {}
     points: list[np.ndarray] = []
     quads: list[list[int]] = []
     cell_sets: dict[str, list[int]] = {}
     root_nodes: set[int] = set()
-    root = design.panel_index()[design.root]
     for kind, bid, material, xs, t, ref in blocks:
         rows = np.nonzero(np.abs(levels) <= t / 2 + 1e-9)[0]
         ids = np.empty((len(xs), len(rows)), dtype=np.int64)
         for i, x in enumerate(xs):
-            pose = _station_pose(kind, ref, x, poses, angles)
+            if kind == "panel":
+                pose = poses[ref]
+            else:
+                f = ref
+                s = 1.0 if f.normal[0] > 0 else -1.0
+                u = min(max(s * (x - float(f.hinge.line[0][0])) + f.width / 2, 0.0), f.width)
+                pose = poses[f.parent] @ arc_transform(f, float(angles[f.index]), u)
             for j, r in enumerate(rows):
                 key = (round(float(x), 9), int(r))
                 if key not in key_of:
@@ -148,15 +160,11 @@ def _mesh_blocks(design: Design, blocks: list, levels: np.ndarray, poses: np.nda
         members = list(range(first, len(quads)))
         cell_sets.setdefault(set_name("MAT", material), []).extend(members)
         cell_sets[set_name("HINGE" if kind == "hinge" else "PANEL", bid)] = members
-        if kind == "panel" and ref == root:
+        if kind == "panel" and ref == pidx[design.root]:
             root_nodes.update(ids.ravel().tolist())
-    return points, quads, cell_sets, root_nodes
-
-
-def _oriented(design: Design, pts: np.ndarray, quads: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Quads counter-clockwise in (x, z) of the sheet (all flipped if the world view
-    mirrors), their corners and corner Jacobians; an inverted element is refused."""
+    pts = np.array(points)
     q = np.array(quads, dtype=np.int64)
+    # orientation: counter-clockwise in (x, z) of the sheet; flip all if the world view mirrors
     c = pts[q]
     jac = _corner_jacobians(c)
     if np.median(jac) < 0:
@@ -167,26 +175,6 @@ def _oriented(design: Design, pts: np.ndarray, quads: list) -> tuple[np.ndarray,
         bad = int(np.argmin(jac.min(axis=1)))
         raise ExportError(f"design {design.name!r}: inp mesh element {bad + 1} is inverted or degenerate "
                           f"(corner Jacobian {jac.min():.3g} mm^2); use a smaller element size")
-    return q, c, jac
-
-
-def strip_mesh(design: Design, state: State = DEFAULT_STATE, element_size: float = ELEMENT_SIZE_MM,
-               through: int = THROUGH_THICKNESS):
-    """The side-profile mesh: ``points`` (n, 2) (world x, z) mm, ``quads`` (m, 4) counter-
-    clockwise, element sets and node sets (name -> indices), and quality figures."""
-    if not (element_size > 0 and math.isfinite(element_size)):
-        raise ExportError(f"element size must be a positive number of mm, got {element_size!r}")
-    if through < 1:
-        raise ExportError(f"elements through the thickness must be >= 1, got {through!r}")
-    _check_strip(design)
-    angles = state_angles(design, state)
-    frames = hinge_frames(design)
-    poses = forward(design, angles[None], HingeModel.ARC, frames)[0]
-    blocks = _strip_blocks(design, frames, angles, element_size)
-    levels = _levels([b[4] for b in blocks], element_size, through)
-    points, quads, cell_sets, root_nodes = _mesh_blocks(design, blocks, levels, poses, angles)
-    pts = np.array(points)
-    q, c, jac = _oriented(design, pts, quads)
     edges = np.linalg.norm(np.roll(c, -1, axis=1) - c, axis=2)
     aspect = edges.max(axis=1) / edges.min(axis=1)
     quality = {"nodes": int(len(pts)), "elements": int(len(q)), "worst_aspect_ratio": round(float(aspect.max()), 4),
@@ -204,10 +192,11 @@ def _corner_jacobians(c: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
-def inp_bytes(design: Design, state: State = DEFAULT_STATE, element_size: float = ELEMENT_SIZE_MM,
+def inp_bytes(design: Design, placed: PlacedState, element_size: float = ELEMENT_SIZE_MM,
               through: int = THROUGH_THICKNESS) -> tuple[bytes, dict]:
-    """The Abaqus input (bytes) and its mesh quality figures."""
-    pts, q, cell_sets, point_sets, quality = strip_mesh(design, state, element_size, through)
+    """The Abaqus input (bytes) of the state ``placed`` and its mesh quality figures."""
+    state = placed.state
+    pts, q, cell_sets, point_sets, quality = strip_mesh(design, placed, element_size, through)
     mesh = meshio.Mesh(pts, [("quad", q)], cell_sets={k: [v] for k, v in cell_sets.items()},
                        point_sets=point_sets)
     # meshio names a "quad" CAX4P (an axisymmetric pore-pressure element) and has no

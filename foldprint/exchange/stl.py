@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from typing import Mapping
 
 import numpy as np
 
@@ -16,7 +17,6 @@ from .. import __version__
 from ..model.design import Design
 from ..geometry import Assembly, Body
 from ..model.materials import MaterialLibrary, default_library
-from ..physics.recovery import fold_time
 
 _RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attr", "<u2")])
 
@@ -46,15 +46,15 @@ def _finite_or_none(x):
     return None if x is None or not math.isfinite(x) else round(float(x), 3)
 
 
-def programming(design: Design, library: MaterialLibrary | None = None) -> dict:
+def programming(design: Design, fold_times: Mapping[str, float | None]) -> dict:
     """The programming and recovery protocol, with the expected fold time: the slowest
-    hinge's 98 % recovery time (s), or None when a hinge does not fold in the bath."""
-    lib = library or default_library()
+    hinge's 98 % recovery time (s), or None when a hinge does not fold in the bath.
+    ``fold_times``: each hinge's 98 % time by id
+    (:func:`foldprint.physics.recovery.hinge_fold_times`, passed by the pipeline)."""
     pr = design.process
     per_hinge = {}
     for h in design.hinges:
-        t = fold_time(lib[h.material], pr.bath_temperature_c, h.thickness, pr.fix_temperature_c)
-        per_hinge[h.id] = _finite_or_none(t)
+        per_hinge[h.id] = _finite_or_none(fold_times[h.id])
     times = list(per_hinge.values())
     expected = None if (not times or any(t is None for t in times)) else max(times)
     return {
@@ -76,10 +76,11 @@ def _bbox(lo, hi) -> dict:
     return {"min": [round(float(x), 6) for x in lo], "max": [round(float(x), 6) for x in hi]}
 
 
-def manifest(design: Design, assembly: Assembly, files: dict[str, str],
+def manifest(design: Design, assembly: Assembly, files: dict[str, str], fold_times: Mapping[str, float | None],
              library: MaterialLibrary | None = None, frame_offset=(0.0, 0.0, 0.0)) -> str:
     """``manifest.json`` text: bodies (file, material, volume), materials, bounding box,
-    programming protocol. ``files`` maps material -> STL file name."""
+    programming protocol with the hinges' ``fold_times`` (s, by hinge id). ``files`` maps
+    material -> STL file name."""
     lib = library or default_library()
     bodies, materials = [], []
     for k, b in enumerate(assembly.bodies):
@@ -106,6 +107,6 @@ def manifest(design: Design, assembly: Assembly, files: dict[str, str],
         "materials": materials,
         "total_volume_mm3": round(assembly.volume, 6),
         "bounding_box": _bbox(lo, hi),
-        "programming": programming(design, lib),
+        "programming": programming(design, fold_times),
     }
     return json.dumps(doc, indent=2, sort_keys=False) + "\n"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import manifold3d as mf
 import numpy as np
 
+from ..model.derived import scoped
 from ..model.design import Design
 from ..core.errors import GeometryError
 from ..core.modes import DEFAULT_STATE, State
@@ -92,6 +93,7 @@ def _overlap_message(units: list[Piece], state: State) -> str:
     return f"{state} state: pieces overlap"
 
 
+@scoped
 def build_assembly(design: Design, state: State = DEFAULT_STATE, library: MaterialLibrary | None = None,
                    check: bool = True) -> Assembly:
     """One watertight body per material for a state (``permanent`` or ``programmed``).

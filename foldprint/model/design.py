@@ -28,6 +28,7 @@ from ..core.constants import (DEFAULT_BATH_C, DEFAULT_DEPTH_MM, DEFAULT_DURATION
 from ..core import schema
 from ..core.errors import DesignError, where
 from ..core.modes import DEFAULT_INTERFACE, Interface
+from .derived import derived
 from .materials import MaterialLibrary, default_library
 
 SCHEMA_VERSION = 1
@@ -162,7 +163,7 @@ class Goal:
 
 @dataclass(frozen=True, eq=False)
 class Design:
-    """A complete design: immutable; build variants with :func:`dataclasses.replace`."""
+    """A complete design: immutable; build variants with :meth:`replace` (validated)."""
 
     name: str
     panels: tuple[Panel, ...]
@@ -180,6 +181,14 @@ class Design:
         object.__setattr__(self, "goals", tuple(self.goals))
         if not self.root and self.panels:
             object.__setattr__(self, "root", self.panels[0].id)
+
+    def replace(self, library: MaterialLibrary | None = None, **changes) -> "Design":
+        """A variant of this design with ``changes`` (fields of :class:`Design`), validated
+        like a loaded design (:func:`validate`, against ``library``, default: the shipped
+        one); :func:`dataclasses.replace` alone would skip the validation."""
+        from dataclasses import replace
+
+        return validate(replace(self, **changes), library)
 
     # -- lookups -------------------------------------------------------------------
     def panel(self, pid: str) -> Panel:
@@ -312,8 +321,14 @@ def spanning_tree(design: Design) -> tuple[list[tuple[Hinge, str, str]], list[tu
 
     Returns ``(tree, loops)``: tree entries are (hinge, parent id, child id) root outward;
     loop entries are (hinge, panel a, panel b) with a, b = ``hinge.panels``. Raises
-    DesignError when some panel is not connected to the root.
+    DesignError when some panel is not connected to the root. Computed once per active
+    derived-data cache (:mod:`foldprint.model.derived`).
     """
+    tree, loops = derived(design, ("spanning_tree",), lambda: _spanning_tree(design))
+    return list(tree), list(loops)
+
+
+def _spanning_tree(design: Design) -> tuple[tuple, tuple]:
     src = where(design.source)
     adj: dict[str, list[Hinge]] = {p.id: [] for p in design.panels}
     for h in design.hinges:
@@ -341,7 +356,7 @@ def spanning_tree(design: Design) -> tuple[list[tuple[Hinge, str, str]], list[tu
             f"{src}the hinge graph is not connected: panels {missing} are not joined to root "
             f"{design.root!r}; add a hinge joining them to the rest")
     loops = [(h, h.panels[0], h.panels[1]) for h in design.hinges if h.id not in used]
-    return order, loops
+    return tuple(order), tuple(loops)
 
 
 def tree_order(design: Design) -> list[tuple[Hinge, str, str]]:

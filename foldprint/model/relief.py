@@ -12,6 +12,7 @@ import math
 import numpy as np
 import shapely
 
+from .derived import derived
 from .design import Design
 from ..core.errors import GeometryError
 
@@ -120,22 +121,20 @@ def relieve(design: Design, factor: float = RELIEF_FACTOR, clearance: float = RE
     is cut from the panels, so the hinge strips and panels of a vertex stay disjoint.
     Raises GeometryError when the relief eats a hinge or leaves a panel thinner than
     ``min_wall`` mm. A design without such vertices is returned unchanged."""
-    from dataclasses import replace
+    return derived(design, ("relieve", factor, clearance, min_wall),
+                   lambda: _relieve(design, factor, clearance, min_wall))
 
-    cache = design.__dict__.setdefault("_relief_cache", {})
-    key = (factor, clearance, min_wall)
-    if key in cache:
-        return cache[key]
+
+def _relieve(design: Design, factor: float, clearance: float, min_wall: float) -> Design:
+    from dataclasses import replace  # the relieved panels of a validated design: a derived value
+
     verts = relief_vertices(design)
     lines = [np.array(h.line, float) for h in design.hinges]
     own = _border_extensions(design, lines)
     if not verts and not own:
-        cache[key] = design
         return design
     hole = shapely.union_all([_vertex_hole(design, v, hs, lines, factor, clearance) for v, hs in verts.items()])
     panels = [_relieved_panel(p, shapely.union_all([hole, *own.get(p.id, [])]), min_wall)
               for p in design.panels]
     hinges = [replace(h, line=lines[k]) for k, h in enumerate(design.hinges)]
-    out = replace(design, panels=tuple(panels), hinges=tuple(hinges))
-    cache[key] = out
-    return out
+    return replace(design, panels=tuple(panels), hinges=tuple(hinges))

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.derived import derived
 from ..model.design import Design, Hinge, has_loops, spanning_tree, tangent_factor
 from ..core.constants import DEFAULT_DT_S
 from ..core.errors import DesignError
@@ -58,7 +59,12 @@ class HingeFrame:
 
 def hinge_frames(design: Design) -> list[HingeFrame]:
     """Every hinge with its axes: the spanning tree's hinges in tree order (root outward),
-    then the hinges closing loops (``tree=False``, parent/child = ``hinge.panels``)."""
+    then the hinges closing loops (``tree=False``, parent/child = ``hinge.panels``).
+    Computed once per active derived-data cache (:mod:`foldprint.model.derived`)."""
+    return list(derived(design, ("hinge_frames",), lambda: tuple(_hinge_frames(design))))
+
+
+def _hinge_frames(design: Design) -> list[HingeFrame]:
     pidx = design.panel_index()
     hidx = {h.id: i for i, h in enumerate(design.hinges)}
     frames = []
@@ -290,6 +296,14 @@ class HingeDrive:
             self._stack = np.stack([c.ratio for c in self.curves], axis=1) if self.curves else None
         else:  # pragma: no cover - custom horizons
             self._stack = None
+
+    def copy(self) -> "HingeDrive":
+        """The same drive with no hinge arrested (shares the curves and the loop solver)."""
+        import copy
+
+        out = copy.copy(self)
+        out.frozen_at = {}
+        return out
 
     def ratios(self, t) -> np.ndarray:
         """Recovery ratios (n_t, n_hinges) at times ``t``; arrested hinges hold their value."""

@@ -203,6 +203,18 @@ def recovery_ratio(t, material: Material, bath_c: float, thickness_mm: float = D
     return recovery_curve(material, bath_c, thickness_mm, initial_c)(t)
 
 
+def hinge_fold_times(design, library=None) -> dict[str, float | None]:
+    """Each hinge's 98 % recovery time (s) in the design's bath, None where it does not
+    fold within the model horizon: what an export's manifest reports (the exporter is
+    given these; it does not run the recovery model)."""
+    from ..model.materials import default_library
+
+    lib = library or default_library()
+    pr = design.process
+    return {h.id: fold_time(lib[h.material], pr.bath_temperature_c, h.thickness, pr.fix_temperature_c)
+            for h in design.hinges}
+
+
 def fold_time(material: Material, bath_c: float, thickness_mm: float = DEFAULT_THICKNESS_MM,
               initial_c: float = DEFAULT_FIX_C, level: float = FOLD_LEVEL) -> float | None:
     """Time (s) to reach ``level`` recovery, or None when the hinge does not fold

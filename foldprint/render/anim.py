@@ -8,6 +8,7 @@ import logging
 
 import numpy as np
 
+from ..model.derived import scoped
 from ..model.materials import MaterialLibrary, default_library
 from .stills import _TITLE_IN, Painter, View, bounds, new_figure, title
 from .scene import camera_for, contact_state, motion_end, poses_at, scene
@@ -15,6 +16,7 @@ from .scene import camera_for, contact_state, motion_end, poses_at, scene
 log = logging.getLogger(__name__)
 
 
+@scoped
 def fold_animation_gif(result, n_frames: int = 40, *, dpi: float = 72.0,
                        max_size_in: tuple[float, float] = (7.0, 5.0), frame_ms: int = 90,
                        library: MaterialLibrary | None = None) -> bytes:

@@ -18,6 +18,7 @@ from typing import Iterable
 import numpy as np
 
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel, State
+from ..model.derived import derived
 from ..model.design import Design
 from ..physics.kinematics import forward, hinge_frames, hinge_map, target_angles
 from ..model.materials import MaterialLibrary
@@ -75,28 +76,29 @@ class Scene:
 
 def _rings(design: Design, model: HingeModel) -> list[tuple[np.ndarray, ...]]:
     """Outline and hole rings (sheet frame, outline counter-clockwise) of each rigid panel
-    part, cached on the design."""
+    part, once per active derived-data cache (:mod:`foldprint.model.derived`)."""
+    return derived(design, ("render_rings", str(model)), lambda: _compute_rings(design, model))
+
+
+def _compute_rings(design: Design, model: str) -> list[tuple[np.ndarray, ...]]:
     import shapely
 
     from ..collision.rigid import rigid_polygon
 
-    cache = design.__dict__.setdefault("_render_scene_cache", {})
-    if model not in cache:
-        out = []
-        for i in range(len(design.panels)):
-            poly = rigid_polygon(design, i, model)
-            if poly.is_empty:
-                out.append(())
-                continue
-            polys = list(getattr(poly, "geoms", [poly]))
-            rings = []
-            for p in polys:
-                p = shapely.orient_polygons(p)
-                rings.append(np.asarray(p.exterior.coords)[:-1])
-                rings.extend(np.asarray(r.coords)[:-1] for r in p.interiors)
-            out.append(tuple(rings))
-        cache[model] = out
-    return cache[model]
+    out = []
+    for i in range(len(design.panels)):
+        poly = rigid_polygon(design, i, model)
+        if poly.is_empty:
+            out.append(())
+            continue
+        polys = list(getattr(poly, "geoms", [poly]))
+        rings = []
+        for p in polys:
+            p = shapely.orient_polygons(p)
+            rings.append(np.asarray(p.exterior.coords)[:-1])
+            rings.extend(np.asarray(r.coords)[:-1] for r in p.interiors)
+        out.append(tuple(rings))
+    return out
 
 
 @functools.lru_cache(maxsize=256)
@@ -144,10 +146,7 @@ def scene(design: Design, poses: np.ndarray, model: HingeModel, lib: MaterialLib
         sc.face_colors.append(_shade(base, pose[:3, 2]))
         sc.edge_colors.append(CONTACT_COLOR if i in hl else base * 0.4)
         sc.edge_widths.append(1.6 if i in hl else 0.7)
-    cache = design.__dict__.setdefault("_render_scene_cache", {})
-    if "frames" not in cache:
-        cache["frames"] = hinge_frames(design)
-    for f in cache["frames"]:
+    for f in hinge_frames(design):
         h = f.hinge
         color = material_rgb(lib, h.material)
         pp, pc = poses[f.parent], poses[f.child]

@@ -17,6 +17,7 @@ from typing import Sequence
 import numpy as np
 
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
+from ..model.derived import scoped
 from ..model.design import Design
 from ..model.materials import MaterialLibrary, default_library
 from .scene import (Camera, Scene, camera_for, contact_state, frame_times, motion_end,  # noqa: F401
@@ -147,6 +148,7 @@ def _as_poses(poses) -> np.ndarray:
     return p
 
 
+@scoped
 def render_state(design: Design, poses, title_text: str, *, model: HingeModel = DEFAULT_HINGE_MODEL,
                  highlight: Sequence[int] = (), library: MaterialLibrary | None = None,
                  max_size_in: tuple[float, float] = (7.0, 6.0), dpi: float = 100.0):
@@ -187,6 +189,7 @@ def render_state(design: Design, poses, title_text: str, *, model: HingeModel = 
     return fig
 
 
+@scoped
 def render_frames(result, n: int = 4, *, library: MaterialLibrary | None = None,
                   dpi: float = 100.0):
     """``n`` mid-fold frames (:func:`frame_times`) in one figure, same camera and scale;

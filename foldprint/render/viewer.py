@@ -31,6 +31,7 @@ from importlib import resources
 import numpy as np
 
 from ..core.modes import HingeModel, JamReason, State
+from ..model.derived import scoped
 from ..model.design import Design
 from ..physics.kinematics import forward, hinge_frames, hinge_map, target_angles
 from ..model.materials import MaterialLibrary
@@ -173,6 +174,7 @@ def worst_text(replay) -> str:
     return f"no sample jams; the slowest fold ({o.fold_time:.2f} s)"
 
 
+@scoped
 def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRAMES, worst=None) -> dict:
     """Everything the page draws, as JSON-ready data.
 

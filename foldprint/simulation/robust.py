@@ -30,6 +30,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..model.derived import scoped
 from ..core import guards
 from ..model.design import Design
 from ..core.constants import DEFAULT_DT_S, DEFAULT_SEED, ROBUST_SAMPLES
@@ -163,6 +164,7 @@ def run_sample(args) -> Outcome:
     return outcome_of(res)
 
 
+@scoped
 def run_samples(args) -> list[Outcome]:
     """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), then one
     fold each. ``args``: (design, library, samples, hinge_model, dt[, exact[, method]]), the

@@ -1,5 +1,6 @@
 """Simulation: ROM kinematics + collision (paper index, FCL swept) + goals, with the
-``stop`` or ``arrest`` behaviour after contact. The one place these stages are chained."""
+``stop`` or ``arrest`` behaviour after contact: one stage of the pipeline
+(:mod:`foldprint.apps.pipeline` chains the stages)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..model.derived import scoped
 from ..collision.index2d import Index2D, collision_index
 from ..collision.swept3d import Contact, SweptChecker, swept_first_contact
 from ..core import guards
@@ -134,6 +136,7 @@ def _path_hinges(design: Design, a: int, b: int) -> list[int]:
     return path
 
 
+@scoped
 def simulate(design: Design, *, bath_c: float | None = None, duration: float | None = None,
              dt: float = DEFAULT_DT_S, method: Method | str = DEFAULT_METHOD,
              hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
@@ -169,6 +172,8 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
         drive = HingeDrive(design, bath_c, library)
     elif drive.frozen_at:
         raise DesignError("simulate needs a fresh HingeDrive (this one has arrested hinges)")
+    else:
+        drive = drive.copy()  # arrests go to this run's copy: the caller's drive is left as given
     contacts: list[Contact] = []
     skip: set = set()
     initial: list[Contact] = []

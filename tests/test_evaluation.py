@@ -1,0 +1,199 @@
+"""The evaluation object (issue 21): each stage computed on first use and kept, derived
+per-design data computed once per evaluation in a cache that never travels, a validated
+``Design.replace``, and ``simulate`` leaving the caller's drive as given."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+
+import foldprint.apps.pipeline as pipeline
+import foldprint.physics.kinematics as kinematics
+from foldprint.apps.pipeline import EvalOptions, Evaluation
+from foldprint.core.errors import DesignError
+from foldprint.core.modes import AfterContact, HingeModel, Method
+from foldprint.io.load import load_design
+from foldprint.io.templates import resolve_design_path
+from foldprint.model import derived
+from foldprint.model.derived import DerivedCache
+from foldprint.physics.kinematics import HingeDrive
+from foldprint.simulation.simulate import simulate
+
+
+@pytest.fixture(scope="module")
+def helix():
+    return load_design(resolve_design_path("helix_graded"))
+
+
+def _count(monkeypatch, module, name):
+    calls = []
+    real = getattr(module, name)
+
+    def counted(*a, **k):
+        calls.append(a)
+        return real(*a, **k)
+
+    monkeypatch.setattr(module, name, counted)
+    return calls
+
+
+def test_a_stage_not_asked_for_is_not_computed(helix, monkeypatch):
+    sims = _count(monkeypatch, pipeline, "simulate")
+    builds = _count(monkeypatch, pipeline, "build_assembly")
+    mc = _count(monkeypatch, pipeline, "jam_probability")
+    ev = Evaluation(helix, EvalOptions(samples=4, seed=1))
+    assert (sims, builds, mc) == ([], [], [])  # nothing runs at construction
+    first = ev.simulation
+    assert len(sims) == 1 and builds == [] and mc == []
+    assert ev.simulation is first and len(sims) == 1  # kept
+    ev.clearance  # needs the simulation (kept), not the assembly nor the samples
+    assert len(sims) == 1 and builds == [] and mc == []
+    assert ev.computed["simulation"] == 1 and not ev.has("robust") and not ev.has("assembly")
+
+
+def test_findings_compute_each_stage_once(helix, monkeypatch):
+    sims = _count(monkeypatch, pipeline, "simulate")
+    builds = _count(monkeypatch, pipeline, "build_assembly")
+    mc = _count(monkeypatch, pipeline, "jam_probability")
+    ev = Evaluation(helix, EvalOptions(samples=4, seed=1))
+    ev.findings
+    ev.to_json()
+    ev.findings
+    assert (len(sims), len(builds), len(mc)) == (1, 1, 1)
+    assert all(n == 1 for n in ev.computed.values()), ev.computed
+
+
+def test_hinge_frames_computed_once_per_evaluation(helix, monkeypatch):
+    calls = _count(monkeypatch, kinematics, "_hinge_frames")
+    ev = Evaluation(helix, EvalOptions(samples=4, seed=1))
+    ev.findings
+    assert len([a for a in calls if a[0] is helix]) == 1
+    assert ev.cache.computed["hinge_frames"] >= 1
+    # a second evaluation of the same design owns its own cache: computed again, once
+    Evaluation(helix, EvalOptions(samples=0)).findings
+    assert len([a for a in calls if a[0] is helix]) == 2
+
+
+def test_frames_outside_an_evaluation_are_not_kept_on_the_design(helix):
+    kinematics.hinge_frames(helix)
+    from foldprint.collision.rigid import rigid_polygon
+    rigid_polygon(helix, 0, "arc")
+    assert not [k for k in vars(helix) if "cache" in k]
+    assert derived.current() is None
+
+
+def test_the_cache_does_not_travel(helix):
+    cache = DerivedCache()
+    with pytest.raises(TypeError, match="not sent to workers"):
+        pickle.dumps(cache)
+    with cache.active():
+        kinematics.hinge_frames(helix)
+        blob = pickle.dumps(helix)  # the design pickles without any derived data
+    assert len(cache) >= 1
+    assert len(blob) == len(pickle.dumps(helix))
+
+
+def test_a_forked_process_ignores_the_parents_cache(helix, monkeypatch):
+    cache = DerivedCache()
+    with cache.active():
+        monkeypatch.setattr(cache, "_pid", -1)  # what a forked child sees: another process's cache
+        assert derived.current() is None
+        kinematics.hinge_frames(helix)
+    assert len(cache) == 0
+
+
+def test_cached_values_equal_fresh_ones(helix):
+    fresh = kinematics._hinge_frames(helix)
+    with DerivedCache().active():
+        a = kinematics.hinge_frames(helix)
+        b = kinematics.hinge_frames(helix)
+    assert a is not b and a == b  # a new list each time, the same frames
+    assert [f.hinge.id for f in fresh] == [f.hinge.id for f in a]
+    assert all(np.allclose(x.axis, y.axis) for x, y in zip(fresh, a))
+
+
+def test_simulate_leaves_the_callers_drive_as_given():
+    from foldprint.model.design import strip
+
+    d = strip("arrest", [20, 20, 20, 20], [170, 170, 170], ["H-1", "H-1", "H-1"])
+    drive = HingeDrive(d)
+    res = simulate(d, method=Method.FCL, after_contact=AfterContact.ARREST, drive=drive)
+    assert res.arrested  # the run did arrest hinges...
+    assert drive.frozen_at == {}  # ...on its own copy of the drive
+    again = simulate(d, method=Method.FCL, after_contact=AfterContact.ARREST, drive=drive)
+    assert again.arrested == res.arrested
+
+
+def test_design_replace_validates(helix):
+    h0 = helix.hinges[0]
+    from dataclasses import replace
+
+    ok = helix.replace(name="renamed")
+    assert ok.name == "renamed" and ok.hinges == helix.hinges
+    with pytest.raises(DesignError, match="not-a-material"):
+        helix.replace(hinges=(replace(h0, material="not-a-material"),) + helix.hinges[1:])
+
+
+def test_options_parse_modes_and_refuse_bad_ones():
+    o = EvalOptions(hinge_model="point", method="both", after_contact="arrest", scales=[0.5, 2])
+    assert (o.hinge_model, o.method, o.after_contact, o.scales) == (HingeModel.POINT, Method.BOTH,
+                                                                    AfterContact.ARREST, (0.5, 2.0))
+    with pytest.raises(DesignError, match="hinge_model"):
+        EvalOptions(hinge_model="hinged")
+
+
+def test_export_takes_the_evaluations_assembly(helix, tmp_path, monkeypatch):
+    ev = Evaluation(helix, EvalOptions(samples=0))
+    ev.findings
+    builds = _count(monkeypatch, pipeline, "build_assembly")
+    recs = ev.export(tmp_path / "a", formats=("stl",))
+    assert builds == [] and recs
+    fresh = pipeline.export(helix, tmp_path / "b", formats=("stl",))
+    assert [(tmp_path / "a" / r["path"].split("/")[-1]).read_bytes() for r in recs] == \
+        [(tmp_path / "b" / r["path"].split("/")[-1]).read_bytes() for r in fresh]
+
+
+def test_the_stl_writer_is_given_the_fold_times(helix, tmp_path, monkeypatch):
+    """The manifest reports the fold times it is given and runs no recovery model; without
+    them the writer refuses (and writes nothing)."""
+    import json
+    import sys
+
+    import foldprint.physics.recovery as recovery
+    from foldprint.core.errors import ExportError
+    from foldprint.exchange.export import export_assembly
+    from foldprint.geometry import build_assembly
+
+    asm = build_assembly(helix)
+    given = {h.id: 1.0 + k for k, h in enumerate(helix.hinges)}
+
+    def boom(*a, **k):
+        raise AssertionError("the writer ran the recovery model")
+
+    monkeypatch.setattr(recovery, "fold_time", boom)
+    monkeypatch.setattr(recovery, "recovery_curve", boom)
+    export_assembly(helix, asm, tmp_path / "a", ["stl"], fold_times=given)
+    doc = json.loads((tmp_path / "a" / "manifest.json").read_text())
+    assert doc["programming"]["hinge_fold_times_s"] == given
+    assert doc["programming"]["expected_fold_time_s"] == max(given.values())
+    with pytest.raises(ExportError, match="fold time"):
+        export_assembly(helix, asm, tmp_path / "b", ["stl"])
+    assert not (tmp_path / "b").exists() or not any((tmp_path / "b").iterdir())
+    stl = sys.modules["foldprint.exchange.stl"]
+    assert not any(getattr(stl, n, None) is not None for n in ("fold_time", "recovery_curve"))
+
+
+def test_the_manifest_fold_times_are_the_recovery_models(helix, tmp_path):
+    import json
+
+    from foldprint.physics.recovery import fold_time
+    from foldprint.model.materials import default_library
+
+    pipeline.export(helix, tmp_path, formats=("stl",))
+    doc = json.loads((tmp_path / "manifest.json").read_text())
+    lib, pr = default_library(), helix.process
+    for h in helix.hinges:  # an independent call of the recovery model, per hinge
+        t = fold_time(lib[h.material], pr.bath_temperature_c, h.thickness, pr.fix_temperature_c)
+        assert doc["programming"]["hinge_fold_times_s"][h.id] == pytest.approx(t, abs=5e-4)
