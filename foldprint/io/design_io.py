@@ -205,15 +205,20 @@ def _strip_design(data: Mapping, top: Where, name: str, description: str, root: 
     return d
 
 
+def _entries(data: Mapping, top: Where, key: str, schema, prefix: str, kind: str):
+    """Each ``[[key]]`` table checked against ``schema``: (where, table, id), the id
+    defaulting to ``prefix`` + its 1-based position and the where named after it."""
+    for i, raw in enumerate(sc.array(data.get(key, []), top / key, sc.MAX_PANELS, f"a list of [[{key}]] tables")):
+        at = top / key / i
+        raw = sc.table(raw, at, schema)
+        ident = sc.ident(raw.get("id", f"{prefix}{i + 1}"), at / "id")
+        yield at.named(f"{kind} {ident!r}"), raw, ident
+
+
 def _panels(data: Mapping, top: Where, dflt: _Defaults) -> list[Panel]:
     """The ``[[panels]]`` tables as panels."""
     panels = []
-    for i, raw in enumerate(sc.array(data.get("panels", []), top / "panels", sc.MAX_PANELS,
-                                     "a list of [[panels]] tables")):
-        at = top / "panels" / i
-        raw = sc.table(raw, at, _PANEL)
-        pid = sc.ident(raw.get("id", f"p{i + 1}"), at / "id")
-        at = at.named(f"panel {pid!r}")
+    for at, raw, pid in _entries(data, top, "panels", _PANEL, "p", "panel"):
         if "outline" not in raw:
             raise at.fail("needs outline = [[x, y], ...]")
         outline = np.array(sc.ring(raw["outline"], at / "outline"))
@@ -243,12 +248,7 @@ def _hinges(data: Mapping, top: Where, by_id: Mapping, dflt: _Defaults) -> list[
     """The ``[[hinges]]`` tables as hinges; a hinge without a line runs along the shared
     edge of its panels."""
     hinges = []
-    for i, raw in enumerate(sc.array(data.get("hinges", []), top / "hinges", sc.MAX_PANELS,
-                                     "a list of [[hinges]] tables")):
-        at = top / "hinges" / i
-        raw = sc.table(raw, at, _HINGE)
-        hid = sc.ident(raw.get("id", f"h{i + 1}"), at / "id")
-        at = at.named(f"hinge {hid!r}")
+    for at, raw, hid in _entries(data, top, "hinges", _HINGE, "h", "hinge"):
         pp = _hinge_panels(raw, at, by_id)
         for key in ("angle_deg", "material"):
             if key not in raw:
