@@ -157,7 +157,7 @@ Progress = Callable[[int, int, str], None]
 
 
 def _evaluate(design: Design, lib: MaterialLibrary, dt: float = CHECK_DT_S, samples: int = CHECK_SAMPLES,
-              seed: int = CHECK_SEED):
+              seed: int = CHECK_SEED, mapper=None):
     """The nominal simulation as ``foldprint simulate`` runs it (both collision checks on a
     planar strip, for the paper's collision index), what ``foldprint check`` computes
     (:func:`foldprint.apps.pipeline.evaluate` with check's defaults: its own simulation (the 3D
@@ -166,7 +166,8 @@ def _evaluate(design: Design, lib: MaterialLibrary, dt: float = CHECK_DT_S, samp
     from .pipeline import CHECK_SCALES, evaluate, replay_sample, run_simulation, worst_sample
 
     result, _ = run_simulation(design, dt=dt, library=lib)
-    ev = evaluate(design, library=lib, dt=dt, samples=samples, seed=seed, workers=1, scales=CHECK_SCALES)
+    ev = evaluate(design, library=lib, dt=dt, samples=samples, seed=seed, workers=1, scales=CHECK_SCALES,
+                  mapper=mapper)
     replay = None
     if ev.robust is not None:
         k = worst_sample(ev.robust)
@@ -225,19 +226,6 @@ def _worst_json(replay, design: Design) -> dict:
             "replay": {"completed": bool(res.completed), "fold_time_s": res.fold_time,
                        "first_collision": None if c is None else {"panels": list(c.panels), "time_s": float(c.time)}},
             "hinges": [h.id for h in design.hinges], "parameters": params}
-
-
-def _pool(jobs: int, n_tasks: int):
-    """A process pool (FCL holds the GIL, so threads would not help), or None for one job."""
-    import multiprocessing as mp
-    import sys
-    from concurrent.futures import ProcessPoolExecutor
-
-    workers = max(1, min(jobs, n_tasks))
-    if workers == 1:
-        return None
-    ctx = mp.get_context("fork") if sys.platform.startswith("linux") else None
-    return ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
 
 
 def build_gallery(designs: Sequence[Design], out_dir: str | Path,
@@ -304,34 +292,28 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
 
     for name in ASSETS:
         write_atomic(out / "viewer" / name, asset_bytes(name))
-    tasks = [(_chart_task, (out, lib))] + [
-        (_build_design, (d, out, dn, lib, dt, gif_frames, samples, seed)) for d, dn in zip(designs, dirnames)]
-    results: list = [None] * len(tasks)
-    pool = _pool(jobs or os.cpu_count() or 1, len(tasks))
-    labels = ["material chart"] + [f"{d.name}: simulated, checked, rendered, exported" for d in designs]
-    if pool is None:
-        for k, (fn, args) in enumerate(tasks):
-            results[k] = fn(*args)
-            step(labels[k])
-    else:
-        from concurrent.futures import as_completed
+    from ..core.constants import CHECK_SCALES
+    from ..simulation.batch import MonteCarloJob, run_batch
 
-        # the workers fork from here: import what they all need once, before the fork
-        from ..checks import rules as checks  # noqa: F401
-        from .. import geometry  # noqa: F401
-        from ..render import figures as render, anim as render_anim, viewer  # noqa: F401
-        from ..simulation import simulate  # noqa: F401
+    # the workers fork from here: import what they all need once, before the fork
+    from ..checks import rules as checks  # noqa: F401
+    from .. import geometry  # noqa: F401
+    from ..render import figures as render, anim as render_anim, viewer  # noqa: F401
+    from ..simulation import simulate  # noqa: F401
 
-        # the biggest designs first, so the last task to finish is a small one
-        order = [0] + sorted(range(1, len(tasks)), key=lambda k: -len(designs[k - 1].hinges))
-        with pool:
-            futures = {pool.submit(tasks[k][0], *tasks[k][1]): k for k in order}
-            for fut in as_completed(futures):
-                k = futures[fut]
-                results[k] = fut.result()
-                step(labels[k])
-    materials_img = results[0]
-    entries = results[1:]
+    # one pool for everything: every design's Monte-Carlo chunks (check's samples at 1x
+    # and each sweep scale, costliest first), each design's build once its outcomes are
+    # in, and the material chart (foldprint.simulation.batch)
+    mc = [MonteCarloJob(d, samples, seed, (1.0, *CHECK_SCALES), dt=dt) for d in designs]
+    labels = [f"{d.name}: simulated, checked, rendered, exported" for d in designs]
+
+    def after(i, pre):
+        return _build_design, (designs[i], out, dirnames[i], lib, dt, gif_frames, samples, seed, pre)
+
+    _, entries, (materials_img,) = run_batch(
+        mc, library=lib, workers=max(1, jobs or os.cpu_count() or 1), after=after,
+        tasks=[(_chart_task, (out, lib))],
+        progress=lambda kind, i: step("material chart" if kind == "task" else labels[i]))
     for entry, design in zip(entries, designs):
         entry.design = design  # the worker's copy came back pickled; keep the caller's
 
@@ -354,8 +336,10 @@ def _chart_task(out: Path, lib: MaterialLibrary) -> _Image:
 
 
 def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary, dt: float,
-                  gif_frames: int, samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED) -> _Entry:
-    """Every file of one design (runs in a worker process); the entry for the page."""
+                  gif_frames: int, samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED, mapper=None) -> _Entry:
+    """Every file of one design (runs in a worker process); the entry for the page.
+    ``mapper``: the design's Monte-Carlo outcomes when folded in the gallery's shared pool
+    (:class:`foldprint.simulation.batch.Precomputed`)."""
     from ..render import figures as render, stills as render3d, anim as render_anim, viewer
     from ..checks.rules import default_printer_key
     from ..exchange.files import write_atomic
@@ -364,7 +348,7 @@ def _build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary,
     name = design.name
     base = out / dirname
     log.info("gallery: %s: simulating and checking (%d scatter samples, seed %d)", name, samples, seed)
-    result, ev, replay = _evaluate(design, lib, dt, samples, seed)
+    result, ev, replay = _evaluate(design, lib, dt, samples, seed, mapper)
     robust = ev.robust
     sim = simulation_json(result)
     write_atomic(base / "simulation.json", _json_bytes(sim))

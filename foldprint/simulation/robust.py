@@ -234,7 +234,10 @@ def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter
 
     ``nominal``: the nominal simulation if the caller has it (else it is run here).
     ``mapper(fn, items, progress)``: how to run the chunks of samples (default: all local
-    cores, :func:`foldprint.core.parallel.map_ordered`). ``exact``: the reference path (one
+    cores, :func:`foldprint.core.parallel.map_ordered`); a
+    :class:`foldprint.simulation.batch.Precomputed` mapper that holds these samples' outcomes
+    (folded in a shared pool, :func:`~foldprint.simulation.batch.run_batch`) returns them
+    without folding. ``exact``: the reference path (one
     cached curve per hinge over the whole horizon, as before the batch path), for
     comparisons. The first chunk runs here and times the run: a sample count whose
     estimated time exceeds the budget (:func:`foldprint.core.guards.check_samples`) is refused."""
@@ -250,6 +253,12 @@ def jam_probability(design: Design, samples: int = 60, seed: int = 0, *, scatter
     guards.check_sample_memory(design, samples)  # refuse before any fold: the outcomes are held
     if nominal is None:
         nominal = simulate(design, dt=dt, method=Method.FCL, hinge_model=model, library=lib)
+    lookup = getattr(mapper, "lookup", None)  # simulation.batch.Precomputed: folded in a shared pool
+    done_before = lookup(design, scatter, samples, seed, model, dt) if lookup is not None else None
+    if done_before is not None:
+        if progress:
+            progress(samples, samples)
+        return RobustResult(design.name, samples, seed, model, scatter, tuple(done_before), nominal)
     stream = iter_samples(design, scatter, samples, seed)
     chunks = ((design, lib, chunk, model, dt, exact) for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
     n_chunks = -(-samples // CHUNK)
