@@ -176,57 +176,62 @@ class LoopSolver:
         self._p_cols = self._pk.ravel()
 
     def residual(self, x: np.ndarray, jacobian: bool = True):
-        """C (6 m,) and J (6 m, n) of the m cycles at angles x, for all cycles at once
-        (cycles padded to one length, rotations and translations kept apart): equal to
-        the cycle-by-cycle product of 4x4 transforms to round-off
+        """C (6 m,) and J (6 m, n) of the m cycles at angles x (:meth:`residuals` of one)."""
+        c, jac = self.residuals(np.asarray(x, float)[None], jacobian)
+        return c[0], (None if jac is None else jac[0])
+
+    def residuals(self, xs: np.ndarray, jacobian: bool = True):
+        """C (S, 6 m) and J (S, 6 m, n) at S configurations xs (S, n), for all cycles at
+        once (cycles padded to one length, rotations and translations kept apart): equal
+        to the cycle-by-cycle product of 4x4 transforms to round-off
         (``tests/test_loop_tracking.py`` keeps that as the reference)."""
-        m = len(self.cycles)
+        m, S = len(self.cycles), xs.shape[0]
         if m == 0:
-            return np.zeros(0), (np.zeros((0, self.n)) if jacobian else None)
+            return np.zeros((S, 0)), (np.zeros((S, 0, self.n)) if jacobian else None)
         pk, ps = self._pk, self._ps
-        xs = np.append(x, 0.0)[pk] * self._p_sign  # (m, L) signed angles
-        s, c1 = np.sin(xs)[..., None, None], (1 - np.cos(xs))[..., None, None]
-        r = s * self._p_k + c1 * self._p_k2  # (m, L, 3, 3), minus the identity
+        xa = np.concatenate([xs, np.zeros((S, 1))], axis=1)[:, pk] * self._p_sign  # (S, m, L) signed angles
+        sn, c1 = np.sin(xa)[..., None, None], (1 - np.cos(xa))[..., None, None]
+        r = sn * self._p_k + c1 * self._p_k2  # (S, m, L, 3, 3), minus the identity
         r[..., 0, 0] += 1.0
         r[..., 1, 1] += 1.0
         r[..., 2, 2] += 1.0
         q = self._p_point
-        t = (q - r @ q)[..., 0]  # (m, L, 3): exp(xi x) = [r, q - r q]
+        t = (q - r @ q)[..., 0]  # (S, m, L, 3): exp(xi x) = [r, q - r q]
         L = pk.shape[1]
-        pre_r = np.empty((m, L, 3, 3))
-        pre_t = np.empty((m, L, 3))
-        gr = np.empty((m, 3, 3))
+        pre_r = np.empty((S, m, L, 3, 3))
+        pre_t = np.empty((S, m, L, 3))
+        gr = np.empty((S, m, 3, 3))
         gr[:] = np.eye(3)
-        gt = np.zeros((m, 3))
+        gt = np.zeros((S, m, 3))
         for l in range(L):
-            pre_r[:, l], pre_t[:, l] = gr, gt
-            gt = (gr @ t[:, l, :, None])[..., 0] + gt
-            gr = gr @ r[:, l]
+            pre_r[:, :, l], pre_t[:, :, l] = gr, gt
+            gt = (gr @ t[:, :, l, :, None])[..., 0] + gt
+            gr = gr @ r[:, :, l]
         p = gt
-        out = np.empty((m, 6))
-        out[:, 3:] = p
+        out = np.empty((S, m, 6))
+        out[..., 3:] = p
         # axis-angle of gr, as _rotvec (the half-turn case, never met near closure, by it)
-        cosa = np.clip((gr[:, 0, 0] + gr[:, 1, 1] + gr[:, 2, 2] - 1) / 2, -1.0, 1.0)
+        cosa = np.clip((gr[..., 0, 0] + gr[..., 1, 1] + gr[..., 2, 2] - 1) / 2, -1.0, 1.0)
         a = np.arccos(cosa)
-        w = out[:, :3]
-        w[:, 0] = gr[:, 2, 1] - gr[:, 1, 2]
-        w[:, 1] = gr[:, 0, 2] - gr[:, 2, 0]
-        w[:, 2] = gr[:, 1, 0] - gr[:, 0, 1]
+        w = out[..., :3]
+        w[..., 0] = gr[..., 2, 1] - gr[..., 1, 2]
+        w[..., 1] = gr[..., 0, 2] - gr[..., 2, 0]
+        w[..., 2] = gr[..., 1, 0] - gr[..., 0, 1]
         small = a < 1e-6
         sa = np.sin(a)
-        w *= np.where(small, 0.5, a / (2 * np.where(small, 1.0, sa)))[:, None]
+        w *= np.where(small, 0.5, a / (2 * np.where(small, 1.0, sa)))[..., None]
         if np.any(np.pi - a < 1e-6):  # pragma: no cover - see _rotvec
-            for ci in np.nonzero(np.pi - a < 1e-6)[0]:
-                out[ci, :3] = _rotvec(gr[ci])
-        c = out.ravel()
+            for si, ci in zip(*np.nonzero(np.pi - a < 1e-6)):
+                out[si, ci, :3] = _rotvec(gr[si, ci])
+        c = out.reshape(S, 6 * m)
         if not jacobian:
             return c, None
         wj = (pre_r @ self._p_axis[..., None])[..., 0]
-        vj = (pre_r @ self._p_v[..., None])[..., 0] + _cross3(pre_t, wj) + _cross3(wj, p[:, None, :])
-        cols = np.concatenate([wj, vj], axis=2) * ps[..., None]  # (m, L, 6)
-        jac = np.zeros((m, 6, self.n + 1))
-        jac[self._p_rows, :, self._p_cols] = cols.reshape(m * L, 6)
-        return c, jac[:, :, :self.n].reshape(6 * m, self.n)
+        vj = (pre_r @ self._p_v[..., None])[..., 0] + _cross3(pre_t, wj) + _cross3(wj, p[:, :, None, :])
+        cols = np.concatenate([wj, vj], axis=3) * ps[..., None]  # (S, m, L, 6)
+        jac = np.zeros((S, m, self.n + 1, 6))
+        jac[:, self._p_rows, self._p_cols, :] = cols.reshape(S, m * L, 6)
+        return c, jac.transpose(0, 1, 3, 2)[..., :self.n].reshape(S, 6 * m, self.n)
 
     def closure(self, x: np.ndarray) -> float:
         return float(np.abs(self.residual(x, False)[0]).max(initial=0.0))
@@ -237,8 +242,28 @@ class LoopSolver:
         Returns (x, |C|, null-space dimension, converged)."""
         return self._project(x, target, iters)[:4]
 
+    def _evaluate(self, x: np.ndarray):
+        """C at x and the SVD (u, s, vt) of J there: what one Gauss-Newton step needs."""
+        c, jac = self.residual(x)
+        return (c, *np.linalg.svd(jac, full_matrices=True))
+
+    def _run(self, gen):
+        """Drive a solve generator, evaluating each configuration it yields here."""
+        try:
+            x = next(gen)
+            while True:
+                x = gen.send(self._evaluate(x))
+        except StopIteration as stop:
+            return stop.value
+
     def _project(self, x: np.ndarray, target: np.ndarray, iters: int = 8, tangent: np.ndarray | None = None):
-        """:meth:`project`, plus the tangent basis (rows) at the answer. ``tangent``: the
+        return self._run(self._project_gen(x, target, iters, tangent))
+
+    def _project_gen(self, x: np.ndarray, target: np.ndarray, iters: int = 8, tangent: np.ndarray | None = None):
+        """:meth:`project` as a generator: it yields each configuration it needs C and the
+        SVD of J at, and is sent them (:meth:`_run` one solve, :meth:`track_many` many
+        in lockstep, one array evaluation for all); returns what :meth:`project` does,
+        plus the tangent basis (rows) at the answer. ``tangent``: the
         basis at ``x`` from the previous solve; the predictor then moves along it toward
         ``target`` before the first evaluation (the step the first Gauss-Newton iteration
         would take from a closed ``x``, without evaluating C and J there), and the
@@ -252,9 +277,8 @@ class LoopSolver:
             x = x + step
         null, res, done, vn = 0, np.inf, False, np.zeros((0, self.n))
         for it in range(iters + 20):
-            c, jac = self.residual(x)
+            c, u, sv, vt = yield x
             res = float(np.abs(c).max(initial=0.0))
-            u, sv, vt = np.linalg.svd(jac, full_matrices=True)
             rank = int((sv > 1e-7 * max(1.0, sv.max(initial=0.0))).sum())
             vr, vn = vt[:rank], vt[rank:]
             null = self.n - rank
@@ -273,12 +297,41 @@ class LoopSolver:
             x = x + step
             self.iterations += 1
         else:
-            res = self.closure(x)
+            c = (yield x)[0]
+            res = float(np.abs(c).max(initial=0.0))
             vn = None
         return x, res, null, done, vn
 
     def track(self, times: np.ndarray, driven: np.ndarray) -> LoopSolution:
         """Follow the driven angles (n_t, n) on the closure manifold from the flat sheet."""
+        return self._run(self._track_gen(times, driven))
+
+    def track_many(self, times: np.ndarray, drivens) -> list[LoopSolution]:
+        """:meth:`track` of several drives (each (n_t, n), on the same times) in lockstep:
+        every round evaluates C, J and its SVD at all the drives' current configurations
+        in one array pass. Each drive's solve is :meth:`track`'s, step by step, so the
+        answers are its answers (``tests/test_loop_tracking.py``)."""
+        gens = [self._track_gen(times, d) for d in drivens]
+        out: list = [None] * len(gens)
+        want: dict[int, np.ndarray] = {}
+        for i, g in enumerate(gens):
+            try:
+                want[i] = next(g)
+            except StopIteration as stop:  # pragma: no cover - a track always evaluates
+                out[i] = stop.value
+        while want:
+            idx = list(want)
+            c, jac = self.residuals(np.stack([want[i] for i in idx]))
+            u, sv, vt = np.linalg.svd(jac, full_matrices=True)
+            for j, i in enumerate(idx):
+                try:
+                    want[i] = gens[i].send((c[j], u[j], sv[j], vt[j]))
+                except StopIteration as stop:
+                    out[i] = stop.value
+                    del want[i]
+        return out
+
+    def _track_gen(self, times: np.ndarray, driven: np.ndarray):
         times = np.asarray(times, float)
         x = np.zeros(self.n)
         out = np.zeros_like(driven)
@@ -300,12 +353,13 @@ class LoopSolver:
                     # the predictor only away from the flat state: at a bifurcation point the
                     # tangent space holds every branch, and which one is taken is decided below
                     near_flat = np.abs(x).max(initial=0.0) < NEAR_FLAT
-                    xn, res, null, settled, basis = self._project(x, ys, tangent=None if near_flat else tangent)
+                    xn, res, null, settled, basis = yield from self._project_gen(
+                        x, ys, tangent=None if near_flat else tangent)
                     if near_flat and np.abs(xn - ys).max(initial=0.0) > OPT_TOL:
                         # near the flat state (a bifurcation point) the step from x can
                         # stall between branches: also start from the drive itself and
                         # keep whichever closed answer is nearer the drive
-                        xb, rb, nb, sb, bb = self._project(ys, ys)
+                        xb, rb, nb, sb, bb = yield from self._project_gen(ys, ys)
                         if (rb <= 1e-7 and np.linalg.norm(xb - ys) < np.linalg.norm(xn - ys) - 1e-9
                                 and np.abs(xb - x).max(initial=0.0) <= np.abs(xn - x).max(initial=0.0) + JUMP):
                             xn, res, null, settled, basis = xb, rb, nb, sb, bb

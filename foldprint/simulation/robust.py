@@ -33,7 +33,7 @@ import numpy as np
 from ..core import guards
 from ..model.design import Design
 from ..core.errors import DesignError, MaterialError
-from ..physics.kinematics import HingeDrive
+from ..physics.kinematics import HingeDrive, run_times, solve_loops_many
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel, Method, parse
 from ..physics.recovery import RecoveryCurve, recovery_curve
@@ -161,12 +161,14 @@ def run_sample(args) -> Outcome:
 
 
 def run_samples(args) -> list[Outcome]:
-    """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), then one
-    fold each. ``args``: (design, library, samples, hinge_model, dt[, exact])."""
+    """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), the
+    closure of a pattern with loops tracked for all of them in lockstep
+    (:func:`foldprint.physics.kinematics.solve_loops_many`), then one fold each. ``args``: (design, library, samples, hinge_model, dt[, exact])."""
     design, library, samples, hinge_model, dt, *rest = args
     if rest and rest[0]:
         return [run_sample((design, library, s, hinge_model, dt)) for s in samples]
     drives = sample_drives(design, library, samples, until_s=run_end(design, dt))
+    solve_loops_many(drives, run_times(design, dt))  # a pattern with loops: closure tracked in lockstep
     return [outcome_of(simulate(design, dt=dt, method=Method.FCL, hinge_model=hinge_model, drive=d))
             for d in drives]
 
