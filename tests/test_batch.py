@@ -62,10 +62,19 @@ def test_precomputed_answers_only_its_own_run(batch):
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_time_guard_refuses_as_jam_probability_does(monkeypatch, workers):
+    """Both ask the guard about the same run (samples, workers, design) with the time per
+    sample measured on a first chunk, and a refusal stops both (load-independent: the
+    guard is replaced by one that records and refuses)."""
     d = _designs()[0]
-    monkeypatch.setitem(guards._LIMIT, "seconds", 0.3)  # a fold fits, 40 samples do not
-    with pytest.raises(ResourceError) as a:
+    calls = []
+
+    def refuse(samples, per_sample, n_workers, name=""):
+        calls.append((samples, n_workers, name, per_sample > 0))
+        raise ResourceError(f"{name}: --samples {samples} refused")
+
+    monkeypatch.setattr(guards, "check_samples", refuse)
+    with pytest.raises(ResourceError):
         jam_probability(d, N, SEED, workers=workers)
-    with pytest.raises(ResourceError) as b:
+    with pytest.raises(ResourceError):
         run_batch([MonteCarloJob(d, N, SEED)], workers=workers)
-    assert "--samples 40 refused" in str(a.value) and "--samples 40 refused" in str(b.value)
+    assert len(calls) == 2 and calls[0] == calls[1] == (N, workers, d.name, True)

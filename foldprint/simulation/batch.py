@@ -152,10 +152,13 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
 
     if workers <= 1:
         _init(jobs, lib)
-        for t in chunks:
-            out, per = _chunk_task(*t)
-            check_time(t[0], t[1], per)
-            results[t] = out
+        try:
+            for t in chunks:
+                out, per = _chunk_task(*t)
+                check_time(t[0], t[1], per)
+                results[t] = out
+        finally:
+            _STATE.clear()
         for j in range(len(jobs)):
             pre[j] = precomputed(j)
             if after is not None:
