@@ -3,10 +3,14 @@ check's Monte-Carlo samples and seed, :data:`foldprint.core.constants.CHECK_SAMP
 the same gallery without the Monte-Carlo (0 samples: what the gallery did before it ran
 the check), and the material chart's fold-time table against one recovery curve per point.
 
-    python benchmarks/bench_gallery.py [--jobs N] [--one-process] [--json]
+    python benchmarks/bench_gallery.py [--jobs N] [--in-process] [--one-process] [--json]
 
 Prints wall and CPU times and ratios measured in the same run: the cost of the
-Monte-Carlo (the gallery against the one without it), optionally (``--one-process``) the
+Monte-Carlo (the gallery against the one without it), the fold of a chunk of
+miura_3x3 samples with their closures tracked in lockstep
+(:func:`foldprint.physics.kinematics.solve_loops_many`, what the Monte-Carlo does) against
+the same chunk tracked drive by drive (same outcomes), optionally (``--in-process``) the
+gallery built in this process, optionally (``--one-process``) the
 speed-up of ``--jobs`` worker processes (default: the CPU count) over one, and of the
 vectorised, cached :func:`foldprint.physics.recovery_table.fold_times` over the loop a user would
 write (``recovery_curve(m, T).fold_time`` per material and bath; each curve computed
@@ -65,6 +69,29 @@ def _command(jobs: int) -> tuple[float, float]:
         return time.perf_counter() - t0, _cpu() - c0
 
 
+def _loop_chunk(n: int = 16) -> tuple[float, float, bool]:
+    """CPU seconds per sample of one chunk of miura_3x3 samples folded as the Monte-Carlo
+    folds them (closures in lockstep) and drive by drive; True when the outcomes agree."""
+    from unittest import mock
+
+    from foldprint.io.templates import templates_dir
+    from foldprint.simulation import robust
+    from foldprint.simulation.scatter import default_scatter, draw_samples
+
+    d = load_design(templates_dir() / "miura_3x3.toml")
+    lib = default_library()
+    samples = draw_samples(d, default_scatter(), n, 0)
+    args = (d, lib, samples, "arc", 0.01)
+    c0 = time.process_time()
+    lock = robust.run_samples(args)
+    t_lock = (time.process_time() - c0) / n
+    with mock.patch.object(robust, "solve_loops_many", lambda drives, times: None):
+        c0 = time.process_time()
+        alone = robust.run_samples(args)
+        t_alone = (time.process_time() - c0) / n
+    return t_lock, t_alone, lock == alone
+
+
 def _chart() -> tuple[float, float, float]:
     lib = default_library()
     baths = np.linspace(70.0, 100.0, 16)
@@ -83,23 +110,29 @@ def _chart() -> tuple[float, float, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--in-process", action="store_true", help="Also build the gallery in this process.")
     ap.add_argument("--one-process", action="store_true", help="Also build the gallery in one process.")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     load = os.getloadavg()[0]
     t_loop, t_table, worst = _chart()
+    lock_s, alone_s, same = _loop_chunk()
     t_cmd, cpu_cmd = _command(args.jobs)
-    t_par, cpu_par = _gallery(args.jobs)
+    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024  # the largest process so far
     t_nomc, cpu_nomc = _gallery(args.jobs, samples=0)
     load_end = os.getloadavg()[0]
     res = {"cpus": os.cpu_count(), "load_avg_1min": round(load, 2), "load_avg_1min_end": round(load_end, 2),
            "jobs": args.jobs, "samples": CHECK_SAMPLES, "target_s": TARGET_S,
-           "command_s": round(t_cmd, 2), "command_cpu_s": round(cpu_cmd, 2),
-           "gallery_s": round(t_par, 2), "gallery_cpu_s": round(cpu_par, 2),
+           "command_s": round(t_cmd, 2), "command_cpu_s": round(cpu_cmd, 2), "command_peak_mb": round(peak_mb),
            "gallery_no_mc_s": round(t_nomc, 2), "gallery_no_mc_cpu_s": round(cpu_nomc, 2),
-           "mc_cpu_ratio": round(cpu_par / cpu_nomc, 2), "idle_bound_s": round(cpu_par / args.jobs, 1),
+           "mc_cpu_ratio": round(cpu_cmd / cpu_nomc, 2), "idle_bound_s": round(cpu_cmd / args.jobs, 1),
+           "miura_sample_cpu_s_lockstep": round(lock_s, 4), "miura_sample_cpu_s_one_by_one": round(alone_s, 4),
+           "lockstep_speedup": round(alone_s / lock_s, 2), "lockstep_same_outcomes": same,
            "chart_loop_s": round(t_loop, 3), "chart_table_s": round(t_table, 3),
            "chart_speedup": round(t_loop / t_table, 1), "chart_max_diff_s": worst}
+    if args.in_process or args.one_process:
+        t_par, cpu_par = _gallery(args.jobs)
+        res.update({"gallery_s": round(t_par, 2), "gallery_cpu_s": round(cpu_par, 2)})
     if args.one_process:
         t_one, cpu_one = _gallery(1)
         res.update({"gallery_one_process_s": round(t_one, 2), "gallery_one_process_cpu_s": round(cpu_one, 2),
@@ -109,12 +142,16 @@ def main() -> None:
         return
     print(f"{res['cpus']} CPUs, load average {load:.1f} at start, {load_end:.1f} at the end")
     print(f"foldprint gallery (every template, {CHECK_SAMPLES} scatter samples per design, check's): "
-          f"{t_cmd:.1f} s wall, {cpu_cmd:.1f} CPU-s with {args.jobs} processes; target < {TARGET_S:g} s")
-    print(f"  build_gallery in-process: {t_par:.1f} s wall, {cpu_par:.1f} CPU-s")
+          f"{t_cmd:.1f} s wall, {cpu_cmd:.1f} CPU-s with {args.jobs} processes, largest process {peak_mb:.0f} MB; "
+          f"target < {TARGET_S:g} s")
+    if "gallery_s" in res:
+        print(f"  build_gallery in-process: {res['gallery_s']:.1f} s wall, {res['gallery_cpu_s']:.1f} CPU-s")
     print(f"  without the Monte-Carlo (0 samples): {t_nomc:.1f} s wall, {cpu_nomc:.1f} CPU-s; the check costs "
-          f"x{cpu_par / cpu_nomc:.2f} the CPU time")
-    print(f"  on {args.jobs} idle cores the gallery cannot beat {cpu_par / args.jobs:.1f} s "
+          f"x{cpu_cmd / cpu_nomc:.2f} the CPU time")
+    print(f"  on {args.jobs} idle cores the gallery cannot beat {cpu_cmd / args.jobs:.1f} s "
           f"(CPU time / processes)")
+    print(f"miura_3x3 sample, closures in lockstep (a chunk of 16): {lock_s * 1e3:.0f} ms CPU; drive by drive "
+          f"{alone_s * 1e3:.0f} ms (x{alone_s / lock_s:.1f}); same outcomes: {same}")
     if args.one_process:
         print(f"  one process: {res['gallery_one_process_s']:.1f} s wall, {res['gallery_one_process_cpu_s']:.1f} "
               f"CPU-s (x{res['parallel_speedup']:.2f} for {args.jobs} processes)")

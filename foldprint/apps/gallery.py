@@ -34,6 +34,7 @@ number of processes, gives the same bytes (export files aside, which belong to t
 from __future__ import annotations
 
 import logging
+import os
 import re
 import time
 from pathlib import Path
@@ -67,19 +68,6 @@ def _unique_dirnames(designs: Sequence[Design]) -> list[str]:
         seen[base.lower()] = k
         out.append(base if k == 1 else f"{base}-{k}")
     return out
-
-
-def _pool(jobs: int, n_tasks: int):
-    """A process pool (FCL holds the GIL, so threads would not help), or None for one job."""
-    import multiprocessing as mp
-    import sys
-    from concurrent.futures import ProcessPoolExecutor
-
-    workers = max(1, min(jobs, n_tasks))
-    if workers == 1:
-        return None
-    ctx = mp.get_context("fork") if sys.platform.startswith("linux") else None
-    return ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
 
 
 def build_gallery(designs: Sequence[Design], out_dir: str | Path,
@@ -135,14 +123,7 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     step = _Steps(len(designs) + 2, progress)
     for name in ASSETS:
         write_atomic(out / "viewer" / name, asset_bytes(name))
-    tasks = [(chart_task, (out, lib))] + [
-        (build_design, (d, out, dn, lib, dt, gif_frames, samples, seed)) for d, dn in zip(designs, dirnames)]
-    labels = ["material chart"] + [f"{d.name}: simulated, checked, rendered, exported" for d in designs]
-    # the biggest designs first, so the last task to finish is a small one
-    order = [0] + sorted(range(1, len(tasks)), key=lambda k: -len(designs[k - 1].hinges))
-    results = _run_tasks(tasks, labels, order, jobs, step)
-    materials_img = results[0]
-    entries = results[1:]
+    materials_img, entries = _build_all(designs, out, dirnames, lib, dt, gif_frames, samples, seed, jobs, step)
     for entry, design in zip(entries, designs):
         entry.design = design  # the worker's copy came back pickled; keep the caller's
 
@@ -166,19 +147,12 @@ class _Steps:
             self.progress(self.done, self.total, msg)
 
 
-def _run_tasks(tasks: list, labels: list[str], order: list[int], jobs: int | None, step: _Steps) -> list:
-    """Each task's result, in task order: here for one job, else on a process pool
-    (submitted in ``order``); ``step(label)`` as each finishes."""
-    import os
-
-    results: list = [None] * len(tasks)
-    pool = _pool(jobs or os.cpu_count() or 1, len(tasks))
-    if pool is None:
-        for k, (fn, args) in enumerate(tasks):
-            results[k] = fn(*args)
-            step(labels[k])
-        return results
-    from concurrent.futures import as_completed
+def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: MaterialLibrary, dt: float,
+               gif_frames: int, samples: int, seed: int, jobs: int | None, step: "_Steps"):
+    """The material chart and every design's entry, built in one process pool with every
+    design's Monte-Carlo (:func:`foldprint.simulation.batch.run_batch`)."""
+    from ..core.constants import CHECK_SCALES
+    from ..simulation.batch import MonteCarloJob, run_batch
 
     # the workers fork from here: import what they all need once, before the fork
     from ..checks import rules as checks  # noqa: F401
@@ -186,10 +160,17 @@ def _run_tasks(tasks: list, labels: list[str], order: list[int], jobs: int | Non
     from ..render import figures as render, anim as render_anim, viewer  # noqa: F401
     from ..simulation import simulate  # noqa: F401
 
-    with pool:
-        futures = {pool.submit(tasks[k][0], *tasks[k][1]): k for k in order}
-        for fut in as_completed(futures):
-            k = futures[fut]
-            results[k] = fut.result()
-            step(labels[k])
-    return results
+    # one pool for everything: every design's Monte-Carlo chunks (check's samples at 1x
+    # and each sweep scale, costliest first), each design's build once its outcomes are
+    # in, and the material chart (foldprint.simulation.batch)
+    mc = [MonteCarloJob(d, samples, seed, (1.0, *CHECK_SCALES), dt=dt) for d in designs]
+    labels = [f"{d.name}: simulated, checked, rendered, exported" for d in designs]
+
+    def after(i, pre):
+        return build_design, (designs[i], out, dirnames[i], lib, dt, gif_frames, samples, seed, pre)
+
+    _, entries, (materials_img,) = run_batch(
+        mc, library=lib, workers=max(1, jobs or os.cpu_count() or 1), after=after,
+        tasks=[(chart_task, (out, lib))],
+        progress=lambda kind, i: step("material chart" if kind == "task" else labels[i]))
+    return materials_img, entries

@@ -38,7 +38,7 @@ PLOT_DPI = 90
 
 
 def _evaluate(design: Design, lib: MaterialLibrary, dt: float = CHECK_DT_S, samples: int = CHECK_SAMPLES,
-              seed: int = CHECK_SEED):
+              seed: int = CHECK_SEED, mapper=None):
     """The design's :class:`~foldprint.apps.pipeline.Evaluation` with check's options (its
     simulation is the 3D swept check; the page's nominal fold is its ``simulation_for
     (both)``, as ``foldprint simulate`` runs it, for the paper's collision index on a
@@ -46,7 +46,7 @@ def _evaluate(design: Design, lib: MaterialLibrary, dt: float = CHECK_DT_S, samp
     from .pipeline import CHECK_SCALES, EvalOptions, Evaluation, check_scales
 
     ev = Evaluation(design, EvalOptions(dt=dt, samples=samples, seed=seed, scales=check_scales(CHECK_SCALES),
-                                        workers=1), library=lib)
+                                        workers=1), library=lib, mapper=mapper)
     ev.findings  # noqa: B018 - check's stages, in check's order
     replay = ev.worst_replay
     if replay is not None and not replay.agrees:
@@ -67,10 +67,12 @@ def chart_task(out: Path, lib: MaterialLibrary) -> Image:
 
 
 def build_design(design: Design, out: Path, dirname: str, lib: MaterialLibrary, dt: float,
-                 gif_frames: int, samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED) -> Entry:
-    """Every file of one design (runs in a worker process); the entry for the page."""
+                 gif_frames: int, samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED, mapper=None) -> Entry:
+    """Every file of one design (runs in a worker process); the entry for the page.
+    ``mapper``: the design's Monte-Carlo outcomes when folded in the gallery's shared pool
+    (:class:`foldprint.simulation.batch.Precomputed`)."""
     log.info("gallery: %s: simulating and checking (%d scatter samples, seed %d)", design.name, samples, seed)
-    ev, replay = _evaluate(design, lib, dt, samples, seed)
+    ev, replay = _evaluate(design, lib, dt, samples, seed, mapper)
     with ev.cache.active():  # the renders below derive from the same design
         entry = _data_files(ev, replay, out / dirname, dirname)
         _viewer_page(entry, ev, replay, out / dirname, dirname)

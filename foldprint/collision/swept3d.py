@@ -41,6 +41,8 @@ and skipped.
 
 from __future__ import annotations
 
+import copy
+
 from dataclasses import dataclass, field
 
 import fcl
@@ -109,6 +111,14 @@ class SweptChecker:
         self._pairs: dict = {}
         self.transforms = TreeTransforms(d, self.model, self.frames)
         self._world: dict = {}  # time -> world poses of every panel (bounded cache)
+
+    def with_drive(self, drive) -> "SweptChecker":
+        """This checker's geometry (FCL pieces, tree bounds, hierarchy, transforms, pair
+        levers: a function of the design and hinge model only) for another drive, with
+        its own per-run state (pose cache, distance count)."""
+        other = copy.copy(self)
+        other.drive, other._world, other.n_distance_calls = drive, {}, 0
+        return other
 
     # -- geometry ---------------------------------------------------------------------
     def bound_coords(self, times, angles: np.ndarray | None = None) -> np.ndarray:
@@ -593,3 +603,22 @@ def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 20
         if d < best[0]:
             best = (d, (int(i), int(j)), k)
     return best
+
+
+#: designs whose geometry :func:`checker_for` keeps per process (the designs of one run)
+CHECKER_CACHE = 16
+_checkers: dict = {}
+
+
+def checker_for(design: Design, model, drive) -> SweptChecker:
+    """A :class:`SweptChecker` of ``design`` under ``model`` for ``drive``, its geometry
+    built once per process and design object (the Monte-Carlo folds one design many
+    times; each sample used to rebuild its FCL geometry): :meth:`SweptChecker.with_drive`
+    of a cached checker. The cache holds the design itself, so its id stays its own."""
+    key = (id(design), str(model))
+    hit = _checkers.get(key)
+    if hit is None or hit[0] is not design:
+        if len(_checkers) >= CHECKER_CACHE:
+            _checkers.pop(next(iter(_checkers)))
+        hit = _checkers[key] = (design, SweptChecker(design, model, None))
+    return hit[1].with_drive(drive)

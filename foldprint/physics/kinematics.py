@@ -16,6 +16,7 @@ panel stays put. Everything is vectorised over time.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -352,19 +353,55 @@ class HingeDrive:
         """The loop solution on a grid of step ``dt`` covering ``times`` (and holding
         ``times`` exactly); re-solved when the grid no longer covers the request or an
         arrest changed the drive."""
+        grid, key = self._loop_grid(times, dt)
+        if grid is not None:
+            self._solution = self.loops.track(grid, self.driven(grid))
+            self._solved_for = key
+        return self._solution
+
+    def _loop_grid(self, times, dt: float):
+        """The grid :meth:`solve_loops` solves on and its arrest key; grid None when the
+        current solution already covers ``times``."""
         times = np.atleast_1d(np.asarray(times if times is not None else [0.0], float))
         end = max(float(times.max(initial=0.0)), float(self.design.process.duration_s))
         key = tuple(sorted(self.frozen_at.items()))
         sol = self._solution
         if sol is not None and self._solved_for == key and sol.times[-1] >= end - 1e-12:
-            return sol
+            return None, key
         grid = np.arange(0.0, end + dt, dt)
         if sol is not None and self._solved_for == key:
             grid = np.union1d(grid, sol.times)
-        grid = np.union1d(grid[grid <= end + 1e-12], times[times >= 0])
-        self._solution = self.loops.track(grid, self.driven(grid))
-        self._solved_for = key
-        return self._solution
+        return np.union1d(grid[grid <= end + 1e-12], times[times >= 0]), key
+
+
+def run_times(design: Design, dt: float = 0.01, duration: float | None = None) -> np.ndarray:
+    """The times of a simulation of ``design`` at step ``dt`` (0, dt, ... to the first at
+    or past the duration)."""
+    dur = float(design.process.duration_s if duration is None else duration)
+    if not (dur > 0 and dt > 0):
+        raise DesignError(f"duration and dt must be > 0 s, got {dur} and {dt}")
+    n = int(np.ceil(dur / dt - 1e-9)) + 1
+    return np.linspace(0.0, (n - 1) * dt, n)
+
+
+def loop_dt(times: np.ndarray) -> float:
+    """The loop grid's step for a simulation at ``times``."""
+    return min(LOOP_DT, float(np.diff(times).min(initial=LOOP_DT)))
+
+
+def solve_loops_many(drives: Sequence[HingeDrive], times: np.ndarray) -> None:
+    """:meth:`HingeDrive.solve_loops` of several drives of one design for a simulation at
+    ``times``, their closures tracked in lockstep (:meth:`LoopSolver.track_many`: one
+    array evaluation per round for all of them): what ``simulate_kinematics`` would then
+    solve drive by drive, and the same answers. Drives without loops are left alone."""
+    todo = [(d, *d._loop_grid(times, loop_dt(times))) for d in drives if d.loops is not None]
+    todo = [(d, g, k) for d, g, k in todo if g is not None]
+    while todo:
+        d0, g0, _ = todo[0]
+        same = [(d, g, k) for d, g, k in todo if d.loops.n == d0.loops.n and np.array_equal(g, g0)]
+        for (d, _, k), sol in zip(same, d0.loops.track_many(g0, [d.driven(g0) for d, _, _ in same])):
+            d._solution, d._solved_for = sol, k
+        todo = [t for t in todo if not any(t[0] is d for d, _, _ in same)]
 
 
 def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath_c: float | None = None,
@@ -377,16 +414,12 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
     model = HingeModel(str(model))
     drive = drive or HingeDrive(design, bath_c, library)
     if times is None:
-        dur = float(design.process.duration_s if duration is None else duration)
-        if not (dur > 0 and dt > 0):
-            raise DesignError(f"duration and dt must be > 0 s, got {dur} and {dt}")
-        n = int(np.ceil(dur / dt - 1e-9)) + 1
-        times = np.linspace(0.0, (n - 1) * dt, n)
+        times = run_times(design, dt, duration)
     times = np.asarray(times, float)
     ratios = drive.ratios(times)
     loop = None
     if drive.loops is not None:
-        loop = drive.solve_loops(times, min(LOOP_DT, float(np.diff(times).min(initial=LOOP_DT))))
+        loop = drive.solve_loops(times, loop_dt(times))
         angles = loop.at(times)
         # the ratio a hinge actually reached: a hinge held back by its loops is not done
         with np.errstate(divide="ignore", invalid="ignore"):

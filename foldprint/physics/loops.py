@@ -59,6 +59,15 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
+def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross products of (..., 3) arrays (np.cross without its axis bookkeeping)."""
+    out = np.empty(np.broadcast(a, b).shape)
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def _rotvec(r: np.ndarray) -> np.ndarray:
     """Axis-angle vector of a rotation matrix (stable near the identity)."""
     c = np.clip((np.trace(r) - 1) / 2, -1.0, 1.0)
@@ -149,42 +158,80 @@ class LoopSolver:
         self.twist = np.hstack([self.axis, -np.cross(self.axis, self.point)])
         self._k = np.array([_hat(a) for a in self.axis]).reshape(self.n, 3, 3)
         self._k2 = self._k @ self._k
-        self._cyc = [(np.array([k for k, _ in cyc]), np.array([0 if sg > 0 else 1 for _, sg in cyc]),
-                      np.array([sg for _, sg in cyc])) for cyc in self.cycles]
-
-    def _factors(self, x: np.ndarray) -> np.ndarray:
-        """(2, n, 4, 4) transforms exp(+xi_k x_k) and exp(-xi_k x_k)."""
-        ang = np.stack([x, -x])[:, :, None, None]
-        r = np.eye(3) + np.sin(ang) * self._k + (1 - np.cos(ang)) * self._k2
-        g = np.zeros((2, self.n, 4, 4))
-        g[..., :3, :3] = r
-        g[..., :3, 3] = self.point[None] - np.einsum("snij,nj->sni", r, self.point)
-        g[..., 3, 3] = 1.0
-        return g
+        # the cycles padded to one length L for the batched residual: a padded place is hinge
+        # n (an identity factor) with sign 0, so it adds nothing to C or J
+        m, L = len(self.cycles), max((len(c) for c in self.cycles), default=0)
+        self._pk = np.full((m, L), self.n, dtype=np.intp)
+        self._ps = np.zeros((m, L))
+        for ci, cyc in enumerate(self.cycles):
+            for l, (k, sg) in enumerate(cyc):
+                self._pk[ci, l], self._ps[ci, l] = k, sg
+        self._p_axis = np.vstack([self.axis, np.zeros((1, 3))])[self._pk]  # (m, L, 3)
+        self._p_v = np.vstack([self.twist[:, 3:], np.zeros((1, 3))])[self._pk]
+        self._p_point = np.vstack([self.point, np.zeros((1, 3))])[self._pk][..., None]  # (m, L, 3, 1)
+        self._p_k = np.concatenate([self._k, np.zeros((1, 3, 3))])[self._pk]  # (m, L, 3, 3)
+        self._p_k2 = np.concatenate([self._k2, np.zeros((1, 3, 3))])[self._pk]
+        self._p_sign = np.where(self._ps < 0, -1.0, 1.0)
+        self._p_rows = np.repeat(np.arange(m), L)
+        self._p_cols = self._pk.ravel()
 
     def residual(self, x: np.ndarray, jacobian: bool = True):
-        """C (6 m,) and J (6 m, n) of the m cycles at angles x."""
-        m = len(self.cycles)
-        c = np.zeros(6 * m)
-        jac = np.zeros((6 * m, self.n)) if jacobian else None
-        fac = self._factors(x)
-        for ci, (ks, side, sgn) in enumerate(self._cyc):
-            g = np.eye(4)
-            pre = np.empty((len(ks), 4, 4))
-            for m_, (k, sd) in enumerate(zip(ks, side)):
-                pre[m_] = g
-                g = g @ fac[sd, k]
-            c[6 * ci:6 * ci + 3] = _rotvec(g[:3, :3])
-            p = g[:3, 3]
-            c[6 * ci + 3:6 * ci + 6] = p
-            if jacobian:  # columns: Ad(prefix) xi_k; r = [rotvec(R); p] so dp = v + w x p
-                rot, tr = pre[:, :3, :3], pre[:, :3, 3]
-                w = np.einsum("lij,lj->li", rot, self.axis[ks])
-                v = np.einsum("lij,lj->li", rot, self.twist[ks, 3:]) + np.cross(tr, w)
-                v += np.cross(w, p)
-                jac[6 * ci:6 * ci + 3, ks] = (sgn[:, None] * w).T
-                jac[6 * ci + 3:6 * ci + 6, ks] = (sgn[:, None] * v).T
-        return c, jac
+        """C (6 m,) and J (6 m, n) of the m cycles at angles x (:meth:`residuals` of one)."""
+        c, jac = self.residuals(np.asarray(x, float)[None], jacobian)
+        return c[0], (None if jac is None else jac[0])
+
+    def residuals(self, xs: np.ndarray, jacobian: bool = True):
+        """C (S, 6 m) and J (S, 6 m, n) at S configurations xs (S, n), for all cycles at
+        once (cycles padded to one length, rotations and translations kept apart): equal
+        to the cycle-by-cycle product of 4x4 transforms to round-off
+        (``tests/test_loop_tracking.py`` keeps that as the reference)."""
+        m, S = len(self.cycles), xs.shape[0]
+        if m == 0:
+            return np.zeros((S, 0)), (np.zeros((S, 0, self.n)) if jacobian else None)
+        pk, ps = self._pk, self._ps
+        xa = np.concatenate([xs, np.zeros((S, 1))], axis=1)[:, pk] * self._p_sign  # (S, m, L) signed angles
+        sn, c1 = np.sin(xa)[..., None, None], (1 - np.cos(xa))[..., None, None]
+        r = sn * self._p_k + c1 * self._p_k2  # (S, m, L, 3, 3), minus the identity
+        r[..., 0, 0] += 1.0
+        r[..., 1, 1] += 1.0
+        r[..., 2, 2] += 1.0
+        q = self._p_point
+        t = (q - r @ q)[..., 0]  # (S, m, L, 3): exp(xi x) = [r, q - r q]
+        L = pk.shape[1]
+        pre_r = np.empty((S, m, L, 3, 3))
+        pre_t = np.empty((S, m, L, 3))
+        gr = np.empty((S, m, 3, 3))
+        gr[:] = np.eye(3)
+        gt = np.zeros((S, m, 3))
+        for l in range(L):
+            pre_r[:, :, l], pre_t[:, :, l] = gr, gt
+            gt = (gr @ t[:, :, l, :, None])[..., 0] + gt
+            gr = gr @ r[:, :, l]
+        p = gt
+        out = np.empty((S, m, 6))
+        out[..., 3:] = p
+        # axis-angle of gr, as _rotvec (the half-turn case, never met near closure, by it)
+        cosa = np.clip((gr[..., 0, 0] + gr[..., 1, 1] + gr[..., 2, 2] - 1) / 2, -1.0, 1.0)
+        a = np.arccos(cosa)
+        w = out[..., :3]
+        w[..., 0] = gr[..., 2, 1] - gr[..., 1, 2]
+        w[..., 1] = gr[..., 0, 2] - gr[..., 2, 0]
+        w[..., 2] = gr[..., 1, 0] - gr[..., 0, 1]
+        small = a < 1e-6
+        sa = np.sin(a)
+        w *= np.where(small, 0.5, a / (2 * np.where(small, 1.0, sa)))[..., None]
+        if np.any(np.pi - a < 1e-6):  # pragma: no cover - see _rotvec
+            for si, ci in zip(*np.nonzero(np.pi - a < 1e-6)):
+                out[si, ci, :3] = _rotvec(gr[si, ci])
+        c = out.reshape(S, 6 * m)
+        if not jacobian:
+            return c, None
+        wj = (pre_r @ self._p_axis[..., None])[..., 0]
+        vj = (pre_r @ self._p_v[..., None])[..., 0] + _cross3(pre_t, wj) + _cross3(wj, p[:, :, None, :])
+        cols = np.concatenate([wj, vj], axis=3) * ps[..., None]  # (S, m, L, 6)
+        jac = np.zeros((S, m, self.n + 1, 6))
+        jac[:, self._p_rows, self._p_cols, :] = cols.reshape(S, m * L, 6)
+        return c, jac.transpose(0, 1, 3, 2)[..., :self.n].reshape(S, 6 * m, self.n)
 
     def closure(self, x: np.ndarray) -> float:
         return float(np.abs(self.residual(x, False)[0]).max(initial=0.0))
@@ -193,14 +240,47 @@ class LoopSolver:
         """Gauss-Newton tracking from ``x`` toward ``target``: at most ``iters`` steps
         toward the nearest closed configuration, then Newton corrections until closed.
         Returns (x, |C|, null-space dimension, converged)."""
+        return self._project(x, target, iters)[:4]
+
+    def _evaluate(self, x: np.ndarray):
+        """C at x and the SVD (u, s, vt) of J there: what one Gauss-Newton step needs."""
+        c, jac = self.residual(x)
+        return (c, *np.linalg.svd(jac, full_matrices=True))
+
+    def _run(self, gen):
+        """Drive a solve generator, evaluating each configuration it yields here."""
+        try:
+            x = next(gen)
+            while True:
+                x = gen.send(self._evaluate(x))
+        except StopIteration as stop:
+            return stop.value
+
+    def _project(self, x: np.ndarray, target: np.ndarray, iters: int = 8, tangent: np.ndarray | None = None):
+        return self._run(self._project_gen(x, target, iters, tangent))
+
+    def _project_gen(self, x: np.ndarray, target: np.ndarray, iters: int = 8, tangent: np.ndarray | None = None):
+        """:meth:`project` as a generator: it yields each configuration it needs C and the
+        SVD of J at, and is sent them (:meth:`_run` one solve, :meth:`track_many` many
+        in lockstep, one array evaluation for all); returns what :meth:`project` does,
+        plus the tangent basis (rows) at the answer. ``tangent``: the
+        basis at ``x`` from the previous solve; the predictor then moves along it toward
+        ``target`` before the first evaluation (the step the first Gauss-Newton iteration
+        would take from a closed ``x``, without evaluating C and J there), and the
+        corrector iterates exactly as :meth:`project` until the same tests pass."""
         x = x.copy()
-        null, res, done = 0, np.inf, False
+        if tangent is not None and tangent.shape[0]:
+            step = tangent.T @ (tangent @ (target - x))
+            big = np.abs(step).max(initial=0.0)
+            if big > 0.1:
+                step *= 0.1 / big
+            x = x + step
+        null, res, done, vn = 0, np.inf, False, np.zeros((0, self.n))
         for it in range(iters + 20):
-            c, jac = self.residual(x)
+            c, u, sv, vt = yield x
             res = float(np.abs(c).max(initial=0.0))
-            u, sv, vt = np.linalg.svd(jac, full_matrices=True)
             rank = int((sv > 1e-7 * max(1.0, sv.max(initial=0.0))).sum())
-            vr = vt[:rank]
+            vr, vn = vt[:rank], vt[rank:]
             null = self.n - rank
             corr = -(vr.T @ ((u[:, :rank].T @ c) / sv[:rank])) if rank else np.zeros(self.n)
             if it < iters:
@@ -217,11 +297,41 @@ class LoopSolver:
             x = x + step
             self.iterations += 1
         else:
-            res = self.closure(x)
-        return x, res, null, done
+            c = (yield x)[0]
+            res = float(np.abs(c).max(initial=0.0))
+            vn = None
+        return x, res, null, done, vn
 
     def track(self, times: np.ndarray, driven: np.ndarray) -> LoopSolution:
         """Follow the driven angles (n_t, n) on the closure manifold from the flat sheet."""
+        return self._run(self._track_gen(times, driven))
+
+    def track_many(self, times: np.ndarray, drivens) -> list[LoopSolution]:
+        """:meth:`track` of several drives (each (n_t, n), on the same times) in lockstep:
+        every round evaluates C, J and its SVD at all the drives' current configurations
+        in one array pass. Each drive's solve is :meth:`track`'s, step by step, so the
+        answers are its answers (``tests/test_loop_tracking.py``)."""
+        gens = [self._track_gen(times, d) for d in drivens]
+        out: list = [None] * len(gens)
+        want: dict[int, np.ndarray] = {}
+        for i, g in enumerate(gens):
+            try:
+                want[i] = next(g)
+            except StopIteration as stop:  # pragma: no cover - a track always evaluates
+                out[i] = stop.value
+        while want:
+            idx = list(want)
+            c, jac = self.residuals(np.stack([want[i] for i in idx]))
+            u, sv, vt = np.linalg.svd(jac, full_matrices=True)
+            for j, i in enumerate(idx):
+                try:
+                    want[i] = gens[i].send((c[j], u[j], sv[j], vt[j]))
+                except StopIteration as stop:
+                    out[i] = stop.value
+                    del want[i]
+        return out
+
+    def _track_gen(self, times: np.ndarray, driven: np.ndarray):
         times = np.asarray(times, float)
         x = np.zeros(self.n)
         out = np.zeros_like(driven)
@@ -232,6 +342,7 @@ class LoopSolver:
         res_x = 0.0
         settled = True
         prev_drive = np.zeros(self.n)
+        tangent = None  # tangent basis at x when x is a converged answer (the predictor's)
         for k in range(len(times)):
             y = driven[k]
             delta = np.abs(y - prev_drive).max(initial=0.0)
@@ -239,21 +350,26 @@ class LoopSolver:
                 nsub = max(1, int(np.ceil(delta / MAX_STEP)))
                 for s in range(1, nsub + 1):
                     ys = prev_drive + (y - prev_drive) * s / nsub
-                    xn, res, null, settled = self.project(x, ys)
-                    if np.abs(x).max(initial=0.0) < NEAR_FLAT and np.abs(xn - ys).max(initial=0.0) > OPT_TOL:
+                    # the predictor only away from the flat state: at a bifurcation point the
+                    # tangent space holds every branch, and which one is taken is decided below
+                    near_flat = np.abs(x).max(initial=0.0) < NEAR_FLAT
+                    xn, res, null, settled, basis = yield from self._project_gen(
+                        x, ys, tangent=None if near_flat else tangent)
+                    if near_flat and np.abs(xn - ys).max(initial=0.0) > OPT_TOL:
                         # near the flat state (a bifurcation point) the step from x can
                         # stall between branches: also start from the drive itself and
                         # keep whichever closed answer is nearer the drive
-                        xb, rb, nb, sb = self.project(ys, ys)
+                        xb, rb, nb, sb, bb = yield from self._project_gen(ys, ys)
                         if (rb <= 1e-7 and np.linalg.norm(xb - ys) < np.linalg.norm(xn - ys) - 1e-9
                                 and np.abs(xb - x).max(initial=0.0) <= np.abs(xn - x).max(initial=0.0) + JUMP):
-                            xn, res, null, settled = xb, rb, nb, sb
+                            xn, res, null, settled, basis = xb, rb, nb, sb, bb
                     if res > 1e-7:  # lost the manifold: hold the last closed configuration
                         settled = True
                         if locked_at is None:
                             locked_at = float(times[k])
                         break
                     x, res_x = xn, res
+                    tangent = basis if settled else None
                     if dof < 0 and np.abs(x).max(initial=0) > 1e-3:
                         dof = null
                 if locked_at is None and null == 0 and np.abs(x - y).max(initial=0) > FOLLOW_TOL:

@@ -35,7 +35,7 @@ from ..core import guards
 from ..model.design import Design
 from ..core.constants import DEFAULT_DT_S, DEFAULT_SEED, ROBUST_SAMPLES
 from ..core.errors import DesignError, MaterialError
-from ..physics.kinematics import HingeDrive
+from ..physics.kinematics import HingeDrive, run_times, solve_loops_many
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import DEFAULT_HINGE_MODEL, VERDICT_METHOD, HingeModel, JamReason, Method, parse
 from ..physics.recovery import RecoveryCurve, recovery_curve
@@ -166,14 +166,17 @@ def run_sample(args) -> Outcome:
 
 @scoped
 def run_samples(args) -> list[Outcome]:
-    """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), then one
-    fold each. ``args``: (design, library, samples, hinge_model, dt[, exact[, method]]), the
-    method :data:`~foldprint.core.modes.VERDICT_METHOD` by default."""
+    """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), the
+    closure of a pattern with loops tracked for all of them in lockstep
+    (:func:`foldprint.physics.kinematics.solve_loops_many`), then one fold each. ``args``:
+    (design, library, samples, hinge_model, dt[, exact[, method]]), the method
+    :data:`~foldprint.core.modes.VERDICT_METHOD` by default."""
     design, library, samples, hinge_model, dt, *rest = args
     method = rest[1] if len(rest) > 1 else VERDICT_METHOD
     if rest and rest[0]:
         return [run_sample((design, library, s, hinge_model, dt, method)) for s in samples]
     drives = sample_drives(design, library, samples, until_s=run_end(design, dt))
+    solve_loops_many(drives, run_times(design, dt))  # a pattern with loops: closure tracked in lockstep
     return [outcome_of(simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=d))
             for d in drives]
 
@@ -242,7 +245,10 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
 
     ``nominal``: the nominal simulation if the caller has it (else it is run here).
     ``mapper(fn, items, progress)``: how to run the chunks of samples (default: all local
-    cores, :func:`foldprint.core.parallel.map_ordered`). ``exact``: the reference path (one
+    cores, :func:`foldprint.core.parallel.map_ordered`); a
+    :class:`foldprint.simulation.batch.Precomputed` mapper that holds these samples' outcomes
+    (folded in a shared pool, :func:`~foldprint.simulation.batch.run_batch`) returns them
+    without folding. ``exact``: the reference path (one
     cached curve per hinge over the whole horizon, as before the batch path), for
     comparisons. ``method``: the collision check of the nominal fold and of every sample.
     The first chunk runs here and times the run: a sample count whose
@@ -260,6 +266,12 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     guards.check_sample_memory(design, samples)  # refuse before any fold: the outcomes are held
     if nominal is None:
         nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib)
+    lookup = getattr(mapper, "lookup", None)  # simulation.batch.Precomputed: folded in a shared pool
+    done_before = lookup(design, scatter, samples, seed, model, dt, method) if lookup is not None else None
+    if done_before is not None:
+        if progress:
+            progress(samples, samples)
+        return RobustResult(design.name, samples, seed, model, scatter, tuple(done_before), nominal)
     stream = iter_samples(design, scatter, samples, seed)
     chunks = ((design, lib, chunk, model, dt, exact, method) for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
     n_chunks = -(-samples // CHUNK)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..model.derived import scoped
 from ..collision.index2d import Index2D, collision_index
-from ..collision.swept3d import Contact, SweptChecker, swept_first_contact
+from ..collision.swept3d import Contact, checker_for, swept_first_contact
 from ..core import guards
 from ..core.constants import DEFAULT_DT_S, FOLD_LEVEL, tol
 from ..model.design import Design, tree_order
@@ -177,7 +177,7 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     contacts: list[Contact] = []
     skip: set = set()
     initial: list[Contact] = []
-    checker = SweptChecker(design, hinge_model, drive) if use3d else None
+    checker = checker_for(design, hinge_model, drive) if use3d else None
     t_start = 0.0
     idx2d = None
     for _round in range(len(design.hinges) + 1):
