@@ -110,6 +110,8 @@ class CompositionModel:
     assumed: tuple[tuple[str, float], ...]
     ramp: tuple[str, str]  # (TangoBlack, VeroWhite) display colours
     source: str = "foldprint/data/composition.toml"
+    stiffness_ratio: float = 300.0  # E_glassy / E_rubbery for length-graded hinges
+    strip_points: int = 8  # Gauss points per knot interval of a graded hinge
 
     @property
     def k_eff(self) -> float:
@@ -202,9 +204,29 @@ def parse_model(data: Mapping, src: str) -> CompositionModel:
                             f"got {t_t}, {lo}, {hi}, {t_v}")
     grades = tuple((str(n), float(w)) for n, w in data.get("assumed_grades", {}).items() if n != "source")
     ramp = data.get("ramp", {})
+    gr = data.get("grading", {})
+    ratio = _num(gr, "stiffness_ratio", f"{src}: grading") if "stiffness_ratio" in gr else 300.0
+    pts = gr.get("strip_points", 8)
+    if ratio < 1 or not isinstance(pts, int) or isinstance(pts, bool) or not 1 <= pts <= 64:
+        raise MaterialError(f"{src}: grading needs stiffness_ratio >= 1 and 1 <= strip_points <= 64, "
+                            f"got {ratio}, {pts!r}")
     return CompositionModel(law=law, k=k, tg_tango_c=t_t, tg_vero_c=t_v, tg_supported_c=(lo, hi),
                             assumed=grades, ramp=(ramp.get("tangoblack", "#202020"),
-                                                  ramp.get("verowhite", "#f0f0f0")), source=src)
+                                                  ramp.get("verowhite", "#f0f0f0")), source=src,
+                            stiffness_ratio=ratio, strip_points=pts)
+
+
+def strips(profile: FractionProfile, points: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Quadrature of a profile over u: (u, weights summing to 1); Gauss-Legendre with
+    ``points`` per knot interval (default the model's ``strip_points``); one strip if uniform."""
+    if profile.uniform:
+        return np.array([0.5]), np.array([1.0])
+    g = points or composition_model().strip_points
+    x, w = np.polynomial.legendre.leggauss(g)
+    n = len(profile.knots) - 1
+    u = np.concatenate([(i + 0.5 * (x + 1)) / n for i in range(n)])
+    wt = np.concatenate([w / (2 * n)] * n)
+    return u, wt
 
 
 @lru_cache(maxsize=1)
