@@ -45,6 +45,7 @@ from ..model.design import (SCHEMA_VERSION, Design, Goal, Hinge, HingeStyle, Pan
                      shared_edge, strip, validate)
 from ..core.errors import DesignError
 from ..core.schema import Where
+from ..model import composition
 from ..model.materials import MaterialLibrary
 
 _TOP = {"schema", "name", "description", "root", "process", "defaults", "strip", "panels", "hinges",
@@ -161,7 +162,7 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
         n = len(lengths)
         angles = [_angle(v, (at / "angles_deg" / i).named(f"hinge 'h{i + 1}'"))
                   for i, v in enumerate(sc.array(st["angles_deg"], at / "angles_deg", sc.MAX_PANELS))]
-        mats = [sc.string(v, (at / "materials" / i).named(f"hinge 'h{i + 1}'"))
+        mats = [_material(v, (at / "materials" / i).named(f"hinge 'h{i + 1}'"))
                 for i, v in enumerate(sc.array(st["materials"], at / "materials", sc.MAX_PANELS))]
         holes: dict[int, list] = {}
         for k, hraw in enumerate(sc.array(st.get("holes", []), at / "holes", sc.MAX_HOLES * 16)):
@@ -228,7 +229,7 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
                               "along a common side of their outlines")
         ang = _angle(raw["angle_deg"], at / "angle_deg")
         hinges.append(Hinge(hid, (pp[0], pp[1]), line, math.radians(ang),
-                            sc.string(raw["material"], at / "material"),
+                            _material(raw["material"], at / "material"),
                             sc.length(raw.get("radius_mm", radius), at / "radius_mm"),
                             sc.length(raw.get("thickness_mm", hthick if hthick is not None else thickness),
                                       at / "thickness_mm"),
@@ -284,6 +285,13 @@ def read_text(path: Path, expected: str, kind: str | None = None) -> str:
     return text
 
 
+def _material(value, at: sc.Where) -> str:
+    """A hinge's material: a name (``"H-3"``, ``"VW0.620"``), a VeroWhite fraction, or
+    ``{vero_fraction = 0.62}`` / ``{vero_fraction = [0.6, 0.9], along = "width"}``
+    (:func:`foldprint.model.composition.parse_material_spec`) -> the material's name."""
+    return composition.parse_material_spec(sc.string(value, at) if isinstance(value, str) else value, str(at))
+
+
 def design_to_dict(design: Design) -> dict:
     """The general ([[panels]]/[[hinges]]) form; ``design_from_dict`` reads it back."""
     default = HingeStyle()
@@ -304,7 +312,7 @@ def design_to_dict(design: Design) -> dict:
     out["hinges"] = []
     for h in design.hinges:
         entry = {"id": h.id, "panels": list(h.panels), "line": h.line.tolist(),
-                 "angle_deg": math.degrees(h.angle), "material": h.material,
+                 "angle_deg": math.degrees(h.angle), "material": composition.material_spec(h.material),
                  "radius_mm": float(h.radius), "thickness_mm": float(h.thickness)}
         if h.fixity != 1.0:
             entry["fixity"] = float(h.fixity)

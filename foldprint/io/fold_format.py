@@ -23,6 +23,7 @@ from ..core.constants import tol
 from ..model.design import Design
 from .design_io import design_from_dict, read_text
 from ..core.errors import DesignError, where
+from ..model import composition
 from ..model.materials import MaterialLibrary
 from ..core.schema import MAX_FACES, MAX_LENGTH_MM, check_fold, parse_error
 
@@ -388,8 +389,10 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
         if sorted(map(str, extra.get("panels") or [])) == sorted(pp):
             pp = [str(p) for p in extra["panels"]]
         entry = {"id": hid, "panels": pp, "line": line.tolist(), "angle_deg": float(degs[0]),
-                 "material": str(_first([e_mat[i] for i in ids], None)
-                                 or (crease_materials or {}).get(assign[ids[0]], default_hinge_material)),
+                 "material": composition.parse_material_spec(
+                     _first([e_mat[i] for i in ids], None)
+                     or (crease_materials or {}).get(assign[ids[0]], default_hinge_material),
+                     f"{src}edges_foldprint:material of hinge {hid!r}: "),
                  "radius_mm": _first([e_rad[i] for i in ids], default_radius_mm),
                  "thickness_mm": _first([e_thk[i] for i in ids], default_thickness_mm)}
         entry.update({k: extra[k] for k in ("fixity", "style") if k in extra})

@@ -43,6 +43,7 @@ DECIMALS = 3
 _K = 273.15
 _NUM = r"[01]\.\d{%d}" % DECIMALS
 _NAME = re.compile(rf"^VW({_NUM}(?:-{_NUM})*)(?:@(width|length))?$")
+_LOOSE = re.compile(r"^VW(\d*\.?\d+(?:-\d*\.?\d+)*)(?:@(width|length))?$")
 
 
 class Along(Enum):
@@ -280,6 +281,15 @@ def vero(fraction: float | Sequence[float], along: Along | str | None = None) ->
 def parse_name(name: str, model: CompositionModel | None = None) -> FractionProfile:
     """The profile a canonical ``VW...`` name stands for (MaterialError if malformed/outside)."""
     m = _NAME.match(name) if isinstance(name, str) else None
+    loose = _LOOSE.match(name) if isinstance(name, str) and m is None else None
+    if loose is not None:
+        try:
+            vals = [float(v) for v in loose.group(1).split("-")]
+            hint = make_profile(vals if len(vals) > 1 else vals[0], loose.group(2), model).name
+        except (ValueError, MaterialError):
+            hint = None
+        if hint is not None:
+            raise MaterialError(f"material {name!r}: the canonical spelling is {hint!r}")
     if m is None:
         raise MaterialError(
             f"material {name!r} is not a composition name; write 'VW0.620' (VeroWhite fraction, "
