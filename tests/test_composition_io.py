@@ -73,3 +73,24 @@ def test_api_names_and_general_hinge_validation():
     fp.validate(d)
     with pytest.raises(DesignError, match="materials\\[0\\] \\(hinge 'h1'\\)"):
         fp.strip("vw", [20, 20], [90], [1.5])
+
+
+def test_viewer_and_gallery_show_the_ramp():
+    from foldprint.apps.gallery import _ramp_note, _swatch
+    from foldprint.model.composition import composition_model
+    from foldprint.render.viewer import viewer_data
+    from foldprint.simulation.simulate import simulate
+
+    lib = fp.default_library()
+    d = fp.strip("vw", [20, 20, 20], [90, 90], [0.62, {"vero_fraction": [0.6, 0.9], "along": "width"}])
+    data = viewer_data(simulate(d, dt=0.05), lib)
+    ramp = data["ramp"]
+    m = composition_model()
+    assert ramp["swatches"]["VW0.620"] == m.color(0.62) == data["colors"]["VW0.620"]
+    assert ramp["swatches"]["VW0.600-0.900@width"] == f"linear-gradient(to right, {m.color(0.6)}, {m.color(0.9)})"
+    assert data["colors"]["VW0.600-0.900@width"] == m.color(0.75)  # graded: the mean colour
+    assert (ramp["tangoblack"], ramp["verowhite"]) == (lib["TangoBlack"].color, lib["VeroWhite"].color)
+    assert "linear-gradient" in _swatch(lib, "VW0.600-0.900@width")
+    assert "VW0.620: VeroWhite 62.0 %" in _ramp_note(d)
+    plain = fp.strip("h", [20, 20], [90], ["H-3"])
+    assert _ramp_note(plain) == "" and "ramp" not in viewer_data(simulate(plain, dt=0.05), lib)

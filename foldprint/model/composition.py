@@ -352,6 +352,37 @@ def material_spec(name: str) -> Any:
     return {"vero_fraction": list(p.knots), "along": p.along.value}
 
 
+def css_background(name: str, fallback: str = "#9a9a9a") -> str:
+    """CSS background of a material's swatch on the ramp: its colour, or a left-to-right
+    gradient through its knots for a graded material (``u`` = 0 on the left)."""
+    model = composition_model()
+    try:
+        prof = parse_name(name)
+    except MaterialError:
+        return fallback
+    if prof.uniform:
+        return model.color(prof.knots[0])
+    return "linear-gradient(to right, " + ", ".join(model.color(k) for k in prof.knots) + ")"
+
+
+def ramp_legend(names) -> dict | None:
+    """What a legend needs to explain the VeroWhite ramp, or None if no ``VW...`` name is used:
+    the end colours, the supported range and each name's swatch background and label."""
+    model = composition_model()
+    used = sorted({n for n in names if is_composition_name(n)})
+    if not used:
+        return None
+    labels = {}
+    for n in used:
+        p = parse_name(n)
+        labels[n] = (f"VeroWhite {100 * p.knots[0]:.1f} % (Tg {model._tg(p.knots[0]):.1f} C)" if p.uniform else
+                     f"VeroWhite {' -> '.join(f'{100 * k:.1f}' for k in p.knots)} % along the {p.along.value}"
+                     f" (mean Tg {model._tg(p.mean):.1f} C)")
+    return {"tangoblack": model.ramp[0], "verowhite": model.ramp[1],
+            "range": list(model.fraction_range), "swatches": {n: css_background(n) for n in used},
+            "labels": labels}
+
+
 # -- library support --------------------------------------------------------------------
 
 def synthesise(library, name: str):
