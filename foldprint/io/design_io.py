@@ -46,6 +46,7 @@ from ..model.design import (SCHEMA_VERSION, Design, Goal, Hinge, HingeStyle, Pan
 from ..core.errors import DesignError
 from ..core.modes import Interface
 from ..core.schema import Where
+from ..model import composition
 from ..model.materials import MaterialLibrary
 
 _TOP = {"schema", "name", "description", "root", "process", "defaults", "strip", "panels", "hinges",
@@ -180,7 +181,7 @@ def _strip_design(data: Mapping, top: Where, name: str, description: str, root: 
     n = len(lengths)
     angles = [_angle(v, (at / "angles_deg" / i).named(f"hinge 'h{i + 1}'"))
               for i, v in enumerate(sc.array(st["angles_deg"], at / "angles_deg", sc.MAX_PANELS))]
-    mats = [sc.string(v, (at / "materials" / i).named(f"hinge 'h{i + 1}'"))
+    mats = [_material(v, (at / "materials" / i).named(f"hinge 'h{i + 1}'"))
             for i, v in enumerate(sc.array(st["materials"], at / "materials", sc.MAX_PANELS))]
     holes: dict[int, list] = {}
     for k, hraw in enumerate(sc.array(st.get("holes", []), at / "holes", sc.MAX_HOLES * 16)):
@@ -263,7 +264,7 @@ def _hinges(data: Mapping, top: Where, by_id: Mapping, dflt: _Defaults) -> list[
         ang = _angle(raw["angle_deg"], at / "angle_deg")
         hthick = dflt.hinge_thickness if dflt.hinge_thickness is not None else dflt.thickness
         hinges.append(Hinge(hid, (pp[0], pp[1]), line, math.radians(ang),
-                            sc.string(raw["material"], at / "material"),
+                            _material(raw["material"], at / "material"),
                             sc.length(raw.get("radius_mm", dflt.radius), at / "radius_mm"),
                             sc.length(raw.get("thickness_mm", hthick), at / "thickness_mm"),
                             _fixity(raw.get("fixity", dflt.fixity), at / "fixity"),
@@ -342,6 +343,13 @@ def read_text(path: Path, expected: str, kind: str | None = None) -> str:
     return text
 
 
+def _material(value, at: sc.Where) -> str:
+    """A hinge's material: a name (``"H-3"``, ``"VW0.620"``), a VeroWhite fraction, or
+    ``{vero_fraction = 0.62}`` / ``{vero_fraction = [0.6, 0.9], along = "width"}``
+    (:func:`foldprint.model.composition.parse_material_spec`) -> the material's name."""
+    return composition.parse_material_spec(sc.string(value, at) if isinstance(value, str) else value, str(at))
+
+
 def design_to_dict(design: Design) -> dict:
     """The general ([[panels]]/[[hinges]]) form; ``design_from_dict`` reads it back."""
     default = HingeStyle()
@@ -362,7 +370,7 @@ def design_to_dict(design: Design) -> dict:
     out["hinges"] = []
     for h in design.hinges:
         entry = {"id": h.id, "panels": list(h.panels), "line": h.line.tolist(),
-                 "angle_deg": math.degrees(h.angle), "material": h.material,
+                 "angle_deg": math.degrees(h.angle), "material": composition.material_spec(h.material),
                  "radius_mm": float(h.radius), "thickness_mm": float(h.thickness)}
         if h.fixity != 1.0:
             entry["fixity"] = float(h.fixity)

@@ -25,6 +25,7 @@ from ..core.constants import (DEFAULT_HINGE_MATERIAL, DEFAULT_HINGE_RADIUS_MM, D
 from ..model.design import Design
 from .design_io import design_from_dict, read_text
 from ..core.errors import DesignError, where
+from ..model import composition
 from ..model.materials import MaterialLibrary
 from ..core.schema import MAX_FACES, MAX_LENGTH_MM, check_fold, parse_error
 
@@ -418,8 +419,10 @@ def _hinge_entries(et: _EdgeTable, xy: np.ndarray, hgroups: dict, group_of: dict
         if sorted(map(str, extra.get("panels") or [])) == sorted(pp):
             pp = [str(p) for p in extra["panels"]]
         entry = {"id": hid, "panels": pp, "line": line.tolist(), "angle_deg": float(degs[0]),
-                 "material": str(_first([et.material[i] for i in ids], None)
-                                 or (crease_materials or {}).get(et.assign[ids[0]], default_hinge_material)),
+                 "material": composition.parse_material_spec(
+                     _first([et.material[i] for i in ids], None)
+                     or (crease_materials or {}).get(et.assign[ids[0]], default_hinge_material),
+                     f"{src}edges_foldprint:material of hinge {hid!r}: "),
                  "radius_mm": _first([et.radius[i] for i in ids], default_radius_mm),
                  "thickness_mm": _first([et.thickness[i] for i in ids], default_thickness_mm)}
         entry.update({k: extra[k] for k in ("fixity", "style") if k in extra})

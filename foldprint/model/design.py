@@ -26,8 +26,9 @@ from ..core.constants import (DEFAULT_BATH_C, DEFAULT_DEPTH_MM, DEFAULT_DURATION
                               DEFAULT_HINGE_RADIUS_MM, DEFAULT_PANEL_MATERIAL, DEFAULT_PROGRAM_C,
                               DEFAULT_THICKNESS_MM, tol)
 from ..core import schema
-from ..core.errors import DesignError, where
+from ..core.errors import DesignError, MaterialError, where
 from ..core.modes import DEFAULT_INTERFACE, Interface
+from . import composition
 from .derived import derived
 from .materials import MaterialLibrary, default_library
 
@@ -446,8 +447,14 @@ def _check_hinge_values(h: Hinge, item: str, ids: list, panel_ids: set, lib: Mat
         raise DesignError(f"{item}fold line has a NaN coordinate")
     if h.length <= tol.length * 100:
         raise DesignError(f"{item}fold line has zero length")
+    if composition.is_composition_name(h.material) and h.material not in lib:
+        try:
+            lib[h.material]
+        except MaterialError as exc:
+            raise DesignError(f"{item}{exc}") from None
     if h.material not in lib:
         raise DesignError(f"{item}unknown material {h.material!r}; known hinge materials: {known_hinge}"
+                          " or a VeroWhite fraction such as 'VW0.700' / {vero_fraction = 0.7}"
                           " (add your own with --materials FILE)")
     if lib[h.material].role != "hinge":
         raise DesignError(f"{item}material {h.material!r} is a {lib[h.material].role} material, "
@@ -562,7 +569,7 @@ def _features(h: Hinge, item: str) -> None:
 
 
 def strip(name: str, lengths: Sequence[float], angles_deg: Sequence[float],
-          materials: Sequence[str], *, depth: float = DEFAULT_DEPTH_MM,
+          materials: Sequence[str | float | dict], *, depth: float = DEFAULT_DEPTH_MM,
           thickness: float | Sequence[float] = DEFAULT_THICKNESS_MM,
           radius: float | Sequence[float] = DEFAULT_HINGE_RADIUS_MM,
           hinge_thickness: float | Sequence[float] | None = None,
@@ -586,6 +593,9 @@ def strip(name: str, lengths: Sequence[float], angles_deg: Sequence[float],
                           f"got {len(angles_deg)}")
     if len(materials) != n - 1:
         raise DesignError(f"{src}materials needs {n - 1} values (one per hinge), got {len(materials)}")
+    # a material is a name, a VeroWhite fraction or {vero_fraction = ...} (docs/composition.md)
+    materials = [composition.parse_material_spec(m, f"{src}materials[{i}] (hinge 'h{i + 1}'): ")
+                 for i, m in enumerate(materials)]
 
     def per(v, count, what):
         if not isinstance(v, (list, tuple, np.ndarray)):

@@ -34,6 +34,7 @@ from ..core.modes import HingeModel, JamReason, State
 from ..model.derived import scoped
 from ..model.design import Design
 from ..physics.kinematics import forward, hinge_frames, hinge_map, target_angles
+from ..model import composition
 from ..model.materials import MaterialLibrary
 
 FRAMES = 61
@@ -247,14 +248,21 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
         "worst": None,
     }
     if worst is not None:
-        w = worst.result
-        w_times, _, w_end = framed[1]
-        data["worst"] = {
-            "sample": int(worst.index), "why": worst_text(worst), "bath_c": float(w.trajectory.bath_c),
-            "end": float(w_end), "times": [float(t) for t in w_times], "completed": bool(w.completed),
-            "poses": _b64(col_major(poses[1]), "<f4"), "q": _b64(quant(ribs[1]), "<u2"),
-            "contacts": _contacts(w, items, model)}
+        data["worst"] = _worst_run(worst, framed[1], col_major(poses[1]), quant(ribs[1]), items, model)
+    ramp = composition.ramp_legend(used)  # only when a hinge names a VeroWhite fraction
+    if ramp is not None:
+        data["ramp"] = ramp
     return data
+
+
+def _worst_run(worst, framed, poses_cm: np.ndarray, q: np.ndarray, items, model: str) -> dict:
+    """The worst sample's run for the page: its times, column-major poses, quantised
+    ribbons and contacts."""
+    w = worst.result
+    w_times, _, w_end = framed
+    return {"sample": int(worst.index), "why": worst_text(worst), "bath_c": float(w.trajectory.bath_c),
+            "end": float(w_end), "times": [float(t) for t in w_times], "completed": bool(w.completed),
+            "poses": _b64(poses_cm, "<f4"), "q": _b64(q, "<u2"), "contacts": _contacts(w, items, model)}
 
 
 _PAGE = """<!DOCTYPE html>
