@@ -15,15 +15,17 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from ..core import guards
-from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
+from ..checks.rules import (CheckContext, Finding, Printer, Thresholds, default_printer_key, default_voxel_printer_key,
+                            load_printers, run_checks)
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
 from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED  # noqa: F401 (re-exported)
 from ..model.design import Design
-from ..core.errors import GeometryError
+from ..core.errors import ExportError, GeometryError
+from ..exchange.voxels import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart, VoxelRegion
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
-from ..geometry import Assembly, build_assembly
+from ..geometry import Assembly, build_assembly, hinge_axes
 from ..physics.kinematics import forward, target_angles
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, AfterContact,
@@ -42,18 +44,63 @@ def build(design: Design, state: State | str = DEFAULT_STATE,
     return build_assembly(design, st.value, library or default_library())
 
 
+def voxel_pitch(printer: str | None = None, printers_file: str | Path | None = None) -> Pitch:
+    """The voxel pitch of a printer profile (``data/printers.toml``; default: the one
+    marked ``voxel_default``, the J750); ExportError names printers that have one."""
+    printers = load_printers(printers_file)
+    key = printer or default_voxel_printer_key()
+    pr = printers.get(key)
+    if pr is None or pr.voxel_mm is None:
+        have = sorted(k for k, p in printers.items() if p.voxel_mm is not None)
+        what = "unknown printer" if pr is None else "printer without a voxel pitch (voxel_mm)"
+        raise ExportError(f"--printer {key!r}: {what}; voxel print knows {have}")
+    return Pitch(*pr.voxel_mm, printer=f"{key} ({pr.name})", source=pr.voxel_source)
+
+
+def voxel_part(design: Design, assembly: Assembly, library: MaterialLibrary | None = None,
+               pitch: Pitch | None = None, profiles: Callable | None = None) -> VoxelPart:
+    """What the voxel writer writes: every panel and hinge of ``assembly`` (its units)
+    with its VeroWhite fraction profile (panels: VeroWhite 1, TangoBlack 0; hinges:
+    ``profiles(library, material)``, by default :func:`foldprint.model.composition.fraction_profile`)
+    and, for hinges, the axes that give u (:func:`foldprint.geometry.hinge_axes`)."""
+    lib = library or default_library()
+    if profiles is None:
+        from ..model.composition import fraction_profile as profiles
+    axes = hinge_axes(design, assembly.state)
+    regions = []
+    for u in assembly.units:
+        if u.kind == "panel":
+            if u.material not in (VERO_WHITE, TANGO_BLACK):
+                raise ExportError(f"panel {u.owner!r}: material {u.material!r} is not a base resin; voxel print "
+                                  f"jets panels in {VERO_WHITE} or {TANGO_BLACK} (set the panel's material)")
+            prof = Uniform(1.0 if u.material == VERO_WHITE else 0.0)
+            regions.append(VoxelRegion("panel", u.owner, u.material, u.solid, prof))
+        else:
+            regions.append(VoxelRegion("hinge", u.owner, u.material, u.solid, profiles(lib, u.material),
+                                       axes.get(u.owner)))
+    return VoxelPart(design.name, assembly.state, tuple(regions), pitch or voxel_pitch(), assembly.print_offset)
+
+
 def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STATE,
-           formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None) -> list[dict]:
+           formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
+           printer: str | None = None) -> list[dict]:
     """Build ``design`` in ``state`` and write ``formats`` into ``out_dir``; the records
     of :func:`foldprint.exchange.export.export_assembly`. The fold is simulated (arc
-    hinges, the defaults) only when a format shows it over time (xdmf, glb)."""
+    hinges, the defaults) only when a format shows it over time (xdmf, glb); the voxel
+    stack (``voxels``) is rasterised at ``printer``'s pitch (default: the J750)."""
     lib = library or default_library()
     formats = check_formats(formats)  # before the (slower) build
     guards.check_export(design)  # time and memory of the build, estimated from the design
+    pitch = voxel_pitch(printer) if "voxels" in formats else None
     trajectory = None
     if any(f in TRAJECTORY_FORMATS for f in formats):
         trajectory = simulate(design, dt=ANIMATION_DT_S, library=lib).trajectory
-    return export_assembly(design, build(design, state, lib), out_dir, formats, lib, trajectory)
+    assembly = build(design, state, lib)
+    voxels = None
+    if pitch is not None:
+        voxels = voxel_part(design, assembly, lib, pitch)
+        guards.check_voxels(voxels.grid().shape, f"{design.source}: " if design.source else f"{design.name}: ")
+    return export_assembly(design, assembly, out_dir, formats, lib, trajectory, voxels)
 
 
 @dataclass(frozen=True)

@@ -334,3 +334,30 @@ def check_samples(samples: int, seconds_per_sample: float, workers: int, name: s
                             f"{fits} samples, or raise the budget with the environment variable "
                             "FOLDPRINT_TIME_BUDGET (seconds)")
     return est
+
+
+#: voxel export (``export --format voxels``): peak bytes per pixel of one slice (the label
+#: image, one region's mask, scan-line difference counts and their cumulative sum, the
+#: packed rows) and seconds per voxel (slicing, rasterising, dithering, zlib), measured
+#: with benchmarks/bench_voxels.py (docs/voxels.md); slices are streamed, so memory does
+#: not grow with the layer count
+VOXEL_BYTES_PER_PIXEL = 40
+VOXEL_S_PER_VOXEL = 1.0e-8
+
+
+def check_voxels(shape: tuple[int, int, int], src: str = "") -> dict:
+    """Refuse a voxel stack whose one-slice memory or whole-stack time would exceed the
+    limits, before any slice is made. ``shape``: (nx, ny, layers)."""
+    nx, ny, nz = (float(v) for v in shape)
+    est = {"bytes": BASE_BYTES + nx * ny * VOXEL_BYTES_PER_PIXEL, "seconds": nx * ny * nz * VOXEL_S_PER_VOXEL}
+    limit, budget = max_memory(), time_budget()
+    what = f"a {nx:.0f} x {ny:.0f} pixel x {nz:.0f} layer voxel stack"
+    if est["bytes"] > limit:
+        raise ResourceError(f"{src}voxel export refused: {what} needs about {_fmt(est['bytes'])} per slice, over the "
+                            f"{_fmt(limit)} memory limit; print the part in pieces, or lift the limit with the "
+                            f"environment variable FOLDPRINT_MAX_MEMORY (e.g. {_fmt(est['bytes'] * 1.2).replace(' ', '')})")
+    if est["seconds"] > budget:
+        raise ResourceError(f"{src}voxel export refused: {what} takes about {_fmt_s(est['seconds'])}, over the "
+                            f"{_fmt_s(budget)} time budget; print the part in pieces, or lift the budget with the "
+                            "environment variable FOLDPRINT_TIME_BUDGET (seconds)")
+    return est
