@@ -7,7 +7,6 @@ import io
 import json
 import shutil
 import subprocess
-from dataclasses import dataclass
 from pathlib import Path
 
 import manifold3d as mf
@@ -23,31 +22,13 @@ from foldprint.exchange import voxels as vx
 from foldprint.exchange.export import export_assembly
 from foldprint.exchange.files import write_set
 from foldprint.geometry import HingeAxes, build_pieces, hinge_axes
+from foldprint.model.composition import Along, FractionProfile
 
 J750 = vx.Pitch(25.4 / 600, 25.4 / 300, 0.027, "j750", "test")
 
 
-@dataclass(frozen=True)
-class Profile:
-    """A FractionProfile stand-in: piecewise linear over evenly spaced knots."""
-
-    knots: tuple
-    along: object = None
-
-    def at(self, u):
-        k = np.asarray(self.knots, float)
-        u = np.asarray(u, float)
-        return np.full(u.shape, k[0]) if len(k) == 1 else np.interp(u, np.linspace(0, 1, len(k)), k)
-
-    @property
-    def mean(self):  # the profile's mean over u in [0, 1]
-        u = np.linspace(0.0, 1.0, 100001)
-        return float(np.mean(self.at(u)))
-
-
-class _Along:
-    def __init__(self, name):
-        self.name = name
+def Profile(knots, along=None):
+    return FractionProfile(tuple(knots), along)
 
 
 def _box(x0, y0, z0, x1, y1, z1) -> mf.Manifold:
@@ -156,8 +137,8 @@ def _block_errors(slices, manifest, part, region_index):
     return {k: abs(white[k] - target[k]) / total[k] for k in total if total[k] >= vx.BLOCK_MIN_FILL * full}
 
 
-@pytest.mark.parametrize("profile", [Profile((0.42,)), Profile((0.137,)), Profile((0.3, 0.7), _Along("WIDTH")),
-                                     Profile((0.9, 0.2, 0.6), _Along("LENGTH"))])
+@pytest.mark.parametrize("profile", [Profile((0.42,)), Profile((0.137,)), Profile((0.3, 0.7), Along.WIDTH),
+                                     Profile((0.9, 0.2, 0.6), Along.LENGTH)])
 def test_every_mm3_of_a_hinge_within_1_percent(tmp_path, profile):
     part = _part(profile)
     slices, manifest = _stack(part, tmp_path)
@@ -173,7 +154,7 @@ def test_every_mm3_of_a_hinge_within_1_percent(tmp_path, profile):
 
 
 def test_graded_hinge_follows_its_profile_across_the_width(tmp_path):
-    part = _part(Profile((0.1, 0.9), _Along("WIDTH")), panel=False)
+    part = _part(Profile((0.1, 0.9), Along.WIDTH), panel=False)
     slices, _ = _stack(part, tmp_path)
     labs = np.stack([vx.read_png(s) for s in slices[3:-3]])
     filled = (labs > 0).sum(axis=(0, 1))
@@ -186,9 +167,9 @@ def test_graded_hinge_follows_its_profile_across_the_width(tmp_path):
 
 
 def test_slices_are_byte_identical_between_runs(tmp_path):
-    part = _part(Profile((0.3, 0.7), _Along("WIDTH")))
+    part = _part(Profile((0.3, 0.7), Along.WIDTH))
     a, ma = _stack(part, tmp_path / "a")
-    b, mb = _stack(_part(Profile((0.3, 0.7), _Along("WIDTH"))), tmp_path / "b")
+    b, mb = _stack(_part(Profile((0.3, 0.7), Along.WIDTH)), tmp_path / "b")
     assert a == b and ma == mb
     assert len(a) == part.grid().shape[2] == ma["layers"]
 
@@ -280,7 +261,7 @@ def _helix_voxel_part(profiles):
 
 def _profiles(lib, material):
     if material == "H-3":
-        return Profile((0.3, 0.7), _Along("WIDTH"))
+        return Profile((0.3, 0.7), Along.WIDTH)
     return Profile((0.1 * int(material[2:]),))
 
 

@@ -27,6 +27,7 @@ from ..exchange.voxels import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
 from ..geometry import Assembly, build_assembly, hinge_axes
 from ..physics.kinematics import forward, target_angles
+from ..model.composition import fraction_profile
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, AfterContact,
                     HingeModel, Method, State, parse)
@@ -64,8 +65,7 @@ def voxel_part(design: Design, assembly: Assembly, library: MaterialLibrary | No
     ``profiles(library, material)``, by default :func:`foldprint.model.composition.fraction_profile`)
     and, for hinges, the axes that give u (:func:`foldprint.geometry.hinge_axes`)."""
     lib = library or default_library()
-    if profiles is None:
-        from ..model.composition import fraction_profile as profiles
+    profiles = profiles or fraction_profile
     axes = hinge_axes(design, assembly.state)
     regions = []
     for u in assembly.units:
