@@ -305,3 +305,38 @@ def test_prusa_slicer_opens_the_composite_3mf(tmp_path):
     assert out.stdout.count("manifold = yes") == len(part.regions)
     vols = [float(line.split("=")[1]) for line in out.stdout.splitlines() if line.startswith("volume =")]
     assert sum(vols) == pytest.approx(asm.volume, rel=1e-6)
+
+
+def test_cli_export_voxels_of_the_flat_helix(tmp_path):
+    """The whole path: CLI -> pipeline (fractions from the composition model) -> writer."""
+    from foldprint import load_design
+    from foldprint.io.templates import resolve_design_path
+    from foldprint.model.composition import fraction_profile
+    from foldprint.model.materials import default_library
+
+    out = subprocess.run(["foldprint", "export", "helix_graded", "--state", "programmed", "--format", "voxels",
+                          "--out", str(tmp_path), "--json"], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    rec = json.loads(out.stdout)
+    fmts = [f["format"] for f in rec["files"]]
+    assert fmts.count("voxels") == 1 and fmts.count("3mf-composite") == 1
+    manifest = json.loads((tmp_path / "helix_graded_programmed_voxels.json").read_text())
+    assert fmts.count("png") == manifest["layers"] == len(manifest["files"])
+    lib = default_library()
+    d = load_design(resolve_design_path("helix_graded"))
+    material = {h.id: h.material for h in d.hinges}
+    hinges = [r for r in manifest["regions"] if r["kind"] == "hinge"]
+    assert len(hinges) == len(d.hinges)
+    for r in hinges:
+        prof = fraction_profile(lib, material[r["id"]])
+        assert r["profile"]["knots"] == [round(k, 6) for k in prof.knots]
+        assert r["target_fraction"] == pytest.approx(prof.mean, abs=1e-6)
+        assert r["within_tolerance"] and r["blocks_checked"] > 0
+        assert abs(r["measured_fraction"] - r["target_fraction"]) < 0.002
+
+
+def test_cli_refuses_a_printer_without_a_pitch(tmp_path):
+    out = subprocess.run(["foldprint", "export", "helix_graded", "--format", "voxels", "--printer", "connex260",
+                          "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and "j750" in out.stderr and "Traceback" not in out.stderr
+    assert not (tmp_path / "x").exists()
