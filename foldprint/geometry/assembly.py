@@ -228,24 +228,28 @@ class HingeAxes:
     def width_u(self, p: np.ndarray) -> np.ndarray:
         p = np.asarray(p, dtype=float).reshape(-1, 3)
         d = self.direction
-        q = p - self.origin
-        q = q - np.outer(q @ d, d)
         m = self.mid - self.origin
         m = m - np.outer(m @ d, d)
-        a, b = m[:-1], m[1:]
-        ab = b - a
-        L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-        best = np.full(len(q), np.inf)
-        s = np.zeros(len(q))
-        k_n = len(a)
-        for k in range(k_n):  # K-1 segments; vectorised over the points
-            t = np.clip(((q - a[k]) @ ab[k]) / L2[k], 0.0, 1.0)
-            r = q - (a[k] + t[:, None] * ab[k])
-            dist = np.einsum("ij,ij->i", r, r)
-            better = dist < best
-            best = np.where(better, dist, best)
-            s = np.where(better, (k + t) / k_n, s)
-        return s
+        k_n = len(m) - 1
+        mm = np.einsum("ij,ij->i", m, m)
+        out = np.empty(len(p))
+        for lo in range(0, len(p), 65536):  # chunks: the (n, K) distance table stays small
+            q = p[lo:lo + 65536] - self.origin
+            q = q - np.outer(q @ d, d)
+            near = np.argmin(mm[None, :] - 2.0 * (q @ m.T), axis=1)  # nearest sample
+            best = np.full(len(q), np.inf)
+            s = np.zeros(len(q))
+            for seg in (np.maximum(near - 1, 0), np.minimum(near, k_n - 1)):  # its two chords
+                a, ab = m[seg], m[seg + 1] - m[seg]
+                t = np.clip(np.einsum("ij,ij->i", q - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300),
+                            0.0, 1.0)
+                r = q - a - t[:, None] * ab
+                dist = np.einsum("ij,ij->i", r, r)
+                better = dist < best
+                best = np.where(better, dist, best)
+                s = np.where(better, (seg + t) / k_n, s)
+            out[lo:lo + 65536] = s
+        return out
 
     def length_u(self, p: np.ndarray) -> np.ndarray:
         p = np.asarray(p, dtype=float).reshape(-1, 3)
