@@ -74,13 +74,13 @@ def run_streamed(size) -> dict:
     part = plate(size)
     shape = part.grid().shape
     with tempfile.TemporaryDirectory() as tmp:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         paths = write_set(os.path.join(tmp, "out"), vx.slice_files(part, "plate"))
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         written = sum(p.stat().st_size for p in paths)
         manifest = json.loads(paths[-1].read_text())
     worst = max((r["worst_block_error"] or 0.0 for r in manifest["regions"] if r["kind"] == "hinge"), default=None)
-    return {"shape": list(shape), "wall_s": wall, "written_bytes": written, "worst_block_error": worst}
+    return {"shape": list(shape), "wall_s": wall, "cpu_s": cpu, "written_bytes": written, "worst_block_error": worst}
 
 
 def run_whole_volume(size) -> dict:
@@ -89,13 +89,13 @@ def run_whole_volume(size) -> dict:
     part = plate(size)
     files = vx.slice_files(part, "plate")
     nx, ny, nz = part.grid().shape
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     volume = np.zeros((nz, ny, nx), np.uint8)
     for k, (_, make) in enumerate(files[:-1]):
         volume[k] = vx.read_png(make())  # the same labels, kept
     blobs = [vx.png_bytes(volume[k], part.pitch) for k in range(nz)]
-    wall = time.perf_counter() - t0
-    return {"shape": [nx, ny, nz], "wall_s": wall, "written_bytes": sum(map(len, blobs))}
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return {"shape": [nx, ny, nz], "wall_s": wall, "cpu_s": cpu, "written_bytes": sum(map(len, blobs))}
 
 
 def run_trimesh(size) -> dict:
@@ -104,21 +104,23 @@ def run_trimesh(size) -> dict:
     sx, sy, sz = size
     mesh = trimesh.creation.box(extents=[sx, sy, sz])
     pitch = 25.4 / 600
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     grid = trimesh.voxel.creation.voxelize(mesh, pitch).fill()
-    wall = time.perf_counter() - t0
-    return {"shape": list(grid.shape), "wall_s": wall, "filled": int(grid.filled_count)}
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return {"shape": list(grid.shape), "wall_s": wall, "cpu_s": cpu, "filled": int(grid.filled_count)}
 
 
 def child(kind: str, size) -> dict:
     """Run one measurement in a fresh process; its peak RSS from the kernel."""
     code = (f"import json, resource, sys; sys.path.insert(0, {os.path.dirname(os.path.abspath(__file__))!r}); "
             f"import bench_voxels as b; r = b.run_{kind}({tuple(size)!r}); "
-            "r['peak_rss_bytes'] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024; print(json.dumps(r))")
+            "u = resource.getrusage(resource.RUSAGE_SELF); r['peak_rss_bytes'] = u.ru_maxrss * 1024; "
+            "r['process_cpu_s'] = u.ru_utime + u.ru_stime; print(json.dumps(r))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     r = json.loads(out.stdout.strip().splitlines()[-1])
     r["voxels"] = float(np.prod(r["shape"]))
     r["voxels_per_s"] = r["voxels"] / r["wall_s"]
+    r["voxels_per_cpu_s"] = r["voxels"] / r["cpu_s"]
     if kind != "trimesh":
         r["slices_per_s"] = r["shape"][2] / r["wall_s"]
     return r
@@ -140,6 +142,7 @@ def main() -> None:
     s, w, t, b = res["streamed_small"], res["whole_volume_small"], res["trimesh_small"], res["streamed_big"]
     res["ratios"] = {
         "streamed_vs_trimesh_voxels_per_s": s["voxels_per_s"] / t["voxels_per_s"],
+        "streamed_vs_trimesh_voxels_per_cpu_s": s["voxels_per_cpu_s"] / t["voxels_per_cpu_s"],
         "streamed_vs_whole_volume_voxels_per_s": s["voxels_per_s"] / w["voxels_per_s"],
         "whole_volume_vs_streamed_peak_rss": w["peak_rss_bytes"] / s["peak_rss_bytes"],
         "big_vs_small_peak_rss": b["peak_rss_bytes"] / s["peak_rss_bytes"],
@@ -154,7 +157,8 @@ def main() -> None:
     for name in ("streamed_small", "whole_volume_small", "trimesh_small", "streamed_big"):
         r = res[name]
         extra = f", {r['slices_per_s']:.1f} slices/s" if "slices_per_s" in r else ""
-        print(f"{name:20s} {r['shape']} {r['wall_s']:8.2f} s  {r['peak_rss_bytes'] / 2**20:7.0f} MiB  "
+        print(f"{name:20s} {r['shape']} {r['wall_s']:8.2f} s ({r['cpu_s']:.2f} CPU-s)  "
+              f"{r['peak_rss_bytes'] / 2**20:7.0f} MiB  "
               f"{r['voxels_per_s'] / 1e6:7.2f} Mvox/s{extra}")
     for k, v in res["ratios"].items():
         print(f"{k}: {v:.3g}")
