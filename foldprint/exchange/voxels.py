@@ -228,11 +228,34 @@ def blue_noise(size: int = MASK_SIZE, sigma: float = 1.5, seed: int = 20151001) 
     return ((rank + 0.5) / n).reshape(size, size)
 
 
+def layer_mask(k: int) -> np.ndarray:
+    """The (64, 64) dither thresholds of layer k, in [0, 1)."""
+    t = blue_noise() + (k * GOLDEN) % 1.0
+    return t - np.floor(t)
+
+
 def thresholds(ix: np.ndarray, iy: np.ndarray, k: int) -> np.ndarray:
     """Dither thresholds in [0, 1) of voxels (ix, iy) of layer k."""
-    b = blue_noise()
-    t = b[iy % MASK_SIZE, ix % MASK_SIZE] + (k * GOLDEN) % 1.0
-    return t - np.floor(t)
+    return layer_mask(k)[iy % MASK_SIZE, ix % MASK_SIZE]
+
+
+def _fraction_window(r: VoxelRegion, table, xs: np.ndarray, ys: np.ndarray, z: float) -> np.ndarray:
+    """(len(ys), len(xs)) VeroWhite fraction of a graded hinge at the pixel centres of a
+    window of the layer at height z: u is linear in x and y (along the length) or looked
+    up in the hinge's width table, both separable in x and y."""
+    if r.along_length:
+        ax = r.axes
+        d, o = ax.direction, ax.origin
+        u = ((xs[None, :] - o[0]) * d[0] + (ys[:, None] - o[1]) * d[1] + (z - o[2]) * d[2]) / ax.length
+    else:
+        e = table.basis
+        o = table.origin
+        a = (xs[None, :] - o[0]) * e[0, 0] + (ys[:, None] - o[1]) * e[0, 1] + (z - o[2]) * e[0, 2]
+        b = (xs[None, :] - o[0]) * e[1, 0] + (ys[:, None] - o[1]) * e[1, 1] + (z - o[2]) * e[1, 2]
+        ia = np.clip(((a - table.lo[0]) / table.h).astype(np.int64), 0, table.n[0] - 1)
+        ib = np.clip(((b - table.lo[1]) / table.h).astype(np.int64), 0, table.n[1] - 1)
+        u = table.u[ia, ib]
+    return np.clip(np.asarray(r.profile.at(np.clip(u, 0.0, 1.0)), dtype=float), 0.0, 1.0)
 
 
 # -- rasterising ---------------------------------------------------------------------------
@@ -398,6 +421,31 @@ class _Stats:
         self.count += np.bincount(key, minlength=size)
         self.target += np.bincount(key, weights=f, minlength=size)
 
+    def add_window(self, mask: np.ndarray, white: np.ndarray, f: np.ndarray | float, i0: int, j0: int, k: int,
+                   pitch: Pitch) -> None:
+        """Dense form of :meth:`add` for a window (rows j0.., columns i0..) of layer k:
+        per-block sums by ``np.add.reduceat`` over the runs of columns and rows whose
+        centres fall in one 1 mm block."""
+        h, w = mask.shape
+        cb = np.floor((i0 + np.arange(w) + 0.5) * pitch.x / BLOCK_MM).astype(np.int64) - self.lo[0]
+        rb = np.floor((j0 + np.arange(h) + 0.5) * pitch.y / BLOCK_MM).astype(np.int64) - self.lo[1]
+        zb = int(math.floor((k + 0.5) * pitch.z / BLOCK_MM)) - int(self.lo[2])
+        cs = np.flatnonzero(np.r_[True, cb[1:] != cb[:-1]])
+        rs = np.flatnonzero(np.r_[True, rb[1:] != rb[:-1]])
+        cb, rb = np.clip(cb[cs], 0, self.n[0] - 1), np.clip(rb[rs], 0, self.n[1] - 1)
+        zb = min(max(zb, 0), int(self.n[2]) - 1)
+
+        def sums(a, dtype):
+            return np.add.reduceat(np.add.reduceat(a, rs, axis=0, dtype=dtype), cs, axis=1, dtype=dtype)
+
+        count = sums(mask, np.int64)
+        vw = sums(mask & white, np.int64)
+        target = count * float(f) if np.isscalar(f) else sums(np.where(mask, f, 0.0), np.float64)
+        key = ((zb * self.n[1] + rb[:, None]) * self.n[0] + cb[None, :]).ravel()
+        np.add.at(self.count, key, count.ravel())
+        np.add.at(self.vw, key, vw.ravel())
+        np.add.at(self.target, key, np.asarray(target, float).ravel())
+
     def record(self, full_block: float) -> dict:
         total = float(self.count.sum())
         sel = self.count >= BLOCK_MIN_FILL * full_block
@@ -448,17 +496,23 @@ def slice_files(part: VoxelPart, stem: str) -> list[tuple[str, Callable[[], byte
                                       f"({VERO_WHITE} or {TANGO_BLACK}); voxel print dithers hinges only")
                 labels[j0:j1, i0:i1][mask] = VERO if c == 1.0 else TANGO
                 continue
-            jj, ii = np.nonzero(mask)
-            ix, iy = ii + i0, jj + j0
-            pts = np.stack([grid.origin[0] + (ix + 0.5) * p.x, grid.origin[1] + (iy + 0.5) * p.y,
-                            np.full(len(ix), z)], axis=1)
-            if r.constant is None and not r.along_length and idx not in tables:
-                tables[idx] = _WidthTable(r, p)
-            f = r.fraction(pts, tables.get(idx))
-            white = thresholds(ix, iy, k) < f
-            labels[iy, ix] = np.where(white, VERO, TANGO)
+            # hinges, dense over the window: thresholds, fraction, labels, block sums
+            rows, cols = np.arange(j0, j1), np.arange(i0, i1)
+            t = layer_mask(k)[np.ix_(rows % MASK_SIZE, cols % MASK_SIZE)]
+            if c is not None:
+                f = c
+            else:
+                if not r.along_length and idx not in tables:
+                    tables[idx] = _WidthTable(r, p)
+                xs = grid.origin[0] + (cols + 0.5) * p.x
+                ys = grid.origin[1] + (rows + 0.5) * p.y
+                f = _fraction_window(r, tables.get(idx), xs, ys, z)
+            white = t < f
+            win = labels[j0:j1, i0:i1]
+            win[mask & white] = VERO
+            win[mask & ~white] = TANGO
             if idx in stats:
-                stats[idx].add(pts, grid.origin, white, f)
+                stats[idx].add_window(mask, white, f, i0, j0, k, p)
         return png_bytes(labels, p)
 
     names = [f"{stem}_slice_{k:0{digits}d}.png" for k in range(nz)]
