@@ -234,11 +234,6 @@ def layer_mask(k: int) -> np.ndarray:
     return t - np.floor(t)
 
 
-def thresholds(ix: np.ndarray, iy: np.ndarray, k: int) -> np.ndarray:
-    """Dither thresholds in [0, 1) of voxels (ix, iy) of layer k."""
-    return layer_mask(k)[iy % MASK_SIZE, ix % MASK_SIZE]
-
-
 def _fraction_window(r: VoxelRegion, table, xs: np.ndarray, ys: np.ndarray, z: float) -> np.ndarray:
     """(len(ys), len(xs)) VeroWhite fraction of a graded hinge at the pixel centres of a
     window of the layer at height z: u is linear in x and y (along the length) or looked
@@ -412,19 +407,9 @@ class _Stats:
         self.count = np.zeros(size)
         self.target = np.zeros(size)
 
-    def add(self, pts: np.ndarray, origin: np.ndarray, white: np.ndarray, f: np.ndarray) -> None:
-        b = np.floor((pts - origin) / BLOCK_MM).astype(np.int64) - self.lo
-        b = np.clip(b, 0, self.n - 1)
-        key = (b[:, 2] * self.n[1] + b[:, 1]) * self.n[0] + b[:, 0]
-        size = len(self.vw)
-        self.vw += np.bincount(key, weights=white.astype(float), minlength=size)
-        self.count += np.bincount(key, minlength=size)
-        self.target += np.bincount(key, weights=f, minlength=size)
-
     def add_window(self, mask: np.ndarray, white: np.ndarray, f: np.ndarray | float, i0: int, j0: int, k: int,
                    pitch: Pitch) -> None:
-        """Dense form of :meth:`add` for a window (rows j0.., columns i0..) of layer k:
-        per-block sums by ``np.add.reduceat`` over the runs of columns and rows whose
+        """Add a window (rows j0.., columns i0..) of layer k: per-block sums by ``np.add.reduceat`` over the runs of columns and rows whose
         centres fall in one 1 mm block."""
         h, w = mask.shape
         cb = np.floor((i0 + np.arange(w) + 0.5) * pitch.x / BLOCK_MM).astype(np.int64) - self.lo[0]
