@@ -99,7 +99,8 @@ def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STA
     voxels = None
     if pitch is not None:
         voxels = voxel_part(design, assembly, lib, pitch)
-        guards.check_voxels(voxels.grid().shape, f"{design.source}: " if design.source else f"{design.name}: ")
+        graded = sum(1 for r in voxels.regions if r.constant is None and not r.along_length)
+        guards.check_voxels(voxels.grid().shape, f"{design.source}: " if design.source else f"{design.name}: ", graded)
     return export_assembly(design, assembly, out_dir, formats, lib, trajectory, voxels)
 
 
