@@ -13,12 +13,13 @@ from .model.design import Design, Goal, Hinge, HingeStyle, Panel, Process, strip
 from .io.design_io import design_from_dict, design_to_dict, design_to_toml  # noqa: E402
 from .io.load import load_design  # noqa: E402
 from .model.materials import Material, MaterialLibrary, default_library, load_library  # noqa: E402
+from .model.composition import composition_model, fraction_profile, vero  # noqa: E402
 from .physics.recovery import fold_time, recovery_curve, recovery_ratio  # noqa: E402
 
 __all__ = ["Design", "Goal", "Hinge", "HingeStyle", "Panel", "Process", "strip", "validate",
            "design_from_dict", "design_to_dict", "design_to_toml", "load_design", "Material",
            "MaterialLibrary", "default_library", "load_library", "fold_time", "recovery_curve",
-           "recovery_ratio", "__version__"]
+           "recovery_ratio", "vero", "composition_model", "fraction_profile", "__version__"]
 
 
 #: the flat module names of foldprint 0.1 -> where they live now (docs/architecture.md);

@@ -46,6 +46,7 @@ from .. import __version__
 from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
 from ..model.design import Design
 from ..core.errors import FoldprintError
+from ..model import composition
 from ..model.materials import MaterialLibrary, default_library
 
 log = logging.getLogger(__name__)
@@ -646,8 +647,22 @@ def _size(n: int) -> str:
     return f"{n} B" if n < 1024 else f"{n / 1024:.1f} kB" if n < 1024 * 1024 else f"{n / 1024 ** 2:.1f} MB"
 
 
+def _ramp_note(d: Design) -> str:
+    """The VeroWhite ramp's legend under the hinge table, when a hinge names a fraction."""
+    ramp = composition.ramp_legend(h.material for h in d.hinges)
+    if ramp is None:
+        return ""
+    bar = (f'<span class="swatch" style="width:6em;background:linear-gradient(to right, {_e(ramp["tangoblack"])}, '
+           f'{_e(ramp["verowhite"])})"></span>')
+    items = "; ".join(f"{_e(n)}: {_e(t)}" for n, t in ramp["labels"].items())
+    return (f'<p class="muted">{bar} VeroWhite fraction, TangoBlack 0 to VeroWhite 1 (usable '
+            f'{ramp["range"][0]:.3f}-{ramp["range"][1]:.3f}; docs/composition.md). {items}</p>')
+
+
 def _swatch(lib: MaterialLibrary, material: str) -> str:
     color = lib[material].color[:7] if material in lib else "#9a9a9a"
+    if composition.is_composition_name(material):  # the VeroWhite ramp; graded: a gradient
+        color = composition.css_background(material)
     return f'<span class="swatch" style="background:{_e(color)}"></span>'
 
 
@@ -696,6 +711,7 @@ def _design_html(entry: _Entry, lib: MaterialLibrary) -> str:
     parts.append("<h3>Hinges</h3><table><thead><tr><th>hinge</th><th>panels</th><th>material</th>"
                  "<th>target angle</th><th>fold time (98 %)</th></tr></thead>"
                  f"<tbody>{''.join(rows)}</tbody></table>")
+    parts.append(_ramp_note(d))
     parts.append("<h3>Goals</h3>")
     if sim["goals"]:
         rows = []

@@ -41,6 +41,9 @@ DEFAULT_THICKNESS_MM = 0.8
 DEFAULT_DEPTH_MM = 6.0
 DEFAULT_HINGE_RADIUS_MM = 5.0
 DEFAULT_PANEL_MATERIAL = "VeroWhite"
+#: Hinge material of a FOLD crease that names none (our choice: H-3, the material of the
+#: paper's uniform helix, sample 1).
+DEFAULT_HINGE_MATERIAL = "H-3"
 
 #: Process defaults: the paper's protocol (program at 90 C, fix at 10 C, recover at 90 C).
 DEFAULT_PROGRAM_C = 90.0

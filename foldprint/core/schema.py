@@ -328,5 +328,6 @@ def check_fold(frame, source: str) -> None:
         raw = frame.get(key)
         if raw is not None:
             for i, v in enumerate(array(raw, top / key, 10 * MAX_POINTS)):
-                if v is not None:
+                # a hinge material may also be {"vero_fraction": ...} (model.composition parses it)
+                if v is not None and not (key == "edges_foldprint:material" and isinstance(v, dict)):
                     ident(v, top / key / i)

@@ -31,7 +31,7 @@ Layout (see ``templates/`` and ``docs/design-file.md``)::
 from __future__ import annotations
 
 import math
-from dataclasses import fields, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -45,6 +45,7 @@ from ..model.design import (SCHEMA_VERSION, Design, Goal, Hinge, HingeStyle, Pan
                      shared_edge, strip, validate)
 from ..core.errors import DesignError
 from ..core.schema import Where
+from ..model import composition
 from ..model.materials import MaterialLibrary
 
 _TOP = {"schema", "name", "description", "root", "process", "defaults", "strip", "panels", "hinges",
@@ -106,12 +107,22 @@ def _per(value, at: Where, count: int, read) -> float | list[float]:
     return read(value, at)
 
 
-def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary | None = None) -> Design:
-    """Build and validate a design from parsed TOML (or an equivalent dict, or FOLD).
+@dataclass(frozen=True)
+class _Defaults:
+    """The ``[defaults]`` table, checked: what a panel or hinge that does not say gets."""
 
-    Every value passes the boundary schema (:mod:`foldprint.core.schema`) first; errors are
-    DesignError naming the file, the key path and what would be right."""
-    top = Where(source)
+    thickness: float
+    depth: float
+    depth_given: bool
+    panel_material: str
+    radius: float
+    hinge_thickness: float | None
+    fixity: float
+    style: HingeStyle
+
+
+def _schema_and_names(data: Mapping, top: Where, source: str) -> tuple[str, str, str]:
+    """The top level's keys and schema checked; the design's name, description and root."""
     sc.table(data, top.named("top level") if not source else top, _TOP)
     if "schema" in data:
         schema = sc.integer(data["schema"], top / "schema")
@@ -124,6 +135,11 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
         name = sc.name((Path(source).stem if source else "")[:sc.MAX_NAME] or "design", top / "name")
     description = sc.string(data.get("description", ""), top / "description", sc.MAX_TEXT)
     root = sc.ident(data["root"], top / "root") if data.get("root", "") != "" else ""
+    return name, description, root
+
+
+def _process(data: Mapping, top: Where) -> Process:
+    """The ``[process]`` table: temperatures in deg C, the duration in s."""
     at = top / "process"
     proc_raw = sc.table(data.get("process", {}), at, _PROCESS)
     proc = {}
@@ -132,7 +148,11 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
             proc[k] = sc.number(v, at / k, 0.0, sc.MAX_DURATION_S, "s", lo_open=True)
         else:
             proc[k] = sc.number(v, at / k, *sc.TEMPERATURE_C, "deg C")
-    process = Process(**proc)
+    return Process(**proc)
+
+
+def _defaults(data: Mapping, top: Where) -> _Defaults:
+    """The ``[defaults]`` table, each value checked, the package defaults where it is silent."""
     at = top / "defaults"
     dft = sc.table(data.get("defaults", {}), at, _DEFAULTS)
     thickness = sc.length(dft.get("thickness_mm", DEFAULT_THICKNESS_MM), at / "thickness_mm")
@@ -143,47 +163,49 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
               if "hinge_thickness_mm" in dft else None)
     fixity = _fixity(dft.get("fixity", 1.0), at / "fixity")
     base_style = _style(dft.get("hinge_style"), HingeStyle(), at / "hinge_style")
-    goals_raw = sc.array(data.get("goals", []), top / "goals", sc.MAX_GOALS, "a list of [[goals]] tables")
-    goals = tuple(_goal(g, top / "goals" / i, i) for i, g in enumerate(goals_raw))
-    has_strip, has_general = "strip" in data, ("panels" in data or "hinges" in data)
-    if has_strip and has_general:
-        raise DesignError(f"{top}give either [strip] or [[panels]]/[[hinges]], not both")
-    if not has_strip and not has_general:
-        raise DesignError(f"{top}no geometry: add a [strip] table or [[panels]] and [[hinges]]")
-    if has_strip:
-        at = top / "strip"
-        st = sc.table(data["strip"], at, _STRIP)
-        for key in ("lengths_mm", "angles_deg", "materials"):
-            if key not in st:
-                raise at.fail(f"needs {key} = [...]")
-        lengths = [sc.length(v, (at / "lengths_mm" / i).named(f"panel 'p{i + 1}'"))
-                   for i, v in enumerate(sc.array(st["lengths_mm"], at / "lengths_mm", sc.MAX_PANELS))]
-        n = len(lengths)
-        angles = [_angle(v, (at / "angles_deg" / i).named(f"hinge 'h{i + 1}'"))
-                  for i, v in enumerate(sc.array(st["angles_deg"], at / "angles_deg", sc.MAX_PANELS))]
-        mats = [sc.string(v, (at / "materials" / i).named(f"hinge 'h{i + 1}'"))
-                for i, v in enumerate(sc.array(st["materials"], at / "materials", sc.MAX_PANELS))]
-        holes: dict[int, list] = {}
-        for k, hraw in enumerate(sc.array(st.get("holes", []), at / "holes", sc.MAX_HOLES * 16)):
-            hat = at / "holes" / k
-            h = sc.table(hraw, hat, {"panel", "polygon"})
-            if "panel" not in h or "polygon" not in h:
-                raise hat.fail("needs panel (1-based index) and polygon")
-            pnum = sc.integer(h["panel"], hat / "panel", 1, max(n, 1))
-            holes.setdefault(pnum, []).append(sc.ring(h["polygon"], hat / "polygon"))
-        d = strip(name, lengths, angles, mats, depth=depth,
-                  thickness=_per(st.get("thickness_mm", thickness), at / "thickness_mm", n, sc.length),
-                  radius=_per(st.get("hinge_radius_mm", radius), at / "hinge_radius_mm", max(n - 1, 0),
-                              sc.length),
-                  hinge_thickness=(_per(st["hinge_thickness_mm"], at / "hinge_thickness_mm", max(n - 1, 0),
-                                        sc.length) if "hinge_thickness_mm" in st else hthick),
-                  panel_material=pmat, process=process, description=description, holes=holes,
-                  source=source, goals=goals, style=base_style)
-        if fixity != 1.0:
-            d = replace(d, hinges=tuple(replace(h, fixity=fixity) for h in d.hinges))
-        if root:
-            d = replace(d, root=root)
-        return validate(d, library)
+    return _Defaults(thickness, depth, "depth_mm" in dft, pmat, radius, hthick, fixity, base_style)
+
+
+def _strip_design(data: Mapping, top: Where, name: str, description: str, root: str,
+                  process: Process, dflt: _Defaults, goals: tuple, source: str) -> Design:
+    """The ``[strip]`` shorthand as a design (not yet validated)."""
+    at = top / "strip"
+    st = sc.table(data["strip"], at, _STRIP)
+    for key in ("lengths_mm", "angles_deg", "materials"):
+        if key not in st:
+            raise at.fail(f"needs {key} = [...]")
+    lengths = [sc.length(v, (at / "lengths_mm" / i).named(f"panel 'p{i + 1}'"))
+               for i, v in enumerate(sc.array(st["lengths_mm"], at / "lengths_mm", sc.MAX_PANELS))]
+    n = len(lengths)
+    angles = [_angle(v, (at / "angles_deg" / i).named(f"hinge 'h{i + 1}'"))
+              for i, v in enumerate(sc.array(st["angles_deg"], at / "angles_deg", sc.MAX_PANELS))]
+    mats = [_material(v, (at / "materials" / i).named(f"hinge 'h{i + 1}'"))
+            for i, v in enumerate(sc.array(st["materials"], at / "materials", sc.MAX_PANELS))]
+    holes: dict[int, list] = {}
+    for k, hraw in enumerate(sc.array(st.get("holes", []), at / "holes", sc.MAX_HOLES * 16)):
+        hat = at / "holes" / k
+        h = sc.table(hraw, hat, {"panel", "polygon"})
+        if "panel" not in h or "polygon" not in h:
+            raise hat.fail("needs panel (1-based index) and polygon")
+        pnum = sc.integer(h["panel"], hat / "panel", 1, max(n, 1))
+        holes.setdefault(pnum, []).append(sc.ring(h["polygon"], hat / "polygon"))
+    d = strip(name, lengths, angles, mats, depth=dflt.depth,
+              thickness=_per(st.get("thickness_mm", dflt.thickness), at / "thickness_mm", n, sc.length),
+              radius=_per(st.get("hinge_radius_mm", dflt.radius), at / "hinge_radius_mm", max(n - 1, 0),
+                          sc.length),
+              hinge_thickness=(_per(st["hinge_thickness_mm"], at / "hinge_thickness_mm", max(n - 1, 0),
+                                    sc.length) if "hinge_thickness_mm" in st else dflt.hinge_thickness),
+              panel_material=dflt.panel_material, process=process, description=description, holes=holes,
+              source=source, goals=goals, style=dflt.style)
+    if dflt.fixity != 1.0:
+        d = replace(d, hinges=tuple(replace(h, fixity=dflt.fixity) for h in d.hinges))
+    if root:
+        d = replace(d, root=root)
+    return d
+
+
+def _panels(data: Mapping, top: Where, dflt: _Defaults) -> list[Panel]:
+    """The ``[[panels]]`` tables as panels."""
     panels = []
     for i, raw in enumerate(sc.array(data.get("panels", []), top / "panels", sc.MAX_PANELS,
                                      "a list of [[panels]] tables")):
@@ -197,10 +219,28 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
         check_ring(outline, "outline", str(at))
         hole_list = sc.array(raw.get("holes", []), at / "holes", sc.MAX_HOLES, "a list of polygons")
         panels.append(Panel(pid, outline,
-                            sc.length(raw.get("thickness_mm", thickness), at / "thickness_mm"),
-                            sc.string(raw.get("material", pmat), at / "material"),
+                            sc.length(raw.get("thickness_mm", dflt.thickness), at / "thickness_mm"),
+                            sc.string(raw.get("material", dflt.panel_material), at / "material"),
                             tuple(np.array(sc.ring(h, at / "holes" / k)) for k, h in enumerate(hole_list))))
-    by_id = {p.id: p for p in panels}
+    return panels
+
+
+def _hinge_panels(raw: Mapping, at: Where, by_id: Mapping) -> list[str]:
+    """The two panel ids a ``[[hinges]]`` table joins, each an existing panel."""
+    pp = raw.get("panels")
+    if not isinstance(pp, (list, tuple)) or len(pp) != 2:
+        raise (at / "panels").fail(f"must be a list of two panel ids, got {sc.describe(pp)}")
+    pp = [sc.ident(x, at / "panels" / k) for k, x in enumerate(pp)]
+    for pid in pp:
+        if pid not in by_id:
+            raise (at / "panels").fail(f"joins panel {pid!r}, which does not exist; "
+                                       f"panels: {list(by_id)[:20]}")
+    return pp
+
+
+def _hinges(data: Mapping, top: Where, by_id: Mapping, dflt: _Defaults) -> list[Hinge]:
+    """The ``[[hinges]]`` tables as hinges; a hinge without a line runs along the shared
+    edge of its panels."""
     hinges = []
     for i, raw in enumerate(sc.array(data.get("hinges", []), top / "hinges", sc.MAX_PANELS,
                                      "a list of [[hinges]] tables")):
@@ -208,14 +248,7 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
         raw = sc.table(raw, at, _HINGE)
         hid = sc.ident(raw.get("id", f"h{i + 1}"), at / "id")
         at = at.named(f"hinge {hid!r}")
-        pp = raw.get("panels")
-        if not isinstance(pp, (list, tuple)) or len(pp) != 2:
-            raise (at / "panels").fail(f"must be a list of two panel ids, got {sc.describe(pp)}")
-        pp = [sc.ident(x, at / "panels" / k) for k, x in enumerate(pp)]
-        for pid in pp:
-            if pid not in by_id:
-                raise (at / "panels").fail(f"joins panel {pid!r}, which does not exist; "
-                                           f"panels: {list(by_id)[:20]}")
+        pp = _hinge_panels(raw, at, by_id)
         for key in ("angle_deg", "material"):
             if key not in raw:
                 raise at.fail(f"needs {key}")
@@ -227,16 +260,40 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
                 raise at.fail(f"panels {pp[0]!r} and {pp[1]!r} share no edge; a hinge joins two panels "
                               "along a common side of their outlines")
         ang = _angle(raw["angle_deg"], at / "angle_deg")
+        hthick = dflt.hinge_thickness if dflt.hinge_thickness is not None else dflt.thickness
         hinges.append(Hinge(hid, (pp[0], pp[1]), line, math.radians(ang),
-                            sc.string(raw["material"], at / "material"),
-                            sc.length(raw.get("radius_mm", radius), at / "radius_mm"),
-                            sc.length(raw.get("thickness_mm", hthick if hthick is not None else thickness),
-                                      at / "thickness_mm"),
-                            _fixity(raw.get("fixity", fixity), at / "fixity"),
-                            _style(raw.get("style"), base_style, at / "style")))
+                            _material(raw["material"], at / "material"),
+                            sc.length(raw.get("radius_mm", dflt.radius), at / "radius_mm"),
+                            sc.length(raw.get("thickness_mm", hthick), at / "thickness_mm"),
+                            _fixity(raw.get("fixity", dflt.fixity), at / "fixity"),
+                            _style(raw.get("style"), dflt.style, at / "style")))
+    return hinges
+
+
+def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary | None = None) -> Design:
+    """Build and validate a design from parsed TOML (or an equivalent dict, or FOLD).
+
+    Every value passes the boundary schema (:mod:`foldprint.core.schema`) first; errors are
+    DesignError naming the file, the key path and what would be right."""
+    top = Where(source)
+    name, description, root = _schema_and_names(data, top, source)
+    process = _process(data, top)
+    dflt = _defaults(data, top)
+    goals_raw = sc.array(data.get("goals", []), top / "goals", sc.MAX_GOALS, "a list of [[goals]] tables")
+    goals = tuple(_goal(g, top / "goals" / i, i) for i, g in enumerate(goals_raw))
+    has_strip, has_general = "strip" in data, ("panels" in data or "hinges" in data)
+    if has_strip and has_general:
+        raise DesignError(f"{top}give either [strip] or [[panels]]/[[hinges]], not both")
+    if not has_strip and not has_general:
+        raise DesignError(f"{top}no geometry: add a [strip] table or [[panels]] and [[hinges]]")
+    if has_strip:
+        return validate(_strip_design(data, top, name, description, root, process, dflt, goals, source),
+                        library)
+    panels = _panels(data, top, dflt)
+    hinges = _hinges(data, top, {p.id: p for p in panels}, dflt)
     d = Design(name=name, panels=tuple(panels), hinges=tuple(hinges), process=process,
                description=description, root=root, goals=goals,
-               depth=depth if "depth_mm" in dft else 0.0, source=source)
+               depth=dflt.depth if dflt.depth_given else 0.0, source=source)
     return validate(d, library)
 
 
@@ -284,6 +341,13 @@ def read_text(path: Path, expected: str, kind: str | None = None) -> str:
     return text
 
 
+def _material(value, at: sc.Where) -> str:
+    """A hinge's material: a name (``"H-3"``, ``"VW0.620"``), a VeroWhite fraction, or
+    ``{vero_fraction = 0.62}`` / ``{vero_fraction = [0.6, 0.9], along = "width"}``
+    (:func:`foldprint.model.composition.parse_material_spec`) -> the material's name."""
+    return composition.parse_material_spec(sc.string(value, at) if isinstance(value, str) else value, str(at))
+
+
 def design_to_dict(design: Design) -> dict:
     """The general ([[panels]]/[[hinges]]) form; ``design_from_dict`` reads it back."""
     default = HingeStyle()
@@ -304,7 +368,7 @@ def design_to_dict(design: Design) -> dict:
     out["hinges"] = []
     for h in design.hinges:
         entry = {"id": h.id, "panels": list(h.panels), "line": h.line.tolist(),
-                 "angle_deg": math.degrees(h.angle), "material": h.material,
+                 "angle_deg": math.degrees(h.angle), "material": composition.material_spec(h.material),
                  "radius_mm": float(h.radius), "thickness_mm": float(h.thickness)}
         if h.fixity != 1.0:
             entry["fixity"] = float(h.fixity)

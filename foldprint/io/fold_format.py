@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -19,10 +20,12 @@ import shapely
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
-from ..core.constants import tol
+from ..core.constants import (DEFAULT_HINGE_MATERIAL, DEFAULT_HINGE_RADIUS_MM, DEFAULT_PANEL_MATERIAL,
+                              DEFAULT_THICKNESS_MM, tol)
 from ..model.design import Design
 from .design_io import design_from_dict, read_text
 from ..core.errors import DesignError, where
+from ..model import composition
 from ..model.materials import MaterialLibrary
 from ..core.schema import MAX_FACES, MAX_LENGTH_MM, check_fold, parse_error
 
@@ -222,49 +225,44 @@ def _first(values: list, default):
     return next((v for v in values if v is not None), default)
 
 
-def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | None = None,
-                     scale: float | None = None, default_hinge_material: str = "H-3",
-                     default_panel_material: str = "VeroWhite", default_thickness_mm: float = 0.8,
-                     default_radius_mm: float = 5.0,
-                     crease_materials: Mapping[str, str] | None = None) -> Design:
-    """Build and validate a design from a parsed FOLD 1.1/1.2 crease pattern.
+@dataclass
+class _EdgeTable:
+    """Every edge of the crease pattern with its per-edge fields, the face sides missing
+    from ``edges_vertices`` appended as "U" edges without fields; ``faces`` are the faces
+    bordering each edge."""
 
-    ``scale`` (mm per file unit) overrides ``frame_unit``; without it a known unit
-    (mm, cm, m, in, pt, um, nm) is converted, and "unit" (or no unit) is an error that
-    asks for a scale. Hinges from plain FOLD edges are called ``e<edge index>``.
-    ``crease_materials`` maps an assignment letter (M, V, F, U) to the hinge material of
-    creases that name none (``edges_foldprint:material``); others get
-    ``default_hinge_material``. Coordinates (vertices, holes, goal
-    tips, strip depth) are scaled; the ``*_mm`` quantities are mm already.
-    """
-    src = where(source)
-    if not isinstance(data, Mapping):
-        raise DesignError(f"{src}a FOLD file must hold a JSON object, got {type(data).__name__}")
-    frame = _frame(data, src)
-    check_fold(frame, source)  # issue 14: types of the foldprint per-item fields
-    if "faces_vertices" not in frame:
-        raise DesignError(f"{src}faces_vertices is missing; foldprint needs faces (its panels), "
-                          "re-export the crease pattern with faces")
+    edges: list
+    assign: list
+    angle: list
+    hinge_id: list
+    material: list
+    radius: list
+    thickness: list
+    faces: list
+
+
+def _unit_factor(frame: Mapping, scale, src: str) -> float:
+    """mm per file unit: ``scale`` if given, else the known ``frame_unit``."""
     unit = str(frame.get("frame_unit", "unit")).lower()
     if scale is not None:
         if not _number(scale) or scale <= 0:
             raise DesignError(f"{src}scale must be a number > 0 (mm per file unit), got {scale!r}")
-        factor = float(scale)
-    elif unit in UNITS:
-        factor = UNITS[unit]
-    elif unit == "unit":
+        return float(scale)
+    if unit in UNITS:
+        return UNITS[unit]
+    if unit == "unit":
         said = "frame_unit is \"unit\"" if "frame_unit" in frame else "frame_unit is missing"
         raise DesignError(f"{src}{said}, so the crease pattern has no physical size; give one with "
                           "--scale MM_PER_UNIT (e.g. --scale 100 makes a 1-unit square 100 mm wide) "
                           "or set frame_unit to mm, cm, m or in")
-    else:
-        raise DesignError(f"{src}frame_unit {unit!r} is unknown; known: {sorted(UNITS)} "
-                          "(or give --scale MM_PER_UNIT)")
-    xy = _coords(frame, factor, src)
-    faces = _index_lists(frame, "faces_vertices", len(xy), src, None)
-    if not faces:
-        raise DesignError(f"{src}faces_vertices is empty; a design needs at least one face")
-    edges = _index_lists(frame, "edges_vertices", len(xy), src, 2) if "edges_vertices" in frame else []
+    raise DesignError(f"{src}frame_unit {unit!r} is unknown; known: {sorted(UNITS)} "
+                      "(or give --scale MM_PER_UNIT)")
+
+
+def _edge_table(frame: Mapping, faces: list, nv: int, src: str) -> _EdgeTable:
+    """The edges, their assignments, fold angles and foldprint fields, checked, and the
+    faces bordering each edge."""
+    edges = _index_lists(frame, "edges_vertices", nv, src, 2) if "edges_vertices" in frame else []
     ne = len(edges)
     assign = [str(a).upper() if a is not None else "U"
               for a in _per(frame, "edges_assignment", ne, "edges_vertices", src)]
@@ -275,9 +273,6 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     for i, a in enumerate(angle):
         if a is not None and not (_number(a) and abs(a) <= 180 + 1e-9):
             raise DesignError(f"{src}edges_foldAngle[{i}] must be a number of degrees in [-180, 180], got {a!r}")
-    nf = len(faces)
-    f_id, f_mat, f_thk, f_holes = (_per(frame, f"faces_foldprint:{k}", nf, "faces_vertices", src)
-                                   for k in ("id", "material", "thickness_mm", "holes"))
     e_hid, e_mat, e_rad, e_thk = (_per(frame, f"edges_foldprint:{k}", ne, "edges_vertices", src)
                                   for k in ("hinge_id", "material", "radius_mm", "thickness_mm"))
     # which faces border which edge; face sides missing from edges_vertices count as "U"
@@ -288,6 +283,11 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     assign += ["U"] * (len(edges) - ne)
     for col in (angle, e_hid, e_mat, e_rad, e_thk):
         col += [None] * (len(edges) - ne)
+    return _EdgeTable(edges, assign, angle, e_hid, e_mat, e_rad, e_thk, edge_faces)
+
+
+def _face_polygons(faces: list, xy: np.ndarray, src: str) -> list:
+    """Each face as a shapely polygon; a face that is not a simple polygon is refused."""
     polys = []
     for f, ring in enumerate(faces):
         poly = Polygon(xy[ring])
@@ -295,7 +295,12 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
             why = shapely.is_valid_reason(poly) if not poly.is_valid else "zero area"
             raise DesignError(f"{src}faces_vertices[{f}] is not a simple polygon ({why})")
         polys.append(poly)
-    # facets joined by flat edges form one panel (union-find)
+    return polys
+
+
+def _facet_groups(et: _EdgeTable, nf: int, src: str) -> tuple[list[int], list[list[int]]]:
+    """The crease edges, and the faces grouped into panels: facets joined by flat edges
+    form one panel (union-find); groups in the order of their smallest face."""
     parent = list(range(nf))
 
     def root(f: int) -> int:
@@ -304,27 +309,35 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
         return f
 
     crease = []
-    for i, fs in enumerate(edge_faces):
+    for i, fs in enumerate(et.faces):
         if len(fs) > 2:
             raise DesignError(f"{src}edges_vertices[{i}] borders {len(fs)} faces; an edge of a crease "
                               "pattern borders at most 2")
-        is_crease = (e_hid[i] is not None or assign[i] in ("M", "V")
-                     or (assign[i] in _FLAT and angle[i] not in (None, 0)))
+        is_crease = (et.hinge_id[i] is not None or et.assign[i] in ("M", "V")
+                     or (et.assign[i] in _FLAT and et.angle[i] not in (None, 0)))
         if is_crease:
             if len(fs) != 2:
-                raise DesignError(f"{src}edges_vertices[{i}] is a {assign[i]} crease but borders {len(fs)} "
+                raise DesignError(f"{src}edges_vertices[{i}] is a {et.assign[i]} crease but borders {len(fs)} "
                                   "face(s); a hinge must lie between two faces")
             crease.append(i)
-        elif assign[i] in _FLAT and len(fs) == 2:
+        elif et.assign[i] in _FLAT and len(fs) == 2:
             parent[root(fs[0])] = root(fs[1])
     groups: dict[int, list[int]] = {}
     for f in range(nf):
         groups.setdefault(root(f), []).append(f)
-    members = sorted(groups.values(), key=min)
-    group_of = {f: g for g, fs in enumerate(members) for f in fs}
+    return crease, sorted(groups.values(), key=min)
+
+
+def _panel_entries(frame: Mapping, members: list, polys: list, factor: float, src: str,
+                   default_panel_material: str, default_thickness_mm: float) -> tuple[list, list]:
+    """The design's panels (outline, holes, thickness, material) and their ids, one per
+    group of faces."""
+    nf = len(polys)
+    f_id, f_mat, f_thk, f_holes = (_per(frame, f"faces_foldprint:{k}", nf, "faces_vertices", src)
+                                   for k in ("id", "material", "thickness_mm", "holes"))
     taken = {str(v) for v in f_id if v is not None}
     panels, pid_of = [], []
-    for g, fs in enumerate(members):
+    for fs in members:
         pid = str(_first([f_id[f] for f in fs], None) or _fresh("p", taken))
         pid_of.append(pid)
         shape = polys[fs[0]] if len(fs) == 1 else shapely.union_all([polys[f] for f in fs])
@@ -344,15 +357,25 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
         if holes:
             entry["holes"] = holes
         panels.append(entry)
-    # creases between the same two panels (or with the same hinge id) form one hinge
+    return panels, pid_of
+
+
+def _crease_groups(et: _EdgeTable, crease: list, group_of: dict, pid_of: list, src: str) -> dict:
+    """Creases between the same two panels (or with the same hinge id) form one hinge:
+    the crease edges of each, keyed by hinge id or by the pair of panel groups."""
     hgroups: dict[Any, list[int]] = {}
     for i in crease:
-        ga, gb = sorted(group_of[f] for f in edge_faces[i])
+        ga, gb = sorted(group_of[f] for f in et.faces[i])
         if ga == gb:
-            raise DesignError(f"{src}edges_vertices[{i}] is a {assign[i]} crease inside panel {pid_of[ga]!r}: "
+            raise DesignError(f"{src}edges_vertices[{i}] is a {et.assign[i]} crease inside panel {pid_of[ga]!r}: "
                               "the faces on its two sides are also joined by flat edges, so it does not "
                               "separate two panels; a foldprint hinge must run between separate panels")
-        hgroups.setdefault(str(e_hid[i]) if e_hid[i] is not None else (ga, gb), []).append(i)
+        hgroups.setdefault(str(et.hinge_id[i]) if et.hinge_id[i] is not None else (ga, gb), []).append(i)
+    return hgroups
+
+
+def _design_extras(frame: Mapping, src: str) -> tuple[Mapping, Mapping]:
+    """The ``foldprint:design`` object and its per-hinge extras, checked."""
     fp = frame.get("foldprint:design") or {}
     if not isinstance(fp, Mapping):
         raise DesignError(f"{src}foldprint:design must be an object, got {type(fp).__name__}")
@@ -362,22 +385,30 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     extras = fp.get("hinges") or {}
     if not isinstance(extras, Mapping):
         raise DesignError(f"{src}foldprint:design.hinges must be an object keyed by hinge id")
+    return fp, extras
+
+
+def _hinge_entries(et: _EdgeTable, xy: np.ndarray, hgroups: dict, group_of: dict, pid_of: list,
+                   extras: Mapping, src: str, crease_materials: Mapping[str, str] | None,
+                   default_hinge_material: str, default_radius_mm: float,
+                   default_thickness_mm: float) -> list:
+    """The design's hinges, one per group of creases: one line, one angle, its panels."""
     htaken = {k for k in hgroups if isinstance(k, str)}
     hinges = []
     for key, ids in hgroups.items():
-        pairs = {tuple(sorted(group_of[f] for f in edge_faces[i])) for i in ids}
+        pairs = {tuple(sorted(group_of[f] for f in et.faces[i])) for i in ids}
         if len(pairs) > 1:
             raise DesignError(f"{src}hinge {key!r} has edges between different pairs of panels "
                               f"({sorted({tuple(pid_of[g] for g in p) for p in pairs})})")
         ga, gb = pairs.pop()
         hid = key if isinstance(key, str) else _edge_id(min(ids), htaken)
-        degs = [angle[i] if angle[i] is not None else 180.0 if assign[i] == "V" else
-                -180.0 if assign[i] == "M" else 0.0 for i in ids]
+        degs = [et.angle[i] if et.angle[i] is not None else 180.0 if et.assign[i] == "V" else
+                -180.0 if et.assign[i] == "M" else 0.0 for i in ids]
         if max(degs) - min(degs) > 1e-6:
             raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases with "
                               f"different fold angles {sorted(set(degs))} (edges_vertices {ids}); one "
                               "hinge has one angle: split a panel or give the creases one angle")
-        line = _hinge_line(xy, [edges[i] for i in ids])
+        line = _hinge_line(xy, [et.edges[i] for i in ids])
         if line is None:
             raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases that "
                               f"do not lie on one line (edges_vertices {ids}); a hinge is straight")
@@ -388,12 +419,21 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
         if sorted(map(str, extra.get("panels") or [])) == sorted(pp):
             pp = [str(p) for p in extra["panels"]]
         entry = {"id": hid, "panels": pp, "line": line.tolist(), "angle_deg": float(degs[0]),
-                 "material": str(_first([e_mat[i] for i in ids], None)
-                                 or (crease_materials or {}).get(assign[ids[0]], default_hinge_material)),
-                 "radius_mm": _first([e_rad[i] for i in ids], default_radius_mm),
-                 "thickness_mm": _first([e_thk[i] for i in ids], default_thickness_mm)}
+                 "material": composition.parse_material_spec(
+                     _first([et.material[i] for i in ids], None)
+                     or (crease_materials or {}).get(et.assign[ids[0]], default_hinge_material),
+                     f"{src}edges_foldprint:material of hinge {hid!r}: "),
+                 "radius_mm": _first([et.radius[i] for i in ids], default_radius_mm),
+                 "thickness_mm": _first([et.thickness[i] for i in ids], default_thickness_mm)}
         entry.update({k: extra[k] for k in ("fixity", "style") if k in extra})
         hinges.append(entry)
+    return hinges
+
+
+def _design_dict(frame: Mapping, fp: Mapping, source: str, panels: list, hinges: list,
+                 factor: float) -> dict:
+    """The design as the dict :func:`design_from_dict` reads: ``foldprint:design``'s keys,
+    the name and description from the frame, the panels and hinges, scaled to mm."""
     name = (frame.get("frame_title") or frame.get("file_title") or fp.get("name")
             or (Path(source).stem if source else "") or "fold")
     d = {k: v for k, v in fp.items() if k not in ("hinges", "schema", "name")}
@@ -402,7 +442,49 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
         d["description"] = str(frame["frame_description"])
     if factor != 1.0:
         d = _scaled(d, factor)
-    return design_from_dict(d, source, library)
+    return d
+
+
+def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | None = None,
+                     scale: float | None = None, default_hinge_material: str = DEFAULT_HINGE_MATERIAL,
+                     default_panel_material: str = DEFAULT_PANEL_MATERIAL,
+                     default_thickness_mm: float = DEFAULT_THICKNESS_MM,
+                     default_radius_mm: float = DEFAULT_HINGE_RADIUS_MM,
+                     crease_materials: Mapping[str, str] | None = None) -> Design:
+    """Build and validate a design from a parsed FOLD 1.1/1.2 crease pattern.
+
+    ``scale`` (mm per file unit) overrides ``frame_unit``; without it a known unit
+    (mm, cm, m, in, pt, um, nm) is converted, and "unit" (or no unit) is an error that
+    asks for a scale. Hinges from plain FOLD edges are called ``e<edge index>``.
+    ``crease_materials`` maps an assignment letter (M, V, F, U) to the hinge material of
+    creases that name none (``edges_foldprint:material``); others get
+    ``default_hinge_material``. Coordinates (vertices, holes, goal
+    tips, strip depth) are scaled; the ``*_mm`` quantities are mm already.
+    """
+    src = where(source)
+    if not isinstance(data, Mapping):
+        raise DesignError(f"{src}a FOLD file must hold a JSON object, got {type(data).__name__}")
+    frame = _frame(data, src)
+    check_fold(frame, source)  # issue 14: types of the foldprint per-item fields
+    if "faces_vertices" not in frame:
+        raise DesignError(f"{src}faces_vertices is missing; foldprint needs faces (its panels), "
+                          "re-export the crease pattern with faces")
+    factor = _unit_factor(frame, scale, src)
+    xy = _coords(frame, factor, src)
+    faces = _index_lists(frame, "faces_vertices", len(xy), src, None)
+    if not faces:
+        raise DesignError(f"{src}faces_vertices is empty; a design needs at least one face")
+    et = _edge_table(frame, faces, len(xy), src)
+    polys = _face_polygons(faces, xy, src)
+    crease, members = _facet_groups(et, len(faces), src)
+    group_of = {f: g for g, fs in enumerate(members) for f in fs}
+    panels, pid_of = _panel_entries(frame, members, polys, factor, src,
+                                    default_panel_material, default_thickness_mm)
+    hgroups = _crease_groups(et, crease, group_of, pid_of, src)
+    fp, extras = _design_extras(frame, src)
+    hinges = _hinge_entries(et, xy, hgroups, group_of, pid_of, extras, src, crease_materials,
+                            default_hinge_material, default_radius_mm, default_thickness_mm)
+    return design_from_dict(_design_dict(frame, fp, source, panels, hinges, factor), source, library)
 
 
 def _hinge_line(xy: np.ndarray, segs: list[list[int]]) -> np.ndarray | None:

@@ -449,16 +449,123 @@ def _drop_cut_holes(faces, edges, assign):
     return out
 
 
-def fold_from_svg(text: str, src: str = "", scale: float | None = None,
-                  vertex_tol: float | None = None) -> dict:
-    """A FOLD crease-pattern dict (mm) from SVG text."""
+_RANK = {"M": 0, "V": 0, "C": 1, "U": 2, "F": 3, "B": 4}  # which assignment wins where lines overlap
+
+
+class _Vertices:
+    """Vertex ids of points merged on a 1e-9 grid, in the order first seen."""
+
+    def __init__(self) -> None:
+        self.ids: dict[tuple, int] = {}
+        self.coords: list = []
+
+    def id(self, p) -> int:
+        key = (round(float(p[0]) / 1e-9), round(float(p[1]) / 1e-9))
+        if key not in self.ids:
+            self.ids[key] = len(self.coords)
+            self.coords.append((float(p[0]), float(p[1])))
+        return self.ids[key]
+
+
+def _svg_root(text: str, src: str):
+    """The parsed ``<svg>`` root element."""
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:
         raise DesignError(f"{src}not valid SVG/XML: {exc}") from None
     if _tag(root) != "svg":
         raise DesignError(f"{src}the root element is <{_tag(root)}>, not <svg>")
-    segs, factor = svg_segments(root, src)
+    return root
+
+
+def _snapped(segs, snap: float, size: float) -> list:
+    """The segments with their ends merged within ``snap`` and undershoots closed; segments
+    shorter than ``snap`` dropped."""
+    pts = np.array([s[0] for s in segs] + [s[1] for s in segs])
+    ends = _cluster(pts, snap)
+    n = len(segs)
+    segs = [(ends[k], ends[n + k]) + tuple(segs[k][2:]) for k in range(n)]
+    moved = _close_undershoots(segs, snap, 1e-12 * max(size, 1.0))
+    return [sg for sg in moved if np.linalg.norm(sg[1] - sg[0]) > snap]
+
+
+def _piece_owners(raw: list, tree, segs: list, size: float) -> np.ndarray:
+    """The segment each noded piece comes from (the strongest assignment where several
+    overlap; -1 for none), one bulk query instead of one per piece."""
+    mids = shapely.points([(c[0] + c[-1]) / 2 for c in raw])
+    pi, sj = tree.query(mids, predicate="dwithin", distance=1e-9 * max(size, 1.0))
+    seg_rank = np.array([_RANK[sg[2]] for sg in segs])
+    order = np.lexsort((sj, seg_rank[sj], pi))
+    first = np.unique(pi[order], return_index=True)[1]
+    owner = np.full(len(raw), -1)
+    owner[pi[order][first]] = sj[order][first]
+    return owner
+
+
+def _edge_graph(segs: list, tree, size: float, snap: float, src: str, verts: _Vertices):
+    """The segments noded at their crossings: FOLD edges (vertex pairs, each once), their
+    assignments and fold angles, and each edge as a line for polygonize."""
+    noded = _node(MultiLineString([LineString([a, b]) for a, b, *_ in segs]), size, src)
+    raw = [np.asarray(g.coords) for g in getattr(noded, "geoms", [noded])]
+    merged = _cluster(np.array([c[0] for c in raw] + [c[-1] for c in raw]), snap)
+    piece_ends = [(merged[k], merged[len(raw) + k]) for k in range(len(raw))]
+    edges, assign, angles, pieces = [], [], [], []
+    seen = {}
+    for (e0, e1), best in zip(piece_ends, _piece_owners(raw, tree, segs, size)):
+        a, b = verts.id(e0), verts.id(e1)
+        if a == b or best < 0:
+            continue
+        key = (min(a, b), max(a, b))
+        if key in seen:
+            k0 = seen[key]
+            if _RANK[segs[best][2]] < _RANK[assign[k0]]:
+                assign[k0], angles[k0] = segs[best][2], segs[best][3]
+            continue
+        seen[key] = len(edges)
+        edges.append([a, b])
+        assign.append(segs[best][2])
+        angles.append(segs[best][3])
+        pieces.append(LineString([verts.coords[a], verts.coords[b]]))
+    return edges, assign, angles, pieces
+
+
+def _faces(pieces: list, verts: _Vertices, size: float, edges: list, assign: list, src: str) -> list:
+    """The faces the edges enclose (vertex rings), holes cut out of the sheet dropped."""
+    faces = []
+    for poly in getattr(shapely.polygonize(pieces), "geoms", []):
+        ring = [verts.id(p) for p in np.asarray(poly.exterior.coords)[:-1]]
+        if poly.area > 1e-12 * size * size and len(set(ring)) >= 3:
+            faces.append(ring)
+    faces = _drop_cut_holes(faces, edges, assign)
+    if not faces:
+        raise DesignError(f"{src}the lines enclose no face: close the border (black) around the pattern")
+    return faces
+
+
+def _check_creases(faces: list, edges: list, assign: list, coords: list, segs: list, tree,
+                   snap: float, src: str) -> None:
+    """A crease must separate two faces: name the dangling ones in SVG coordinates."""
+    count = {}
+    for ring in faces:
+        for k in range(len(ring)):
+            e = (min(ring[k], ring[k - 1]), max(ring[k], ring[k - 1]))
+            count[e] = count.get(e, 0) + 1
+    for i, (a, b) in enumerate(edges):
+        n = count.get((min(a, b), max(a, b)), 0)
+        if assign[i] in "MVU" and n != 2:
+            near = tree.query(shapely.Point(np.mean([coords[a], coords[b]], axis=0)),
+                              predicate="dwithin", distance=snap)
+            owner = segs[min(near, key=lambda k: _RANK[segs[k][2]])][4] if len(near) else "a segment"
+            raise DesignError(
+                f"{src}{owner}: the {_NAMES[assign[i]]} crease from ({coords[a][0]:g}, {coords[a][1]:g}) to "
+                f"({coords[b][0]:g}, {coords[b][1]:g}) borders {n} face(s); a crease must run between two "
+                "faces: extend it to the border or to another crease, or delete it")
+
+
+def fold_from_svg(text: str, src: str = "", scale: float | None = None,
+                  vertex_tol: float | None = None) -> dict:
+    """A FOLD crease-pattern dict (mm) from SVG text."""
+    segs, factor = svg_segments(_svg_root(text, src), src)
     if scale is not None:
         if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
             raise DesignError(f"{src}scale must be a number > 0 (mm per SVG user unit), got {scale!r}")
@@ -474,85 +581,18 @@ def fold_from_svg(text: str, src: str = "", scale: float | None = None,
     # intersections; we do the same, capped at 0.5 % of the pattern for small documents
     vtol = VERTEX_TOL if vertex_tol is None else float(vertex_tol)
     snap = min(vtol, 0.005 * size)
-    ends = _cluster(pts, snap)
-    n = len(segs)
-    segs = [(ends[k], ends[n + k]) + tuple(segs[k][2:]) for k in range(n)]
-    moved = _close_undershoots(segs, snap, 1e-12 * max(size, 1.0))
-    segs = [sg for sg in moved if np.linalg.norm(sg[1] - sg[0]) > snap]
-    lines = [LineString([a, b]) for a, b, *_ in segs]
-    noded = _node(MultiLineString(lines), size, src)
-    tree = shapely.STRtree(lines)
-    raw = [np.asarray(g.coords) for g in getattr(noded, "geoms", [noded])]
-    allpts = np.array([c[0] for c in raw] + [c[-1] for c in raw])
-    merged = _cluster(allpts, snap)
-    verts: dict[tuple, int] = {}
-    coords: list = []
-
-    def vid(p) -> int:
-        key = (round(float(p[0]) / 1e-9), round(float(p[1]) / 1e-9))
-        if key not in verts:
-            verts[key] = len(coords)
-            coords.append((float(p[0]), float(p[1])))
-        return verts[key]
-
-    piece_ends = [(merged[k], merged[len(raw) + k]) for k in range(len(raw))]
-    edges, assign, angles, pieces = [], [], [], []
-    rank = {"M": 0, "V": 0, "C": 1, "U": 2, "F": 3, "B": 4}
-    seen = {}
-    # the segment each piece comes from (the strongest assignment where several overlap),
-    # one bulk query instead of one per piece
-    mids = shapely.points([(c[0] + c[-1]) / 2 for c in raw])
-    pi, sj = tree.query(mids, predicate="dwithin", distance=1e-9 * max(size, 1.0))
-    seg_rank = np.array([rank[sg[2]] for sg in segs])
-    order = np.lexsort((sj, seg_rank[sj], pi))
-    first = np.unique(pi[order], return_index=True)[1]
-    owner = np.full(len(raw), -1)
-    owner[pi[order][first]] = sj[order][first]
-    for c0, (e0, e1), best in zip(raw, piece_ends, owner):
-        a, b = vid(e0), vid(e1)
-        if a == b or best < 0:
-            continue
-        key = (min(a, b), max(a, b))
-        if key in seen:
-            k0 = seen[key]
-            if rank[segs[best][2]] < rank[assign[k0]]:
-                assign[k0], angles[k0] = segs[best][2], segs[best][3]
-            continue
-        seen[key] = len(edges)
-        edges.append([a, b])
-        assign.append(segs[best][2])
-        angles.append(segs[best][3])
-        pieces.append(LineString([coords[a], coords[b]]))
-    faces = []
-    for poly in getattr(shapely.polygonize(pieces), "geoms", []):
-        ring = [vid(p) for p in np.asarray(poly.exterior.coords)[:-1]]
-        if poly.area > 1e-12 * size * size and len(set(ring)) >= 3:
-            faces.append(ring)
-    faces = _drop_cut_holes(faces, edges, assign)
-    if not faces:
-        raise DesignError(f"{src}the lines enclose no face: close the border (black) around the pattern")
-    # a crease must separate two faces: name the dangling ones in SVG coordinates
-    count = {}
-    for ring in faces:
-        for k in range(len(ring)):
-            e = (min(ring[k], ring[k - 1]), max(ring[k], ring[k - 1]))
-            count[e] = count.get(e, 0) + 1
-    for i, (a, b) in enumerate(edges):
-        n = count.get((min(a, b), max(a, b)), 0)
-        if assign[i] in "MVU" and n != 2:
-            near = tree.query(shapely.Point(np.mean([coords[a], coords[b]], axis=0)),
-                              predicate="dwithin", distance=snap)
-            owner = segs[min(near, key=lambda k: rank[segs[k][2]])][4] if len(near) else "a segment"
-            raise DesignError(
-                f"{src}{owner}: the {_NAMES[assign[i]]} crease from ({coords[a][0]:g}, {coords[a][1]:g}) to "
-                f"({coords[b][0]:g}, {coords[b][1]:g}) borders {n} face(s); a crease must run between two "
-                "faces: extend it to the border or to another crease, or delete it")
+    segs = _snapped(segs, snap, size)
+    tree = shapely.STRtree([LineString([a, b]) for a, b, *_ in segs])
+    verts = _Vertices()
+    edges, assign, angles, pieces = _edge_graph(segs, tree, size, snap, src, verts)
+    faces = _faces(pieces, verts, size, edges, assign, src)
+    _check_creases(faces, edges, assign, verts.coords, segs, tree, snap, src)
     span = size * factor
     if not (math.isfinite(factor) and factor > 0 and math.isfinite(span) and span <= MAX_LENGTH_MM):
         raise DesignError(f"{src}the pattern is {size:g} user units wide at {factor:g} mm per unit (from the "
                           f"document's width/viewBox), beyond the {MAX_LENGTH_MM:g} mm foldprint accepts; fix "
                           "width and viewBox or give --scale MM_PER_UNIT")
-    xy = [[x * factor, -y * factor] for x, y in coords]  # y up
+    xy = [[x * factor, -y * factor] for x, y in verts.coords]  # y up
     faces = [r[::-1] for r in faces]  # keep counter-clockwise after the mirror
     return {"file_spec": 1.2, "file_creator": "foldprint.io.svg_format", "frame_classes": ["creasePattern"],
             "frame_unit": "mm", "vertices_coords": xy, "faces_vertices": faces, "edges_vertices": edges,

@@ -43,6 +43,7 @@ DECIMALS = 3
 _K = 273.15
 _NUM = r"[01]\.\d{%d}" % DECIMALS
 _NAME = re.compile(rf"^VW({_NUM}(?:-{_NUM})*)(?:@(width|length))?$")
+_LOOSE = re.compile(r"^VW(\d*\.?\d+(?:-\d*\.?\d+)*)(?:@(width|length))?$")
 
 
 class Along(Enum):
@@ -280,6 +281,15 @@ def vero(fraction: float | Sequence[float], along: Along | str | None = None) ->
 def parse_name(name: str, model: CompositionModel | None = None) -> FractionProfile:
     """The profile a canonical ``VW...`` name stands for (MaterialError if malformed/outside)."""
     m = _NAME.match(name) if isinstance(name, str) else None
+    loose = _LOOSE.match(name) if isinstance(name, str) and m is None else None
+    if loose is not None:
+        try:
+            vals = [float(v) for v in loose.group(1).split("-")]
+            hint = make_profile(vals if len(vals) > 1 else vals[0], loose.group(2), model).name
+        except (ValueError, MaterialError):
+            hint = None
+        if hint is not None:
+            raise MaterialError(f"material {name!r}: the canonical spelling is {hint!r}")
     if m is None:
         raise MaterialError(
             f"material {name!r} is not a composition name; write 'VW0.620' (VeroWhite fraction, "
@@ -340,6 +350,37 @@ def material_spec(name: str) -> Any:
     if p.uniform:
         return {"vero_fraction": p.knots[0]}
     return {"vero_fraction": list(p.knots), "along": p.along.value}
+
+
+def css_background(name: str, fallback: str = "#9a9a9a") -> str:
+    """CSS background of a material's swatch on the ramp: its colour, or a left-to-right
+    gradient through its knots for a graded material (``u`` = 0 on the left)."""
+    model = composition_model()
+    try:
+        prof = parse_name(name)
+    except MaterialError:
+        return fallback
+    if prof.uniform:
+        return model.color(prof.knots[0])
+    return "linear-gradient(to right, " + ", ".join(model.color(k) for k in prof.knots) + ")"
+
+
+def ramp_legend(names) -> dict | None:
+    """What a legend needs to explain the VeroWhite ramp, or None if no ``VW...`` name is used:
+    the end colours, the supported range and each name's swatch background and label."""
+    model = composition_model()
+    used = sorted({n for n in names if is_composition_name(n)})
+    if not used:
+        return None
+    labels = {}
+    for n in used:
+        p = parse_name(n)
+        labels[n] = (f"VeroWhite {100 * p.knots[0]:.1f} % (Tg {model._tg(p.knots[0]):.1f} C)" if p.uniform else
+                     f"VeroWhite {' -> '.join(f'{100 * k:.1f}' for k in p.knots)} % along the {p.along.value}"
+                     f" (mean Tg {model._tg(p.mean):.1f} C)")
+    return {"tangoblack": model.ramp[0], "verowhite": model.ramp[1],
+            "range": list(model.fraction_range), "swatches": {n: css_background(n) for n in used},
+            "labels": labels}
 
 
 # -- library support --------------------------------------------------------------------

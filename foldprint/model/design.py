@@ -25,7 +25,8 @@ from shapely.geometry import LineString, Polygon
 from ..core.constants import (DEFAULT_BATH_C, DEFAULT_DURATION_S, DEFAULT_FIX_C, DEFAULT_PROGRAM_C,
                         tol)
 from ..core import schema
-from ..core.errors import DesignError, where
+from ..core.errors import DesignError, MaterialError, where
+from . import composition
 from .materials import MaterialLibrary, default_library
 
 SCHEMA_VERSION = 1
@@ -431,8 +432,14 @@ def validate(design: Design, library: MaterialLibrary | None = None) -> Design:
             raise DesignError(f"{item}fold line has a NaN coordinate")
         if h.length <= tol.length * 100:
             raise DesignError(f"{item}fold line has zero length")
+        if composition.is_composition_name(h.material) and h.material not in lib:
+            try:
+                lib[h.material]
+            except MaterialError as exc:
+                raise DesignError(f"{item}{exc}") from None
         if h.material not in lib:
             raise DesignError(f"{item}unknown material {h.material!r}; known hinge materials: {known_hinge}"
+                              " or a VeroWhite fraction such as 'VW0.700' / {vero_fraction = 0.7}"
                               " (add your own with --materials FILE)")
         if lib[h.material].role != "hinge":
             raise DesignError(f"{item}material {h.material!r} is a {lib[h.material].role} material, "
@@ -508,7 +515,7 @@ def _features(h: Hinge, item: str) -> None:
 
 
 def strip(name: str, lengths: Sequence[float], angles_deg: Sequence[float],
-          materials: Sequence[str], *, depth: float = 6.0,
+          materials: Sequence[str | float | dict], *, depth: float = 6.0,
           thickness: float | Sequence[float] = 0.8, radius: float | Sequence[float] = 5.0,
           hinge_thickness: float | Sequence[float] | None = None,
           panel_material: str = "VeroWhite", process: Process | None = None,
@@ -531,6 +538,9 @@ def strip(name: str, lengths: Sequence[float], angles_deg: Sequence[float],
                           f"got {len(angles_deg)}")
     if len(materials) != n - 1:
         raise DesignError(f"{src}materials needs {n - 1} values (one per hinge), got {len(materials)}")
+    # a material is a name, a VeroWhite fraction or {vero_fraction = ...} (docs/composition.md)
+    materials = [composition.parse_material_spec(m, f"{src}materials[{i}] (hinge 'h{i + 1}'): ")
+                 for i, m in enumerate(materials)]
 
     def per(v, count, what):
         if not isinstance(v, (list, tuple, np.ndarray)):

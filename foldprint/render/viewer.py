@@ -32,6 +32,7 @@ import numpy as np
 
 from ..model.design import Design
 from ..physics.kinematics import forward, hinge_frames, hinge_map, target_angles
+from ..model import composition
 from ..model.materials import MaterialLibrary
 
 FRAMES = 61
@@ -251,6 +252,9 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
             "end": float(w_end), "times": [float(t) for t in w_times], "completed": bool(w.completed),
             "poses": _b64(col_major(poses[1]), "<f4"), "q": _b64(quant(ribs[1]), "<u2"),
             "contacts": _contacts(w, items, model)}
+    ramp = composition.ramp_legend(used)  # only when a hinge names a VeroWhite fraction
+    if ramp is not None:
+        data["ramp"] = ramp
     return data
 
 

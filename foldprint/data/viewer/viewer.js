@@ -250,10 +250,18 @@
   var used = {};
   D.hinges.forEach(function (h) { (used[h.material] = used[h.material] || []).push(h.id); });
   var legend = "<h2>Hinge materials</h2><ul>";
+  var ramp = D.ramp || null;  // continuous / graded VeroWhite fractions (docs/composition.md)
   Object.keys(used).sort().forEach(function (m) {
-    legend += "<li><span class=\"swatch\" style=\"background:" + esc(D.colors[m] || "#9a9a9a") + "\"></span>" +
-      esc(m) + " <span class=\"muted\">(" + esc(used[m].join(", ")) + ")</span></li>";
+    var bg = ramp && ramp.swatches[m] ? ramp.swatches[m] : (D.colors[m] || "#9a9a9a");
+    legend += "<li><span class=\"swatch\" style=\"background:" + esc(bg) + "\"></span>" +
+      esc(m) + " <span class=\"muted\">(" + esc(used[m].join(", ")) +
+      (ramp && ramp.labels[m] ? "; " + esc(ramp.labels[m]) : "") + ")</span></li>";
   });
+  if (ramp) {
+    legend += "<li><span class=\"ramp\" style=\"background:linear-gradient(to right, " + esc(ramp.tangoblack) + ", " +
+      esc(ramp.verowhite) + ")\"></span> TangoBlack 0 &rarr; VeroWhite 1 <span class=\"muted\">(usable " +
+      ramp.range[0].toFixed(3) + "&ndash;" + ramp.range[1].toFixed(3) + "; graded hinges drawn in their mean colour)</span></li>";
+  }
   var panelMats = {};
   D.panels.forEach(function (p) { panelMats[p.material] = true; });
   Object.keys(panelMats).sort().forEach(function (m) {
