@@ -21,7 +21,8 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from ..core import guards
-from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
+from ..checks.rules import (CheckContext, Finding, Printer, Thresholds, default_printer_key,
+                            default_voxel_printer_key, load_printers, run_checks)
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
@@ -29,12 +30,14 @@ from ..core.constants import (CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEE
                               CLEARANCE_SAMPLES)
 from ..model.derived import DerivedCache
 from ..model.design import Design
-from ..core.errors import GeometryError
+from ..core.errors import ExportError, GeometryError
+from ..exchange.voxels import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart, VoxelRegion
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
 from ..exchange.fem import PlacedState, check_strip
-from ..geometry import Assembly, build_assembly, state_angles
+from ..geometry import Assembly, build_assembly, hinge_axes, state_angles
 from ..physics.kinematics import HingeDrive, forward, hinge_frames, target_angles
 from ..physics.recovery import hinge_fold_times
+from ..model.composition import fraction_profile
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
                           AfterContact, HingeModel, Method, State, parse)
@@ -379,14 +382,16 @@ class Evaluation:
 
     # -- writers -----------------------------------------------------------------------
     def export(self, out_dir: str | Path, state: State | str | None = None, formats: Iterable[str] | None = None,
-               assembly: Assembly | None = None) -> list[dict]:
+               assembly: Assembly | None = None, printer: str | None = None) -> list[dict]:
         """Write ``formats`` of the part in ``state`` (default: ``options``) into
         ``out_dir``; the records of :func:`foldprint.exchange.export.export_assembly`.
         The part is ``assembly`` when given, else the evaluation's printed part when it was
         already built (permanent state), else built here (after the size guard). The fold
-        is simulated only when a format shows it over time (xdmf, glb)."""
+        is simulated only when a format shows it over time (xdmf, glb); the voxel stack
+        (``voxels``) is rasterised at ``printer``'s pitch (default: the J750)."""
         st = parse(State, self.options.state if state is None else state, "state")
         fmts = check_formats(self.options.formats if formats is None else formats)  # before the (slower) build
+        pitch = voxel_pitch(printer) if "voxels" in fmts else None
         if assembly is None and st == State.PERMANENT and self.has("assembly"):
             assembly = self.assembly
             if assembly is None:
@@ -399,8 +404,17 @@ class Evaluation:
             if assembly is None:
                 assembly = build_assembly(self.design, st.value, self.library)
             placed = self.placed_state(st) if "inp" in fmts else None
+            voxels = None if pitch is None else self._voxels(assembly, pitch)
             return export_assembly(self.design, assembly, out_dir, fmts, self.library, trajectory, fold_times,
-                                   placed)
+                                   placed, voxels)
+
+    def _voxels(self, assembly: Assembly, pitch: Pitch) -> VoxelPart:
+        """The part's voxel regions at ``pitch``, after the voxel grid's guard."""
+        d = self.design
+        voxels = voxel_part(d, assembly, self.library, pitch)
+        graded = sum(1 for r in voxels.regions if r.constant is None and not r.along_length)
+        guards.check_voxels(voxels.grid().shape, f"{d.source}: " if d.source else f"{d.name}: ", graded)
+        return voxels
 
     def to_json(self, printer_key: str | None = None) -> dict:
         """The ``foldprint check --json`` object (:func:`foldprint.checks.report.check_json`)."""
@@ -449,6 +463,42 @@ def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer:
     return ev
 
 
+def voxel_pitch(printer: str | None = None, printers_file: str | Path | None = None) -> Pitch:
+    """The voxel pitch of a printer profile (``data/printers.toml``; default: the one
+    marked ``voxel_default``, the J750); ExportError names printers that have one."""
+    printers = load_printers(printers_file)
+    key = printer or default_voxel_printer_key()
+    pr = printers.get(key)
+    if pr is None or pr.voxel_mm is None:
+        have = sorted(k for k, p in printers.items() if p.voxel_mm is not None)
+        what = "unknown printer" if pr is None else "printer without a voxel pitch (voxel_mm)"
+        raise ExportError(f"--printer {key!r}: {what}; voxel print knows {have}")
+    return Pitch(*pr.voxel_mm, printer=f"{key} ({pr.name})", source=pr.voxel_source)
+
+
+def voxel_part(design: Design, assembly: Assembly, library: MaterialLibrary | None = None,
+               pitch: Pitch | None = None, profiles: Callable | None = None) -> VoxelPart:
+    """What the voxel writer writes: every panel and hinge of ``assembly`` (its units)
+    with its VeroWhite fraction profile (panels: VeroWhite 1, TangoBlack 0; hinges:
+    ``profiles(library, material)``, by default :func:`foldprint.model.composition.fraction_profile`)
+    and, for hinges, the axes that give u (:func:`foldprint.geometry.hinge_axes`)."""
+    lib = library or default_library()
+    profiles = profiles or fraction_profile
+    axes = hinge_axes(design, assembly.state)
+    regions = []
+    for u in assembly.units:
+        if u.kind == "panel":
+            if u.material not in (VERO_WHITE, TANGO_BLACK):
+                raise ExportError(f"panel {u.owner!r}: material {u.material!r} is not a base resin; voxel print "
+                                  f"jets panels in {VERO_WHITE} or {TANGO_BLACK} (set the panel's material)")
+            prof = Uniform(1.0 if u.material == VERO_WHITE else 0.0)
+            regions.append(VoxelRegion("panel", u.owner, u.material, u.solid, prof))
+        else:
+            regions.append(VoxelRegion("hinge", u.owner, u.material, u.solid, profiles(lib, u.material),
+                                       axes.get(u.owner)))
+    return VoxelPart(design.name, assembly.state, tuple(regions), pitch or voxel_pitch(), assembly.print_offset)
+
+
 def build(design: Design, state: State | str = DEFAULT_STATE,
           library: MaterialLibrary | None = None) -> Assembly:
     """The printable part in ``state``: one watertight body per material."""
@@ -458,10 +508,10 @@ def build(design: Design, state: State | str = DEFAULT_STATE,
 
 def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STATE,
            formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
-           assembly: Assembly | None = None) -> list[dict]:
+           assembly: Assembly | None = None, printer: str | None = None) -> list[dict]:
     """Build ``design`` in ``state`` (or take the built ``assembly``) and write
     ``formats`` into ``out_dir``: :meth:`Evaluation.export`."""
-    return Evaluation(design, library=library).export(out_dir, state, formats, assembly)
+    return Evaluation(design, library=library).export(out_dir, state, formats, assembly, printer)
 
 
 def run_simulation(design: Design, *, library: MaterialLibrary | None = None, bath_c: float | None = None,

@@ -50,6 +50,9 @@ class Printer:
     layer_mm: float
     min_wall_mm: float
     min_gap_mm: float
+    #: voxel pitch (x, y, z mm) for voxel print, and its source; None: not a voxel printer
+    voxel_mm: tuple[float, float, float] | None = None
+    voxel_source: str = ""
 
 
 def load_printers(extra: str | Path | None = None) -> dict[str, Printer]:
@@ -69,15 +72,27 @@ def load_printers(extra: str | Path | None = None) -> dict[str, Printer]:
         for key, raw in data.get("printers", {}).items():
             try:
                 build = tuple(float(v) for v in raw["build_mm"])
+                vox = raw.get("voxel_mm")
+                vox = None if vox is None else tuple(float(v) for v in vox)
                 pr = Printer(key, str(raw.get("name", key)), str(raw.get("technology", "")), build,
-                             float(raw.get("layer_mm", 0.1)), float(raw["min_wall_mm"]), float(raw["min_gap_mm"]))
+                             float(raw.get("layer_mm", 0.1)), float(raw["min_wall_mm"]), float(raw["min_gap_mm"]),
+                             vox, str(raw.get("voxel_source", "")))
             except (KeyError, TypeError, ValueError) as exc:
                 raise DesignError(f"{src}: printers.{key}: needs build_mm = [x, y, z], min_wall_mm and "
                                   f"min_gap_mm ({exc})") from None
+            if vox is not None and (len(vox) != 3 or not all(math.isfinite(v) and v > 0 for v in vox)):
+                raise DesignError(f"{src}: printers.{key}: voxel_mm must be three positive lengths [x, y, z] in mm")
             if len(build) != 3 or min(build) <= 0 or pr.min_wall_mm <= 0 or pr.min_gap_mm <= 0:
                 raise DesignError(f"{src}: printers.{key}: sizes must be positive")
             out[key] = pr
     return out
+
+
+def default_voxel_printer_key() -> str:
+    """The shipped printer voxel print uses by default (``voxel_default = true``)."""
+    text = (resources.files("foldprint") / "data" / "printers.toml").read_text(encoding="utf-8")
+    data = tomllib.loads(text)["printers"]
+    return next(k for k, v in data.items() if v.get("voxel_default"))
 
 
 def default_printer_key() -> str:

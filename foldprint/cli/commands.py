@@ -471,11 +471,15 @@ def export(
     state: str = typer.Option(DEFAULT_STATE.value, "--state", help="permanent (folded, printed) | programmed (flat)"),
     formats: str = typer.Option(",".join(EXPORT_FORMATS), "--format",
                                 help="Comma-separated: 3mf, prusa3mf, stl (to print); fold (crease pattern), "
-                                     "inp (Abaqus, planar strips), xdmf (ParaView series), glb (animated glTF)."),
+                                     "inp (Abaqus, planar strips), xdmf (ParaView series), glb (animated glTF), "
+                                     "voxels (PolyJet voxel print: PNG slices, manifest, composite 3MF)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     scale: Optional[float] = typer.Option(None, "--scale", help=_SCALE),
     crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=_CREASE),
+    printer: Optional[str] = typer.Option(None, "--printer",
+                                          help="Printer profile whose voxel pitch --format voxels uses "
+                                               "(data/printers.toml; default j750: 600 x 300 dpi, 27 um layers)."),
 ):
     """Build the printable part (one watertight body per material) and write multi-body
     3MF (spec + Bambu/Orca/Cura metadata), a PrusaSlicer 3MF, and one STL per material.
@@ -494,13 +498,22 @@ def export(
     out = _out_dir(out)
     d, lib = _load(design, materials_file, scale, crease_materials)
     out_dir = out if out is not None else Path("output") / d.name
+    if printer is not None and "voxels" not in fmts:
+        raise FoldprintError("--printer sets the voxel pitch of --format voxels; add voxels to --format")
     records = _with_progress(f"building {d.name} ({state})",
                              lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts)),
-                                                library=lib).export(out_dir))
+                                                library=lib).export(out_dir, printer=printer))
     if json_out:
         _echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records})
     else:
+        slices = [r for r in records if r["format"] == "png"]
         for r in records:
+            if r["format"] == "png":
+                if r is slices[0]:
+                    size = sum(s["bytes"] for s in slices)
+                    echo(f"{r['path']} ... {Path(slices[-1]['path']).name}  (voxel slices: {len(slices)} PNG, "
+                         f"{size / 1e6:.1f} MB)")
+                continue
             vol = sum(b["volume_mm3"] for b in r["bodies"])
             echo(f"{r['path']}  ({r['format']}, {len(r['bodies'])} bodies, {vol:.1f} mm3)")
 

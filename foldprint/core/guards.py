@@ -335,3 +335,37 @@ def check_samples(samples: int, seconds_per_sample: float, workers: int, name: s
                             f"{fits} samples, or raise the budget with the environment variable "
                             "FOLDPRINT_TIME_BUDGET (seconds)")
     return est
+
+
+#: voxel export (``export --format voxels``), measured with benchmarks/bench_voxels.py on
+#: the 150 x 150 x 20 mm plate (docs/voxels.md: 309 MB peak, 105 CPU-s for 4.65e9 voxels):
+#: bytes per pixel of one slice (the label image, a region's mask, its thresholds and
+#: fraction, the scan-line counts and their cumulative sum, the packed rows); per graded
+#: hinge its u table (<= 2e6 cells, 16 MB) and, while it is made, the cell centres and
+#: their search (48 MB, one at a time); CPU seconds per voxel. Slices are streamed, so
+#: memory does not grow with the layer count.
+VOXEL_BYTES_PER_PIXEL = 20
+VOXEL_TABLE_BYTES = 16 * 2 ** 20
+VOXEL_TABLE_BUILD_BYTES = 48 * 2 ** 20
+VOXEL_S_PER_VOXEL = 2.3e-8
+
+
+def check_voxels(shape: tuple[int, int, int], src: str = "", graded: int = 0) -> dict:
+    """Refuse a voxel stack whose memory (one slice, plus the u tables of ``graded``
+    hinges graded across their width) or whole-stack time would exceed the limits, before
+    any slice is made. ``shape``: (nx, ny, layers)."""
+    nx, ny, nz = (float(v) for v in shape)
+    tables = graded * VOXEL_TABLE_BYTES + (VOXEL_TABLE_BUILD_BYTES if graded else 0)
+    est = {"bytes": BASE_BYTES + nx * ny * VOXEL_BYTES_PER_PIXEL + tables,
+           "seconds": nx * ny * nz * VOXEL_S_PER_VOXEL}
+    limit, budget = max_memory(), time_budget()
+    what = f"a {nx:.0f} x {ny:.0f} pixel x {nz:.0f} layer voxel stack"
+    if est["bytes"] > limit:
+        raise ResourceError(f"{src}voxel export refused: {what} needs about {_fmt(est['bytes'])} per slice, over the "
+                            f"{_fmt(limit)} memory limit; print the part in pieces, or lift the limit with the "
+                            f"environment variable FOLDPRINT_MAX_MEMORY (e.g. {_fmt(est['bytes'] * 1.2).replace(' ', '')})")
+    if est["seconds"] > budget:
+        raise ResourceError(f"{src}voxel export refused: {what} takes about {_fmt_s(est['seconds'])}, over the "
+                            f"{_fmt_s(budget)} time budget; print the part in pieces, or lift the budget with the "
+                            "environment variable FOLDPRINT_TIME_BUDGET (seconds)")
+    return est

@@ -39,14 +39,19 @@ from .files import write_set
 from .fold import fold_bytes
 from .gltf import glb_bytes
 from .stl import manifest, stl_bytes
-from .threemf import prusa3mf_bytes, threemf_bytes
+from .threemf import composite3mf_bytes, prusa3mf_bytes, threemf_bytes
+from .voxels import VoxelPart, slice_files
 from .xdmf import xdmf_files
 
 #: Every format ``export`` writes; ``DEFAULT_FORMATS`` when none is asked for.
-FORMATS = ("3mf", "prusa3mf", "stl", "fold", "inp", "xdmf", "glb")
+FORMATS = ("3mf", "prusa3mf", "stl", "fold", "inp", "xdmf", "glb", "voxels")
 DEFAULT_FORMATS = EXPORT_FORMATS
 #: Formats that show the fold over time: they need the simulated trajectory.
 TRAJECTORY_FORMATS = ("xdmf", "glb")
+#: Formats written from a :class:`~foldprint.exchange.voxels.VoxelPart` (the regions with
+#: their VeroWhite fraction profiles and hinge axes): the PNG slice stack, its manifest
+#: and the 3MF with composite materials.
+VOXEL_FORMATS = ("voxels",)
 #: Time step (s) of the trajectory the time-series formats are written from: 10 frames
 #: a second (viewers interpolate between them); a 20 s mailbox run gives 201 steps, an
 #: XDMF/HDF5 pair of 7 MB and a 6 MB GLB (the simulation's default 0.01 s: ~10x both).
@@ -112,14 +117,20 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
            library: MaterialLibrary | None = None,
            trajectory: Trajectory | None = None,
            fold_times: dict | None = None,
-           placed: PlacedState | None = None) -> list[tuple[str, bytes, str, list[dict], dict]]:
+           placed: PlacedState | None = None,
+           voxels: VoxelPart | None = None) -> list[tuple[str, bytes, str, list[dict], dict]]:
     """The files of an export in memory: (file name, bytes, format, bodies, extra record
     fields). ``trajectory`` (the simulated fold) is needed by :data:`TRAJECTORY_FORMATS`,
     ``fold_times`` (each hinge's, by id) by stl's manifest, ``placed`` (the state's poses)
-    by inp: the writers compute none of them."""
+    by inp, ``voxels`` (the regions with their VeroWhite fractions) by :data:`VOXEL_FORMATS`:
+    the writers compute none of them. The voxel slices are callables that make their bytes
+    when :func:`~foldprint.exchange.files.write_set` stages them (streamed)."""
     lib = library or default_library()
     formats = check_formats(formats)
     _needs_trajectory(formats, trajectory, fold_times, placed)
+    if "voxels" in formats and voxels is None:
+        raise ExportError("format 'voxels' rasterises the part with each hinge's VeroWhite fraction and "
+                          "needs them; export through foldprint.apps.pipeline.Evaluation.export, which supplies them")
     st = stem(design, assembly.state)
     every = [b.material for b in assembly.bodies]
     out: list[tuple[str, bytes, str, list[str]]] = []  # (name, data, format, materials held)
@@ -156,6 +167,12 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
         name = f"{safe_name(design.name)}_fold.glb"
         extra[name] = {**span, **more}
         out.append((name, data, "glb", every))
+    if "voxels" in formats:  # PNG slice stack (streamed), its manifest, the composite 3MF
+        for name, make in slice_files(voxels, st):
+            # a slice's record lists no bodies (the stack's manifest and 3MF do): 700 layers
+            # would repeat every body 700 times in --json
+            out.append((name, make, "voxels", every) if name.endswith(".json") else (name, make, "png", []))
+        out.append((f"{st}_voxels.3mf", composite3mf_bytes(design, assembly, voxels, lib), "3mf-composite", every))
     seen = set()
     for name, *_ in out:
         if name in seen:  # e.g. two materials that differ only in characters made safe
@@ -175,7 +192,7 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
 def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
                     formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
                     trajectory: Trajectory | None = None, fold_times: dict | None = None,
-                    placed: PlacedState | None = None) -> list[dict]:
+                    placed: PlacedState | None = None, voxels: VoxelPart | None = None) -> list[dict]:
     """Write ``formats`` (see :data:`FORMATS`) of a built assembly into ``out_dir``
     (created if needed; ExportError if it cannot be). Returns one record per file
     written: {path, format, bodies, bytes, ...}; format is one of :data:`FORMATS`,
@@ -185,7 +202,8 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
     The files land as a whole (:func:`~foldprint.exchange.files.write_set`): an
     interrupted export leaves the previous complete set or the new one, never a mix, and
     nothing is created when the export fails."""
-    files = render(design, assembly, formats, library, trajectory, fold_times, placed)
+    files = render(design, assembly, formats, library, trajectory, fold_times, placed, voxels)
     paths = write_set(out_dir, [(name, data) for name, data, *_ in files])
-    return [{"path": str(path), "format": fmt, "bodies": bodies, "bytes": len(data), **more}
+    return [{"path": str(path), "format": fmt, "bodies": bodies,
+             "bytes": len(data) if isinstance(data, bytes) else path.stat().st_size, **more}
             for path, (name, data, fmt, bodies, more) in zip(paths, files)]

@@ -37,6 +37,7 @@ import shutil
 import tempfile
 import time
 from pathlib import Path
+from typing import Callable
 
 from ..core.errors import ExportError
 
@@ -242,8 +243,10 @@ def _adopt_regular_files(out: Path, names: list[str]) -> None:
         shutil.rmtree(cur, ignore_errors=True)
 
 
-def write_set(out_dir: str | Path, files: list[tuple[str, bytes]]) -> list[Path]:
+def write_set(out_dir: str | Path, files: list[tuple[str, bytes | Callable[[], bytes]]]) -> list[Path]:
     """Write ``files`` (name, bytes) into ``out_dir`` as a whole (see the module doc).
+    ``bytes`` may be a callable returning them: it is called when its file is staged, in
+    the order of ``files``, so a large set (a voxel slice stack) is never all in memory.
 
     On an error nothing of the new set is left, and a directory this call created is
     removed again."""
@@ -264,6 +267,8 @@ def write_set(out_dir: str | Path, files: list[tuple[str, bytes]]) -> list[Path]
             recover(out)
             stage = _new_set(out)
             for name, data in files:
+                if callable(data):  # a streamed file (voxel slices): made now, one at a time
+                    data = data()
                 with open(stage / name, "wb") as fh:
                     fh.write(data)
                     fh.flush()

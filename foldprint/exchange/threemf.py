@@ -257,3 +257,85 @@ def prusa3mf_bytes(design: Design, assembly: Assembly, library: MaterialLibrary 
     """The PrusaSlicer flavour: one multi-volume object, extruder per volume."""
     return _package(design, prusa_model_xml(design, assembly), PRUSA_CONFIG_PATH,
                     prusa_config(design, assembly))
+
+
+# -- the voxel variant: base resins and composites (3MF Materials extension) ---------------
+
+MATERIAL_NS = "http://schemas.microsoft.com/3dmanufacturing/material/2015/02"
+#: graded hinges: vertex fractions are rounded to this step before composites are shared
+COMPOSITE_STEP = 1e-3
+
+
+def composite_model_xml(design: Design, assembly: Assembly, part, library: MaterialLibrary | None = None) -> str:
+    """``3D/3dmodel.model`` of the voxel variant: ``<basematerials>`` VeroWhite and
+    TangoBlack, one ``<m:compositematerials>`` per hinge (a uniform hinge one composite,
+    its object's ``pindex``; a graded hinge one composite per distinct vertex fraction,
+    referenced per vertex by its triangles' p1/p2/p3), one mesh object per panel and hinge
+    (``part.regions``, :class:`~foldprint.exchange.voxels.VoxelPart`), each a build item
+    lifted onto the plate."""
+    lib = library or default_library()
+    _check(assembly)
+    out = [_model_header(design, assembly, f' xmlns:m="{MATERIAL_NS}"'), " <resources>\n",
+           '  <basematerials id="1">\n',
+           f'   <base name="VeroWhite" displaycolor="{_color(lib, "VeroWhite")}"/>\n',
+           f'   <base name="TangoBlack" displaycolor="{_color(lib, "TangoBlack")}"/>\n',
+           "  </basematerials>\n"]
+    objects, next_id = [], 2
+    for r in part.regions:
+        mesh = r.solid.to_mesh64()
+        v = np.asarray(mesh.vert_properties)[:, :3]
+        f = np.asarray(mesh.tri_verts, dtype=np.int64)
+        name = quoteattr(f"{r.kind} {r.id} ({r.material})")
+        c = r.constant
+        if r.kind == "panel" and c in (0.0, 1.0):
+            objects.append((next_id, f'pid="1" pindex="{0 if c == 1.0 else 1}"', name, _mesh_xml(v, f)))
+            next_id += 1
+            continue
+        frac = np.full(len(v), c) if c is not None else r.fraction(v)
+        q = np.round(np.clip(frac, 0.0, 1.0) / COMPOSITE_STEP).astype(np.int64)
+        values, inv = np.unique(q, return_inverse=True)
+        comp_id = next_id
+        out.append(f'  <m:compositematerials id="{comp_id}" matid="1" matindices="0 1">\n')
+        out += [f'   <m:composite values="{x * COMPOSITE_STEP:.9g} {1.0 - x * COMPOSITE_STEP:.9g}"/>\n'
+                for x in values.tolist()]
+        out.append("  </m:compositematerials>\n")
+        if len(values) == 1:
+            body = _mesh_xml(v, f)
+        else:
+            body = _mesh_xml_vertex_props(v, f, comp_id, inv)
+        objects.append((comp_id + 1, f'pid="{comp_id}" pindex="0"', name, body))
+        next_id = comp_id + 2
+    for oid, props, name, body in objects:
+        out.append(f'  <object id="{oid}" type="model" {props} name={name}>\n')
+        out.append(body)
+        out.append("  </object>\n")
+    out.append(" </resources>\n <build>\n")
+    out += [f'  <item objectid="{oid}" transform="{_item_transform(assembly)}"/>\n' for oid, *_ in objects]
+    out.append(" </build>\n</model>\n")
+    return "".join(out)
+
+
+def _mesh_xml_vertex_props(vertices: np.ndarray, faces: np.ndarray, pid: int, index: np.ndarray,
+                           indent: str = "   ") -> str:
+    s = _numbers(vertices).ravel().tolist()
+    f = np.asarray(faces, dtype=np.int64)
+    p = np.asarray(index, dtype=np.int64)[f]
+    rows = np.concatenate([f, p], axis=1).ravel().tolist()
+    parts = [f"{indent}<mesh>\n{indent} <vertices>\n"]
+    parts.append((f'{indent}  <vertex x="%s" y="%s" z="%s"/>\n' * (len(s) // 3)) % tuple(s))
+    parts.append(f"{indent} </vertices>\n{indent} <triangles>\n")
+    parts.append((f'{indent}  <triangle v1="%d" v2="%d" v3="%d" pid="{pid}" p1="%d" p2="%d" p3="%d"/>\n'
+                  * len(f)) % tuple(rows))
+    parts.append(f"{indent} </triangles>\n{indent}</mesh>\n")
+    return "".join(parts)
+
+
+def composite3mf_bytes(design: Design, assembly: Assembly, part, library: MaterialLibrary | None = None) -> bytes:
+    """The voxel variant as a 3MF package (see :func:`composite_model_xml`)."""
+    return zip_bytes({
+        "[Content_Types].xml": CONTENT_TYPES.encode(),
+        "_rels/.rels": ROOT_RELS.encode(),
+        "3D/_rels/3dmodel.model.rels": MODEL_RELS.encode(),
+        MODEL_PATH: composite_model_xml(design, assembly, part, library).encode(),
+        DESIGN_PATH: design_to_toml(design).encode(),
+    })

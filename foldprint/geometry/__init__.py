@@ -19,14 +19,14 @@ never merged); bodies of different materials may touch but must not overlap, whi
 target angle) and ``programmed`` (flat sheet).
 """
 
-from .assembly import bed_report, build_assembly, build_pieces, panel_solids
+from .assembly import HingeAxes, bed_report, build_assembly, build_pieces, hinge_axes, panel_solids
 from .hinges import arc_transform, hinge_segments, state_angles, strip_profile
 from .layout import layout
 from .solids import (BED_TOL, BEND_VOLUME_RATIO_MIN, BOTTOM_FACE_RAD, CLEAN_EPS, MAX_SLICE_RAD, MIN_AREA,
                      STATES, TEETH_GAP, TEETH_OVERLAP, TOOTH_END_MARGIN, TOOTH_LAND_FRACTION, VOLUME_RTOL,
                      Assembly, Body, Piece, apply_pose)
 
-__all__ = ["Assembly", "BED_TOL", "BEND_VOLUME_RATIO_MIN", "BOTTOM_FACE_RAD", "Body", "CLEAN_EPS",
+__all__ = ["Assembly", "HingeAxes", "hinge_axes", "BED_TOL", "BEND_VOLUME_RATIO_MIN", "BOTTOM_FACE_RAD", "Body", "CLEAN_EPS",
            "MAX_SLICE_RAD", "MIN_AREA", "Piece", "STATES", "TEETH_GAP", "TEETH_OVERLAP", "TOOTH_END_MARGIN",
            "TOOTH_LAND_FRACTION", "VOLUME_RTOL", "apply_pose", "arc_transform", "bed_report", "build_assembly",
            "build_pieces", "hinge_segments", "layout", "panel_solids", "state_angles", "strip_profile"]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import manifold3d as mf
 import numpy as np
 
@@ -10,9 +12,9 @@ from ..model.design import Design
 from ..core.errors import GeometryError
 from ..core.modes import DEFAULT_STATE, State
 from ..model.materials import MaterialLibrary, default_library
-from .hinges import _poses, state_angles, strip_solids
+from .hinges import _poses, arc_transform, state_angles, strip_solids
 from .layout import layout
-from .solids import BED_TOL, BOTTOM_FACE_RAD, VOLUME_RTOL, Assembly, Body, Piece, _checked, _extrude
+from .solids import BED_TOL, BOTTOM_FACE_RAD, VOLUME_RTOL, Assembly, Body, Piece, _checked, _extrude, apply_pose
 
 # -- pieces and bodies --------------------------------------------------------------------
 
@@ -197,4 +199,87 @@ def bed_report(assembly: Assembly) -> list[dict]:
         out.append({"kind": u.kind, "id": u.owner, "material": u.material, "z_min_mm": round(z_min, 6),
                     "on_bed": z_min <= BED_TOL, "unsupported_area_mm2": round(area, 3),
                     "needs_support": area > SUPPORT_AREA_MIN})
+    return out
+
+
+# -- hinge axes: where a point of a hinge body lies across and along its hinge ------------
+
+#: mid-line samples per hinge for :class:`HingeAxes` (the bent strip's mid-line is a
+#: circular arc; 65 chords of a <= 180 deg arc are within R (1 - cos(1.4 deg)) = 3e-4 R of it)
+AXES_SAMPLES = 65
+
+
+@dataclass(frozen=True)
+class HingeAxes:
+    """The frame that maps a point of a hinge's body (sheet frame, mm) to u in [0, 1]:
+
+    * across the hinge (``Along.WIDTH``, the arc direction): u = s of the nearest point of
+      the hinge's mid-line ``mid`` (``mid[k]`` is the mid-surface line at fraction
+      k / (K - 1) of the flat width, 0 = the parent's edge, bent as printed), measured in
+      the plane perpendicular to the fold line;
+    * along the fold line (``Along.LENGTH``): u = (p - origin) . direction / length, from
+      ``line[0]`` (0) to ``line[1]`` (1).
+
+    Points beyond the strip (teeth reaching into the panels) clip to 0 or 1."""
+
+    hinge: str
+    origin: np.ndarray      # (3,) the mid-line point at u = 0 on line[0]
+    direction: np.ndarray   # (3,) unit fold-line direction, line[0] -> line[1]
+    length: float           # mm, the fold line's length
+    mid: np.ndarray         # (K, 3) the mid-line at v = 0 (line[0]), u = 0 .. 1
+
+    def width_u(self, p: np.ndarray) -> np.ndarray:
+        p = np.asarray(p, dtype=float).reshape(-1, 3)
+        d = self.direction
+        m = self.mid - self.origin
+        m = m - np.outer(m @ d, d)
+        k_n = len(m) - 1
+        mm = np.einsum("ij,ij->i", m, m)
+        out = np.empty(len(p))
+        for lo in range(0, len(p), 65536):  # chunks: the (n, K) distance table stays small
+            q = p[lo:lo + 65536] - self.origin
+            q = q - np.outer(q @ d, d)
+            near = np.argmin(mm[None, :] - 2.0 * (q @ m.T), axis=1)  # nearest sample
+            best = np.full(len(q), np.inf)
+            s = np.zeros(len(q))
+            for seg in (np.maximum(near - 1, 0), np.minimum(near, k_n - 1)):  # its two chords
+                a, ab = m[seg], m[seg + 1] - m[seg]
+                t = np.clip(np.einsum("ij,ij->i", q - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300),
+                            0.0, 1.0)
+                r = q - a - t[:, None] * ab
+                dist = np.einsum("ij,ij->i", r, r)
+                better = dist < best
+                best = np.where(better, dist, best)
+                s = np.where(better, (seg + t) / k_n, s)
+            out[lo:lo + 65536] = s
+        return out
+
+    def length_u(self, p: np.ndarray) -> np.ndarray:
+        p = np.asarray(p, dtype=float).reshape(-1, 3)
+        return np.clip(((p - self.origin) @ self.direction) / self.length, 0.0, 1.0)
+
+
+def hinge_axes(design: Design, state: str = "permanent") -> dict[str, HingeAxes]:
+    """:class:`HingeAxes` of every hinge in a build state (the same poses and arc map as
+    the hinge bodies :func:`build_pieces` makes)."""
+    angles = state_angles(design, state)
+    lays, _ = layout(design)
+    poses = _poses(design, [lay.frame for lay in lays], angles)
+    out = {}
+    for lay in lays:
+        h, f = lay.hinge, lay.frame
+        rho = float(angles[f.index])
+        w = h.width
+        n3 = f.normal
+        d3 = np.array([lay.d[0], lay.d[1], 0.0])
+        base = np.array([lay.p0[0], lay.p0[1], 0.0])
+        parent = poses[f.parent]
+        mid = []
+        for s in np.linspace(0.0, 1.0, AXES_SAMPLES):
+            local = arc_transform(f, rho, float(s) * w)
+            pt = base + (s * w - 0.5 * w) * n3
+            mid.append(apply_pose(parent @ local, pt[None])[0])
+        mid = np.array(mid)
+        direction = parent[:3, :3] @ d3
+        out[h.id] = HingeAxes(h.id, mid[0].copy(), direction / np.linalg.norm(direction), float(h.length), mid)
     return out
