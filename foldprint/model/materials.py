@@ -16,6 +16,8 @@ from pathlib import Path
 from typing import Iterable, Mapping
 
 from ..core.errors import MaterialError, where
+from . import composition
+from .composition import FractionProfile
 
 ROLES = ("hinge", "panel", "base")
 
@@ -75,6 +77,9 @@ class Material:
     max_strain: float = 0.2
     recovery: RecoveryParams | None = None
     source: str = ""
+    #: VeroWhite fraction profile of a continuous or graded material (``VW...`` names,
+    #: synthesised by the library from :mod:`.composition`); None for library entries.
+    profile: FractionProfile | None = None
 
     @property
     def rgba(self) -> tuple[float, float, float, float]:
@@ -97,7 +102,15 @@ class MaterialLibrary:
             raise MaterialError(f"duplicate material names in library: {names}")
 
     def __contains__(self, name: object) -> bool:
-        return any(m.name == name for m in self.materials)
+        if any(m.name == name for m in self.materials):
+            return True
+        if composition.is_composition_name(name):
+            try:
+                composition.parse_name(name)
+            except MaterialError:
+                return False
+            return any(m.role == "hinge" and m.recovery is not None for m in self.materials)
+        return False
 
     def __iter__(self):
         return iter(self.materials)
@@ -109,6 +122,8 @@ class MaterialLibrary:
         for m in self.materials:
             if m.name == name:
                 return m
+        if composition.is_composition_name(name):
+            return composition.synthesise(self, name)
         raise MaterialError(
             f"unknown material {name!r}; known materials: {', '.join(self.names())}"
         )

@@ -15,18 +15,25 @@ Physically grounded, three parts (equations and calibration: ``docs/recovery-mod
 
 Curves are computed once per (material, bath, thickness, initial temperature) on an
 internal grid and cached; evaluating them at any times is one ``np.interp``.
+
+A graded hinge (a ``VW...@width`` / ``@length`` material, ``docs/composition.md``) is a set of
+strips, each a uniform hinge at its own Tg (:func:`strip_tgs`); :func:`combine_strips` gives
+the hinge's effective recovery: the weighted mean of the strips' ratios across the width
+(series strips, curvatures add), the stiffness-weighted mean along the length (parallel
+strips sharing one curvature).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
 
 from ..core.constants import FOLD_LEVEL, ONSET_LEVEL, RECOVERY_HORIZON_S
 from ..core.errors import MaterialError
+from ..model.composition import Along, composition_model, strips
 from ..model.materials import Material, RecoveryParams
 
 _N_TERMS = 40  # series terms of the slab solution (converged for Fo > ~1e-3)
@@ -151,9 +158,58 @@ def _grid(horizon_s: float) -> np.ndarray:
     return np.concatenate([fine, coarse])
 
 
+def is_graded(material: Material) -> bool:
+    """True for a material whose VeroWhite fraction varies inside the hinge."""
+    return material.profile is not None and not material.profile.uniform
+
+
+def strip_tgs(material: Material, tg_c=None) -> tuple[np.ndarray, np.ndarray]:
+    """Tg (deg C) and quadrature weight of each strip of a graded ``material``.
+
+    ``tg_c`` (default ``material.tg_c``; an array gives one row per value) is the hinge's
+    Tg at its mean fraction; a shift of it (Monte-Carlo Tg scatter) shifts every strip alike.
+    Returns (tg (..., S), weights (S,))."""
+    model = composition_model()
+    u, w = strips(material.profile)
+    base = model._tg(material.profile.at(u))  # (S,)
+    offset = np.asarray(material.tg_c if tg_c is None else tg_c, float) - float(model._tg(material.profile.mean))
+    return offset[..., None] + base, w
+
+
+def combine_strips(ratios: np.ndarray, weights: np.ndarray, along: Along,
+                   stiffness_ratio: float | None = None) -> np.ndarray:
+    """Effective recovery ratio of strips ``ratios`` (S, ...) with weights (S,).
+
+    WIDTH (strips in series, their curvatures add): the weighted mean. LENGTH (parallel strips
+    sharing one curvature): the mean weighted also by each strip's stiffness, taken as
+    rubbery + glassy x unrecovered part: E_i / E_r = 1 + (r - 1) (1 - R_i), r the composition
+    model's ``stiffness_ratio`` (the unrecovered, glassy strip holds the hinge back)."""
+    ratios = np.asarray(ratios, float)
+    w = np.asarray(weights, float).reshape((-1,) + (1,) * (ratios.ndim - 1))
+    if along is Along.WIDTH:
+        return np.sum(w * ratios, axis=0)
+    r = composition_model().stiffness_ratio if stiffness_ratio is None else float(stiffness_ratio)
+    k = w * (1.0 + (r - 1.0) * (1.0 - ratios))
+    return np.sum(k * ratios, axis=0) / np.sum(k, axis=0)
+
+
+def _graded_curve(material: Material, bath_c: float, thickness_mm: float, initial_c: float,
+                  horizon_s: float) -> RecoveryCurve:
+    tgs, w = strip_tgs(material)
+    subs = [_curve(replace(material, tg_c=float(tg), profile=None), bath_c, thickness_mm, initial_c, horizon_s)
+            for tg in tgs]
+    ratio = combine_strips(np.array([c.ratio for c in subs]), w, material.profile.along)
+    ratio = np.maximum.accumulate(np.clip(ratio, 0.0, 1.0))
+    ratio.setflags(write=False)
+    return RecoveryCurve(material.name, material.tg_c, float(bath_c), float(thickness_mm), float(initial_c),
+                         subs[0].t, ratio, subs[0].mean_temperature_c)
+
+
 @lru_cache(maxsize=512)
 def _curve(material: Material, bath_c: float, thickness_mm: float, initial_c: float,
            horizon_s: float) -> RecoveryCurve:
+    if is_graded(material):
+        return _graded_curve(material, bath_c, thickness_mm, initial_c, horizon_s)
     p = material.recovery
     t = _grid(horizon_s)
     zg, wg = np.polynomial.legendre.leggauss(_N_LAYERS)

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..core.constants import RECOVERY_HORIZON_S
 from ..model.materials import RecoveryParams
-from .recovery import _N_LAYERS, _N_TERMS, _grid, log10_shift, spectrum
+from .recovery import _N_LAYERS, _N_TERMS, _grid, combine_strips, is_graded, log10_shift, spectrum, strip_tgs
 
 #: Exponent beyond which a series term or relaxation branch is dropped (exp(-50) = 2e-22).
 CUT = 50.0
@@ -79,6 +79,27 @@ def slab_roots(biot: np.ndarray, n: int = _N_TERMS) -> np.ndarray:
         hi = np.where(up, mid, hi)
         lo = np.where(up, lo, mid)
     return 0.5 * (lo + hi)
+
+
+def material_batch_ratios(material, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c: float,
+                          t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`batch_ratios` for ``n`` hinges of ``material`` (Tg ``tg_c`` per hinge, at the
+    mean fraction for a graded material): a graded hinge is its strips
+    (:func:`foldprint.physics.recovery.strip_tgs`) in one batch, combined by
+    :func:`foldprint.physics.recovery.combine_strips`."""
+    p = material.recovery
+    if not is_graded(material):
+        return batch_ratios(p, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c, t)
+    tg = np.asarray(tg_c, float)
+    n = tg.shape[0]
+    tgs, w = strip_tgs(material, tg)  # (n, S)
+    s = tgs.shape[1]
+    rep = [np.repeat(np.broadcast_to(np.asarray(a, float), (n,)), s) for a in (h_w_m2k, thickness_mm, bath_c)]
+    ratio, mean_t = batch_ratios(p, tgs.ravel(), rep[0], rep[1], rep[2], initial_c, t)
+    ratio = ratio.reshape(n, s, -1).transpose(1, 0, 2)  # (S, n, n_t)
+    eff = combine_strips(ratio, w, material.profile.along)
+    eff = np.maximum.accumulate(np.clip(eff, 0.0, 1.0), axis=-1)
+    return eff, mean_t.reshape(n, s, -1)[:, 0, :]
 
 
 def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c: float,

@@ -37,7 +37,7 @@ from ..physics.kinematics import HingeDrive
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel, Method, parse
 from ..physics.recovery import RecoveryCurve, recovery_curve
-from ..physics.recovery_batch import batch_ratios, grid_until
+from ..physics.recovery_batch import grid_until, material_batch_ratios
 # What is drawn (the model, its data file, the samples) lives in foldprint.simulation.scatter; this
 # module folds what it draws. Re-exported so callers keep importing them from here.
 from .scatter import (TRUNCATE_SD, Sample, Scatter, default_scatter, draw_samples, iter_samples,  # noqa: F401
@@ -119,7 +119,7 @@ def sample_drives(design: Design, library: MaterialLibrary, samples: Sequence[Sa
         hw = (p.h_w_m2k * h_scale[:, cols]).ravel()
         th = thick[:, cols].ravel()
         tb = np.repeat(bath, len(ks))
-        ratio, mean_t = batch_ratios(p, tg, hw, th, tb, fix_c, t)
+        ratio, mean_t = material_batch_ratios(mat, tg, hw, th, tb, fix_c, t)
         ratio.setflags(write=False)
         mean_t.setflags(write=False)
         for j in range(len(tg)):
