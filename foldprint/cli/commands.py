@@ -359,6 +359,8 @@ def assign(
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: all cores)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     write: Optional[Path] = typer.Option(None, "--write", help="Save the best assignment as a design file (TOML)."),
+    continuous: bool = typer.Option(False, "--continuous", help="Choose every hinge's VeroWhite fraction (Tg) "
+                                    "and the bath within --temperature-range for the lowest jam probability."),
 ):
     """Choose the hinge materials (and bath temperature) under which the printed part
     folds: every hinge to 98 %, no collision, every goal in order. A search over fold
@@ -400,6 +402,8 @@ def assign(
         temps = [temperature]
     elif temperature_range is not None:
         temps = list(temperature_grid(*temperature_range))
+    if continuous:  # per-hinge VeroWhite fractions and the bath (docs/assign.md, "Continuous fractions")
+        from ..apps.assign_continuous import search_options as search  # noqa: F811
     with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: evaluations") as cb:
         r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
                    top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, workers=workers,
