@@ -499,19 +499,26 @@ def assign_continuous(design: Design, *, library: MaterialLibrary | None = None,
                   baths)
 
 
-def search_options(design: Design, *, materials: Sequence[str] | None = None,
-                   temperatures: Sequence[float] | None = None, fixed: dict | None = None, objective: str = "robust",
-                   **kwargs) -> ContinuousResult:
-    """:func:`assign_continuous` called with the options of ``foldprint assign`` (the bath
-    range spans ``temperatures``); the options that do not apply to it are refused."""
+def continuous_objective(objective: str, materials: Sequence[str] | None = None, fixed: dict | None = None) -> str:
+    """The objective of a continuous search ("robust"), refusing the ``foldprint assign``
+    options that do not apply to it (``objective`` "time" is the CLI's default)."""
     if materials:
         raise DesignError("--materials does not apply to --continuous: it chooses every hinge's VeroWhite "
                           "fraction in the supported range (docs/composition.md)")
     if fixed:
         raise DesignError("--fixed does not apply to --continuous (every hinge's fraction is chosen); "
                           "drop --fixed or drop --continuous")
-    if objective not in ("time", "robust"):  # "time" is the CLI's default
+    if objective not in ("time", "robust"):
         raise DesignError(f"--continuous ranks by jam probability (robust); --objective {objective} "
                           "does not apply to it")
+    return "robust"
+
+
+def search_options(design: Design, *, materials: Sequence[str] | None = None,
+                   temperatures: Sequence[float] | None = None, fixed: dict | None = None, objective: str = "robust",
+                   **kwargs) -> ContinuousResult:
+    """:func:`assign_continuous` called with the options of ``foldprint assign`` (the bath
+    range spans ``temperatures``; :func:`continuous_objective` refuses the others)."""
+    continuous_objective(objective, materials, fixed)
     rng = None if not temperatures else (min(temperatures), max(temperatures))
     return assign_continuous(design, bath_range=rng, **kwargs)

@@ -403,7 +403,8 @@ def assign(
     elif temperature_range is not None:
         temps = list(temperature_grid(*temperature_range))
     if continuous:  # per-hinge VeroWhite fractions and the bath (docs/assign.md, "Continuous fractions")
-        from ..apps.assign_continuous import search_options as search  # noqa: F811
+        from ..apps.assign_continuous import continuous_objective, search_options as search  # noqa: F811
+        objective = continuous_objective(objective, mats, fixed_map)
     with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: evaluations") as cb:
         r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
                    top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, workers=workers,
