@@ -3,6 +3,7 @@
 
     python benchmarks/bench_assign_continuous.py [--json] [--seed 1] [--samples 60]
         [--range 75 90] [--compare 400] [--no-fair]
+    python benchmarks/bench_assign_continuous.py --recheck OUT.json --seed 7 --compare 1000 [--json]
 
 Runs, one after the other, each as `foldprint ...` in a subprocess (wall and CPU seconds
 of it and its workers):
@@ -18,6 +19,10 @@ of it and its workers):
    the same seed, and the paired comparison of the continuous best against each
    seven-grade best on those common draws: samples where exactly one of the two jams
    (discordant pairs) and the exact two-sided sign-test p-value of them.
+
+``--recheck OUT.json`` reads the JSON of an earlier run and only re-estimates every best it
+reports (its assignment and bath) with ``--compare`` samples at ``--seed``: draws the
+searches never saw, with the same paired comparison.
 
 Evaluations are counted as assign counts them: `evaluated` (nominal simulations) and
 `robust_simulations` (Monte-Carlo folds). The machine may be shared: compare ratios and
@@ -68,6 +73,44 @@ def _round(x):
     return None if x is None else round(x, 4)
 
 
+def _paired(base: list[dict]) -> list[dict]:
+    pairs = []
+    for c in (r for r in base if "continuous" in r["run"]):
+        for g in (r for r in base if "seven-grade" in r["run"]):
+            only_c = sum(x and not y for x, y in zip(c["_outcomes"], g["_outcomes"]))
+            only_g = sum(y and not x for x, y in zip(c["_outcomes"], g["_outcomes"]))
+            pairs.append({"continuous": c["run"], "seven_grade": g["run"], "only_continuous_jams": only_c,
+                          "only_seven_grade_jams": only_g, "sign_test_p": round(_sign_test(only_c, only_g), 4)})
+    return pairs
+
+
+def recheck(a) -> None:
+    from foldprint.apps.assign import with_materials
+    from foldprint.io.templates import resolve_design_path
+
+    prev = json.loads(a.recheck.read_text())
+    helix = load_design(resolve_design_path(prev["design"]))
+    res = {"design": prev["design"], "seed": a.seed, "samples": a.compare, "recheck_of": str(a.recheck),
+           "load_average_start": os.getloadavg()[0], "runs": []}
+    for r in prev["runs"]:
+        if "assignment" not in r:
+            continue
+        d = with_materials(helix, [r["assignment"][h.id] for h in helix.hinges], r["temperature_c"])
+        t0, c0 = time.perf_counter(), _cpu()
+        big = jam_probability(d, a.compare, a.seed)
+        row = {"run": r["run"], "temperature_c": r["temperature_c"], "jams": big.jams,
+               "jam_probability": _round(big.jam_probability), "ci95": [_round(x) for x in big.ci95],
+               "wall_s": round(time.perf_counter() - t0, 1), "cpu_s": round(_cpu() - c0, 1),
+               "_outcomes": [o.jammed for o in big.outcomes]}
+        res["runs"].append(row)
+        print(json.dumps({k: v for k, v in row.items() if k != "_outcomes"}), file=sys.stderr, flush=True)
+    res["paired"] = _paired(res["runs"])
+    for r in res["runs"]:
+        del r["_outcomes"]
+    res["load_average_end"] = os.getloadavg()[0]
+    print(json.dumps(res, indent=1) if a.json else "\n".join(map(str, res["runs"] + res["paired"])))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--json", action="store_true", help="print one JSON object on stdout")
@@ -76,7 +119,10 @@ def main() -> None:
     ap.add_argument("--range", type=float, nargs=2, default=(75.0, 90.0), metavar=("LO", "HI"))
     ap.add_argument("--compare", type=int, default=400, help="samples of the common-draw comparison")
     ap.add_argument("--no-fair", action="store_true", help="skip the seven-grade run over the same range")
+    ap.add_argument("--recheck", type=Path, help="re-estimate the bests of this earlier --json output only")
     a = ap.parse_args()
+    if a.recheck:
+        return recheck(a)
     s, n = str(a.seed), str(a.samples)
     rng = [f"{a.range[0]:g}", f"{a.range[1]:g}"]
     runs = [("seven-grade, 90 C", ["--objective", "robust"]),
@@ -113,13 +159,7 @@ def main() -> None:
             print(f"{label}: {json.dumps({k: v for k, v in row.items() if k != '_outcomes'})}", file=sys.stderr,
                   flush=True)
     base = [r for r in res["runs"] if "_outcomes" in r]
-    pairs = []
-    for c in (r for r in base if "continuous" in r["run"]):
-        for g in (r for r in base if "seven-grade" in r["run"]):
-            only_c = sum(x and not y for x, y in zip(c["_outcomes"], g["_outcomes"]))
-            only_g = sum(y and not x for x, y in zip(c["_outcomes"], g["_outcomes"]))
-            pairs.append({"continuous": c["run"], "seven_grade": g["run"], "only_continuous_jams": only_c,
-                          "only_seven_grade_jams": only_g, "sign_test_p": round(_sign_test(only_c, only_g), 4)})
+    pairs = _paired(base)
     for r in base:
         del r["_outcomes"]
     res["paired"] = pairs

@@ -116,13 +116,14 @@ def test_cli_continuous_writes_a_design_robust_reverifies(tmp_path, capsys):
     f.write_text(design_to_toml(_spiral()))
     out_file = tmp_path / "best.toml"
     code = main(["assign", str(f), "--continuous", "--samples", "8", "--seed", "3", "--top", "1",
-                 "--temperature-range", "80", "90", "--workers", "1", "--json", "--write", str(out_file)])
+                 "--temperature-range", "88", "90", "--budget", "30", "--workers", "1", "--json", "--write",
+                 str(out_file)])
     cap = capsys.readouterr()
     assert code == 0, cap.err
     out = json.loads(cap.out)
     assert out["continuous"] and out["search_space"] is None and out["best"]
     best = out["best"][0]
-    assert 80.0 <= best["temperature_c"] <= 90.0
+    assert 88.0 <= best["temperature_c"] <= 90.0 and out["evaluated"] <= 30
     assert all(m.startswith("VW") for m in best["assignment"].values())
     written = load_design(out_file)
     assert {h.id: h.material for h in written.hinges} == best["assignment"]
