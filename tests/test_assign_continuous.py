@@ -63,13 +63,13 @@ def test_timing_table_equals_the_per_curve_linearisation(table90):
         np.testing.assert_allclose(table90.shared[i], shared, rtol=1e-5, atol=1e-12)
 
 
-@settings(max_examples=20, deadline=None)
-@given(st.lists(st.integers(0, len(GRID) - 1), min_size=2, max_size=9))
+@settings(max_examples=10, deadline=None)
+@given(st.lists(st.integers(0, (len(GRID) - 1) // 4), min_size=2, max_size=9))
 def test_chain_risk_of_a_monotone_chain_is_order_risk(table90, idx):
     """For levels rising along the chain the signed surrogate is the seven-grade proxy
     :func:`order_risk` (an independent implementation), ties included; reversing the chain
     can only raise it."""
-    idx = sorted(idx)
+    idx = sorted(4 * i for i in idx)  # every 2 C: few distinct materials for order_risk's cache
     d = strip("s", [30.0] * (len(idx) + 1), [90.0] * len(idx), ["H-1"] * len(idx), radius=5.0)
     mats = [material_name(table90.tg_c[i]) for i in idx]
     values = table90.splines()(table90.tg_c[idx])
@@ -116,14 +116,14 @@ def test_cli_continuous_writes_a_design_robust_reverifies(tmp_path, capsys):
     f.write_text(design_to_toml(_spiral()))
     out_file = tmp_path / "best.toml"
     code = main(["assign", str(f), "--continuous", "--samples", "8", "--seed", "3", "--top", "1",
-                 "--temperature-range", "88", "90", "--budget", "30", "--workers", "1", "--json", "--write",
+                 "--temperature-range", "89", "90", "--budget", "30", "--workers", "1", "--json", "--write",
                  str(out_file)])
     cap = capsys.readouterr()
     assert code == 0, cap.err
     out = json.loads(cap.out)
     assert out["continuous"] and out["search_space"] is None and out["best"]
     best = out["best"][0]
-    assert 88.0 <= best["temperature_c"] <= 90.0 and out["evaluated"] <= 30
+    assert 89.0 <= best["temperature_c"] <= 90.0 and out["evaluated"] <= 30
     assert all(m.startswith("VW") for m in best["assignment"].values())
     written = load_design(out_file)
     assert {h.id: h.material for h in written.hinges} == best["assignment"]
