@@ -10,8 +10,10 @@ decides from what the timing decides:
    folded region one hinge at a time (the first hinge any, each next one touching the
    hinges already placed), every prefix simulated with the later hinges held flat and the
    ``k``-th hinge of the chain at the ``k``-th of ``n`` evenly spaced Tg levels; a prefix
-   that collides is not extended (the prune of the seven-grade search). It stops after
-   :data:`ORDER_CHAINS` complete feasible chains.
+   that collides is not extended (the prune of the seven-grade search). Each step is also
+   folded with its last two hinges swapped; a step whose swap collides is *critical*, and
+   prefixes with fewer critical steps are expanded first (:func:`find_chains`). It stops
+   after :data:`ORDER_CHAINS` complete feasible chains.
 2. **Levels and bath (timing, no simulation).** For a chain, the surrogate of the jam
    probability is the signed order risk (:func:`chain_risk`): the expected number of hinge
    pairs whose order of half recovery scatter reverses against the chain, plus the chance
@@ -21,7 +23,8 @@ decides from what the timing decides:
    L-BFGS-B on a cubic spline of a timing table computed in one array pass per bath
    (:func:`timing_table`); the bath by a coarse grid and a golden-section refinement.
 3. **Confirm with the record.** Each candidate (chain x optimised levels, at the
-   optimised bath and at the design's own) is confirmed by the simulation of record (3D
+   optimised bath, at the next warmer bath of the coarse grid and at the design's own) is
+   confirmed by the simulation of record (3D
    swept check, every goal), screened with :data:`SCREEN_SAMPLES` Monte-Carlo folds and
    the :data:`FINALISTS` best get the full ``samples`` estimate, all under the same seed
    (common random numbers), exactly the estimate ``foldprint robust --samples N --seed S``
@@ -59,7 +62,7 @@ TABLE_HORIZON_FACTOR = 2.0
 #: Coarse bath grid step (C) and the golden-section tolerance of the refinement.
 BATH_STEP_C = 2.5
 BATH_TOL_C = 0.25
-#: Order search: prefixes expanded per round, complete chains wanted, its share of budget.
+#: Order search: prefixes expanded per round, complete chains wanted.
 ORDER_BEAM = 3
 ORDER_CHAINS = 4
 #: Monte-Carlo folds per candidate in the screen, and candidates given the full estimate.
@@ -317,13 +320,14 @@ def find_chains(design: Design, lib: MaterialLibrary, ledger: _Ledger, bath_c: f
     """Feasible fold orders (chains of single hinges) of ``design`` at ``bath_c``, with the
     number of their steps that scatter could undo and their clearance.
 
-    A beam search over prefixes: the ``k``-th hinge of a chain at the ``k``-th of ``n``
-    evenly spaced supported Tg levels, later hinges held flat, a colliding prefix never
-    extended; the children of a prefix are the hinges touching those placed (any hinge
-    first). Each child is also folded with its last two hinges swapped (the swap scatter
-    makes most often): a step whose swap collides is *critical*. Best first with backtracking: every feasible prefix stays queued, each round
-    expands the ``beam`` with most hinges placed, then fewest critical steps, then widest
-    clearance along their motion. Returns up to ``want`` complete chains as (chain,
+    Prefixes are simulated with the ``k``-th hinge of a chain at the ``k``-th of ``n``
+    evenly spaced supported Tg levels and later hinges held flat; a colliding prefix is
+    never extended; the children of a prefix are the hinges touching those placed (any
+    hinge first). Each child is also folded with its last two hinges swapped (the swap
+    scatter makes most often): a step whose swap collides is *critical*. Best first with
+    backtracking: every feasible prefix stays queued, each round expands the ``beam`` with
+    most hinges placed, then fewest critical steps, then widest clearance along their
+    motion. Returns up to ``want`` complete chains as (chain,
     critical steps, clearance), best first; stops at ``want`` chains or ``cap`` evaluations."""
     n = len(design.hinges)
     lo, hi = tg_bounds()
