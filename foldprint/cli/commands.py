@@ -7,6 +7,7 @@ Machine output (``--json``) goes to stdout; human messages to stderr.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import List, Optional, Tuple
@@ -353,6 +354,8 @@ def assign(
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: all cores)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     write: Optional[Path] = typer.Option(None, "--write", help="Save the best assignment as a design file (TOML)."),
+    continuous: bool = typer.Option(False, "--continuous", help="Choose every hinge's VeroWhite fraction (Tg) "
+                                    "and the bath within --temperature-range for the lowest jam probability."),
 ):
     """Choose the hinge materials (and bath temperature) under which the printed part
     folds: every hinge to 98 %, no collision, every goal in order. A search over fold
@@ -366,6 +369,9 @@ def assign(
     mats, temps, fixed_map = _assign_request(materials, temperature, temperature_range, fixed, objective, top,
                                              budget, samples, workers, seed)
     d, lib = _load(design)
+    if continuous:  # per-hinge VeroWhite fractions and the bath (docs/assign.md, "Continuous fractions")
+        from ..apps.assign_continuous import continuous_objective, search_options as search  # noqa: F811
+        objective = continuous_objective(objective, mats, fixed_map)
     with _mapper(scheduler) as mapper, _samples_progress(f"{d.name}: evaluations") as cb:
         r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
                    top=top, budget=budget, samples=samples, seed=seed, mapper=mapper, workers=workers,
@@ -425,8 +431,10 @@ def _assign_request(materials, temperature, temperature_range, fixed, objective,
 
 def _print_assign(name: str, r, out: dict, objective: str) -> None:
     """``assign``'s human output: the best assignments and what blocks the others."""
-    echo(f"{name}: {r.feasible} feasible assignment(s) in {r.evaluated} evaluations "
-         f"({r.evaluated / r.search_space:.2e} of {r.search_space}), objective {objective}")
+    space = (f"{r.evaluated / r.search_space:.2e} of {r.search_space}" if math.isfinite(r.search_space)
+             else "of a continuous space")
+    echo(f"{name}: {r.feasible} feasible assignment(s) in {r.evaluated} evaluations ({space}), "
+         f"objective {objective}")
     for k, c in enumerate(out["best"], 1):
         mats_s = ", ".join(f"{h}={m}" for h, m in c["assignment"].items())
         extra = "" if c["jam_probability"] is None else f", jam probability {c['jam_probability']:.1%}"
