@@ -388,6 +388,7 @@ def test_frames_hinge_segments_stay_attached_to_their_panels(name):
     frames = fold_frames(design, simulate(design, dt=ANIMATION_DT_S).trajectory)
     n_t = len(frames.times)
     assert frames.poses.shape == (n_t, len(design.panels), 4, 4)
+    assert not any(a.flags.writeable for a in (frames.times, frames.poses, *frames.points))
     hinges = 0
     for s, world in zip(frames.surfaces, frames.points):
         assert world.shape == (n_t, len(s.flat), 3)

@@ -113,7 +113,7 @@ class Frames:
     ``times`` (n_t,) s; ``poses`` (n_t, n_panels, 4, 4) every panel's pose (mm);
     ``surfaces`` (:func:`fold_surfaces`: panels, then hinge segments) and ``points``, for
     each surface its world points (n_t, n, 3) mm at every time; ``model``, the hinge
-    model of the trajectory (always arc: the printed hinges)."""
+    model of the trajectory (always arc: the printed hinges). The arrays are read-only."""
 
     times: np.ndarray
     poses: np.ndarray
@@ -127,8 +127,16 @@ def fold_frames(design: Design, trajectory: Trajectory) -> Frames:
     simulated ``trajectory`` (arc hinges; ExportError otherwise)."""
     surfaces = fold_surfaces(design)
     times, poses, angles = frames_of(trajectory)
-    return Frames(times, poses, tuple(surfaces), tuple(s.track(poses, angles) for s in surfaces),
+    points = tuple(s.track(poses, angles) for s in surfaces)
+    return Frames(_read_only(times), _read_only(poses), tuple(surfaces), tuple(_read_only(p) for p in points),
                   trajectory.model)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """A read-only copy of ``a`` (the frames never alias the trajectory's arrays)."""
+    out = np.array(a)
+    out.setflags(write=False)
+    return out
 
 
 def frames_of(trajectory: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
