@@ -16,7 +16,7 @@ from foldprint.cli.commands import main
 from foldprint.model.crease_patterns import waterbomb
 from foldprint.io.fold_format import design_from_fold
 from foldprint.geometry.assembly import build_pieces
-from foldprint.geometry.hinges import _poses, state_angles
+from foldprint.geometry.hinges import tree_poses, state_angles
 from foldprint.core.modes import HingeModel
 
 from foldprint.geometry import layout
@@ -48,11 +48,11 @@ def test_poses_do_not_depend_on_the_order_of_the_frames():
     lays, _ = layout(d)
     frames = [lay.frame for lay in lays]
     angles = state_angles(d, "permanent")
-    ref = _poses(d, frames, angles)
+    ref = tree_poses(d, frames, angles)
     for seed in range(5):
         shuffled = frames[:]
         random.Random(seed).shuffle(shuffled)
-        np.testing.assert_array_equal(_poses(d, shuffled, angles), ref)
+        np.testing.assert_array_equal(tree_poses(d, shuffled, angles), ref)
     assert all(abs(np.linalg.det(p[:3, :3]) - 1.0) < 1e-9 for p in ref)
 
 

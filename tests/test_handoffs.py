@@ -364,14 +364,47 @@ def test_glb_loads_in_trimesh_with_one_animated_node_per_moving_part(handoffs):
         assert rgba[:3] == pytest.approx(list(lib[m].rgba[:3]))
 
 
-def test_trajectory_formats_need_the_trajectory(tmp_path):
+def test_trajectory_formats_need_their_frames(tmp_path):
     from foldprint.core.errors import ExportError
     from foldprint.exchange.export import export_assembly
 
     design = _design("helix_graded")
-    with pytest.raises(ExportError, match="trajectory"):
+    with pytest.raises(ExportError, match="need its frames"):
         export_assembly(design, build_assembly(design), tmp_path, ["glb"])
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("name", ["helix_graded", "self_lock"])
+def test_frames_hinge_segments_stay_attached_to_their_panels(name):
+    """The frames the time-series writers are handed (geometry.surfaces.fold_frames):
+    at every step a hinge segment's edge at u = 0 moves with the parent panel's pose and
+    its edge at u = w with the child's, and a panel's points are its pose applied to its
+    flat points (the strip is built from the same arc map as the panel poses)."""
+    from foldprint.exchange.export import ANIMATION_DT_S
+    from foldprint.geometry.surfaces import fold_frames
+    from foldprint.simulation.simulate import simulate
+
+    design = _design(name)
+    frames = fold_frames(design, simulate(design, dt=ANIMATION_DT_S).trajectory)
+    n_t = len(frames.times)
+    assert frames.poses.shape == (n_t, len(design.panels), 4, 4)
+    assert not any(a.flags.writeable for a in (frames.times, frames.poses, *frames.points))
+    hinges = 0
+    for s, world in zip(frames.surfaces, frames.points):
+        assert world.shape == (n_t, len(s.flat), 3)
+        if s.kind == "panel":
+            pose = frames.poses[:, s.index]
+            expect = np.einsum("tij,nj->tni", pose[:, :3, :3], s.flat) + pose[:, None, :3, 3]
+            np.testing.assert_allclose(world, expect, atol=1e-9)
+            continue
+        hinges += 1
+        f = s.frame
+        for edge, panel in ((s.u <= 1e-12, f.parent), (np.abs(s.u - f.width) <= 1e-12, f.child)):
+            assert edge.any()
+            pose = frames.poses[:, panel]
+            expect = np.einsum("tij,nj->tni", pose[:, :3, :3], s.flat[edge]) + pose[:, None, :3, 3]
+            np.testing.assert_allclose(world[:, edge], expect, atol=1e-6)
+    assert hinges >= len(design.hinges)
 
 
 def _glb_accessor(path, doc, k):

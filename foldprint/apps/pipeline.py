@@ -35,6 +35,7 @@ from ..exchange.voxels import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart
 from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
 from ..exchange.fem import PlacedState, check_strip
 from ..geometry import Assembly, build_assembly, hinge_axes, state_angles
+from ..geometry.surfaces import Frames, fold_frames
 from ..physics.kinematics import HingeDrive, forward, hinge_frames, target_angles
 from ..physics.recovery import hinge_fold_times
 from ..model.composition import fraction_profile
@@ -348,6 +349,12 @@ class Evaluation:
         return self._stage("animation", lambda: simulate(self.design, dt=ANIMATION_DT_S, library=self.library))
 
     @property
+    def frames(self) -> Frames:
+        """The fold's surfaces placed at every step of :attr:`animation`: what the xdmf
+        and glb writers draw (:func:`foldprint.geometry.surfaces.fold_frames`)."""
+        return self._stage("frames", lambda: fold_frames(self.design, self.animation.trajectory))
+
+    @property
     def fold_times(self) -> dict[str, float | None]:
         """Each hinge's 98 % recovery time in the design's bath (s, by hinge id; None where
         it does not fold): what the export's manifest reports."""
@@ -398,14 +405,14 @@ class Evaluation:
                 raise GeometryError(self.assembly_error)
         if assembly is None:
             guards.check_export(self.design)  # time and memory of the build, estimated from the design
-        trajectory = self.animation.trajectory if any(f in TRAJECTORY_FORMATS for f in fmts) else None
+        frames = self.frames if any(f in TRAJECTORY_FORMATS for f in fmts) else None
         fold_times = self.fold_times if "stl" in fmts else None
         with self.cache.active():
             if assembly is None:
                 assembly = build_assembly(self.design, st.value, self.library)
             placed = self.placed_state(st) if "inp" in fmts else None
             voxels = None if pitch is None else self._voxels(assembly, pitch)
-            return export_assembly(self.design, assembly, out_dir, fmts, self.library, trajectory, fold_times,
+            return export_assembly(self.design, assembly, out_dir, fmts, self.library, frames, fold_times,
                                    placed, voxels)
 
     def _voxels(self, assembly: Assembly, pitch: Pitch) -> VoxelPart:

@@ -32,7 +32,7 @@ from ..core.constants import EXPORT_FORMATS
 from ..core.errors import ExportError
 from ..core.modes import State
 from ..geometry import Assembly, bed_report
-from ..physics.kinematics import Trajectory
+from ..geometry.surfaces import Frames
 from ..model.materials import MaterialLibrary, default_library
 from .fem import PlacedState, inp_bytes
 from .files import write_set
@@ -46,7 +46,8 @@ from .xdmf import xdmf_files
 #: Every format ``export`` writes; ``DEFAULT_FORMATS`` when none is asked for.
 FORMATS = ("3mf", "prusa3mf", "stl", "fold", "inp", "xdmf", "glb", "voxels")
 DEFAULT_FORMATS = EXPORT_FORMATS
-#: Formats that show the fold over time: they need the simulated trajectory.
+#: Formats that show the fold over time: they need its :class:`~foldprint.geometry.surfaces.Frames`
+#: (the surfaces placed along the simulated trajectory).
 TRAJECTORY_FORMATS = ("xdmf", "glb")
 #: Formats written from a :class:`~foldprint.exchange.voxels.VoxelPart` (the regions with
 #: their VeroWhite fraction profiles and hinge axes): the PNG slice stack, its manifest
@@ -99,11 +100,12 @@ def body_records(assembly: Assembly, files: dict[str, list[str]] | None = None) 
     return out
 
 
-def _needs_trajectory(formats, trajectory, fold_times=None, placed=None) -> None:
+def _needs_given(formats, frames, fold_times=None, placed=None) -> None:
     need = [f for f in formats if f in TRAJECTORY_FORMATS]
-    if need and trajectory is None:
-        raise ExportError(f"format(s) {need} show the fold over time and need its simulated trajectory; "
-                          "export through foldprint.apps.pipeline.export, which runs the simulation")
+    if need and frames is None:
+        raise ExportError(f"format(s) {need} show the fold over time and need its frames (the surfaces "
+                          "placed along the simulated trajectory, geometry.surfaces.fold_frames); export "
+                          "through foldprint.apps.pipeline.export, which runs the simulation")
     if "stl" in formats and fold_times is None:
         raise ExportError("format stl writes a manifest with each hinge's fold time and needs them "
                           "(foldprint.physics.recovery.hinge_fold_times); export through "
@@ -115,19 +117,19 @@ def _needs_trajectory(formats, trajectory, fold_times=None, placed=None) -> None
 
 def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_FORMATS,
            library: MaterialLibrary | None = None,
-           trajectory: Trajectory | None = None,
+           frames: Frames | None = None,
            fold_times: dict | None = None,
            placed: PlacedState | None = None,
            voxels: VoxelPart | None = None) -> list[tuple[str, bytes, str, list[dict], dict]]:
     """The files of an export in memory: (file name, bytes, format, bodies, extra record
-    fields). ``trajectory`` (the simulated fold) is needed by :data:`TRAJECTORY_FORMATS`,
+    fields). ``frames`` (the fold's surfaces over time) are needed by :data:`TRAJECTORY_FORMATS`,
     ``fold_times`` (each hinge's, by id) by stl's manifest, ``placed`` (the state's poses)
     by inp, ``voxels`` (the regions with their VeroWhite fractions) by :data:`VOXEL_FORMATS`:
     the writers compute none of them. The voxel slices are callables that make their bytes
     when :func:`~foldprint.exchange.files.write_set` stages them (streamed)."""
     lib = library or default_library()
     formats = check_formats(formats)
-    _needs_trajectory(formats, trajectory, fold_times, placed)
+    _needs_given(formats, frames, fold_times, placed)
     if "voxels" in formats and voxels is None:
         raise ExportError("format 'voxels' rasterises the part with each hinge's VeroWhite fraction and "
                           "needs them; export through foldprint.apps.pipeline.Evaluation.export, which supplies them")
@@ -154,16 +156,16 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
         data, quality = inp_bytes(design, placed)
         extra[f"{st}.inp"] = {"mesh": quality}
         out.append((f"{st}.inp", data, "inp", every))
-    if trajectory is not None and any(f in TRAJECTORY_FORMATS for f in formats):
-        dt = float(np.median(np.diff(trajectory.times))) if len(trajectory.times) > 1 else 0.0
-        span = {"steps": int(len(trajectory.times)), "dt_s": round(dt, 9), "hinge_model": trajectory.model}
+    if frames is not None and any(f in TRAJECTORY_FORMATS for f in formats):
+        dt = float(np.median(np.diff(frames.times))) if len(frames.times) > 1 else 0.0
+        span = {"steps": int(len(frames.times)), "dt_s": round(dt, 9), "hinge_model": frames.model}
     if "xdmf" in formats:  # ParaView: the flat surfaces + displacement per time step
-        files, more = xdmf_files(design, trajectory, every, f"{safe_name(design.name)}_fold.xdmf")
+        files, more = xdmf_files(design, frames, every, f"{safe_name(design.name)}_fold.xdmf")
         for k, (name, data) in enumerate(files.items()):
             extra[name] = {**span, **more} if k == 0 else {}
             out.append((name, data, "xdmf" if k == 0 else "h5", every))
     if "glb" in formats:  # any 3D viewer: nodes per panel and hinge segment, keyframes
-        data, more = glb_bytes(design, trajectory, lib)
+        data, more = glb_bytes(design, frames, lib)
         name = f"{safe_name(design.name)}_fold.glb"
         extra[name] = {**span, **more}
         out.append((name, data, "glb", every))
@@ -191,7 +193,7 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
 @scoped
 def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
                     formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
-                    trajectory: Trajectory | None = None, fold_times: dict | None = None,
+                    frames: Frames | None = None, fold_times: dict | None = None,
                     placed: PlacedState | None = None, voxels: VoxelPart | None = None) -> list[dict]:
     """Write ``formats`` (see :data:`FORMATS`) of a built assembly into ``out_dir``
     (created if needed; ExportError if it cannot be). Returns one record per file
@@ -202,7 +204,7 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
     The files land as a whole (:func:`~foldprint.exchange.files.write_set`): an
     interrupted export leaves the previous complete set or the new one, never a mix, and
     nothing is created when the export fails."""
-    files = render(design, assembly, formats, library, trajectory, fold_times, placed, voxels)
+    files = render(design, assembly, formats, library, frames, fold_times, placed, voxels)
     paths = write_set(out_dir, [(name, data) for name, data, *_ in files])
     return [{"path": str(path), "format": fmt, "bodies": bodies,
              "bytes": len(data) if isinstance(data, bytes) else path.stat().st_size, **more}

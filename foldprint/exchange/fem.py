@@ -34,6 +34,7 @@ import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import meshio
 import numpy as np
@@ -92,23 +93,48 @@ def check_strip(design: Design) -> None:
                               "plain hinges only (a thickness jump along the strip is not a structured block)")
 
 
+class _Block(NamedTuple):
+    """One structured block of the profile: a hinge strip or a panel's rigid part, its
+    columns' sheet x (mm), thickness and ``ref`` (a hinge's frame, a panel's index)."""
+
+    kind: str
+    owner: str
+    material: str
+    xs: np.ndarray
+    thickness: float
+    ref: object
+
+
 def strip_mesh(design: Design, placed: PlacedState, element_size: float = ELEMENT_SIZE_MM,
                through: int = THROUGH_THICKNESS):
     """The side-profile mesh of the state ``placed``: ``points`` (n, 2) (world x, z) mm,
     ``quads`` (m, 4) counter-clockwise, element sets and node sets (name -> indices), and
-    quality figures."""
+    quality figures. Steps: the blocks along the strip (:func:`_blocks`), the shared
+    through-thickness levels (:func:`_levels`), the nodes and quads placed in the state
+    (:func:`_mesh_blocks`), one orientation checked (:func:`_oriented`), the quality
+    figures (:func:`_quality`)."""
     if not (element_size > 0 and math.isfinite(element_size)):
         raise ExportError(f"element size must be a positive number of mm, got {element_size!r}")
     if through < 1:
         raise ExportError(f"elements through the thickness must be >= 1, got {through!r}")
     check_strip(design)
-    angles, frames, poses = placed.angles, placed.frames, placed.poses
-    pidx = design.panel_index()
-    # the strip in the sheet: hinge strips [xf - w/2, xf + w/2], panels' rigid parts between
+    blocks = _blocks(design, placed, element_size)
+    levels = _levels([b.thickness for b in blocks], element_size, through)
+    pts, quads, cell_sets, root_nodes = _mesh_blocks(design, placed, blocks, levels)
+    q, c, jac = _oriented(design, pts, np.array(quads, dtype=np.int64))
+    quality = _quality(pts, q, c, jac, levels, blocks, element_size)
+    point_sets = {"ROOT": np.array(sorted(root_nodes), dtype=np.int64), "ALL": np.arange(len(pts))}
+    return pts, q, {k: np.array(v, dtype=np.int64) for k, v in cell_sets.items()}, point_sets, quality
+
+
+def _blocks(design: Design, placed: PlacedState, element_size: float) -> list[_Block]:
+    """The hinge strips [xf - w/2, xf + w/2] (tree order), then the panels' rigid parts
+    between them (design order), each with its columns: at most ``element_size`` apart
+    and, in a hinge, at most :data:`~foldprint.geometry.MAX_SLICE_RAD` of bend apart."""
     cut: dict[int, list[float]] = {k: [float(p.outline[:, 0].min()), float(p.outline[:, 0].max())]
                                    for k, p in enumerate(design.panels)}
     blocks = []
-    for f in frames:
+    for f in placed.frames:
         h = f.hinge
         xf = float(h.line[0][0])
         w = h.width
@@ -121,31 +147,43 @@ def strip_mesh(design: Design, placed: PlacedState, element_size: float = ELEMEN
             else:
                 raise ExportError(f"design {design.name!r}: hinge {h.id!r} (x = {xf:g} mm) is not at an end "
                                   f"of panel {design.panels[k].id!r}; the inp export needs a chain of panels")
-        n = max(math.ceil(w / element_size - 1e-9), math.ceil(abs(float(angles[f.index])) / MAX_SLICE_RAD - 1e-9), 1)
-        blocks.append(("hinge", h.id, h.material, np.linspace(xf - w / 2, xf + w / 2, n + 1), h.thickness, f))
+        n = max(math.ceil(w / element_size - 1e-9),
+                math.ceil(abs(float(placed.angles[f.index])) / MAX_SLICE_RAD - 1e-9), 1)
+        blocks.append(_Block("hinge", h.id, h.material, np.linspace(xf - w / 2, xf + w / 2, n + 1), h.thickness, f))
     for k, p in enumerate(design.panels):
         lo, hi = cut[k]
         if hi - lo <= 1e-6:
             raise ExportError(f"panel {p.id!r}: nothing rigid is left between its hinge strips")
         n = max(math.ceil((hi - lo) / element_size - 1e-9), 1)
-        blocks.append(("panel", p.id, p.material, np.linspace(lo, hi, n + 1), p.thickness, k))
-    levels = _levels([b[4] for b in blocks], element_size, through)
+        blocks.append(_Block("panel", p.id, p.material, np.linspace(lo, hi, n + 1), p.thickness, k))
+    return blocks
+
+
+def _column_pose(block: _Block, x: float, placed: PlacedState) -> np.ndarray:
+    """The pose (4, 4) of the column at sheet ``x`` of ``block``: a panel's own, or in a
+    hinge the arc map at its width u from the parent's edge."""
+    if block.kind == "panel":
+        return placed.poses[block.ref]
+    f = block.ref
+    s = 1.0 if f.normal[0] > 0 else -1.0
+    u = min(max(s * (x - float(f.hinge.line[0][0])) + f.width / 2, 0.0), f.width)
+    return placed.poses[f.parent] @ arc_transform(f, float(placed.angles[f.index]), u)
+
+
+def _mesh_blocks(design: Design, placed: PlacedState, blocks: list[_Block], levels: np.ndarray):
+    """Nodes (world x, z; one per sheet column and level, shared where blocks meet),
+    quads (m, 4), element sets and the root panel's nodes."""
+    root = design.panel_index()[design.root]
     key_of: dict[tuple[float, int], int] = {}
     points: list[np.ndarray] = []
     quads: list[list[int]] = []
     cell_sets: dict[str, list[int]] = {}
     root_nodes: set[int] = set()
-    for kind, bid, material, xs, t, ref in blocks:
-        rows = np.nonzero(np.abs(levels) <= t / 2 + 1e-9)[0]
-        ids = np.empty((len(xs), len(rows)), dtype=np.int64)
-        for i, x in enumerate(xs):
-            if kind == "panel":
-                pose = poses[ref]
-            else:
-                f = ref
-                s = 1.0 if f.normal[0] > 0 else -1.0
-                u = min(max(s * (x - float(f.hinge.line[0][0])) + f.width / 2, 0.0), f.width)
-                pose = poses[f.parent] @ arc_transform(f, float(angles[f.index]), u)
+    for b in blocks:
+        rows = np.nonzero(np.abs(levels) <= b.thickness / 2 + 1e-9)[0]
+        ids = np.empty((len(b.xs), len(rows)), dtype=np.int64)
+        for i, x in enumerate(b.xs):
+            pose = _column_pose(b, x, placed)
             for j, r in enumerate(rows):
                 key = (round(float(x), 9), int(r))
                 if key not in key_of:
@@ -154,17 +192,20 @@ def strip_mesh(design: Design, placed: PlacedState, element_size: float = ELEMEN
                     points.append(np.array([world[0], world[2]]))
                 ids[i, j] = key_of[key]
         first = len(quads)
-        for i in range(len(xs) - 1):
+        for i in range(len(b.xs) - 1):
             for j in range(len(rows) - 1):
                 quads.append([ids[i, j], ids[i + 1, j], ids[i + 1, j + 1], ids[i, j + 1]])
         members = list(range(first, len(quads)))
-        cell_sets.setdefault(set_name("MAT", material), []).extend(members)
-        cell_sets[set_name("HINGE" if kind == "hinge" else "PANEL", bid)] = members
-        if kind == "panel" and ref == pidx[design.root]:
+        cell_sets.setdefault(set_name("MAT", b.material), []).extend(members)
+        cell_sets[set_name("HINGE" if b.kind == "hinge" else "PANEL", b.owner)] = members
+        if b.kind == "panel" and b.ref == root:
             root_nodes.update(ids.ravel().tolist())
-    pts = np.array(points)
-    q = np.array(quads, dtype=np.int64)
-    # orientation: counter-clockwise in (x, z) of the sheet; flip all if the world view mirrors
+    return np.array(points), quads, cell_sets, root_nodes
+
+
+def _oriented(design: Design, pts: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The quads counter-clockwise in (x, z) of the sheet (all flipped if the world view
+    mirrors), their corners and corner Jacobians; ExportError on an inverted element."""
     c = pts[q]
     jac = _corner_jacobians(c)
     if np.median(jac) < 0:
@@ -175,14 +216,19 @@ def strip_mesh(design: Design, placed: PlacedState, element_size: float = ELEMEN
         bad = int(np.argmin(jac.min(axis=1)))
         raise ExportError(f"design {design.name!r}: inp mesh element {bad + 1} is inverted or degenerate "
                           f"(corner Jacobian {jac.min():.3g} mm^2); use a smaller element size")
+    return q, c, jac
+
+
+def _quality(pts: np.ndarray, q: np.ndarray, c: np.ndarray, jac: np.ndarray, levels: np.ndarray,
+             blocks: list[_Block], element_size: float) -> dict:
+    """Nodes, elements, worst aspect ratio, smallest corner Jacobian, element size and the
+    fewest elements through any block."""
     edges = np.linalg.norm(np.roll(c, -1, axis=1) - c, axis=2)
     aspect = edges.max(axis=1) / edges.min(axis=1)
-    quality = {"nodes": int(len(pts)), "elements": int(len(q)), "worst_aspect_ratio": round(float(aspect.max()), 4),
-               "min_corner_jacobian_mm2": float(f"{jac.min():.6g}"), "element_size_mm": float(element_size),
-               "elements_through_thinnest": int(min(np.count_nonzero(np.abs(levels) <= b[4] / 2 + 1e-9) - 1
-                                                    for b in blocks))}
-    point_sets = {"ROOT": np.array(sorted(root_nodes), dtype=np.int64), "ALL": np.arange(len(pts))}
-    return pts, q, {k: np.array(v, dtype=np.int64) for k, v in cell_sets.items()}, point_sets, quality
+    return {"nodes": int(len(pts)), "elements": int(len(q)), "worst_aspect_ratio": round(float(aspect.max()), 4),
+            "min_corner_jacobian_mm2": float(f"{jac.min():.6g}"), "element_size_mm": float(element_size),
+            "elements_through_thinnest": int(min(np.count_nonzero(np.abs(levels) <= b.thickness / 2 + 1e-9) - 1
+                                                 for b in blocks))}
 
 
 def _corner_jacobians(c: np.ndarray) -> np.ndarray:

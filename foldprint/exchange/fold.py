@@ -32,8 +32,9 @@ from ..core.constants import tol
 from ..model.design import Design
 from ..io.design_io import design_to_dict
 from ..core.errors import DesignError, where
-from ..io.fold_format import (_DESIGN_KEYS, _HINGE_EXTRA, _LINE_TOL, _index_face_edges, _project, _ring_edges,  # noqa: F401
-                           design_from_fold, design_from_fold_file)
+from ..io.fold_format import (HINGE_EXTRA, LINE_TOL, index_face_edges, project_onto_line, ring_edges)
+# the reader, importable beside the writer (tests and callers round-trip through both)
+from ..io.fold_format import design_from_fold, design_from_fold_file  # noqa: F401
 from .files import write_atomic
 
 
@@ -109,12 +110,12 @@ def _add_hinge_ends(design: Design, rings: list, verts: _Vertices, eps: float) -
     index = design.panel_index()
     for h in design.hinges:
         for pid in h.panels:
-            for a, b in _ring_edges(rings[index[pid]]):
+            for a, b in ring_edges(rings[index[pid]]):
                 A, B = np.asarray(verts.xy[a]), np.asarray(verts.xy[b])
-                t, dist, foot = _project(h.line, A, B)
+                t, dist, foot = project_onto_line(h.line, A, B)
                 L = float(np.linalg.norm(B - A))
                 for k in range(2):
-                    if dist[k] <= _LINE_TOL and eps < t[k] * L < L - eps:
+                    if dist[k] <= LINE_TOL and eps < t[k] * L < L - eps:
                         verts.add(foot[k])
 
 
@@ -123,9 +124,9 @@ def _split_sides(facets: list, pts: np.ndarray, eps: float) -> list[list[int]]:
     faces = []
     for ring in facets:
         out = []
-        for a, b in _ring_edges(ring):
+        for a, b in ring_edges(ring):
             out.append(a)
-            t, dist, _ = _project(pts, pts[a], pts[b])
+            t, dist, _ = project_onto_line(pts, pts[a], pts[b])
             L = float(np.linalg.norm(pts[b] - pts[a]))
             on = np.nonzero((dist <= eps) & (t * L > eps) & ((1 - t) * L > eps))[0]
             out.extend(int(i) for i in sorted(on, key=lambda i: t[i]) if i not in (a, b))
@@ -147,7 +148,7 @@ def _edge_columns(design: Design, edges: list, edge_faces: list, face_panel: lis
         if len(fs) == 2 and not same_panel:
             for h in by_pair.get(frozenset(design.panels[face_panel[f]].id for f in fs), []):
                 line = LineString(h.line)
-                if all(line.distance(shapely.Point(pts[v])) <= _LINE_TOL for v in (a, b)):
+                if all(line.distance(shapely.Point(pts[v])) <= LINE_TOL for v in (a, b)):
                     hinge = h
                     break
         if same_panel:  # between two facets of a panel with holes
@@ -168,7 +169,7 @@ def _design_extra(design: Design) -> dict:
     order, fixity and style."""
     extra = design_to_dict(design)
     extra.pop("panels", None)
-    extra["hinges"] = {h["id"]: {k: v for k, v in h.items() if k in _HINGE_EXTRA}
+    extra["hinges"] = {h["id"]: {k: v for k, v in h.items() if k in HINGE_EXTRA}
                        for h in extra.get("hinges", [])}
     return extra
 
@@ -183,7 +184,7 @@ def design_to_fold(design: Design) -> dict:
     pts = np.asarray(verts.xy)
     faces = _split_sides(facets, pts, eps)
     edges: list[list[int]] = []
-    edge_faces = _index_face_edges(faces, edges, {})
+    edge_faces = index_face_edges(faces, edges, {})
     assign, fangle, e_hid, e_mat, e_rad, e_thk = _edge_columns(design, edges, edge_faces, face_panel, pts)
     out: dict[str, Any] = {
         "file_spec": 1.2, "file_creator": f"foldprint {__version__}",

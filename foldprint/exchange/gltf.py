@@ -23,10 +23,9 @@ import pygltflib as gl
 from scipy.spatial.transform import Rotation
 
 from .. import __version__
+from ..geometry.surfaces import Frames
 from ..model.design import Design
-from ..physics.kinematics import Trajectory
 from ..model.materials import MaterialLibrary
-from .motion import fold_surfaces, frames_of
 
 #: sheet frame (mm, +Z up) -> glTF (m, +Y up): a proper rotation and a scale
 AXES = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
@@ -64,10 +63,10 @@ def _to_gltf(points: np.ndarray) -> np.ndarray:
     return (points @ AXES.T * SCALE).astype(np.float32)
 
 
-def glb_bytes(design: Design, trajectory: Trajectory, library: MaterialLibrary) -> tuple[bytes, dict]:
-    """The animated GLB and its record fields (nodes, moving nodes, keyframes, channels)."""
-    surfaces = fold_surfaces(design)
-    times, poses, angles = frames_of(trajectory)
+def glb_bytes(design: Design, frames: Frames, library: MaterialLibrary) -> tuple[bytes, dict]:
+    """The animated GLB of ``frames`` (the surfaces placed at every time step) and its
+    record fields (nodes, moving nodes, keyframes, channels)."""
+    surfaces, times, poses = frames.surfaces, frames.times, frames.poses
     doc = gl.GLTF2(asset=gl.Asset(version="2.0", generator=f"foldprint {__version__}"))
     blob = _Blob(doc)
     mats = list(dict.fromkeys(s.material for s in surfaces))
@@ -81,7 +80,7 @@ def glb_bytes(design: Design, trajectory: Trajectory, library: MaterialLibrary) 
     anim = gl.Animation(name=f"{design.name} fold", samplers=[], channels=[])
     n_t = len(times)
     moving = []
-    for s in surfaces:
+    for s, world in zip(surfaces, frames.points):
         name = f"panel {s.owner}" if s.kind == "panel" else f"hinge {s.owner} [{s.segment}]"
         idx = blob.add(s.triangles.astype(np.uint32).ravel(), "SCALAR", gl.ELEMENT_ARRAY_BUFFER)
         node = gl.Node(name=name)
@@ -107,7 +106,7 @@ def glb_bytes(design: Design, trajectory: Trajectory, library: MaterialLibrary) 
                         target=gl.AnimationChannelTarget(node=len(doc.nodes), path=path)))
                 moving.append(name)
         else:
-            world = s.track(poses, angles)  # (n_t, n, 3) mm
+            # world: (n_t, n, 3) mm
             base = _to_gltf(world[0])
             pos = blob.add(base, "VEC3", gl.ARRAY_BUFFER, minmax=True)
             prim = gl.Primitive(attributes=gl.Attributes(POSITION=pos), indices=idx,

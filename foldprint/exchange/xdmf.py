@@ -1,8 +1,8 @@
 """ParaView: the fold as an XDMF time series, written with meshio's ``TimeSeriesWriter``.
 
-The mesh is the flat sheet's surfaces (:func:`foldprint.exchange.motion.fold_surfaces`:
-panels' rigid parts and hinge segments, triangles, mm). Every simulated time step
-carries point data ``displacement`` (mm; flat sheet -> folded, so ParaView's "Warp By
+The mesh is the flat sheet's surfaces, given placed at every simulated time step
+(:class:`foldprint.geometry.surfaces.Frames`: panels' rigid parts and hinge segments,
+triangles, mm). Every time step carries point data ``displacement`` (mm; flat sheet -> folded, so ParaView's "Warp By
 Vector" shows the fold) and cell data ``material`` (index into the record's
 ``materials`` list), ``hinge`` (index into the design's hinges, -1 on panels) and
 ``panel`` (index into the design's panels, -1 on hinges). The arrays sit in an HDF5
@@ -20,17 +20,16 @@ from pathlib import Path
 import meshio
 import numpy as np
 
+from ..geometry.surfaces import Frames
 from ..model.design import Design
-from ..physics.kinematics import Trajectory
-from .motion import fold_surfaces, frames_of
 
 
-def xdmf_files(design: Design, trajectory: Trajectory, materials: list[str],
+def xdmf_files(design: Design, frames: Frames, materials: list[str],
                name: str = "fold.xdmf") -> tuple[dict[str, bytes], dict]:
-    """The XDMF series, {``name``: xdmf bytes, ``name`` with .h5: HDF5 bytes}, and the
-    record fields (steps, time span, index tables)."""
-    surfaces = fold_surfaces(design)
-    times, poses, angles = frames_of(trajectory)
+    """The XDMF series of ``frames`` (the surfaces placed at every time step), {``name``:
+    xdmf bytes, ``name`` with .h5: HDF5 bytes}, and the record fields (steps, time span,
+    index tables)."""
+    surfaces, times = frames.surfaces, frames.times
     flat = np.concatenate([s.flat for s in surfaces])
     offsets = np.cumsum([0] + [len(s.flat) for s in surfaces])
     tris = np.concatenate([s.triangles + o for s, o in zip(surfaces, offsets[:-1])])
@@ -47,7 +46,7 @@ def xdmf_files(design: Design, trajectory: Trajectory, materials: list[str],
         path = Path(tmp) / name
         with meshio.xdmf.TimeSeriesWriter(str(path), data_format="HDF") as writer:
             writer.write_points_cells(flat, [("triangle", tris)])
-            world = np.concatenate([s.track(poses, angles) for s in surfaces], axis=1)
+            world = np.concatenate(frames.points, axis=1)
             for k, t in enumerate(times):
                 disp = (world[k] - flat).astype(np.float32)
                 writer.write_data(float(t), point_data={"displacement": disp}, cell_data=cell_data)

@@ -12,9 +12,9 @@ from ..model.design import Design
 from ..core.errors import GeometryError
 from ..core.modes import DEFAULT_STATE, State
 from ..model.materials import MaterialLibrary, default_library
-from .hinges import _poses, arc_transform, state_angles, strip_solids
+from .hinges import tree_poses, arc_transform, state_angles, strip_solids
 from .layout import layout
-from .solids import BED_TOL, BOTTOM_FACE_RAD, VOLUME_RTOL, Assembly, Body, Piece, _checked, _extrude, apply_pose
+from .solids import BED_TOL, BOTTOM_FACE_RAD, VOLUME_RTOL, Assembly, Body, Piece, checked_solid, extrude, apply_pose
 
 # -- pieces and bodies --------------------------------------------------------------------
 
@@ -24,10 +24,10 @@ def build_pieces(design: Design, state: State = DEFAULT_STATE) -> list[Piece]:
     angles = state_angles(design, state)
     lays, rigid = layout(design)
     frames = [lay.frame for lay in lays]
-    poses = _poses(design, frames, angles)
+    poses = tree_poses(design, frames, angles)
     pieces: list[Piece] = []
     for k, p in enumerate(design.panels):
-        solid = _extrude(rigid[k], p.thickness, poses[k], f"panel {p.id!r}")
+        solid = extrude(rigid[k], p.thickness, poses[k], f"panel {p.id!r}")
         pieces.append(Piece("panel", p.id, p.material, solid))
     for lay in lays:
         h, f = lay.hinge, lay.frame
@@ -36,7 +36,7 @@ def build_pieces(design: Design, state: State = DEFAULT_STATE) -> list[Piece]:
             pieces.append(Piece("strip", h.id, h.material, solid))
         for pidx in sorted(lay.teeth):
             panel = design.panels[pidx]
-            solid = _extrude(lay.teeth_solid[pidx], panel.thickness, poses[pidx],
+            solid = extrude(lay.teeth_solid[pidx], panel.thickness, poses[pidx],
                              f"hinge {h.id!r} teeth in panel {panel.id!r}")
             if solid is not None:
                 pieces.append(Piece("teeth", h.id, h.material, solid))
@@ -80,7 +80,7 @@ def _units(pieces: list[Piece]) -> list[Piece]:
     for owner, parts in hinge_parts.items():
         solid = parts[0].solid if len(parts) == 1 else mf.Manifold.batch_boolean(
             [p.solid for p in parts], mf.OpType.Add)
-        units.append(Piece("hinge", owner, parts[0].material, _checked(solid, f"hinge {owner!r}")))
+        units.append(Piece("hinge", owner, parts[0].material, checked_solid(solid, f"hinge {owner!r}")))
     return units
 
 
@@ -113,7 +113,7 @@ def build_assembly(design: Design, state: State = DEFAULT_STATE, library: Materi
         group = by_mat[mat]
         solid = group[0].solid if len(group) == 1 else mf.Manifold.batch_boolean(
             [u.solid for u in group], mf.OpType.Add)
-        _checked(solid, f"{state} body of {mat}")
+        checked_solid(solid, f"{state} body of {mat}")
         total = sum(u.volume for u in group)
         if check and solid.volume() < total * (1 - VOLUME_RTOL) - 1e-9:
             raise GeometryError(_overlap_message(group, state))
@@ -264,7 +264,7 @@ def hinge_axes(design: Design, state: str = "permanent") -> dict[str, HingeAxes]
     the hinge bodies :func:`build_pieces` makes)."""
     angles = state_angles(design, state)
     lays, _ = layout(design)
-    poses = _poses(design, [lay.frame for lay in lays], angles)
+    poses = tree_poses(design, [lay.frame for lay in lays], angles)
     out = {}
     for lay in lays:
         h, f = lay.hinge, lay.frame

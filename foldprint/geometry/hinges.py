@@ -12,7 +12,7 @@ from ..model.design import Design, Hinge, has_loops, tangent_factor
 from ..core.errors import GeometryError
 from ..core.modes import HingeModel, Interface, State
 from ..physics.kinematics import HingeFrame, hinge_map, loop_gap_mm
-from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, _checked, _from_arrays, apply_pose)
+from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, checked_solid, solid_from_arrays, apply_pose)
 
 # -- kinematics of the printed states ----------------------------------------------------
 
@@ -47,7 +47,7 @@ def _local(frame: HingeFrame, rho: float) -> np.ndarray:
     return hinge_map(frame, rho, HingeModel.ARC, 1.0)[0]
 
 
-def _poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.ndarray:
+def tree_poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.ndarray:
     """Each panel's pose, placed from the root outward along the spanning tree, whatever
     the order of ``frames`` (the layout lists them in hinge order: placing a child before
     its parent left the pose all zeros, an empty solid; issue 18, the 8-crease waterbomb)."""
@@ -206,8 +206,8 @@ def strip_solids(hinge: Hinge, frame: HingeFrame, d: np.ndarray, p0: np.ndarray,
         for pose, sel in zip(poses, groups):
             world[sel] = apply_pose(pose, flat[sel])
         what = f"hinge {hinge.id!r} strip [{v0:.3f}, {v1:.3f}] mm"
-        solid = _from_arrays(world, faces, what)
-        out.append(_checked(solid, what + f" (bend radius {radius:.3g} mm must exceed half the "
+        solid = solid_from_arrays(world, faces, what)
+        out.append(checked_solid(solid, what + f" (bend radius {radius:.3g} mm must exceed half the "
                             f"hinge thickness {hinge.thickness / 2:g} mm)", (v1 - v0) * area))
     return out
 

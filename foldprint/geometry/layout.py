@@ -21,7 +21,7 @@ from .solids import (
     TEETH_OVERLAP,
     TOOTH_END_MARGIN,
     TOOTH_LAND_FRACTION,
-    _clean,
+    clean_region,
 )
 
 # -- 2D layout: strips, teeth, rigid panel parts ---------------------------------------
@@ -105,7 +105,7 @@ def _rigid_before_teeth(design: Design, rects: list, tree) -> tuple[list, list]:
         idx = sorted(tree.query(p.polygon, predicate="dwithin", distance=TEETH_GAP)) if rects else []
         near = [rects[k] for k in idx if rects[k].intersects(p.polygon)]
         r = p.polygon.difference(shapely.union_all(near)) if near else p.polygon
-        rigid0.append(_clean(r))
+        rigid0.append(clean_region(r))
         near_rects.append(idx)
     return rigid0, near_rects
 
@@ -128,7 +128,7 @@ def _place_teeth(lay: _HingeLayout, pidx: int, side: float, rigid0: list, near_r
         taken = shapely.union_all(cut[pidx] + others).buffer(TEETH_GAP, join_style="mitre",
                                                              mitre_limit=50.0)
         avail = avail.difference(taken)
-    teeth = _clean(rows.intersection(avail))
+    teeth = clean_region(rows.intersection(avail))
     if teeth is not None and lay.hinge.width > 4 * TEETH_OVERLAP:
         lay.teeth[pidx] = teeth
         # the solid also reaches a little into the strip: teeth and strip then
@@ -137,7 +137,7 @@ def _place_teeth(lay: _HingeLayout, pidx: int, side: float, rigid0: list, near_r
         into = _sheet(lay, [(0, side * half), (lay.hinge.length, side * half),
                             (lay.hinge.length, side * (half - TEETH_OVERLAP)),
                             (0, side * (half - TEETH_OVERLAP))])
-        lay.teeth_solid[pidx] = _clean(shapely.union_all([teeth, rows.intersection(into)]))
+        lay.teeth_solid[pidx] = clean_region(shapely.union_all([teeth, rows.intersection(into)]))
         cut[pidx].append(rows)
 
 
@@ -163,7 +163,7 @@ def layout(design: Design) -> tuple[list[_HingeLayout], list[object]]:
     for k, p in enumerate(design.panels):
         r = rigid0[k]
         if r is not None and cut[k]:
-            r = _clean(r.difference(shapely.union_all(cut[k])))
+            r = clean_region(r.difference(shapely.union_all(cut[k])))
         if r is None:
             raise GeometryError(f"panel {p.id!r}: nothing rigid is left after removing the hinge strips "
                                 "(w/2 = R|angle|/2 along each hinge); make the panel larger or the radii smaller")

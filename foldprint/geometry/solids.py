@@ -79,7 +79,7 @@ class Body:
         triangles even where the faces they join are not coplanar.)"""
         if self.solid is not None:
             return self.solid
-        return _from_arrays(self.vertices, self.faces, f"body {self.material!r}")
+        return solid_from_arrays(self.vertices, self.faces, f"body {self.material!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,7 +142,7 @@ class Piece:
 
 # -- manifold helpers --------------------------------------------------------------------
 
-def _checked(m: mf.Manifold, what: str, expected: float | None = None) -> mf.Manifold:
+def checked_solid(m: mf.Manifold, what: str, expected: float | None = None) -> mf.Manifold:
     """manifold3d never raises: check status, emptiness and volume after each step."""
     status = m.status()
     if status != mf.Error.NoError:
@@ -156,13 +156,13 @@ def _checked(m: mf.Manifold, what: str, expected: float | None = None) -> mf.Man
     return m
 
 
-def _from_arrays(vertices: np.ndarray, faces: np.ndarray, what: str) -> mf.Manifold:
+def solid_from_arrays(vertices: np.ndarray, faces: np.ndarray, what: str) -> mf.Manifold:
     mesh = mf.Mesh64(vert_properties=np.array(vertices, dtype=np.float64, order="C"),
                      tri_verts=np.array(faces, dtype=np.uint64, order="C"))
-    return _checked(mf.Manifold(mesh), what)
+    return checked_solid(mf.Manifold(mesh), what)
 
 
-def _polygons(geom) -> list[Polygon]:
+def polygons_of(geom) -> list[Polygon]:
     """The polygons of any shapely result, dropping slivers, lines and points."""
     if geom is None or geom.is_empty:
         return []
@@ -171,14 +171,14 @@ def _polygons(geom) -> list[Polygon]:
         if isinstance(g, Polygon) and g.area > MIN_AREA:
             out.append(g)
         elif isinstance(g, (MultiPolygon, shapely.GeometryCollection)):
-            out.extend(_polygons(g))
+            out.extend(polygons_of(g))
     return out
 
 
-def _clean(geom):
+def clean_region(geom):
     """The polygons of ``geom`` as one geometry, free of spikes, slivers and pinch
     points; untouched (bit for bit) when it has none."""
-    polys = _polygons(geom)
+    polys = polygons_of(geom)
     if not polys:
         return None
     g = polys[0] if len(polys) == 1 else shapely.union_all(polys)
@@ -199,9 +199,9 @@ def _clean(geom):
         return c
 
     polys = []
-    for p in _polygons(cleaned):
+    for p in polygons_of(cleaned):
         q = Polygon(snap(p.exterior), [snap(r) for r in p.interiors])
-        polys.extend(_polygons(q if q.is_valid else p))
+        polys.extend(polygons_of(q if q.is_valid else p))
     if not polys:
         return None
     return polys[0] if len(polys) == 1 else shapely.union_all(polys)
@@ -214,14 +214,14 @@ def apply_pose(pose: np.ndarray, pts: np.ndarray) -> np.ndarray:
     return pts[:, 0:1] * r[:, 0] + pts[:, 1:2] * r[:, 1] + pts[:, 2:3] * r[:, 2] + t
 
 
-def _extrude(geom, thickness: float, pose: np.ndarray, what: str) -> mf.Manifold | None:
+def extrude(geom, thickness: float, pose: np.ndarray, what: str) -> mf.Manifold | None:
     """Extrude a shapely (multi)polygon to ``thickness`` about z = 0, then ``pose``.
 
     The mesh is built here (caps from ``manifold3d.triangulate``, one quad per ring
     edge) rather than through ``CrossSection``, whose Clipper2 back end rounds
     coordinates to 1e-8 mm: pieces that share a boundary (teeth and notches, strip
     edges) must keep bit-identical vertices to merge or touch cleanly."""
-    polys = _polygons(geom)
+    polys = polygons_of(geom)
     if not polys:
         return None
     verts, faces, n0 = [], [], 0
@@ -248,4 +248,4 @@ def _extrude(geom, thickness: float, pose: np.ndarray, what: str) -> mf.Manifold
         n0 += 2 * n
     area = float(sum(p.area for p in polys))
     v = apply_pose(pose, np.concatenate(verts))
-    return _checked(_from_arrays(v, np.concatenate(faces), what), what, area * thickness)
+    return checked_solid(solid_from_arrays(v, np.concatenate(faces), what), what, area * thickness)

@@ -31,20 +31,25 @@ from ..core.schema import MAX_FACES, MAX_LENGTH_MM, check_fold, parse_error
 
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "pt": 25.4 / 72.0,
          "um": 1e-3, "nm": 1e-6}
-_LINE_TOL = 1e-3  # mm: how far a fold line may sit from its edge (as in validate)
+#: mm: how far a fold line may sit from its edge (as in validate); the writer splits
+#: panel sides at hinge ends within it.
+LINE_TOL = 1e-3
 _FLAT = {"F", "U", "J"}
 _KNOWN = {"B", "C", "M", "V", "F", "U", "J"}
-_DESIGN_KEYS = {"schema", "name", "description", "root", "process", "defaults", "goals", "hinges"}
-_HINGE_EXTRA = {"panels", "fixity", "style"}
+#: The keys of ``foldprint:design`` (the design data FOLD has no field for), read here and
+#: written by :mod:`foldprint.exchange.fold`.
+DESIGN_KEYS = {"schema", "name", "description", "root", "process", "defaults", "goals", "hinges"}
+#: The keys of one hinge's entry in ``foldprint:design.hinges``, read and written alike.
+HINGE_EXTRA = {"panels", "fixity", "style"}
 
 
 
-def _index_face_edges(faces, edges: list, lookup: dict) -> list[list[int]]:
+def index_face_edges(faces, edges: list, lookup: dict) -> list[list[int]]:
     """The faces bordering each edge. ``lookup`` maps sorted vertex pairs to indices of
     ``edges``; face sides not in it are appended to ``edges`` (both are updated)."""
     edge_faces: list[list[int]] = [[] for _ in edges]
     for f, ring in enumerate(faces):
-        for a, b in _ring_edges(ring):
+        for a, b in ring_edges(ring):
             key = (min(a, b), max(a, b))
             if key not in lookup:
                 lookup[key] = len(edges)
@@ -54,11 +59,12 @@ def _index_face_edges(faces, edges: list, lookup: dict) -> list[list[int]]:
     return edge_faces
 
 
-def _ring_edges(ring: list[int]):
+def ring_edges(ring: list[int]):
+    """The sides (a, b) of a closed ring of vertex indices, the last back to the first."""
     return [(ring[k], ring[(k + 1) % len(ring)]) for k in range(len(ring))]
 
 
-def _project(pts: np.ndarray, a: np.ndarray, b: np.ndarray):
+def project_onto_line(pts: np.ndarray, a: np.ndarray, b: np.ndarray):
     """Parameter t along a->b, distance to the line and the foot point of every point."""
     d = b - a
     t = (pts - a) @ d / (d @ d)
@@ -279,7 +285,7 @@ def _edge_table(frame: Mapping, faces: list, nv: int, src: str) -> _EdgeTable:
     lookup = {}
     for i, (a, b) in enumerate(edges):
         lookup.setdefault((min(a, b), max(a, b)), i)
-    edge_faces = _index_face_edges(faces, edges, lookup)
+    edge_faces = index_face_edges(faces, edges, lookup)
     assign += ["U"] * (len(edges) - ne)
     for col in (angle, e_hid, e_mat, e_rad, e_thk):
         col += [None] * (len(edges) - ne)
@@ -379,9 +385,9 @@ def _design_extras(frame: Mapping, src: str) -> tuple[Mapping, Mapping]:
     fp = frame.get("foldprint:design") or {}
     if not isinstance(fp, Mapping):
         raise DesignError(f"{src}foldprint:design must be an object, got {type(fp).__name__}")
-    unknown = sorted(set(fp) - _DESIGN_KEYS)
+    unknown = sorted(set(fp) - DESIGN_KEYS)
     if unknown:
-        raise DesignError(f"{src}foldprint:design: unknown key(s) {unknown}; allowed: {sorted(_DESIGN_KEYS)}")
+        raise DesignError(f"{src}foldprint:design: unknown key(s) {unknown}; allowed: {sorted(DESIGN_KEYS)}")
     extras = fp.get("hinges") or {}
     if not isinstance(extras, Mapping):
         raise DesignError(f"{src}foldprint:design.hinges must be an object keyed by hinge id")
@@ -413,8 +419,8 @@ def _hinge_entries(et: _EdgeTable, xy: np.ndarray, hgroups: dict, group_of: dict
             raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases that "
                               f"do not lie on one line (edges_vertices {ids}); a hinge is straight")
         extra = extras.get(hid) or {}
-        if not isinstance(extra, Mapping) or set(extra) - _HINGE_EXTRA:
-            raise DesignError(f"{src}foldprint:design.hinges.{hid} may only hold {sorted(_HINGE_EXTRA)}")
+        if not isinstance(extra, Mapping) or set(extra) - HINGE_EXTRA:
+            raise DesignError(f"{src}foldprint:design.hinges.{hid} may only hold {sorted(HINGE_EXTRA)}")
         pp = [pid_of[ga], pid_of[gb]]
         if sorted(map(str, extra.get("panels") or [])) == sorted(pp):
             pp = [str(p) for p in extra["panels"]]

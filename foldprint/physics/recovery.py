@@ -36,13 +36,13 @@ from ..core.errors import MaterialError
 from ..model.composition import Along, composition_model, strips
 from ..model.materials import Material, RecoveryParams
 
-_N_TERMS = 40  # series terms of the slab solution (converged for Fo > ~1e-3)
-_N_LAYERS = 8  # Gauss-Legendre points through the thickness
+N_TERMS = 40  # series terms of the slab solution (converged for Fo > ~1e-3)
+N_LAYERS = 8  # Gauss-Legendre points through the thickness
 _DT_FINE = 0.004  # s, internal step over the first _T_FINE seconds
 _T_FINE = 60.0  # s
 
 
-def _slab_roots(biot: float, n: int = _N_TERMS) -> np.ndarray:
+def _slab_roots(biot: float, n: int = N_TERMS) -> np.ndarray:
     """Positive roots of zeta * tan(zeta) = Bi, one in each (k pi, k pi + pi/2)."""
     roots = np.empty(n)
     for k in range(n):
@@ -149,7 +149,9 @@ class RecoveryCurve:
         return float(self.t[-1])
 
 
-def _grid(horizon_s: float) -> np.ndarray:
+def curve_time_grid(horizon_s: float) -> np.ndarray:
+    """The times (s) a recovery curve is tabulated at up to ``horizon_s``: steps of
+    ``_DT_FINE`` to ``_T_FINE``, then 400 geometrically spaced."""
     fine_end = min(_T_FINE, horizon_s)
     fine = np.arange(0.0, fine_end + _DT_FINE / 2, _DT_FINE)
     if horizon_s <= fine_end:
@@ -211,8 +213,8 @@ def _curve(material: Material, bath_c: float, thickness_mm: float, initial_c: fl
     if is_graded(material):
         return _graded_curve(material, bath_c, thickness_mm, initial_c, horizon_s)
     p = material.recovery
-    t = _grid(horizon_s)
-    zg, wg = np.polynomial.legendre.leggauss(_N_LAYERS)
+    t = curve_time_grid(horizon_s)
+    zg, wg = np.polynomial.legendre.leggauss(N_LAYERS)
     temp = slab_temperature(t, zg, bath_c, initial_c, thickness_mm, p)  # (n_t, n_z)
     rate = 10.0 ** (-log10_shift(temp, material.tg_c, p))  # d xi / d t
     xi = np.zeros_like(rate)

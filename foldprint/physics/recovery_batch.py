@@ -37,7 +37,7 @@ import numpy as np
 
 from ..core.constants import RECOVERY_HORIZON_S
 from ..model.materials import RecoveryParams
-from .recovery import _N_LAYERS, _N_TERMS, _grid, combine_strips, is_graded, log10_shift, spectrum, strip_tgs
+from .recovery import N_LAYERS, N_TERMS, curve_time_grid, combine_strips, is_graded, log10_shift, spectrum, strip_tgs
 
 #: Exponent beyond which a series term or relaxation branch is dropped (exp(-50) = 2e-22).
 CUT = 50.0
@@ -50,7 +50,7 @@ _LN10 = math.log(10.0)
 
 @lru_cache(maxsize=8)
 def _full_grid(horizon_s: float) -> np.ndarray:
-    g = _grid(horizon_s)
+    g = curve_time_grid(horizon_s)
     g.setflags(write=False)
     return g
 
@@ -63,7 +63,7 @@ def grid_until(until_s: float, horizon_s: float = RECOVERY_HORIZON_S) -> np.ndar
     return g[: min(len(g), k + 2)]
 
 
-def slab_roots(biot: np.ndarray, n: int = _N_TERMS) -> np.ndarray:
+def slab_roots(biot: np.ndarray, n: int = N_TERMS) -> np.ndarray:
     """Positive roots of zeta tan zeta = Bi for every Bi of ``biot`` (m,), shape (m, n):
     the bisection of :func:`foldprint.physics.recovery._slab_roots` on arrays, stopped when every
     bracket has shrunk to neighbouring floats (from there on it no longer changes)."""
@@ -115,13 +115,13 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
     th = np.broadcast_to(np.asarray(thickness_mm, float), (n,))
     bath = np.broadcast_to(np.asarray(bath_c, float), (n,))
     t = np.asarray(t, float)
-    per = max(1, MAX_BATCH_ELEMENTS // max(1, len(t) * _N_LAYERS // 2))
+    per = max(1, MAX_BATCH_ELEMENTS // max(1, len(t) * N_LAYERS // 2))
     if n > per:  # bounded memory: batches of at most MAX_BATCH_ELEMENTS elements
         parts = [batch_ratios(p, tg[a:a + per], hw[a:a + per], th[a:a + per], bath[a:a + per], initial_c, t)
                  for a in range(0, n, per)]
         return np.concatenate([r for r, _ in parts]), np.concatenate([m for _, m in parts])
-    zg8, wg8 = np.polynomial.legendre.leggauss(_N_LAYERS)
-    half_n = _N_LAYERS // 2  # symmetric points: zg8[half_n + i] == -zg8[half_n - 1 - i]
+    zg8, wg8 = np.polynomial.legendre.leggauss(N_LAYERS)
+    half_n = N_LAYERS // 2  # symmetric points: zg8[half_n + i] == -zg8[half_n - 1 - i]
     zg = zg8[half_n:]
     w8 = wg8 * zg8**2  # bending (second-moment) weight of each layer
     w8 = w8 / w8.sum()

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM, FOLD_LEVEL, RECOVERY_HORIZON_S
 from ..model.materials import Material
-from .recovery import _N_LAYERS, _grid, log10_shift, slab_temperature, spectrum
+from .recovery import N_LAYERS, curve_time_grid, log10_shift, slab_temperature, spectrum
 
 _STRIDE = 64
 
@@ -33,8 +33,8 @@ def _ratio(xi: np.ndarray, tau: np.ndarray, g: np.ndarray, w: np.ndarray) -> np.
 def _fold_times(material: Material, baths: tuple[float, ...], thickness_mm: float, initial_c: float,
                 horizon_s: float, level: float) -> tuple[float | None, ...]:
     p = material.recovery
-    t = _grid(horizon_s)
-    zg, wg = np.polynomial.legendre.leggauss(_N_LAYERS)
+    t = curve_time_grid(horizon_s)
+    zg, wg = np.polynomial.legendre.leggauss(N_LAYERS)
     s = slab_temperature(t, zg, 1.0, 0.0, thickness_mm, p)  # (n_t, n_z): 1 - theta
     tb = np.asarray(baths, float)[:, None, None]
     temp = tb - (tb - initial_c) * (1.0 - s[None])  # (n_b, n_t, n_z)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..model.derived import scoped
 from ..model.materials import MaterialLibrary, default_library
-from .stills import _TITLE_IN, Painter, View, bounds, new_figure, title
+from .stills import TITLE_IN, Painter, View, bounds, new_figure, title
 from .scene import camera_for, contact_state, motion_end, poses_at, scene
 
 log = logging.getLogger(__name__)
@@ -60,7 +60,7 @@ def fold_animation_gif(result, n_frames: int = 40, *, dpi: float = 72.0,
     cam = camera_for(design)
     view = View.fit(bounds([s for s, _ in scenes], cam), max_size_in)
     cw, ch = view.cell
-    fig = new_figure((cw, ch + _TITLE_IN), dpi)
+    fig = new_figure((cw, ch + TITLE_IN), dpi)
     painter = Painter(fig, view, cam, (0.0, 0.0), 9.0)
     label = title(fig, cw / 2, ch + 0.06, "", 10.0, family="monospace")
     rgb = []

@@ -24,7 +24,7 @@ from .scene import (Camera, Scene, camera_for, contact_state, frame_times, motio
                            poses_at, scene, state_poses)
 
 _BACKGROUND = "white"
-_TITLE_IN = 0.32  # title band above a view (in)
+TITLE_IN = 0.32  # title band above a view (in)
 _BAR_IN = 0.3  # scale-bar band below a view (in)
 _HEAD_IN = 0.4  # figure title band above a frame grid (in)
 _MARGIN = 0.04  # fraction of the projected extent left free around the drawing
@@ -183,7 +183,7 @@ def render_state(design: Design, poses, title_text: str, *, model: HingeModel = 
     cam = camera_for(design)
     view = View.fit(bounds([sc], cam), max_size_in)
     cw, ch = view.cell
-    fig = new_figure((cw, ch + _TITLE_IN), dpi)
+    fig = new_figure((cw, ch + TITLE_IN), dpi)
     Painter(fig, view, cam, (0.0, 0.0), 9.0).draw(sc)
     title(fig, cw / 2, ch + 0.06, title_text, 10.0)
     return fig
@@ -216,7 +216,7 @@ def render_frames(result, n: int = 4, *, library: MaterialLibrary | None = None,
     nrows = int(math.ceil(n / ncols))
     view = View.fit(b, box)
     cw, ch = view.cell
-    row_h = ch + _TITLE_IN
+    row_h = ch + TITLE_IN
     fig = new_figure((cw * ncols, row_h * nrows + _HEAD_IN), dpi)
     for k, (sc, text) in enumerate(zip(scenes, titles)):
         r, c = divmod(k, ncols)

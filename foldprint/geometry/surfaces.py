@@ -1,10 +1,13 @@
-"""The fold over time as moving surfaces, for the time-series writers (XDMF, glTF).
+"""The fold over time as moving surfaces: what the time-series writers (XDMF, glTF) draw.
 
 Each panel's rigid part (its outline less the hinge strips and teeth notches, holes
 kept) and each hinge segment (the strip's mid-surface between slots) is a triangulated
 surface in the flat sheet (z = 0). A panel moves rigidly with its pose; a hinge segment
 bends with the arc map across its width (:func:`foldprint.geometry.arc_transform`),
 column by column, exactly as the printed strip is built (``docs/geometry-and-export.md``).
+:func:`fold_frames` places every surface at every time step of a simulated trajectory
+and hands the writers a :class:`Frames` (``foldprint.apps.pipeline.Evaluation.frames``):
+they format these points and compute none.
 """
 
 from __future__ import annotations
@@ -15,12 +18,13 @@ import manifold3d as mf
 import numpy as np
 from shapely.geometry.polygon import orient
 
-from ..model.design import Design
 from ..core.errors import ExportError
 from ..core.modes import HingeModel
-from ..geometry import layout, strip_profile
-from ..geometry.solids import _polygons
+from ..model.design import Design
 from ..physics.kinematics import HingeFrame, Trajectory, local_transforms
+from .hinges import strip_profile
+from .layout import layout
+from .solids import polygons_of
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,7 +74,7 @@ def fold_surfaces(design: Design) -> list[Surface]:
     out: list[Surface] = []
     for k, (p, geom) in enumerate(zip(design.panels, rigid)):
         verts, tris, n0 = [], [], 0
-        for poly in _polygons(geom):
+        for poly in polygons_of(geom):
             poly = orient(poly, 1.0)
             rings = [np.asarray(poly.exterior.coords)[:-1]] + [np.asarray(r.coords)[:-1] for r in poly.interiors]
             t = np.asarray(mf.triangulate(rings), dtype=np.int64).reshape(-1, 3)
@@ -100,6 +104,38 @@ def fold_surfaces(design: Design) -> list[Surface]:
             if np.cross(n3, d3)[2] < 0:
                 tris = tris[:, ::-1]
             out.append(Surface("hinge", h.id, s, h.material, f.index, flat, tris, f, uu))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Frames:
+    """The fold over time as the time-series writers draw it, computed before they run:
+    ``times`` (n_t,) s; ``poses`` (n_t, n_panels, 4, 4) every panel's pose (mm);
+    ``surfaces`` (:func:`fold_surfaces`: panels, then hinge segments) and ``points``, for
+    each surface its world points (n_t, n, 3) mm at every time; ``model``, the hinge
+    model of the trajectory (always arc: the printed hinges). The arrays are read-only."""
+
+    times: np.ndarray
+    poses: np.ndarray
+    surfaces: tuple[Surface, ...]
+    points: tuple[np.ndarray, ...]
+    model: HingeModel
+
+
+def fold_frames(design: Design, trajectory: Trajectory) -> Frames:
+    """Every surface of ``design`` (:func:`fold_surfaces`) placed at every time of the
+    simulated ``trajectory`` (arc hinges; ExportError otherwise)."""
+    surfaces = fold_surfaces(design)
+    times, poses, angles = frames_of(trajectory)
+    points = tuple(s.track(poses, angles) for s in surfaces)
+    return Frames(_read_only(times), _read_only(poses), tuple(surfaces), tuple(_read_only(p) for p in points),
+                  trajectory.model)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """A read-only copy of ``a`` (the frames never alias the trajectory's arrays)."""
+    out = np.array(a)
+    out.setflags(write=False)
     return out
 
 
