@@ -268,7 +268,7 @@ def _fraction_window(r: VoxelRegion, table, xs: np.ndarray, ys: np.ndarray, z: f
         a, b = _plane(xs, ys, z, o, e[0]), _plane(xs, ys, z, o, e[1])
         ia = np.clip(((a - table.lo[0]) / table.h).astype(np.int64), 0, table.n[0] - 1)
         ib = np.clip(((b - table.lo[1]) / table.h).astype(np.int64), 0, table.n[1] - 1)
-        u = table.u[ia, ib]
+        u = table.at(ia, ib)
     return np.clip(np.asarray(r.profile.at(np.clip(u, 0.0, 1.0)), dtype=float), 0.0, 1.0)
 
 
@@ -342,10 +342,12 @@ WIDTH_TABLE_CELL = 0.25
 
 
 class _WidthTable:
-    """u across a hinge (``HingeAxes.width_u``) tabulated once on a grid in the plane
+    """u across a hinge (``HingeAxes.width_u``) on a grid of cells in the plane
     perpendicular to its fold line (u does not change along the line), looked up per voxel
-    by the nearest cell: the nearest-point search over the mid-line costs 0.6 us a point,
-    the lookup ~0.03 us."""
+    by the nearest cell: the nearest-point search over the mid-line costs ~1 us a point,
+    the lookup ~0.03 us. A cell's u is computed the first time a voxel looks it up (a
+    layer of a flat hinge touches one row of cells in z), from the same cell centre as
+    a table made whole; thread-safe."""
 
     def __init__(self, region: VoxelRegion, pitch: Pitch):
         ax = region.axes
@@ -355,7 +357,7 @@ class _WidthTable:
             e1 = np.cross(d, [1.0, 0.0, 0.0])
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(d, e1)
-        self.origin, self.basis = ax.origin, np.stack([e1, e2])
+        self.axes, self.origin, self.basis = ax, ax.origin, np.stack([e1, e2])
         bb = np.asarray(region.solid.bounding_box()).reshape(2, 3)
         corners = np.array([[bb[i, 0], bb[j, 1], bb[k, 2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
         ab = (corners - self.origin) @ self.basis.T
@@ -365,16 +367,30 @@ class _WidthTable:
         h = max(h, math.sqrt(span[0] * span[1] / WIDTH_TABLE_CELLS))
         self.h = h
         self.n = np.maximum(1, np.ceil(span / h).astype(np.int64))
-        ca = self.lo[0] + (np.arange(self.n[0]) + 0.5) * h
-        cb = self.lo[1] + (np.arange(self.n[1]) + 0.5) * h
-        A, B = np.meshgrid(ca, cb, indexing="ij")
-        pts = self.origin + A.reshape(-1, 1) * e1 + B.reshape(-1, 1) * e2
-        self.u = ax.width_u(pts).reshape(self.n[0], self.n[1])
+        self.ca = self.lo[0] + (np.arange(self.n[0]) + 0.5) * h  # cell centres
+        self.cb = self.lo[1] + (np.arange(self.n[1]) + 0.5) * h
+        self.u = np.zeros((self.n[0], self.n[1]))
+        self.known = np.zeros((self.n[0], self.n[1]), bool)
+        self._lock = threading.Lock()
+
+    def at(self, ia: np.ndarray, ib: np.ndarray) -> np.ndarray:
+        """u of cells (ia, ib) (index arrays that broadcast together)."""
+        with self._lock:
+            need = ~self.known[ia, ib]
+            if need.any():
+                ia_, ib_ = np.broadcast_arrays(ia, ib)
+                cells = np.unique(ia_[need] * self.n[1] + ib_[need])
+                a, b = np.divmod(cells, self.n[1])
+                e1, e2 = self.basis
+                pts = self.origin + self.ca[a].reshape(-1, 1) * e1 + self.cb[b].reshape(-1, 1) * e2
+                self.u.ravel()[cells] = self.axes.width_u(pts)
+                self.known.ravel()[cells] = True
+            return self.u[ia, ib]
 
     def __call__(self, p: np.ndarray) -> np.ndarray:
         ab = (p - self.origin) @ self.basis.T
         idx = np.clip(((ab - self.lo) / self.h).astype(np.int64), 0, self.n - 1)
-        return self.u[idx[:, 0], idx[:, 1]]
+        return self.at(idx[:, 0], idx[:, 1])
 
 
 def _window(region: VoxelRegion, grid: Grid) -> tuple[int, int, int, int, int, int]:
@@ -402,21 +418,35 @@ def png_bytes(labels: np.ndarray, pitch: Pitch) -> bytes:
     """A 2-bit palette PNG of ``labels`` (ny, nx) with values 0..3 (:data:`PALETTE`);
     row 0 of the image is y index 0 (the grid's front edge); pHYs gives the pitch."""
     ny, nx = labels.shape
-    lab = np.zeros((ny, nx + (-nx) % 4), np.uint8)
+    lab = np.zeros((ny, _padded(nx)), np.uint8)
     lab[:, :nx] = labels
+    return _png(lab, nx, pitch)
+
+
+def _padded(nx: int) -> int:
+    """Columns of a label row padded to whole bytes of four 2-bit pixels."""
+    return nx + (-nx) % 4
+
+
+def _png(lab: np.ndarray, nx: int, pitch: Pitch) -> bytes:
+    """:func:`png_bytes` of labels already padded with zeros to :func:`_padded` columns
+    (uint8, C-contiguous)."""
+    ny = lab.shape[0]
     # four labels b0..b3 (0..3) -> one byte b0 << 6 | b1 << 4 | b2 << 2 | b3: read as a
     # little-endian word v = b0 + b1 2^8 + b2 2^16 + b3 2^24, v * PACK puts b0 << 30, b1 << 28,
     # b2 << 26, b3 << 24 in the top byte; every other product lies in bits 0-21 (no carry
     # reaches bit 24) or beyond bit 31 (dropped modulo 2^32)
-    word = lab.view("<u4")
-    raw = np.zeros((ny, word.shape[1] + 1), np.uint8)  # filter byte 0 (None) per row
-    raw[:, 1:] = (word * np.uint32(_PACK)) >> np.uint32(24)
+    word = np.multiply(lab.view("<u4"), np.uint32(_PACK))
+    np.right_shift(word, np.uint32(24), out=word)
+    raw = np.empty((ny, word.shape[1] + 1), np.uint8)
+    raw[:, 0] = 0  # filter byte 0 (None) per row
+    raw[:, 1:] = word
     ihdr = struct.pack(">IIBBBBB", nx, ny, 2, 3, 0, 0, 0)
     plte = b"".join(bytes(rgba[:3]) for _, rgba in PALETTE)
     trns = bytes(rgba[3] for _, rgba in PALETTE)
     phys = struct.pack(">IIB", round(1000.0 / pitch.x), round(1000.0 / pitch.y), 1)  # pixels per metre
     return (b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", ihdr) + _chunk(b"PLTE", plte) + _chunk(b"tRNS", trns)
-            + _chunk(b"pHYs", phys) + _chunk(b"IDAT", zlib.compress(raw.tobytes(), ZLIB_LEVEL))
+            + _chunk(b"pHYs", phys) + _chunk(b"IDAT", zlib.compress(raw, ZLIB_LEVEL))
             + _chunk(b"IEND", b""))
 
 
@@ -613,7 +643,7 @@ class _SliceWriter:
         grid, p = self.grid, self.p
         nx, ny, _ = grid.shape
         z = grid.layer_z(k)
-        labels = np.zeros((ny, nx), np.uint8)
+        labels = np.zeros((ny, _padded(nx)), np.uint8)  # the padding columns stay empty
         sums = []
         for idx, (r, (i0, i1, j0, j1, k0, k1)) in enumerate(zip(self.part.regions, self.windows)):
             if not (k0 <= k < k1) or i1 <= i0 or j1 <= j0:
@@ -635,7 +665,7 @@ class _SliceWriter:
             np.copyto(view, np.where(white, np.uint8(VERO), np.uint8(TANGO)), where=mask)
             if idx in self.stats:
                 sums.append((idx, self.stats[idx].block_sums(mask, white, f, k, count)))
-        return png_bytes(labels, p), sums
+        return _png(labels, nx, p), sums
 
     def _mask(self, idx: int, polys: list) -> tuple[np.ndarray, np.ndarray | None]:
         """The region's pixels inside ``polys`` (and their block counts for a hinge): the
