@@ -42,7 +42,7 @@ from ..core.errors import ExportError
 
 #: PNG palette: index -> (name, RGBA). Index 0 is empty space (transparent; its RGB,
 #: magenta, is neither resin, so a tool that drops alpha does not read it as a resin).
-EMPTY, VERO, TANGO = 0, 1, 2
+EMPTY, VERO, TANGO = 0, 1, 2  # VERO = TANGO - 1: a hinge voxel is TANGO - (VeroWhite?)
 PALETTE = ((None, (255, 0, 255, 0)), ("VeroWhite", (255, 255, 255, 255)), ("TangoBlack", (0, 0, 0, 255)))
 #: the two base resins (names as in the material library)
 VERO_WHITE, TANGO_BLACK = "VeroWhite", "TangoBlack"
@@ -662,7 +662,7 @@ class _SliceWriter:
                 np.copyto(view, np.uint8(VERO if c == 1.0 else TANGO), where=mask)
                 continue
             white, f = self._dither(idx, r, k, z)
-            np.copyto(view, np.where(white, np.uint8(VERO), np.uint8(TANGO)), where=mask)
+            np.copyto(view, np.subtract(np.uint8(TANGO), white.view(np.uint8)), where=mask)  # VERO = TANGO - 1
             if idx in self.stats:
                 sums.append((idx, self.stats[idx].block_sums(mask, white, f, k, count)))
         return _png(labels, nx, p), sums
