@@ -7,10 +7,11 @@ for hinges, the :class:`~foldprint.geometry.HingeAxes` that map a point to u); i
 physics and builds no geometry.
 
 Streamed: each slice is cut from the solids (``Manifold.slice``), rasterised with numpy
-(even-odd scan lines at pixel centres) and encoded as a 2-bit palette PNG with zlib, one
-at a time; :func:`slice_files` returns callables that :func:`~foldprint.exchange.files.write_set`
-calls in order, so only one slice is in memory. The manifest comes last and carries the
-fractions measured on the written voxels.
+(even-odd scan lines at pixel centres) and encoded as a 2-bit palette PNG with zlib;
+:func:`slice_files` returns callables that :func:`~foldprint.exchange.files.write_set`
+calls in order. A few threads make the next slices ahead (at most ``workers * AHEAD + 1``
+in memory), taken and measured in order, so the bytes are those of a one-at-a-time
+writer. The manifest comes last and carries the fractions measured on the written voxels.
 
 Dithering: a voxel (ix, iy, layer k) is VeroWhite when its threshold
 t = frac(B[iy mod 64, ix mod 64] + k * (golden ratio - 1)) is below the VeroWhite fraction
