@@ -1,25 +1,38 @@
-"""Voxel print: wall time, peak RSS and slices/s of the streamed writer, against a
-whole-volume baseline measured in the same run.
+"""Voxel print: wall time, CPU time and peak RSS of the streamed writer on the issue's
+plate, against the pre-change writer and the writer with one thread, measured in the same
+run, plus small-plate baselines.
 
-    python benchmarks/bench_voxels.py [--json] [--size X,Y,Z] [--small X,Y,Z]
+    python benchmarks/bench_voxels.py [--json] [--size X,Y,Z] [--small X,Y,Z] [--no-reference] [--no-serial]
 
 The part is a plate of --size mm (default 150 x 150 x 20, the issue's target: < 2 min and
 < 1 GB) cut across x into 10 mm VeroWhite panels and 5 mm hinges (odd hinges graded
 0.2 -> 0.8 across their width, even ones uniform 0.42), so every slice dithers 1/3 of its
 area. It is written at the J750 pitch (600 x 300 dpi, 27 um) through the staged set
-(:func:`foldprint.exchange.files.write_set`, one fsync per file), in a fresh process whose
-peak RSS is read from the kernel (``ru_maxrss``).
+(:func:`foldprint.exchange.files.write_set`, one fsync per file), each run in a fresh
+process whose peak RSS is read from the kernel (``ru_maxrss``); CPU time is the process's
+(all threads).
 
-Baselines (same run, a --small plate, default 15 x 5 x 2 mm: one panel and one hinge; trimesh needs 1.9 GB for it, since neither fits the big one):
+Runs on the big plate:
+
+* ``streamed_big``: the writer (``slice_files``, default threads);
+* ``serial_big``: the same with one thread (``workers=1``);
+* ``reference_big``: the writer as it was before it was made faster (foldprint 905e954,
+  :class:`_Reference`: every region sliced and filled every layer, thresholds gathered per
+  voxel, boolean-index labels, whole width tables, one layer at a time). Its slices must
+  be the same bytes: the run reports whether the stacks' sha256 agree.
+
+Baselines on a --small plate (default 15 x 5 x 2 mm: one panel and one hinge; trimesh
+needs 1.9 GB for it, so neither fits the big one):
 
 * ``whole_volume``: the same rasteriser and dither, but every slice's labels kept in one
   (nz, ny, nx) uint8 volume before encoding (what a non-streamed writer holds);
 * ``trimesh``: ``trimesh.voxel.creation.voxelize`` + ``fill`` of the plate's mesh at the x
   pitch (isotropic: trimesh has one pitch), occupancy only (no materials, no PNG).
 
-Ratios are voxels per second and peak RSS over the streamed writer's on the small plate,
-and the big plate's peak RSS over the small plate's (streaming: memory grows with a
-slice's area, not with the layer count).
+Ratios: reference and serial over streamed (wall, CPU, peak RSS) on the big plate; voxels
+per second and peak RSS over the streamed writer's on the small plate; the big plate's
+peak RSS over the small plate's (streaming: memory grows with a slice's area, not with
+the layer count).
 """
 
 from __future__ import annotations
