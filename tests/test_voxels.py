@@ -175,6 +175,126 @@ def test_slices_are_byte_identical_between_runs(tmp_path):
     assert len(a) == part.grid().shape[2] == ma["layers"]
 
 
+def _tilted_part(profile) -> vx.VoxelPart:
+    """A panel and a hinge whose cross-sections change from layer to layer (rotated about
+    x and z), next to a flat prism hinge whose cross-section repeats."""
+    import math as _m
+    tilt = _box(0.0, 0.0, -0.3, 3.0, 2.0, 0.3).rotate([17.0, 0.0, 23.0])
+    lo = tilt.bounding_box()
+    d = np.array([-_m.sin(_m.radians(23.0)), _m.cos(_m.radians(23.0)), 0.0])
+    mid = np.stack([np.linspace(lo[0], lo[3], 65), np.linspace(lo[1], lo[1], 65), np.zeros(65)], axis=1)
+    axes = HingeAxes("t", mid[0].copy(), d, 2.0, mid)
+    regions = (vx.VoxelRegion("panel", "p", "TangoBlack", _box(-2.0, -1.0, -0.5, -0.5, 2.0, 0.5), vx.Uniform(0.0)),
+               vx.VoxelRegion("hinge", "t", "X", tilt, profile, axes),
+               vx.VoxelRegion("hinge", "h", "Y", _box(3.5, 0.0, -0.4, 5.0, 2.0, 0.4), Profile((0.2, 0.6), Along.WIDTH),
+                              _straight_axes("h", 3.5, 5.0, 0.0, 2.0, 0.0)))
+    return vx.VoxelPart("test", "permanent", regions, J750, np.array([0.0, 0.0, 0.6]))
+
+
+@pytest.mark.parametrize("profile", [Profile((0.3, 0.8), Along.WIDTH), Profile((0.7, 0.1), Along.LENGTH),
+                                     Profile((0.42,))])
+def test_slices_and_manifest_do_not_depend_on_the_worker_threads(tmp_path, profile):
+    """Slices made ahead by 1, 2 or 3 threads: the same bytes, the same manifest."""
+    out = []
+    for workers in (1, 2, 3):
+        files = vx.slice_files(_tilted_part(profile), "t", workers=workers)
+        out.append([make() for _, make in files])
+    assert out[0] == out[1] == out[2]
+
+
+def test_the_writer_matches_a_layer_by_layer_reference():
+    """Every layer filled, dithered and encoded on its own (no reused mask, thresholds
+    gathered per voxel, fractions along the length from the axes): the writer's slices."""
+    part = _tilted_part(Profile((0.7, 0.1), Along.LENGTH))
+    grid, p = part.grid(), part.pitch
+    nx, ny, nz = grid.shape
+    slices = [make() for _, make in vx.slice_files(part, "t", workers=2)][:-1]
+    for k in range(nz):
+        labels = np.zeros((ny, nx), np.uint8)
+        z = grid.layer_z(k)
+        for r in part.regions:
+            i0, i1, j0, j1, k0, k1 = vx._window(r, grid)
+            polys = r.solid.slice(z).to_polygons() if k0 <= k < k1 else []
+            if not polys:
+                continue
+            mask = vx.fill(polys, grid.origin[0] + i0 * p.x, grid.origin[1] + j0 * p.y, p.x, p.y, i1 - i0, j1 - j0)
+            if r.kind == "panel":
+                labels[j0:j1, i0:i1][mask] = vx.TANGO
+                continue
+            rows, cols = np.arange(j0, j1), np.arange(i0, i1)
+            t = vx.layer_mask(k)[np.ix_(rows % vx.MASK_SIZE, cols % vx.MASK_SIZE)]
+            if r.along_length:
+                X, Y = np.meshgrid(grid.origin[0] + (cols + 0.5) * p.x, grid.origin[1] + (rows + 0.5) * p.y)
+                ax = r.axes
+                u = ((X - ax.origin[0]) * ax.direction[0] + (Y - ax.origin[1]) * ax.direction[1]
+                     + (z - ax.origin[2]) * ax.direction[2]) / ax.length
+                f = np.clip(r.profile.at(np.clip(u, 0.0, 1.0)), 0.0, 1.0)
+            else:  # the width-graded prism: the writer's own table (tested below against width_u)
+                table = vx._WidthTable(r, p)
+                f = vx._fraction_window(r, table, grid.origin[0] + (cols + 0.5) * p.x,
+                                        grid.origin[1] + (rows + 0.5) * p.y, z)
+            white = t < f
+            view = labels[j0:j1, i0:i1]
+            view[mask & white] = vx.VERO
+            view[mask & ~white] = vx.TANGO
+        assert slices[k] == vx.png_bytes(labels, p), k
+
+
+def test_width_table_cells_are_width_u_of_their_centres():
+    """The lazily filled table holds, cell by cell, what width_u gives for the whole grid."""
+    r = _tilted_part(Profile((0.3, 0.8), Along.WIDTH)).regions[1]
+    t = vx._WidthTable(r, vx.Pitch(0.2, 0.2, 0.2))
+    rng = np.random.default_rng(3)
+    ia = rng.integers(0, t.n[0], (40, 1))
+    ib = rng.integers(0, t.n[1], (1, 30))
+    got = t.at(ia, ib)
+    A, B = np.meshgrid(t.ca, t.cb, indexing="ij")
+    whole = r.axes.width_u(t.origin + A.reshape(-1, 1) * t.basis[0] + B.reshape(-1, 1) * t.basis[1])
+    assert np.array_equal(got, whole.reshape(t.n[0], t.n[1])[ia, ib])
+    assert t.known.sum() == len(np.unique(ia.ravel()[:, None] * t.n[1] + ib.ravel()[None, :]))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 300), st.integers(1, 200), st.integers(0, 300), st.integers(1, 200), st.integers(0, 99))
+def test_tiled_thresholds_are_the_gathered_ones(j0, h, i0, w, k):
+    m = vx.layer_mask(k)
+    want = m[np.ix_(np.arange(j0, j0 + h) % vx.MASK_SIZE, np.arange(i0, i0 + w) % vx.MASK_SIZE)]
+    assert np.array_equal(vx._tiled(m, j0, j0 + h, i0, i0 + w), want)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.sampled_from([0.0, 0.6, -1.0]), st.sampled_from([0.0, 0.8, 0.3]), st.floats(-2.0, 2.0),
+       st.integers(1, 40), st.integers(1, 40))
+def test_separable_plane_is_the_whole_window_sum(ex, ey, ez, w, h):
+    """(p - o) . e over a window, as a row or column when e has no y or no x part: bit for bit."""
+    xs, ys = np.linspace(-1.3, 2.9, w), np.linspace(0.7, -3.1, h)
+    o, e, z = np.array([0.3, -0.2, 0.05]), np.array([ex, ey, ez]), 0.4
+    whole = (xs[None, :] - o[0]) * e[0] + (ys[:, None] - o[1]) * e[1] + (z - o[2]) * e[2]
+    got = np.broadcast_to(vx._plane(xs, ys, z, o, e), (h, w))
+    assert np.array_equal(got, whole)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 9), st.integers(0, 2**32 - 1))
+def test_png_packing_is_the_shift_and_or_of_four_pixels(nx, ny, seed):
+    import zlib
+    lab = np.random.default_rng(seed).integers(0, 4, (ny, nx)).astype(np.uint8)
+    q = np.pad(lab, ((0, 0), (0, (-nx) % 4))).reshape(ny, -1, 4)
+    raw = np.zeros((ny, q.shape[1] + 1), np.uint8)
+    raw[:, 1:] = (q[:, :, 0] << 6) | (q[:, :, 1] << 4) | (q[:, :, 2] << 2) | q[:, :, 3]
+    data = vx.png_bytes(lab, J750)
+    assert data[data.index(b"IDAT") + 4:-16] == zlib.compress(raw.tobytes(), vx.ZLIB_LEVEL)
+
+
+def test_a_slice_failing_in_a_worker_thread_leaves_no_set(tmp_path):
+    bad = vx.VoxelRegion("panel", "q", "VW0.5", _box(-4.0, 0.0, -0.5, -2.5, 3.0, 0.5), vx.Uniform(0.5))
+    part = _part(Profile((0.5,)))
+    part = vx.VoxelPart(part.design, part.state, part.regions + (bad,), part.pitch, part.print_offset)
+    with pytest.raises(ExportError, match="panel 'q'.*not a base resin"):
+        write_set(tmp_path / "out", vx.slice_files(part, "t", workers=2))
+    assert not (tmp_path / "out").exists()
+
+
 def test_panels_are_one_resin_and_empty_is_transparent(tmp_path):
     part = _part(Profile((0.5,)))
     slices, manifest = _stack(part, tmp_path)

@@ -7,10 +7,11 @@ for hinges, the :class:`~foldprint.geometry.HingeAxes` that map a point to u); i
 physics and builds no geometry.
 
 Streamed: each slice is cut from the solids (``Manifold.slice``), rasterised with numpy
-(even-odd scan lines at pixel centres) and encoded as a 2-bit palette PNG with zlib, one
-at a time; :func:`slice_files` returns callables that :func:`~foldprint.exchange.files.write_set`
-calls in order, so only one slice is in memory. The manifest comes last and carries the
-fractions measured on the written voxels.
+(even-odd scan lines at pixel centres) and encoded as a 2-bit palette PNG with zlib;
+:func:`slice_files` returns callables that :func:`~foldprint.exchange.files.write_set`
+calls in order. A few threads make the next slices ahead (at most ``workers * AHEAD + 1``
+in memory), taken and measured in order, so the bytes are those of a one-at-a-time
+writer. The manifest comes last and carries the fractions measured on the written voxels.
 
 Dithering: a voxel (ix, iy, layer k) is VeroWhite when its threshold
 t = frac(B[iy mod 64, ix mod 64] + k * (golden ratio - 1)) is below the VeroWhite fraction
@@ -25,8 +26,12 @@ from __future__ import annotations
 import functools
 import json
 import math
+import os
 import struct
+import threading
+import weakref
 import zlib
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -38,7 +43,7 @@ from ..core.errors import ExportError
 
 #: PNG palette: index -> (name, RGBA). Index 0 is empty space (transparent; its RGB,
 #: magenta, is neither resin, so a tool that drops alpha does not read it as a resin).
-EMPTY, VERO, TANGO = 0, 1, 2
+EMPTY, VERO, TANGO = 0, 1, 2  # VERO = TANGO - 1: a hinge voxel is TANGO - (VeroWhite?)
 PALETTE = ((None, (255, 0, 255, 0)), ("VeroWhite", (255, 255, 255, 255)), ("TangoBlack", (0, 0, 0, 255)))
 #: the two base resins (names as in the material library)
 VERO_WHITE, TANGO_BLACK = "VeroWhite", "TangoBlack"
@@ -55,6 +60,11 @@ BLOCK_MM = 1.0
 #: hinge's faces hold a few voxels, where no dithering can be within 1 %)
 BLOCK_MIN_FILL = 0.5
 ZLIB_LEVEL = 6
+#: threads that make slices ahead of the writer, at most (2 cores here; zlib, numpy and the
+#: fill release the GIL, the Python between them does not)
+MAX_WORKERS = 4
+#: layers made ahead per worker thread (each holds a slice's labels and PNG until written)
+AHEAD = 2
 
 
 @dataclass(frozen=True)
@@ -234,23 +244,41 @@ def layer_mask(k: int) -> np.ndarray:
     return t - np.floor(t)
 
 
+def _plane(xs: np.ndarray, ys: np.ndarray, z: float, o: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """(p - o) . e at the pixel centres (xs[i], ys[j], z) of a window, as the smallest array
+    that broadcasts to (len(ys), len(xs)): the same sum ((x-term + y-term) + z-term) as over
+    the whole window, where a term whose coefficient is 0 adds exactly nothing and is left
+    out (a row when e has no y part, a column when it has no x part)."""
+    zt = (z - o[2]) * e[2]
+    if e[1] == 0.0:
+        return ((xs - o[0]) * e[0] + zt)[None, :]
+    if e[0] == 0.0:
+        return ((ys - o[1]) * e[1] + zt)[:, None]
+    return (xs[None, :] - o[0]) * e[0] + (ys[:, None] - o[1]) * e[1] + zt
+
+
 def _fraction_window(r: VoxelRegion, table, xs: np.ndarray, ys: np.ndarray, z: float) -> np.ndarray:
-    """(len(ys), len(xs)) VeroWhite fraction of a graded hinge at the pixel centres of a
-    window of the layer at height z: u is linear in x and y (along the length) or looked
-    up in the hinge's width table, both separable in x and y."""
+    """VeroWhite fraction of a graded hinge at the pixel centres of a window of the layer at
+    height z, as an array that broadcasts to (len(ys), len(xs)): u is linear in x and y
+    (along the length) or looked up in the hinge's width table, both separable in x and y."""
     if r.along_length:
         ax = r.axes
-        d, o = ax.direction, ax.origin
-        u = ((xs[None, :] - o[0]) * d[0] + (ys[:, None] - o[1]) * d[1] + (z - o[2]) * d[2]) / ax.length
+        u = _plane(xs, ys, z, ax.origin, ax.direction) / ax.length
     else:
-        e = table.basis
-        o = table.origin
-        a = (xs[None, :] - o[0]) * e[0, 0] + (ys[:, None] - o[1]) * e[0, 1] + (z - o[2]) * e[0, 2]
-        b = (xs[None, :] - o[0]) * e[1, 0] + (ys[:, None] - o[1]) * e[1, 1] + (z - o[2]) * e[1, 2]
+        e, o = table.basis, table.origin
+        a, b = _plane(xs, ys, z, o, e[0]), _plane(xs, ys, z, o, e[1])
         ia = np.clip(((a - table.lo[0]) / table.h).astype(np.int64), 0, table.n[0] - 1)
         ib = np.clip(((b - table.lo[1]) / table.h).astype(np.int64), 0, table.n[1] - 1)
-        u = table.u[ia, ib]
+        u = table.at(ia, ib)
     return np.clip(np.asarray(r.profile.at(np.clip(u, 0.0, 1.0)), dtype=float), 0.0, 1.0)
+
+
+def _tiled(tile: np.ndarray, j0: int, j1: int, i0: int, i1: int) -> np.ndarray:
+    """``tile[(j0..j1-1) % m][:, (i0..i1-1) % m]`` of an (m, m) tile, by repeating the rolled
+    tile (a copy at memory speed) instead of gathering element by element."""
+    m = tile.shape[0]
+    t = np.roll(tile, (-(j0 % m), -(i0 % m)), axis=(0, 1))
+    return np.tile(t, (-(-(j1 - j0) // m), -(-(i1 - i0) // m)))[:j1 - j0, :i1 - i0]
 
 
 # -- rasterising ---------------------------------------------------------------------------
@@ -260,10 +288,20 @@ def fill(polygons: list[np.ndarray], x0: float, y0: float, px: float, py: float,
     """(ny, nx) bool: pixel centres (x0 + (i + 0.5) px, y0 + (j + 0.5) py) inside the
     polygons (even-odd rule, rings closed implicitly; a centre on a left edge is in, on a
     right edge out)."""
-    mask = np.zeros((ny, nx), bool)
+    return _paint(_runs(polygons, x0, y0, px, py, nx, ny), nx, ny)
+
+
+_NO_RUNS = (np.zeros(0, np.int64),) * 3
+
+
+def _runs(polygons: list[np.ndarray], x0: float, y0: float, px: float, py: float,
+          nx: int, ny: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of pixels inside the polygons, (rows, first column, end column): what
+    :func:`fill` paints, and all it depends on (the scan lines' crossings, rounded to
+    pixel centres)."""
     rings = [np.asarray(p, float) for p in polygons if len(p) >= 3]
     if not rings:
-        return mask
+        return _NO_RUNS
     a = np.concatenate(rings)
     b = np.concatenate([np.roll(r, -1, axis=0) for r in rings])
     keep = a[:, 1] != b[:, 1]
@@ -273,7 +311,7 @@ def fill(polygons: list[np.ndarray], x0: float, y0: float, px: float, py: float,
     j1 = np.clip(np.ceil((yhi - y0) / py - 0.5), 0, ny).astype(np.int64)
     cnt = j1 - j0
     if cnt.sum() == 0:
-        return mask
+        return _NO_RUNS
     e = np.repeat(np.arange(len(a)), cnt)
     j = j0[e] + (np.arange(len(e)) - np.repeat(np.cumsum(cnt) - cnt, cnt))
     yc = y0 + (j + 0.5) * py
@@ -283,9 +321,16 @@ def fill(polygons: list[np.ndarray], x0: float, y0: float, px: float, py: float,
     j, x = j[order], x[order]
     if len(j) % 2:  # cannot happen for closed rings; be safe
         raise ExportError("voxel slice: an open outline (odd number of edge crossings)")
-    rows = j[0::2]
     i0 = np.clip(np.ceil((x[0::2] - x0) / px - 0.5), 0, nx).astype(np.int64)
     i1 = np.clip(np.ceil((x[1::2] - x0) / px - 0.5), 0, nx).astype(np.int64)
+    return j[0::2], i0, i1
+
+
+def _paint(runs: tuple[np.ndarray, np.ndarray, np.ndarray], nx: int, ny: int) -> np.ndarray:
+    """(ny, nx) bool mask of :func:`_runs`' runs."""
+    rows, i0, i1 = runs
+    if len(rows) == 0:
+        return np.zeros((ny, nx), bool)
     diff = np.bincount(rows * (nx + 1) + i0, minlength=ny * (nx + 1)).astype(np.int32)
     diff -= np.bincount(rows * (nx + 1) + i1, minlength=ny * (nx + 1)).astype(np.int32)
     return np.cumsum(diff.reshape(ny, nx + 1), axis=1)[:, :nx] > 0
@@ -298,10 +343,12 @@ WIDTH_TABLE_CELL = 0.25
 
 
 class _WidthTable:
-    """u across a hinge (``HingeAxes.width_u``) tabulated once on a grid in the plane
+    """u across a hinge (``HingeAxes.width_u``) on a grid of cells in the plane
     perpendicular to its fold line (u does not change along the line), looked up per voxel
-    by the nearest cell: the nearest-point search over the mid-line costs 0.6 us a point,
-    the lookup ~0.03 us."""
+    by the nearest cell: the nearest-point search over the mid-line costs ~1 us a point,
+    the lookup ~0.03 us. A cell's u is computed the first time a voxel looks it up (a
+    layer of a flat hinge touches one row of cells in z), from the same cell centre as
+    a table made whole; thread-safe."""
 
     def __init__(self, region: VoxelRegion, pitch: Pitch):
         ax = region.axes
@@ -311,7 +358,7 @@ class _WidthTable:
             e1 = np.cross(d, [1.0, 0.0, 0.0])
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(d, e1)
-        self.origin, self.basis = ax.origin, np.stack([e1, e2])
+        self.axes, self.origin, self.basis = ax, ax.origin, np.stack([e1, e2])
         bb = np.asarray(region.solid.bounding_box()).reshape(2, 3)
         corners = np.array([[bb[i, 0], bb[j, 1], bb[k, 2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
         ab = (corners - self.origin) @ self.basis.T
@@ -321,16 +368,30 @@ class _WidthTable:
         h = max(h, math.sqrt(span[0] * span[1] / WIDTH_TABLE_CELLS))
         self.h = h
         self.n = np.maximum(1, np.ceil(span / h).astype(np.int64))
-        ca = self.lo[0] + (np.arange(self.n[0]) + 0.5) * h
-        cb = self.lo[1] + (np.arange(self.n[1]) + 0.5) * h
-        A, B = np.meshgrid(ca, cb, indexing="ij")
-        pts = self.origin + A.reshape(-1, 1) * e1 + B.reshape(-1, 1) * e2
-        self.u = ax.width_u(pts).reshape(self.n[0], self.n[1])
+        self.ca = self.lo[0] + (np.arange(self.n[0]) + 0.5) * h  # cell centres
+        self.cb = self.lo[1] + (np.arange(self.n[1]) + 0.5) * h
+        self.u = np.zeros((self.n[0], self.n[1]))
+        self.known = np.zeros((self.n[0], self.n[1]), bool)
+        self._lock = threading.Lock()
+
+    def at(self, ia: np.ndarray, ib: np.ndarray) -> np.ndarray:
+        """u of cells (ia, ib) (index arrays that broadcast together)."""
+        with self._lock:
+            need = ~self.known[ia, ib]
+            if need.any():
+                ia_, ib_ = np.broadcast_arrays(ia, ib)
+                cells = np.unique(ia_[need] * self.n[1] + ib_[need])
+                a, b = np.divmod(cells, self.n[1])
+                e1, e2 = self.basis
+                pts = self.origin + self.ca[a].reshape(-1, 1) * e1 + self.cb[b].reshape(-1, 1) * e2
+                self.u.ravel()[cells] = self.axes.width_u(pts)
+                self.known.ravel()[cells] = True
+            return self.u[ia, ib]
 
     def __call__(self, p: np.ndarray) -> np.ndarray:
         ab = (p - self.origin) @ self.basis.T
         idx = np.clip(((ab - self.lo) / self.h).astype(np.int64), 0, self.n - 1)
-        return self.u[idx[:, 0], idx[:, 1]]
+        return self.at(idx[:, 0], idx[:, 1])
 
 
 def _window(region: VoxelRegion, grid: Grid) -> tuple[int, int, int, int, int, int]:
@@ -347,6 +408,9 @@ def _window(region: VoxelRegion, grid: Grid) -> tuple[int, int, int, int, int, i
 
 # -- PNG -----------------------------------------------------------------------------------
 
+_PACK = (1 << 30) | (1 << 20) | (1 << 10) | 1
+
+
 def _chunk(kind: bytes, data: bytes) -> bytes:
     return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
@@ -355,18 +419,35 @@ def png_bytes(labels: np.ndarray, pitch: Pitch) -> bytes:
     """A 2-bit palette PNG of ``labels`` (ny, nx) with values 0..3 (:data:`PALETTE`);
     row 0 of the image is y index 0 (the grid's front edge); pHYs gives the pitch."""
     ny, nx = labels.shape
-    pad = (-nx) % 4
-    lab = np.pad(labels.astype(np.uint8), ((0, 0), (0, pad))) if pad else labels.astype(np.uint8)
-    q = lab.reshape(ny, -1, 4)
-    packed = (q[:, :, 0] << 6) | (q[:, :, 1] << 4) | (q[:, :, 2] << 2) | q[:, :, 3]
-    raw = np.zeros((ny, packed.shape[1] + 1), np.uint8)  # filter byte 0 (None) per row
-    raw[:, 1:] = packed
+    lab = np.zeros((ny, _padded(nx)), np.uint8)
+    lab[:, :nx] = labels
+    return _png(lab, nx, pitch)
+
+
+def _padded(nx: int) -> int:
+    """Columns of a label row padded to whole bytes of four 2-bit pixels."""
+    return nx + (-nx) % 4
+
+
+def _png(lab: np.ndarray, nx: int, pitch: Pitch) -> bytes:
+    """:func:`png_bytes` of labels already padded with zeros to :func:`_padded` columns
+    (uint8, C-contiguous)."""
+    ny = lab.shape[0]
+    # four labels b0..b3 (0..3) -> one byte b0 << 6 | b1 << 4 | b2 << 2 | b3: read as a
+    # little-endian word v = b0 + b1 2^8 + b2 2^16 + b3 2^24, v * PACK puts b0 << 30, b1 << 28,
+    # b2 << 26, b3 << 24 in the top byte; every other product lies in bits 0-21 (no carry
+    # reaches bit 24) or beyond bit 31 (dropped modulo 2^32)
+    word = np.multiply(lab.view("<u4"), np.uint32(_PACK))
+    np.right_shift(word, np.uint32(24), out=word)
+    raw = np.empty((ny, word.shape[1] + 1), np.uint8)
+    raw[:, 0] = 0  # filter byte 0 (None) per row
+    raw[:, 1:] = word
     ihdr = struct.pack(">IIBBBBB", nx, ny, 2, 3, 0, 0, 0)
     plte = b"".join(bytes(rgba[:3]) for _, rgba in PALETTE)
     trns = bytes(rgba[3] for _, rgba in PALETTE)
     phys = struct.pack(">IIB", round(1000.0 / pitch.x), round(1000.0 / pitch.y), 1)  # pixels per metre
     return (b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", ihdr) + _chunk(b"PLTE", plte) + _chunk(b"tRNS", trns)
-            + _chunk(b"pHYs", phys) + _chunk(b"IDAT", zlib.compress(raw.tobytes(), ZLIB_LEVEL))
+            + _chunk(b"pHYs", phys) + _chunk(b"IDAT", zlib.compress(raw, ZLIB_LEVEL))
             + _chunk(b"IEND", b""))
 
 
@@ -395,9 +476,11 @@ def read_png(data: bytes) -> np.ndarray:
 # -- the stack -----------------------------------------------------------------------------
 
 class _Stats:
-    """Per region: VeroWhite voxels, voxels and the target's sum, per 1 mm block."""
+    """Per hinge: VeroWhite voxels, voxels and the target's sum, per 1 mm block. The blocks
+    of its window's columns and rows are fixed; each layer's sums are made by
+    :meth:`block_sums` (in any thread) and added by :meth:`add` in layer order."""
 
-    def __init__(self, region: VoxelRegion, grid: Grid):
+    def __init__(self, region: VoxelRegion, grid: Grid, window: tuple):
         bb = region.solid.bounding_box()
         self.lo = np.floor((np.array(bb[:3]) - grid.origin) / BLOCK_MM).astype(np.int64)
         hi = np.floor((np.array(bb[3:]) - grid.origin) / BLOCK_MM).astype(np.int64)
@@ -406,30 +489,41 @@ class _Stats:
         self.vw = np.zeros(size)
         self.count = np.zeros(size)
         self.target = np.zeros(size)
+        self.pitch = p = grid.pitch
+        i0, i1, j0, j1 = window[:4]
+        # the runs of columns and rows whose centres fall in one 1 mm block
+        cb = np.floor((i0 + np.arange(i1 - i0) + 0.5) * p.x / BLOCK_MM).astype(np.int64) - self.lo[0]
+        rb = np.floor((j0 + np.arange(j1 - j0) + 0.5) * p.y / BLOCK_MM).astype(np.int64) - self.lo[1]
+        self.cs = np.flatnonzero(np.r_[True, cb[1:] != cb[:-1]])
+        self.rs = np.flatnonzero(np.r_[True, rb[1:] != rb[:-1]])
+        cb, rb = np.clip(cb[self.cs], 0, self.n[0] - 1), np.clip(rb[self.rs], 0, self.n[1] - 1)
+        self.key_xy = rb[:, None] * self.n[0] + cb[None, :]
 
-    def add_window(self, mask: np.ndarray, white: np.ndarray, f: np.ndarray | float, i0: int, j0: int, k: int,
-                   pitch: Pitch) -> None:
-        """Add a window (rows j0.., columns i0..) of layer k: per-block sums by ``np.add.reduceat`` over the runs of columns and rows whose
-        centres fall in one 1 mm block."""
-        h, w = mask.shape
-        cb = np.floor((i0 + np.arange(w) + 0.5) * pitch.x / BLOCK_MM).astype(np.int64) - self.lo[0]
-        rb = np.floor((j0 + np.arange(h) + 0.5) * pitch.y / BLOCK_MM).astype(np.int64) - self.lo[1]
-        zb = int(math.floor((k + 0.5) * pitch.z / BLOCK_MM)) - int(self.lo[2])
-        cs = np.flatnonzero(np.r_[True, cb[1:] != cb[:-1]])
-        rs = np.flatnonzero(np.r_[True, rb[1:] != rb[:-1]])
-        cb, rb = np.clip(cb[cs], 0, self.n[0] - 1), np.clip(rb[rs], 0, self.n[1] - 1)
+    def int_sums(self, a: np.ndarray) -> np.ndarray:
+        """Per-block counts of a bool window (columns first: contiguous and exact)."""
+        return np.add.reduceat(np.add.reduceat(a.view(np.uint8), self.cs, axis=1, dtype=np.int32),
+                               self.rs, axis=0, dtype=np.int64)
+
+    def block_sums(self, mask: np.ndarray, white: np.ndarray, f, k: int, count: np.ndarray | None = None) -> tuple:
+        """Layer k's (block keys, voxels, VeroWhite voxels, target sum) of the hinge's window;
+        ``count`` the mask's block counts when known."""
+        if count is None:
+            count = self.int_sums(mask)
+        vw = self.int_sums(mask & white)
+        if np.isscalar(f):
+            target = count * float(f)
+        else:  # float sums: rows first, then columns (the order the manifest's numbers were made in)
+            target = np.add.reduceat(np.add.reduceat(np.where(mask, f, 0.0), self.rs, axis=0, dtype=np.float64),
+                                     self.cs, axis=1, dtype=np.float64)
+        zb = int(math.floor((k + 0.5) * self.pitch.z / BLOCK_MM)) - int(self.lo[2])
         zb = min(max(zb, 0), int(self.n[2]) - 1)
+        key = (zb * self.n[1] * self.n[0] + self.key_xy).ravel()
+        return key, count.ravel(), vw.ravel(), np.asarray(target, float).ravel()
 
-        def sums(a, dtype):
-            return np.add.reduceat(np.add.reduceat(a, rs, axis=0, dtype=dtype), cs, axis=1, dtype=dtype)
-
-        count = sums(mask, np.int64)
-        vw = sums(mask & white, np.int64)
-        target = count * float(f) if np.isscalar(f) else sums(np.where(mask, f, 0.0), np.float64)
-        key = ((zb * self.n[1] + rb[:, None]) * self.n[0] + cb[None, :]).ravel()
-        np.add.at(self.count, key, count.ravel())
-        np.add.at(self.vw, key, vw.ravel())
-        np.add.at(self.target, key, np.asarray(target, float).ravel())
+    def add(self, key: np.ndarray, count: np.ndarray, vw: np.ndarray, target: np.ndarray) -> None:
+        np.add.at(self.count, key, count)
+        np.add.at(self.vw, key, vw)
+        np.add.at(self.target, key, target)
 
     def record(self, full_block: float) -> dict:
         total = float(self.count.sum())
@@ -443,14 +537,26 @@ class _Stats:
                 "within_tolerance": bool(len(err) == 0 or err.max() <= FRACTION_TOL)}
 
 
-def slice_files(part: VoxelPart, stem: str) -> list[tuple[str, Callable[[], bytes]]]:
+def default_workers() -> int:
+    """Threads that make slices ahead of the writer: the CPUs this process may use, at most
+    :data:`MAX_WORKERS` (1: every slice made by the caller, in order)."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cpus = os.cpu_count() or 1
+    return max(1, min(MAX_WORKERS, cpus))
+
+
+def slice_files(part: VoxelPart, stem: str, workers: int | None = None) -> list[tuple[str, Callable[[], bytes]]]:
     """(name, callable) per file of the voxel stack: ``<stem>_slice_NNNNN.png`` per layer
     (bottom first), then ``<stem>_voxels.json`` (the manifest). The callables must be
-    called in this order (:func:`~foldprint.exchange.files.write_set` does): each cuts,
-    rasterises and encodes one layer, and the manifest reports what they measured."""
+    called in this order (:func:`~foldprint.exchange.files.write_set` does): each returns
+    one layer's PNG, and the manifest reports what they measured. ``workers`` threads
+    (default :func:`default_workers`) make the next layers while the caller writes one;
+    the bytes do not depend on it."""
     if not part.regions:
         raise ExportError(f"design {part.design!r}: nothing to rasterise (no bodies)")
-    w = _SliceWriter(part)
+    w = _SliceWriter(part, default_workers() if workers is None else workers)
     nz = w.grid.shape[2]
     digits = max(5, len(str(nz - 1)))
     w.names = [f"{stem}_slice_{k:0{digits}d}.png" for k in range(nz)]
@@ -460,66 +566,136 @@ def slice_files(part: VoxelPart, stem: str) -> list[tuple[str, Callable[[], byte
 
 
 class _SliceWriter:
-    """Cuts, rasterises and dithers the layers of one voxel part in order, measuring each
-    hinge's fraction as it goes; then writes the manifest."""
+    """Cuts, rasterises and dithers the layers of one voxel part, measuring each hinge's
+    fraction; then writes the manifest.
 
-    def __init__(self, part: VoxelPart):
+    A layer is a pure function of k: its labels, its PNG and its hinges' block sums
+    (:meth:`_make`). With ``workers`` > 1 a thread pool makes up to :data:`AHEAD` layers per
+    worker ahead of the one asked for (numpy, zlib and the fill release the GIL); the
+    caller takes them in order and adds their block sums in order, so the bytes and the
+    manifest are those of the serial writer and at most ``workers * AHEAD + 1`` layers are
+    in memory. A region's mask is kept with the runs of pixels it was painted from
+    (:func:`_runs`, all the mask depends on) and reused while the next layers' cross-sections
+    give the same runs (a prism: panels and hinges printed flat)."""
+
+    def __init__(self, part: VoxelPart, workers: int = 1):
         self.part, self.grid, self.p = part, part.grid(), part.pitch
         self.windows = [_window(r, self.grid) for r in part.regions]
-        self.stats = {k: _Stats(r, self.grid) for k, r in enumerate(part.regions) if r.kind == "hinge"}
-        self.tables: dict[int, _WidthTable] = {}  # made on first use
+        self.stats = {k: _Stats(r, self.grid, self.windows[k]) for k, r in enumerate(part.regions)
+                      if r.kind == "hinge"}
+        self.tables: dict[int, _WidthTable] = {}
+        self.masks: dict[int, tuple] = {}  # region -> (runs, mask, block counts), the last painted
         self.next = 0
         self.names: list[str] = []
+        self.workers = max(1, int(workers))
+        self._ready = False
+        self._pool: ThreadPoolExecutor | None = None
+        self._pending: dict[int, Future] = {}
+        self._cut = threading.Lock()  # Manifold.slice from one thread at a time
 
     def layer(self, k: int) -> bytes:
         if self.next != k:
             raise ExportError("voxel slices must be written in order")
         self.next = k + 1
+        self._prepare()
+        if self.workers > 1:
+            png, sums = self._ahead(k)
+        else:
+            png, sums = self._make(k)
+        for idx, block in sums:
+            self.stats[idx].add(*block)
+        return png
+
+    def _prepare(self) -> None:
+        """Once, before any thread shares them: the blue-noise mask and the width tables of
+        the hinges graded across their width."""
+        if self._ready:
+            return
+        blue_noise()
+        for idx, r in enumerate(self.part.regions):
+            i0, i1, j0, j1, k0, k1 = self.windows[idx]
+            if r.kind != "hinge" or r.constant is not None or k1 <= k0 or i1 <= i0 or j1 <= j0:
+                continue
+            if r.axes is None:
+                raise ExportError(f"hinge {r.id!r}: a graded fraction needs the hinge's axes")
+            if not r.along_length:
+                self.tables[idx] = _WidthTable(r, self.p)
+        self._ready = True
+
+    def _ahead(self, k: int) -> tuple[bytes, list]:
+        nz = self.grid.shape[2]
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(self.workers, thread_name_prefix="voxel-slices")
+            self._stop = weakref.finalize(self, self._pool.shutdown, wait=False, cancel_futures=True)
+        for kk in range(k, min(nz, k + 1 + self.workers * AHEAD)):
+            if kk not in self._pending:
+                self._pending[kk] = self._pool.submit(self._make, kk)
+        try:
+            out = self._pending.pop(k).result()
+        except BaseException:
+            self._stop()
+            raise
+        if k == nz - 1:
+            self._stop()
+        return out
+
+    def _make(self, k: int) -> tuple[bytes, list]:
+        """Layer k: its PNG and its hinges' block sums, [(region, block_sums)]."""
         grid, p = self.grid, self.p
         nx, ny, _ = grid.shape
         z = grid.layer_z(k)
-        labels = np.zeros((ny, nx), np.uint8)
+        labels = np.zeros((ny, _padded(nx)), np.uint8)  # the padding columns stay empty
+        sums = []
         for idx, (r, (i0, i1, j0, j1, k0, k1)) in enumerate(zip(self.part.regions, self.windows)):
             if not (k0 <= k < k1) or i1 <= i0 or j1 <= j0:
                 continue
-            polys = r.solid.slice(z).to_polygons()
+            with self._cut:
+                polys = r.solid.slice(z).to_polygons()
             if not polys:
                 continue
-            ox = grid.origin[0] + i0 * p.x
-            oy = grid.origin[1] + j0 * p.y
-            mask = fill(polys, ox, oy, p.x, p.y, i1 - i0, j1 - j0)
+            mask, count = self._mask(idx, polys)
+            view = labels[j0:j1, i0:i1]
             c = r.constant
             if c is not None and r.kind == "panel":
                 if c not in (0.0, 1.0):
                     raise ExportError(f"panel {r.id!r}: material {r.material!r} is not a base resin "
                                       f"({VERO_WHITE} or {TANGO_BLACK}); voxel print dithers hinges only")
-                labels[j0:j1, i0:i1][mask] = VERO if c == 1.0 else TANGO
+                np.copyto(view, np.uint8(VERO if c == 1.0 else TANGO), where=mask)
                 continue
-            self._hinge_window(labels, idx, r, mask, (i0, i1, j0, j1), k, z)
-        return png_bytes(labels, p)
+            white, f = self._dither(idx, r, k, z)
+            np.copyto(view, np.subtract(np.uint8(TANGO), white.view(np.uint8)), where=mask)  # VERO = TANGO - 1
+            if idx in self.stats:
+                sums.append((idx, self.stats[idx].block_sums(mask, white, f, k, count)))
+        return _png(labels, nx, p), sums
 
-    def _hinge_window(self, labels: np.ndarray, idx: int, r, mask: np.ndarray, win: tuple, k: int,
-                      z: float) -> None:
-        """A hinge, dense over its window: thresholds, fraction, labels, block sums."""
-        i0, i1, j0, j1 = win
-        grid, p = self.grid, self.p
-        rows, cols = np.arange(j0, j1), np.arange(i0, i1)
-        t = layer_mask(k)[np.ix_(rows % MASK_SIZE, cols % MASK_SIZE)]
+    def _mask(self, idx: int, polys: list) -> tuple[np.ndarray, np.ndarray | None]:
+        """The region's pixels inside ``polys`` (and their block counts for a hinge): the
+        kept mask when the cross-section's runs of pixels are those it was painted from."""
+        i0, i1, j0, j1 = self.windows[idx][:4]
+        g, p = self.grid, self.p
+        runs = _runs(polys, g.origin[0] + i0 * p.x, g.origin[1] + j0 * p.y, p.x, p.y, i1 - i0, j1 - j0)
+        key = b"".join(a.tobytes() for a in runs)
+        kept = self.masks.get(idx)
+        if kept is not None and kept[0] == key:
+            return kept[1], kept[2]
+        mask = _paint(runs, i1 - i0, j1 - j0)
+        mask.flags.writeable = False
+        count = self.stats[idx].int_sums(mask) if idx in self.stats else None
+        self.masks[idx] = (key, mask, count)
+        return mask, count
+
+    def _dither(self, idx: int, r: VoxelRegion, k: int, z: float) -> tuple[np.ndarray, Any]:
+        """(VeroWhite?, fraction) over the hinge's window in layer k: a voxel is VeroWhite
+        when its threshold is below its fraction."""
+        i0, i1, j0, j1 = self.windows[idx][:4]
         c = r.constant
-        if c is not None:
-            f = c
-        else:
-            if not r.along_length and idx not in self.tables:
-                self.tables[idx] = _WidthTable(r, p)
-            xs = grid.origin[0] + (cols + 0.5) * p.x
-            ys = grid.origin[1] + (rows + 0.5) * p.y
-            f = _fraction_window(r, self.tables.get(idx), xs, ys, z)
-        white = t < f
-        view = labels[j0:j1, i0:i1]
-        view[mask & white] = VERO
-        view[mask & ~white] = TANGO
-        if idx in self.stats:
-            self.stats[idx].add_window(mask, white, f, i0, j0, k, p)
+        if c is not None:  # one comparison per threshold of the tile, then the tile repeated
+            return _tiled(layer_mask(k) < c, j0, j1, i0, i1), c
+        g, p = self.grid, self.p
+        xs = g.origin[0] + (np.arange(i0, i1) + 0.5) * p.x
+        ys = g.origin[1] + (np.arange(j0, j1) + 0.5) * p.y
+        f = _fraction_window(r, self.tables.get(idx), xs, ys, z)
+        return _tiled(layer_mask(k), j0, j1, i0, i1) < f, f
 
     def _regions(self) -> list[dict]:
         p = self.p
