@@ -338,7 +338,9 @@ def check_samples(samples: int, seconds_per_sample: float, workers: int, name: s
 
 
 #: voxel export (``export --format voxels``), measured with benchmarks/bench_voxels.py on
-#: the 150 x 150 x 20 mm plate (docs/voxels.md: 309 MB peak, 105 CPU-s for 4.65e9 voxels):
+#: the 150 x 150 x 20 mm plate (docs/voxels.md: the writer of e4bbc23, 180 MB peak, 39.8
+#: CPU-s for 4.65e9 voxels = 0.86e-8 s, rounded up; the pre-change writer's 309 MB /
+#: 105 CPU-s set the memory figures below, kept as an upper bound):
 #: bytes per pixel of one slice (the label image, a region's mask, its thresholds and
 #: fraction, the scan-line counts and their cumulative sum, the packed rows); per graded
 #: hinge its u table (<= 2e6 cells, 16 MB) and, while it is made, the cell centres and
@@ -347,7 +349,7 @@ def check_samples(samples: int, seconds_per_sample: float, workers: int, name: s
 VOXEL_BYTES_PER_PIXEL = 20
 VOXEL_TABLE_BYTES = 16 * 2 ** 20
 VOXEL_TABLE_BUILD_BYTES = 48 * 2 ** 20
-VOXEL_S_PER_VOXEL = 2.3e-8
+VOXEL_S_PER_VOXEL = 0.9e-8
 
 
 def check_voxels(shape: tuple[int, int, int], src: str = "", graded: int = 0) -> dict:
