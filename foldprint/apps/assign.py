@@ -27,6 +27,10 @@ The search uses the physics instead of enumerating the m^n assignments
 Every evaluation is a module-level function of a picklable task, run by a ``mapper``
 (local processes by default, a Dask cluster with :mod:`foldprint.apps.distributed`); the
 results come back in input order, so the answer does not depend on where it ran.
+
+This module is the search; the tasks and their mappers are in
+:mod:`foldprint.apps.assign_tasks`, what it reports (verdicts, choices, the result and its
+JSON) in :mod:`foldprint.apps.assign_result`. Their names still import from here.
 """
 
 from __future__ import annotations
@@ -43,13 +47,14 @@ from ..core.constants import CLEARANCE_SAMPLES
 from ..model.design import Design
 from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_DT_S, DEFAULT_SEED
 from ..core.errors import DesignError
-from ..physics.kinematics import HingeDrive
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import HingeModel, Method
 from ..physics.recovery import recovery_curve
-from ..simulation.robust import (CHUNK, Sample, Scatter, default_scatter, draw_samples, run_end, run_samples, sample_drive,
-                     wilson)
+from ..simulation.robust import CHUNK, Scatter, default_scatter, draw_samples, run_samples, wilson
 from ..simulation.timing import order_risk
+# the results and the tasks, importable from here as before
+from .assign_result import AssignResult, Choice, Verdict, _choice  # noqa: F401
+from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, local_mapper, run_task, with_materials  # noqa: F401
 
 OBJECTIVES = ("time", "margin", "robust")
 #: Evaluations (simulations) the search may spend by default.
@@ -77,162 +82,9 @@ EXHAUSTIVE_MAX = 128
 PER_PATTERN = 6
 #: Poses sampled along a fold for the clearance of a prefix (ranking the queue only).
 PREFIX_CLEARANCE_SAMPLES = 24
-#: Screening runs stop this long after the slowest active hinge reaches 98 % (s).
-SCREEN_TAIL_S = 0.5
 #: Bath temperatures tried across a ``--temperature-range``: every STEP_C, at most MAX_TEMPS.
 TEMPERATURE_STEP_C = 5.0
 MAX_TEMPS = 9
-
-
-@dataclass(frozen=True)
-class Verdict:
-    """What one evaluation found. ``pair``: the first colliding panels (ids); ``goal``:
-    the first goal not met in order; ``clearance_mm``: the smallest gap between
-    non-adjacent panels along the fold (when measured)."""
-
-    completed: bool
-    pair: tuple[str, str] | None
-    contact_time: float | None
-    goal: str | None
-    fold_time: float | None
-    clearance_mm: float | None
-    method: str
-
-
-@dataclass(frozen=True)
-class Task:
-    """One simulation: ``materials`` per hinge (None = held in its programmed shape)."""
-
-    design: Design
-    library: MaterialLibrary
-    materials: tuple[str | None, ...]
-    bath_c: float
-    method: Method
-    dt: float
-    duration: float | None
-    clearance_samples: int
-    #: a scatter draw (``robust`` screen): the hinges' materials, thicknesses and bath as
-    #: drawn; the run stops SCREEN_TAIL_S after the slowest drawn hinge reaches 98 %
-    sample: Sample | None = None
-
-
-def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None,
-                   library: MaterialLibrary | None = None) -> Design:
-    """``design`` with hinge ``k`` made of ``materials[k]`` (and the bath at ``bath_c``),
-    validated against ``library``."""
-    hinges = tuple(replace(h, material=m) for h, m in zip(design.hinges, materials))
-    proc = design.process if bath_c is None else replace(design.process, bath_temperature_c=float(bath_c))
-    return design.replace(library, hinges=hinges, process=proc)
-
-
-def _drive(task: Task) -> HingeDrive:
-    d, lib = task.design, task.library
-    if task.sample is not None:
-        return sample_drive(with_materials(d, task.materials, task.bath_c, lib), lib, task.sample,
-                            until_s=run_end(d, task.dt, task.duration))
-    curves = []
-    for h, m in zip(d.hinges, task.materials):
-        c = recovery_curve(lib[m or h.material], task.bath_c, h.thickness, d.process.fix_temperature_c)
-        curves.append(c if m is not None else replace(c, ratio=np.zeros_like(c.ratio)))
-    return HingeDrive(d, task.bath_c, curves=curves)
-
-
-def run_task(task: Task) -> Verdict:
-    """Fold one (partial) assignment; a module-level function so processes and Dask
-    workers can run it."""
-    d = task.design
-    drive = _drive(task)
-    duration = task.duration
-    if task.sample is not None:
-        times = [c.time_to(0.98) for c in drive.curves]
-        if all(x is not None for x in times):
-            duration = min(duration or d.process.duration_s, max(times) + SCREEN_TAIL_S)
-    from .pipeline import EvalOptions, Evaluation
-
-    opts = EvalOptions(hinge_model=HingeModel.ARC, method=task.method, dt=task.dt, bath_c=task.bath_c,
-                       duration=duration, samples=0, clearance_samples=task.clearance_samples or CLEARANCE_SAMPLES)
-    ev = Evaluation(d, opts, library=task.library, drive=drive)
-    res = ev.simulation
-    c = res.first_collision
-    partial = any(m is None for m in task.materials)
-    goal = None
-    if c is None and not partial:
-        goal = next((g.goal.id for g in res.goals if not g.met), None)
-    clearance = None
-    if task.clearance_samples and c is None:  # the clearance along the whole fold (no contact)
-        g = ev.clearance
-        clearance = math.inf if g is None else float(g.distance)
-    done = (c is None) and (partial or res.completed)
-    ft = None
-    if not partial:
-        ft = res.fold_time
-    return Verdict(bool(done), None if c is None else tuple(c.panels), None if c is None else float(c.time),
-                   goal, ft, clearance, str(task.method))
-
-
-Mapper = Callable[[Callable, list, Callable | None], list]
-
-
-def local_mapper(workers: int | None = None) -> Mapper:
-    """Run on ``workers`` local processes (default: all cores)."""
-    from ..core.parallel import map_ordered
-
-    def mapper(fn, items, progress=None):
-        return map_ordered(fn, items, workers=workers, progress=progress)
-
-    return mapper
-
-
-@dataclass(frozen=True)
-class Choice:
-    """A feasible assignment and how good it is."""
-
-    materials: tuple[str, ...]
-    bath_c: float
-    fold_time: float
-    clearance_mm: float | None
-    pattern: tuple[tuple[int, ...], ...]
-    jam_probability: float | None = None
-    jam_ci95: tuple[float, float] | None = None
-
-    def to_json(self, design: Design) -> dict:
-        return {"assignment": {h.id: m for h, m in zip(design.hinges, self.materials)},
-                "temperature_c": round(self.bath_c, 3), "fold_time_s": round(self.fold_time, 4),
-                "min_clearance_mm": None if self.clearance_mm is None else round(self.clearance_mm, 4),
-                "jam_probability": None if self.jam_probability is None else round(self.jam_probability, 4),
-                "jam_ci95": None if self.jam_ci95 is None else [round(x, 4) for x in self.jam_ci95],
-                "waves": [[design.hinges[k].id for k in w] for w in self.pattern]}
-
-
-@dataclass(frozen=True)
-class AssignResult:
-    design: Design
-    objective: str
-    materials: tuple[str, ...]
-    temperatures: tuple[float, ...]
-    evaluated: int
-    search_space: int
-    feasible: int
-    best: tuple[Choice, ...]
-    blocking: tuple[tuple[str, tuple, int], ...]  # (kind "pair" | "goal", what, count)
-    first_feasible_at: int | None
-    patterns: int
-    permanent_blocked: bool = False
-    confirmed: int = 0
-    exhaustive: bool = False
-    robust_simulations: int = 0  # Monte-Carlo folds of the finalists (not in ``evaluated``)
-
-    def to_json(self) -> dict:
-        return {"design": self.design.name, "objective": self.objective, "materials": list(self.materials),
-                "temperatures_c": [round(t, 3) for t in self.temperatures],
-                "evaluated": self.evaluated, "feasible": self.feasible, "search_space": self.search_space,
-                "evaluated_fraction": self.evaluated / self.search_space,
-                "first_feasible_at": self.first_feasible_at, "feasible_patterns": self.patterns,
-                "confirmed": self.confirmed, "exhaustive": self.exhaustive,
-                "robust_simulations": self.robust_simulations,
-                "best": [c.to_json(self.design) for c in self.best],
-                "blocking": [({"pair": list(w)} if k == "pair" else {"goal": w}) | {"count": n, "kind": k}
-                             for k, w, n in self.blocking]}
 
 
 # -- the search -------------------------------------------------------------------------
@@ -573,12 +425,6 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
             scatter=scatter or default_scatter(), method=s.method, dt=dt, duration=s.duration, mapper=mapper,
             progress=progress)
     return s.result(good[:top], len(unique), len(patterns), confirmed=n_confirmed, robust_sims=n_robust)
-
-
-def _choice(pattern, bath_c: float, materials, v: Verdict) -> Choice:
-    """A confirmed assignment as reported (an unbounded clearance reads as None)."""
-    clear = None if v.clearance_mm is None or math.isinf(v.clearance_mm) else v.clearance_mm
-    return Choice(tuple(materials), bath_c, v.fold_time, clear, tuple(tuple(sorted(w)) for w in pattern))
 
 
 def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, scatter, method, dt, duration,

@@ -51,8 +51,9 @@ from ..model.materials import Material, MaterialLibrary, default_library
 from ..physics.recovery_batch import batch_ratios, grid_until
 from ..simulation.robust import CHUNK, Scatter, default_scatter, draw_samples, run_samples, wilson
 from ..collision.clearance import permanent_crossings
-from .assign import (PREFIX_CLEARANCE_SAMPLES, SCREEN_TAIL_S, AssignResult, Choice, Mapper, Task, _hinge_graph,
-                     _Ledger, local_mapper, run_task, with_materials)
+from .assign import PREFIX_CLEARANCE_SAMPLES, _hinge_graph, _Ledger
+from .assign_result import AssignResult, Choice
+from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, local_mapper, run_task, with_materials
 
 #: Spacing (C) of the Tg grid of the timing table the surrogate interpolates.
 TG_GRID_STEP_C = 0.5
