@@ -48,7 +48,7 @@ from ..model.design import Design
 from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_DT_S, DEFAULT_SEED
 from ..core.errors import DesignError
 from ..model.materials import MaterialLibrary, default_library
-from ..core.modes import HingeModel, Method
+from ..core.modes import DEFAULT_OBJECTIVE, HingeModel, Method, Objective, parse
 from ..physics.recovery import recovery_curve
 from ..simulation.robust import CHUNK, Scatter, default_scatter, draw_samples, run_samples, wilson
 from ..simulation.timing import order_risk
@@ -56,7 +56,8 @@ from ..simulation.timing import order_risk
 from .assign_result import AssignResult, Choice, Verdict, _choice  # noqa: F401
 from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, local_mapper, run_task, with_materials  # noqa: F401
 
-OBJECTIVES = ("time", "margin", "robust")
+#: The objectives' names (the values of :class:`~foldprint.core.modes.Objective`).
+OBJECTIVES = tuple(o.value for o in Objective)
 #: Evaluations (simulations) the search may spend by default.
 DEFAULT_BUDGET = ASSIGN_BUDGET
 #: Prefixes expanded per round of the best-first pattern search.
@@ -199,12 +200,10 @@ def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_
 
 
 def _check_request(design: Design, lib: MaterialLibrary, materials: Sequence[str] | None,
-                   fixed: Mapping[str, str] | None, objective: str, top: int, budget: int,
+                   fixed: Mapping[str, str] | None, top: int, budget: int,
                    beam: int) -> tuple[list[str], dict[str, str]]:
     """The materials to choose from and the fixed hinges, checked (DesignError naming the
     option and what to give instead)."""
-    if objective not in OBJECTIVES:
-        raise DesignError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if top < 1 or budget < 1 or beam < 1:
         raise DesignError("top, budget and beam must be >= 1")
     hinge_names = lib.names("hinge")
@@ -228,7 +227,7 @@ class _Search:
     the helpers that turn fold orders into tasks (the module docstring's phases)."""
 
     def __init__(self, design: Design, lib: MaterialLibrary, mats: list[str], temps: tuple[float, ...],
-                 fixed: dict[str, str], objective: str, top: int, budget: int, beam: int, dt: float,
+                 fixed: dict[str, str], objective: Objective, top: int, budget: int, beam: int, dt: float,
                  ledger: "_Ledger"):
         self.design, self.lib, self.mats, self.temps = design, lib, mats, temps
         self.objective, self.top, self.budget, self.beam, self.dt, self.ledger = objective, top, budget, beam, dt, ledger
@@ -236,7 +235,7 @@ class _Search:
         self.fixed_idx = {ids.index(h): m for h, m in fixed.items()}
         self.free = [k for k, h in enumerate(design.hinges) if h.id not in fixed]
         self.space = len(mats) ** len(self.free) * len(temps)
-        self.n_confirm = max(1, min(max(4 * top, 12), budget // 5) if objective == "time"
+        self.n_confirm = max(1, min(max(4 * top, 12), budget // 5) if objective is Objective.TIME
                              else min(max(8 * top, 24), budget // 3))
         # a space this small is cheaper to try outright than to search: exact within the budget
         self.exhaustive = self.space <= min(EXHAUSTIVE_MAX, budget - self.n_confirm)
@@ -299,7 +298,7 @@ class _Search:
                 rest = all_free - frozenset().union(*waves) if waves else all_free
                 if len(waves) == m - 1:
                     options = [rest]
-                elif self.objective == "robust":
+                elif self.objective is Objective.ROBUST:
                     options = growing_waves(rest, all_free - rest, graph)
                 else:
                     options = connected_waves(rest, graph)
@@ -319,7 +318,7 @@ class _Search:
                 clear = v.clearance_mm if v.clearance_mm is not None else math.inf
                 placed = -sum(map(len, nw))
                 # robust: scatter reorders hinges that share a wave, so the most waves first
-                key = ((-len(nw), placed, -clear) if self.objective == "robust" else (placed, -clear, len(nw)))
+                key = ((-len(nw), placed, -clear) if self.objective is Objective.ROBUST else (placed, -clear, len(nw)))
                 queue.append(((*key, [sorted(w) for w in nw]), nw))
         return patterns
 
@@ -351,7 +350,7 @@ class _Search:
                 if k > len(order):
                     continue
                 combos = list(itertools.combinations(range(len(order)), k)) if k else [()]
-                if self.objective == "time":
+                if self.objective is Objective.TIME:
                     combos.sort(key=lambda c: (c[-1] if c else 0, sum(c), c))
                 else:  # spread the waves: the widest smallest gap between consecutive ranks first
                     combos.sort(key=lambda c: (-min([b - a for a, b in zip(c, c[1:])] or [0]), c[-1] if c else 0, c))
@@ -371,19 +370,19 @@ class _Search:
             if v is not None and v.completed and (mt, t) not in seen:
                 seen.add((mt, t))
                 unique.append((p, t, mt, v))
-        if self.objective == "time":
+        if self.objective is Objective.TIME:
             unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
         return unique
 
     def confirm(self, unique: list) -> list["Choice"]:
         """The finalists (``time``, ``margin``) confirmed by the simulation of record, best first."""
         # margin: in screening order (spread mappings first); robust picks its own finalists
-        finalists = unique[:self.n_confirm] if self.objective != "robust" else []
+        finalists = unique[:self.n_confirm] if self.objective is not Objective.ROBUST else []
         confirmed = self.ledger.run([self.task(mt, t, {}, clearance=CLEARANCE_SAMPLES, confirm=True)
                                      for _p, t, mt, _v in finalists])
         good = [_choice(p, t, mt, v) for (p, t, mt, _v), v in zip(finalists, confirmed)
                 if v is not None and v.completed]
-        if self.objective == "time":
+        if self.objective is Objective.TIME:
             good.sort(key=lambda c: (c.fold_time, -(c.clearance_mm or 0), c.materials))
         else:
             good.sort(key=lambda c: (-(c.clearance_mm if c.clearance_mm is not None else math.inf), c.fold_time,
@@ -393,7 +392,7 @@ class _Search:
 
 def assign(design: Design, *, library: MaterialLibrary | None = None, materials: Sequence[str] | None = None,
            temperatures: Sequence[float] | None = None, fixed: Mapping[str, str] | None = None,
-           objective: str = "time", top: int = ASSIGN_TOP, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
+           objective: Objective | str = DEFAULT_OBJECTIVE, top: int = ASSIGN_TOP, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
            samples: int = ASSIGN_SAMPLES, seed: int = DEFAULT_SEED, scatter: Scatter | None = None,
            dt: float = DEFAULT_DT_S,
            mapper: Mapper | None = None, workers: int | None = None,
@@ -401,8 +400,9 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     """Search hinge-material assignments of ``design`` (see the module docstring)."""
     from .pipeline import Evaluation
 
+    objective = parse(Objective, objective, "objective")
     lib = library or default_library()
-    mats, fixed = _check_request(design, lib, materials, fixed, objective, top, budget, beam)
+    mats, fixed = _check_request(design, lib, materials, fixed, top, budget, beam)
     temps = tuple(float(t) for t in (temperatures or [design.process.bath_temperature_c]))
     mapper = mapper or local_mapper(workers)
     s = _Search(design, lib, mats, temps, fixed, objective, top, budget, beam, dt, _Ledger(mapper, budget, progress))
@@ -419,7 +419,7 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     unique = s.screened(s.candidates(patterns))
     good = s.confirm(unique)
     n_robust, n_confirmed = 0, len(good)
-    if objective == "robust" and unique:
+    if objective is Objective.ROBUST and unique:
         good, n_confirmed, n_robust = _robust_finalists(
             design, lib, unique, s.ledger, s.task, top=top, samples=samples, seed=seed,
             scatter=scatter or default_scatter(), method=s.method, dt=dt, duration=s.duration, mapper=mapper,

@@ -44,7 +44,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..core.errors import DesignError, MaterialError
-from ..core.modes import HingeModel, Method
+from ..core.modes import HingeModel, Method, Objective, parse
 from ..model.design import Design
 from ..model.composition import composition_model, parse_name, vero
 from ..model.materials import Material, MaterialLibrary, default_library
@@ -404,7 +404,7 @@ def assign_continuous(design: Design, *, library: MaterialLibrary | None = None,
                           [("goal", g, c) for g, c in ledger.goals.items()], key=lambda x: (-x[2], str(x[1])))
         mats = tuple(sorted({m for c in best for m in c.materials}))
         temps = tuple(sorted({c.bath_c for c in best})) or (blo,)
-        return ContinuousResult(design, "robust", mats, temps, ledger.evaluated, math.inf, len(chains),
+        return ContinuousResult(design, Objective.ROBUST, mats, temps, ledger.evaluated, math.inf, len(chains),
                                 tuple(best), tuple(blocking), ledger.first_feasible_at, len(chains), blocked,
                                 confirmed, False, robust_sims, tuple(tuple(c) for c in chains), tuple(cands),
                                 tuple(baths))
@@ -526,23 +526,26 @@ def _estimate(design: Design, lib: MaterialLibrary, scatter: Scatter, good: list
     return out
 
 
-def continuous_objective(objective: str, materials: Sequence[str] | None = None, fixed: dict | None = None) -> str:
-    """The objective of a continuous search ("robust"), refusing the ``foldprint assign``
-    options that do not apply to it (``objective`` "time" is the CLI's default)."""
+def continuous_objective(objective: Objective | str, materials: Sequence[str] | None = None,
+                         fixed: dict | None = None) -> Objective:
+    """The objective of a continuous search (``Objective.ROBUST``), refusing the ``foldprint
+    assign`` options that do not apply to it (``objective`` ``TIME`` is the CLI's default)."""
     if materials:
         raise DesignError("--materials does not apply to --continuous: it chooses every hinge's VeroWhite "
                           "fraction in the supported range (docs/composition.md)")
     if fixed:
         raise DesignError("--fixed does not apply to --continuous (every hinge's fraction is chosen); "
                           "drop --fixed or drop --continuous")
-    if objective not in ("time", "robust"):
+    objective = parse(Objective, objective, "--objective")
+    if objective not in (Objective.TIME, Objective.ROBUST):
         raise DesignError(f"--continuous ranks by jam probability (robust); --objective {objective} "
                           "does not apply to it")
-    return "robust"
+    return Objective.ROBUST
 
 
 def search_options(design: Design, *, materials: Sequence[str] | None = None,
-                   temperatures: Sequence[float] | None = None, fixed: dict | None = None, objective: str = "robust",
+                   temperatures: Sequence[float] | None = None, fixed: dict | None = None,
+                   objective: Objective | str = Objective.ROBUST,
                    **kwargs) -> ContinuousResult:
     """:func:`assign_continuous` called with the options of ``foldprint assign`` (the bath
     range spans ``temperatures``; :func:`continuous_objective` refuses the others)."""

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..core.modes import Objective
 from ..model.design import Design
 
 
@@ -51,7 +52,7 @@ class Choice:
 @dataclass(frozen=True)
 class AssignResult:
     design: Design
-    objective: str
+    objective: Objective
     materials: tuple[str, ...]
     temperatures: tuple[float, ...]
     evaluated: int
@@ -67,7 +68,7 @@ class AssignResult:
     robust_simulations: int = 0  # Monte-Carlo folds of the finalists (not in ``evaluated``)
 
     def to_json(self) -> dict:
-        return {"design": self.design.name, "objective": self.objective, "materials": list(self.materials),
+        return {"design": self.design.name, "objective": str(self.objective), "materials": list(self.materials),
                 "temperatures_c": [round(t, 3) for t in self.temperatures],
                 "evaluated": self.evaluated, "feasible": self.feasible, "search_space": self.search_space,
                 "evaluated_fraction": self.evaluated / self.search_space,

@@ -13,9 +13,10 @@ from typer import echo
 
 from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_SEED
 from ..core.errors import FoldprintError
+from ..core.modes import DEFAULT_OBJECTIVE, Objective
 from .root import app
 from .support import (ExitCode, MAX_BUDGET, MAX_SAMPLES, MAX_TOP, MAX_WORKERS, _count, _echo_json, _err, _load,
-                      _mapper, _note, _samples_progress, _temperature)
+                      _mapper, _mode, _note, _samples_progress, _temperature)
 
 
 @app.command()
@@ -29,7 +30,7 @@ def assign(
                                                                     help="Also choose the bath temperature "
                                                                     "(every 5 deg C from LO to HI)."),
     fixed: Optional[List[str]] = typer.Option(None, "--fixed", metavar="HINGE=MAT", help="Keep this hinge's material."),
-    objective: str = typer.Option("time", "--objective", help="time (fastest fold) | margin (widest smallest "
+    objective: str = typer.Option(DEFAULT_OBJECTIVE.value, "--objective", help="time (fastest fold) | margin (widest smallest "
                                   "clearance) | robust (lowest jam probability of the finalists)"),
     top: int = typer.Option(ASSIGN_TOP, "--top", help="How many assignments to report."),
     budget: int = typer.Option(ASSIGN_BUDGET, "--budget", help="Most simulations the search may run."),
@@ -52,8 +53,8 @@ def assign(
     """
     from ..apps.assign import assign as search, with_materials
 
-    mats, temps, fixed_map = _assign_request(materials, temperature, temperature_range, fixed, objective, top,
-                                             budget, samples, workers, seed)
+    objective, mats, temps, fixed_map = _assign_request(materials, temperature, temperature_range, fixed, objective,
+                                                        top, budget, samples, workers, seed)
     d, lib = _load(design)
     if continuous:  # per-hinge VeroWhite fractions and the bath (docs/assign.md, "Continuous fractions")
         from ..apps.assign_continuous import continuous_objective, search_options as search  # noqa: F811
@@ -78,13 +79,13 @@ def assign(
 
 
 def _assign_request(materials, temperature, temperature_range, fixed, objective, top, budget, samples, workers,
-                    seed) -> tuple[list[str] | None, list[float] | None, dict[str, str]]:
-    """``assign``'s options checked: the materials to choose from, the bath temperatures
-    and the fixed hinges (FoldprintError naming the option)."""
-    from ..apps.assign import OBJECTIVES, temperature_grid
+                    seed) -> tuple[Objective, list[str] | None, list[float] | None, dict[str, str]]:
+    """``assign``'s options checked: the objective (parsed to an
+    :class:`~foldprint.core.modes.Objective`), the materials to choose from, the bath
+    temperatures and the fixed hinges (FoldprintError naming the option)."""
+    from ..apps.assign import temperature_grid
 
-    if objective not in OBJECTIVES:
-        raise FoldprintError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    objective = _mode(Objective, objective, "--objective")
     if temperature is not None and temperature_range is not None:
         raise FoldprintError("give --temperature or --temperature-range, not both")
     if temperature is not None:
@@ -112,10 +113,10 @@ def _assign_request(materials, temperature, temperature_range, fixed, objective,
         temps = [temperature]
     elif temperature_range is not None:
         temps = list(temperature_grid(*temperature_range))
-    return mats, temps, fixed_map
+    return objective, mats, temps, fixed_map
 
 
-def _print_assign(name: str, r, out: dict, objective: str) -> None:
+def _print_assign(name: str, r, out: dict, objective: Objective) -> None:
     """``assign``'s human output: the best assignments and what blocks the others."""
     space = (f"{r.evaluated / r.search_space:.2e} of {r.search_space}" if math.isfinite(r.search_space)
              else "of a continuous space")
