@@ -59,10 +59,10 @@ def backforth_points(k: int = 2000) -> np.ndarray:
 
 
 def _child(which: str, case: str, q):
-    from foldprint.io.svg_format import _cluster
+    from foldprint.io.svg_format import cluster_points
 
     pts = grid_points() if case == "grid" else backforth_points()
-    fn = old_cluster if which == "old" else _cluster
+    fn = old_cluster if which == "old" else cluster_points
     c0 = time.process_time()
     out = fn(pts, 0.5)
     q.put({"cpu_s": time.process_time() - c0, "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,

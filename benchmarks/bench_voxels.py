@@ -221,9 +221,9 @@ class _Reference:
         plte = b"".join(bytes(rgba[:3]) for _, rgba in vx.PALETTE)
         trns = bytes(rgba[3] for _, rgba in vx.PALETTE)
         phys = struct.pack(">IIB", round(1000.0 / p.x), round(1000.0 / p.y), 1)
-        return (b"\x89PNG\r\n\x1a\n" + vx._chunk(b"IHDR", ihdr) + vx._chunk(b"PLTE", plte)
-                + vx._chunk(b"tRNS", trns) + vx._chunk(b"pHYs", phys)
-                + vx._chunk(b"IDAT", zlib.compress(raw.tobytes(), vx.ZLIB_LEVEL)) + vx._chunk(b"IEND", b""))
+        return (b"\x89PNG\r\n\x1a\n" + vx.png_chunk(b"IHDR", ihdr) + vx.png_chunk(b"PLTE", plte)
+                + vx.png_chunk(b"tRNS", trns) + vx.png_chunk(b"pHYs", phys)
+                + vx.png_chunk(b"IDAT", zlib.compress(raw.tobytes(), vx.ZLIB_LEVEL)) + vx.png_chunk(b"IEND", b""))
 
 
 def _digests(paths) -> list[str]:

@@ -17,8 +17,13 @@ from collections import Counter
 
 
 def main(argv: list[str]) -> int:
-    import foldprint.model.design as design
+    import importlib
+
     import foldprint.physics.kinematics as kin
+    try:  # the spanning tree sits in model/hinge_graph since the split of model/design.py
+        design = importlib.import_module("foldprint.model.hinge_graph")
+    except ImportError:
+        import foldprint.model.design as design
     from foldprint.cli.commands import main as cli
 
     names = {}

@@ -167,14 +167,9 @@ def test_writers_import_no_physics_or_simulation():
 
 
 #: Modules whose leading-underscore names other modules of their own subpackage may still
-#: import, each with its reason. cli.support holds the commands' plumbing and apps.assign
-#: the ledger and hinge graph assign_continuous reuses; both are being split by another
-#: branch (issue 21: cli/commands.py into one module per command group, apps/assign.py)
-#: while this rule lands, so their names are made public after that split merges.
-PRIVATE_IMPORT_ALLOWLIST = {
-    "foldprint.cli.support": "cli/commands.py is being split by another branch (issue 21)",
-    "foldprint.apps.assign": "apps/assign.py is being split by another branch (issue 21)",
-}
+#: import, each with its reason (empty: cli.support's plumbing, apps.assign's ledger and
+#: hinge graph and the split modules' helpers were given public names).
+PRIVATE_IMPORT_ALLOWLIST: dict[str, str] = {}
 
 
 def private_imports(mod: str, is_package: bool, src: str, modules) -> list[tuple[str, str, int]]:
@@ -299,3 +294,30 @@ def test_the_length_walker_sees_methods_and_nested_functions():
            f"def outer():\n    def inner():\n{body.replace('    ', '        ')}\n    return inner\n")
     got = {(name, length) for name, _, length in long_functions(src)}
     assert got == {("long_one", 81), ("C.method", 81), ("outer", 84), ("outer.inner", 81)}  # outer: def, inner, a blank line, return
+
+
+#: The longest a module of foldprint/ may be (lines of the file): issue 21, modules that fit.
+MAX_MODULE_LINES = 600
+#: Modules over the limit, each mapped to the reason it is still here (empty: none may be).
+LONG_MODULE_ALLOWLIST: dict[str, str] = {}
+
+
+def long_modules(limit: int = MAX_MODULE_LINES) -> list[tuple[str, int]]:
+    """(module, lines) of every module of the package longer than ``limit`` lines."""
+    out = []
+    for mod, path in sorted(_modules().items()):
+        n = len(path.read_text(encoding="utf-8").splitlines())
+        if n > limit:
+            out.append((mod, n))
+    return out
+
+
+def test_no_module_over_600_lines():
+    """Every module of foldprint/ fits in 600 lines, but for the allowlisted ones: a longer
+    one is split along a seam into modules named for what they hold (and put in the
+    layer table)."""
+    stale = sorted(set(LONG_MODULE_ALLOWLIST) - set(_modules()))
+    assert not stale, f"LONG_MODULE_ALLOWLIST names modules that do not exist: {stale}"
+    bad = [f"{mod} ({n} lines)" for mod, n in long_modules() if mod not in LONG_MODULE_ALLOWLIST]
+    assert not bad, f"modules over {MAX_MODULE_LINES} lines (split them along a seam): " + ", ".join(bad)
+    assert long_modules(limit=100), "the walker found no module over 100 lines: it reads nothing"

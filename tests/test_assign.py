@@ -13,7 +13,8 @@ from foldprint.cli.commands import main
 from foldprint.model.design import strip
 from foldprint.io.design_io import design_to_toml
 from foldprint.io.load import load_design
-from foldprint.core.modes import Method
+from foldprint.core.errors import DesignError
+from foldprint.core.modes import Method, Objective
 from foldprint.physics.recovery import recovery_curve
 from foldprint.simulation.simulate import simulate
 from foldprint.io.templates import resolve_design_path
@@ -83,6 +84,23 @@ def test_helix_failures_are_tallied_most_frequent_first(helix_margin):
     assert blocking and all(b["count"] >= 1 for b in blocking)
     assert sum(b["count"] for b in blocking) <= helix_margin.evaluated
     assert [b["count"] for b in blocking] == sorted((b["count"] for b in blocking), reverse=True)
+
+
+def test_the_objective_is_an_enum_below_the_boundary_and_a_string_outside(helix_margin, tmp_path, capsys):
+    """Issue 21: ``assign`` parses its objective to an :class:`Objective` (member or text,
+    like the other modes); its JSON keeps the plain string and the CLI its message."""
+    assert helix_margin.objective is Objective.MARGIN
+    out = json.loads(json.dumps(helix_margin.to_json()))
+    assert type(helix_margin.to_json()["objective"]) is str and out["objective"] == "margin"
+    with pytest.raises(DesignError, match="'fastest' is not one of time, margin, robust"):
+        assign(_small_spiral(), objective="fastest")
+    f = tmp_path / "spiral.toml"
+    f.write_text(design_to_toml(_small_spiral()))
+    assert main(["assign", str(f), "--objective", "fastest"]) == 2
+    assert capsys.readouterr().err.endswith("--objective must be one of time, margin, robust, got 'fastest'\n")
+    for objective in Objective:  # every member's text is an option value (checked, not run: --top 0)
+        assert main(["assign", str(f), "--objective", objective.value, "--top", "0"]) == 2
+        assert "--top" in capsys.readouterr().err
 
 
 def test_crossing_design_exits_1_naming_the_pair(capsys):
@@ -176,9 +194,9 @@ def test_assign_text_output(capsys, tmp_path):
 def test_growing_waves_extend_the_folded_region_in_small_steps():
     """The robust search's children: "all the rest", then connected groups of at most
     ROBUST_WAVE_MAX hinges touching what is placed (anything at the root)."""
-    from foldprint.apps.assign import ROBUST_WAVE_MAX, _hinge_graph, growing_waves
+    from foldprint.apps.assign import ROBUST_WAVE_MAX, hinge_adjacency, growing_waves
 
-    graph = _hinge_graph(load_design(resolve_design_path("helix_uniform")))
+    graph = hinge_adjacency(load_design(resolve_design_path("helix_uniform")))
     every = frozenset(range(9))
     root = growing_waves(every, frozenset(), graph)
     assert root[0] == every and all(len(w) <= ROBUST_WAVE_MAX for w in root[1:])

@@ -14,7 +14,7 @@ from foldprint.apps.assign import with_materials
 from foldprint.apps.assign_continuous import (TG_GRID_STEP_C, _levels_for, assign_continuous, canonical_tg,
                                               chain_risk, find_chains, material_name, optimise_levels, tg_bounds,
                                               timing_table)
-from foldprint.apps.assign import _Ledger, local_mapper
+from foldprint.apps.assign import Ledger, local_mapper
 from foldprint.cli.commands import main
 from foldprint.core.modes import Method
 from foldprint.io.design_io import design_to_toml
@@ -94,7 +94,7 @@ def test_chains_fold_and_their_critical_steps_are_real():
     """Every chain found folds when simulated independently (3D and 2D); a step counted
     critical is one whose swap with the step before collides, checked by a direct run."""
     d = _spiral()
-    led = _Ledger(local_mapper(1), 60, None)
+    led = Ledger(local_mapper(1), 60, None)
     found = find_chains(d, LIB, led, 90.0, 0.01, cap=60, want=3)
     assert found and led.evaluated <= 60
     levels = np.linspace(LO, HI, 3)

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
-from foldprint.io import svg_format
+from foldprint.io import svg_creases
 from foldprint.cli.commands import main
 from foldprint.io.load import load_design
 
@@ -193,12 +193,12 @@ def test_vertex_clustering_matches_all_pairs(n, seed, tol, shape, kd):
         pts[:, 1] = 0.3 * pts[:, 0]
     elif shape == "clump":
         pts[: n // 2] = pts[0] + rng.normal(0, 1e-9, (n // 2, 2))
-    old = svg_format._KDTREE_POINTS
-    svg_format._KDTREE_POINTS = 10 ** 9 if kd else 0
+    old = svg_creases.KDTREE_POINTS
+    svg_creases.KDTREE_POINTS = 10 ** 9 if kd else 0
     try:
-        got = svg_format._cluster(pts, tol)
+        got = svg_creases.cluster_points(pts, tol)
     finally:
-        svg_format._KDTREE_POINTS = old
+        svg_creases.KDTREE_POINTS = old
     np.testing.assert_allclose(got, _brute_clusters(pts, tol), atol=1e-9)
 
 

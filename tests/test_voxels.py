@@ -259,7 +259,7 @@ def test_width_table_cells_are_width_u_of_their_centres():
 def test_tiled_thresholds_are_the_gathered_ones(j0, h, i0, w, k):
     m = vx.layer_mask(k)
     want = m[np.ix_(np.arange(j0, j0 + h) % vx.MASK_SIZE, np.arange(i0, i0 + w) % vx.MASK_SIZE)]
-    assert np.array_equal(vx._tiled(m, j0, j0 + h, i0, i0 + w), want)
+    assert np.array_equal(vx.tiled(m, j0, j0 + h, i0, i0 + w), want)
 
 
 @settings(max_examples=60, deadline=None)

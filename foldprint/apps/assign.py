@@ -27,6 +27,10 @@ The search uses the physics instead of enumerating the m^n assignments
 Every evaluation is a module-level function of a picklable task, run by a ``mapper``
 (local processes by default, a Dask cluster with :mod:`foldprint.apps.distributed`); the
 results come back in input order, so the answer does not depend on where it ran.
+
+This module is the search; the tasks and their mappers are in
+:mod:`foldprint.apps.assign_tasks`, what it reports (verdicts, choices, the result and its
+JSON) in :mod:`foldprint.apps.assign_result`. Their names still import from here.
 """
 
 from __future__ import annotations
@@ -43,15 +47,17 @@ from ..core.constants import CLEARANCE_SAMPLES
 from ..model.design import Design
 from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_DT_S, DEFAULT_SEED
 from ..core.errors import DesignError
-from ..physics.kinematics import HingeDrive
 from ..model.materials import MaterialLibrary, default_library
-from ..core.modes import HingeModel, Method
+from ..core.modes import DEFAULT_OBJECTIVE, HingeModel, Method, Objective, parse
 from ..physics.recovery import recovery_curve
-from ..simulation.robust import (CHUNK, Sample, Scatter, default_scatter, draw_samples, run_end, run_samples, sample_drive,
-                     wilson)
+from ..simulation.robust import CHUNK, Scatter, default_scatter, draw_samples, run_samples, wilson
 from ..simulation.timing import order_risk
+# the results and the tasks, importable from here as before
+from .assign_result import AssignResult, Choice, Verdict, choice_from  # noqa: F401
+from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, local_mapper, run_task, with_materials  # noqa: F401
 
-OBJECTIVES = ("time", "margin", "robust")
+#: The objectives' names (the values of :class:`~foldprint.core.modes.Objective`).
+OBJECTIVES = tuple(o.value for o in Objective)
 #: Evaluations (simulations) the search may spend by default.
 DEFAULT_BUDGET = ASSIGN_BUDGET
 #: Prefixes expanded per round of the best-first pattern search.
@@ -77,162 +83,9 @@ EXHAUSTIVE_MAX = 128
 PER_PATTERN = 6
 #: Poses sampled along a fold for the clearance of a prefix (ranking the queue only).
 PREFIX_CLEARANCE_SAMPLES = 24
-#: Screening runs stop this long after the slowest active hinge reaches 98 % (s).
-SCREEN_TAIL_S = 0.5
 #: Bath temperatures tried across a ``--temperature-range``: every STEP_C, at most MAX_TEMPS.
 TEMPERATURE_STEP_C = 5.0
 MAX_TEMPS = 9
-
-
-@dataclass(frozen=True)
-class Verdict:
-    """What one evaluation found. ``pair``: the first colliding panels (ids); ``goal``:
-    the first goal not met in order; ``clearance_mm``: the smallest gap between
-    non-adjacent panels along the fold (when measured)."""
-
-    completed: bool
-    pair: tuple[str, str] | None
-    contact_time: float | None
-    goal: str | None
-    fold_time: float | None
-    clearance_mm: float | None
-    method: str
-
-
-@dataclass(frozen=True)
-class Task:
-    """One simulation: ``materials`` per hinge (None = held in its programmed shape)."""
-
-    design: Design
-    library: MaterialLibrary
-    materials: tuple[str | None, ...]
-    bath_c: float
-    method: Method
-    dt: float
-    duration: float | None
-    clearance_samples: int
-    #: a scatter draw (``robust`` screen): the hinges' materials, thicknesses and bath as
-    #: drawn; the run stops SCREEN_TAIL_S after the slowest drawn hinge reaches 98 %
-    sample: Sample | None = None
-
-
-def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None,
-                   library: MaterialLibrary | None = None) -> Design:
-    """``design`` with hinge ``k`` made of ``materials[k]`` (and the bath at ``bath_c``),
-    validated against ``library``."""
-    hinges = tuple(replace(h, material=m) for h, m in zip(design.hinges, materials))
-    proc = design.process if bath_c is None else replace(design.process, bath_temperature_c=float(bath_c))
-    return design.replace(library, hinges=hinges, process=proc)
-
-
-def _drive(task: Task) -> HingeDrive:
-    d, lib = task.design, task.library
-    if task.sample is not None:
-        return sample_drive(with_materials(d, task.materials, task.bath_c, lib), lib, task.sample,
-                            until_s=run_end(d, task.dt, task.duration))
-    curves = []
-    for h, m in zip(d.hinges, task.materials):
-        c = recovery_curve(lib[m or h.material], task.bath_c, h.thickness, d.process.fix_temperature_c)
-        curves.append(c if m is not None else replace(c, ratio=np.zeros_like(c.ratio)))
-    return HingeDrive(d, task.bath_c, curves=curves)
-
-
-def run_task(task: Task) -> Verdict:
-    """Fold one (partial) assignment; a module-level function so processes and Dask
-    workers can run it."""
-    d = task.design
-    drive = _drive(task)
-    duration = task.duration
-    if task.sample is not None:
-        times = [c.time_to(0.98) for c in drive.curves]
-        if all(x is not None for x in times):
-            duration = min(duration or d.process.duration_s, max(times) + SCREEN_TAIL_S)
-    from .pipeline import EvalOptions, Evaluation
-
-    opts = EvalOptions(hinge_model=HingeModel.ARC, method=task.method, dt=task.dt, bath_c=task.bath_c,
-                       duration=duration, samples=0, clearance_samples=task.clearance_samples or CLEARANCE_SAMPLES)
-    ev = Evaluation(d, opts, library=task.library, drive=drive)
-    res = ev.simulation
-    c = res.first_collision
-    partial = any(m is None for m in task.materials)
-    goal = None
-    if c is None and not partial:
-        goal = next((g.goal.id for g in res.goals if not g.met), None)
-    clearance = None
-    if task.clearance_samples and c is None:  # the clearance along the whole fold (no contact)
-        g = ev.clearance
-        clearance = math.inf if g is None else float(g.distance)
-    done = (c is None) and (partial or res.completed)
-    ft = None
-    if not partial:
-        ft = res.fold_time
-    return Verdict(bool(done), None if c is None else tuple(c.panels), None if c is None else float(c.time),
-                   goal, ft, clearance, str(task.method))
-
-
-Mapper = Callable[[Callable, list, Callable | None], list]
-
-
-def local_mapper(workers: int | None = None) -> Mapper:
-    """Run on ``workers`` local processes (default: all cores)."""
-    from ..core.parallel import map_ordered
-
-    def mapper(fn, items, progress=None):
-        return map_ordered(fn, items, workers=workers, progress=progress)
-
-    return mapper
-
-
-@dataclass(frozen=True)
-class Choice:
-    """A feasible assignment and how good it is."""
-
-    materials: tuple[str, ...]
-    bath_c: float
-    fold_time: float
-    clearance_mm: float | None
-    pattern: tuple[tuple[int, ...], ...]
-    jam_probability: float | None = None
-    jam_ci95: tuple[float, float] | None = None
-
-    def to_json(self, design: Design) -> dict:
-        return {"assignment": {h.id: m for h, m in zip(design.hinges, self.materials)},
-                "temperature_c": round(self.bath_c, 3), "fold_time_s": round(self.fold_time, 4),
-                "min_clearance_mm": None if self.clearance_mm is None else round(self.clearance_mm, 4),
-                "jam_probability": None if self.jam_probability is None else round(self.jam_probability, 4),
-                "jam_ci95": None if self.jam_ci95 is None else [round(x, 4) for x in self.jam_ci95],
-                "waves": [[design.hinges[k].id for k in w] for w in self.pattern]}
-
-
-@dataclass(frozen=True)
-class AssignResult:
-    design: Design
-    objective: str
-    materials: tuple[str, ...]
-    temperatures: tuple[float, ...]
-    evaluated: int
-    search_space: int
-    feasible: int
-    best: tuple[Choice, ...]
-    blocking: tuple[tuple[str, tuple, int], ...]  # (kind "pair" | "goal", what, count)
-    first_feasible_at: int | None
-    patterns: int
-    permanent_blocked: bool = False
-    confirmed: int = 0
-    exhaustive: bool = False
-    robust_simulations: int = 0  # Monte-Carlo folds of the finalists (not in ``evaluated``)
-
-    def to_json(self) -> dict:
-        return {"design": self.design.name, "objective": self.objective, "materials": list(self.materials),
-                "temperatures_c": [round(t, 3) for t in self.temperatures],
-                "evaluated": self.evaluated, "feasible": self.feasible, "search_space": self.search_space,
-                "evaluated_fraction": self.evaluated / self.search_space,
-                "first_feasible_at": self.first_feasible_at, "feasible_patterns": self.patterns,
-                "confirmed": self.confirmed, "exhaustive": self.exhaustive,
-                "robust_simulations": self.robust_simulations,
-                "best": [c.to_json(self.design) for c in self.best],
-                "blocking": [({"pair": list(w)} if k == "pair" else {"goal": w}) | {"count": n, "kind": k}
-                             for k, w, n in self.blocking]}
 
 
 # -- the search -------------------------------------------------------------------------
@@ -248,7 +101,7 @@ def temperature_grid(lo: float, hi: float) -> tuple[float, ...]:
     return tuple(float(x) for x in np.linspace(lo, hi, n if (hi - lo) / (n - 1) <= TEMPERATURE_STEP_C else n + 1))
 
 
-def _hinge_graph(design: Design) -> list[set[int]]:
+def hinge_adjacency(design: Design) -> list[set[int]]:
     by_panel: dict[str, list[int]] = {}
     for k, h in enumerate(design.hinges):
         for p in h.panels:
@@ -295,7 +148,7 @@ def growing_waves(remaining: frozenset, placed: frozenset, graph: list[set[int]]
 
 
 @dataclass
-class _Ledger:
+class Ledger:
     """Every evaluation, cached, counted and tallied."""
 
     mapper: Mapper
@@ -347,12 +200,10 @@ def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_
 
 
 def _check_request(design: Design, lib: MaterialLibrary, materials: Sequence[str] | None,
-                   fixed: Mapping[str, str] | None, objective: str, top: int, budget: int,
+                   fixed: Mapping[str, str] | None, top: int, budget: int,
                    beam: int) -> tuple[list[str], dict[str, str]]:
     """The materials to choose from and the fixed hinges, checked (DesignError naming the
     option and what to give instead)."""
-    if objective not in OBJECTIVES:
-        raise DesignError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if top < 1 or budget < 1 or beam < 1:
         raise DesignError("top, budget and beam must be >= 1")
     hinge_names = lib.names("hinge")
@@ -376,15 +227,15 @@ class _Search:
     the helpers that turn fold orders into tasks (the module docstring's phases)."""
 
     def __init__(self, design: Design, lib: MaterialLibrary, mats: list[str], temps: tuple[float, ...],
-                 fixed: dict[str, str], objective: str, top: int, budget: int, beam: int, dt: float,
-                 ledger: "_Ledger"):
+                 fixed: dict[str, str], objective: Objective, top: int, budget: int, beam: int, dt: float,
+                 ledger: "Ledger"):
         self.design, self.lib, self.mats, self.temps = design, lib, mats, temps
         self.objective, self.top, self.budget, self.beam, self.dt, self.ledger = objective, top, budget, beam, dt, ledger
         ids = [h.id for h in design.hinges]
         self.fixed_idx = {ids.index(h): m for h, m in fixed.items()}
         self.free = [k for k, h in enumerate(design.hinges) if h.id not in fixed]
         self.space = len(mats) ** len(self.free) * len(temps)
-        self.n_confirm = max(1, min(max(4 * top, 12), budget // 5) if objective == "time"
+        self.n_confirm = max(1, min(max(4 * top, 12), budget // 5) if objective is Objective.TIME
                              else min(max(8 * top, 24), budget // 3))
         # a space this small is cheaper to try outright than to search: exact within the budget
         self.exhaustive = self.space <= min(EXHAUSTIVE_MAX, budget - self.n_confirm)
@@ -433,7 +284,7 @@ class _Search:
         """Phase 1: the feasible patterns (waves of hinges), wave i played by the i-th
         fastest material; best first: a queue of every collision-free prefix, each round
         expanding the ``beam`` best (most hinges placed, then the widest clearance so far)."""
-        graph = _hinge_graph(self.design)
+        graph = hinge_adjacency(self.design)
         all_free = frozenset(self.free)
         patterns: list[tuple[frozenset, ...]] = [] if self.free else [()]
         m = len(ranked)
@@ -447,7 +298,7 @@ class _Search:
                 rest = all_free - frozenset().union(*waves) if waves else all_free
                 if len(waves) == m - 1:
                     options = [rest]
-                elif self.objective == "robust":
+                elif self.objective is Objective.ROBUST:
                     options = growing_waves(rest, all_free - rest, graph)
                 else:
                     options = connected_waves(rest, graph)
@@ -467,7 +318,7 @@ class _Search:
                 clear = v.clearance_mm if v.clearance_mm is not None else math.inf
                 placed = -sum(map(len, nw))
                 # robust: scatter reorders hinges that share a wave, so the most waves first
-                key = ((-len(nw), placed, -clear) if self.objective == "robust" else (placed, -clear, len(nw)))
+                key = ((-len(nw), placed, -clear) if self.objective is Objective.ROBUST else (placed, -clear, len(nw)))
                 queue.append(((*key, [sorted(w) for w in nw]), nw))
         return patterns
 
@@ -499,7 +350,7 @@ class _Search:
                 if k > len(order):
                     continue
                 combos = list(itertools.combinations(range(len(order)), k)) if k else [()]
-                if self.objective == "time":
+                if self.objective is Objective.TIME:
                     combos.sort(key=lambda c: (c[-1] if c else 0, sum(c), c))
                 else:  # spread the waves: the widest smallest gap between consecutive ranks first
                     combos.sort(key=lambda c: (-min([b - a for a, b in zip(c, c[1:])] or [0]), c[-1] if c else 0, c))
@@ -519,19 +370,19 @@ class _Search:
             if v is not None and v.completed and (mt, t) not in seen:
                 seen.add((mt, t))
                 unique.append((p, t, mt, v))
-        if self.objective == "time":
+        if self.objective is Objective.TIME:
             unique.sort(key=lambda x: (x[3].fold_time, x[1], x[2]))
         return unique
 
     def confirm(self, unique: list) -> list["Choice"]:
         """The finalists (``time``, ``margin``) confirmed by the simulation of record, best first."""
         # margin: in screening order (spread mappings first); robust picks its own finalists
-        finalists = unique[:self.n_confirm] if self.objective != "robust" else []
+        finalists = unique[:self.n_confirm] if self.objective is not Objective.ROBUST else []
         confirmed = self.ledger.run([self.task(mt, t, {}, clearance=CLEARANCE_SAMPLES, confirm=True)
                                      for _p, t, mt, _v in finalists])
-        good = [_choice(p, t, mt, v) for (p, t, mt, _v), v in zip(finalists, confirmed)
+        good = [choice_from(p, t, mt, v) for (p, t, mt, _v), v in zip(finalists, confirmed)
                 if v is not None and v.completed]
-        if self.objective == "time":
+        if self.objective is Objective.TIME:
             good.sort(key=lambda c: (c.fold_time, -(c.clearance_mm or 0), c.materials))
         else:
             good.sort(key=lambda c: (-(c.clearance_mm if c.clearance_mm is not None else math.inf), c.fold_time,
@@ -541,7 +392,7 @@ class _Search:
 
 def assign(design: Design, *, library: MaterialLibrary | None = None, materials: Sequence[str] | None = None,
            temperatures: Sequence[float] | None = None, fixed: Mapping[str, str] | None = None,
-           objective: str = "time", top: int = ASSIGN_TOP, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
+           objective: Objective | str = DEFAULT_OBJECTIVE, top: int = ASSIGN_TOP, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,
            samples: int = ASSIGN_SAMPLES, seed: int = DEFAULT_SEED, scatter: Scatter | None = None,
            dt: float = DEFAULT_DT_S,
            mapper: Mapper | None = None, workers: int | None = None,
@@ -549,11 +400,12 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     """Search hinge-material assignments of ``design`` (see the module docstring)."""
     from .pipeline import Evaluation
 
+    objective = parse(Objective, objective, "objective")
     lib = library or default_library()
-    mats, fixed = _check_request(design, lib, materials, fixed, objective, top, budget, beam)
+    mats, fixed = _check_request(design, lib, materials, fixed, top, budget, beam)
     temps = tuple(float(t) for t in (temperatures or [design.process.bath_temperature_c]))
     mapper = mapper or local_mapper(workers)
-    s = _Search(design, lib, mats, temps, fixed, objective, top, budget, beam, dt, _Ledger(mapper, budget, progress))
+    s = _Search(design, lib, mats, temps, fixed, objective, top, budget, beam, dt, Ledger(mapper, budget, progress))
     crossing = Evaluation(design, library=lib).printed_crossings
     if crossing:
         for p in crossing:
@@ -567,18 +419,12 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     unique = s.screened(s.candidates(patterns))
     good = s.confirm(unique)
     n_robust, n_confirmed = 0, len(good)
-    if objective == "robust" and unique:
+    if objective is Objective.ROBUST and unique:
         good, n_confirmed, n_robust = _robust_finalists(
             design, lib, unique, s.ledger, s.task, top=top, samples=samples, seed=seed,
             scatter=scatter or default_scatter(), method=s.method, dt=dt, duration=s.duration, mapper=mapper,
             progress=progress)
     return s.result(good[:top], len(unique), len(patterns), confirmed=n_confirmed, robust_sims=n_robust)
-
-
-def _choice(pattern, bath_c: float, materials, v: Verdict) -> Choice:
-    """A confirmed assignment as reported (an unbounded clearance reads as None)."""
-    clear = None if v.clearance_mm is None or math.isinf(v.clearance_mm) else v.clearance_mm
-    return Choice(tuple(materials), bath_c, v.fold_time, clear, tuple(tuple(sorted(w)) for w in pattern))
 
 
 def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, scatter, method, dt, duration,
@@ -612,7 +458,7 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
         if v is None or not v.completed or len(good) == n_final:
             continue
         p, t, mt, _v = unique[i]
-        good.append(_choice(p, t, mt, v))
+        good.append(choice_from(p, t, mt, v))
     # every finalist's full estimate in one mapped pass: the same draws (seed) for each,
     # the chunks of all of them spread over the workers at once
     chunks, owner = [], []

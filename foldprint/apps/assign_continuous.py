@@ -44,15 +44,16 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..core.errors import DesignError, MaterialError
-from ..core.modes import HingeModel, Method
+from ..core.modes import HingeModel, Method, Objective, parse
 from ..model.design import Design
 from ..model.composition import composition_model, parse_name, vero
 from ..model.materials import Material, MaterialLibrary, default_library
 from ..physics.recovery_batch import batch_ratios, grid_until
 from ..simulation.robust import CHUNK, Scatter, default_scatter, draw_samples, run_samples, wilson
 from ..collision.clearance import permanent_crossings
-from .assign import (PREFIX_CLEARANCE_SAMPLES, SCREEN_TAIL_S, AssignResult, Choice, Mapper, Task, _hinge_graph,
-                     _Ledger, local_mapper, run_task, with_materials)
+from .assign import PREFIX_CLEARANCE_SAMPLES, hinge_adjacency, Ledger
+from .assign_result import AssignResult, Choice
+from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, local_mapper, run_task, with_materials
 
 #: Spacing (C) of the Tg grid of the timing table the surrogate interpolates.
 TG_GRID_STEP_C = 0.5
@@ -315,7 +316,7 @@ def _levels_for(chain: Sequence[int], n: int, tgs: Sequence[float]) -> tuple[str
     return tuple(out)
 
 
-def find_chains(design: Design, lib: MaterialLibrary, ledger: _Ledger, bath_c: float, dt: float, cap: int,
+def find_chains(design: Design, lib: MaterialLibrary, ledger: Ledger, bath_c: float, dt: float, cap: int,
                 want: int = ORDER_CHAINS, beam: int = ORDER_BEAM) -> list[tuple[tuple[int, ...], int, float]]:
     """Feasible fold orders (chains of single hinges) of ``design`` at ``bath_c``, with the
     number of their steps that scatter could undo and their clearance.
@@ -341,7 +342,7 @@ def find_chains(design: Design, lib: MaterialLibrary, ledger: _Ledger, bath_c: f
     for tg in levels:
         name = material_name(tg)
         ft[name] = recovery_curve(lib[name], bath_c, thick, design.process.fix_temperature_c).time_to(0.98)
-    graph = _hinge_graph(design)
+    graph = hinge_adjacency(design)
 
     def task(chain):
         mats = _levels_for(chain, n, levels)
@@ -395,7 +396,7 @@ def assign_continuous(design: Design, *, library: MaterialLibrary | None = None,
     if not (math.isfinite(blo) and math.isfinite(bhi)) or bhi < blo:
         raise DesignError(f"--temperature-range: need LO <= HI, got {blo:g} {bhi:g}")
     mapper = mapper or local_mapper(workers)
-    ledger = _Ledger(mapper, budget, progress)
+    ledger = Ledger(mapper, budget, progress)
     n = len(design.hinges)
 
     def result(best=(), chains=(), confirmed=0, robust_sims=0, cands=(), baths=(), blocked=False):
@@ -403,7 +404,7 @@ def assign_continuous(design: Design, *, library: MaterialLibrary | None = None,
                           [("goal", g, c) for g, c in ledger.goals.items()], key=lambda x: (-x[2], str(x[1])))
         mats = tuple(sorted({m for c in best for m in c.materials}))
         temps = tuple(sorted({c.bath_c for c in best})) or (blo,)
-        return ContinuousResult(design, "robust", mats, temps, ledger.evaluated, math.inf, len(chains),
+        return ContinuousResult(design, Objective.ROBUST, mats, temps, ledger.evaluated, math.inf, len(chains),
                                 tuple(best), tuple(blocking), ledger.first_feasible_at, len(chains), blocked,
                                 confirmed, False, robust_sims, tuple(tuple(c) for c in chains), tuple(cands),
                                 tuple(baths))
@@ -525,23 +526,26 @@ def _estimate(design: Design, lib: MaterialLibrary, scatter: Scatter, good: list
     return out
 
 
-def continuous_objective(objective: str, materials: Sequence[str] | None = None, fixed: dict | None = None) -> str:
-    """The objective of a continuous search ("robust"), refusing the ``foldprint assign``
-    options that do not apply to it (``objective`` "time" is the CLI's default)."""
+def continuous_objective(objective: Objective | str, materials: Sequence[str] | None = None,
+                         fixed: dict | None = None) -> Objective:
+    """The objective of a continuous search (``Objective.ROBUST``), refusing the ``foldprint
+    assign`` options that do not apply to it (``objective`` ``TIME`` is the CLI's default)."""
     if materials:
         raise DesignError("--materials does not apply to --continuous: it chooses every hinge's VeroWhite "
                           "fraction in the supported range (docs/composition.md)")
     if fixed:
         raise DesignError("--fixed does not apply to --continuous (every hinge's fraction is chosen); "
                           "drop --fixed or drop --continuous")
-    if objective not in ("time", "robust"):
+    objective = parse(Objective, objective, "--objective")
+    if objective not in (Objective.TIME, Objective.ROBUST):
         raise DesignError(f"--continuous ranks by jam probability (robust); --objective {objective} "
                           "does not apply to it")
-    return "robust"
+    return Objective.ROBUST
 
 
 def search_options(design: Design, *, materials: Sequence[str] | None = None,
-                   temperatures: Sequence[float] | None = None, fixed: dict | None = None, objective: str = "robust",
+                   temperatures: Sequence[float] | None = None, fixed: dict | None = None,
+                   objective: Objective | str = Objective.ROBUST,
                    **kwargs) -> ContinuousResult:
     """:func:`assign_continuous` called with the options of ``foldprint assign`` (the bath
     range spans ``temperatures``; :func:`continuous_objective` refuses the others)."""

@@ -27,7 +27,7 @@ def _click_exceptions() -> tuple[type, ...]:
     return tuple(found)
 
 
-_CLICK_ERRORS = _click_exceptions()
+CLICK_ERRORS = _click_exceptions()
 
 
 #: Exit codes: 0 ok, 1 the design fails, 2 bad input or a refused run, 3 an internal error
@@ -40,11 +40,11 @@ class ExitCode(Exception):
         self.code = code
 
 
-def _err(msg: str) -> None:
+def echo_err(msg: str) -> None:
     echo(f"foldprint: error: {msg}", err=True)
 
 
-def _internal(exc: BaseException, argv: list[str]) -> int:
+def internal_error(exc: BaseException, argv: list[str]) -> int:
     """An exception no check anticipated: a short report on stderr, exit 3 (never 1, the
     code of a failing design, nor 2, which promises a message naming the input). The
     traceback is printed only with FOLDPRINT_TRACEBACK=1."""
@@ -52,13 +52,13 @@ def _internal(exc: BaseException, argv: list[str]) -> int:
     import traceback
 
     if isinstance(exc, MemoryError):
-        _err(f"out of memory ({type(exc).__name__}); the input is too large for this machine: "
+        echo_err(f"out of memory ({type(exc).__name__}); the input is too large for this machine: "
              "reduce it, raise --dt or lower --max-memory so the guard refuses it early")
         return EXIT_INPUT
     frame = traceback.extract_tb(exc.__traceback__)[-1:] if exc.__traceback__ else []
     at = f" at {Path(frame[0].filename).name}:{frame[0].lineno}" if frame else ""
     text = str(exc).splitlines()[0][:200] if str(exc) else ""
-    _err(f"internal error: {type(exc).__name__}{at}: {text}")
+    echo_err(f"internal error: {type(exc).__name__}{at}: {text}")
     echo(f"foldprint: this is a bug in foldprint, not a verdict on the design (exit {EXIT_INTERNAL}); "
          f"please report it with the command `foldprint {' '.join(argv)[:300]}` and the input file"
          + ("" if os.environ.get("FOLDPRINT_TRACEBACK") else "; FOLDPRINT_TRACEBACK=1 prints the traceback"),
@@ -68,11 +68,11 @@ def _internal(exc: BaseException, argv: list[str]) -> int:
     return EXIT_INTERNAL
 
 
-def _echo_json(obj) -> None:
+def echo_json(obj) -> None:
     echo(json.dumps(obj, indent=2, allow_nan=False))
 
 
-def _number(text: str, what: str) -> float:
+def check_number(text: str, what: str) -> float:
     try:
         v = float(text)
     except ValueError:
@@ -82,31 +82,31 @@ def _number(text: str, what: str) -> float:
     return v
 
 
-_STATE = {"quiet": False, "verbose": False}
+OUTPUT_STATE = {"quiet": False, "verbose": False}
 
 
-def _note(msg: str) -> None:
+def echo_note(msg: str) -> None:
     """A human message on stderr (silenced by --quiet)."""
-    if not _STATE["quiet"]:
+    if not OUTPUT_STATE["quiet"]:
         echo(msg, err=True)
 
 
-def _load(design: str, materials_file=None, scale=None, crease_materials=None):
+def load_input(design: str, materials_file=None, scale=None, crease_materials=None):
     from ..io.load import load_design
     from ..model.materials import load_library
     from ..io.templates import resolve_design_path
 
     lib = load_library(materials_file or None)
     if scale is not None:
-        _in_range(scale, "--scale", 0.0, 1e6, "mm per file unit", lo_open=True)
+        check_in_range(scale, "--scale", 0.0, 1e6, "mm per file unit", lo_open=True)
     return load_design(resolve_design_path(design), lib, scale=scale, crease_materials=crease_materials), lib
 
 
-_SCALE = "FOLD/SVG crease patterns: mm per file unit (needed when frame_unit is 'unit' or missing)."
-_CREASE = "FOLD/SVG crease patterns: hinge materials by assignment, e.g. 'M=H-2,V=H-5'."
+SCALE_HELP = "FOLD/SVG crease patterns: mm per file unit (needed when frame_unit is 'unit' or missing)."
+CREASE_HELP = "FOLD/SVG crease patterns: hinge materials by assignment, e.g. 'M=H-2,V=H-5'."
 
 
-def _mode(enum, value: str, option: str):
+def parse_mode(enum, value: str, option: str):
     from ..core.modes import parse
 
     try:
@@ -127,7 +127,7 @@ MAX_TOP = 1000
 MAX_WORKERS = 1024
 
 
-def _in_range(value, option: str, lo: float, hi: float, unit: str = "", lo_open: bool = False) -> float:
+def check_in_range(value, option: str, lo: float, hi: float, unit: str = "", lo_open: bool = False) -> float:
     """``value`` finite and in [lo, hi] (or (lo, hi]); FoldprintError naming the option."""
     u = f" {unit}" if unit else ""
     rng = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]{u}"
@@ -140,27 +140,27 @@ def _in_range(value, option: str, lo: float, hi: float, unit: str = "", lo_open:
     return v
 
 
-def _temperature(value, option: str = "--temperature") -> float:
+def check_temperature(value, option: str = "--temperature") -> float:
     from ..core.schema import TEMPERATURE_C
 
-    return _in_range(value, option, *TEMPERATURE_C, "deg C")
+    return check_in_range(value, option, *TEMPERATURE_C, "deg C")
 
 
-def _time_options(duration, dt) -> None:
+def time_options(duration, dt) -> None:
     from ..core.schema import MAX_DURATION_S
 
-    _in_range(dt, "--dt", *DT_RANGE_S, "s")
+    check_in_range(dt, "--dt", *DT_RANGE_S, "s")
     if duration is not None:
-        _in_range(duration, "--duration", 0.0, MAX_DURATION_S, "s", lo_open=True)
+        check_in_range(duration, "--duration", 0.0, MAX_DURATION_S, "s", lo_open=True)
 
 
-def _count(value: int, option: str, lo: int, hi: int) -> int:
+def check_count(value: int, option: str, lo: int, hi: int) -> int:
     if not lo <= value <= hi:
         raise FoldprintError(f"{option} must be a whole number in [{lo}, {hi}], got {value}")
     return value
 
 
-def _out_dir(value: str | None, option: str = "--out"):
+def check_out_dir(value: str | None, option: str = "--out"):
     """An output directory option: refuses "" (it would mean the current folder without
     saying so) and the file-system root."""
     import os
@@ -177,12 +177,12 @@ def _out_dir(value: str | None, option: str = "--out"):
     return p
 
 
-def _samples_progress(label: str):
+def samples_progress(label: str):
     """A context manager giving a ``progress(done, total)`` callback: a bar on stderr when
     it is a terminal and not --quiet, else nothing."""
     import contextlib
 
-    if _STATE["quiet"] or not sys.stderr.isatty():
+    if OUTPUT_STATE["quiet"] or not sys.stderr.isatty():
         return contextlib.nullcontext(None)
 
     @contextlib.contextmanager
@@ -197,14 +197,14 @@ def _samples_progress(label: str):
     return bar()
 
 
-def _verdict(r: dict) -> str:
+def verdict_word(r: dict) -> str:
     if r["completed"]:
         return "completes"
     c = r["first_collision"]
     return "does NOT complete" + (f" ({c['panels'][0]}-{c['panels'][1]} at {c['time_s']:.3f} s)" if c else "")
 
 
-def _print_simulation(r: dict) -> None:
+def print_simulation(r: dict) -> None:
     crossing = r.get("printed_crossings") or []
     if crossing:  # the printed part itself overlaps: no fold, no contact time to report
         pairs = ", ".join(f"{a!r} and {b!r}" for a, b in crossing[:5])
@@ -212,7 +212,7 @@ def _print_simulation(r: dict) -> None:
              "(the target angles put them through each other; no hinge order or material can fold it): "
              "change the target angles, lengths or holes")
         return
-    echo(f"{r['design']} at {r['temperature_c']:g} C ({r['hinge_model']} hinges, {r['method']}): {_verdict(r)}")
+    echo(f"{r['design']} at {r['temperature_c']:g} C ({r['hinge_model']} hinges, {r['method']}): {verdict_word(r)}")
     if r["fold_time_s"] is not None:
         echo(f"  folded in {r['fold_time_s']:.2f} s")
     for c in r["contacts"]:
@@ -229,11 +229,11 @@ def _print_simulation(r: dict) -> None:
         echo(f"  note: {n}")
     if r.get("comparison"):
         c = r["comparison"]
-        echo(f"  note: the {c['hinge_model']} hinge model disagrees: it {_verdict(c)} "
+        echo(f"  note: the {c['hinge_model']} hinge model disagrees: it {verdict_word(c)} "
              "(docs/simulation.md explains the two models)")
 
 
-def _printer(printer, printers_file):
+def load_printer(printer, printers_file):
     from ..checks.rules import default_printer_key, load_printers
 
     printers = load_printers(printers_file)
@@ -244,13 +244,13 @@ def _printer(printer, printers_file):
     return key, printers[key]
 
 
-def _fraction(value: float, option: str) -> float:
+def check_fraction(value: float, option: str) -> float:
     if not (math.isfinite(value) and 0.0 <= value <= 1.0):
         raise FoldprintError(f"{option} must be a probability between 0 and 1, got {value}")
     return value
 
 
-def _mapper(scheduler: str | None):
+def open_mapper(scheduler: str | None):
     """A context giving the mapper of ``--scheduler`` (a Dask cluster), or None (local cores)."""
     import contextlib
 
@@ -261,9 +261,9 @@ def _mapper(scheduler: str | None):
     return cluster_mapper(scheduler)
 
 
-def _with_progress(label: str, fn):
+def with_progress(label: str, fn):
     """Run ``fn`` with a spinner on stderr when stderr is a terminal and not --quiet."""
-    if _STATE["quiet"] or not sys.stderr.isatty():
+    if OUTPUT_STATE["quiet"] or not sys.stderr.isatty():
         return fn()
     from rich.console import Console
 
@@ -271,7 +271,7 @@ def _with_progress(label: str, fn):
         return fn()
 
 
-def _expand_multi(argv: list[str]) -> list[str]:
+def expand_multi(argv: list[str]) -> list[str]:
     """``--temperature 80 90`` -> ``--temperature 80 --temperature 90``."""
     out: list[str] = []
     i = 0

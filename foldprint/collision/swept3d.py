@@ -15,7 +15,7 @@ the closed angles of a loop pattern need not be monotone, and V_k still bounds t
 An interval [ta, tb] is safe when d(ta) + d(tb) > F(tb) - F(ta): a contact inside would
 need both distances to be covered by the motion.
 
-* Broad phase (``candidate_runs``): a binary hierarchy of panel groups, each inside a
+* Broad phase (``candidate_runs``, in ``broadphase``): a binary hierarchy of panel groups, each inside a
   sphere of fixed radius about one of its panels' centroid in every configuration. Pairs of
   groups and time intervals are certified with the sphere distances and the centre motion
   bound (prefix sums along the tree, O(1) per pair), all pairs of one level at once;
@@ -52,6 +52,14 @@ from ..core.modes import HingeModel, Method
 from ..model.design import Design
 from ..physics.kinematics import HingeDrive, TreeTransforms, hinge_frames
 from ..physics.motion import build_hierarchy, tree_bounds
+from .broadphase import (  # noqa: F401  (the broad phase's names, importable from here as before)
+    REFINE_CHUNK_BYTES,
+    REFINE_LEVELS,
+    REFINE_SUB,
+    candidate_runs,
+    non_adjacent_pairs,
+    panel_centres,
+)
 from .rigid import convex_pieces, prism, rigid_polygon
 
 #: Relative contact tolerance: a fraction of the sheet's size (coordinates of 1e15 mm
@@ -323,203 +331,6 @@ def _count_faces(flat: np.ndarray) -> int:
         pos += int(flat[pos]) + 1
         n += 1
     return n
-
-
-def _adjacent_codes(design: Design) -> np.ndarray:
-    idx = design.panel_index()
-    n = len(design.panels)
-    codes = [min(idx[a], idx[b]) * n + max(idx[a], idx[b]) for a, b in (h.panels for h in design.hinges)]
-    return np.array(sorted(codes), dtype=np.int64)
-
-
-def non_adjacent_pairs(design: Design) -> list[tuple[int, int]]:
-    idx = design.panel_index()
-    adj = {tuple(sorted((idx[h.panels[0]], idx[h.panels[1]]))) for h in design.hinges}
-    n = len(design.panels)
-    return [(i, j) for i in range(n) for j in range(i + 1, n) if (i, j) not in adj]
-
-
-def panel_centres(checker: SweptChecker, poses: np.ndarray) -> np.ndarray:
-    """World centroids (n_t, n, 3) of every panel."""
-    c = checker.tree.centroid
-    R = poses[..., :3, :3]
-    return R[..., 0] * c[:, 0, None] + R[..., 1] * c[:, 1, None] + R[..., 2] * c[:, 2, None] + poses[..., :3, 3]
-
-
-#: Sub-intervals per sample interval at each refinement level of the broad phase, and
-#: the levels: a far-apart group pair the motion bound cannot certify over one sample step
-#: (long tree paths: the bound grows with the square of the path length) is re-tested on
-#: 4, 16, 64 sub-intervals (poses by prefix products, in chunks) before it is split into
-#: panel pairs for the narrow phase.
-REFINE_SUB = 4
-REFINE_LEVELS = 3
-#: Bytes of world poses the refinement evaluates at once (its working memory).
-REFINE_CHUNK_BYTES = 32 * 2 ** 20
-
-
-def candidate_runs(checker: SweptChecker, angles: np.ndarray, poses: np.ndarray, k_start: int = 0,
-                   skip=None, times: np.ndarray | None = None) -> np.ndarray:
-    """Broad phase: (m, 4) rows (i, j, ka, kb), i < j, sorted by ka: the sample runs in which
-    non-adjacent panels i and j might touch. Every other pair and interval is certified
-    apart (sphere distances at both ends exceed the motion bound between them). With
-    ``times`` (the samples' times), group pairs that are far apart but not certified over
-    one sample step are re-tested between the samples (``REFINE_SUB`` ** level
-    sub-intervals) before they reach the narrow phase."""
-    tb, H = checker.tree, checker.hier
-    n, n_t = tb.n, len(angles)
-    excl = _adjacent_codes(checker.design)
-    if skip:
-        excl = np.union1d(excl, [min(p) * n + max(p) for p in skip]).astype(np.int64)
-    angles = np.asarray(angles)
-    P = tb.prefix(angles)
-    C = panel_centres(checker, poses)
-    refine = times is not None
-    out, pend = _descend(checker, P, C, excl, np.array([H.root]), np.array([H.root]),
-                         np.array([k_start]), np.array([n_t - 1]), refine)
-    del P, C
-    if refine and len(pend[0]):
-        times = np.asarray(times, float)
-        a, b, ka = pend[0], pend[1], pend[2]
-        t0, t1, korig = times[ka], times[ka + 1], ka
-        for level in range(REFINE_LEVELS):
-            last = level == REFINE_LEVELS - 1
-            rows, nxt = _refine(checker, angles[0], excl, a, b, t0, t1, korig, refine=not last)
-            out += rows
-            a, b, t0, t1, korig = nxt
-            if not len(a):
-                break
-    if not out:
-        return np.zeros((0, 4), dtype=np.int64)
-    rows = np.concatenate(out).astype(np.int64)
-    return _merge_runs(rows, n)
-
-
-def _refine(checker, ang0, excl, a, b, t0, t1, korig, refine: bool):
-    """Re-test group pairs (a, b) on (t0, t1) (inside the sample interval korig) on
-    ``REFINE_SUB`` sub-intervals; returns narrow rows on the samples (korig, korig + 1)
-    and the pairs still pending (on their sub-intervals)."""
-    n = checker.tree.n
-    sub = REFINE_SUB
-    iv, inv = np.unique(np.column_stack([t0, t1]), axis=0, return_inverse=True)
-    inv = inv.reshape(-1)
-    per = max(1, REFINE_CHUNK_BYTES // (n * 16 * 8 * 3 * (sub + 1)))  # intervals per chunk
-    rows_out, nxt = [], [[], [], [], [], []]
-    frac = np.linspace(0.0, 1.0, sub + 1)
-    order = np.argsort(inv, kind="stable")
-    bounds = np.searchsorted(inv[order], np.arange(0, len(iv) + per, per))
-    for c0 in range(0, len(iv), per):
-        sel = order[bounds[c0 // per]:bounds[c0 // per + 1]]
-        if not len(sel):
-            continue
-        ivc = iv[c0:c0 + per]
-        tg = (ivc[:, :1] + (ivc[:, 1:] - ivc[:, :1]) * frac[None]).ravel()
-        coords = checker.bound_coords(tg)
-        P = checker.tree.prefix(np.vstack([ang0[None], coords]))
-        P = tuple(x[1:] for x in P)
-        C = panel_centres(checker, checker.transforms.poses(checker.drive.angles(tg)))
-        base = (inv[sel] - c0) * (sub + 1)
-        out, pend = _descend(checker, P, C, excl, a[sel], b[sel], base, base + sub, refine)
-        ko = korig[sel]
-        # local grid index -> interval (block) -> the original sample interval
-        blk_k = np.full(len(ivc), -1, dtype=np.int64)
-        blk_k[inv[sel] - c0] = ko
-        for r in out:
-            k = blk_k[r[:, 2] // (sub + 1)]
-            rows_out.append(np.column_stack([r[:, 0], r[:, 1], k, k + 1]))
-        if len(pend[0]):
-            pa, pb, pk = pend
-            nxt[0].append(pa)
-            nxt[1].append(pb)
-            nxt[2].append(tg[pk])
-            nxt[3].append(tg[pk + 1])
-            nxt[4].append(blk_k[pk // (sub + 1)])
-    nxt = [np.concatenate(x) if x else np.zeros(0) for x in nxt]
-    nxt[0], nxt[1], nxt[4] = (x.astype(np.int64) for x in (nxt[0], nxt[1], nxt[4]))
-    return rows_out, nxt
-
-
-def _descend(checker, P, C, excl, a, b, ka, kb, refine: bool):
-    """The hierarchy descent over grid indices of P and C: certified (group pair,
-    interval)s are dropped, others split the interval or the bigger group. Returns narrow
-    rows (i, j, ka, kb) and, with ``refine``, the pairs (a, b, k) that are far apart but
-    uncertified over one grid step (else they are split down to panel pairs)."""
-    tb, H = checker.tree, checker.hier
-    n = tb.n
-    xc = tb.qp + tb.cen
-    margin = 1e-9 * float(H.rad[H.root] + 1.0)
-    out, pend = [], [[], [], []]
-    while len(a):
-        selfp = a == b
-        nxt = []
-        s = a[selfp]
-        s_ka, s_kb = ka[selfp], kb[selfp]
-        inner = H.left[s] >= 0
-        s, s_ka, s_kb = s[inner], s_ka[inner], s_kb[inner]
-        L, R = H.left[s], H.right[s]
-        nxt += [(L, L, s_ka, s_kb), (R, R, s_ka, s_kb), (L, R, s_ka, s_kb)]
-        a, b, ka, kb = a[~selfp], b[~selfp], ka[~selfp], kb[~selfp]
-        if len(a):
-            ra, rb = H.ref[a], H.ref[b]
-            l = tb.lca(ra, rb)
-            sp, on_a = tb.split_panel(ra, rb, l, xc[ra], xc[rb])
-            rsum = H.rad[a] + H.rad[b]
-            da = np.linalg.norm(C[ka, ra] - C[ka, rb], axis=-1) - rsum
-            db = np.linalg.norm(C[kb, ra] - C[kb, rb], axis=-1) - rsum
-
-            args = (ra, rb, l, xc[ra], xc[rb], sp, on_a)
-            dF = tb.pair_motion(P, kb, *args) - tb.pair_motion(P, ka, *args)
-            keep = ~(da + db > dF * (1 + 1e-9) + margin)
-            leaf_a, leaf_b = H.left[a] < 0, H.left[b] < 0
-            both = leaf_a & leaf_b
-            code = np.minimum(ra, rb) * n + np.maximum(ra, rb)
-            keep &= ~(both & np.isin(code, excl))
-            span = kb - ka
-            dmin = np.minimum(da, db)
-            rmax = np.maximum(np.where(leaf_a, 0.0, H.rad[a]), np.where(leaf_b, 0.0, H.rad[b]))
-            far = keep & (dmin > 0) & (both | (dmin > rmax))
-            if refine:
-                later = far & (span == 1)
-                if later.any():
-                    pend[0].append(a[later])
-                    pend[1].append(b[later])
-                    pend[2].append(ka[later])
-                    keep &= ~later
-            tsplit = far & keep & (span > 1)
-            narrow = keep & both & ~tsplit
-            nsplit = keep & ~both & ~tsplit
-            if narrow.any():
-                out.append(np.column_stack([np.minimum(ra, rb)[narrow], np.maximum(ra, rb)[narrow],
-                                            ka[narrow], kb[narrow]]))
-            if tsplit.any():
-                km = (ka[tsplit] + kb[tsplit]) // 2
-                nxt += [(a[tsplit], b[tsplit], ka[tsplit], km), (a[tsplit], b[tsplit], km, kb[tsplit])]
-            if nsplit.any():
-                sa = nsplit & ~leaf_a & (leaf_b | (H.rad[a] >= H.rad[b]))
-                sb = nsplit & ~sa
-                for m, x, y in ((sa, a, b), (sb, b, a)):
-                    if m.any():
-                        nxt += [(H.left[x[m]], y[m], ka[m], kb[m]), (H.right[x[m]], y[m], ka[m], kb[m])]
-        if not nxt:
-            break
-        a = np.concatenate([t[0] for t in nxt])
-        b = np.concatenate([t[1] for t in nxt])
-        ka = np.concatenate([t[2] for t in nxt])
-        kb = np.concatenate([t[3] for t in nxt])
-    pend = [np.concatenate(x) if x else np.zeros(0, dtype=np.int64) for x in pend]
-    return out, pend
-
-
-def _merge_runs(rows: np.ndarray, n: int) -> np.ndarray:
-    """Merge touching intervals of one pair into runs, sorted by their first sample."""
-    code = rows[:, 0] * n + rows[:, 1]
-    o = np.lexsort((rows[:, 2], code))
-    rows, code = rows[o], code[o]
-    start = np.ones(len(rows), dtype=bool)
-    start[1:] = (code[1:] != code[:-1]) | (rows[1:, 2] > np.maximum.accumulate(rows[:, 3])[:-1])
-    first = np.nonzero(start)[0]
-    runs = rows[first].copy()
-    runs[:, 3] = np.maximum.reduceat(rows[:, 3], first)
-    return runs[np.argsort(runs[:, 2], kind="stable")]
 
 
 def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: float = 0.0,

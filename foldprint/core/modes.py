@@ -99,6 +99,20 @@ class JamReason(str, Enum):
         return self.value
 
 
+class Objective(str, Enum):
+    """What ``foldprint assign`` optimises (:mod:`foldprint.apps.assign`): ``TIME`` the
+    fastest fold, ``MARGIN`` the widest smallest clearance along the fold, ``ROBUST`` the
+    lowest jam probability of the finalists under scatter (``--continuous`` ranks by it
+    too)."""
+
+    TIME = "time"
+    MARGIN = "margin"
+    ROBUST = "robust"
+
+    def __str__(self) -> str:
+        return self.value
+
+
 DEFAULT_HINGE_MODEL = HingeModel.ARC
 DEFAULT_METHOD = Method.BOTH
 #: The collision method of the verdicts that fold a design many times or judge it (``check``,
@@ -108,6 +122,7 @@ VERDICT_METHOD = Method.FCL
 DEFAULT_AFTER_CONTACT = AfterContact.STOP
 DEFAULT_STATE = State.PERMANENT
 DEFAULT_INTERFACE = Interface.FLAT
+DEFAULT_OBJECTIVE = Objective.TIME
 
 E = TypeVar("E", bound=Enum)
 

@@ -1,0 +1,223 @@
+"""``foldprint simulate``, ``check`` and ``robust``: one design folded, judged, and folded
+again under scatter, each through :class:`~foldprint.apps.pipeline.Evaluation`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from typer import echo
+
+from ..core import guards
+from ..core.constants import (CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S, DEFAULT_SEED, JAM_ERROR_ABOVE,
+                              JAM_WARN_ABOVE, ROBUST_SAMPLES, SWEEP_SCALES)
+from ..core.modes import DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD
+from ..core.errors import FoldprintError
+from .root import app
+from .support import (ExitCode, MAX_SAMPLES, CREASE_HELP, SCALE_HELP, check_count, echo_json, check_fraction, load_input, open_mapper, parse_mode,
+                      echo_note, check_out_dir, print_simulation, load_printer, samples_progress, check_temperature, time_options,
+                      verdict_word)
+
+
+@app.command()
+def simulate(
+    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); default: the design's."),
+    duration: Optional[float] = typer.Option(None, "--duration", help="Simulated time (s); default: the design's."),
+    dt: float = typer.Option(DEFAULT_DT_S, "--dt", help="Time step of the trajectory (s)."),
+    method: str = typer.Option(DEFAULT_METHOD.value, "--method", help="index2d | fcl | both"),
+    hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
+                                    help="arc (default: the printed hinges) | point (the paper's ROM, Eq. 2-4)"),
+    after_contact: str = typer.Option(DEFAULT_AFTER_CONTACT.value, "--after-contact", help="stop | arrest"),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    plot: Optional[str] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
+    scale: Optional[float] = typer.Option(None, "--scale", help=SCALE_HELP),
+    crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=CREASE_HELP),
+):
+    """Fold the design in the bath: hinge angles, collisions, goals. Exit 0 when it
+    completes, 1 when it collides, stalls or misses a goal. The printed geometry (arc
+    hinges) is the default; the paper's point-hinge ROM is run beside it and reported
+    when its verdict differs.
+
+    Example: foldprint simulate helix_graded --json
+    """
+    from ..core.modes import AfterContact, HingeModel, Method
+    from ..apps.pipeline import EvalOptions, Evaluation
+
+    m, model, after = (parse_mode(Method, method, "--method"), parse_mode(HingeModel, hinge_model, "--hinge-model"),
+                       parse_mode(AfterContact, after_contact, "--after-contact"))
+    if temperature is not None:
+        check_temperature(temperature)
+    time_options(duration, dt)
+    plot = check_out_dir(plot, "--plot")
+    guards.set_max_memory(max_memory)  # issue 14 resource guard
+    d, lib = load_input(design, materials_file, scale, crease_materials)
+    if plot is not None:
+        from ..exchange.files import ensure_dir
+        ensure_dir(plot)
+    ev = Evaluation(d, EvalOptions(hinge_model=model, method=m, after_contact=after, dt=dt, bath_c=temperature,
+                                   duration=duration), library=lib)
+    report = ev.simulation_json()  # with the printed crossings (issue 18) and the other hinge model's verdict
+    res, crossing = ev.simulation, ev.printed_crossings
+    if plot is not None:
+        from ..render.figures import collision_index_figure, hinge_angle_figure, save_figure
+
+        written = [save_figure(hinge_angle_figure(res), plot / f"{d.name}_hinge_angles.png")]
+        if res.index2d is not None:
+            written.append(save_figure(collision_index_figure(res), plot / f"{d.name}_collision_index.png"))
+        for w in written:
+            echo_note(f"wrote {w}")
+    if json_out:
+        echo_json(report)
+    else:
+        print_simulation(report)
+    raise ExitCode(0 if res.completed and not crossing else 1)
+
+
+@app.command()
+def check(
+    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    printer: Optional[str] = typer.Option(None, "--printer", help="Printer profile key (default: connex260)."),
+    printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML)."),
+    hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
+                                    help="arc (default: the printed hinges) | point (the paper's ROM)"),
+    samples: int = typer.Option(CHECK_SAMPLES, "--samples", help="Monte-Carlo samples for the jam probability "
+                                f"(0 skips it; {CHECK_SAMPLES}: the 95 % intervals at 5 % and 20 % do not overlap; run once per sigma scale of the sweep; the gallery runs the same)."),
+    seed: int = typer.Option(CHECK_SEED, "--seed", help="Seed of the samples."),
+    scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
+    error_above: float = typer.Option(JAM_ERROR_ABOVE, "--error-above", help="Fail when the 95 % interval's lower end "
+                                      "of the jam probability is above this."),
+    warn_above: float = typer.Option(JAM_WARN_ABOVE, "--warn-above", help="Warn when the jam probability is above this."),
+    sensitivity: bool = typer.Option(True, "--sensitivity/--no-sensitivity",
+                                     help="Also estimate it with the scatter spreads scaled by --scales and say "
+                                     "(FP183) when the verdict flips in that range."),
+    scales: str = typer.Option(",".join(f"{k:g}" for k in CHECK_SCALES), "--scales", help="Sigma scales of the sensitivity (comma-separated)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    max_memory: Optional[str] = typer.Option(None, "--max-memory", help="Memory limit, e.g. 4G (default 2G)."),
+    scale: Optional[float] = typer.Option(None, "--scale", help=SCALE_HELP),
+    crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=CREASE_HELP),
+):
+    """Design-rule checks before printing, on the printed geometry: build volume, walls
+    and gaps, hinge strain and size, temperatures, fold time, collisions and goals, and
+    the jam probability under manufacturing scatter, also with the spreads at 0.5x and 2x
+    (FP183 says when the verdict flips in that range). Exit 0 without errors, 1 with.
+
+    Example: foldprint check helix_uniform --json
+    """
+    from ..checks.rules import Thresholds
+    from ..core.modes import HingeModel
+    from ..apps.pipeline import EvalOptions, Evaluation, check_scales
+    from ..simulation.robust import load_scatter
+    from ..simulation.sensitivity import parse_scales
+
+    model = parse_mode(HingeModel, hinge_model, "--hinge-model")
+    guards.set_max_memory(max_memory)  # resource guard (issue 14)
+    check_count(samples, "--samples", 0, MAX_SAMPLES)  # 0 skips the jam probability
+    if seed < 0:
+        raise FoldprintError(f"--seed must be >= 0, got {seed}")
+    th = Thresholds(check_fraction(error_above, "--error-above"), check_fraction(warn_above, "--warn-above"))
+    ks = parse_scales(scales) if sensitivity else ()
+    key, pr = load_printer(printer, printers_file)
+    sc = load_scatter(scatter_file)
+    d, lib = load_input(design, materials_file, scale, crease_materials)
+    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=check_scales(ks), thresholds=th)
+    with samples_progress(f"{d.name}: scatter samples") as cb:
+        ev = Evaluation(d, opts, library=lib, printer=pr, scatter=sc,
+                        progress=(lambda _s, done, total: cb(done, total)) if cb else None)
+        findings = ev.findings
+    n_err = ev.errors
+    if json_out:
+        echo_json(ev.to_json(key))
+    else:
+        for f in findings:
+            where = ", ".join(f"{k} {v}" for k, v in f.where.items())
+            echo(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
+            if f.hint:
+                echo(f"        hint: {f.hint}")
+        echo_note(f"{d.name}: {n_err} error(s) on {pr.name} ({model.value} hinges)")
+    raise ExitCode(1 if n_err else 0)
+
+
+@app.command()
+def robust(
+    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    samples: int = typer.Option(ROBUST_SAMPLES, "--samples", help="Monte-Carlo samples (>= 1)."),
+    seed: int = typer.Option(DEFAULT_SEED, "--seed", help="Seed: the same seed gives the same answer."),
+    scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
+    hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
+                                    help="arc (default: the printed hinges) | point (the paper's ROM)"),
+    contributions: bool = typer.Option(False, "--contributions/--no-contributions",
+                                       help="Also each scatter component alone and all but each (two more "
+                                       "runs of the samples per component: about 11x the cost, so opt-in)."),
+    sensitivity: bool = typer.Option(False, "--sensitivity", help="Also sweep every spread by --scales."),
+    scales: str = typer.Option(",".join(f"{k:g}" for k in SWEEP_SCALES), "--scales", help="Sigma scales of --sensitivity (comma-separated)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT",
+                                            help="Run the samples on this Dask scheduler (default: local cores)."),
+):
+    """Jam probability under manufacturing and process scatter (foldprint/data/scatter.toml):
+    shared by the part and run (bath temperature, the heat-transfer correlation's error)
+    and per hinge (Tg, thickness, local heat transfer); N Monte-Carlo folds of the printed
+    geometry on all cores, with each component's contribution and (--sensitivity) the
+    curve over sigma scales. Exit 0; 2 on bad input.
+
+    Example: foldprint robust helix_uniform --samples 60 --seed 1 --sensitivity --json
+    """
+    from ..core.modes import HingeModel
+    from ..apps.pipeline import EvalOptions, Evaluation
+    from ..simulation.robust import load_scatter
+    from ..simulation.sensitivity import parse_scales
+
+    model = parse_mode(HingeModel, hinge_model, "--hinge-model")
+    check_count(samples, "--samples", 1, MAX_SAMPLES)
+    if seed < 0:
+        raise FoldprintError(f"--seed must be >= 0, got {seed}")
+    ks = parse_scales(scales)
+    sc = load_scatter(scatter_file)
+    d, lib = load_input(design, materials_file)
+    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=ks if sensitivity else ())
+    with open_mapper(scheduler) as mapper:
+        ev = Evaluation(d, opts, library=lib, scatter=sc, mapper=mapper)
+        with samples_progress(f"{d.name}: scatter samples") as cb:
+            ev.run_robust(cb)
+        if contributions:
+            with samples_progress(f"{d.name}: one component at a time") as cb:
+                ev.run_contributions(cb)
+        if sensitivity:
+            with samples_progress(f"{d.name}: sigma scales") as cb:
+                ev.run_sweep(cb)
+    out = ev.robust_json()
+    if json_out:
+        echo_json(out)
+        return
+    lo, hi = out["ci95"]
+    echo(f"{d.name}: jam probability {out['jam_probability']:.1%} (95 % interval {lo:.1%}-{hi:.1%}) "
+         f"in {samples} samples, seed {seed} ({model.value} hinges)")
+    for c in out["collisions"][:5]:
+        echo(f"  {c['pair'][0]}-{c['pair'][1]} collide in {c['count']} samples")
+    ft = out["fold_time_s"]
+    if ft:
+        echo(f"  fold time of the samples that completed: {ft['p5']:.2f} / {ft['p50']:.2f} / "
+             f"{ft['p95']:.2f} s (5th / 50th / 95th percentile)")
+    echo(f"  nominal: {verdict_word(out['nominal'])}")
+
+    def est(e):
+        a, b = e["ci95"]
+        return f"{e['jams']:>3}/{e['samples']} {e['jam_probability']:6.1%} ({a:.1%}-{b:.1%})"
+
+    if out["contributions"] is not None:
+        echo("  contribution of each scatter component (same draws; alone = the others at zero):")
+        echo(f"    {'component':<42} {'spread':>9}  {'alone':<24} all but it")
+        for c in out["contributions"]:
+            name = f"{c['label']} [{c['scope']}]"
+            echo(f"    {name:<42} {c['spread']:>6g} {c['unit']:<2}  {est(c['alone']):<24} {est(c['all_but'])}")
+    if out["sensitivity"] is not None:
+        echo("  sensitivity: every spread scaled by k (same draws):")
+        for p in out["sensitivity"]:
+            echo(f"    k = {p['scale']:<5g} jam {est(p)}")
