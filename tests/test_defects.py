@@ -104,6 +104,13 @@ def test_assign_on_a_crossing_part_counts_no_evaluation(crossing, capsys):
     assert "p1-p3 cross in the printed (permanent) state" in out
 
 
+def test_assign_json_on_a_crossing_part_counts_no_evaluation(crossing, capsys):
+    code = main(["assign", str(crossing), "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 1 and out["evaluated"] == 0 and out["feasible"] == 0
+    assert out["blocking"] == [{"pair": ["p1", "p3"], "count": 0, "kind": "pair", "printed_state": True}]
+
+
 def test_fp171_names_the_hole_as_an_index(capsys):
     main(["check", "self_lock_uniform", "--samples", "0", "--json"])
     fp171 = [f for f in json.loads(capsys.readouterr().out)["findings"] if f["code"] == "FP171"]

@@ -76,8 +76,15 @@ class AssignResult:
                 "confirmed": self.confirmed, "exhaustive": self.exhaustive,
                 "robust_simulations": self.robust_simulations,
                 "best": [c.to_json(self.design) for c in self.best],
-                "blocking": [({"pair": list(w)} if k == "pair" else {"goal": w}) | {"count": n, "kind": k}
-                             for k, w, n in self.blocking]}
+                "blocking": [self._blocking_json(k, w, n) for k, w, n in self.blocking]}
+
+    def _blocking_json(self, kind: str, what, n: int) -> dict:
+        """One blocking entry: the pair or goal, in how many evaluations it blocked (a
+        pair that crosses in the printed state blocks before any evaluation: count 0,
+        ``printed_state`` true)."""
+        if kind == "pair" and self.permanent_blocked:
+            return {"pair": list(what), "count": 0, "kind": kind, "printed_state": True}
+        return ({"pair": list(what)} if kind == "pair" else {"goal": what}) | {"count": n, "kind": kind}
 
 
 def choice_from(pattern, bath_c: float, materials, v: Verdict) -> Choice:
