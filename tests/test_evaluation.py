@@ -104,6 +104,37 @@ def test_a_forked_process_ignores_the_parents_cache(helix, monkeypatch):
     assert len(cache) == 0
 
 
+def test_monte_carlo_chunks_derive_once_per_design_content(helix, monkeypatch):
+    """A worker gets a fresh copy of the design with every chunk (pickled): the second
+    chunk finds the first copy's derived data (issue 23, item 1), a changed design does
+    not, and the outcomes equal a chunk folded with nothing kept."""
+    from itertools import islice
+
+    from foldprint.model.materials import default_library
+    from foldprint.simulation import robust
+    from foldprint.simulation.scatter import default_scatter, iter_samples
+
+    monkeypatch.setattr(derived, "_kept", type(derived._kept)())
+    calls = _count(monkeypatch, kinematics, "_hinge_frames")
+    lib = default_library()
+    samples = list(islice(iter_samples(helix, default_scatter(), 4, 1), 4))
+    chunk = lambda d: robust.run_samples((d, lib, samples, HingeModel.ARC, 0.01))  # noqa: E731
+    first = chunk(pickle.loads(pickle.dumps(helix)))
+    n = len(calls)
+    assert n >= 1
+    assert chunk(pickle.loads(pickle.dumps(helix))) == first and len(calls) == n  # kept: not derived again
+    other = helix.replace(name="helix_renamed")
+    assert derived.content_key(other) != derived.content_key(helix)
+    chunk(other)
+    assert len(calls) == n + 1  # another design: its own data
+    monkeypatch.setattr(derived, "_kept", type(derived._kept)())
+    assert chunk(pickle.loads(pickle.dumps(helix))) == first  # nothing kept: the same outcomes
+    with DerivedCache().active():  # an active cache (an evaluation) is used as before
+        before = len(calls)
+        chunk(helix)
+        assert len(calls) == before + 1
+
+
 def test_cached_values_equal_fresh_ones(helix):
     fresh = kinematics._hinge_frames(helix)
     with DerivedCache().active():
