@@ -228,3 +228,27 @@ def test_the_manifest_fold_times_are_the_recovery_models(helix, tmp_path):
     for h in helix.hinges:  # an independent call of the recovery model, per hinge
         t = fold_time(lib[h.material], pr.bath_temperature_c, h.thickness, pr.fix_temperature_c)
         assert doc["programming"]["hinge_fold_times_s"][h.id] == pytest.approx(t, abs=5e-4)
+
+
+@pytest.mark.parametrize("name", ["cross_lock_uniform", "helix_uniform"])
+def test_shared_nominal_work_gives_each_simulation_unchanged(name):
+    """An evaluation's simulations share the nominal drive (a loop pattern's closure
+    tracked once) and, off a planar strip, 'both' is the 3D check's simulation (issue 23):
+    each equals the simulation run on its own, field for field."""
+    from foldprint.checks.report import simulation_json
+
+    d = load_design(resolve_design_path(name))
+    ev = Evaluation(d, EvalOptions(samples=0))
+    for m in (Method.FCL, Method.BOTH):
+        alone = simulate(d, method=m, dt=ev.options.dt)
+        shared = ev.simulation_for(m)
+        assert shared.method == m
+        assert simulation_json(shared) == simulation_json(alone)
+        assert np.array_equal(shared.trajectory.angles, alone.trajectory.angles)
+        assert np.array_equal(shared.trajectory.poses, alone.trajectory.poses)
+    other = HingeModel.POINT if ev.options.hinge_model == HingeModel.ARC else HingeModel.ARC
+    alt = simulate(d, method=ev.options.method, dt=ev.options.dt, hinge_model=other)
+    comp = ev.comparison
+    assert (comp is None) == (pipeline._verdict(alt) == pipeline._verdict(ev.simulation))
+    if comp is not None:
+        assert simulation_json(comp.result) == simulation_json(alt)
