@@ -159,17 +159,21 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
     tau, g = spectrum(p)
     xmin = xi.min(axis=(0, 2))  # rising in t: branch b is negligible everywhere past CUT tau_b
     unrecovered = np.zeros_like(xi)
+    x, e = np.empty_like(xi), np.empty_like(xi)
+    keep = np.empty(xi.shape, dtype=bool)
     for tb, gb in zip(tau, g):
         k = int(np.searchsorted(xmin, CUT * tb, side="right"))
         if k == 0:
             continue
-        x = xi[:, :k] * (-1.0 / tb)
-        keep = x >= -CUT
-        np.maximum(x, -CUT, out=x)
-        np.exp(x, out=x)
-        x *= gb
-        x *= keep  # exactly 0 past the cut, element by element
-        unrecovered[:, :k] += x
+        xk, ek, kk = x[:, :k], e[:, :k], keep[:, :k]
+        np.multiply(xi[:, :k], -1.0 / tb, out=xk)
+        np.greater_equal(xk, -CUT, out=kk)
+        # exp only where kept; exactly 0 past the cut, element by element (the exponent
+        # is never below -CUT there: no slow underflow path)
+        ek[...] = 0.0
+        np.exp(xk, out=ek, where=kk)
+        ek *= gb
+        unrecovered[:, :k] += ek
     ratio = np.clip(1.0 - np.einsum("ntz,z->nt", unrecovered, w), 0.0, 1.0)
     ratio = np.maximum.accumulate(ratio, axis=1)
     mean_t = np.einsum("ntz,z->nt", temp, wm)
