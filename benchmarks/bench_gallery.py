@@ -3,7 +3,7 @@ check's Monte-Carlo samples and seed, :data:`foldprint.core.constants.CHECK_SAMP
 the same gallery without the Monte-Carlo (0 samples: what the gallery did before it ran
 the check), and the material chart's fold-time table against one recovery curve per point.
 
-    python benchmarks/bench_gallery.py [--jobs N] [--in-process] [--one-process] [--json]
+    python benchmarks/bench_gallery.py [--jobs N] [--in-process] [--one-process] [--phases] [--json]
 
 Prints wall and CPU times and ratios measured in the same run: the cost of the
 Monte-Carlo (the gallery against the one without it), the fold of a chunk of
@@ -92,6 +92,51 @@ def _loop_chunk(n: int = 16) -> tuple[float, float, bool]:
     return t_lock, t_alone, lock == alone
 
 
+def _phases(n: int = 16) -> list[dict]:
+    """Per template, CPU ms per sample of one chunk of ``n`` check samples (1x scatter,
+    check's seed): a worker's first chunk of the design (derived data and FCL geometry
+    built), a later chunk (kept: what ``foldprint.model.derived.design_scope`` saves),
+    and the later chunk's phases: recovery curves, loop closure (lockstep), folds."""
+    from itertools import islice
+
+    from foldprint.collision import swept3d
+    from foldprint.core.constants import CHECK_DT_S, CHECK_SEED
+    from foldprint.core.modes import VERDICT_METHOD, HingeModel
+    from foldprint.model import derived
+    from foldprint.physics.kinematics import run_times, solve_loops_many
+    from foldprint.simulation import robust
+    from foldprint.simulation.scatter import default_scatter, iter_samples
+    from foldprint.simulation.simulate import simulate
+
+    lib, out, pt = default_library(), [], time.process_time
+    for t in list_templates():
+        d = load_design(t["path"])
+        samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), n))
+        args = (d, lib, samples, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD)
+        robust.run_samples((d, lib, samples[:1], *args[3:]))  # process-wide caches (grids) warm
+        derived._kept.clear()
+        swept3d._checkers.clear()
+        c0 = pt()
+        cold = robust.run_samples(args)
+        c1 = pt()
+        warm = robust.run_samples(args)
+        c2 = pt()
+        with derived.design_scope(d) as dd:
+            drives = robust.sample_drives(dd, lib, samples, until_s=robust.run_end(dd, CHECK_DT_S))
+            c3 = pt()
+            solve_loops_many(drives, run_times(dd, CHECK_DT_S))
+            c4 = pt()
+            folds = [robust.outcome_of(simulate(dd, dt=CHECK_DT_S, method=VERDICT_METHOD, hinge_model=HingeModel.ARC,
+                                                drive=x)) for x in drives]
+            c5 = pt()
+        ms = lambda a, b: round((b - a) / n * 1e3, 1)  # noqa: E731
+        out.append({"design": t["name"], "first_chunk_ms": ms(c0, c1), "later_chunk_ms": ms(c1, c2),
+                    "setup_ms_per_chunk": round(((c1 - c0) - (c2 - c1)) * 1e3, 1),
+                    "curves_ms": ms(c2, c3), "loops_ms": ms(c3, c4), "folds_ms": ms(c4, c5),
+                    "same_outcomes": cold == warm == folds, "jams": sum(o.jammed for o in warm)})
+    return out
+
+
 def _chart() -> tuple[float, float, float]:
     lib = default_library()
     baths = np.linspace(70.0, 100.0, 16)
@@ -112,6 +157,7 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--in-process", action="store_true", help="Also build the gallery in this process.")
     ap.add_argument("--one-process", action="store_true", help="Also build the gallery in one process.")
+    ap.add_argument("--phases", action="store_true", help="Also time a chunk of each template by phase.")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     load = os.getloadavg()[0]
@@ -137,6 +183,8 @@ def main() -> None:
         t_one, cpu_one = _gallery(1)
         res.update({"gallery_one_process_s": round(t_one, 2), "gallery_one_process_cpu_s": round(cpu_one, 2),
                     "parallel_speedup": round(t_one / t_par, 2)})
+    if args.phases:
+        res["phases"] = _phases()
     if args.json:
         print(json.dumps(res))
         return
@@ -155,6 +203,11 @@ def main() -> None:
     if args.one_process:
         print(f"  one process: {res['gallery_one_process_s']:.1f} s wall, {res['gallery_one_process_cpu_s']:.1f} "
               f"CPU-s (x{res['parallel_speedup']:.2f} for {args.jobs} processes)")
+    for p in res.get("phases", []):
+        print(f"  {p['design']:22s} CPU ms/sample: first chunk {p['first_chunk_ms']:6.1f}, later "
+              f"{p['later_chunk_ms']:6.1f} (setup kept: {p['setup_ms_per_chunk']:5.0f} ms a chunk); curves "
+              f"{p['curves_ms']:5.1f}, loops {p['loops_ms']:6.1f}, folds {p['folds_ms']:5.1f}; "
+              f"same outcomes {p['same_outcomes']}")
     print(f"chart fold times, 7 materials x 16 baths: {t_loop:.2f} s one curve each, {t_table:.2f} s "
           f"as one table (x{t_loop / t_table:.1f}), largest difference {worst:.2e} s")
 

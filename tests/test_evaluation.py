@@ -104,6 +104,37 @@ def test_a_forked_process_ignores_the_parents_cache(helix, monkeypatch):
     assert len(cache) == 0
 
 
+def test_monte_carlo_chunks_derive_once_per_design_content(helix, monkeypatch):
+    """A worker gets a fresh copy of the design with every chunk (pickled): the second
+    chunk finds the first copy's derived data (issue 23, item 1), a changed design does
+    not, and the outcomes equal a chunk folded with nothing kept."""
+    from itertools import islice
+
+    from foldprint.model.materials import default_library
+    from foldprint.simulation import robust
+    from foldprint.simulation.scatter import default_scatter, iter_samples
+
+    monkeypatch.setattr(derived, "_kept", type(derived._kept)())
+    calls = _count(monkeypatch, kinematics, "_hinge_frames")
+    lib = default_library()
+    samples = list(islice(iter_samples(helix, default_scatter(), 4, 1), 4))
+    chunk = lambda d: robust.run_samples((d, lib, samples, HingeModel.ARC, 0.01))  # noqa: E731
+    first = chunk(pickle.loads(pickle.dumps(helix)))
+    n = len(calls)
+    assert n >= 1
+    assert chunk(pickle.loads(pickle.dumps(helix))) == first and len(calls) == n  # kept: not derived again
+    other = helix.replace(name="helix_renamed")
+    assert derived.content_key(other) != derived.content_key(helix)
+    chunk(other)
+    assert len(calls) == n + 1  # another design: its own data
+    monkeypatch.setattr(derived, "_kept", type(derived._kept)())
+    assert chunk(pickle.loads(pickle.dumps(helix))) == first  # nothing kept: the same outcomes
+    with DerivedCache().active():  # an active cache (an evaluation) is used as before
+        before = len(calls)
+        chunk(helix)
+        assert len(calls) == before + 1
+
+
 def test_cached_values_equal_fresh_ones(helix):
     fresh = kinematics._hinge_frames(helix)
     with DerivedCache().active():
@@ -197,3 +228,27 @@ def test_the_manifest_fold_times_are_the_recovery_models(helix, tmp_path):
     for h in helix.hinges:  # an independent call of the recovery model, per hinge
         t = fold_time(lib[h.material], pr.bath_temperature_c, h.thickness, pr.fix_temperature_c)
         assert doc["programming"]["hinge_fold_times_s"][h.id] == pytest.approx(t, abs=5e-4)
+
+
+@pytest.mark.parametrize("name", ["cross_lock_uniform", "helix_uniform"])
+def test_shared_nominal_work_gives_each_simulation_unchanged(name):
+    """An evaluation's simulations share the nominal drive (a loop pattern's closure
+    tracked once) and, off a planar strip, 'both' is the 3D check's simulation (issue 23):
+    each equals the simulation run on its own, field for field."""
+    from foldprint.checks.report import simulation_json
+
+    d = load_design(resolve_design_path(name))
+    ev = Evaluation(d, EvalOptions(samples=0))
+    for m in (Method.FCL, Method.BOTH):
+        alone = simulate(d, method=m, dt=ev.options.dt)
+        shared = ev.simulation_for(m)
+        assert shared.method == m
+        assert simulation_json(shared) == simulation_json(alone)
+        assert np.array_equal(shared.trajectory.angles, alone.trajectory.angles)
+        assert np.array_equal(shared.trajectory.poses, alone.trajectory.poses)
+    other = HingeModel.POINT if ev.options.hinge_model == HingeModel.ARC else HingeModel.ARC
+    alt = simulate(d, method=ev.options.method, dt=ev.options.dt, hinge_model=other)
+    comp = ev.comparison
+    assert (comp is None) == (pipeline._verdict(alt) == pipeline._verdict(ev.simulation))
+    if comp is not None:
+        assert simulation_json(comp.result) == simulation_json(alt)

@@ -9,7 +9,11 @@ samples, the renderers) are decorated with :func:`scoped`: they use the active c
 open one of their own for the duration of the call.
 
 The cache does not travel: it refuses to be pickled, and a process forked while it was
-active ignores it (it is bound to the process that made it). Entries are keyed by the
+active ignores it (it is bound to the process that made it). A Monte-Carlo worker folds
+one design in many chunks, each its own call: :func:`design_scope` keeps, per process, one
+cache per design *content* (a digest of the pickled design, so a chunk's copy sent to a
+worker finds the cache of an earlier copy; equal bytes, equal design: never stale) and
+hands the chunk the first copy, whose identity the cache's entries are keyed by. Entries are keyed by the
 identity of the (immutable) object they derive from plus a key; the cache holds a
 reference to each such object, so an identity is never reused while it lives.
 """
@@ -17,8 +21,10 @@ reference to each such object, so an identity is never reused while it lives.
 from __future__ import annotations
 
 import functools
+import hashlib
 import os
-from collections import Counter
+import pickle
+from collections import Counter, OrderedDict
 from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Callable, Hashable, Iterator, TypeVar
@@ -104,3 +110,37 @@ def scoped(fn: Callable[..., T]) -> Callable[..., T]:
             return fn(*args, **kwargs)
 
     return wrapper
+
+
+#: Designs whose derived data :func:`design_scope` keeps per process (a worker's designs).
+KEEP_DESIGNS = 8
+_kept: "OrderedDict[bytes, tuple[object, DerivedCache]]" = OrderedDict()
+
+
+def content_key(obj: object) -> bytes:
+    """A digest of ``obj``'s pickled bytes: equal for equal (immutable) designs, whichever
+    copy (a worker receives a fresh copy with every task)."""
+    return hashlib.blake2b(pickle.dumps(obj, protocol=5), digest_size=20).digest()
+
+
+@contextmanager
+def design_scope(design: T) -> Iterator[T]:
+    """The active cache, with ``design`` itself; when none is active, this process's kept
+    cache of a design with the same content (:func:`content_key`), active for the ``with``
+    block, with that design's first copy (use it in place of ``design``: the cache's
+    entries are keyed by its identity). Keeps :data:`KEEP_DESIGNS` designs, the least
+    recently used dropped first; entries made by another process (before a fork) are not
+    used."""
+    if current() is not None:
+        yield design
+        return
+    key = content_key(design)
+    hit = _kept.get(key)
+    if hit is None or hit[1]._pid != os.getpid():
+        hit = (design, DerivedCache())
+        _kept[key] = hit
+        while len(_kept) > KEEP_DESIGNS:
+            _kept.popitem(last=False)
+    _kept.move_to_end(key)
+    with hit[1].active():
+        yield hit[0]

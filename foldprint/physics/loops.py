@@ -336,7 +336,6 @@ class LoopSolver:
         x = np.zeros(self.n)
         out = np.zeros_like(driven)
         worst = 0.0
-        stuck: dict[int, float] = {}
         locked_at = None
         dof = -1
         res_x = 0.0
@@ -377,8 +376,11 @@ class LoopSolver:
                 worst = max(worst, res_x)
                 prev_drive = y
             out[k] = x
-            for i in np.nonzero(np.abs(x - y) > FOLLOW_TOL)[0]:
-                stuck.setdefault(int(i), float(times[k]))
+        # the first time each hinge's closed angle is more than FOLLOW_TOL from its drive
+        # (one array test after the run instead of one per step: the same comparisons)
+        dev = np.abs(out - driven) > FOLLOW_TOL
+        first = dev.argmax(axis=0)
+        stuck = {int(i): float(times[first[i]]) for i in np.nonzero(dev.any(axis=0))[0]}
         var = np.vstack([np.zeros((1, self.n)), np.cumsum(np.abs(np.diff(out, axis=0)), axis=0)])
         groups: dict[float, list[str]] = {}
         for i, t in sorted(stuck.items(), key=lambda it: (it[1], it[0])):

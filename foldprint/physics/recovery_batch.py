@@ -37,7 +37,7 @@ import numpy as np
 
 from ..core.constants import RECOVERY_HORIZON_S
 from ..model.materials import RecoveryParams
-from .recovery import N_LAYERS, N_TERMS, curve_time_grid, combine_strips, is_graded, log10_shift, spectrum, strip_tgs
+from .recovery import N_LAYERS, N_TERMS, curve_time_grid, combine_strips, is_graded, spectrum, strip_tgs
 
 #: Exponent beyond which a series term or relaxation branch is dropped (exp(-50) = 2e-22).
 CUT = 50.0
@@ -61,6 +61,27 @@ def grid_until(until_s: float, horizon_s: float = RECOVERY_HORIZON_S) -> np.ndar
     g = _full_grid(float(horizon_s))
     k = int(np.searchsorted(g, until_s, side="left"))
     return g[: min(len(g), k + 2)]
+
+
+def _rate(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams) -> np.ndarray:
+    """1 / a_T = exp(-ln 10 log10 a_T) of :func:`foldprint.physics.recovery.log10_shift`,
+    the same operations on the same values (bitwise equal) in place, and Arrhenius only
+    where it is taken (below Tg): the batch's largest arrays are not allocated again for
+    each term."""
+    d = temp - tg
+    out = np.maximum(d, 0.0)
+    out += p.c2
+    np.divide(d * (-p.c1), out, out=out)  # WLF: -c1 d / (c2 + max(d, 0))
+    below = d < 0.0
+    if below.any():
+        tgk = tg + 273.15
+        arr = temp + 273.15
+        np.divide(1.0, arr, out=arr)
+        arr -= 1.0 / tgk
+        arr *= (p.c1 / p.c2) * tgk**2  # Arrhenius: (c1 / c2) Tg^2 (1 / T - 1 / Tg), in K
+        np.copyto(out, arr, where=below)
+    out *= -_LN10
+    return np.exp(out, out=out)
 
 
 def slab_roots(biot: np.ndarray, n: int = N_TERMS) -> np.ndarray:
@@ -151,7 +172,7 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
     temp = bath[:, None, None] - (bath - initial_c)[:, None, None] * np.clip(theta, 0.0, 1.0)
 
     # 2. reduced time: xi = int dt / a_T(T)
-    rate = np.exp(-_LN10 * log10_shift(temp, tg[:, None, None], p))
+    rate = _rate(temp, tg[:, None, None], p)
     xi = np.zeros_like(rate)
     np.cumsum(0.5 * (rate[:, 1:] + rate[:, :-1]) * np.diff(t)[None, :, None], axis=1, out=xi[:, 1:])
 
@@ -159,17 +180,21 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
     tau, g = spectrum(p)
     xmin = xi.min(axis=(0, 2))  # rising in t: branch b is negligible everywhere past CUT tau_b
     unrecovered = np.zeros_like(xi)
+    x, e = np.empty_like(xi), np.empty_like(xi)
+    keep = np.empty(xi.shape, dtype=bool)
     for tb, gb in zip(tau, g):
         k = int(np.searchsorted(xmin, CUT * tb, side="right"))
         if k == 0:
             continue
-        x = xi[:, :k] * (-1.0 / tb)
-        keep = x >= -CUT
-        np.maximum(x, -CUT, out=x)
-        np.exp(x, out=x)
-        x *= gb
-        x *= keep  # exactly 0 past the cut, element by element
-        unrecovered[:, :k] += x
+        xk, ek, kk = x[:, :k], e[:, :k], keep[:, :k]
+        np.multiply(xi[:, :k], -1.0 / tb, out=xk)
+        np.greater_equal(xk, -CUT, out=kk)
+        # exp only where kept; exactly 0 past the cut, element by element (the exponent
+        # is never below -CUT there: no slow underflow path)
+        ek[...] = 0.0
+        np.exp(xk, out=ek, where=kk)
+        ek *= gb
+        unrecovered[:, :k] += ek
     ratio = np.clip(1.0 - np.einsum("ntz,z->nt", unrecovered, w), 0.0, 1.0)
     ratio = np.maximum.accumulate(ratio, axis=1)
     mean_t = np.einsum("ntz,z->nt", temp, wm)

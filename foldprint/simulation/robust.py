@@ -30,7 +30,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..model.derived import scoped
+from ..model.derived import design_scope
 from ..core import guards
 from ..model.design import Design
 from ..core.constants import DEFAULT_DT_S, DEFAULT_SEED, ROBUST_SAMPLES
@@ -164,13 +164,19 @@ def run_sample(args) -> Outcome:
     return outcome_of(res)
 
 
-@scoped
 def run_samples(args) -> list[Outcome]:
     """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), the
     closure of a pattern with loops tracked for all of them in lockstep
     (:func:`foldprint.physics.kinematics.solve_loops_many`), then one fold each. ``args``:
     (design, library, samples, hinge_model, dt[, exact[, method]]), the method
-    :data:`~foldprint.core.modes.VERDICT_METHOD` by default."""
+    :data:`~foldprint.core.modes.VERDICT_METHOD` by default. The design's derived data
+    (hinge frames, spanning tree, rigid polygons) and FCL geometry are made once per
+    process and design content (:func:`foldprint.model.derived.design_scope`), not per chunk."""
+    with design_scope(args[0]) as design:
+        return _run_samples((design, *args[1:]))
+
+
+def _run_samples(args) -> list[Outcome]:
     design, library, samples, hinge_model, dt, *rest = args
     method = rest[1] if len(rest) > 1 else VERDICT_METHOD
     if rest and rest[0]:
