@@ -51,6 +51,14 @@ def _resolve(target: str, modules: dict[str, Path]) -> str | None:
     return target or None
 
 
+def _from_module(pkg: str, node: ast.ImportFrom) -> str:
+    """The absolute name of the module a ``from ... import`` reads, in package ``pkg``."""
+    if node.level:
+        base = pkg.split(".")[: len(pkg.split(".")) - (node.level - 1)]
+        return ".".join(base + ([node.module] if node.module else []))
+    return node.module or ""
+
+
 def edges_of(mod: str, is_package: bool, src: str, modules) -> list[tuple[str, str]]:
     """(mod, imported foldprint module) for every import in one module's source."""
     pkg = mod if is_package else mod.rpartition(".")[0]
@@ -58,11 +66,7 @@ def edges_of(mod: str, is_package: bool, src: str, modules) -> list[tuple[str, s
     for node in ast.walk(ast.parse(src)):
         targets: list[str] = []
         if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = pkg.split(".")[: len(pkg.split(".")) - (node.level - 1)]
-                head = ".".join(base + ([node.module] if node.module else []))
-            else:
-                head = node.module or ""
+            head = _from_module(pkg, node)
             targets = [f"{head}.{a.name}" for a in node.names] if head else []
             targets = [t if t in modules else head for t in targets]
         elif isinstance(node, ast.Import):
@@ -181,11 +185,7 @@ def private_imports(mod: str, is_package: bool, src: str, modules) -> list[tuple
     tree = ast.parse(src)
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = pkg.split(".")[: len(pkg.split(".")) - (node.level - 1)]
-                head = ".".join(base + ([node.module] if node.module else []))
-            else:
-                head = node.module or ""
+            head = _from_module(pkg, node)
             if not (head == "foldprint" or head.startswith("foldprint.")):
                 continue
             for a in node.names:

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
@@ -48,13 +48,13 @@ from ..model.design import Design
 from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_DT_S, DEFAULT_SEED
 from ..core.errors import DesignError
 from ..model.materials import MaterialLibrary, default_library
-from ..core.modes import DEFAULT_OBJECTIVE, HingeModel, Method, Objective, parse
+from ..core.modes import DEFAULT_OBJECTIVE, Method, Objective, parse
 from ..physics.recovery import recovery_curve
-from ..simulation.robust import CHUNK, Scatter, default_scatter, draw_samples, run_samples, wilson
+from ..simulation.robust import Scatter, default_scatter, draw_samples
 from ..simulation.timing import order_risk
 # the results and the tasks, importable from here as before
 from .assign_result import AssignResult, Choice, Verdict, choice_from  # noqa: F401
-from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, local_mapper, run_task, with_materials  # noqa: F401
+from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_materials  # noqa: F401
 
 #: The objectives' names (the values of :class:`~foldprint.core.modes.Objective`).
 OBJECTIVES = tuple(o.value for o in Objective)
@@ -459,20 +459,8 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
             continue
         p, t, mt, _v = unique[i]
         good.append(choice_from(p, t, mt, v))
-    # every finalist's full estimate in one mapped pass: the same draws (seed) for each,
-    # the chunks of all of them spread over the workers at once
-    chunks, owner = [], []
-    for j, c in enumerate(good):
-        variant = with_materials(design, c.materials, c.bath_c, lib)
-        drawn = draw_samples(variant, scatter, samples, seed)
-        for a in range(0, samples, CHUNK):
-            chunks.append((variant, lib, drawn[a:a + CHUNK], HingeModel.ARC, dt))
-            owner.append(j)
-    results = mapper(run_samples, chunks, None) if chunks else []
-    counts = [0] * len(good)
-    for j, outcomes in zip(owner, results):
-        counts[j] += sum(o.jammed for o in outcomes)
-    out = [replace(c, jam_probability=k / samples, jam_ci95=wilson(k, samples)) for c, k in zip(good, counts)]
+    # every finalist's full estimate in one mapped pass: the same draws (seed) for each
+    out = jam_estimates(design, lib, scatter, good, samples, seed, dt, mapper)
     n_robust += samples * len(good)
     out.sort(key=lambda c: (c.jam_probability, -(c.clearance_mm or 0), c.fold_time, c.materials))
     return out, sum(v is not None and v.completed for v in confirmed), n_robust

@@ -38,22 +38,22 @@ nominal simulation (prefixes, confirmations) in ``evaluated``; Monte-Carlo folds
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Callable, Sequence
 
 import numpy as np
 
-from ..core.errors import DesignError, MaterialError
-from ..core.modes import HingeModel, Method, Objective, parse
+from ..core.errors import DesignError
+from ..core.modes import Method, Objective, parse
 from ..model.design import Design
 from ..model.composition import composition_model, parse_name, vero
 from ..model.materials import Material, MaterialLibrary, default_library
 from ..physics.recovery_batch import batch_ratios, grid_until
-from ..simulation.robust import CHUNK, Scatter, default_scatter, draw_samples, run_samples, wilson
+from ..simulation.robust import Scatter, default_scatter, draw_samples
 from ..collision.clearance import permanent_crossings
 from .assign import PREFIX_CLEARANCE_SAMPLES, hinge_adjacency, Ledger
 from .assign_result import AssignResult, Choice
-from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, local_mapper, run_task, with_materials
+from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_materials
 
 #: Spacing (C) of the Tg grid of the timing table the surrogate interpolates.
 TG_GRID_STEP_C = 0.5
@@ -397,7 +397,6 @@ def assign_continuous(design: Design, *, library: MaterialLibrary | None = None,
         raise DesignError(f"--temperature-range: need LO <= HI, got {blo:g} {bhi:g}")
     mapper = mapper or local_mapper(workers)
     ledger = Ledger(mapper, budget, progress)
-    n = len(design.hinges)
 
     def result(best=(), chains=(), confirmed=0, robust_sims=0, cands=(), baths=(), blocked=False):
         blocking = sorted([("pair", p, c) for p, c in ledger.pairs.items()] +
@@ -508,19 +507,7 @@ def _estimate(design: Design, lib: MaterialLibrary, scatter: Scatter, good: list
               dt: float, mapper: Mapper) -> list:
     """The finalists with their jam probability: the draws and folds of ``foldprint robust
     --samples N --seed S``, best first (then surrogate risk, clearance, fold time)."""
-    chunks, owner = [], []
-    for j, (_chain, _lv, c) in enumerate(good):
-        variant = with_materials(design, c.materials, c.bath_c)
-        drawn = draw_samples(variant, scatter, samples, seed)
-        for a in range(0, samples, CHUNK):
-            chunks.append((variant, lib, drawn[a:a + CHUNK], HingeModel.ARC, dt))
-            owner.append(j)
-    results = mapper(run_samples, chunks, None) if chunks else []
-    counts = [0] * len(good)
-    for j, outcomes in zip(owner, results):
-        counts[j] += sum(o.jammed for o in outcomes)
-    out = [replace(c, jam_probability=k / samples, jam_ci95=wilson(k, samples))
-           for (_ch, _lv, c), k in zip(good, counts)]
+    out = jam_estimates(design, lib, scatter, [c for _ch, _lv, c in good], samples, seed, dt, mapper)
     risk = {c.materials: lv.risk for _ch, lv, c in good}
     out.sort(key=lambda c: (c.jam_probability, risk[c.materials], -(c.clearance_mm or 0), c.fold_time, c.materials))
     return out

@@ -19,8 +19,8 @@ from ..model.design import Design
 from ..model.materials import MaterialLibrary
 from ..physics.kinematics import HingeDrive
 from ..physics.recovery import recovery_curve
-from ..simulation.robust import Sample, run_end, sample_drive
-from .assign_result import Verdict
+from ..simulation.robust import CHUNK, Sample, Scatter, draw_samples, run_end, run_samples, sample_drive, wilson
+from .assign_result import Choice, Verdict
 
 #: Screening runs stop this long after the slowest active hinge reaches 98 % (s).
 SCREEN_TAIL_S = 0.5
@@ -108,3 +108,23 @@ def local_mapper(workers: int | None = None) -> Mapper:
         return map_ordered(fn, items, workers=workers, progress=progress)
 
     return mapper
+
+
+def jam_estimates(design: Design, library: MaterialLibrary, scatter: Scatter, choices: Sequence[Choice],
+                  samples: int, seed: int, dt: float, mapper) -> list[Choice]:
+    """Every choice with its jam probability and Wilson interval: the draws and folds of
+    ``foldprint robust --samples N --seed S`` on the design in that choice's materials and
+    bath (the same draws for each), the chunks of all of them mapped in one pass so they
+    spread over the workers at once. In the order given."""
+    chunks, owner = [], []
+    for j, c in enumerate(choices):
+        variant = with_materials(design, c.materials, c.bath_c, library)
+        drawn = draw_samples(variant, scatter, samples, seed)
+        for a in range(0, samples, CHUNK):
+            chunks.append((variant, library, drawn[a:a + CHUNK], HingeModel.ARC, dt))
+            owner.append(j)
+    results = mapper(run_samples, chunks, None) if chunks else []
+    counts = [0] * len(choices)
+    for j, outcomes in zip(owner, results):
+        counts[j] += sum(o.jammed for o in outcomes)
+    return [replace(c, jam_probability=k / samples, jam_ci95=wilson(k, samples)) for c, k in zip(choices, counts)]
