@@ -131,6 +131,15 @@ def test_export_json_lists_files(capsys, tmp_path):
         assert (tmp_path / f["path"].split("/")[-1]).exists()
 
 
+def test_export_state_is_parsed_like_the_other_modes(capsys, tmp_path):
+    code, out, _ = run(capsys, "export", "self_lock", "--out", str(tmp_path / "a"), "--format", "stl",
+                       "--state", "Programmed", "--json")
+    assert code == 0 and json.loads(out)["state"] == "programmed"
+    code, _, err = run(capsys, "export", "self_lock", "--out", str(tmp_path / "b"), "--state", "flat")
+    assert code == 2 and "--state must be permanent or programmed, got 'flat'" in err
+    assert not (tmp_path / "b").exists()
+
+
 def test_export_to_unwritable_place_exits_2_and_writes_nothing(capsys, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("x")

@@ -26,13 +26,13 @@ from ..checks.rules import (CheckContext, Finding, Printer, Thresholds, default_
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
-from ..core.constants import (CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S,  # noqa: F401 (re-exported)
+from ..core.constants import (ANIMATION_DT_S, CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S,  # noqa: F401 (re-exported)
                               CLEARANCE_SAMPLES)
 from ..model.derived import DerivedCache
 from ..model.design import Design
 from ..core.errors import ExportError, FoldprintError, GeometryError
 from ..exchange.voxels import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart, VoxelRegion
-from ..exchange.export import ANIMATION_DT_S, DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
+from ..exchange.export import DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
 from ..exchange.fem import PlacedState, check_strip
 from ..geometry import Assembly, build_assembly, hinge_axes, state_angles
 from ..geometry.surfaces import Frames, fold_frames

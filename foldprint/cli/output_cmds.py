@@ -12,7 +12,7 @@ import typer
 from typer import echo
 
 from ..core.constants import EXPORT_FORMATS
-from ..core.modes import DEFAULT_STATE
+from ..core.modes import DEFAULT_STATE, State, parse
 from ..core.errors import FoldprintError
 from .root import app
 from .support import (MAX_WORKERS, CREASE_HELP, SCALE_HELP, OUTPUT_STATE, check_count, echo_json, load_input, echo_note, check_out_dir,
@@ -44,8 +44,10 @@ def export(
     from ..exchange.export import FORMATS
     from ..apps.pipeline import EvalOptions, Evaluation
 
-    if state not in ("permanent", "programmed"):
-        raise FoldprintError(f"--state must be permanent or programmed, got {state!r}")
+    try:
+        state = parse(State, state, "--state").value
+    except FoldprintError:
+        raise FoldprintError(f"--state must be permanent or programmed, got {state!r}") from None
     fmts = [f.strip() for f in formats.split(",") if f.strip()]
     bad = [f for f in fmts if f not in FORMATS]
     if bad or not fmts:
