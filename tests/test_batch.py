@@ -62,6 +62,14 @@ def test_precomputed_answers_only_its_own_run(batch):
     assert p.lookup(d, sc, N, SEED, p.hinge_model, 0.01, Method.BOTH) is None  # another collision check
 
 
+def test_precomputed_result_keeps_its_collision_method():
+    d = _designs()[0]  # a planar strip: the paper's 2D index applies
+    (p,), _, _ = run_batch([MonteCarloJob(d, N, SEED, method=Method.INDEX2D)], workers=1)
+    ref = jam_probability(d, N, SEED, workers=1, method=Method.INDEX2D)
+    got = jam_probability(d, N, SEED, workers=1, method=Method.INDEX2D, mapper=p, nominal=ref.nominal)
+    assert got.outcomes == ref.outcomes and got.method == ref.method == Method.INDEX2D
+
+
 @pytest.mark.parametrize("workers", [1, 2])
 def test_time_guard_refuses_as_jam_probability_does(monkeypatch, workers):
     """Both ask the guard about the same run (samples, workers, design) with the time per

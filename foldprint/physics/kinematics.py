@@ -374,7 +374,7 @@ class HingeDrive:
         return np.union1d(grid[grid <= end + 1e-12], times[times >= 0]), key
 
 
-def run_times(design: Design, dt: float = 0.01, duration: float | None = None) -> np.ndarray:
+def run_times(design: Design, dt: float = DEFAULT_DT_S, duration: float | None = None) -> np.ndarray:
     """The times of a simulation of ``design`` at step ``dt`` (0, dt, ... to the first at
     or past the duration)."""
     dur = float(design.process.duration_s if duration is None else duration)

@@ -28,10 +28,11 @@ from itertools import islice
 from typing import Callable, Sequence
 
 from ..core import guards
+from ..core.constants import DEFAULT_DT_S
 from ..core.modes import DEFAULT_HINGE_MODEL, VERDICT_METHOD, HingeModel, Method, parse
 from ..model.design import Design, has_loops
 from ..model.materials import MaterialLibrary, default_library
-from .robust import CHUNK, Outcome, run_samples
+from .robust import CHUNK, Outcome, n_chunks, run_samples
 from .scatter import Scatter, default_scatter, iter_samples
 
 
@@ -46,8 +47,12 @@ class MonteCarloJob:
     scales: tuple[float, ...] = (1.0,)
     scatter: Scatter | None = None
     hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL
-    dt: float = 0.01
+    dt: float = DEFAULT_DT_S
     method: Method = VERDICT_METHOD
+
+    def __post_init__(self):
+        object.__setattr__(self, "hinge_model", parse(HingeModel, self.hinge_model, "hinge_model"))
+        object.__setattr__(self, "method", parse(Method, self.method, "method"))
 
     def scatter_at(self, k: float) -> Scatter:
         sc = self.scatter or default_scatter()
@@ -101,8 +106,7 @@ def _chunk_task(j: int, k: float, c: int) -> tuple[list[Outcome], float]:
     stream = iter_samples(job.design, job.scatter_at(k), job.samples, job.seed)
     samples = list(islice(stream, c * CHUNK, (c + 1) * CHUNK))
     t0 = time.perf_counter()  # wall, as jam_probability times its first chunk
-    out = run_samples((job.design, _STATE["library"], samples, parse(HingeModel, job.hinge_model, "hinge_model"),
-                       job.dt, False, job.method))
+    out = run_samples((job.design, _STATE["library"], samples, job.hinge_model, job.dt, False, job.method))
     return out, (time.perf_counter() - t0) / max(1, len(samples))
 
 
@@ -142,7 +146,7 @@ class _Batch:
         self.jobs, self.lib, self.workers, self.after, self.tasks = jobs, lib, workers, after, tasks
         self.progress = progress
         chunks = [(j, float(k), c) for j, job in enumerate(jobs) if job.samples for k in job.scales
-                  for c in range(-(-job.samples // CHUNK))]
+                  for c in range(n_chunks(job.samples))]
         chunks.sort(key=lambda t: -_cost(jobs[t[0]].design))  # stable: job, scale, chunk order kept
         self.chunks = chunks
         self.results: dict[tuple[int, float, int], list[Outcome]] = {}
@@ -154,12 +158,11 @@ class _Batch:
 
     def precomputed(self, j: int) -> Precomputed:
         job = self.jobs[j]
-        model = parse(HingeModel, job.hinge_model, "hinge_model")
-        n = -(-job.samples // CHUNK)
+        n = n_chunks(job.samples)
         outs = tuple((job.scatter_at(float(k)),
                       tuple(o for c in range(n) for o in self.results.get((j, float(k), c), ())))
                      for k in job.scales) if job.samples else ()
-        return Precomputed(job.design.name, job.samples, job.seed, model, job.dt, outs, job.method)
+        return Precomputed(job.design.name, job.samples, job.seed, job.hinge_model, job.dt, outs, job.method)
 
     def chunk_done(self, key: tuple[int, float, int], out: list[Outcome], per_sample: float) -> bool:
         """Record a folded chunk (the first of each job and scale times the run, refused
@@ -167,7 +170,7 @@ class _Batch:
         j, k, _ = key
         if (j, k) not in self.timed:
             self.timed.add((j, k))
-            if -(-self.jobs[j].samples // CHUNK) > 1:
+            if n_chunks(self.jobs[j].samples) > 1:
                 guards.check_samples(self.jobs[j].samples, per_sample, self.workers, self.jobs[j].design.name)
         self.results[key] = out
         self.left[j] -= 1

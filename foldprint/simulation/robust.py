@@ -53,6 +53,11 @@ Z95 = 1.959963984540054
 CHUNK = 16
 
 
+def n_chunks(samples: int) -> int:
+    """How many chunks of :data:`CHUNK` hold ``samples`` samples (the last may be short)."""
+    return -(-samples // CHUNK)
+
+
 
 def sample_drive(design: Design, library: MaterialLibrary, sample: Sample, *, until_s: float | None = None,
                  exact: bool = False) -> HingeDrive:
@@ -76,8 +81,7 @@ def sample_drive(design: Design, library: MaterialLibrary, sample: Sample, *, un
 def run_end(design: Design, dt: float, duration: float | None = None) -> float:
     """The last time (s) a simulation of ``design`` at step ``dt`` reaches (its times are
     0, dt, ... up to the first at or past the duration): the curves are needed up to here."""
-    dur = float(design.process.duration_s if duration is None else duration)
-    return (math.ceil(dur / dt - 1e-9)) * dt
+    return float(run_times(design, dt, duration)[-1])
 
 
 def sample_drives(design: Design, library: MaterialLibrary, samples: Sequence[Sample],
@@ -277,10 +281,10 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     if done_before is not None:
         if progress:
             progress(samples, samples)
-        return RobustResult(design.name, samples, seed, model, scatter, tuple(done_before), nominal)
+        return RobustResult(design.name, samples, seed, model, scatter, tuple(done_before), nominal, method)
     stream = iter_samples(design, scatter, samples, seed)
     chunks = ((design, lib, chunk, model, dt, exact, method) for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
-    n_chunks = -(-samples // CHUNK)
+    chunks_total = n_chunks(samples)
     done = [0]
 
     def report(n: int) -> None:
@@ -291,12 +295,12 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     start = time.perf_counter()
     first = run_samples(next(chunks))  # here: it times the run before the rest is started
     report(len(first))
-    if n_chunks > 1:
+    if chunks_total > 1:
         n_workers = default_workers() if workers is None else max(1, int(workers))
         guards.check_samples(samples, (time.perf_counter() - start) / len(first), n_workers, design.name)
         chunk_done = lambda _d, _n: report(CHUNK)  # noqa: E731 - progress in samples, not chunks
         if mapper is None:
-            rest = map_ordered(run_samples, chunks, workers=workers, progress=chunk_done, total=n_chunks - 1)
+            rest = map_ordered(run_samples, chunks, workers=workers, progress=chunk_done, total=chunks_total - 1)
         else:
             rest = mapper(run_samples, list(chunks), chunk_done)
     else:
