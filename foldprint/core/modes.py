@@ -13,7 +13,15 @@ from typing import TypeVar
 from .errors import DesignError
 
 
-class HingeModel(str, Enum):
+class Mode(str, Enum):
+    """The base of every mode: a ``str`` enum that prints as its value (``str(Method.FCL)``
+    is ``"fcl"``, in messages and JSON alike)."""
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class HingeModel(Mode):
     """How the ROM moves a child panel about its hinge.
 
     ``ARC``: the printed hinge, a strip of flat width w = R |rho| bending with uniform
@@ -25,11 +33,8 @@ class HingeModel(str, Enum):
     ARC = "arc"
     POINT = "point"
 
-    def __str__(self) -> str:
-        return self.value
 
-
-class Method(str, Enum):
+class Method(Mode):
     """Collision method: the paper's 2D index, the FCL swept check of the 3D panels, or
     both (the index only where the design is a planar strip)."""
 
@@ -37,22 +42,16 @@ class Method(str, Enum):
     FCL = "fcl"
     BOTH = "both"
 
-    def __str__(self) -> str:
-        return self.value
 
-
-class AfterContact(str, Enum):
+class AfterContact(Mode):
     """After the first contact: ``STOP`` reports it; ``ARREST`` freezes the hinges between
     the touching panels and goes on."""
 
     STOP = "stop"
     ARREST = "arrest"
 
-    def __str__(self) -> str:
-        return self.value
 
-
-class ScatterScope(str, Enum):
+class ScatterScope(Mode):
     """Over what a scattered quantity takes one value (:mod:`foldprint.simulation.scatter`):
     ``SHARED`` one draw per sample that every hinge sees (the bath of a run, the error of
     the heat-transfer correlation for the whole part); ``HINGE`` one independent draw per
@@ -61,33 +60,24 @@ class ScatterScope(str, Enum):
     SHARED = "shared"
     HINGE = "hinge"
 
-    def __str__(self) -> str:
-        return self.value
 
-
-class State(str, Enum):
+class State(Mode):
     """Which shape the geometry is built in: ``PERMANENT`` (printed, folded) or
     ``PROGRAMMED`` (the flat sheet after programming)."""
 
     PERMANENT = "permanent"
     PROGRAMMED = "programmed"
 
-    def __str__(self) -> str:
-        return self.value
 
-
-class Interface(str, Enum):
+class Interface(Mode):
     """How a hinge strip meets its panels: ``FLAT`` a straight seam; ``TRIANGULAR`` teeth
     of the panel material reaching into the strip (:mod:`foldprint.geometry.layout`)."""
 
     FLAT = "flat"
     TRIANGULAR = "triangular"
 
-    def __str__(self) -> str:
-        return self.value
 
-
-class JamReason(str, Enum):
+class JamReason(Mode):
     """Why a Monte-Carlo sample jams: a ``COLLISION`` of two panels, a ``GOAL`` not met (a
     pass-through out of order), or the fold ``UNFOLDED`` (not finished in the run)."""
 
@@ -95,11 +85,8 @@ class JamReason(str, Enum):
     GOAL = "goal"
     UNFOLDED = "unfolded"
 
-    def __str__(self) -> str:
-        return self.value
 
-
-class Objective(str, Enum):
+class Objective(Mode):
     """What ``foldprint assign`` optimises (:mod:`foldprint.apps.assign`): ``TIME`` the
     fastest fold, ``MARGIN`` the widest smallest clearance along the fold, ``ROBUST`` the
     lowest jam probability of the finalists under scatter (``--continuous`` ranks by it
@@ -108,9 +95,6 @@ class Objective(str, Enum):
     TIME = "time"
     MARGIN = "margin"
     ROBUST = "robust"
-
-    def __str__(self) -> str:
-        return self.value
 
 
 DEFAULT_HINGE_MODEL = HingeModel.ARC
