@@ -40,7 +40,7 @@ import time
 from pathlib import Path
 from typing import Callable, Sequence
 
-from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
+from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED
 from ..model.design import Design
 from ..model.materials import MaterialLibrary, default_library
 from .gallery_build import GIF_FRAMES, MATERIAL_TEMPERATURES, build_design, chart_task  # noqa: F401 (re-exported)
@@ -151,7 +151,6 @@ def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: M
                gif_frames: int, samples: int, seed: int, jobs: int | None, step: "_Steps"):
     """The material chart and every design's entry, built in one process pool with every
     design's Monte-Carlo (:func:`foldprint.simulation.batch.run_batch`)."""
-    from ..core.constants import CHECK_SCALES
     from ..simulation.batch import MonteCarloJob, run_batch
 
     # the workers fork from here: import what they all need once, before the fork

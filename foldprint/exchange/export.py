@@ -97,7 +97,8 @@ def body_records(assembly: Assembly, files: dict[str, list[str]] | None = None) 
     return out
 
 
-def _needs_given(formats, frames, fold_times=None, placed=None) -> None:
+def _needs_given(formats, frames, fold_times=None, placed=None, voxels=None) -> None:
+    """Refuse a format whose input the caller did not hand over (the writers compute none)."""
     need = [f for f in formats if f in TRAJECTORY_FORMATS]
     if need and frames is None:
         raise ExportError(f"format(s) {need} show the fold over time and need its frames (the surfaces "
@@ -110,6 +111,9 @@ def _needs_given(formats, frames, fold_times=None, placed=None) -> None:
     if "inp" in formats and placed is None:
         raise ExportError("format inp meshes the strip in its placed state and needs it (fem.PlacedState); "
                           "export through foldprint.apps.pipeline.export, which places it")
+    if "voxels" in formats and voxels is None:
+        raise ExportError("format 'voxels' rasterises the part with each hinge's VeroWhite fraction and "
+                          "needs them; export through foldprint.apps.pipeline.Evaluation.export, which supplies them")
 
 
 def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_FORMATS,
@@ -126,10 +130,7 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
     when :func:`~foldprint.exchange.files.write_set` stages them (streamed)."""
     lib = library or default_library()
     formats = check_formats(formats)
-    _needs_given(formats, frames, fold_times, placed)
-    if "voxels" in formats and voxels is None:
-        raise ExportError("format 'voxels' rasterises the part with each hinge's VeroWhite fraction and "
-                          "needs them; export through foldprint.apps.pipeline.Evaluation.export, which supplies them")
+    _needs_given(formats, frames, fold_times, placed, voxels)
     st = stem(design, assembly.state)
     every = [b.material for b in assembly.bodies]
     out: list[tuple[str, bytes, str, list[str]]] = []  # (name, data, format, materials held)
