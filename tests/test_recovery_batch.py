@@ -167,3 +167,20 @@ def test_robust_json_reports_what_it_ran(capsys):
     assert main(["robust", "helix_graded", "--samples", "20", "--seed", "2", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["samples"] == 20 and 0.0 <= out["jam_probability"] <= 1.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(name=st.sampled_from(["H-1", "H-4", "H-7"]), tg_shift=st.floats(-5.0, 5.0),
+       temps=st.lists(st.floats(-20.0, 120.0), min_size=1, max_size=30))
+def test_batch_shift_rate_is_the_models_shift_bit_for_bit(lib, name, tg_shift, temps):
+    """The batch's in-place 1 / a_T is recovery.log10_shift's, exponentiated, to the bit
+    (a second copy of the WLF/Arrhenius law, kept for speed: it must not drift)."""
+    from foldprint.physics.recovery import log10_shift
+    from foldprint.physics.recovery_batch import _LN10, _rate
+
+    p = lib[name].recovery
+    tg = lib[name].tg_c + tg_shift
+    temp = np.asarray(temps, float)[:, None]
+    want = np.exp(-_LN10 * log10_shift(temp, tg, p))
+    got = _rate(temp.copy(), np.full_like(temp, tg), p)
+    assert np.array_equal(got, want)
