@@ -7,8 +7,8 @@ Exact distances come from the FCL solids of :class:`foldprint.collision.swept3d.
 vectorised axis-aligned-box prefilter skips the pairs whose boxes are farther apart than
 the distance of interest. Along a trajectory the clearance is sampled (``n_samples``
 evenly spaced poses plus the last) and searched by the swept check's own branch and bound
-(:func:`foldprint.collision.swept3d.min_clearance`); the earliest sampled time of the smallest
-gap is reported. Between samples the swept check, not this module, guarantees that
+(:func:`foldprint.collision.swept3d.min_clearance`); the earliest sampled time at which the
+smallest gap is reached (to :data:`~foldprint.core.constants.tol` ``.length``) is reported. Between samples the swept check, not this module, guarantees that
 nothing touches.
 """
 
@@ -18,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.constants import CLEARANCE_SAMPLES
+from ..core.constants import CLEARANCE_SAMPLES, tol
 from ..model.derived import scoped
+from .broadphase import panel_centres
 from .swept3d import SweptChecker, non_adjacent_pairs
 from .swept3d import min_clearance as swept_min_clearance
 from .rigid import rigid_polygon
@@ -107,12 +108,34 @@ def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
     found = swept_min_clearance(checker, poses[ks])
     if found is None:
         return None
-    _, (i, j), k = found
+    best, (i, j), k = found
+    k, (i, j) = earliest_within(checker, poses[ks[:k + 1]], float(best) + tol.length) or (k, (i, j))
     pose = poses[ks[k]]
     dist, point = checker.distance(i, j, pose[i], pose[j])
     design = checker.design
     return Gap(max(float(dist), 0.0), (i, j), (design.panels[i].id, design.panels[j].id), float(times[ks[k]]),
                None if point is None else tuple(float(x) for x in point))
+
+
+def earliest_within(checker: SweptChecker, poses: np.ndarray, within_mm: float):
+    """``(pose index, (i, j))`` of the first of ``poses`` (n_t, n, 4, 4) where a
+    non-adjacent pair is at most ``within_mm`` apart (exact FCL distance; sphere bounds
+    skip the pairs that cannot be), or None. A fold often rests on its smallest gap for a
+    while (a lid on its stop): this is when that gap is first reached, not whichever pose
+    of the plateau holds its last bits of round-off."""
+    pairs = np.array(non_adjacent_pairs(checker.design), dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return None
+    C = panel_centres(checker, poses)
+    rc = checker.tree.rc
+    lb = (np.linalg.norm(C[:, pairs[:, 0]] - C[:, pairs[:, 1]], axis=-1)
+          - rc[pairs[:, 0]] - rc[pairs[:, 1]])
+    for k in range(len(poses)):
+        for m in np.nonzero(lb[k] <= within_mm)[0]:
+            i, j = (int(x) for x in pairs[m])
+            if checker.distance(i, j, poses[k][i], poses[k][j])[0] <= within_mm:
+                return k, (i, j)
+    return None
 
 
 @scoped
