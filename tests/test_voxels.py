@@ -515,3 +515,44 @@ def test_graded_vw_materials_through_the_pipeline(tmp_path):
         assert r["measured_fraction"] == pytest.approx(r["target_fraction"], abs=0.002)
     assert by_id[hinges[0].id]["profile"] == {"knots": [0.6, 0.9], "along": "width"}
     assert by_id[hinges[1].id]["profile"] == {"knots": [0.9, 0.6], "along": "length"}
+
+
+def test_composite_3mf_mixes_each_hinge_as_its_profile_says(tmp_path):
+    """Read back through lib3mf, per hinge and per vertex: the share of the base material
+    NAMED VeroWhite is the hinge's VeroWhite fraction (uniform grades 0.1 n, the graded
+    hinge the profile at that vertex), TangoBlack the rest: swapping the two fails."""
+    lib3mf = pytest.importorskip("lib3mf")
+    d, asm, part = _helix_voxel_part(_profiles)
+    recs = export_assembly(d, asm, tmp_path, ["voxels"], voxels=part)
+    model = lib3mf.get_wrapper().CreateModel()
+    model.QueryReader("3mf").ReadFromFile(next(r["path"] for r in recs if r["format"] == "3mf-composite"))
+    regions = {f"{r.kind} {r.id} ({r.material})": r for r in part.regions}
+    meshes, seen = model.GetMeshObjects(), 0
+    while meshes.MoveNext():
+        obj = meshes.GetCurrentMeshObject()
+        r = regions[obj.GetName()]
+        if r.kind != "hinge":
+            continue
+        res_id, prop0, _ = obj.GetObjectLevelProperty()
+        comp = model.GetCompositeMaterialsByID(res_id)
+        base = comp.GetBaseMaterialGroup()
+        vw_share = {}
+        for prop in comp.GetAllPropertyIDs():
+            parts = {base.GetName(c.PropertyID): c.MixingRatio for c in comp.GetComposite(prop)}
+            assert set(parts) == {"VeroWhite", "TangoBlack"}
+            assert parts["VeroWhite"] + parts["TangoBlack"] == pytest.approx(1.0, abs=1e-9)
+            vw_share[prop] = parts["VeroWhite"]
+        if r.constant is not None:  # one composite for the hinge, on the object
+            assert r.constant == pytest.approx(0.1 * int(r.material[2:]))
+            assert list(vw_share) == [prop0] and vw_share[prop0] == pytest.approx(r.constant, abs=1e-9)
+        else:  # graded: every triangle corner names the composite of its vertex's fraction
+            verts = np.array([[v.Coordinates[k] for k in range(3)] for v in obj.GetVertices()])
+            expected = r.fraction(verts)
+            assert np.ptp(expected) > 0.3  # the profile really varies over the hinge
+            for tri, props in zip(obj.GetTriangleIndices(), obj.GetAllTriangleProperties()):
+                assert props.ResourceID == res_id
+                for corner in range(3):
+                    got = vw_share[props.PropertyIDs[corner]]
+                    assert got == pytest.approx(expected[tri.Indices[corner]], abs=1e-3)
+        seen += 1
+    assert seen == len(d.hinges)
