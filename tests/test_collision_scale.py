@@ -55,7 +55,7 @@ def _solid_points(d: Design, i: int) -> np.ndarray:
 
 # -- motion bounds measured on real panels -----------------------------------------------
 
-@settings(max_examples=12, deadline=None)
+@settings(max_examples=12, deadline=None, derandomize=True, database=None)
 @given(data=st.data(), model=st.sampled_from(["point", "arc"]), tree=st.booleans())
 def test_motion_bounds_hold_for_real_motion(data, model, tree):
     """Over [ta, tb], the distance between any corner of panel i and any corner of panel j
@@ -124,13 +124,10 @@ def _dense_first_touch(ch, d, model, times):
     return first
 
 
-@settings(max_examples=10, deadline=None)
-@given(data=st.data(), model=st.sampled_from(["point", "arc"]), tree=st.booleans())
-def test_no_contact_missed_between_coarse_samples(data, model, tree):
+def _assert_no_contact_missed(d, model):
     """Samples 0.25 s apart; every pair that touches at a dense (4 ms) sample lies in a
     broad-phase run around that time, and the swept contact is no later than the dense
     one (to the 1 ms time tolerance) and real."""
-    d = random_tree(data) if tree else random_strip(data)
     coarse = simulate_kinematics(d, dt=0.25, duration=4.0, model=model)
     ch = SweptChecker(d, model, HingeDrive(d))
     dense_t = np.arange(0.0, 4.0, 0.004)
@@ -151,6 +148,29 @@ def test_no_contact_missed_between_coarse_samples(data, model, tree):
     if contact is not None:
         pose = forward(d, HingeDrive(d).angles([contact.time]), model)[0]
         assert ch.distance(*contact.pair, pose[contact.pair[0]], pose[contact.pair[1]])[0] <= ch.tol + 1e-9
+
+
+#: strips on which a narrow phase that steps three times too far finds the contact late
+#: (found by the property test below against such a step rule; kept as fixed cases)
+ADVERSARIAL = [
+    ([6.0, 6.0, 6.0, 6.0], [-170, -170, -170], ["H-1", "H-1", "H-1"], "point"),
+    ([6.0, 6.0, 6.0, 6.0], [-170, -170, -170], ["H-1", "H-1", "H-1"], "arc"),
+    ([22.58753329941557, 10.0, 23.838767319084518, 25.4], [90, 120, -90], ["H-1", "H-5", "H-3"], "point"),
+    ([22.58753329941557, 10.0, 23.838767319084518, 25.4], [90, 120, -90], ["H-1", "H-5", "H-3"], "arc"),
+]
+
+
+@pytest.mark.parametrize("lengths,angles,materials,model", ADVERSARIAL)
+def test_no_contact_missed_on_fixed_adversarial_strips(lengths, angles, materials, model):
+    _assert_no_contact_missed(strip("r", lengths, angles, materials, radius=2.0), model)
+
+
+# derandomised, with a fixed example count: the same 40 designs every run, enough to
+# catch a step rule three times too long (measured); no example database between runs
+@settings(max_examples=40, deadline=None, derandomize=True, database=None)
+@given(data=st.data(), model=st.sampled_from(["point", "arc"]), tree=st.booleans())
+def test_no_contact_missed_between_coarse_samples(data, model, tree):
+    _assert_no_contact_missed(random_tree(data) if tree else random_strip(data), model)
 
 
 def test_transient_contact_of_fast_outer_hinge_is_found():
