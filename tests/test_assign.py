@@ -155,12 +155,53 @@ def test_unreachable_scheduler_exit_2_names_the_address(capsys, command):
     assert addr in err and "scheduler" in err and err.count("\n") == 1
 
 
+class _Cluster:
+    """A real Dask scheduler and worker, each its own process (the `dask scheduler` and
+    `dask worker` programs), talking TCP on loopback: tasks are pickled and sent over the
+    wire, as on a lab's cluster."""
+
+    def __init__(self, tmp: Path):
+        import subprocess
+        import sys
+        import time
+
+        file = tmp / "scheduler.json"
+        base = [sys.executable, "-m"]
+        self.procs = [subprocess.Popen(base + ["distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                               "--port", "0", "--no-dashboard", "--scheduler-file", str(file)],
+                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+        deadline = time.monotonic() + 120
+        while not file.exists() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        self.procs.append(subprocess.Popen(base + ["distributed.cli.dask_worker", "--scheduler-file", str(file),
+                                                   "--nthreads", "1", "--nworkers", "1", "--no-dashboard",
+                                                   "--host", "127.0.0.1"],
+                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        self.scheduler_address = json.loads(file.read_text())["address"]
+        import distributed
+
+        with distributed.Client(self.scheduler_address, timeout=120) as client:
+            client.wait_for_workers(1, timeout=120)
+
+    def close(self):
+        for p in reversed(self.procs):
+            p.terminate()
+        for p in self.procs:
+            try:
+                p.wait(timeout=30)
+            except Exception:  # noqa: BLE001 - a worker that does not stop is killed
+                p.kill()
+
+
 @pytest.fixture(scope="module")
-def cluster():
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                                  dashboard_address=None) as c:
+def cluster(tmp_path_factory):
+    pytest.importorskip("distributed")
+    c = _Cluster(tmp_path_factory.mktemp("dask"))
+    try:
+        assert c.scheduler_address.startswith("tcp://127.0.0.1:")
         yield c
+    finally:
+        c.close()
 
 
 def test_local_and_cluster_runs_agree(cluster, capsys, tmp_path):
