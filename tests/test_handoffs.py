@@ -192,7 +192,7 @@ def handoffs(tmp_path_factory):
 
 def test_all_four_handoffs_written(handoffs):
     design, recs = handoffs
-    assert set(recs) == {"inp", "xdmf", "h5", "glb", "fold"}
+    assert set(recs) == {"inp", "xdmf", "h5", "glb", "fold", "recipe"}  # every export writes its recipe
     for r in recs.values():
         assert Path(r["path"]).is_file() and Path(r["path"]).stat().st_size == r["bytes"]
         assert [b["material"] for b in r["bodies"]] == build_assembly(design).materials

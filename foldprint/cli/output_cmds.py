@@ -75,6 +75,9 @@ def export(
                     echo(f"{r['path']} ... {Path(slices[-1]['path']).name}  (voxel slices: {len(slices)} PNG, "
                          f"{size / 1e6:.1f} MB)")
                 continue
+            if r["format"] == "recipe":
+                echo(f"{r['path']}  (print recipe: tools, programming, fold order)")
+                continue
             vol = sum(b["volume_mm3"] for b in r["bodies"])
             echo(f"{r['path']}  ({r['format']}, {len(r['bodies'])} bodies, {vol:.1f} mm3)")
 

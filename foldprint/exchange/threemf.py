@@ -11,13 +11,18 @@ ZIP_DEFLATED), so the same assembly gives byte-identical files:
       ``<metadatagroup><metadata name="cura:extruder_nr">`` (0-based, Cura);
     * ``Metadata/model_settings.config``: Bambu Studio / OrcaSlicer turn the
       components into parts of one object, each with its ``extruder`` (1-based);
+    * ``Metadata/project_settings.config``: OrcaSlicer's project, one filament per body
+      (:mod:`.slicer_config`);
     * ``Metadata/foldprint_design.toml``: the design (``design_to_toml``), referenced
       from the model part's relationships; ``Application`` metadata names foldprint.
 
 ``prusa3mf`` (:func:`prusa3mf_bytes`), for PrusaSlicer, which ignores both components
 and base materials for parts: ONE object whose mesh holds every body's triangles, and
 ``Metadata/Slic3r_PE_model.config`` with a ``<volume firstid lastid>`` triangle range,
-name and ``extruder`` per body.
+name and ``extruder`` per body, and ``Metadata/Slic3r_PE.config``, the printer with one
+extruder per body (:mod:`.slicer_config`).
+
+Both put the part on the bed their configuration describes (:func:`.slicer_config.bed_layout`).
 """
 
 from __future__ import annotations
