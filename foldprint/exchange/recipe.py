@@ -119,8 +119,9 @@ def recipe_markdown(design: Design, assembly: Assembly, library: MaterialLibrary
     out.append(f"`foldprint check`: **{check.verdict}**." if check is not None else
                f"Not checked in this export: run `foldprint check {_md(design.name)}"
                + (f" --printer {fit.printer.key}" if fit else "") + "` before printing.")
-    if check is not None:
-        out += [""] + [f"- {s.upper()} {c}: {_md(msg)}" for s, c, msg in check.findings if s != "info"]
+    shown = [] if check is None else [f"- {s.upper()} {c}: {_md(msg)}" for s, c, msg in check.findings if s != "info"]
+    if shown:
+        out += ["", *shown]
     out += ["", "## Printer and tools", "", *_printer(fit, n), "", *_bodies(assembly, library, files), "",
             "## Print, program, fold", "",
             "1. Print the part as exported: the permanent state, folded, as the paper prints it."
