@@ -274,6 +274,8 @@ def test_tool_fit_counts_filaments_on_fdm_and_resins_on_polyjet():
     # a resin the hinges are not mixed from takes a channel of its own
     three = tool_fit(pr["connex260"], ["VeroClear"] + graded, lib)
     assert three.needed == 3 and not three.ok and tool_fit(pr["connex3_500"], ["VeroClear"] + graded, lib).ok
+    why = three.refusal("x.toml")
+    assert "needs 3 resin channels" in why and "merge grades" not in why and "--printer connex3_500" in why
     # exactly as many materials as tools fits
     four = _design("self_lock").materials_used
     assert len(four) == 4 and tool_fit(pr["bambu_x1c"], four, lib).ok

@@ -216,25 +216,31 @@ class ToolFit:
         return f"{n} material(s) ({', '.join(self.materials)}) need {n} tools; {pr.name} has {has}"
 
     def alternatives(self, others: Iterable[Printer] = ()) -> str:
-        """What to do when the design does not fit: merge grades, a printer with enough
-        tools, the PolyJet route, the voxel export."""
+        """What to do when the design does not fit: merge grades (FDM) or use fewer resins
+        (PolyJet), a printer with enough tools, the PolyJet route, the voxel export."""
         pr = self.printer
-        hinge_room = max((pr.tools or 0) - (len(self.materials) - len(self.hinges)), 1)
         bigger = sorted(p.key for p in others if p.fdm == pr.fdm and p.tools is not None and p.tools >= self.needed
                         and p.key != pr.key)
-        out = [f"merge grades: at most {hinge_room} hinge grade(s) (foldprint assign DESIGN --materials "
-               "H-a,H-b,... --write merged.toml, then check it)"]
+        if pr.base_resins:
+            out = [f"print the panels in a resin already loaded ({', '.join(DIGITAL_SMP_RESINS)}): the hinge grades "
+                   "take no channel of their own"]
+        else:
+            room = max((pr.tools or 0) - (len(self.materials) - len(self.hinges)), 1)
+            out = [f"merge grades: at most {room} hinge grade(s) (foldprint assign DESIGN --materials "
+                   "H-a,H-b,... --write merged.toml, then check it)"]
         if bigger:
             out.append(f"a printer with enough {pr.unit} (--printer {' / '.join(bigger)})")
-        out.append("a PolyJet profile (--printer connex260 or j750: every H-n grade is a digital material jetted "
-                   "from VeroWhite and TangoBlack)")
-        out.append("the voxel export (--format voxels --printer j750)")
+        if not pr.base_resins:
+            out.append("a PolyJet profile (--printer connex260 or j750: every H-n grade is a digital material jetted "
+                       "from VeroWhite and TangoBlack)")
+        out.append("the voxel export (--format voxels --printer j750: VeroWhite and TangoBlack only)")
         return "; ".join(out)
 
     def refusal(self, what: str) -> str:
         """The one-line reason an export for this printer is refused (``what``: the design)."""
         pr = self.printer
-        return (f"{what}: needs {self.needed} {pr.unit} (one filament per material: {', '.join(self.feeds)}), "
+        feeds = "resins" if pr.base_resins else "one filament per material"
+        return (f"{what}: needs {self.needed} {pr.unit} ({feeds}: {', '.join(self.feeds)}), "
                 f"--printer {pr.key} ({pr.name}) has {pr.tools}; instead: "
                 f"{self.alternatives(load_printers().values())}")
 
