@@ -256,7 +256,7 @@ def test_single_panel_is_a_valid_trivial_design(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["export", str(f), "--out", str(out), "--format", "stl", "--json"]) == 0
     files = json.loads(capsys.readouterr().out)["files"]
-    assert [r["format"] for r in files] == ["stl", "manifest"]
+    assert [r["format"] for r in files] == ["stl", "manifest", "recipe"]
     assert files[0]["bodies"][0]["volume_mm3"] == pytest.approx(10 * 6 * 0.8)
 
 

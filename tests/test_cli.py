@@ -121,7 +121,7 @@ def test_export_json_lists_files(capsys, tmp_path):
     assert code == 0
     r = json.loads(out)
     fmts = sorted({f["format"] for f in r["files"]})
-    assert fmts == ["3mf", "manifest", "stl"]
+    assert fmts == ["3mf", "manifest", "recipe", "stl"]
     three = next(f for f in r["files"] if f["format"] == "3mf")
     mats = {b["material"] for b in three["bodies"]}
     assert mats == {"H-1", "H-2", "H-3", "H-4", "H-5", "H-6", "H-7", "VeroWhite"}

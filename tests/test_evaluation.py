@@ -5,6 +5,7 @@ per-design data computed once per evaluation in a cache that never travels, a va
 from __future__ import annotations
 
 import pickle
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -182,8 +183,13 @@ def test_export_takes_the_evaluations_assembly(helix, tmp_path, monkeypatch):
     recs = ev.export(tmp_path / "a", formats=("stl",))
     assert builds == [] and recs
     fresh = pipeline.export(helix, tmp_path / "b", formats=("stl",))
-    assert [(tmp_path / "a" / r["path"].split("/")[-1]).read_bytes() for r in recs] == \
-        [(tmp_path / "b" / r["path"].split("/")[-1]).read_bytes() for r in fresh]
+    # the same files; the recipe of the checked evaluation also carries the check's verdict
+    assert [r["format"] for r in recs] == [r["format"] for r in fresh]
+    assert [(tmp_path / "a" / r["path"].split("/")[-1]).read_bytes() for r in recs if r["format"] != "recipe"] == \
+        [(tmp_path / "b" / r["path"].split("/")[-1]).read_bytes() for r in fresh if r["format"] != "recipe"]
+    (checked,) = [Path(r["path"]).read_text() for r in recs if r["format"] == "recipe"]
+    (unchecked,) = [Path(r["path"]).read_text() for r in fresh if r["format"] == "recipe"]
+    assert "`foldprint check`: **" in checked and "Not checked in this export" in unchecked
 
 
 def test_the_stl_writer_is_given_the_fold_times(helix, tmp_path, monkeypatch):

@@ -99,11 +99,11 @@ def test_records_and_file_names(exported, stem):
     design, asm, d, records = exported[stem]
     names = sorted(Path(r["path"]).name for r in records)
     mats = [b.material for b in asm.bodies]
-    assert names == sorted([f"{design.name}.3mf", f"{design.name}_prusa.3mf", "manifest.json"]
-                           + [f"{design.name}_{m}.stl" for m in mats])
+    assert names == sorted([f"{design.name}.3mf", f"{design.name}_prusa.3mf", "manifest.json",
+                            f"{design.name}_recipe.md"] + [f"{design.name}_{m}.stl" for m in mats])
     for r in records:
         assert Path(r["path"]).is_file() and Path(r["path"]).stat().st_size == r["bytes"]
-        assert r["format"] in FORMATS + ("manifest",)
+        assert r["format"] in FORMATS + ("manifest", "recipe")
         assert all(set(b) == {"material", "extruder", "files", "volume_mm3", "z_range_mm", "needs_support"}
                    for b in r["bodies"])
     assert sorted(p.name for p in d.iterdir() if not p.name.startswith(".")) == names
@@ -289,7 +289,7 @@ def test_prusaslicer_slices_the_prusa_flavour(tmp_path):
         return float(np.prod(hi - lo))
     path = min(PRINTABLE, key=size)
     design, asm = _build(str(path))
-    (rec,) = [r for r in export_design(design, tmp_path / "out", formats=["prusa3mf"])]
+    (rec,) = [r for r in export_design(design, tmp_path / "out", formats=["prusa3mf"]) if r["format"] == "prusa3mf"]
     n = len(asm.bodies)
     gcode = tmp_path / "part.gcode"
     cmd = [PRUSA, "--export-gcode", "--nozzle-diameter", ",".join(["0.4"] * n),
@@ -444,6 +444,6 @@ def test_unknown_format_raises_before_building(tmp_path):
 def test_format_subset(tmp_path):
     design = _build(str(PRINTABLE[0]))[0]
     recs = export_design(design, tmp_path, formats=("prusa3mf",))
-    assert [r["format"] for r in recs] == ["prusa3mf"]
+    assert [r["format"] for r in recs] == ["prusa3mf", "recipe"]  # every export ends with its recipe
     assert math.isclose(sum(b["volume_mm3"] for b in recs[0]["bodies"]), _build(str(PRINTABLE[0]))[1].volume,
                         rel_tol=1e-9)

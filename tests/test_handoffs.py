@@ -73,7 +73,7 @@ def test_prusaslicer_prints_every_body_at_its_height(tmp_path, stem, state):
     if state == "permanent" and stem in KNOWN_UNPRINTABLE:
         pytest.skip(f"{stem} does not build folded: {KNOWN_UNPRINTABLE[stem]} (docs/loops.md)")
     design = _design(stem)
-    (rec,) = export_design(design, tmp_path, state, ["prusa3mf"])
+    (rec,) = [r for r in export_design(design, tmp_path, state, ["prusa3mf"]) if r["format"] == "prusa3mf"]
     n = len(rec["bodies"])
     gcode = tmp_path / "part.gcode"
     lo = -400
@@ -160,7 +160,8 @@ def test_bed_report_equal_thickness_flat_strip_needs_no_support():
 def test_fold_from_cli_round_trips_through_simulate(tmp_path, stem):
     res = _cli("export", stem, "--format", "fold", "--out", str(tmp_path), "--json")
     assert res.returncode == 0, res.stderr
-    (rec,) = json.loads(res.stdout)["files"]
+    rec, recipe = json.loads(res.stdout)["files"]
+    assert recipe["format"] == "recipe"
     assert rec["format"] == "fold" and Path(rec["path"]).name == f"{stem}.fold"
     fold = json.loads(Path(rec["path"]).read_text())
     for key in ("file_spec", "vertices_coords", "faces_vertices", "edges_vertices", "edges_assignment"):
@@ -191,7 +192,7 @@ def handoffs(tmp_path_factory):
 
 def test_all_four_handoffs_written(handoffs):
     design, recs = handoffs
-    assert set(recs) == {"inp", "xdmf", "h5", "glb", "fold"}
+    assert set(recs) == {"inp", "xdmf", "h5", "glb", "fold", "recipe"}  # every export writes its recipe
     for r in recs.values():
         assert Path(r["path"]).is_file() and Path(r["path"]).stat().st_size == r["bytes"]
         assert [b["material"] for b in r["bodies"]] == build_assembly(design).materials

@@ -226,4 +226,6 @@ def _format_label(rec: dict, fname: str) -> str:
         return f"STL, {mats} ({fname})"
     if fmt == "manifest":
         return f"manifest: which STL is which material ({fname})"
+    if fmt == "recipe":
+        return f"print recipe: tools, programming temperatures, fold order, the check's verdict ({fname})"
     return f"{fmt} ({fname})"

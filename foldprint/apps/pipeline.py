@@ -33,6 +33,7 @@ from ..model.design import Design
 from ..core.errors import ExportError, FoldprintError, GeometryError
 from ..exchange.voxels import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart, VoxelRegion
 from ..exchange.export import DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
+from ..exchange.recipe import check_summary
 from ..exchange.fem import PlacedState, check_strip
 from ..geometry import Assembly, build_assembly, hinge_axes, state_angles
 from ..geometry.surfaces import Frames, fold_frames
@@ -40,6 +41,7 @@ from ..physics.kinematics import HingeDrive, forward, hinge_frames, run_times, s
 from ..physics.recovery import hinge_fold_times
 from ..model.composition import fraction_profile
 from ..model.materials import MaterialLibrary, default_library
+from ..model.printers import find_printer, tool_fit
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
                           AfterContact, HingeModel, Method, State, parse)
 from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, draw_samples, jam_probability, outcome_of,
@@ -416,16 +418,24 @@ class Evaluation:
 
     # -- writers -----------------------------------------------------------------------
     def export(self, out_dir: str | Path, state: State | str | None = None, formats: Iterable[str] | None = None,
-               assembly: Assembly | None = None, printer: str | None = None) -> list[dict]:
+               assembly: Assembly | None = None, printer: str | Printer | None = None) -> list[dict]:
         """Write ``formats`` of the part in ``state`` (default: ``options``) into
         ``out_dir``; the records of :func:`foldprint.exchange.export.export_assembly`.
         The part is ``assembly`` when given, else the evaluation's printed part when it was
         already built (permanent state), else built here (after the size guard). The fold
-        is simulated only when a format shows it over time (xdmf, glb); the voxel stack
-        (``voxels``) is rasterised at ``printer``'s pitch (default: the J750)."""
+        is simulated only when a format shows it over time (xdmf, glb). ``printer`` (a
+        profile or its key): the printer the files are for: ExportError when the design
+        needs more materials than it has tools (:func:`~foldprint.model.printers.tool_fit`);
+        the slicer 3MFs describe it when it is an FDM printer; the voxel stack
+        (``voxels``) is rasterised at its pitch (default: the J750). The recipe gets the
+        check's findings when this evaluation has computed them."""
         st = parse(State, self.options.state if state is None else state, "state")
         fmts = check_formats(self.options.formats if formats is None else formats)  # before the (slower) build
-        pitch = voxel_pitch(printer) if "voxels" in fmts else None
+        profile = find_printer(printer) if isinstance(printer, str) else printer
+        fit = None if profile is None else tool_fit(profile, self.design.materials_used, self.library)
+        if fit is not None and not fit.ok:
+            raise ExportError(fit.refusal(self.design.source or self.design.name))
+        pitch = voxel_pitch(profile) if "voxels" in fmts else None
         if assembly is None and st == State.PERMANENT and self.has("assembly"):
             assembly = self.assembly
             if assembly is None:
@@ -433,14 +443,14 @@ class Evaluation:
         if assembly is None:
             guards.check_export(self.design)  # time and memory of the build, estimated from the design
         frames = self.frames if any(f in TRAJECTORY_FORMATS for f in fmts) else None
-        fold_times = self.fold_times if "stl" in fmts else None
+        check = check_summary(self.printer.name, self.findings) if self.has("findings") else None
         with self.cache.active():
             if assembly is None:
                 assembly = build_assembly(self.design, st.value, self.library)
             placed = self.placed_state(st) if "inp" in fmts else None
             voxels = None if pitch is None else self._voxels(assembly, pitch)
-            return export_assembly(self.design, assembly, out_dir, fmts, self.library, frames, fold_times,
-                                   placed, voxels)
+            return export_assembly(self.design, assembly, out_dir, fmts, self.library, frames, self.fold_times,
+                                   placed, voxels, profile, check)
 
     def _voxels(self, assembly: Assembly, pitch: Pitch) -> VoxelPart:
         """The part's voxel regions at ``pitch``, after the voxel grid's guard."""
@@ -497,12 +507,12 @@ def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer:
     return ev
 
 
-def voxel_pitch(printer: str | None = None, printers_file: str | Path | None = None) -> Pitch:
-    """The voxel pitch of a printer profile (``data/printers.toml``; default: the one
-    marked ``voxel_default``, the J750); ExportError names printers that have one."""
+def voxel_pitch(printer: str | Printer | None = None, printers_file: str | Path | None = None) -> Pitch:
+    """The voxel pitch of a printer profile (``data/printers.toml``, or the profile itself;
+    default: the one marked ``voxel_default``, the J750); ExportError names printers that have one."""
     printers = load_printers(printers_file)
-    key = printer or default_voxel_printer_key()
-    pr = printers.get(key)
+    key = printer.key if isinstance(printer, Printer) else printer or default_voxel_printer_key()
+    pr = printer if isinstance(printer, Printer) else printers.get(key)
     if pr is None or pr.voxel_mm is None:
         have = sorted(k for k, p in printers.items() if p.voxel_mm is not None)
         what = "unknown printer" if pr is None else "printer without a voxel pitch (voxel_mm)"

@@ -8,17 +8,16 @@ print or fold), warning (it may not), info (a margin worth knowing).
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
-from pathlib import Path
 
 import numpy as np
 
 from ..model.design import Design, has_loops, tangent_factor
 from ..core.constants import JAM_ERROR_ABOVE, JAM_WARN_ABOVE, tol
-from ..core.errors import DesignError
 from ..model.materials import MaterialLibrary
+# the printer profiles live in model.printers; importable from here as before
+from ..model.printers import (Printer, default_printer_key, default_voxel_printer_key,  # noqa: F401
+                              load_printers, tool_fit)
 from ..core.modes import HingeModel
 
 SEVERITIES = ("error", "warning", "info")
@@ -39,66 +38,6 @@ class Finding:
         if self.point_mm is not None:
             out["point_mm"] = [round(float(v), 3) for v in self.point_mm]
         return out
-
-
-@dataclass(frozen=True)
-class Printer:
-    key: str
-    name: str
-    technology: str
-    build_mm: tuple[float, float, float]
-    layer_mm: float
-    min_wall_mm: float
-    min_gap_mm: float
-    #: voxel pitch (x, y, z mm) for voxel print, and its source; None: not a voxel printer
-    voxel_mm: tuple[float, float, float] | None = None
-    voxel_source: str = ""
-
-
-def load_printers(extra: str | Path | None = None) -> dict[str, Printer]:
-    """Shipped printer profiles plus a user TOML file of the same layout."""
-    text = (resources.files("foldprint") / "data" / "printers.toml").read_text(encoding="utf-8")
-    tables = [("foldprint/data/printers.toml", tomllib.loads(text))]
-    if extra is not None:
-        p = Path(extra)
-        try:
-            tables.append((str(p), tomllib.loads(p.read_text(encoding="utf-8"))))
-        except FileNotFoundError:
-            raise DesignError(f"{p}: printer file not found") from None
-        except ValueError as exc:  # also a >4300-digit integer
-            raise DesignError(f"{p}: not valid TOML: {exc}") from None
-    out: dict[str, Printer] = {}
-    for src, data in tables:
-        for key, raw in data.get("printers", {}).items():
-            try:
-                build = tuple(float(v) for v in raw["build_mm"])
-                vox = raw.get("voxel_mm")
-                vox = None if vox is None else tuple(float(v) for v in vox)
-                pr = Printer(key, str(raw.get("name", key)), str(raw.get("technology", "")), build,
-                             float(raw.get("layer_mm", 0.1)), float(raw["min_wall_mm"]), float(raw["min_gap_mm"]),
-                             vox, str(raw.get("voxel_source", "")))
-            except (KeyError, TypeError, ValueError) as exc:
-                raise DesignError(f"{src}: printers.{key}: needs build_mm = [x, y, z], min_wall_mm and "
-                                  f"min_gap_mm ({exc})") from None
-            if vox is not None and (len(vox) != 3 or not all(math.isfinite(v) and v > 0 for v in vox)):
-                raise DesignError(f"{src}: printers.{key}: voxel_mm must be three positive lengths [x, y, z] in mm")
-            if len(build) != 3 or min(build) <= 0 or pr.min_wall_mm <= 0 or pr.min_gap_mm <= 0:
-                raise DesignError(f"{src}: printers.{key}: sizes must be positive")
-            out[key] = pr
-    return out
-
-
-def default_voxel_printer_key() -> str:
-    """The shipped printer voxel print uses by default (``voxel_default = true``)."""
-    text = (resources.files("foldprint") / "data" / "printers.toml").read_text(encoding="utf-8")
-    data = tomllib.loads(text)["printers"]
-    return next(k for k, v in data.items() if v.get("voxel_default"))
-
-
-def default_printer_key() -> str:
-    text = (resources.files("foldprint") / "data" / "printers.toml").read_text(encoding="utf-8")
-    data = tomllib.loads(text)["printers"]
-    return next(k for k, v in data.items() if v.get("default"))
 
 
 @dataclass(frozen=True)
@@ -160,6 +99,22 @@ def rule_build_volume(ctx: CheckContext) -> list[Finding]:
     return [_f("FP100", "error", f"part {size[0]:.1f} x {size[1]:.1f} x {size[2]:.1f} mm does not fit the build "
                f"volume of {ctx.printer.name} ({build[0]:g} x {build[1]:g} x {build[2]:g} mm)",
                "scale the design down or choose a larger printer with --printer")]
+
+
+def rule_tools(ctx: CheckContext) -> list[Finding]:
+    """FP103 / FP104: the design's materials fit the printer's tools (FDM: one filament per
+    material; PolyJet: resin channels, digital materials jetted from VeroWhite and
+    TangoBlack), :func:`foldprint.model.printers.tool_fit`."""
+    pr = ctx.printer
+    if pr.tools is None:
+        return []
+    fit = tool_fit(pr, ctx.design.materials_used, ctx.library)
+    if not fit.ok:
+        return [_f("FP103", "error", f"the design needs {fit.needed} {pr.unit}, {pr.name} has {pr.tools}: "
+                   + fit.summary(), fit.alternatives(load_printers().values()))]
+    note = ("" if pr.base_resins else "; each is a filament of your choosing: the fold times and jam "
+            "probability here are the model's for the paper's PolyJet digital SMPs, not for filaments")
+    return [_f("FP104", "info", fit.summary() + note)]
 
 
 def rule_buildable(ctx: CheckContext) -> list[Finding]:
@@ -428,7 +383,7 @@ def rule_hole_walls(ctx: CheckContext) -> list[Finding]:
     return out
 
 
-RULES = [rule_build_volume, rule_buildable, rule_min_wall, rule_hole_walls, rule_min_gap, rule_hinge_strain, rule_hinge_fits,
+RULES = [rule_build_volume, rule_tools, rule_buildable, rule_min_wall, rule_hole_walls, rule_min_gap, rule_hinge_strain, rule_hinge_fits,
          rule_temperatures, rule_fold_within_duration, rule_folding, rule_jam_probability, rule_jam_sensitivity]
 
 

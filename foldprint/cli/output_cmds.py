@@ -16,7 +16,7 @@ from ..core.modes import DEFAULT_STATE, State, parse
 from ..core.errors import FoldprintError
 from .root import app
 from .support import (MAX_WORKERS, CREASE_HELP, SCALE_HELP, OUTPUT_STATE, check_count, echo_json, load_input, echo_note, check_out_dir,
-                      with_progress)
+                      load_printer, with_progress)
 
 
 @app.command()
@@ -33,11 +33,16 @@ def export(
     scale: Optional[float] = typer.Option(None, "--scale", help=SCALE_HELP),
     crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=CREASE_HELP),
     printer: Optional[str] = typer.Option(None, "--printer",
-                                          help="Printer profile whose voxel pitch --format voxels uses "
-                                               "(data/printers.toml; default j750: 600 x 300 dpi, 27 um layers)."),
+                                          help="Printer profile the files are for (data/printers.toml): refused "
+                                               "(exit 2) when the design needs more materials than it has tools; "
+                                               "an FDM profile's bed and tools go into the slicer 3MFs; --format "
+                                               "voxels uses its voxel pitch (default j750: 600 x 300 dpi, 27 um layers)."),
+    printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML) for --printer."),
 ):
     """Build the printable part (one watertight body per material) and write multi-body
-    3MF (spec + Bambu/Orca/Cura metadata), a PrusaSlicer 3MF, and one STL per material.
+    3MF (spec + Bambu/Orca/Cura metadata and an OrcaSlicer project with one filament per
+    material), a PrusaSlicer 3MF (one extruder per material), one STL per material, and a
+    print recipe (<name>_recipe.md: tools, programming temperatures, expected fold order).
 
     Example: foldprint export helix_graded --format 3mf,stl --json
     """
@@ -55,11 +60,10 @@ def export(
     out = check_out_dir(out)
     d, lib = load_input(design, materials_file, scale, crease_materials)
     out_dir = out if out is not None else Path("output") / d.name
-    if printer is not None and "voxels" not in fmts:
-        raise FoldprintError("--printer sets the voxel pitch of --format voxels; add voxels to --format")
+    profile = None if printer is None else load_printer(printer, printers_file)[1]
     records = with_progress(f"building {d.name} ({state})",
                              lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts)),
-                                                library=lib).export(out_dir, printer=printer))
+                                                library=lib).export(out_dir, printer=profile))
     if json_out:
         echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records})
     else:
@@ -70,6 +74,9 @@ def export(
                     size = sum(s["bytes"] for s in slices)
                     echo(f"{r['path']} ... {Path(slices[-1]['path']).name}  (voxel slices: {len(slices)} PNG, "
                          f"{size / 1e6:.1f} MB)")
+                continue
+            if r["format"] == "recipe":
+                echo(f"{r['path']}  (print recipe: tools, programming, fold order)")
                 continue
             vol = sum(b["volume_mm3"] for b in r["bodies"])
             echo(f"{r['path']}  ({r['format']}, {len(r['bodies'])} bodies, {vol:.1f} mm3)")

@@ -234,14 +234,10 @@ def print_simulation(r: dict) -> None:
 
 
 def load_printer(printer, printers_file):
-    from ..checks.rules import default_printer_key, load_printers
+    from ..model.printers import default_printer_key, find_printer
 
-    printers = load_printers(printers_file)
     key = printer or default_printer_key()
-    if key not in printers:
-        raise FoldprintError(f"--printer {key!r} is unknown; profiles: {', '.join(printers)} "
-                             "(add your own with --printers FILE)")
-    return key, printers[key]
+    return key, find_printer(key, printers_file)
 
 
 def check_fraction(value: float, option: str) -> float:

@@ -11,7 +11,8 @@ so a failed or killed export leaves the previous complete set or the new one.
 File names (``stem`` = the design name, ``<name>_programmed`` for the flat state):
 ``<stem>.3mf`` (spec form + Bambu/Orca/Cura metadata), ``<stem>_prusa.3mf`` (PrusaSlicer),
 ``<stem>_<material>.stl`` and ``manifest.json`` (``manifest_programmed.json``),
-``<stem>.fold``, ``<stem>.inp``, ``<stem>_fold.xdmf``, ``<stem>_fold.glb``.
+``<stem>.fold``, ``<stem>.inp``, ``<stem>_fold.xdmf``, ``<stem>_fold.glb``; always
+``<stem>_recipe.md`` (how to print, program and fold it, :mod:`.recipe`).
 
 Every record lists the bodies it holds, each with its material, extruder (1-based, as
 slicers number them), every file of the export that holds it, volume, z range in the
@@ -35,10 +36,13 @@ from ..core.modes import State
 from ..geometry import Assembly, bed_report
 from ..geometry.surfaces import Frames
 from ..model.materials import MaterialLibrary, default_library
+from ..model.printers import Printer, fdm_setup, tool_fit
 from .fem import PlacedState, inp_bytes
 from .files import write_set
 from .fold import fold_bytes
 from .gltf import glb_bytes
+from .recipe import CheckSummary, recipe_markdown
+from .slicer_config import bed_layout
 from .stl import manifest, stl_bytes
 from .threemf import composite3mf_bytes, prusa3mf_bytes, threemf_bytes
 from .voxels import VoxelPart, slice_files
@@ -121,13 +125,19 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
            frames: Frames | None = None,
            fold_times: dict | None = None,
            placed: PlacedState | None = None,
-           voxels: VoxelPart | None = None) -> list[tuple[str, bytes, str, list[dict], dict]]:
+           voxels: VoxelPart | None = None,
+           printer: Printer | None = None,
+           check: CheckSummary | None = None) -> list[tuple[str, bytes, str, list[dict], dict]]:
     """The files of an export in memory: (file name, bytes, format, bodies, extra record
     fields). ``frames`` (the fold's surfaces over time) are needed by :data:`TRAJECTORY_FORMATS`,
     ``fold_times`` (each hinge's, by id) by stl's manifest, ``placed`` (the state's poses)
     by inp, ``voxels`` (the regions with their VeroWhite fractions) by :data:`VOXEL_FORMATS`:
     the writers compute none of them. The voxel slices are callables that make their bytes
-    when :func:`~foldprint.exchange.files.write_set` stages them (streamed)."""
+    when :func:`~foldprint.exchange.files.write_set` stages them (streamed). ``printer``: the
+    profile the export is for (the slicer 3MFs describe it when it is an FDM printer, else a
+    generic FDM printer; the recipe says what the design needs of it); ``check``: the
+    check's findings for the recipe, when it ran. Every export ends with its recipe
+    (``<stem>_recipe.md``, format ``recipe``)."""
     lib = library or default_library()
     formats = check_formats(formats)
     _needs_given(formats, frames, fold_times, placed, voxels)
@@ -135,10 +145,11 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
     every = [b.material for b in assembly.bodies]
     out: list[tuple[str, bytes, str, list[str]]] = []  # (name, data, format, materials held)
     extra: dict[str, dict] = {}
+    layout = bed_layout(assembly, fdm_setup(printer))
     if "3mf" in formats:
-        out.append((f"{st}.3mf", threemf_bytes(design, assembly, lib), "3mf", every))
+        out.append((f"{st}.3mf", threemf_bytes(design, assembly, lib, layout), "3mf", every))
     if "prusa3mf" in formats:
-        out.append((f"{st}_prusa.3mf", prusa3mf_bytes(design, assembly, lib), "prusa3mf", every))
+        out.append((f"{st}_prusa.3mf", prusa3mf_bytes(design, assembly, lib, layout), "prusa3mf", every))
     if "stl" in formats:
         names = {}
         for b in assembly.bodies:
@@ -173,26 +184,35 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
             # would repeat every body 700 times in --json
             out.append((name, make, "voxels", every) if name.endswith(".json") else (name, make, "png", []))
         out.append((f"{st}_voxels.3mf", composite3mf_bytes(design, assembly, voxels, lib), "3mf-composite", every))
+    fit = None if printer is None else tool_fit(printer, [b.material for b in assembly.bodies], lib)
+    out.append((f"{st}_recipe.md", recipe_markdown(design, assembly, lib, _held(out), fold_times, fit, check).encode(),
+                "recipe", every))
     seen = set()
     for name, *_ in out:
         if name in seen:  # e.g. two materials that differ only in characters made safe
             raise ExportError(f"two export files would be named {name!r}; rename a material")
         seen.add(name)
-    held: dict[str, list[str]] = {}
-    for name, _, fmt, mats in out:
-        if fmt != "manifest":
-            for m in mats:
-                held.setdefault(m, []).append(name)
-    records = {r["material"]: r for r in body_records(assembly, held)}
+    records = {r["material"]: r for r in body_records(assembly, _held(out))}
     return [(name, data, fmt, [records[m] for m in mats if m in records], extra.get(name, {}))
             for name, data, fmt, mats in out]
+
+
+def _held(out) -> dict[str, list[str]]:
+    """Material -> the files (of ``out``: name, data, format, materials) that hold its body."""
+    held: dict[str, list[str]] = {}
+    for name, _, fmt, mats in out:
+        if fmt not in ("manifest", "recipe"):
+            for m in mats:
+                held.setdefault(m, []).append(name)
+    return held
 
 
 @scoped
 def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
                     formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
                     frames: Frames | None = None, fold_times: dict | None = None,
-                    placed: PlacedState | None = None, voxels: VoxelPart | None = None) -> list[dict]:
+                    placed: PlacedState | None = None, voxels: VoxelPart | None = None,
+                    printer: Printer | None = None, check: CheckSummary | None = None) -> list[dict]:
     """Write ``formats`` (see :data:`FORMATS`) of a built assembly into ``out_dir``
     (created if needed; ExportError if it cannot be). Returns one record per file
     written: {path, format, bodies, bytes, ...}; format is one of :data:`FORMATS`,
@@ -202,7 +222,7 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
     The files land as a whole (:func:`~foldprint.exchange.files.write_set`): an
     interrupted export leaves the previous complete set or the new one, never a mix, and
     nothing is created when the export fails."""
-    files = render(design, assembly, formats, library, frames, fold_times, placed, voxels)
+    files = render(design, assembly, formats, library, frames, fold_times, placed, voxels, printer, check)
     paths = write_set(out_dir, [(name, data) for name, data, *_ in files])
     return [{"path": str(path), "format": fmt, "bodies": bodies,
              "bytes": len(data) if isinstance(data, bytes) else path.stat().st_size, **more}

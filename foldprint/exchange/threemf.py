@@ -11,13 +11,18 @@ ZIP_DEFLATED), so the same assembly gives byte-identical files:
       ``<metadatagroup><metadata name="cura:extruder_nr">`` (0-based, Cura);
     * ``Metadata/model_settings.config``: Bambu Studio / OrcaSlicer turn the
       components into parts of one object, each with its ``extruder`` (1-based);
+    * ``Metadata/project_settings.config``: OrcaSlicer's project, one filament per body
+      (:mod:`.slicer_config`);
     * ``Metadata/foldprint_design.toml``: the design (``design_to_toml``), referenced
       from the model part's relationships; ``Application`` metadata names foldprint.
 
 ``prusa3mf`` (:func:`prusa3mf_bytes`), for PrusaSlicer, which ignores both components
 and base materials for parts: ONE object whose mesh holds every body's triangles, and
 ``Metadata/Slic3r_PE_model.config`` with a ``<volume firstid lastid>`` triangle range,
-name and ``extruder`` per body.
+name and ``extruder`` per body, and ``Metadata/Slic3r_PE.config``, the printer with one
+extruder per body (:mod:`.slicer_config`).
+
+Both put the part on the bed their configuration describes (:func:`.slicer_config.bed_layout`).
 """
 
 from __future__ import annotations
@@ -34,6 +39,9 @@ from ..io.design_io import design_to_toml
 from ..core.errors import ExportError
 from ..geometry import Assembly, Body
 from ..model.materials import MaterialLibrary, default_library
+from ..model.printers import fdm_setup
+from .slicer_config import (ORCA_PROJECT_CONFIG_PATH, PRUSA_PRINT_CONFIG_PATH, BedLayout, bed_layout,
+                            orca_project_settings, prusa_print_config)
 
 APPLICATION = f"foldprint {__version__}"
 CORE_NS = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
@@ -124,9 +132,13 @@ def placement(assembly: Assembly) -> np.ndarray:
     return np.array([0.0, 0.0, -lo[2]]) + 0.0
 
 
-def _item_transform(assembly: Assembly) -> str:
-    t = _numbers(placement(assembly))
+def _item_transform(assembly: Assembly, offset: np.ndarray | None = None) -> str:
+    t = _numbers(placement(assembly) if offset is None else offset)
     return f"1 0 0 0 1 0 0 0 1 {t[0]} {t[1]} {t[2]}"
+
+
+def _layout(assembly: Assembly, layout: BedLayout | None) -> BedLayout:
+    return bed_layout(assembly, fdm_setup(None)) if layout is None else layout
 
 
 def _model_header(design: Design, assembly: Assembly, extra_ns: str = "") -> str:
@@ -149,10 +161,13 @@ def _check(assembly: Assembly) -> None:
         raise ExportError(f"design {assembly.design_name!r}: nothing to export (no bodies)")
 
 
-def model_xml(design: Design, assembly: Assembly, library: MaterialLibrary | None = None) -> str:
-    """The core ``3D/3dmodel.model`` (one mesh object per material + an assembly)."""
+def model_xml(design: Design, assembly: Assembly, library: MaterialLibrary | None = None,
+              layout: BedLayout | None = None) -> str:
+    """The core ``3D/3dmodel.model`` (one mesh object per material + an assembly), placed on
+    the bed of ``layout`` (default: the generic FDM printer's)."""
     lib = library or default_library()
     _check(assembly)
+    layout = _layout(assembly, layout)
     out = [_model_header(design, assembly, f' xmlns:cura="{CURA_NS}"'), " <resources>\n"]
     out.append('  <basematerials id="1">\n')
     out += [f'   <base name={quoteattr(b.material)} displaycolor="{_color(lib, b.material)}"/>\n'
@@ -168,7 +183,8 @@ def model_xml(design: Design, assembly: Assembly, library: MaterialLibrary | Non
     out.append(f'  <object id="{asm_id}" type="model" name={quoteattr(design.name)}>\n   <components>\n')
     out += [f'    <component objectid="{k + 2}"/>\n' for k in range(len(assembly.bodies))]
     out.append("   </components>\n  </object>\n </resources>\n")
-    out.append(f' <build>\n  <item objectid="{asm_id}" transform="{_item_transform(assembly)}"/>\n </build>\n')
+    out.append(f' <build>\n  <item objectid="{asm_id}" transform="{_item_transform(assembly, layout.offset)}"/>\n'
+               ' </build>\n')
     out.append("</model>\n")
     return "".join(out)
 
@@ -190,23 +206,28 @@ def bambu_config(design: Design, assembly: Assembly) -> str:
     return "".join(out)
 
 
-def _package(design: Design, model: str, config_path: str, config: str) -> bytes:
-    """The 3MF package: content types, relationships, the model, one slicer config and
+def _package(design: Design, model: str, configs: dict[str, str]) -> bytes:
+    """The 3MF package: content types, relationships, the model, the slicer configs and
     the design itself (provenance)."""
     return zip_bytes({
         "[Content_Types].xml": CONTENT_TYPES.encode(),
         "_rels/.rels": ROOT_RELS.encode(),
         "3D/_rels/3dmodel.model.rels": MODEL_RELS.encode(),
         MODEL_PATH: model.encode(),
-        config_path: config.encode(),
+        **{path: text.encode() for path, text in configs.items()},
         DESIGN_PATH: design_to_toml(design).encode(),
     })
 
 
-def threemf_bytes(design: Design, assembly: Assembly, library: MaterialLibrary | None = None) -> bytes:
-    """The spec-correct 3MF with Bambu/Orca and Cura metadata and the design inside."""
-    return _package(design, model_xml(design, assembly, library), BAMBU_CONFIG_PATH,
-                    bambu_config(design, assembly))
+def threemf_bytes(design: Design, assembly: Assembly, library: MaterialLibrary | None = None,
+                  layout: BedLayout | None = None) -> bytes:
+    """The spec-correct 3MF with Bambu/Orca (parts and project settings: one filament per
+    body) and Cura metadata and the design inside, on ``layout``'s bed."""
+    lib = library or default_library()
+    layout = _layout(assembly, layout)
+    return _package(design, model_xml(design, assembly, lib, layout), {
+        BAMBU_CONFIG_PATH: bambu_config(design, assembly),
+        ORCA_PROJECT_CONFIG_PATH: orca_project_settings(design.name, assembly, layout, lib)})
 
 
 def merged_mesh(bodies: tuple[Body, ...]) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
@@ -221,14 +242,15 @@ def merged_mesh(bodies: tuple[Body, ...]) -> tuple[np.ndarray, np.ndarray, list[
     return np.concatenate(verts), np.concatenate(faces), ranges
 
 
-def prusa_model_xml(design: Design, assembly: Assembly) -> str:
+def prusa_model_xml(design: Design, assembly: Assembly, layout: BedLayout | None = None) -> str:
     _check(assembly)
+    layout = _layout(assembly, layout)
     v, f, _ = merged_mesh(assembly.bodies)
     out = [_model_header(design, assembly, f' xmlns:slic3rpe="{SLIC3RPE_NS}"'),
            f' <metadata name="slic3rpe:Version3mf">{PRUSA_3MF_VERSION}</metadata>\n', " <resources>\n",
            f'  <object id="1" type="model" name={quoteattr(design.name)}>\n',
            _mesh_xml(v, f), "  </object>\n </resources>\n",
-           f' <build>\n  <item objectid="1" transform="{_item_transform(assembly)}"/>\n </build>\n',
+           f' <build>\n  <item objectid="1" transform="{_item_transform(assembly, layout.offset)}"/>\n </build>\n',
            "</model>\n"]
     return "".join(out)
 
@@ -253,10 +275,15 @@ def prusa_config(design: Design, assembly: Assembly) -> str:
     return "".join(out)
 
 
-def prusa3mf_bytes(design: Design, assembly: Assembly, library: MaterialLibrary | None = None) -> bytes:
-    """The PrusaSlicer flavour: one multi-volume object, extruder per volume."""
-    return _package(design, prusa_model_xml(design, assembly), PRUSA_CONFIG_PATH,
-                    prusa_config(design, assembly))
+def prusa3mf_bytes(design: Design, assembly: Assembly, library: MaterialLibrary | None = None,
+                   layout: BedLayout | None = None) -> bytes:
+    """The PrusaSlicer flavour: one multi-volume object, extruder per volume, and the
+    printer configuration with one extruder per body, on ``layout``'s bed."""
+    lib = library or default_library()
+    layout = _layout(assembly, layout)
+    return _package(design, prusa_model_xml(design, assembly, layout), {
+        PRUSA_CONFIG_PATH: prusa_config(design, assembly),
+        PRUSA_PRINT_CONFIG_PATH: prusa_print_config(design.name, assembly, layout, lib)})
 
 
 # -- the voxel variant: base resins and composites (3MF Materials extension) ---------------
