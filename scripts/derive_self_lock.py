@@ -371,7 +371,7 @@ def _toml_list(v):
 DESCRIPTION = {False: "Mao 2015 Fig. 5: self-locking strip; H-2,H-2,H-3,H-6,H-6 thread the end through both holes in order. It completes nominally with every goal met, closest approach 1.0 mm (the hole margin), not marginal; the paper's point-hinge ROM collides (the holes are cut for the printed arc hinges)",
                True: 'Fig. 5 geometry with every hinge H-3: all folds start together and the end strikes the plate: it collides (p1-p6 at 1.6 s), goals not met'}
 TABLES = {False: """# What the description claims, checked against what simulate and check print
-# (tests/test_template_claims.py; the keys: docs/design-file.md).
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
 [claims]
 nominal = "completes"
 goals_met = true
@@ -387,7 +387,7 @@ figure = "Fig. 5"
 statements = ["self_lock", "self_lock_threads"]
 """,
           True: """# What the description claims, checked against what simulate and check print
-# (tests/test_template_claims.py; the keys: docs/design-file.md).
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
 [claims]
 nominal = "collides"
 contact = ["p1", "p6"]

@@ -52,7 +52,7 @@ HEADER = f"""\
 
 #: What the description claims (checked by tests/test_template_claims.py).
 CLAIMS = """# What the description claims, checked against what simulate and check print
-# (tests/test_template_claims.py; the keys: docs/design-file.md).
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
 [claims]
 nominal = "completes"
 marginal = false

@@ -72,7 +72,7 @@ def design(name: str, description: str, materials: list[str], note: str, tables:
 
 #: What each description claims (checked by tests/test_template_claims.py).
 CLAIMS_CONTINUOUS = """# What the description claims, checked against what simulate and check print
-# (tests/test_template_claims.py; the keys: docs/design-file.md).
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
 [claims]
 nominal = "completes"
 clearance_mm = 1.2
@@ -80,7 +80,7 @@ marginal = true
 jams_under_scatter = true
 """
 CLAIMS_SEVEN = """# What the description claims, checked against what simulate and check print
-# (tests/test_template_claims.py; the keys: docs/design-file.md).
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
 [claims]
 nominal = "collides"
 contact = ["f7", "f8"]

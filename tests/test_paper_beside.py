@@ -122,3 +122,12 @@ def test_simulate_and_check_print_the_quote_beside_the_model(capsys):
     assert f"under scatter the jam probability is {p:.0%}" in chk["paper"][0]["model"]
     assert main(["check", "helix_uniform", "--samples", "8", "--no-sensitivity"]) == 1
     assert 'paper, Sample 1, Fig. 2b: "First, at ~7.5 s' in capsys.readouterr().out
+
+
+def test_a_run_at_another_bath_says_so():
+    from foldprint.apps.pipeline import EvalOptions, Evaluation
+
+    ev = Evaluation(load_design(templates_dir() / "helix_graded.toml"), EvalOptions(samples=0, bath_c=80.0))
+    whole = ev.paper_lines()[0]
+    assert whole.model.endswith("(this run's bath 80 C, the design's 90 C)")
+    assert whole.value.value_s > 5.37 + 0.5  # a cooler bath folds slower

@@ -26,6 +26,13 @@ Layout (see ``templates/`` and ``docs/design-file.md``)::
     [[panels]]   id, outline, holes, thickness_mm, material
     [[hinges]]   id, panels, angle_deg, material, radius_mm, thickness_mm, line, fixity, style
     [[goals]]    id, type = "pass_through", panel, target, hole, tip, order
+    [paper]                          # a structure of Mao et al. (2015), optional
+    name = "Sample 1"                # how the paper names it
+    figure = "Fig. 2b"
+    statements = ["sample1_contact"] # ids in foldprint/data/paper_timings.toml: printed
+                                     # beside the model's values by simulate, check, gallery
+    [claims]                         # what the description says the commands print, optional
+    nominal = "completes"            # (foldprint.io.templates.Claims; the templates' test)
 """
 
 from __future__ import annotations

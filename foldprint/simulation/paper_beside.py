@@ -177,7 +177,8 @@ class PaperLine:
     def to_json(self) -> dict:
         s = self.statement
         return {"id": s.id, "structure": self.structure, "figure": s.figure, "what": s.what, "quote": s.quote,
-                "source": s.source, "kind": s.kind, "paper_s": s.value_s, "model_s": _r(self.value.value_s, 4),
+                "source": s.source, "kind": s.kind, "paper_s": s.value_s, "paper": paper_value_text(s),
+                "model_s": _r(self.value.value_s, 4),
                 "ratio": _r(self.ratio, 3), "verdict": self.verdict, "model": self.model, "summary": self.summary}
 
 
@@ -211,6 +212,9 @@ def paper_lines(design: Design, result: SimulationResult, clearance=None,
     for sid in ref.statements:
         s = st[sid]
         v = model_value(s, result)
-        out.append(PaperLine(s, ref.name, v, verdict(s, v, st.approx_tol_s),
-                             _words(s, v, result, clearance, jam_probability)))
+        words = _words(s, v, result, clearance, jam_probability)
+        bath, own = float(result.trajectory.bath_c), float(design.process.bath_temperature_c)
+        if abs(bath - own) > 1e-9:  # a bath given for this run: not the paper's conditions
+            words += f" (this run's bath {bath:g} C, the design's {own:g} C)"
+        out.append(PaperLine(s, ref.name, v, verdict(s, v, st.approx_tol_s), words))
     return tuple(out)
