@@ -366,6 +366,43 @@ def _toml_list(v):
     return "[" + ", ".join(_toml_list(x) if isinstance(x, (list, tuple)) else f"{x:g}" for x in v) + "]"
 
 
+#: The descriptions and what they claim (checked by tests/test_template_claims.py), and how
+#: the paper names the structure; by "every hinge H-3".
+DESCRIPTION = {False: "Mao 2015 Fig. 5: self-locking strip; H-2,H-2,H-3,H-6,H-6 thread the end through both holes in order. It completes nominally with every goal met, closest approach 1.0 mm (the hole margin), not marginal; the paper's point-hinge ROM collides (the holes are cut for the printed arc hinges)",
+               True: 'Fig. 5 geometry with every hinge H-3: all folds start together and the end strikes the plate: it collides (p1-p6 at 1.6 s), goals not met'}
+TABLES = {False: """# What the description claims, checked against what simulate and check print
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
+[claims]
+nominal = "completes"
+goals_met = true
+clearance_mm = 1.0
+marginal = false
+point_model = "collides"
+
+# How Mao et al. (2015) name this structure, and their statements about it
+# (foldprint/data/paper_timings.toml): simulate, check and the gallery print each beside the model's value.
+[paper]
+name = "the self-locking structure"
+figure = "Fig. 5"
+statements = ["self_lock", "self_lock_threads"]
+""",
+          True: """# What the description claims, checked against what simulate and check print
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
+[claims]
+nominal = "collides"
+contact = ["p1", "p6"]
+contact_s = 1.6
+goals_met = false
+
+# How Mao et al. (2015) name this structure, and their statements about it
+# (foldprint/data/paper_timings.toml): simulate, check and the gallery print each beside the model's value.
+[paper]
+name = "our variant of the self-locking structure (every hinge H-3; not in the paper)"
+figure = "Fig. 5"
+statements = []
+"""}
+
+
 def template_text(name, c, materials):
     """The template file for candidate ``c`` (general form) with its header."""
     d = design_dict(c["lengths"], c["angles"], materials, c["holes"], name)
@@ -384,7 +421,8 @@ def template_text(name, c, materials):
                          a5=f"{c['angles'][4]:g}", h1=f"{hx1 - hx0:.1f} x {hy1 - hy0:.1f} mm",
                          h1x=f"{hx0:g}-{hx1:g}", h2=f"{kx1 - kx0:.1f} x {ky1 - ky0:.1f} mm", h2x=f"{kx0:g}-{kx1:g}",
                          web=c["web"], fate=fate)]
-    out.append(f'schema = 1\nname = "{name}"\ndescription = "{title}"\nroot = "p1"\n')
+    out.append(f'schema = 1\nname = "{name}"\ndescription = "{DESCRIPTION[uniform]}"\nroot = "p1"\n')
+    out.append(TABLES[uniform])
     out.append("[process]\nprogram_temperature_c = 90.0\nfix_temperature_c = 10.0\nbath_temperature_c = 90.0\n"
                "duration_s = 15.0\n")
     out.append('[defaults]\nthickness_mm = 0.6\ndepth_mm = 6.0\npanel_material = "VeroWhite"\n'

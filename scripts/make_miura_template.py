@@ -50,12 +50,19 @@ HEADER = f"""\
 # folding the wrong way) in a third to a half of the samples (docs/loops.md).
 """
 
+#: What the description claims (checked by tests/test_template_claims.py).
+CLAIMS = """# What the description claims, checked against what simulate and check print
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
+[claims]
+nominal = "completes"
+marginal = false
+"""
+
 if __name__ == "__main__":
     data = cp.miura(3, 3, width=WIDTH, height=HEIGHT, shift=SHIFT, zigzag_deg=ZIGZAG_DEG, materials=MATERIALS)
     d = design_from_fold(data, default_radius_mm=RADIUS_MM)
     d = replace(d, name="miura_3x3", hinges=tuple(replace(h, fixity=FIXITY) for h in d.hinges),
-                description="Miura-ori patch, 3 x 3 parallelogram panels (rigid origami, 4 interior vertices, "
-                            "one degree of freedom); zigzag creases H-2, straight creases H-4")
+                description='Miura-ori patch, 3 x 3 parallelogram panels (rigid origami, 4 interior vertices, one degree of freedom); zigzag creases H-2, straight creases H-4. It completes nominally, not marginal')
     out = Path(__file__).resolve().parent.parent / "templates" / "miura_3x3.toml"
-    out.write_text(HEADER + design_to_toml(d))
+    out.write_text(HEADER + design_to_toml(d) + "\n" + CLAIMS)
     print(out)

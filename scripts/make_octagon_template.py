@@ -47,7 +47,7 @@ def _fmt(p) -> str:
     return f"[{p[0]:.4f}, {p[1]:.4f}]"
 
 
-def design(name: str, description: str, materials: list[str], note: str) -> str:
+def design(name: str, description: str, materials: list[str], note: str, tables: str = "") -> str:
     verts = [np.array([CIRCUMRADIUS_MM * math.cos(2 * math.pi * (k + 0.5) / N),
                        CIRCUMRADIUS_MM * math.sin(2 * math.pi * (k + 0.5) / N)]) for k in range(N)]
     ring, flaps, hinges = [], [], []
@@ -62,6 +62,7 @@ def design(name: str, description: str, materials: list[str], note: str) -> str:
         hinges.append(f'[[hinges]]\nid = "h{k + 1}"\npanels = ["R", "f{k + 1}"]\nline = [{_fmt(p0)}, {_fmt(p1)}]\n'
                       f'angle_deg = 180\nradius_mm = {R0_MM + DR_MM * (k + 1):.1f}\nmaterial = {materials[k]}\n')
     parts = [HEADER + note, "schema = 1", f'name = "{name}"', f'description = "{description}"', 'root = "R"', "",
+             *([tables] if tables else []),
              "[process]\nprogram_temperature_c = 90.0\nfix_temperature_c = 10.0\nbath_temperature_c = 90.0\n"
              "duration_s = 15.0\n",
              '[defaults]\nthickness_mm = 0.8\ndepth_mm = 6.0\npanel_material = "VeroWhite"\nhinge_thickness_mm = 0.8\n',
@@ -69,25 +70,41 @@ def design(name: str, description: str, materials: list[str], note: str) -> str:
     return "\n".join(parts)
 
 
+#: What each description claims (checked by tests/test_template_claims.py).
+CLAIMS_CONTINUOUS = """# What the description claims, checked against what simulate and check print
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
+[claims]
+nominal = "completes"
+clearance_mm = 1.2
+marginal = true
+jams_under_scatter = true
+"""
+CLAIMS_SEVEN = """# What the description claims, checked against what simulate and check print
+# (tests/test_template_claims.py; the keys: foldprint.io.templates.Claims).
+[claims]
+nominal = "collides"
+contact = ["f7", "f8"]
+contact_s = 4.2
+"""
+
+
 def main() -> None:
     root = Path(__file__).resolve().parent.parent / "templates"
     (root / "octagon_stack.toml").write_text(design(
         "octagon_stack",
-        "eight flaps stack on an octagon in a strict order: eight continuous VeroWhite fractions "
-        "(0.560..1.000) fold it nominally, the seven grades cannot (octagon_stack_seven); under scatter "
-        "it jams often (docs/composition.md)",
+        'eight flaps stack on an octagon in a strict order: eight continuous VeroWhite fractions (0.560..1.000) fold it, the seven grades cannot (octagon_stack_seven). It completes nominally, closest approach 1.2 mm (the final layer gap), but marginal: scatter swaps neighbouring flaps and it jams under scatter (foldprint check; docs/composition.md)',
         CONTINUOUS,
         "# Materials: VeroWhite fractions 0.560, 0.623, ..., 1.000 (equal steps; Tg 32 .. 65 C by the\n"
         "# composition model), lowest flap fastest. The same part with H-1..H-7: octagon_stack_seven.\n"
         "# Nominally it folds; under the default scatter model the 4.7 C Tg steps are too close and\n"
-        "# it jams in about two samples of three (foldprint robust; docs/composition.md).\n\n"))
+        "# it jams in about two samples of three (foldprint robust; docs/composition.md).\n\n", CLAIMS_CONTINUOUS))
     (root / "octagon_stack_seven.toml").write_text(design(
         "octagon_stack_seven",
-        "octagon_stack with the seven grades H-1..H-7 (the last two flaps share H-7): two flaps fold "
-        "together and collide; every seven-grade assignment has such a tie (docs/composition.md)",
+        'octagon_stack with the seven grades H-1..H-7 (the last two flaps share H-7): two flaps fold together and it collides (f7-f8 at 4.2 s); every seven-grade assignment has such a tie (docs/composition.md)',
         SEVEN,
         "# Materials: H-1..H-7 in the chain's order, the last two flaps sharing H-7. Eight flaps and\n"
-        "# seven grades: some two flaps always share a grade and fold together (docs/composition.md).\n\n"))
+        "# seven grades: some two flaps always share a grade and fold together (docs/composition.md).\n\n",
+        CLAIMS_SEVEN))
 
 
 if __name__ == "__main__":

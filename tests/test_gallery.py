@@ -307,7 +307,7 @@ def test_render3d_shows_the_structure():
 HARNESS = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>harness</title></head>
 <body><pre id="result">pending</pre>
-<iframe id="f" src="site/index.html" width="1200" height="900"></iframe>
+<iframe id="f" src="site/index.html" width="700" height="900"></iframe>
 <script>
 const errors = [];
 window.addEventListener("error", e => errors.push(String(e.message || e)));
@@ -327,8 +327,15 @@ frame.addEventListener("load", async () => {
     try { const r = await fetch(a.href, {method: "HEAD"}); links.push({href, status: r.status}); }
     catch (e) { links.push({href, status: 0}); errors.push("fetch " + href + " " + e); }
   }
+  const wrapped = [];  // numbers set over more than one line
+  for (const td of doc.querySelectorAll("td.num")) {
+    const r = doc.createRange();
+    r.selectNodeContents(td);
+    const tops = new Set(Array.from(r.getClientRects()).map(x => Math.round(x.top)));
+    if (tops.size > 1) wrapped.push(td.textContent);
+  }
   document.getElementById("result").textContent = JSON.stringify({
-    title: doc.title, charset: doc.characterSet,
+    title: doc.title, charset: doc.characterSet, wrapped,
     images: imgs.map(i => ({src: i.getAttribute("src"), w: i.naturalWidth, h: i.naturalHeight})),
     links, errors, text: doc.body.innerText});
 });
@@ -375,6 +382,7 @@ def test_page_in_headless_chromium(gallery, tmp_path):
     assert res["links"] and all(link["status"] == 200 for link in res["links"]), \
         [link for link in res["links"] if link["status"] != 200]
     assert "Does not complete" in res["text"] and "p1 and p6 touch at" in res["text"]
+    assert res["wrapped"] == [], "a number wraps onto two lines"
 
 
 # -- the interactive viewer ------------------------------------------------------------------
@@ -645,3 +653,134 @@ def test_viewer_replays_the_worst_sample(gallery):
         assert q.size == (n_f + 2) * data["ribbon"]["n"] * 3
         params = mc["worst"]["parameters"]
         assert len(params["tg_shift_c"]) == len(data["hinges"]) and "bath_c" in params
+
+
+# -- what the page says: legend, the paper's names and statements, marginal folds -------------
+
+def _summary_row(index: Path, name: str) -> str:
+    return next(r for r in re.findall(r"<tr>(.*?)</tr>", index.read_text(encoding="utf-8"), re.S)
+                if f'href="#d-{name}"' in r)
+
+
+def test_summary_explains_its_columns_and_names_the_papers_samples(gallery):
+    """A legend entry for every column of the summary; the paper's structures named as the
+    paper names them (their template's [paper] table), in the summary and their sections."""
+    _, out, index, _ = gallery
+    raw = index.read_text(encoding="utf-8")
+    heads = re.findall(r"<th>(.*?)</th>", raw.split("<tbody>")[0])
+    legend = re.search(r'<dl class="legend">(.*?)</dl>', raw, re.S).group(1)
+    terms = [term for t in re.findall(r"<dt>(.*?)</dt>", legend) for term in html.unescape(t).split(", ")]
+    for h in heads:
+        assert any(h.split(" (")[0] in (t, f"check {t}") for t in terms), f"no legend for {h!r}"
+    for name, words in ((JAMS, "the paper's Sample 1 (Fig. 2b)"), ("helix_graded", "the paper's Sample 2 (Fig. 2c)"),
+                        (FAILING, "after the paper's Fig. 5")):
+        assert words in html.unescape(_summary_row(index, name)), name
+    page = _parse(index)
+    header = " ".join(" ".join(page.text[None]).split())
+    assert "The paper's own structures:" in header
+    assert "Sample 1 (Fig. 2b): helix_uniform" in header and "Sample 2 (Fig. 2c): helix_graded" in header
+    assert "The paper's Sample 1 (Fig. 2b)" in " ".join(page.text[f"d-{JAMS}"])
+
+
+def test_a_design_that_jams_under_scatter_is_not_green(gallery):
+    """helix_uniform completes nominally but check's printed parts jam: the nominal cell is
+    amber and says both; a design whose parts do not jam stays green."""
+    _, out, index, _ = gallery
+    chk = json.loads((out / JAMS / "check.json").read_text())
+    row = _summary_row(index, JAMS)
+    cell = re.search(r'<td class="(\w+)">(nominal: [^<]*)</td>', row)
+    assert cell and cell.group(1) == "warn"
+    assert cell.group(2) == f"nominal: completes; printed parts: jam {100 * chk['robust']['jam_probability']:.1f} %"
+    graded = _summary_row(index, "helix_graded")
+    assert '<td class="ok">completes</td>' in graded
+    section = " ".join(" ".join(_parse(index).text[f"d-{JAMS}"]).split())
+    assert f"Printed parts jam under scatter: jam probability {100 * chk['robust']['jam_probability']:.1f} %" in section
+
+
+def test_each_section_quotes_the_paper_beside_the_model(gallery):
+    from foldprint.model.paper_statements import load_statements
+
+    _, out, index, _ = gallery
+    st = load_statements()
+    for name in (JAMS, "helix_graded"):
+        lines = json.loads((out / name / "check.json").read_text())["paper"]
+        text = " ".join(" ".join(_parse(index).text[f"d-{name}"]).split())
+        assert lines and "The paper beside the model" in text
+        for ln in lines:
+            assert st[ln["id"]].quote in text and ln["model"] in text
+            if ln["ratio"] is not None:
+                assert f"{ln['ratio']:.2f}" in text
+
+
+def test_a_failed_export_is_reported_as_failed(tmp_path):
+    """A part that cannot be built: the progress line and the page say the export failed
+    (not 'exported')."""
+    d = strip("flat", [10.0, 10.0], [0.0], ["H-1"])
+    steps = []
+    index = build_gallery([d], tmp_path / "site", gif_frames=3, jobs=1, samples=4,
+                          progress=lambda *a: steps.append(a[2]))
+    line = next(m for m in steps if m.startswith("flat:"))
+    assert "export FAILED" in line and "exported" not in line and "no 3D viewer" in line
+    assert '<p class="status fail">Export failed:' in index.read_text(encoding="utf-8")
+    assert '<span class="sev-error">export failed</span>' in _summary_row(index, "flat")
+
+
+def test_no_empty_samples_chart():
+    """Every sample jams without a collision or a finished fold (a loop that locks): no
+    chart at all; samples that complete but never collide: one panel, no empty pair axes."""
+    from dataclasses import replace as dreplace
+
+    from foldprint.core.modes import HingeModel, JamReason
+    from foldprint.render.figures import sample_outcomes_figure
+    from foldprint.simulation.robust import Outcome, RobustResult
+    from foldprint.simulation.scatter import Scatter
+    from foldprint.simulation.simulate import simulate
+
+    d = strip("two", [10.0, 10.0], [90.0], ["H-1"])
+    nominal = simulate(d)
+    stuck = simulate(d, bath_c=20.0, duration=1.0)  # below Tg: the hinge never folds
+    assert stuck.fold_time is None and stuck.first_collision is None
+    unfolded = RobustResult("two", 3, 0, HingeModel.ARC, Scatter.zero(), (Outcome(True, JamReason.UNFOLDED, None, None, None),) * 3,
+                            stuck)
+    assert sample_outcomes_figure(unfolded) is None
+    done = dreplace(unfolded, outcomes=(Outcome(False, None, None, None, 1.0),) * 3, nominal=nominal)
+    fig = sample_outcomes_figure(done)
+    assert fig is not None and len(fig.axes) == 1
+
+
+@pytest.mark.skipif(_chromium() is None, reason="chromium is not on PATH: the viewer check needs a "
+                    "headless Chromium (SwiftShader WebGL)")
+def test_viewer_frames_the_part_at_every_moment_and_names_the_worst_contact(gallery, tmp_path):
+    """helix_uniform in Chromium: the folded part fills most of the canvas (the camera
+    frames each moment, not the whole trajectory: the flat strip is 416 mm, the folded
+    spiral 56 mm); the flat strip is whole in view; in worst-sample mode the banner names
+    that sample's first contact, pair and time."""
+    import numpy as np
+
+    _, out, _, _ = gallery
+    page = out / JAMS / "viewer.html"
+    url = page.resolve().as_uri()
+    w = _viewer_data(page)["worst"]
+    spans = {}
+    for k, suffix in enumerate(("#state=permanent", "")):
+        dom = _chromium_run(["--dump-dom", url + suffix], tmp_path / f"d{k}")
+        x, y, cw, ch = (int(v) for v in re.search(r'data-canvas="(\d+),(\d+),(\d+),(\d+)"', dom.stdout).groups())
+        png = tmp_path / f"v{k}.png"
+        _chromium_run([f"--screenshot={png}", url + suffix], tmp_path / f"s{k}")
+        with Image.open(png) as im:
+            rgb = np.asarray(im.convert("RGB")).astype(int)[y + 2:y + ch - 2, x + 2:x + cw - 2]
+        part = np.abs(rgb - 247).sum(axis=-1) > 24  # the clear colour is #f7f7f7
+        rows, cols = np.nonzero(part.any(axis=1))[0], np.nonzero(part.any(axis=0))[0]
+        spans[suffix] = (np.ptp(cols) / part.shape[1], np.ptp(rows) / part.shape[0], cols.min(), cols.max(),
+                         part.shape[1])
+    wf, hf, *_ = spans["#state=permanent"]
+    assert max(wf, hf) > 0.6, f"the folded part spans {wf:.0%} x {hf:.0%} of the canvas"
+    wf, hf, left, right, width = spans[""]
+    assert wf > 0.6 and left > 0 and right < width - 1, "the flat strip does not fit the canvas"
+    dom = _chromium_run(["--dump-dom", url + "#run=worst&t=0.5"], tmp_path / "w")
+    banner = html.unescape(re.search(r'id="banner"[^>]*>(.*?)</p>', dom.stdout, re.S).group(1))
+    c = w["contacts"][0]
+    assert banner.startswith(f"Worst scatter sample, #{w['sample']}")
+    assert f"panels {c['panels'][0]}\u2013{c['panels'][1]} touch at {c['time']:.3f} s" in banner
+    nominal = _chromium_run(["--dump-dom", url], tmp_path / "n")
+    assert re.search(r'id="banner"[^>]*>Nominal fold:', nominal.stdout)

@@ -44,7 +44,7 @@ from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED
 from ..model.design import Design
 from ..model.materials import MaterialLibrary, default_library
 from .gallery_build import GIF_FRAMES, MATERIAL_TEMPERATURES, build_design, chart_task  # noqa: F401 (re-exported)
-from .gallery_page import HINGE_MODEL_TEXT, page_html  # noqa: F401 (re-exported)
+from .gallery_page import HINGE_MODEL_TEXT, entry_done, page_html  # noqa: F401 (re-exported)
 
 log = logging.getLogger(__name__)
 
@@ -163,7 +163,6 @@ def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: M
     # and each sweep scale, costliest first), each design's build once its outcomes are
     # in, and the material chart (foldprint.simulation.batch)
     mc = [MonteCarloJob(d, samples, seed, (1.0, *CHECK_SCALES), dt=dt) for d in designs]
-    labels = [f"{d.name}: simulated, checked, rendered, exported" for d in designs]
 
     def after(i, pre):
         return build_design, (designs[i], out, dirnames[i], lib, dt, gif_frames, samples, seed, pre)
@@ -171,5 +170,5 @@ def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: M
     _, entries, (materials_img,) = run_batch(
         mc, library=lib, workers=max(1, jobs or os.cpu_count() or 1), after=after,
         tasks=[(chart_task, (out, lib))],
-        progress=lambda kind, i: step("material chart" if kind == "task" else labels[i]))
+        progress=lambda kind, i, done: step("material chart" if kind == "task" else entry_done(done)))
     return materials_img, entries

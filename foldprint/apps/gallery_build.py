@@ -186,15 +186,17 @@ def _plots(entry: Entry, result, robust, out: Path, dirname: str) -> None:
             f"Collision index of every non-adjacent panel pair of {name} against time",
             "The paper's collision index S_ij (Fig. 4 style): contact where it enters the shaded "
             "band (0, 1); red points are contacts."))
-    if robust is not None:
-        fig = render.sample_outcomes_figure(robust, None if entry.worst is None else entry.worst["sample"])
+    fig = None if robust is None else render.sample_outcomes_figure(
+        robust, None if entry.worst is None else entry.worst["sample"])
+    if fig is not None:  # None: no sample completes or collides, nothing to draw (the text says so)
         entry.images.append(write_image(
             out, f"{dirname}/samples.png", render.figure_bytes(fig, "png", PLOT_DPI),
             f"Histogram of the fold times and first-contact times of the {robust.samples} scatter samples of "
             f"{name}, and how often each panel pair collides first",
             f"The {robust.samples} Monte-Carlo samples (seed {robust.seed}) of the jam probability: when each "
-            "completes (green) or first collides (red), the nominal fold dashed; right, the first-colliding "
-            "pairs.", wide=True))
+            "completes (green) or first collides (red), the nominal fold dashed"
+            + ("; right, the first-colliding pairs." if robust.collisions() else "; no sample collides."),
+            wide=True))
 
 
 def _printable_files(entry: Entry, ev, base: Path, dirname: str) -> None:

@@ -3,6 +3,8 @@ and a section per design (inline CSS, no scripts, relative links)."""
 
 from __future__ import annotations
 
+import textwrap
+
 from .. import __version__
 from ..core.constants import CHECK_SAMPLES, CHECK_SEED
 from ..model import composition
@@ -26,12 +28,16 @@ h3 { margin: 1.4em 0 0.4em; font-size: 1.05em; }
 table { border-collapse: collapse; margin: 0.4em 0; }
 th, td { border: 1px solid #ddd; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
 th { background: #f4f4f4; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 figure { margin: 0.8em 0; }
 figcaption { color: #555; font-size: 0.9em; }
 img { max-width: 100%; height: auto; border: 1px solid #eee; }
 .status { padding: 0.5em 0.8em; border-radius: 4px; font-weight: 600; }
 .ok { background: #e6f4ea; color: #1e6b34; } .fail { background: #fdecea; color: #9b1c1c; }
+.warn { background: #fff4e0; color: #8a5300; }
+dl.legend { display: grid; grid-template-columns: max-content 1fr; gap: 0.15em 1em; font-size: 0.92em; }
+dl.legend dt { font-weight: 600; } dl.legend dd { margin: 0; color: #444; }
+blockquote { margin: 0; font-style: italic; }
 .sev-error { color: #9b1c1c; font-weight: 600; } .sev-warning { color: #8a5300; font-weight: 600; }
 .sev-info { color: #555; }
 .swatch { display: inline-block; width: 0.9em; height: 0.9em; border: 1px solid #888;
@@ -63,6 +69,51 @@ def nominal_status(entry: Entry) -> tuple[bool, str]:
     if missed:
         reasons.append(f"goals not met: {', '.join(missed)}")
     return False, "Does not complete \u2014 " + "; ".join(reasons) + "."
+
+
+#: The check findings that say printed parts jam under scatter (docs/checks.md).
+JAM_CODES = ("FP180", "FP181")
+
+
+def printed_jam(entry: Entry) -> float | None:
+    """``foldprint check``'s jam probability when its verdict is that printed parts jam
+    under scatter (:data:`JAM_CODES`), else None."""
+    chk = entry.checks
+    if chk.get("robust") is None or not any(f["code"] in JAM_CODES for f in chk["findings"]):
+        return None
+    return float(chk["robust"]["jam_probability"])
+
+
+def nominal_cell(entry: Entry) -> tuple[str, str]:
+    """The summary's nominal-fold cell: (CSS class, text). A nominal fold that completes is
+    green only when printed parts do not jam under scatter; amber, saying so, when they do."""
+    ok, _ = nominal_status(entry)
+    if not ok:
+        return "fail", "does not complete"
+    jam = printed_jam(entry)
+    return ("ok", "completes") if jam is None else ("warn", f"nominal: completes; printed parts: jam {100 * jam:.1f} %")
+
+
+def paper_label(entry: Entry) -> str:
+    """How the page names a structure of the paper: "the paper's Sample 1 (Fig. 2b)", or a
+    variant "after the paper's Fig. 5"; "" for a design not from the paper."""
+    ref = entry.design.paper
+    if ref is None:
+        return ""
+    return f"the paper's {ref.label}" if ref.statements else f"{ref.name}, after the paper's {ref.figure}"
+
+
+def entry_done(entry: Entry) -> str:
+    """The progress line of a finished design: what was made, and what was not."""
+    done, failed = ["simulated", "checked", "rendered"], []
+    if entry.export_note:
+        reason = textwrap.shorten(entry.export_note.removeprefix("Export failed: "), 100, placeholder=" ...")
+        failed.append(f"export FAILED ({reason})")
+    else:
+        done.append("exported")
+    if entry.viewer is None:
+        failed.append("no 3D viewer")
+    return f"{entry.design.name}: {', '.join(done)}" + "".join(f"; {f}" for f in failed)
 
 
 def check_verdict(entry: Entry) -> tuple[bool, str]:
@@ -110,12 +161,19 @@ def _swatch(lib: MaterialLibrary, material: str) -> str:
 
 def _design_html(entry: Entry, lib: MaterialLibrary) -> str:
     d, sim, chk = entry.design, entry.sim, entry.checks
-    ok, status = nominal_status(entry)
+    _, status = nominal_status(entry)
     anchor = esc(f"d-{entry.dirname}")
     parts = [f'<section class="design" id="{anchor}">', f"<h2>{esc(d.name)}</h2>"]
+    label = paper_label(entry)
+    if label:
+        parts.append(f'<p class="paper">{esc(label[:1].upper() + label[1:])} (Mao et al., Sci. Rep. 2015).</p>')
     if d.description:
         parts.append(f'<p class="desc">{esc(d.description)}</p>')
-    parts.append(f'<p class="status {"ok" if ok else "fail"}">Nominal fold: {esc(status)}</p>')
+    cls, _ = nominal_cell(entry)
+    jam = printed_jam(entry)
+    marginal = "" if jam is None else (f" Printed parts jam under scatter: jam probability {100 * jam:.1f} % in "
+                                       f"{entry.checks['robust']['samples']} samples (foldprint check).")
+    parts.append(f'<p class="status {cls}">Nominal fold: {esc(status + marginal)}</p>')
     passes, verdict = check_verdict(entry)
     parts.append(f'<p class="status {"ok" if passes else "fail"}">{esc(verdict)}</p>')
     if entry.viewer is not None:
@@ -144,6 +202,7 @@ def _design_html(entry: Entry, lib: MaterialLibrary) -> str:
                        for a, b, t, m in entry.contacts)
         parts.append("<h3>Contacts</h3><table><thead><tr><th>panels</th><th>time</th><th>found by</th>"
                      f"</tr></thead><tbody>{rows}</tbody></table>")
+    parts += _paper_html(entry)
     parts += _hinges_and_goals(d, sim, lib)
     parts += _findings_html(chk)
     parts.append(mc_html(entry))
@@ -154,9 +213,30 @@ def _design_html(entry: Entry, lib: MaterialLibrary) -> str:
     parts.extend(_link_html(link) for link in entry.data_links)
     parts.append("</ul>")
     if entry.export_note:
-        parts.append(f'<p class="muted">{esc(entry.export_note)}</p>')
+        parts.append(f'<p class="status fail">{esc(entry.export_note)}</p>')
     parts.append("</section>")
     return "\n".join(parts)
+
+
+def _paper_html(entry: Entry) -> list[str]:
+    """What the paper says about the structure beside the model's value (check.json's
+    ``paper``: the statements the template links, as ``foldprint check`` prints them)."""
+    lines = entry.checks.get("paper") or []
+    if not lines:
+        return []
+    rows = []
+    for p in lines:
+        paper = "" if p["paper_s"] is None else p["paper"]
+        model = "\u2014" if p["model_s"] is None else f"{p['model_s']:.2f} s"
+        ratio = "" if p["ratio"] is None else f"{p['ratio']:.2f}"
+        rows.append(f"<tr><td>{esc(p['figure'])}</td><td>{esc(p['what'])}<blockquote>\u201c{esc(p['quote'])}"
+                    f"\u201d</blockquote></td><td class=\"num\">{esc(paper)}</td><td class=\"num\">{esc(model)}</td>"
+                    f"<td class=\"num\">{esc(ratio)}</td><td>{esc(p['verdict'])} \u2014 {esc(p['model'])}</td></tr>")
+    return ["<h3>The paper beside the model</h3><table><thead><tr><th>figure</th><th>the paper says</th>"
+            "<th>paper</th><th>model</th><th>model / paper</th><th>verdict</th></tr></thead>"
+            f"<tbody>{''.join(rows)}</tbody></table>",
+            '<p class="muted">The paper\u2019s times are read off video frames to the half second; '
+            "\u201c~X s\u201d is met within \u00b10.5 s (docs/structure-timings.md).</p>"]
 
 
 def _hinges_and_goals(d, sim: dict, lib: MaterialLibrary) -> list[str]:
@@ -211,11 +291,26 @@ def _findings_html(chk: dict) -> list[str]:
     return parts
 
 
+_LEGEND = """<dl class="legend">
+<dt>design</dt><dd>the design file; for a structure of the paper, how the paper names it (Sample 1, Sample 2, the
+figures) or which of its figures a variant of ours is after.</dd>
+<dt>foldprint check</dt><dd>the verdict of <code>foldprint check</code> on the printed part: its exit status and the
+codes of its errors (docs/checks.md).</dd>
+<dt>nominal fold</dt><dd>the fold of the part as designed (every hinge at its nominal material, thickness and bath):
+green, it completes; red, it does not (a collision, a hinge short of 98 %, a goal missed); amber, it completes but
+check finds that printed parts, which scatter, jam (a marginal design).</dd>
+<dt>fold time</dt><dd>when the last hinge of the nominal fold reaches 98 % of its angle.</dd>
+<dt>first collision</dt><dd>the first two panels of the nominal fold to touch, and when.</dd>
+<dt>jam probability</dt><dd>the share of check's scattered samples (printed parts and baths drawn from the scatter
+model) that jam, with its 95 % interval.</dd>
+<dt>check errors, warnings</dt><dd>how many of check's findings are errors and warnings.</dd>
+</dl>"""
+
+
 def page_html(entries: list[Entry], materials_img: Image, lib: MaterialLibrary, dt: float,
           samples: int = CHECK_SAMPLES, seed: int = CHECK_SEED) -> str:
     rows = []
     for en in entries:
-        ok, _ = nominal_status(en)
         passes, _ = check_verdict(en)
         codes = ", ".join(dict.fromkeys(f["code"] for f in en.checks["findings"] if f["severity"] == "error"))
         first = (f"{esc(en.contacts[0][0])}\u2013{esc(en.contacts[0][1])} at {en.contacts[0][2]:.3f} s"
@@ -223,15 +318,19 @@ def page_html(entries: list[Entry], materials_img: Image, lib: MaterialLibrary, 
         ft = fmt_s(en.fold_time)
         jam = "not run" if en.mc is None else jam_text(en.mc)
         view = (f' <a class="muted" href="{esc(en.viewer.href)}">3D viewer</a>' if en.viewer is not None else "")
-        rows.append(f'<tr><td><a href="#{esc("d-" + en.dirname)}">{esc(en.design.name)}</a>{view}</td>'
+        cls, nominal = nominal_cell(en)
+        label = paper_label(en)
+        named = f'<br><span class="muted">{esc(label)}</span>' if label else ""
+        failed = '<br><span class="sev-error">export failed</span>' if en.export_note else ""
+        rows.append(f'<tr><td><a href="#{esc("d-" + en.dirname)}">{esc(en.design.name)}</a>{view}{named}{failed}</td>'
                     f'<td class="{"ok" if passes else "fail"}">'
                     + (f"passes (exit 0)" if passes else f"fails (exit 1): {esc(codes)}") + "</td>"
-                    f'<td class="{"ok" if ok else "fail"}">{"completes" if ok else "does not complete"}</td>'
+                    f'<td class="{cls}">{esc(nominal)}</td>'
                     f'<td class="num">{esc(ft)}</td><td>{first}</td><td class="num">{esc(jam)}</td>'
                     f'<td class="num">{en.checks["errors"]}</td><td class="num">{en.checks["warnings"]}</td></tr>')
     summary = ("<table><thead><tr><th>design</th><th>foldprint check</th><th>nominal fold</th><th>fold time</th>"
                "<th>first collision</th><th>jam probability (95 % CI)</th><th>check errors</th><th>warnings</th>"
-               f"</tr></thead><tbody>{''.join(rows)}</tbody></table>")
+               f"</tr></thead><tbody>{''.join(rows)}</tbody></table>" + _LEGEND)
     models = sorted({en.sim["hinge_model"] for en in entries})
     model_text = "; ".join(HINGE_MODEL_TEXT.get(m, f"{m} hinges") for m in models) or "no design"
     mc_text = (f"and each folded {samples} more times under manufacturing scatter (seed {seed}) for its jam "
@@ -239,6 +338,10 @@ def page_html(entries: list[Entry], materials_img: Image, lib: MaterialLibrary, 
                "(exit status and error codes) the summary gives" if samples else
                "without the Monte-Carlo jam probability (0 samples; <code>foldprint check</code> runs it)")
     body = "\n".join(_design_html(en, lib) for en in entries)
+    ours = [(en.design.paper.label, en.design.name) for en in entries
+            if en.design.paper is not None and en.design.paper.statements]
+    paper_text = ("The paper's own structures: " + "; ".join(f"{esc(lbl)}: <code>{esc(n)}</code>" for lbl, n in ours)
+                  + ". Each of their sections quotes what the paper says beside the model's value. ") if ours else ""
     return f"""<!DOCTYPE html>
 <html lang="en">
 <head>
@@ -255,7 +358,7 @@ def page_html(entries: list[Entry], materials_img: Image, lib: MaterialLibrary, 
 Sci. Rep. 5, 13616, 2015): {len(entries)} design(s), simulated with {esc(model_text)}
 (time step {dt:g} s, first contacts refined between time steps), checked against the design rules
 {mc_text}. The paper's point-hinge reduced-order model is a comparison mode
-(<code>foldprint simulate --hinge-model point</code>). Generated by foldprint {esc(__version__)}.</p>
+(<code>foldprint simulate --hinge-model point</code>). {paper_text}Generated by foldprint {esc(__version__)}.</p>
 </header>
 <main>
 <h2 id="summary">Summary</h2>

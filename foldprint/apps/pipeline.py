@@ -44,8 +44,10 @@ from ..model.materials import MaterialLibrary, default_library
 from ..model.printers import find_printer, tool_fit
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
                           AfterContact, HingeModel, Method, State, parse)
-from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, draw_samples, jam_probability, outcome_of,
-                                 sample_drive)
+from ..simulation.margin import ScatterMargin, scatter_margin
+from ..simulation.paper_beside import PaperLine, paper_lines
+from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, default_scatter, draw_samples, jam_probability,
+                                 outcome_of, sample_drive)
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
 from ..simulation.simulate import SimulationResult, simulate
 
@@ -296,17 +298,40 @@ class Evaluation:
         return self._stage("printed_gaps", run)
 
     @property
+    def clearance_checker(self) -> SweptChecker:
+        """The solids the clearance is measured on: the printed state's under arc hinges."""
+        model = self.options.hinge_model
+        return self.printed_checker if model == HingeModel.ARC else self._stage(
+            "clearance_checker", lambda: SweptChecker(self.design, model, None))
+
+    @property
     def clearance(self) -> Gap | None:
         """The smallest clearance between non-adjacent panels along the fold, up to the
         first collision (``options.clearance_samples`` poses)."""
         def run():
-            sim, model = self.simulation, self.options.hinge_model
-            traj, first = sim.trajectory, sim.first_collision
-            checker = self.printed_checker if model == HingeModel.ARC else SweptChecker(self.design, model, None)
-            return min_clearance(checker, traj.times, traj.poses, n_samples=self.options.clearance_samples,
+            traj, first = self.simulation.trajectory, self.simulation.first_collision
+            return min_clearance(self.clearance_checker, traj.times, traj.poses, n_samples=self.options.clearance_samples,
                                  t_end=None if first is None else first.time)
 
         return self._stage("clearance", run)
+
+    @property
+    def scatter_margin(self) -> ScatterMargin | None:
+        """Whether scatter closes :attr:`clearance`: the closest approach of check's first
+        scattered folds (:mod:`foldprint.simulation.margin`); None unless the fold completes."""
+        def run():
+            sim, gap = self.simulation, self.clearance
+            return None if not sim.completed or gap is None else scatter_margin(
+                sim, gap, self.clearance_checker, self.scatter or default_scatter(), self.library,
+                seed=self.options.seed)
+
+        return self._stage("scatter_margin", run)
+
+    def paper_lines(self) -> tuple[PaperLine, ...]:
+        """The paper's statements about this design beside the model's values (none for a
+        design not from the paper), with the jam probability when it was estimated."""
+        r = self._stages.get("robust")
+        return paper_lines(self.design, self.simulation, self.clearance, None if r is None else r.jam_probability)
 
     def run_robust(self, progress: Callable[[int, int], None] | None = None) -> RobustResult | None:
         """:attr:`robust`, reporting to ``progress(done, total)`` if it is computed now."""
@@ -471,8 +496,9 @@ class Evaluation:
         and the other hinge model's verdict (:func:`foldprint.checks.report.simulate_json`)."""
         from ..checks.report import simulate_json
 
-        sim, other = self.simulation, self.comparison
-        return simulate_json(sim, other, self.printed_crossings)
+        sim, other, crossing = self.simulation, self.comparison, self.printed_crossings
+        return simulate_json(sim, other, crossing, self.clearance, None if crossing else self.scatter_margin,
+                             self.paper_lines())
 
     def robust_json(self) -> dict:
         """The ``foldprint robust --json`` object: the estimate, and the contributions and

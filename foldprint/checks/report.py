@@ -121,19 +121,27 @@ def check_json(ev, printer_key: str) -> dict:
             "warnings": sum(f.severity == "warning" for f in findings),
             "findings": [f.to_json() for f in findings],
             "robust": None if ev.robust is None else robust_json(ev.robust),
-            "sensitivity": sweep_json(ev.sweep) if ev.sweep else None}
+            "sensitivity": sweep_json(ev.sweep) if ev.sweep else None,
+            "paper": [line.to_json() for line in ev.paper_lines()]}
 
 
-def simulate_json(result, comparison=None, printed_crossings=()) -> dict:
+def simulate_json(result, comparison=None, printed_crossings=(), clearance=None, margin=None, paper=()) -> dict:
     """The ``foldprint simulate --json`` object: :func:`simulation_json` of the run, the
     panel pairs that cross in the printed state (a part that cannot be printed is not "a
-    contact at t": issue 18), and the other hinge model's verdict when it differs (a
-    :class:`foldprint.apps.pipeline.Comparison`, left out when the part cannot be printed)."""
+    contact at t"), the other hinge model's verdict when it differs (a
+    :class:`foldprint.apps.pipeline.Comparison`, left out when the part cannot be printed),
+    the smallest ``clearance`` along the fold (a :class:`~foldprint.collision.clearance.Gap`),
+    whether scatter closes it (``scatter_margin``, a
+    :class:`~foldprint.simulation.margin.ScatterMargin`, when the fold completes) and the
+    ``paper``'s statements beside the model's values (:class:`~foldprint.simulation.paper_beside.PaperLine`)."""
     report = simulation_json(result)
     crossing = [list(pair) for pair in printed_crossings]
     report["printed_crossings"] = crossing
     report["comparison"] = None if comparison is None or crossing else dict(
         simulation_json(comparison.result, brief=True), hinge_model=comparison.hinge_model.value)
+    report["clearance"] = None if clearance is None else clearance.to_json()
+    report["scatter_margin"] = None if margin is None else margin.to_json()
+    report["paper"] = [line.to_json() for line in paper]
     return report
 
 

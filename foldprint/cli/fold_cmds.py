@@ -17,7 +17,7 @@ from ..core.modes import DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MET
 from ..core.errors import FoldprintError
 from .root import app
 from .support import (ExitCode, MAX_SAMPLES, CREASE_HELP, SCALE_HELP, check_count, echo_json, check_fraction, load_input, open_mapper, parse_mode,
-                      echo_note, check_out_dir, print_simulation, load_printer, samples_progress, check_temperature, time_options,
+                      echo_note, check_out_dir, print_paper, print_simulation, load_printer, samples_progress, check_temperature, time_options,
                       verdict_word)
 
 
@@ -139,6 +139,7 @@ def check(
             echo(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
             if f.hint:
                 echo(f"        hint: {f.hint}")
+        print_paper([line.to_json() for line in ev.paper_lines()])
         echo_note(f"{d.name}: {n_err} error(s) on {pr.name} ({model.value} hinges)")
     raise ExitCode(1 if n_err else 0)
 

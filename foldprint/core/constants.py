@@ -87,6 +87,12 @@ SWEEP_SCALES = (0.5, 1.0, 2.0)
 #: confirmed finalists): an even spread over the run, refined exactly between the two
 #: nearest samples (:func:`foldprint.collision.clearance.min_clearance`).
 CLEARANCE_SAMPLES = 200
+#: Scattered folds ``simulate`` runs to say whether the nominal fold's smallest clearance
+#: is marginal (:mod:`foldprint.simulation.margin`): the first samples ``check`` draws.
+#: Our choice: one Monte-Carlo chunk (16); a design whose samples jam with probability p
+#: shows no touching sample with probability (1 - p)^16: 17 % at p = 0.1, 3 % at p = 0.2
+#: (docs/simulation.md has its effect on the templates).
+MARGIN_SAMPLES = 16
 #: Time step (s) of the trajectory the time-series formats (xdmf, glb) are written from: 10
 #: frames a second (viewers interpolate between them); a 20 s mailbox run gives 201 steps,
 #: an XDMF/HDF5 pair of 7 MB and a 6 MB GLB (the simulation's default 0.01 s: ~10x both).

@@ -165,8 +165,8 @@ def _edge_columns(design: Design, edges: list, edge_faces: list, face_panel: lis
 
 
 def _design_extra(design: Design) -> dict:
-    """``foldprint:design``: process, root, description, goals, depth; per hinge: panel
-    order, fixity and style."""
+    """``foldprint:design``: process, root, description, goals, depth, the paper's
+    structure it is; per hinge: panel order, fixity and style."""
     extra = design_to_dict(design)
     extra.pop("panels", None)
     extra["hinges"] = {h["id"]: {k: v for k, v in h.items() if k in HINGE_EXTRA}

@@ -26,6 +26,13 @@ Layout (see ``templates/`` and ``docs/design-file.md``)::
     [[panels]]   id, outline, holes, thickness_mm, material
     [[hinges]]   id, panels, angle_deg, material, radius_mm, thickness_mm, line, fixity, style
     [[goals]]    id, type = "pass_through", panel, target, hole, tip, order
+    [paper]                          # a structure of Mao et al. (2015), optional
+    name = "Sample 1"                # how the paper names it
+    figure = "Fig. 2b"
+    statements = ["sample1_contact"] # ids in foldprint/data/paper_timings.toml: printed
+                                     # beside the model's values by simulate, check, gallery
+    [claims]                         # what the description says the commands print, optional
+    nominal = "completes"            # (foldprint.io.templates.Claims; the templates' test)
 """
 
 from __future__ import annotations
@@ -48,9 +55,12 @@ from ..core.modes import Interface
 from ..core.schema import Where
 from ..model import composition
 from ..model.materials import MaterialLibrary
+from ..model.paper_statements import PaperRef, load_statements
+from .templates import parse_claims
 
 _TOP = {"schema", "name", "description", "root", "process", "defaults", "strip", "panels", "hinges",
-        "goals"}
+        "goals", "paper", "claims"}
+_PAPER = {"name", "figure", "statements"}
 _DEFAULTS = {"thickness_mm", "depth_mm", "panel_material", "hinge_radius_mm", "hinge_thickness_mm",
              "hinge_style", "fixity"}
 _STRIP = {"lengths_mm", "angles_deg", "materials", "thickness_mm", "hinge_radius_mm",
@@ -288,15 +298,52 @@ def design_from_dict(data: Mapping, source: str = "", library: MaterialLibrary |
         raise DesignError(f"{top}give either [strip] or [[panels]]/[[hinges]], not both")
     if not has_strip and not has_general:
         raise DesignError(f"{top}no geometry: add a [strip] table or [[panels]] and [[hinges]]")
+    paper = _paper(data, top)
+    parse_claims(data.get("claims"), top / "claims")  # checked here; read by io.templates
     if has_strip:
-        return validate(_strip_design(data, top, name, description, root, process, dflt, goals, source),
-                        library)
-    panels = _panels(data, top, dflt)
-    hinges = _hinges(data, top, {p.id: p for p in panels}, dflt)
-    d = Design(name=name, panels=tuple(panels), hinges=tuple(hinges), process=process,
-               description=description, root=root, goals=goals,
-               depth=dflt.depth if dflt.depth_given else 0.0, source=source)
+        d = _strip_design(data, top, name, description, root, process, dflt, goals, source)
+    else:
+        panels = _panels(data, top, dflt)
+        hinges = _hinges(data, top, {p.id: p for p in panels}, dflt)
+        d = Design(name=name, panels=tuple(panels), hinges=tuple(hinges), process=process,
+                   description=description, root=root, goals=goals,
+                   depth=dflt.depth if dflt.depth_given else 0.0, source=source)
+    if paper is not None:
+        d = replace(d, paper=_paper_fits(paper, d, top / "paper"))
     return validate(d, library)
+
+
+def _paper(data: Mapping, top: Where) -> PaperRef | None:
+    """The ``[paper]`` table: how Mao et al. (2015) name the structure, its figure and the
+    ids of their statements about it (``foldprint/data/paper_timings.toml``)."""
+    if "paper" not in data:
+        return None
+    at = top / "paper"
+    raw = sc.table(data["paper"], at, _PAPER)
+    if "name" not in raw:
+        raise at.fail('needs name = "..." (how the paper names the structure, e.g. "Sample 1")')
+    known = load_statements().ids
+    ids = []
+    for i, v in enumerate(sc.array(raw.get("statements", []), at / "statements", len(known))):
+        ids.append(sc.ident(v, at / "statements" / i))
+        if ids[-1] not in known:
+            raise (at / "statements" / i).fail(f"{ids[-1]!r} is not a statement of foldprint/data/paper_timings.toml; "
+                                               f"statements: {', '.join(known)}")
+    return PaperRef(sc.string(raw["name"], at / "name"), sc.string(raw.get("figure", ""), at / "figure"), tuple(ids))
+
+
+def _paper_fits(paper: PaperRef, design: Design, at: Where) -> PaperRef:
+    """``paper`` when every hinge and material its statements read is in ``design``."""
+    st = load_statements()
+    hinge_ids, mats = {h.id for h in design.hinges}, {h.material for h in design.hinges}
+    for sid in paper.statements:
+        s = st[sid]
+        missing = [h for h in s.hinges if h not in hinge_ids] + [m for m in s.materials if m not in mats]
+        if missing or s.measure == "free_hinges":
+            what = "is about free hinges, not a structure" if not missing else \
+                f"reads {', '.join(map(repr, missing))}, which this design does not have"
+            raise at.fail(f"statement {sid!r} {what}; link only the statements about this structure")
+    return paper
 
 
 def _goal(raw, at: Where, i: int) -> Goal:
@@ -379,6 +426,9 @@ def design_to_dict(design: Design) -> dict:
         if style:
             entry["style"] = style
         out["hinges"].append(entry)
+    if design.paper is not None:
+        out["paper"] = {"name": design.paper.name, "figure": design.paper.figure,
+                        "statements": list(design.paper.statements)}
     if design.goals:
         out["goals"] = [{"id": g.id, "type": g.type, "panel": g.panel, "target": g.target,
                          "hole": g.hole, "tip": g.tip.tolist(), "order": g.order} for g in design.goals]

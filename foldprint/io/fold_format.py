@@ -38,7 +38,7 @@ _FLAT = {"F", "U", "J"}
 _KNOWN = {"B", "C", "M", "V", "F", "U", "J"}
 #: The keys of ``foldprint:design`` (the design data FOLD has no field for), read here and
 #: written by :mod:`foldprint.exchange.fold`.
-DESIGN_KEYS = {"schema", "name", "description", "root", "process", "defaults", "goals", "hinges"}
+DESIGN_KEYS = {"schema", "name", "description", "root", "process", "defaults", "goals", "hinges", "paper"}
 #: The keys of one hinge's entry in ``foldprint:design.hinges``, read and written alike.
 HINGE_EXTRA = {"panels", "fixity", "style"}
 

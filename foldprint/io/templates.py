@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import os
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 
+from ..core import schema as sc
 from ..core.errors import DesignError
 
 
@@ -42,3 +44,73 @@ def resolve_design_path(name_or_path: str) -> Path:
         return cand
     names = [t["name"] for t in list_templates()]
     raise DesignError(f"{name_or_path}: no such file, and no template of that name; templates: {', '.join(names)}")
+
+
+#: simulate's verdicts a template may claim: it completes, it collides (a first contact),
+#: it stalls (no contact, but a hinge short of 98 % or a goal missed).
+NOMINAL = ("completes", "collides", "stalls")
+
+
+@dataclass(frozen=True)
+class Claims:
+    """What a template's description says the commands print: its ``[claims]`` table,
+    each None where the description claims nothing. tests/test_template_claims.py runs
+    the commands on every template and compares.
+
+    ``nominal``: simulate's verdict (:data:`NOMINAL`); ``contact``, ``contact_s``: the
+    first colliding panels and when (to 0.1 s); ``point_model``: the paper's point-hinge
+    ROM's verdict; ``clearance_mm``: the nominal fold's smallest clearance (to 0.1 mm);
+    ``marginal``: simulate calls it marginal (scatter closes that clearance);
+    ``goals_met``; ``buildable``: the printed part can be built; ``unfolded``: the hinges
+    short of 98 %; ``jams_under_scatter``: check's jam probability is above its warning
+    threshold (FP180 or FP181)."""
+
+    nominal: str | None = None
+    contact: tuple[str, str] | None = None
+    contact_s: float | None = None
+    point_model: str | None = None
+    clearance_mm: float | None = None
+    marginal: bool | None = None
+    goals_met: bool | None = None
+    buildable: bool | None = None
+    unfolded: tuple[str, ...] | None = None
+    jams_under_scatter: bool | None = None
+
+
+_CLAIM_KEYS = set(Claims.__dataclass_fields__)
+
+
+def parse_claims(raw, at: sc.Where) -> Claims:
+    """A ``[claims]`` table checked (keys, types, values); ``Claims()`` when absent."""
+    if raw is None:
+        return Claims()
+    raw = sc.table(raw, at, _CLAIM_KEYS)
+    out = {}
+    for key in ("nominal", "point_model"):
+        if key in raw:
+            out[key] = sc.string(raw[key], at / key)
+            allowed = NOMINAL if key == "nominal" else NOMINAL[:2]
+            if out[key] not in allowed:
+                raise (at / key).fail(f"must be one of {', '.join(allowed)}, got {out[key]!r}")
+    for key in ("marginal", "goals_met", "buildable", "jams_under_scatter"):
+        if key in raw:
+            out[key] = sc.boolean(raw[key], at / key)
+    for key in ("contact_s", "clearance_mm"):
+        if key in raw:
+            out[key] = sc.number(raw[key], at / key, 0.0)
+    if "contact" in raw:
+        pair = tuple(sc.ident(v, at / "contact" / i) for i, v in enumerate(sc.array(raw["contact"], at / "contact", 2)))
+        if len(pair) != 2:
+            raise (at / "contact").fail("needs two panel ids")
+        out["contact"] = pair
+    if "unfolded" in raw:
+        out["unfolded"] = tuple(sc.ident(v, at / "unfolded" / i)
+                                for i, v in enumerate(sc.array(raw["unfolded"], at / "unfolded", sc.MAX_PANELS)))
+    return Claims(**out)
+
+
+def template_claims(name_or_path: str) -> Claims:
+    """The ``[claims]`` of a template (or design file)."""
+    p = resolve_design_path(name_or_path)
+    data = tomllib.loads(p.read_text(encoding="utf-8"))
+    return parse_claims(data.get("claims"), sc.Where(str(p)) / "claims")

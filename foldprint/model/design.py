@@ -34,6 +34,7 @@ from ..core.modes import DEFAULT_INTERFACE, Interface
 from . import composition
 from .hinge_graph import has_loops, shared_edge, spanning_tree, tree_order  # noqa: F401  (importable from here)
 from .materials import MaterialLibrary
+from .paper_statements import PaperRef
 from .validation import finite_value, length_value, check_ring, validate  # noqa: F401  (importable from here)
 
 SCHEMA_VERSION = 1
@@ -179,6 +180,7 @@ class Design:
     goals: tuple[Goal, ...] = ()
     depth: float = 0.0  # mm, the strip depth for planar (side-view) designs; 0 = not a strip
     source: str = ""  # where it was loaded from, for messages
+    paper: PaperRef | None = None  # a structure of the paper: its name, figure and statements
 
     def __post_init__(self):
         object.__setattr__(self, "panels", tuple(self.panels))

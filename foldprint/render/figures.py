@@ -157,14 +157,22 @@ def sample_outcomes_figure(robust, worst: int | None = None):
     """The Monte-Carlo samples of a jam-probability result (:class:`foldprint.simulation.robust.RobustResult`):
     left, when each sample ends (its fold time when it completes, its first contact when it
     collides) with the nominal fold marked; right, how often each panel pair is the first
-    to collide. ``worst``: the index of a sample to mark (e.g. the one the viewer replays)."""
+    to collide. ``worst``: the index of a sample to mark (e.g. the one the viewer replays).
+    No empty axes: without a colliding sample the right panel is left out, and when no
+    sample (nor the nominal fold) completes or collides there is nothing to draw: None."""
     plt = _plt()
     outs = robust.outcomes
     nominal = robust.nominal
-    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 3.6), gridspec_kw={"width_ratios": [3, 2]})
     done = np.array([o.fold_time for o in outs if o.fold_time is not None], float)
     hit = np.array([o.time for o in outs if o.time is not None], float)
     both = np.concatenate([done, hit, [t for t in (nominal.fold_time,) if t is not None]])
+    pairs = robust.collisions()
+    if not both.size and nominal.first_collision is None:
+        return None
+    if pairs:
+        fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 3.6), gridspec_kw={"width_ratios": [3, 2]})
+    else:
+        fig, ax0 = plt.subplots(1, 1, figsize=(6.4, 3.6))
     if both.size:
         lo, hi = float(both.min()), float(both.max())
         pad = max(0.05 * (hi - lo), 0.02)
@@ -192,19 +200,14 @@ def sample_outcomes_figure(robust, worst: int | None = None):
     ax0.grid(alpha=0.3)
     if ax0.get_legend_handles_labels()[0]:
         ax0.legend(fontsize=7, loc="upper left")
-    pairs = robust.collisions()
     if pairs:
         labels = [f"{a}\u2013{b}" for (a, b), _ in pairs][::-1]
         counts = [k for _, k in pairs][::-1]
         ax1.barh(labels, counts, color="#d62728", alpha=0.8)
         ax1.set_xlabel("samples")
         ax1.xaxis.get_major_locator().set_params(integer=True)
-    else:
-        ax1.text(0.5, 0.5, "no sample collides", ha="center", va="center", transform=ax1.transAxes)
-        ax1.set_yticks([])
-        ax1.set_xticks([])
-    ax1.set_title("first-colliding panel pairs", fontsize=10)
-    ax1.grid(alpha=0.3, axis="x")
+        ax1.set_title("first-colliding panel pairs", fontsize=10)
+        ax1.grid(alpha=0.3, axis="x")
     fig.suptitle(f"{robust.design}: jam probability {robust.jam_probability:.0%} under scatter "
                  f"({robust.hinge_model.value} hinges)", fontsize=11)
     fig.tight_layout()

@@ -12,6 +12,13 @@ network, so it opens from ``file://``. The printed part is built with arc hinges
 ``point``-model simulation (the paper's ROM, a comparison mode) moves the same panels about
 the fold lines, and its ribbons collapse onto them.
 
+The camera follows the part: the data holds each frame's box (``boxes``: every panel
+solid and ribbon at that moment) and the page frames the box of the moment shown, so the
+flat sheet and the folded part both fill the view (a box over the whole trajectory would
+not: on ``helix_uniform`` it is 536 x 349 mm for a folded spiral of 56 x 55 mm, which
+then drew at about 80 px). The banner names the run shown: the nominal fold's status, or
+the replayed worst sample and its first contact (:func:`worst_banner`).
+
 Size: arrays are base64 (poses float32, ribbon vertices quantised to 16 bits over the
 scene's bounds, 1.5 um steps on a 100 mm part). With :data:`FRAMES` frames the templates'
 pages are 0.14 MB (self_lock: 6 panels, 5 hinges), 0.24 MB (helix: 10 panels, 9 hinges)
@@ -175,6 +182,36 @@ def worst_text(replay) -> str:
     return f"no sample jams; the slowest fold ({o.fold_time:.2f} s)"
 
 
+def worst_banner(replay, samples: int | None = None) -> str:
+    """The viewer's banner while it shows a replayed sample: which sample, and its first
+    contact (the pair and the time) or how else it ends."""
+    res = replay.result
+    c = res.first_collision
+    head = f"Worst scatter sample, #{replay.index}" + ("" if samples is None else f" of {samples}") + ": "
+    if c is not None:
+        return head + (f"panels {c.panels[0]}\u2013{c.panels[1]} touch at {c.time:.3f} s, "
+                       "the earliest contact of the samples; the printed part jams there.")
+    if replay.outcome.jammed:
+        return head + worst_text(replay) + "."
+    return head + f"no sample jams; this is the slowest fold ({res.fold_time:.2f} s)."
+
+
+def _frame_boxes(rib: np.ndarray, poses: np.ndarray, items: list[dict]) -> np.ndarray:
+    """Per frame, the box (lo xyz, hi xyz) around every panel solid and hinge ribbon: what
+    the viewer's camera frames at that moment, (n_frames, 6)."""
+    lo = rib.min(axis=1) if rib.size else np.full((len(poses), 3), np.inf)
+    hi = rib.max(axis=1) if rib.size else np.full((len(poses), 3), -np.inf)
+    for it in items:
+        q = poses[:, it["panel"]]
+        w = np.einsum("tij,nj->tni", q[:, :3, :3], it["v"]) + q[:, None, :3, 3]
+        lo, hi = np.minimum(lo, w.min(axis=1)), np.maximum(hi, w.max(axis=1))
+    return np.concatenate([lo, hi], axis=1)
+
+
+def _boxes_json(boxes: np.ndarray) -> list[list[float]]:
+    return [[round(float(x), 3) for x in b] for b in boxes]
+
+
 @scoped
 def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRAMES, worst=None) -> dict:
     """Everything the page draws, as JSON-ready data.
@@ -207,13 +244,9 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
     for (_, a, _), p in zip(framed, poses):
         rib, rib_tris, owners = _ribbons(design, a, p, model)
         ribs.append(rib)
-    pts = [r.reshape(-1, 3) for r in ribs if r.size]
-    for p in poses:
-        for it in items:
-            q = p[:, it["panel"]]
-            pts.append((np.einsum("tij,nj->tni", q[:, :3, :3], it["v"]) + q[:, None, :3, 3]).reshape(-1, 3))
-    allpts = np.concatenate(pts)
-    lo, hi = allpts.min(axis=0), allpts.max(axis=0)
+    boxes = [_frame_boxes(r, p, items) for r, p in zip(ribs, poses)]
+    lo = np.min([b[:, :3].min(axis=0) for b in boxes], axis=0)
+    hi = np.max([b[:, 3:].max(axis=0) for b in boxes], axis=0)
     span = np.maximum(hi - lo, 1e-6)
 
     def quant(rib):
@@ -239,6 +272,7 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
         "ribbon": {"q": _b64(quant(ribs[0]), "<u2"), "f": _b64(rib_tris, "<u4"), "n": int(ribs[0].shape[1]),
                    "owners": [[int(a), int(b), int(c)] for a, b, c in owners]},
         "bounds": [[float(x) for x in lo], [float(x) for x in hi]],
+        "boxes": _boxes_json(boxes[0]),
         "contacts": _contacts(result, items, model),
         "completed": bool(result.completed),
         "robust": None if robust is None else {
@@ -249,6 +283,8 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
     }
     if worst is not None:
         data["worst"] = _worst_run(worst, framed[1], col_major(poses[1]), quant(ribs[1]), items, model)
+        data["worst"]["boxes"] = _boxes_json(boxes[1])
+        data["worst"]["banner"] = worst_banner(worst, None if robust is None else int(robust.samples))
     ramp = composition.ramp_legend(used)  # only when a hinge names a VeroWhite fraction
     if ramp is not None:
         data["ramp"] = ramp
@@ -275,7 +311,7 @@ _PAGE = """<!DOCTYPE html>
 <link rel="stylesheet" href="../viewer/viewer.css">
 </head>
 <body>
-<header><a href="{back}">&larr; gallery</a><h1>{name}</h1><p class="status {cls}">{status}</p></header>
+<header><a href="{back}">&larr; gallery</a><h1>{name}</h1><p class="status {cls}" id="banner">{status}</p></header>
 <main id="viewer">
 <div id="stage"><canvas id="view" width="960" height="540" aria-label="3D view of {name} folding"></canvas>
 <noscript><p>The 3D viewer needs JavaScript; the gallery page has still pictures of this design.</p></noscript></div>
@@ -285,9 +321,11 @@ _PAGE = """<!DOCTYPE html>
 <span id="clock">t = 0.00 s</span>
 <span class="states"><button id="programmed" type="button">programmed</button><button id="permanent" type="button">permanent</button></span>
 <span class="runs" id="runs"></span>
+<button id="follow" type="button" aria-pressed="true" title="the camera frames the part at every moment of the fold">follow the part</button>
 </div>
 <div id="info"><div id="legend"></div><div id="facts"></div></div>
-<p class="muted">Drag to orbit, scroll to zoom, right-drag to pan. The address ends in <code>#t=</code> the
+<p class="muted">Drag to orbit, scroll to zoom, right-drag to pan. The camera follows the part (it frames every
+moment of the fold, from the flat sheet to the folded part) until you zoom or pan; <em>follow the part</em> turns it back on. The address ends in <code>#t=</code> the
 fraction of the fold shown (0 = flat, 1 = end of the motion), or <code>#state=</code> programmed or permanent,
 after <code>#run=worst&amp;</code> for the worst Monte-Carlo sample where there is one: copy it to link this view.
 Drawn with three.js (MIT licence, <a href="../viewer/LICENSE-three.txt">LICENSE-three.txt</a>).</p>

@@ -119,13 +119,13 @@ def _cost(design: Design) -> float:
 
 def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None = None, workers: int = 1,
               after: Callable[[int, Precomputed], tuple] | None = None, tasks: Sequence[tuple] = (),
-              progress: Callable[[str, int], None] | None = None) -> tuple[list[Precomputed], list, list]:
+              progress: Callable[[str, int, object], None] | None = None) -> tuple[list[Precomputed], list, list]:
     """Fold every chunk of every job and scale in one pool of ``workers`` processes.
 
     ``after(i, pre)`` -> ``(fn, args)``: a task run in the same pool once job ``i``'s
     outcomes are all in (``pre`` its :class:`Precomputed`); ``tasks``: ``(fn, args)``
-    run in the pool beside them. ``progress(kind, i)`` is called as a follow-up
-    ("after") or independent task ("task") ``i`` finishes. Returns the Precomputed per
+    run in the pool beside them. ``progress(kind, i, out)`` is called as a follow-up
+    ("after") or independent task ("task") ``i`` finishes with its result ``out``. Returns the Precomputed per
     job, the follow-ups' results and the tasks' results (in input order)."""
     batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress)
     if workers <= 1:
@@ -178,7 +178,7 @@ class _Batch:
 
     def report(self, kind: str, i: int) -> None:
         if self.progress:
-            self.progress(kind, i)
+            self.progress(kind, i, self.after_out[i] if kind == "after" else self.task_out[i])
 
     def run_here(self) -> None:
         _init(self.jobs, self.lib)

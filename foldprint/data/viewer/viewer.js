@@ -4,7 +4,11 @@
    hinge map is not re-implemented here). Between frames, poses and ribbon vertices are
    interpolated linearly. The URL's "#t=<fraction 0..1>" sets the shown moment; when the
    data holds a replayed Monte-Carlo sample (D.worst), "#run=worst" shows it instead of the
-   nominal fold (same geometry; its own poses, ribbons, contacts and duration). */
+   nominal fold (same geometry; its own poses, ribbons, contacts and duration), and the banner
+   names that sample's contact. The camera follows the part: at every moment it frames the
+   box of that frame (D.boxes, interpolated between frames) from the current direction, so
+   the flat sheet and the folded part both fill the view; zooming or panning fixes the
+   camera, the "follow the part" button lets it follow again. */
 (function () {
   "use strict";
   var T = window.FOLDPRINT_THREE;
@@ -25,11 +29,14 @@
   var nF = D.frames, nP = D.panels.length;
   // the runs: the nominal fold and, when present, the worst sample; each (nF + 2) x nP x 16
   // poses (the last two: programmed, permanent) and (nF + 2) x nR x 3 ribbon vertices
+  var banner = document.getElementById("banner");
   var RUNS = {nominal: {poses: decode(D.poses, Float32Array), q: D.ribbon.n ? decode(D.ribbon.q, Uint16Array) : new Uint16Array(0),
-                        end: D.end, contacts: D.contacts, bath_c: D.bath_c, completed: D.completed}};
+                        end: D.end, contacts: D.contacts, bath_c: D.bath_c, completed: D.completed, boxes: D.boxes,
+                        banner: banner ? banner.textContent : "", cls: banner ? banner.className : "status"}};
   if (D.worst) {
     RUNS.worst = {poses: decode(D.worst.poses, Float32Array), q: D.ribbon.n ? decode(D.worst.q, Uint16Array) : new Uint16Array(0),
-                  end: D.worst.end, contacts: D.worst.contacts, bath_c: D.worst.bath_c, completed: D.worst.completed};
+                  end: D.worst.end, contacts: D.worst.contacts, bath_c: D.worst.bath_c, completed: D.worst.completed,
+                  boxes: D.worst.boxes, banner: D.worst.banner, cls: "status " + (D.worst.completed ? "ok" : "fail")};
   }
   var run = "nominal", cur = RUNS.nominal;
   var poses = cur.poses;
@@ -56,6 +63,45 @@
   controls.target.copy(centre);
   controls.update();
   controls.addEventListener("change", draw);
+
+  // follow the part: frame the box of the moment shown, from the camera's current direction
+  var follow = true, followBtn = document.getElementById("follow");
+  function setFollow(on) {
+    follow = on;
+    if (followBtn) followBtn.setAttribute("aria-pressed", String(on));
+    document.body.setAttribute("data-follow", String(on));
+  }
+  var MARGIN = 1.1, markerSize = radius * 0.035;
+  function fit(box) {  // the nearest distance at which every corner of the box is in view
+    var c = new T.Vector3((box[0] + box[3]) / 2, (box[1] + box[4]) / 2, (box[2] + box[5]) / 2);
+    var dir = camera.position.clone().sub(controls.target).normalize();
+    var fwd = dir.clone().negate();
+    var right = new T.Vector3().crossVectors(fwd, camera.up).normalize();
+    var up = new T.Vector3().crossVectors(right, fwd).normalize();
+    var tv = Math.tan(camera.fov * Math.PI / 360), th = tv * camera.aspect;
+    var d = 1e-3, o = new T.Vector3();
+    for (var k = 0; k < 8; k++) {
+      o.set(box[k & 1 ? 3 : 0] - c.x, box[k & 2 ? 4 : 1] - c.y, box[k & 4 ? 5 : 2] - c.z);
+      var z = o.dot(dir);
+      d = Math.max(d, z + MARGIN * Math.abs(o.dot(right)) / th, z + MARGIN * Math.abs(o.dot(up)) / tv);
+    }
+    controls.target.copy(c);
+    camera.position.copy(c).addScaledVector(dir, d);
+    camera.near = d / 100;
+    camera.far = d * 100;
+    camera.updateProjectionMatrix();
+    markerSize = 0.03 * Math.max(box[3] - box[0], box[4] - box[1], box[5] - box[2], 1e-3);
+  }
+  function frameBox(fa, fb, w) {
+    var a = cur.boxes[fa], b = cur.boxes[fb], out = [];
+    for (var i = 0; i < 6; i++) out.push(a[i] * (1 - w) + b[i] * w);
+    return out;
+  }
+  canvas.addEventListener("wheel", function () { setFollow(false); }, {passive: true});
+  canvas.addEventListener("pointerdown", function (e) {
+    if (e.button === 2 || e.ctrlKey || e.metaKey || e.shiftKey) setFollow(false);  // a pan
+  });
+  canvas.addEventListener("touchstart", function (e) { if (e.touches.length > 1) setFollow(false); }, {passive: true});
 
   // panels and teeth: one mesh each, sheet-frame geometry, pose as the object matrix
   var items = D.items.map(function (it) {
@@ -102,7 +148,7 @@
   // contact markers of each run (hidden until their time, and when their run is not shown)
   Object.keys(RUNS).forEach(function (name) {
     RUNS[name].markers = RUNS[name].contacts.map(function (c) {
-      var m = new T.Mesh(new T.SphereGeometry(radius * 0.035, 20, 12),
+      var m = new T.Mesh(new T.SphereGeometry(1, 20, 12),
                          new T.MeshBasicMaterial({color: RED}));
       m.position.set(c.point[0], c.point[1], c.point[2]);
       m.visible = false;
@@ -119,9 +165,11 @@
     out.fromArray(tmp);
   }
 
-  var state = {frac: 0, named: null};
+  var state = {frac: 0, named: null}, lastShown = null;
 
   function show(fa, fb, w, time) {
+    lastShown = [fa, fb, w];
+    if (follow) fit(frameBox(fa, fb, w));
     for (var k = 0; k < items.length; k++) {
       var it = items[k];
       lerpPose(fa, fb, w, it.panel, it.mesh.matrix);
@@ -149,6 +197,7 @@
     Object.keys(RUNS).forEach(function (name) {
       RUNS[name].markers.forEach(function (m, i) {
         m.visible = name === run && time !== null && RUNS[name].contacts[i].time <= time + 1e-9;
+        m.scale.setScalar(markerSize);
       });
     });
     draw();
@@ -179,6 +228,10 @@
     poses = cur.poses;
     q = cur.q;
     document.body.setAttribute("data-run", name);
+    if (banner) {
+      banner.textContent = cur.banner;
+      banner.className = cur.cls;
+    }
     Object.keys(RUNS).forEach(function (n) {
       var b = document.getElementById("run-" + n);
       if (b) b.setAttribute("aria-pressed", String(n === name));
@@ -235,12 +288,17 @@
   document.getElementById("programmed").addEventListener("click", function () { if (playing) stop(); setNamed("programmed", true); });
   document.getElementById("permanent").addEventListener("click", function () { if (playing) stop(); setNamed("permanent", true); });
   window.addEventListener("hashchange", fromHash);
+  if (followBtn) followBtn.addEventListener("click", function () {
+    setFollow(!follow);
+    if (follow && lastShown) show(lastShown[0], lastShown[1], lastShown[2], state.named ? null : state.frac * cur.end);
+  });
 
   function resize() {
     var w = stage.clientWidth, h = Math.round(Math.min(w * 9 / 16, window.innerHeight * 0.7));
     renderer.setSize(w, h, true);
     camera.aspect = w / h;
     camera.updateProjectionMatrix();
+    if (follow && lastShown) fit(frameBox(lastShown[0], lastShown[1], lastShown[2]));  // the new aspect
     draw();
   }
   window.addEventListener("resize", resize);
@@ -327,6 +385,7 @@
     });
   }
   setRun("nominal");
+  setFollow(true);
 
   resize();
   fromHash();
