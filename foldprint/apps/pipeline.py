@@ -416,9 +416,10 @@ class Evaluation:
 
     # -- writers -----------------------------------------------------------------------
     def export(self, out_dir: str | Path, state: State | str | None = None, formats: Iterable[str] | None = None,
-               assembly: Assembly | None = None, printer: str | None = None) -> list[dict]:
+               assembly: Assembly | None = None, printer: str | None = None, force: bool = False) -> list[dict]:
         """Write ``formats`` of the part in ``state`` (default: ``options``) into
-        ``out_dir``; the records of :func:`foldprint.exchange.export.export_assembly`.
+        ``out_dir``; the records of :func:`foldprint.exchange.export.export_assembly`
+        (``force``: into a folder of other files, beside them).
         The part is ``assembly`` when given, else the evaluation's printed part when it was
         already built (permanent state), else built here (after the size guard). The fold
         is simulated only when a format shows it over time (xdmf, glb); the voxel stack
@@ -440,7 +441,7 @@ class Evaluation:
             placed = self.placed_state(st) if "inp" in fmts else None
             voxels = None if pitch is None else self._voxels(assembly, pitch)
             return export_assembly(self.design, assembly, out_dir, fmts, self.library, frames, fold_times,
-                                   placed, voxels)
+                                   placed, voxels, force=force)
 
     def _voxels(self, assembly: Assembly, pitch: Pitch) -> VoxelPart:
         """The part's voxel regions at ``pitch``, after the voxel grid's guard."""

@@ -18,6 +18,21 @@ from .root import app
 from .support import (MAX_WORKERS, CREASE_HELP, SCALE_HELP, OUTPUT_STATE, check_count, echo_json, load_input, echo_note, check_out_dir,
                       with_progress)
 
+FORCE_HELP = ("Write into a folder that holds other files: the output's files are added beside them one by one "
+              "(files of other names are left as they are, files of the same names replaced; a kill can leave "
+              "a mix). Without it such a folder is refused.")
+
+
+def _plan_out(out_dir: Path, force: bool, what: str) -> None:
+    """Refuse ``out_dir`` before anything is built (the library checks again when it
+    publishes); say when the output will land file by file."""
+    from ..core.modes import Publish
+    from ..exchange.outfolder import plan
+
+    p = plan(out_dir, force)
+    if p.publish == Publish.FILE_BY_FILE:
+        echo_note(f"{out_dir}: the {what}'s files go in one by one, not as one set: {p.why}")
+
 
 @app.command()
 def export(
@@ -35,6 +50,7 @@ def export(
     printer: Optional[str] = typer.Option(None, "--printer",
                                           help="Printer profile whose voxel pitch --format voxels uses "
                                                "(data/printers.toml; default j750: 600 x 300 dpi, 27 um layers)."),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ):
     """Build the printable part (one watertight body per material) and write multi-body
     3MF (spec + Bambu/Orca/Cura metadata), a PrusaSlicer 3MF, and one STL per material.
@@ -57,9 +73,10 @@ def export(
     out_dir = out if out is not None else Path("output") / d.name
     if printer is not None and "voxels" not in fmts:
         raise FoldprintError("--printer sets the voxel pitch of --format voxels; add voxels to --format")
+    _plan_out(out_dir, force, "export")
     records = with_progress(f"building {d.name} ({state})",
                              lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts)),
-                                                library=lib).export(out_dir, printer=printer))
+                                                library=lib).export(out_dir, printer=printer, force=force))
     if json_out:
         echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records})
     else:
@@ -81,6 +98,7 @@ def gallery(
     out: str = typer.Option(str(Path("output") / "gallery"), "--out", help="Output directory."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     jobs: Optional[int] = typer.Option(None, "--jobs", min=1, help="Worker processes (default: one per CPU)."),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ):
     """Simulate, check, render and export designs into an offline HTML gallery
     (index.html with an interactive 3D viewer per design, renders, fold animations, plots,
@@ -91,7 +109,6 @@ def gallery(
     Example: foldprint gallery --out output/gallery
     """
     from ..io.load import load_design
-    from ..exchange.files import ensure_dir
     from ..apps.gallery import build_gallery
     from ..model.materials import load_library
     from ..io.templates import list_templates, resolve_design_path
@@ -104,11 +121,11 @@ def gallery(
     if not names:
         raise FoldprintError("no designs given and no templates found")
     loaded = [load_design(resolve_design_path(n), lib) for n in names]
-    ensure_dir(out)
+    _plan_out(out, force, "gallery")
     if OUTPUT_STATE["quiet"]:
-        index = build_gallery(loaded, out, library=lib, jobs=jobs)
+        index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force)
     elif not sys.stderr.isatty():  # a log: one line per finished part
-        index = build_gallery(loaded, out, library=lib, jobs=jobs,
+        index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force,
                               progress=lambda done, total, msg: print(f"[{done}/{total}] {msg}", file=sys.stderr))
     else:
         from rich.console import Console
@@ -117,6 +134,7 @@ def gallery(
         with Progress(TextColumn("gallery"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                       TextColumn("{task.description}"), transient=True, console=Console(stderr=True)) as bar:
             task = bar.add_task(f"building {len(loaded)} design(s)", total=len(loaded) + 2)
-            index = build_gallery(loaded, out, library=lib, jobs=jobs, progress=lambda done, total, msg: bar.update(
-                task, completed=done, total=total, description=msg))
+            index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force,
+                                  progress=lambda done, total, msg: bar.update(task, completed=done, total=total,
+                                                                               description=msg))
     echo_note(f"wrote {index}")
