@@ -43,7 +43,7 @@ from ..core.files import (TMP_NAME, TMP_PREFIX, TMP_SUFFIX, ensure_dir, fsync_di
                           rename_noreplace, token, write_atomic, write_new)
 from ..core.modes import OutFolder, Publish
 from .outfolder import (LEGACY_CURRENT, LEGACY_SETS, MANIFEST, NAME_MAX, STAGE_INSIDE, FileEntry, Holding,
-                        digest_file, legacy_names, manifest_bytes, plan, read_manifest, valid_name)
+                        digest_file, is_ours, manifest_bytes, plan, valid_name)
 
 STALE_TMP_S = 60.0  # a write_atomic temp file older than this is left over from a killed run
 _SIBLING_TAIL = re.compile(r"^(tmp|old)-[a-z0-9_]{8}$")
@@ -102,15 +102,6 @@ def _hold(path: Path, wait: bool = False) -> int | None:
     return fd
 
 
-def _is_ours(d: Path) -> bool:
-    """A staging or set-aside folder foldprint made: empty, or with its manifest, or an
-    export of the earlier layout of links."""
-    try:
-        return (not any(os.scandir(d))) or read_manifest(d) is not None or legacy_names(d) is not None
-    except OSError:
-        return False
-
-
 def _remove_set(d: Path) -> None:
     """Remove a folder of ours, its manifest (or the layout that names it ours) last, so
     a kill midway leaves a folder the next run still recognises."""
@@ -123,14 +114,14 @@ def _remove_set(d: Path) -> None:
     os.rmdir(d)
 
 
-def _leftovers(real: Path):
-    """(path, what) of every staging or set-aside folder of ``real`` beside or inside it."""
+def _leftovers(real: Path, beside: bool):
+    """(path, what) of the staging or set-aside folders of ``real`` beside it, or inside it."""
     prefix = sibling_prefix(real)
-    if real.parent.is_dir():
+    if beside and real.parent.is_dir():
         for e in os.scandir(real.parent):
             if e.name.startswith(prefix) and _SIBLING_TAIL.match(e.name[len(prefix):]):
                 yield Path(e.path), e.name[len(prefix):len(prefix) + 3]
-    if real.is_dir() and not real.is_symlink():
+    if not beside and real.is_dir() and not real.is_symlink():
         for e in os.scandir(real):
             if STAGE_INSIDE.match(e.name):
                 yield Path(e.path), "tmp"
@@ -144,27 +135,9 @@ def recover(out: str | Path) -> list[str]:
     gone (no ``flock``). Returns what it did. Call with :func:`_dir_lock` held."""
     real = Path(os.path.realpath(out))
     done: list[str] = []
-    for path, what in list(_leftovers(real)):
-        try:
-            st = os.lstat(path)
-        except OSError:
-            continue
-        if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid():
-            continue
-        fd = _hold(path)
-        if fd is None:
-            continue  # a live writer's
-        try:
-            if not _is_ours(path):
-                continue
-            if what == "old" and not os.path.lexists(real):
-                os.rename(path, real)
-                done.append(f"restored {path.name}")
-            else:
-                _remove_set(path)
-                done.append(f"removed {path.name}")
-        finally:
-            os.close(fd)
+    for beside in (True, False):  # inside after beside: a set put back may hold one
+        for path, what in list(_leftovers(real, beside)):
+            _recover_one(real, path, what, done)
     if real.is_dir() and not real.is_symlink():
         now = time.time()
         for e in os.scandir(real):
@@ -175,11 +148,35 @@ def recover(out: str | Path) -> list[str]:
     return done
 
 
+def _recover_one(real: Path, path: Path, what: str, done: list[str]) -> None:
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return
+    if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid():
+        return
+    fd = _hold(path)
+    if fd is None:
+        return  # a live writer's
+    try:
+        if not is_ours(path):
+            return
+        if what == "old" and not os.path.lexists(real):
+            os.rename(path, real)
+            done.append(f"restored {path.name}")
+        else:
+            _remove_set(path)
+            done.append(f"removed {path.name}")
+    finally:
+        os.close(fd)
+
+
 class StagedSet:
     """A set of files written into a staging folder and published into ``out_dir`` as a
     whole when the ``with`` block ends (discarded, leaving ``out_dir`` as it was, when the
     block raises). Write with :meth:`write` or into :attr:`path` directly (any depth);
-    ``force``: a folder of other files takes the set file by file.
+    ``force``: a folder of other files takes the set file by file; ``names``, when known
+    beforehand, are checked against what the folder holds before anything is written.
 
     >>> import tempfile, os
     >>> with tempfile.TemporaryDirectory() as tmp:
@@ -189,8 +186,8 @@ class StagedSet:
     (['a.txt', 'foldprint-set.json'], ['out'])
     """
 
-    def __init__(self, out_dir: str | Path, force: bool = False):
-        self.out, self.force = Path(out_dir), force
+    def __init__(self, out_dir: str | Path, force: bool = False, names: list[str] | None = None):
+        self.out, self.force, self.names = Path(out_dir), force, list(names or [])
         self.path: Path | None = None
         self.real: Path | None = None
         self.mode: Publish | None = None
@@ -203,6 +200,9 @@ class StagedSet:
     def __enter__(self) -> "StagedSet":
         first = plan(self.out, self.force)
         self.real, self.mode, self.kind, self.why = first.real, first.publish, first.holding.kind, first.why
+        if self.mode == Publish.FILE_BY_FILE:
+            for name in self.names:
+                _check_room(self.real, self.out, name)
         try:
             if self.kind == OutFolder.NEW:
                 self._made = [p for p in self.real.parents if not os.path.lexists(p)]
@@ -321,7 +321,7 @@ class StagedSet:
         real, stage = self.real, self.path
         new = {e.name: e for e in entries}
         for name in new:
-            _check_room(real, name)
+            _check_room(real, self.out, name)
         before = {n: s for n, s in holding.ours.items() if s}
         pending = entries + [FileEntry(n, os.path.getsize(real / n), s) for n, s in before.items() if n not in new]
         write_atomic(real / MANIFEST, manifest_bytes(pending, complete=False, before=before))
@@ -355,17 +355,19 @@ class StagedSet:
                 break
 
 
-def _check_room(real: Path, name: str) -> None:
+def _check_room(real: Path, given: Path, name: str) -> None:
     """ExportError when a folder stands where a file of the set goes, or a file or link
     where it needs a folder."""
     target = real / name
     if target.is_dir() and not target.is_symlink():
-        raise ExportError(f"{target}: is a directory, where the export writes a file; move it or choose "
+        raise ExportError(f"{given / name}: is a directory, where the export writes a file; move it or choose "
                           "another --out")
-    for p in list(target.parents)[:name.count("/")]:
+    parts = name.split("/")[:-1]
+    for k in range(1, len(parts) + 1):
+        p = real.joinpath(*parts[:k])
         if os.path.lexists(p) and (p.is_symlink() or not p.is_dir()):
-            raise ExportError(f"{p}: is a file or link, where the export needs a folder; move it or choose "
-                              "another --out")
+            raise ExportError(f"{given.joinpath(*parts[:k])}: is a file or link, where the export needs a folder; "
+                              "move it or choose another --out")
 
 
 def _unlink(p: Path) -> None:
@@ -405,7 +407,7 @@ def write_set(out_dir: str | Path, files: list[tuple[str, bytes | Callable[[], b
     check_names(out, names)
     if len(set(names)) != len(names):
         raise ExportError(f"{out}: two files of one export share a name")
-    with StagedSet(out, force) as st:
+    with StagedSet(out, force, names) as st:
         for name, data in files:
             st.write(name, data() if callable(data) else data)
     return [out / n for n in names]

@@ -126,15 +126,25 @@ def read_manifest(folder: Path) -> dict | None:
         return None
 
 
+def is_ours(d: str | Path) -> bool:
+    """A staging or set-aside folder foldprint made: empty, or with a foldprint manifest,
+    or an export of the earlier layout of links."""
+    d = Path(d)
+    try:
+        return (not any(os.scandir(d))) or read_manifest(d) is not None or legacy_names(d) is not None
+    except OSError:
+        return False
+
+
 def _walk(out: Path):
     """(files, others, empty dirs) under ``out`` by relative name, links not followed;
-    the staging folders and temp files of foldprint at the top are left out."""
+    the staging folders (of foldprint's) and temp files of foldprint at the top are left out."""
     files, others, empty = [], [], []
     for dirpath, dirnames, filenames in os.walk(out, followlinks=False):
         rel = os.path.relpath(dirpath, out)
         base = "" if rel == "." else rel + "/"
         if base == "":
-            dirnames[:] = [d for d in dirnames if not STAGE_INSIDE.match(d)]
+            dirnames[:] = [d for d in dirnames if not (STAGE_INSIDE.match(d) and is_ours(out / d))]
             filenames = [f for f in filenames if not TMP_NAME.match(f)]
         for d in list(dirnames):
             if os.path.islink(os.path.join(dirpath, d)):  # os.walk lists a link to a folder here
