@@ -69,6 +69,7 @@ def test_the_json_lists_what_the_manifest_lists(capsys, tmp_path):
     out = tmp_path / "x"
     rec = _run(capsys, "export", "self_lock", "--out", str(out), "--format", "3mf,stl", "--json")
     files = check_copy(out)
+    assert rec["manifest"] == str(out / MANIFEST) and rec["published"] == "whole"
     assert sorted(Path(r["path"]).name for r in rec["files"]) == sorted(files)
     assert all(r["bytes"] == len(files[Path(r["path"]).name]) for r in rec["files"])
 

@@ -543,10 +543,10 @@ def build(design: Design, state: State | str = DEFAULT_STATE,
 
 def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STATE,
            formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
-           assembly: Assembly | None = None, printer: str | None = None) -> list[dict]:
+           assembly: Assembly | None = None, printer: str | None = None, force: bool = False) -> list[dict]:
     """Build ``design`` in ``state`` (or take the built ``assembly``) and write
     ``formats`` into ``out_dir``: :meth:`Evaluation.export`."""
-    return Evaluation(design, library=library).export(out_dir, state, formats, assembly, printer)
+    return Evaluation(design, library=library).export(out_dir, state, formats, assembly, printer, force)
 
 
 def run_simulation(design: Design, *, library: MaterialLibrary | None = None, bath_c: float | None = None,

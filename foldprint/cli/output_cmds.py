@@ -23,15 +23,17 @@ FORCE_HELP = ("Write into a folder that holds other files: the output's files ar
               "a mix). Without it such a folder is refused.")
 
 
-def _plan_out(out_dir: Path, force: bool, what: str) -> None:
+def _plan_out(out_dir: Path, force: bool, what: str):
     """Refuse ``out_dir`` before anything is built (the library checks again when it
-    publishes); say when the output will land file by file."""
+    publishes); say when the output will land file by file. The plan
+    (:class:`foldprint.exchange.outfolder.Plan`)."""
     from ..core.modes import Publish
     from ..exchange.outfolder import plan
 
     p = plan(out_dir, force)
     if p.publish == Publish.FILE_BY_FILE:
         echo_note(f"{out_dir}: the {what}'s files go in one by one, not as one set: {p.why}")
+    return p
 
 
 @app.command()
@@ -73,12 +75,15 @@ def export(
     out_dir = out if out is not None else Path("output") / d.name
     if printer is not None and "voxels" not in fmts:
         raise FoldprintError("--printer sets the voxel pitch of --format voxels; add voxels to --format")
-    _plan_out(out_dir, force, "export")
+    published = _plan_out(out_dir, force, "export").publish
     records = with_progress(f"building {d.name} ({state})",
                              lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts)),
                                                 library=lib).export(out_dir, printer=printer, force=force))
     if json_out:
-        echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records})
+        from ..exchange.outfolder import MANIFEST
+
+        echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records,
+                   "manifest": str(out_dir / MANIFEST), "published": str(published)})
     else:
         slices = [r for r in records if r["format"] == "png"]
         for r in records:

@@ -243,6 +243,8 @@ class StagedSet:
         else:
             if typ is not None:
                 self._discard()
+                if isinstance(exc, OSError) and not isinstance(exc, ExportError):
+                    raise _export_error(self.out, exc) from None  # a disk full while staging
         finally:
             if self._fd is not None:
                 os.close(self._fd)

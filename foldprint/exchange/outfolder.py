@@ -72,12 +72,23 @@ class Plan:
     why: str = ""
 
 
+_SEEN: dict = {}  # (device, inode, size, mtime, ctime) -> sha256: a folder is inspected 2-3 times per run
+
+
 def digest_file(path: str | Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+    """The sha256 of a file (kept for the run while the file's inode, size, mtime and
+    ctime stay the same: ctime cannot be set back, so a changed file is hashed again)."""
+    st = os.stat(path)
+    key = (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+    if key not in _SEEN:
+        h = hashlib.sha256()
+        with open(path, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+        if len(_SEEN) > 100_000:
+            _SEEN.clear()
+        _SEEN[key] = h.hexdigest()
+    return _SEEN[key]
 
 
 def manifest_bytes(entries: Iterable[FileEntry], complete: bool = True, before: dict | None = None) -> bytes:
