@@ -239,6 +239,23 @@ def test_a_kill_while_publishing_file_by_file_never_touches_the_users_files(tmp_
     assert sorted(r["name"] for r in json.loads((out / MANIFEST).read_text())["files"]) == sorted(dict(NEW))
 
 
+def test_without_renameat2_a_failed_second_rename_puts_the_earlier_set_back(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    write_set(out, OLD)
+    monkeypatch.setattr(core_files, "_RENAMEAT2", None)
+    real_rename = os.rename
+
+    def rename(src, dst, *a, **kw):
+        if Path(dst) == out and ".foldprint-tmp-" in str(src):
+            raise OSError(28, "No space left on device")
+        return real_rename(src, dst, *a, **kw)
+
+    monkeypatch.setattr(os, "rename", rename)
+    with pytest.raises(ExportError, match="No space left"):
+        write_set(out, NEW)
+    assert_plain_set(out, dict(OLD))
+
+
 # -- what is left alone, what is recovered ----------------------------------------------
 
 def _plant_beside(base: Path) -> dict:

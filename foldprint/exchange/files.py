@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import hashlib
+import logging
 import os
 import re
 import shutil
@@ -44,6 +45,8 @@ from ..core.files import (TMP_NAME, TMP_PREFIX, TMP_SUFFIX, ensure_dir, fsync_di
 from ..core.modes import OutFolder, Publish
 from .outfolder import (LEGACY_CURRENT, LEGACY_SETS, MANIFEST, NAME_MAX, STAGE_INSIDE, FileEntry, Holding,
                         digest_file, is_ours, manifest_bytes, plan, valid_name)
+
+log = logging.getLogger(__name__)
 
 STALE_TMP_S = 60.0  # a write_atomic temp file older than this is left over from a killed run
 _SIBLING_TAIL = re.compile(r"^(tmp|old)-[a-z0-9_]{8}$")
@@ -311,10 +314,17 @@ class StagedSet:
         else:
             old = real.parent / f"{sibling_prefix(real)}old-{token()}"
             os.rename(real, old)
-            os.rename(stage, real)
+            try:
+                os.rename(stage, real)
+            except BaseException:
+                os.rename(old, real)  # the earlier set back in its place
+                raise
         self.path = None
         fsync_dir(real.parent)
-        _remove_set(old)
+        try:
+            _remove_set(old)
+        except OSError as exc:  # published; the next run removes what is left
+            log.warning("%s: could not remove the earlier set %s: %s", self.out, old, exc)
 
     def _in_place(self, holding: Holding, entries: list[FileEntry]) -> None:
         """Into a folder of other files: each file of the set by its own rename; the
@@ -330,7 +340,7 @@ class StagedSet:
         for name in sorted(new):
             (real / name).parent.mkdir(parents=True, exist_ok=True)
             os.replace(stage / name, real / name)
-        for name, sha in holding.ours.items():
+        for name in holding.ours:
             if name not in new:
                 _unlink(real / name)
                 _prune(real, name)
