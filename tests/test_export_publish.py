@@ -333,6 +333,27 @@ def test_a_users_folder_is_never_changed_by_force(tmp_path):
     assert sorted(r["name"] for r in json.loads((out / MANIFEST).read_text())["files"]) == sorted(dict(NEW))
 
 
+def test_a_nested_set_file_by_file_keeps_the_users_files_in_its_folders(tmp_path):
+    """The gallery's shape (folders in the set) published with force beside the user's files."""
+    out = tmp_path / "site"
+    (out / "d").mkdir(parents=True)
+    (out / "d" / "mine.txt").write_bytes(b"mine")
+    (out / "notes.txt").write_bytes(b"notes")
+
+    def publish(names):
+        with StagedSet(out, force=True) as st:
+            for n in names:
+                st.write(n, n.encode())
+
+    publish(["index.html", "d/x.png", "d/y.png", "e/z.png"])
+    publish(["index.html", "d/x.png"])  # y and the folder e dropped
+    seen = files_of(out)
+    seen.pop(MANIFEST)
+    assert seen == {"index.html": b"index.html", "d/x.png": b"d/x.png", "d/mine.txt": b"mine",
+                    "notes.txt": b"notes"}
+    assert not (out / "e").exists() and os.listdir(tmp_path) == ["site"]
+
+
 def test_a_changed_file_of_an_export_is_the_users(tmp_path):
     out = tmp_path / "out"
     write_set(out, OLD)
