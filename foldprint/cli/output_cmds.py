@@ -28,9 +28,9 @@ def _plan_out(out_dir: Path, force: bool, what: str):
     publishes); say when the output will land file by file. The plan
     (:class:`foldprint.exchange.outfolder.Plan`)."""
     from ..core.modes import Publish
-    from ..exchange.outfolder import plan
+    from ..exchange.files import plan_out
 
-    p = plan(out_dir, force)
+    p = plan_out(out_dir, force)
     if p.publish == Publish.FILE_BY_FILE:
         echo_note(f"{out_dir}: the {what}'s files go in one by one, not as one set: {p.why}")
     return p

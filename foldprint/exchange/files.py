@@ -44,7 +44,7 @@ from ..core.files import (TMP_NAME, TMP_PREFIX, TMP_SUFFIX, ensure_dir, fsync_di
                           rename_noreplace, token, write_atomic, write_new)
 from ..core.modes import OutFolder, Publish
 from .outfolder import (LEGACY_CURRENT, LEGACY_SETS, MANIFEST, NAME_MAX, STAGE_INSIDE, FileEntry, Holding,
-                        digest_file, is_ours, manifest_bytes, plan, valid_name)
+                        digest_file, is_ours, manifest_bytes, Plan, plan, valid_name)
 
 log = logging.getLogger(__name__)
 
@@ -88,6 +88,13 @@ def _dir_lock(real: Path):
     finally:
         if fd is not None:
             os.close(fd)
+
+
+def plan_out(out_dir: str | Path, force: bool = False) -> Plan:
+    """:func:`~foldprint.exchange.outfolder.plan` with the folder's publication lock held,
+    so a concurrent writer's swap is never seen half-way."""
+    with _dir_lock(Path(os.path.realpath(out_dir))):
+        return plan(out_dir, force)
 
 
 def _hold(path: Path, wait: bool = False) -> int | None:
@@ -201,7 +208,7 @@ class StagedSet:
         self._fd: int | None = None
 
     def __enter__(self) -> "StagedSet":
-        first = plan(self.out, self.force)
+        first = plan_out(self.out, self.force)
         self.real, self.mode, self.kind, self.why = first.real, first.publish, first.holding.kind, first.why
         if self.mode == Publish.FILE_BY_FILE:
             for name in self.names:
