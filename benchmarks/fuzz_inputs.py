@@ -76,7 +76,7 @@ def _run_file(kind: str, name: str, raw: bytes, args: list[str]) -> list[dict]:
                      {"args": args, "file": raw.decode("utf-8", "replace")[:20000] if name else None})]
 
 
-def _run_planted(plants, names, twice) -> list[dict]:
+def _run_planted(plants, names, twice, force) -> list[dict]:
     import resource
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -85,14 +85,14 @@ def _run_planted(plants, names, twice) -> list[dict]:
     t0, c0 = time.monotonic(), time.process_time()
     bad, err = [], ""
     try:
-        test_planted_output_folders.hypothesis.inner_test(plants, names, twice)
+        test_planted_output_folders.hypothesis.inner_test(plants, names, twice, force)
     except AssertionError as exc:
         bad, err = ["contract"], str(exc)
     except Exception as exc:  # noqa: BLE001
         bad, err = ["traceback"], f"{type(exc).__name__}: {exc}"
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return [_summary("planted", 0 if not bad else None, bad, time.monotonic() - t0, time.process_time() - c0, peak,
-                     err, {"plants": plants, "names": names, "twice": twice})]
+                     err, {"plants": plants, "names": names, "twice": twice, "force": force})]
 
 
 def _jobs(kind: str, n: int, seed_base: int):
@@ -107,7 +107,7 @@ def _jobs(kind: str, n: int, seed_base: int):
     out = []
     strat = {"svg": svg_documents(), "fold": fold_documents(), "cli": command_lines(),
              "planted": hs.tuples(hs.lists(hs.sampled_from(PLANTS), max_size=3, unique=True), FILE_NAMES,
-                                  hs.booleans())}[kind]
+                                  hs.booleans(), hs.booleans())}[kind]
 
     @settings(max_examples=n, deadline=None, database=None, derandomize=True,
               suppress_health_check=list(HealthCheck))

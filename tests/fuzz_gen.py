@@ -5,6 +5,7 @@ small budget in the suite) and ``benchmarks/fuzz_inputs.py`` (10,000 cases)."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 
@@ -175,11 +176,18 @@ materials = ["H-1", "H-4"]
 
 # -- planted output folders ---------------------------------------------------------------
 
-PLANTS = ["current->../keep.txt", "current->/etc", "current->.foldprint-sets/set-abcdefgh", "current-file",
-          "current->\udcff", "sets-file", "sets->..", "sets-dir-junk", "set-dir-stale", "commit-escape",
-          "staging-commit", "user-tmp", "own-tmp-fresh", "name-is-dir", "name-is-link-out", "COMMIT-binary",
-          "legacy-file"]
-
+PLANTS = ["current->../keep.txt", "current->/etc", "current-file", "sets->..", "sets-dir-junk", "legacy-export",
+          "manifest-garbage", "manifest-escape", "manifest-ours", "manifest-changed", "user-tmp", "own-tmp-fresh",
+          "inside-stage-stale", "inside-stage-user", "name-is-dir", "name-is-link-out", "legacy-file",
+          "sibling-file", "sibling-userdir", "sibling-link", "sibling-stale", "sibling-old-user",
+          "sibling-old-ours", "out-is-file", "out-is-link"]
+#: planted entries that are foldprint's own (by name and manifest): a run may remove them
+PLANTS_OURS = {"legacy-export": ["out/.foldprint-", "real_out/.foldprint-"],
+               "own-tmp-fresh": ["out/.foldprint-abcdefgh.tmp", "real_out/.foldprint-abcdefgh.tmp"],
+               "inside-stage-stale": ["out/.foldprint-tmp-abcdefgh", "real_out/.foldprint-tmp-abcdefgh"],
+               "manifest-ours": ["out/gone.stl", "real_out/gone.stl"],
+               "sibling-stale": [".out.foldprint-tmp-defghijk", ".real_out.foldprint-tmp-defghijk"],
+               "sibling-old-ours": [".out.foldprint-old-fghijklm", ".real_out.foldprint-old-fghijklm"]}
 
 
 def contract_violations(res: dict, *, wrote_on_exit_2: bool, json_stdout: bool = False,
@@ -211,47 +219,95 @@ def contract_violations(res: dict, *, wrote_on_exit_2: bool, json_stdout: bool =
         bad.append("warning printed")
     return bad
 
+def _manifest(rows) -> str:
+    return json.dumps({"tool": "foldprint", "complete": True,
+                       "files": [{"name": n, "bytes": len(b), "sha256": hashlib.sha256(b).hexdigest()}
+                                 for n, b in rows]})
+
+
 def plant(out, kind: str, names: list[str]) -> None:
-    """Put one planted entry of ``kind`` into ``out`` (created)."""
-    out.mkdir(parents=True, exist_ok=True)
-    cur, sets = out / ".foldprint-current", out / ".foldprint-sets"
+    """Put one planted entry of ``kind`` into ``out`` (created unless the entry goes
+    beside it or is ``out`` itself) or beside it."""
+    base = out.parent
 
     def link(target, at):
         if not os.path.lexists(at):
             os.symlink(target, at)
 
+    if kind == "out-is-file":
+        if not os.path.lexists(out):
+            out.write_text("a file where the folder goes")
+        return
+    if kind == "out-is-link":
+        (base / "real_out").mkdir(exist_ok=True)
+        link("real_out", out)
+        return
+    if kind.startswith("sibling-"):
+        pre = f".{out.name}.foldprint-"
+        if kind == "sibling-file":
+            (base / f"{pre}tmp-abcdefgh").write_text("mine")
+        elif kind == "sibling-userdir":
+            (base / f"{pre}tmp-bcdefghi").mkdir(exist_ok=True)
+            (base / f"{pre}tmp-bcdefghi" / "mine.txt").write_text("mine")
+        elif kind == "sibling-link":
+            link("keep.txt", base / f"{pre}old-cdefghij")
+        elif kind == "sibling-stale":
+            (base / f"{pre}tmp-defghijk").mkdir(exist_ok=True)
+            (base / f"{pre}tmp-defghijk" / "foldprint-set.json").write_text(_manifest([]))
+            (base / f"{pre}tmp-defghijk" / names[0]).write_text("half")
+        elif kind == "sibling-old-user":
+            (base / f"{pre}old-efghijkl").mkdir(exist_ok=True)
+            (base / f"{pre}old-efghijkl" / "mine.txt").write_text("mine")
+        elif kind == "sibling-old-ours":
+            (base / f"{pre}old-fghijklm").mkdir(exist_ok=True)
+            (base / f"{pre}old-fghijklm" / names[0]).write_bytes(b"set aside")
+            (base / f"{pre}old-fghijklm" / "foldprint-set.json").write_text(_manifest([(names[0], b"set aside")]))
+        return
+    if os.path.lexists(out) and not out.is_dir():
+        return
+    out.mkdir(parents=True, exist_ok=True)
+    cur, sets = out / ".foldprint-current", out / ".foldprint-sets"
     if kind.startswith("current->"):
         link(kind.split("->", 1)[1], cur)
     elif kind == "current-file" and not os.path.lexists(cur):
         cur.write_text("../keep.txt\n")
-    elif kind == "sets-file" and not os.path.lexists(sets):
-        sets.write_text("x")
     elif kind == "sets->..":
         link("..", sets)
     elif kind == "sets-dir-junk" and not os.path.lexists(sets):
         sets.mkdir()
         (sets / "junk").write_text("user")
-    elif kind == "set-dir-stale" and not os.path.lexists(sets):
+    elif kind == "legacy-export" and not os.path.lexists(sets) and not os.path.lexists(cur):
         (sets / "set-zzzzzzzz").mkdir(parents=True)
-        (sets / "set-zzzzzzzz" / names[0]).write_text("stale")
-    elif kind == "commit-escape":
-        st = out / ".foldprint-staging-abcd1234"
-        st.mkdir(exist_ok=True)
-        (st / "COMMIT").write_text("../keep.txt\n")
-    elif kind == "staging-commit":
-        st = out / ".foldprint-staging-efgh5678"
-        st.mkdir(exist_ok=True)
-        (st / "COMMIT").write_bytes(b"\xff\xfe\n")
+        for n in names:
+            (sets / "set-zzzzzzzz" / n).write_text("legacy")
+            link(f".foldprint-current/{n}", out / n)
+        link(".foldprint-sets/set-zzzzzzzz", cur)
+    elif kind.startswith("manifest-") and not os.path.lexists(out / "foldprint-set.json"):
+        m = out / "foldprint-set.json"
+        if kind == "manifest-garbage":
+            m.write_bytes(b"\xff{")
+        elif kind == "manifest-escape":
+            m.write_text(_manifest([("../keep.txt", b"mine")]))
+        elif kind == "manifest-ours":
+            (out / "gone.stl").write_bytes(b"v0")
+            m.write_text(_manifest([("gone.stl", b"v0"), ("missing.stl", b"")]))
+        elif kind == "manifest-changed":
+            (out / "gone.stl").write_bytes(b"edited")
+            m.write_text(_manifest([("gone.stl", b"v0")]))
     elif kind == "user-tmp":
         (out / ".notes.abcdefgh.tmp").write_text("mine")
     elif kind == "own-tmp-fresh":
         (out / ".foldprint-abcdefgh.tmp").write_text("fresh")
+    elif kind == "inside-stage-stale":
+        (out / ".foldprint-tmp-abcdefgh").mkdir(exist_ok=True)
+        (out / ".foldprint-tmp-abcdefgh" / "foldprint-set.json").write_text(_manifest([]))
+    elif kind == "inside-stage-user":
+        (out / ".foldprint-tmp-zzzzzzzz").mkdir(exist_ok=True)
+        (out / ".foldprint-tmp-zzzzzzzz" / "mine.txt").write_text("mine")
     elif kind == "name-is-dir" and not os.path.lexists(out / names[0]):
         (out / names[0]).mkdir()
     elif kind == "name-is-link-out":
         link("../keep.txt", out / names[-1])
-    elif kind == "COMMIT-binary":
-        (out / "COMMIT").write_bytes(b"\xff\x00../keep.txt")
     elif kind == "legacy-file" and not os.path.lexists(out / names[0]):
         (out / names[0]).write_text("old export")
 

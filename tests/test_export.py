@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import shutil
 import subprocess
@@ -27,6 +28,7 @@ from foldprint.io.design_io import design_from_dict
 from foldprint.io.load import load_design
 from foldprint.core.errors import ExportError
 from foldprint.exchange.export import FORMATS, export_assembly
+from foldprint.exchange.outfolder import MANIFEST, digest_file, read_manifest
 from foldprint.apps.pipeline import export as export_design
 from foldprint.exchange.stl import read_stl_volume
 from foldprint.exchange.threemf import REL_DESIGN
@@ -106,10 +108,10 @@ def test_records_and_file_names(exported, stem):
         assert r["format"] in FORMATS + ("manifest", "recipe")
         assert all(set(b) == {"material", "extruder", "files", "volume_mm3", "z_range_mm", "needs_support"}
                    for b in r["bodies"])
-    assert sorted(p.name for p in d.iterdir() if not p.name.startswith(".")) == names
-    assert sorted(p.name for p in d.iterdir() if p.name.startswith(".")) == [".foldprint-current",
-                                                                            ".foldprint-sets"]
-    assert len(list((d / ".foldprint-sets").iterdir())) == 1  # one set, no temp files
+    # plain files: the set and its manifest, nothing else (no links, no hidden folders)
+    assert sorted(e.name for e in os.scandir(d)) == sorted(names + [MANIFEST])
+    assert all(e.is_file(follow_symlinks=False) for e in os.scandir(d))
+    assert read_manifest(d) == {n: frozenset([digest_file(d / n)]) for n in names}
     (tm,) = [r for r in records if r["format"] == "3mf"]
     assert [b["material"] for b in tm["bodies"]] == mats
     assert sum(b["volume_mm3"] for b in tm["bodies"]) == pytest.approx(asm.volume, rel=1e-9)
@@ -399,10 +401,10 @@ def test_unwritable_output_dir_raises_and_writes_nothing(tmp_path):
 
 def _failing_open(monkeypatch, fail_at: int, calls: list):
     """Make the export's n-th file write fail (disk full), through the writer's ``open``."""
-    from foldprint.exchange import files as files_mod
+    from foldprint.core import files as files_mod
 
     def flaky(path, mode="r", *a, **kw):
-        if "w" in mode:
+        if "w" in mode or "x" in mode:
             calls.append(path)
             if len(calls) >= fail_at:
                 raise OSError(28, "No space left on device")
@@ -429,9 +431,9 @@ def test_failed_write_keeps_files_from_an_earlier_export(tmp_path, monkeypatch):
     with pytest.raises(ExportError):
         export_design(design, tmp_path, formats=["3mf", "prusa3mf"])
     assert {p: Path(p).read_bytes() for p in before} == before
-    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".")) == \
-        sorted(Path(p).name for p in before)
-    assert len(list((tmp_path / ".foldprint-sets").iterdir())) == 1  # the failed set is gone
+    # the earlier set and its manifest, nothing of the failed one (nor its staging folder beside)
+    assert sorted(os.listdir(tmp_path)) == sorted([Path(p).name for p in before] + [MANIFEST])
+    assert [n for n in os.listdir(tmp_path.parent) if n.startswith(f".{tmp_path.name}.")] == []
 
 
 def test_unknown_format_raises_before_building(tmp_path):

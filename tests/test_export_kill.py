@@ -1,8 +1,9 @@
-"""SIGKILL ``export`` at random moments: the names that can be opened in the output
-directory are exactly the previous complete set or the new one, never a mix, nothing
-pending, and no temporary file survives the next export (issues 14, 20: a set is
-published by one rename, ``foldprint/exchange/files.py``). ``benchmarks/kill_export.py``
-runs the same with 100 kills."""
+"""SIGKILL ``export`` at random moments: the output folder holds exactly the previous
+complete set or the new one, as plain files, never a mix, and nothing the killed run left
+survives the next export (a set is staged beside the folder and published by one rename,
+``foldprint/exchange/files.py``). ``tests/test_export_publish.py`` kills the writer after
+each of its steps in turn; this test kills the real command at random moments.
+``benchmarks/kill_export.py`` runs the same with 100 kills."""
 
 from __future__ import annotations
 
@@ -35,9 +36,15 @@ def _export(design: Path, out: Path):
 
 
 def _digest(out: Path) -> dict:
-    """name -> sha256 of every visible name that can be opened (links followed)."""
-    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(out.iterdir())
-            if not p.name.startswith(".") and p.is_file()}
+    """name -> sha256 of every file in the folder (a link or a folder is recorded as
+    such: an export holds neither)."""
+    return {p.name: ("link" if p.is_symlink() else "folder" if p.is_dir() else
+                     hashlib.sha256(p.read_bytes()).hexdigest()) for p in sorted(out.iterdir())}
+
+
+def _staging(out: Path) -> list[str]:
+    """The staging (or set-aside) folders of ``out`` beside it."""
+    return sorted(n for n in os.listdir(out.parent) if n.startswith(f".{out.name}.foldprint-"))
 
 
 def _state(out: Path, sets: dict) -> str:
@@ -64,7 +71,7 @@ def kill_campaign(tmp: Path, kills: int, seed: int = 1) -> dict:
         proc = _export(d, ref)
         seen = None
         while proc.poll() is None:
-            if seen is None and (ref / ".foldprint-sets").exists():
+            if seen is None and _staging(ref):
                 seen = time.monotonic()
             time.sleep(0.001)
         assert proc.wait() == 0
@@ -83,10 +90,9 @@ def kill_campaign(tmp: Path, kills: int, seed: int = 1) -> dict:
         # length), half at a uniformly random moment of the whole run
         deadline = time.monotonic() + 20 * runtime[v] + 30
         if k % 4 < 2:
-            sets_dir = out / ".foldprint-sets"
-            before = set(os.listdir(sets_dir)) if sets_dir.exists() else set()
+            before = set(_staging(out))
             while proc.poll() is None and time.monotonic() < deadline:
-                if sets_dir.exists() and set(os.listdir(sets_dir)) - before:
+                if set(_staging(out)) - before:
                     time.sleep(rng.uniform(0.0, 1.5) * write_s)
                     break
                 time.sleep(0.001)
@@ -99,11 +105,9 @@ def kill_campaign(tmp: Path, kills: int, seed: int = 1) -> dict:
         st = _state(out, sets)
         counts[st] = counts.get(st, 0) + 1
         assert st != "MIXED", f"kill {k}: mixed set {_digest(out)}"
-    # the next export finishes or discards what the kills left, and leaves no temp file
+    # the next export removes what the kills left, beside the folder and in it
     assert _export(designs["a"], out).wait() == 0
-    hidden = sorted(p.name for p in out.iterdir() if p.name.startswith("."))
-    leftovers = [n for n in hidden if n not in (".foldprint-current", ".foldprint-sets")]
-    leftovers += [f"set {p.name}" for p in (out / ".foldprint-sets").iterdir()][1:]
+    leftovers = _staging(out) + sorted(p.name for p in out.iterdir() if p.name.startswith("."))
     assert _state(out, sets) == "a" and leftovers == [], leftovers
     return {"runs": kills, "killed": killed, "write_phase_s": round(write_s, 3), "states_after_kill": counts}
 

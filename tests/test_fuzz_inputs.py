@@ -22,7 +22,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
-from fuzz_gen import (FILE_NAMES, PLANTS, SMALL_DESIGN, command_lines, contract_violations, fold_documents, plant,
+from fuzz_gen import (FILE_NAMES, PLANTS, PLANTS_OURS, SMALL_DESIGN, command_lines, contract_violations, fold_documents, plant,
                       svg_documents)
 from foldprint.core.errors import ExportError, FoldprintError
 from foldprint.exchange.files import write_set
@@ -95,11 +95,21 @@ def _tree(root: Path) -> dict:
     return out
 
 
+def _ours(plants: list[str], names: list[str], rel: str) -> bool:
+    """Whether the entry ``rel`` (relative to the case folder) is foldprint's: a file of
+    the set or its manifest in the folder (``out`` or, through a link, ``real_out``), or a
+    planted entry of foldprint's own (:data:`fuzz_gen.PLANTS_OURS`) a run may remove."""
+    for top in ("out/", "real_out/"):
+        if rel in {f"{top}{n}" for n in [*names, "foldprint-set.json"]}:
+            return True
+    return any(rel.startswith(p) for k in plants for p in PLANTS_OURS.get(k, []))
+
+
 @settings(max_examples=max(20, int(150 * SCALE)), deadline=None, database=None, derandomize=True,
           suppress_health_check=list(HealthCheck))
 @given(plants=hs.lists(hs.sampled_from(PLANTS), max_size=3, unique=True), names=FILE_NAMES,
-       twice=hs.booleans())
-def test_planted_output_folders(plants, names, twice):
+       twice=hs.booleans(), force=hs.booleans())
+def test_planted_output_folders(plants, names, twice, force):
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         keep = tmp / "keep.txt"
@@ -111,7 +121,7 @@ def test_planted_output_folders(plants, names, twice):
         for attempt in range(2 if twice else 1):
             before = _tree(tmp)
             try:
-                write_set(out, files)
+                write_set(out, files, force=force)
             except ExportError as exc:
                 assert "\n" not in str(exc) and str(out) in str(exc), exc
                 assert _tree(tmp) == before, "a refused export changed the folder"
@@ -120,8 +130,9 @@ def test_planted_output_folders(plants, names, twice):
                 for n, data in files:
                     assert (out / n).read_bytes() == data
                 after = _tree(tmp)
-                theirs = {k: v for k, v in before.items()
-                          if not k.startswith("out/.foldprint-") and k not in {f"out/{n}" for n in names}}
+                assert not [k for k, (kind, _) in after.items() if kind == "link" and k not in before], \
+                    "the export made a link"
+                theirs = {k: v for k, v in before.items() if not _ours(plants, names, k)}
                 assert {k: after.get(k) for k in theirs} == theirs, "an entry foldprint did not make changed"
             files = [(n, f"{n} v2".encode()) for n in names]
         assert keep.read_text() == "mine"

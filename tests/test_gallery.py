@@ -10,6 +10,7 @@ from __future__ import annotations
 import html
 import io
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -125,6 +126,20 @@ def test_gallery_writes_every_file(gallery):
     assert not list(out.rglob("*.tmp")), "write_atomic left temporary files"
 
 
+def test_gallery_is_one_set_of_plain_files(gallery):
+    """Published whole: plain files only, exactly the manifest's names and sha256 (each
+    design's printable files an export with its own manifest), nothing beside it."""
+    from test_export_copies import check_copy
+
+    root, out, _, _ = gallery
+    files = check_copy(out)
+    assert "index.html" in files and os.listdir(root) == ["site"]
+    for name in DESIGNS:
+        if (out / name / "files").is_dir():
+            assert f"{name}/files/foldprint-set.json" in files
+            check_copy(out / name / "files")
+
+
 def test_images_are_valid(gallery):
     _, out, _, _ = gallery
     pngs = sorted(out.rglob("*.png"))
@@ -182,7 +197,8 @@ def test_index_links_the_printable_files(gallery):
     page = _parse(index)
     text = index.read_text(encoding="utf-8")
     for name in DESIGNS:
-        files = sorted((out / name / "files").glob("*")) if (out / name / "files").is_dir() else []
+        files = sorted(p for p in (out / name / "files").glob("*") if p.name != "foldprint-set.json") \
+            if (out / name / "files").is_dir() else []  # every file but the set's manifest
         linked = {unquote(h) for h in page.links if h.startswith(f"{name}/files/")}
         if files:
             assert {f"{name}/files/{p.name}" for p in files} == linked

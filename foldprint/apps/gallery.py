@@ -24,9 +24,10 @@ checks, simulation and files.
 and, once, ``out_dir/materials.png`` (fold time against bath temperature) and
 ``out_dir/index.html``, one self-contained page (inline CSS, no scripts, relative links)
 that ties everything together. Designs are built in parallel worker processes (the
-collision checks hold the GIL); every file goes through
-:func:`foldprint.exchange.files.write_atomic`; nothing is printed, progress is logged and
-reported to an optional callback. The output is deterministic: building twice, with any
+collision checks hold the GIL). The gallery is one set of plain files: it is written into
+a staging folder beside ``out_dir`` and published by renaming it into place
+(:class:`foldprint.exchange.files.StagedSet`), so ``out_dir`` always holds one complete
+gallery; nothing is printed, progress is logged and reported to an optional callback. The output is deterministic: building twice, with any
 number of processes, gives the same bytes (export files aside, which belong to the exporter).
 """
 
@@ -62,7 +63,7 @@ def _unique_dirnames(designs: Sequence[Design]) -> list[str]:
     out = []
     for d in designs:
         base = _slug(d.name)
-        if base.lower() in ("materials.png", "index.html"):
+        if base.lower() in ("materials.png", "index.html", "viewer", "foldprint-set.json"):
             base = f"design_{base}"
         k = seen.get(base.lower(), 0) + 1
         seen[base.lower()] = k
@@ -74,7 +75,7 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
                   progress: Progress | None = None, *,
                   library: MaterialLibrary | None = None, dt: float = CHECK_DT_S,
                   gif_frames: int = GIF_FRAMES, jobs: int | None = None, samples: int = CHECK_SAMPLES,
-                  seed: int = CHECK_SEED) -> Path:
+                  seed: int = CHECK_SEED, force: bool = False) -> Path:
     """Simulate, check, render and export ``designs`` into a static HTML gallery.
 
     Parameters
@@ -101,6 +102,9 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
         Monte-Carlo samples of the jam probability per design and their seed (default:
         what ``foldprint check`` runs, :data:`foldprint.core.constants.CHECK_SAMPLES` and
         :data:`~foldprint.core.constants.CHECK_SEED`); 0 samples skips it.
+    force : bool
+        Publish into a folder that holds other files (beside them, file by file) instead
+        of refusing it.
 
     Returns
     -------
@@ -110,28 +114,29 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     Raises
     ------
     foldprint.core.errors.ExportError
-        If ``out_dir`` or a file in it cannot be written. A design whose printable files
-        cannot be built is reported on the page (and logged), not raised.
+        If ``out_dir`` may not take the gallery (a folder of other files without
+        ``force``, a system folder, a file; checked before anything is built) or a file
+        cannot be written; ``out_dir`` then keeps what it held. A design whose printable
+        files cannot be built is reported on the page (and logged), not raised.
     """
-    from ..exchange.files import ensure_dir, write_atomic
+    from ..exchange.files import StagedSet
     from ..render.viewer import ASSETS, asset_bytes
 
     lib = library or default_library()
-    out = ensure_dir(out_dir)
     t_start = time.perf_counter()
     dirnames = _unique_dirnames(designs)
     step = _Steps(len(designs) + 2, progress)
-    for name in ASSETS:
-        write_atomic(out / "viewer" / name, asset_bytes(name))
-    materials_img, entries = _build_all(designs, out, dirnames, lib, dt, gif_frames, samples, seed, jobs, step)
-    for entry, design in zip(entries, designs):
-        entry.design = design  # the worker's copy came back pickled; keep the caller's
-
-    page = page_html(entries, materials_img, lib, dt, samples, seed)
-    index = write_atomic(out / "index.html", page)
+    with StagedSet(out_dir, force) as staged:
+        out = staged.path
+        for name in ASSETS:
+            staged.write(f"viewer/{name}", asset_bytes(name))
+        materials_img, entries = _build_all(designs, out, dirnames, lib, dt, gif_frames, samples, seed, jobs, step)
+        for entry, design in zip(entries, designs):
+            entry.design = design  # the worker's copy came back pickled; keep the caller's
+        staged.write("index.html", page_html(entries, materials_img, lib, dt, samples, seed).encode("utf-8"))
     step("index.html")
-    log.info("gallery: %d design(s) in %s (%.1f s)", len(entries), out, time.perf_counter() - t_start)
-    return index
+    log.info("gallery: %d design(s) in %s (%.1f s)", len(entries), out_dir, time.perf_counter() - t_start)
+    return Path(out_dir) / "index.html"
 
 
 class _Steps:

@@ -209,9 +209,6 @@ def _printable_files(entry: Entry, ev, base: Path, dirname: str) -> None:
         log.warning("gallery: %s: export failed: %s", name, exc)
         entry.export_note = f"Export failed: {exc}"
         return
-    from ..exchange.files import flatten
-
-    flatten(base / "files")  # plain files: web hosts skip the export's dot-folder layout
     for rec in records:
         fname = Path(rec["path"]).name
         entry.files.append(Link(url(f"{dirname}/files/{fname}"), _format_label(rec, fname), rec.get("bytes")))

@@ -443,9 +443,10 @@ class Evaluation:
 
     # -- writers -----------------------------------------------------------------------
     def export(self, out_dir: str | Path, state: State | str | None = None, formats: Iterable[str] | None = None,
-               assembly: Assembly | None = None, printer: str | Printer | None = None) -> list[dict]:
+               assembly: Assembly | None = None, printer: str | Printer | None = None, force: bool = False) -> list[dict]:
         """Write ``formats`` of the part in ``state`` (default: ``options``) into
-        ``out_dir``; the records of :func:`foldprint.exchange.export.export_assembly`.
+        ``out_dir``; the records of :func:`foldprint.exchange.export.export_assembly`
+        (``force``: into a folder of other files, beside them).
         The part is ``assembly`` when given, else the evaluation's printed part when it was
         already built (permanent state), else built here (after the size guard). The fold
         is simulated only when a format shows it over time (xdmf, glb). ``printer`` (a
@@ -475,7 +476,7 @@ class Evaluation:
             placed = self.placed_state(st) if "inp" in fmts else None
             voxels = None if pitch is None else self._voxels(assembly, pitch)
             return export_assembly(self.design, assembly, out_dir, fmts, self.library, frames, self.fold_times,
-                                   placed, voxels, profile, check)
+                                   placed, voxels, profile, check, force=force)
 
     def _voxels(self, assembly: Assembly, pitch: Pitch) -> VoxelPart:
         """The part's voxel regions at ``pitch``, after the voxel grid's guard."""
@@ -578,10 +579,10 @@ def build(design: Design, state: State | str = DEFAULT_STATE,
 
 def export(design: Design, out_dir: str | Path, state: State | str = DEFAULT_STATE,
            formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
-           assembly: Assembly | None = None, printer: str | None = None) -> list[dict]:
+           assembly: Assembly | None = None, printer: str | None = None, force: bool = False) -> list[dict]:
     """Build ``design`` in ``state`` (or take the built ``assembly``) and write
     ``formats`` into ``out_dir``: :meth:`Evaluation.export`."""
-    return Evaluation(design, library=library).export(out_dir, state, formats, assembly, printer)
+    return Evaluation(design, library=library).export(out_dir, state, formats, assembly, printer, force)
 
 
 def run_simulation(design: Design, *, library: MaterialLibrary | None = None, bath_c: float | None = None,

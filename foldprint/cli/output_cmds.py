@@ -18,6 +18,23 @@ from .root import app
 from .support import (MAX_WORKERS, CREASE_HELP, SCALE_HELP, OUTPUT_STATE, check_count, echo_json, load_input, echo_note, check_out_dir,
                       load_printer, with_progress)
 
+FORCE_HELP = ("Write into a folder that holds other files: the output's files are added beside them one by one "
+              "(files of other names are left as they are, files of the same names replaced; a kill can leave "
+              "a mix). Without it such a folder is refused.")
+
+
+def _plan_out(out_dir: Path, force: bool, what: str):
+    """Refuse ``out_dir`` before anything is built (the library checks again when it
+    publishes); say when the output will land file by file. The plan
+    (:class:`foldprint.exchange.outfolder.Plan`)."""
+    from ..core.modes import Publish
+    from ..exchange.files import plan_out
+
+    p = plan_out(out_dir, force)
+    if p.publish == Publish.FILE_BY_FILE:
+        echo_note(f"{out_dir}: the {what}'s files go in one by one, not as one set: {p.why}")
+    return p
+
 
 @app.command()
 def export(
@@ -38,6 +55,7 @@ def export(
                                                "an FDM profile's bed and tools go into the slicer 3MFs; --format "
                                                "voxels uses its voxel pitch (default j750: 600 x 300 dpi, 27 um layers)."),
     printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML) for --printer."),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ):
     """Build the printable part (one watertight body per material) and write multi-body
     3MF (spec + Bambu/Orca/Cura metadata and an OrcaSlicer project with one filament per
@@ -60,12 +78,16 @@ def export(
     out = check_out_dir(out)
     d, lib = load_input(design, materials_file, scale, crease_materials)
     out_dir = out if out is not None else Path("output") / d.name
+    published = _plan_out(out_dir, force, "export").publish
     profile = None if printer is None else load_printer(printer, printers_file)[1]
     records = with_progress(f"building {d.name} ({state})",
                              lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts)),
-                                                library=lib).export(out_dir, printer=profile))
+                                                library=lib).export(out_dir, printer=profile, force=force))
     if json_out:
-        echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records})
+        from ..exchange.outfolder import MANIFEST
+
+        echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records,
+                   "manifest": str(out_dir / MANIFEST), "published": str(published)})
     else:
         slices = [r for r in records if r["format"] == "png"]
         for r in records:
@@ -88,6 +110,7 @@ def gallery(
     out: str = typer.Option(str(Path("output") / "gallery"), "--out", help="Output directory."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     jobs: Optional[int] = typer.Option(None, "--jobs", min=1, help="Worker processes (default: one per CPU)."),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ):
     """Simulate, check, render and export designs into an offline HTML gallery
     (index.html with an interactive 3D viewer per design, renders, fold animations, plots,
@@ -98,7 +121,6 @@ def gallery(
     Example: foldprint gallery --out output/gallery
     """
     from ..io.load import load_design
-    from ..exchange.files import ensure_dir
     from ..apps.gallery import build_gallery
     from ..model.materials import load_library
     from ..io.templates import list_templates, resolve_design_path
@@ -111,11 +133,11 @@ def gallery(
     if not names:
         raise FoldprintError("no designs given and no templates found")
     loaded = [load_design(resolve_design_path(n), lib) for n in names]
-    ensure_dir(out)
+    _plan_out(out, force, "gallery")
     if OUTPUT_STATE["quiet"]:
-        index = build_gallery(loaded, out, library=lib, jobs=jobs)
+        index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force)
     elif not sys.stderr.isatty():  # a log: one line per finished part
-        index = build_gallery(loaded, out, library=lib, jobs=jobs,
+        index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force,
                               progress=lambda done, total, msg: print(f"[{done}/{total}] {msg}", file=sys.stderr))
     else:
         from rich.console import Console
@@ -124,6 +146,7 @@ def gallery(
         with Progress(TextColumn("gallery"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                       TextColumn("{task.description}"), transient=True, console=Console(stderr=True)) as bar:
             task = bar.add_task(f"building {len(loaded)} design(s)", total=len(loaded) + 2)
-            index = build_gallery(loaded, out, library=lib, jobs=jobs, progress=lambda done, total, msg: bar.update(
-                task, completed=done, total=total, description=msg))
+            index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force,
+                                  progress=lambda done, total, msg: bar.update(task, completed=done, total=total,
+                                                                               description=msg))
     echo_note(f"wrote {index}")

@@ -97,6 +97,28 @@ class Objective(Mode):
     ROBUST = "robust"
 
 
+class OutFolder(Mode):
+    """What an output folder holds before a set is written into it
+    (:mod:`foldprint.exchange.outfolder`): nothing yet (``NEW``: missing; ``EMPTY``), an
+    earlier foldprint ``EXPORT`` (its ``foldprint-set.json`` names every file in it), a
+    ``LEGACY`` export of links into ``.foldprint-sets``, or ``FOREIGN`` files."""
+
+    NEW = "new"
+    EMPTY = "empty"
+    EXPORT = "export"
+    LEGACY = "legacy"
+    FOREIGN = "foreign"
+
+
+class Publish(Mode):
+    """How a staged set lands in its folder: ``WHOLE`` (the staged folder renamed or
+    swapped into place: one step) or ``FILE_BY_FILE`` (into a folder that holds other
+    files, with ``--force``: each file by its own rename)."""
+
+    WHOLE = "whole"
+    FILE_BY_FILE = "file by file"
+
+
 DEFAULT_HINGE_MODEL = HingeModel.ARC
 DEFAULT_METHOD = Method.BOTH
 #: The collision method of the verdicts that fold a design many times or judge it (``check``,

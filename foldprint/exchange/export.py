@@ -5,8 +5,8 @@ animated glTF binary.
 This module only writes: the assembly comes built from :mod:`foldprint.apps.pipeline`.
 
 Everything is built in memory first; only then is the set written, as a whole
-(:func:`~foldprint.exchange.files.write_set`: staging directory, commit journal, renames),
-so a failed or killed export leaves the previous complete set or the new one.
+(:func:`~foldprint.exchange.files.write_set`: staged beside the folder, published by one
+rename), so a failed or killed export leaves the previous complete set or the new one.
 
 File names (``stem`` = the design name, ``<name>_programmed`` for the flat state):
 ``<stem>.3mf`` (spec form + Bambu/Orca/Cura metadata), ``<stem>_prusa.3mf`` (PrusaSlicer),
@@ -212,7 +212,8 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
                     formats: Iterable[str] = DEFAULT_FORMATS, library: MaterialLibrary | None = None,
                     frames: Frames | None = None, fold_times: dict | None = None,
                     placed: PlacedState | None = None, voxels: VoxelPart | None = None,
-                    printer: Printer | None = None, check: CheckSummary | None = None) -> list[dict]:
+                    printer: Printer | None = None, check: CheckSummary | None = None,
+                    force: bool = False) -> list[dict]:
     """Write ``formats`` (see :data:`FORMATS`) of a built assembly into ``out_dir``
     (created if needed; ExportError if it cannot be). Returns one record per file
     written: {path, format, bodies, bytes, ...}; format is one of :data:`FORMATS`,
@@ -221,9 +222,10 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
 
     The files land as a whole (:func:`~foldprint.exchange.files.write_set`): an
     interrupted export leaves the previous complete set or the new one, never a mix, and
-    nothing is created when the export fails."""
+    nothing is created when the export fails. A folder that holds other files is refused
+    unless ``force`` (then the set's files are added beside them, each by its own rename)."""
     files = render(design, assembly, formats, library, frames, fold_times, placed, voxels, printer, check)
-    paths = write_set(out_dir, [(name, data) for name, data, *_ in files])
+    paths = write_set(out_dir, [(name, data) for name, data, *_ in files], force=force)
     return [{"path": str(path), "format": fmt, "bodies": bodies,
              "bytes": len(data) if isinstance(data, bytes) else path.stat().st_size, **more}
             for path, (name, data, fmt, bodies, more) in zip(paths, files)]

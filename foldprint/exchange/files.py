@@ -1,178 +1,392 @@
-"""File writes that land as a whole.
+"""Sets of files that land as a whole: an export, a gallery (docs/output-files.md).
 
-* :func:`write_atomic`: one file, via a temp file in the target directory and ``os.replace``.
-* :func:`write_set`: a set of files (an export), published by ONE atomic rename (issue 20).
+Every output is a plain file in a plain folder; the set is staged beside its folder and
+published by renaming the staged folder into place:
 
-  Layout of ``<out>`` (every name of the set is a fixed relative link through one switch)::
+1. :func:`~foldprint.exchange.outfolder.plan` decides, before anything is written,
+   whether the folder may take the set (a new or empty folder, or one holding only an
+   earlier foldprint export; a folder of other files only with ``force``; never the
+   root, a system folder or a file);
+2. the files are written and flushed into a staging folder beside ``<out>``
+   (``<parent>/.<out-name>.foldprint-tmp-XXXXXXXX``, the same file system), which holds
+   ``foldprint-set.json`` from its first instant and an exclusive ``flock`` while its
+   writer lives; at the end the manifest names every file with its sha256;
+3. with a lock on ``<parent>``, the staged folder takes the place of ``<out>``: one
+   ``rename`` when ``<out>`` is new, one ``renameat2(RENAME_EXCHANGE)`` swap when it holds
+   an earlier export (where the system cannot swap: two renames, the earlier folder moved
+   aside as ``.<out-name>.foldprint-old-XXXXXXXX`` and moved back by the next run if a
+   kill falls between them); the earlier set, now in the staging name, is removed.
 
-      <out>/.foldprint-sets/<id>/NAME      the files of one complete set
-      <out>/.foldprint-current  ->  .foldprint-sets/<id>      the switch
-      <out>/NAME  ->  .foldprint-current/NAME                  what the user opens
-
-  1. every file is written and fsynced into a new ``.foldprint-sets/<id>/``;
-  2. each name of the new set that is not yet a link gets one (it dangles, unreadable,
-     until step 3 if the current set lacks it); an existing regular file of that name
-     (an export written before this layout, or the user's) is first hard-linked into a
-     copy of the current set, the switch turned to that copy, and only then replaced by
-     the link, so its content does not change in this step;
-  3. ``.foldprint-current`` is replaced by a link to the new set: one ``rename``;
-  4. links of names the new set lacks (now dangling) and the other sets are removed.
-
-  At every instant the names that can be opened are exactly one complete set, the
-  previous one (before 3) or the new one (from 3 on); a kill anywhere leaves that state,
-  and the next :func:`write_set` first calls :func:`recover`, which removes what the
-  killed writer left (sets not switched to, dangling links of ours, our temp names).
-  Only names foldprint makes are touched: ``.foldprint-sets/<id>``, ``.foldprint-current``,
-  links whose target is exactly ``.foldprint-current/<their own name>`` and temp files
-  ``.foldprint-XXXXXXXX.tmp``; a planted switch that points anywhere else is refused.
-  A lock (``flock`` on the directory) keeps two writers apart.
+A reader of ``<out>`` therefore sees the earlier complete set or the new one. Into a
+folder of other files (``force``), the set is staged inside it (``.foldprint-tmp-XXXXXXXX``)
+and each file is renamed into place on its own (:data:`~foldprint.core.modes.Publish`
+``FILE_BY_FILE``): files of other names are never touched, a kill can leave a mix of the
+two sets. Every run first removes what killed runs left (:func:`recover`): only folders of
+its own names that carry a foldprint manifest (or are empty) and whose writer is gone.
 """
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
+import hashlib
+import logging
 import os
 import re
 import shutil
-import tempfile
+import stat
 import time
 from pathlib import Path
 from typing import Callable
 
 from ..core.errors import ExportError
+from ..core.files import (TMP_NAME, TMP_PREFIX, TMP_SUFFIX, ensure_dir, fsync_dir, rename_exchange,  # noqa: F401
+                          rename_noreplace, token, write_atomic, write_new)
+from ..core.modes import OutFolder, Publish
+from .outfolder import (LEGACY_CURRENT, LEGACY_SETS, MANIFEST, NAME_MAX, STAGE_INSIDE, FileEntry, Holding,
+                        digest_file, is_ours, manifest_bytes, Plan, plan, valid_name)
 
-SETS = ".foldprint-sets"
-CURRENT = ".foldprint-current"
-TMP_PREFIX, TMP_SUFFIX = ".foldprint-", ".tmp"
-_TMP = re.compile(r"^\.foldprint-[a-z0-9_]{8}\.tmp$")  # tempfile's 8 random characters
-_SET_ID = re.compile(r"^set-[a-z0-9_]{8}$")
+log = logging.getLogger(__name__)
+
 STALE_TMP_S = 60.0  # a write_atomic temp file older than this is left over from a killed run
-NAME_MAX = 255  # bytes, POSIX file systems
-_RESERVED = (SETS, CURRENT)
+_SIBLING_TAIL = re.compile(r"^(tmp|old)-[a-z0-9_]{8}$")
+_RESERVED = (MANIFEST, LEGACY_SETS, LEGACY_CURRENT)
 
 
-def ensure_dir(path: str | Path) -> Path:
-    """Create ``path`` (and parents); ExportError with the reason if impossible."""
-    p = Path(path)
-    try:
-        p.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ExportError(f"{p}: cannot create output directory: {exc.strerror or exc}") from None
-    if not os.access(p, os.W_OK):
-        raise ExportError(f"{p}: output directory is not writable; choose another with --out")
-    return p
-
-
-def _fsync_dir(path: Path) -> None:
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
-def write_atomic(path: str | Path, data: bytes | str) -> Path:
-    """Write ``data`` to ``path`` so that no half-written file is ever left behind."""
-    p = Path(path)
-    if isinstance(data, str):
-        data = data.encode("utf-8")
-    ensure_dir(p.parent)
-    fd, tmp = None, None
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=p.parent)
-        with os.fdopen(fd, "wb") as fh:
-            fd = None
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, p)
-        tmp = None
-    except OSError as exc:
-        raise ExportError(f"{p}: cannot write: {exc.strerror or exc}") from None
-    finally:
-        if fd is not None:
-            os.close(fd)
-        if tmp is not None and os.path.lexists(tmp):
-            os.unlink(tmp)
-    return p
+def sibling_prefix(real: Path) -> str:
+    """``.<out-name>.foldprint-``: the start of the names of ``out``'s staging folders
+    beside it (the name cut so that a whole staging name fits the file system)."""
+    raw = real.name.encode("utf-8", "surrogateescape")[:NAME_MAX - 32]
+    return f".{raw.decode('utf-8', 'ignore')}.foldprint-"
 
 
 def check_names(out: Path, names: list[str]) -> None:
     """ExportError (before anything is created) for names the file system cannot hold."""
     for n in names:
-        if not n or "/" in n or "\0" in n or n in (".", "..") or n in _RESERVED or _TMP.match(n):
+        if n and len(n.encode("utf-8", "surrogateescape")) > NAME_MAX:
+            raise ExportError(f"{out}: file name {n[:40]}... is {len(n.encode('utf-8', 'surrogateescape'))} bytes "
+                              f"long, over the {NAME_MAX}-byte limit of the file system; shorten the design name")
+        if not valid_name(n) or "/" in n or n in _RESERVED or TMP_NAME.match(n) or STAGE_INSIDE.match(n):
             raise ExportError(f"{out}: {n!r} is not a valid file name")
-        if len(n.encode("utf-8")) > NAME_MAX:
-            raise ExportError(f"{out}: file name {n[:40]}... is {len(n.encode('utf-8'))} bytes long, over the "
-                              f"{NAME_MAX}-byte limit of the file system; shorten the design name")
 
 
-def _link_target(name: str) -> str:
-    return f"{CURRENT}/{name}"
-
-
-def _is_our_link(path: Path) -> bool:
+@contextlib.contextmanager
+def _dir_lock(real: Path):
+    """An exclusive ``flock`` on the parent of ``real`` (on ``real`` when the parent cannot
+    be opened): two writers of one folder publish one after the other."""
+    fd = None
+    for p in (real.parent, real):
+        try:
+            fd = os.open(p, os.O_RDONLY | os.O_DIRECTORY)
+            break
+        except OSError:
+            continue
     try:
-        return path.is_symlink() and os.readlink(path) == _link_target(path.name)
+        if fd is not None:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        if fd is not None:
+            os.close(fd)
+
+
+def plan_out(out_dir: str | Path, force: bool = False) -> Plan:
+    """:func:`~foldprint.exchange.outfolder.plan` with the folder's publication lock held,
+    so a concurrent writer's swap is never seen half-way."""
+    with _dir_lock(Path(os.path.realpath(out_dir))):
+        return plan(out_dir, force)
+
+
+def _hold(path: Path, wait: bool = False) -> int | None:
+    """An fd holding an exclusive ``flock`` on the folder ``path`` (None if another holds
+    one, i.e. its writer is alive)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW)
     except OSError:
-        return False
-
-
-def current_set(out: str | Path) -> Path | None:
-    """The directory of the published set, None when there is none; ExportError when
-    ``.foldprint-current`` or ``.foldprint-sets`` is not what foldprint makes (planted)."""
-    out = Path(out)
-    sets, cur = out / SETS, out / CURRENT
-    if os.path.lexists(sets) and (sets.is_symlink() or not sets.is_dir()):
-        raise ExportError(f"{sets}: not a directory foldprint made (a link or a file); remove it or "
-                          "choose another --out")
-    if not os.path.lexists(cur):
         return None
-    target = os.readlink(cur) if cur.is_symlink() else None
-    head, _, tail = (target or "").partition("/")
-    if target is None or head != SETS or not _SET_ID.match(tail):
-        raise ExportError(f"{cur}: not a link foldprint made (it must point to {SETS}/set-XXXXXXXX, "
-                          f"found {'a file' if target is None else repr(target)}); remove it or choose another --out")
-    d = sets / tail
-    if d.is_symlink() or not d.is_dir():
-        raise ExportError(f"{cur}: points to {target!r}, which is not a directory foldprint made; remove "
-                          f"{cur} or choose another --out")
-    return d
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def _remove_set(d: Path) -> None:
+    """Remove a folder of ours, its manifest (or the layout that names it ours) last, so
+    a kill midway leaves a folder the next run still recognises."""
+    last = (LEGACY_SETS, MANIFEST)
+    for e in sorted(os.scandir(d), key=lambda e: (e.name in last, last.index(e.name) if e.name in last else 0)):
+        if e.is_dir(follow_symlinks=False):
+            shutil.rmtree(e.path)
+        else:
+            os.unlink(e.path)
+    os.rmdir(d)
+
+
+def _leftovers(real: Path, beside: bool):
+    """(path, what) of the staging or set-aside folders of ``real`` beside it, or inside it."""
+    prefix = sibling_prefix(real)
+    if beside and real.parent.is_dir():
+        for e in os.scandir(real.parent):
+            if e.name.startswith(prefix) and _SIBLING_TAIL.match(e.name[len(prefix):]):
+                yield Path(e.path), e.name[len(prefix):len(prefix) + 3]
+    if not beside and real.is_dir() and not real.is_symlink():
+        for e in os.scandir(real):
+            if STAGE_INSIDE.match(e.name):
+                yield Path(e.path), "tmp"
 
 
 def recover(out: str | Path) -> list[str]:
-    """Remove what an interrupted writer left in ``out``: sets that were never switched
-    to, links of ours that no longer resolve, our temp files (those of :func:`write_atomic`
-    only when older than ``STALE_TMP_S``). Never touches a name foldprint does not make.
-    Returns what it did (for logs and tests). Call with the directory lock held."""
-    out = Path(out)
+    """Remove what killed runs left for ``out`` (links resolved): staging folders beside
+    and inside it, a set moved aside (put back when ``out`` is missing), our temp files
+    older than ``STALE_TMP_S``. Touches only folders of its own names that are real
+    folders of this user, carry a foldprint manifest (or are empty) and whose writer is
+    gone (no ``flock``). Returns what it did. Call with :func:`_dir_lock` held."""
+    real = Path(os.path.realpath(out))
     done: list[str] = []
-    if not out.is_dir():
-        return done
-    cur = current_set(out)
-    sets = out / SETS
-    if sets.is_dir():
-        for e in os.scandir(sets):
-            if _SET_ID.match(e.name) and e.is_dir(follow_symlinks=False) and (cur is None or e.name != cur.name):
-                shutil.rmtree(e.path, ignore_errors=True)
-                done.append(f"removed {SETS}/{e.name}")
-    now = time.time()
-    for e in os.scandir(out):
-        p = Path(e.path)
-        if _TMP.match(e.name) and (e.is_symlink() or e.is_file(follow_symlinks=False)):
-            if e.is_symlink() or now - e.stat(follow_symlinks=False).st_mtime > STALE_TMP_S:
-                _unlink(p)
+    for beside in (True, False):  # inside after beside: a set put back may hold one
+        for path, what in list(_leftovers(real, beside)):
+            _recover_one(real, path, what, done)
+    if real.is_dir() and not real.is_symlink():
+        now = time.time()
+        for e in os.scandir(real):
+            if TMP_NAME.match(e.name) and e.is_file(follow_symlinks=False) \
+                    and now - e.stat(follow_symlinks=False).st_mtime > STALE_TMP_S:
+                os.unlink(e.path)
                 done.append(f"removed {e.name}")
-        elif _is_our_link(p) and not p.exists():
-            _unlink(p)
-            done.append(f"removed dangling {e.name}")
     return done
+
+
+def _recover_one(real: Path, path: Path, what: str, done: list[str]) -> None:
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return
+    if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid():
+        return
+    fd = _hold(path)
+    if fd is None:
+        return  # a live writer's
+    try:
+        if not is_ours(path):
+            return
+        if what == "old" and not os.path.lexists(real):
+            os.rename(path, real)
+            done.append(f"restored {path.name}")
+        else:
+            _remove_set(path)
+            done.append(f"removed {path.name}")
+    finally:
+        os.close(fd)
+
+
+class StagedSet:
+    """A set of files written into a staging folder and published into ``out_dir`` as a
+    whole when the ``with`` block ends (discarded, leaving ``out_dir`` as it was, when the
+    block raises). Write with :meth:`write` or into :attr:`path` directly (any depth);
+    ``force``: a folder of other files takes the set file by file; ``names``, when known
+    beforehand, are checked against what the folder holds before anything is written.
+
+    >>> import tempfile, os
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     with StagedSet(os.path.join(tmp, "out")) as st:
+    ...         _ = st.write("a.txt", b"a")
+    ...     sorted(os.listdir(os.path.join(tmp, "out"))), os.listdir(tmp)
+    (['a.txt', 'foldprint-set.json'], ['out'])
+    """
+
+    def __init__(self, out_dir: str | Path, force: bool = False, names: list[str] | None = None):
+        self.out, self.force, self.names = Path(out_dir), force, list(names or [])
+        self.path: Path | None = None
+        self.real: Path | None = None
+        self.mode: Publish | None = None
+        self.kind: OutFolder | None = None
+        self.why = ""
+        self._known: dict[str, FileEntry] = {}
+        self._made: list[Path] = []
+        self._fd: int | None = None
+
+    def __enter__(self) -> "StagedSet":
+        first = plan_out(self.out, self.force)
+        self.real, self.mode, self.kind, self.why = first.real, first.publish, first.holding.kind, first.why
+        if self.mode == Publish.FILE_BY_FILE:
+            for name in self.names:
+                _check_room(self.real, self.out, name)
+        try:
+            if self.kind == OutFolder.NEW:
+                self._made = [p for p in self.real.parents if not os.path.lexists(p)]
+                ensure_dir(self.real.parent)
+            with _dir_lock(self.real):
+                recover(self.real)
+                if self.mode == Publish.WHOLE:
+                    stage = self.real.parent / f"{sibling_prefix(self.real)}tmp-{token()}"
+                else:
+                    stage = self.real / f".foldprint-tmp-{token()}"
+                os.mkdir(stage)
+                self.path = stage
+                self._fd = _hold(stage)
+                write_new(stage / MANIFEST, manifest_bytes([], complete=False))  # ours from here on
+        except BaseException as exc:
+            self._discard()
+            raise _export_error(self.out, exc) from None
+        return self
+
+    def write(self, name: str, data: bytes) -> Path:
+        """Write one file of the set (``name`` relative, ``/`` between folders)."""
+        if not valid_name(name) or name == MANIFEST:
+            raise ExportError(f"{self.out}: {name!r} is not a valid file name")
+        p = self.path / name
+        if "/" in name:
+            p.parent.mkdir(parents=True, exist_ok=True)
+        write_new(p, data)
+        self._known[name] = FileEntry(name, len(data), hashlib.sha256(data).hexdigest())
+        return p
+
+    def __exit__(self, typ, exc, tb) -> bool:
+        try:
+            if typ is None:
+                self._publish()
+        except BaseException as err:
+            self._discard()
+            raise _export_error(self.out, err) from None
+        else:
+            if typ is not None:
+                self._discard()
+                if isinstance(exc, OSError) and not isinstance(exc, ExportError):
+                    raise _export_error(self.out, exc) from None  # a disk full while staging
+        finally:
+            if self._fd is not None:
+                os.close(self._fd)
+                self._fd = None
+        return False
+
+    def _entries(self) -> list[FileEntry]:
+        """Every file of the staged set (empty folders pruned); ExportError for anything
+        that is not a regular file (a writer's bug)."""
+        out = []
+        for dirpath, dirnames, filenames in os.walk(self.path, topdown=False):
+            rel = os.path.relpath(dirpath, self.path)
+            base = "" if rel == "." else rel + "/"
+            for f in filenames:
+                name, p = base + f, os.path.join(dirpath, f)
+                if name == MANIFEST:
+                    continue
+                if os.path.islink(p) or not os.path.isfile(p) or TMP_NAME.match(f):
+                    raise ExportError(f"{self.out}: {name} in the staged set is not a finished regular file")
+                known = self._known.get(name)
+                size = os.path.getsize(p)
+                out.append(known if known is not None and known.size == size else
+                           FileEntry(name, size, digest_file(p)))
+            for d in dirnames:
+                if os.path.islink(os.path.join(dirpath, d)):
+                    raise ExportError(f"{self.out}: {base + d} in the staged set is a link")
+                if not os.listdir(os.path.join(dirpath, d)):
+                    os.rmdir(os.path.join(dirpath, d))
+        return out
+
+    def _publish(self) -> None:
+        entries = self._entries()
+        if self.mode == Publish.WHOLE:
+            write_atomic(self.path / MANIFEST, manifest_bytes(entries))
+        for dirpath, _, _ in os.walk(self.path, topdown=False):
+            fsync_dir(dirpath)
+        with _dir_lock(self.real):
+            recover(self.real)
+            now = plan(self.out, self.force)
+            if (now.real, now.publish) != (self.real, self.mode):
+                raise ExportError(f"{self.out}: changed while the set was written (it now holds: "
+                                  f"{now.holding.kind}); run the command again")
+            if now.publish == Publish.WHOLE:
+                self._swap(now.holding)
+            else:
+                self._in_place(now.holding, entries)
+            fsync_dir(self.real.parent)
+
+    def _swap(self, holding: Holding) -> None:
+        stage, real = self.path, self.real
+        if holding.kind == OutFolder.NEW:
+            try:
+                rename_noreplace(stage, real)
+            except FileExistsError:
+                raise ExportError(f"{self.out}: appeared while the set was written; run the command again") from None
+            self.path = None
+            return
+        try:
+            os.chmod(stage, stat.S_IMODE(os.stat(real).st_mode))  # the folder keeps its permissions
+        except OSError:
+            pass
+        if rename_exchange(stage, real):
+            old = stage  # the staging name now holds the earlier set
+        else:
+            old = real.parent / f"{sibling_prefix(real)}old-{token()}"
+            os.rename(real, old)
+            try:
+                os.rename(stage, real)
+            except BaseException:
+                os.rename(old, real)  # the earlier set back in its place
+                raise
+        self.path = None
+        fsync_dir(real.parent)
+        try:
+            _remove_set(old)
+        except OSError as exc:  # published; the next run removes what is left
+            log.warning("%s: could not remove the earlier set %s: %s", self.out, old, exc)
+
+    def _in_place(self, holding: Holding, entries: list[FileEntry]) -> None:
+        """Into a folder of other files: each file of the set by its own rename; the
+        earlier export's files the set drops (unchanged ones) are removed; nothing else
+        is touched."""
+        real, stage = self.real, self.path
+        new = {e.name: e for e in entries}
+        for name in new:
+            _check_room(real, self.out, name)
+        before = {n: s for n, s in holding.ours.items() if s}
+        pending = entries + [FileEntry(n, os.path.getsize(real / n), s) for n, s in before.items() if n not in new]
+        write_atomic(real / MANIFEST, manifest_bytes(pending, complete=False, before=before))
+        for name in sorted(new):
+            (real / name).parent.mkdir(parents=True, exist_ok=True)
+            os.replace(stage / name, real / name)
+        for name in holding.ours:
+            if name not in new:
+                _unlink(real / name)
+                _prune(real, name)
+        if holding.kind == OutFolder.LEGACY:
+            _unlink(real / LEGACY_CURRENT)
+            shutil.rmtree(real / LEGACY_SETS, ignore_errors=True)
+        write_atomic(real / MANIFEST, manifest_bytes(entries))
+        fsync_dir(real)
+        _remove_set(stage)
+        self.path = None
+
+    def _discard(self) -> None:
+        """Take back what this set made: its staging folder, the folders it created."""
+        if self.path is not None and os.path.isdir(self.path):
+            try:
+                _remove_set(self.path)
+            except OSError:
+                shutil.rmtree(self.path, ignore_errors=True)
+        self.path = None
+        for p in self._made:  # deepest first: only folders this set created, if empty
+            try:
+                p.rmdir()
+            except OSError:
+                break
+
+
+def _check_room(real: Path, given: Path, name: str) -> None:
+    """ExportError when a folder stands where a file of the set goes, or a file or link
+    where it needs a folder."""
+    target = real / name
+    if target.is_dir() and not target.is_symlink():
+        raise ExportError(f"{given / name}: is a directory, where the export writes a file; move it or choose "
+                          "another --out")
+    parts = name.split("/")[:-1]
+    for k in range(1, len(parts) + 1):
+        p = real.joinpath(*parts[:k])
+        if os.path.lexists(p) and (p.is_symlink() or not p.is_dir()):
+            raise ExportError(f"{given.joinpath(*parts[:k])}: is a file or link, where the export needs a folder; "
+                              "move it or choose another --out")
 
 
 def _unlink(p: Path) -> None:
@@ -182,163 +396,37 @@ def _unlink(p: Path) -> None:
         pass
 
 
-class _Lock:
-    """An exclusive ``flock`` on a directory (released on close or process death)."""
-
-    def __init__(self, path: Path):
-        self.fd = os.open(path, os.O_RDONLY)
-        fcntl.flock(self.fd, fcntl.LOCK_EX)
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        os.close(self.fd)
-
-
-def _symlink_replace(target: str, dest: Path) -> None:
-    """Make ``dest`` a symlink to ``target`` by one rename (atomic)."""
-    tmp = Path(tempfile.mktemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=dest.parent))
-    os.symlink(target, tmp)
-    try:
-        os.replace(tmp, dest)
-    except BaseException:
-        _unlink(tmp)
-        raise
-
-
-def _new_set(out: Path) -> Path:
-    (out / SETS).mkdir(exist_ok=True)
-    return Path(tempfile.mkdtemp(prefix="set-", dir=out / SETS))
-
-
-def _switch(out: Path, set_dir: Path) -> None:
-    _fsync_dir(set_dir)
-    _fsync_dir(out / SETS)
-    _symlink_replace(f"{SETS}/{set_dir.name}", out / CURRENT)
-    _fsync_dir(out)
-
-
-def _adopt_regular_files(out: Path, names: list[str]) -> None:
-    """Names of the new set held by regular files (a pre-switch export, the user's): copy
-    the current set plus these files into a set of their own, switch to it, then turn each
-    file into a link; the content behind every name stays the same throughout."""
-    plain = [n for n in names if not (out / n).is_symlink() and (out / n).is_file()]
-    if not plain:
-        return
-    cur = current_set(out)
-    legacy = _new_set(out)
-    sources = {e.name: Path(e.path) for e in (os.scandir(cur) if cur else []) if e.is_file(follow_symlinks=False)}
-    sources.update({n: out / n for n in plain})  # a plain file wins over the set's file of its name
-    for name, src in sources.items():
+def _prune(real: Path, name: str) -> None:
+    """Remove the folders of ``name`` left empty, deepest first."""
+    for p in list((real / name).parents)[:name.count("/")]:
         try:
-            os.link(src, legacy / name, follow_symlinks=False)
+            p.rmdir()
         except OSError:
-            shutil.copy2(src, legacy / name)
-    _switch(out, legacy)
-    for n in plain:
-        _symlink_replace(_link_target(n), out / n)
-    _fsync_dir(out)
-    if cur is not None:
-        shutil.rmtree(cur, ignore_errors=True)
+            return
 
 
-def write_set(out_dir: str | Path, files: list[tuple[str, bytes | Callable[[], bytes]]]) -> list[Path]:
-    """Write ``files`` (name, bytes) into ``out_dir`` as a whole (see the module doc).
-    ``bytes`` may be a callable returning them: it is called when its file is staged, in
-    the order of ``files``, so a large set (a voxel slice stack) is never all in memory.
+def _export_error(out: Path, exc: BaseException) -> BaseException:
+    if isinstance(exc, OSError) and not isinstance(exc, ExportError):
+        return ExportError(f"{out}: cannot write: {exc.strerror or exc}")
+    return exc
 
-    On an error nothing of the new set is left, and a directory this call created is
-    removed again."""
+
+def write_set(out_dir: str | Path, files: list[tuple[str, bytes | Callable[[], bytes]]], *,
+              force: bool = False) -> list[Path]:
+    """Write ``files`` (name, bytes) into ``out_dir`` as a whole (:class:`StagedSet`; see
+    the module doc). ``bytes`` may be a callable returning them: it is called when its
+    file is staged, in the order of ``files``, so a large set (a voxel slice stack) is
+    never all in memory. Returns the paths of the files in ``out_dir`` (which also gets
+    ``foldprint-set.json``, the set's manifest).
+
+    On an error nothing of the new set is left, ``out_dir`` keeps what it held, and
+    folders this call created are removed again."""
     out = Path(out_dir)
     names = [n for n, _ in files]
     check_names(out, names)
     if len(set(names)) != len(names):
         raise ExportError(f"{out}: two files of one export share a name")
-    for n in names:
-        if (out / n).is_dir() and not (out / n).is_symlink():
-            raise ExportError(f"{out / n}: is a directory, where the export writes a file; move it or "
-                              "choose another --out")
-    missing = [p for p in [out, *out.parents] if not p.exists()]
-    ensure_dir(out)
-    stage, made_links, switched = None, [], False
-    try:
-        with _Lock(out):
-            recover(out)
-            stage = _new_set(out)
-            for name, data in files:
-                if callable(data):  # a streamed file (voxel slices): made now, one at a time
-                    data = data()
-                with open(stage / name, "wb") as fh:
-                    fh.write(data)
-                    fh.flush()
-                    os.fsync(fh.fileno())
-                os.chmod(stage / name, 0o644)
-            _adopt_regular_files(out, names)
-            for n in names:
-                if not _is_our_link(out / n):
-                    _symlink_replace(_link_target(n), out / n)
-                    made_links.append(n)
-            _switch(out, stage)
-            switched = True
-            keep = set(names)
-            for e in os.scandir(out):
-                if e.name not in keep and _is_our_link(Path(e.path)):
-                    _unlink(Path(e.path))
-            for e in os.scandir(out / SETS):
-                if _SET_ID.match(e.name) and e.name != stage.name and e.is_dir(follow_symlinks=False):
-                    shutil.rmtree(e.path, ignore_errors=True)
-            _fsync_dir(out)
-    except BaseException as exc:
-        if not switched:
-            if stage is not None:
-                shutil.rmtree(stage, ignore_errors=True)
-            for n in made_links:
-                if _is_our_link(out / n) and not (out / n).exists():
-                    _unlink(out / n)
-            if not os.path.lexists(out / CURRENT):
-                try:  # the sets folder this call made in an existing directory
-                    (out / SETS).rmdir()
-                except OSError:
-                    pass
-            if missing:  # this call created out: take back what it made, then the directories
-                for extra in (out / SETS, out / CURRENT):
-                    if extra.is_symlink():
-                        _unlink(extra)
-                    elif extra.is_dir():
-                        shutil.rmtree(extra, ignore_errors=True)
-            for p in missing:  # deepest first: only directories this call created, if empty
-                try:
-                    p.rmdir()
-                except OSError:
-                    break
-        if isinstance(exc, OSError) and not isinstance(exc, ExportError):
-            raise ExportError(f"{out}: cannot write: {exc.strerror or exc}") from None
-        raise
+    with StagedSet(out, force, names) as st:
+        for name, data in files:
+            st.write(name, data() if callable(data) else data)
     return [out / n for n in names]
-
-
-def flatten(out_dir: str | Path) -> None:
-    """Turn a published export folder into plain files: each link of ours is replaced by
-    the file it shows (a hard link, else a copy; one rename per name, its content never
-    changes), then the switch and the sets folder are removed. For folders served as a web
-    site (the gallery), whose hosts often skip or refuse dot-folders; the next
-    :func:`write_set` into it adopts the plain files again."""
-    out = Path(out_dir)
-    with _Lock(out):
-        cur = current_set(out)
-        if cur is None:
-            return
-        for e in os.scandir(out):
-            p = Path(e.path)
-            if not (_is_our_link(p) and (cur / e.name).is_file()):
-                continue
-            tmp = Path(tempfile.mktemp(prefix=TMP_PREFIX, suffix=TMP_SUFFIX, dir=out))
-            try:
-                os.link(cur / e.name, tmp)
-            except OSError:
-                shutil.copy2(cur / e.name, tmp)
-            os.replace(tmp, p)
-        _fsync_dir(out)
-        _unlink(out / CURRENT)
-        shutil.rmtree(out / SETS, ignore_errors=True)

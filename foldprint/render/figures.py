@@ -1,5 +1,5 @@
 """Figures (matplotlib, headless Agg backend). Functions return the Figure; the
-``save_*`` helpers write PNGs through :mod:`foldprint.exchange.files`."""
+``save_*`` helpers write PNGs through :func:`foldprint.core.files.write_atomic`."""
 
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def figure_bytes(fig, fmt: str = "png", dpi: int = 110) -> bytes:
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    from ..exchange.files import write_atomic
+    from ..core.files import write_atomic
 
     fmt = Path(path).suffix.lstrip(".").lower() or "png"
     return write_atomic(path, figure_bytes(fig, fmt, dpi))
