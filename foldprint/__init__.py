@@ -9,12 +9,17 @@ __version__ = "0.1.0"
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
-from .model.design import Design, Goal, Hinge, HingeStyle, Panel, Process, strip, validate  # noqa: E402
-from .io.design_io import design_from_dict, design_to_dict, design_to_toml  # noqa: E402
-from .io.load import load_design  # noqa: E402
-from .model.materials import Material, MaterialLibrary, default_library, load_library  # noqa: E402
-from .model.composition import composition_model, fraction_profile, vero  # noqa: E402
-from .physics.recovery import fold_time, recovery_curve, recovery_ratio  # noqa: E402
+#: the public API, imported on first use (``import foldprint`` and the command line's
+#: start-up stay free of numpy, shapely and the geometry libraries until a name is used)
+_API = {
+    "model.design": ("Design", "Goal", "Hinge", "HingeStyle", "Panel", "Process", "strip", "validate"),
+    "io.design_io": ("design_from_dict", "design_to_dict", "design_to_toml"),
+    "io.load": ("load_design",),
+    "model.materials": ("Material", "MaterialLibrary", "default_library", "load_library"),
+    "model.composition": ("composition_model", "fraction_profile", "vero"),
+    "physics.recovery": ("fold_time", "recovery_curve", "recovery_ratio"),
+}
+_WHERE = {name: mod for mod, names in _API.items() for name in names}
 
 __all__ = ["Design", "Goal", "Hinge", "HingeStyle", "Panel", "Process", "strip", "validate",
            "design_from_dict", "design_to_dict", "design_to_toml", "load_design", "Material",
@@ -45,9 +50,17 @@ _MOVED = {
 }
 
 
-def __getattr__(name: str):
-    if name in _MOVED:
-        import importlib
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE) | set(_MOVED))
 
+
+def __getattr__(name: str):
+    import importlib
+
+    if name in _WHERE:
+        value = getattr(importlib.import_module(f"{__name__}.{_WHERE[name]}"), name)
+        globals()[name] = value  # the next lookup is a plain attribute
+        return value
+    if name in _MOVED:
         return importlib.import_module(f"{__name__}.{_MOVED[name]}")
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
