@@ -74,7 +74,7 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
                   progress: Progress | None = None, *,
                   library: MaterialLibrary | None = None, dt: float = CHECK_DT_S,
                   gif_frames: int = GIF_FRAMES, jobs: int | None = None, samples: int = CHECK_SAMPLES,
-                  seed: int = CHECK_SEED) -> Path:
+                  seed: int = CHECK_SEED, activity: Callable[[str], None] | None = None) -> Path:
     """Simulate, check, render and export ``designs`` into a static HTML gallery.
 
     Parameters
@@ -98,9 +98,13 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
         Worker processes (default: the number of CPUs); designs are built in parallel,
         the page is the same whatever the number.
     samples, seed : int
-        Monte-Carlo samples of the jam probability per design and their seed (default:
-        what ``foldprint check`` runs, :data:`foldprint.core.constants.CHECK_SAMPLES` and
+        The most Monte-Carlo samples of each design's jam test (per sigma scale) and their
+        seed (default: what ``foldprint check`` runs, its sequential test at most
+        :data:`foldprint.core.constants.CHECK_SAMPLES` and
         :data:`~foldprint.core.constants.CHECK_SEED`); 0 samples skips it.
+    activity : callable, optional
+        ``activity(text)``, called as the jam tests consume samples: what the pool is
+        doing now ("jam tests: 12 of 30 decided, 1 204 samples"), for a live status line.
 
     Returns
     -------
@@ -123,7 +127,8 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     step = _Steps(len(designs) + 2, progress)
     for name in ASSETS:
         write_atomic(out / "viewer" / name, asset_bytes(name))
-    materials_img, entries = _build_all(designs, out, dirnames, lib, dt, gif_frames, samples, seed, jobs, step)
+    materials_img, entries = _build_all(designs, out, dirnames, lib, dt, gif_frames, samples, seed, jobs, step,
+                                        activity)
     for entry, design in zip(entries, designs):
         entry.design = design  # the worker's copy came back pickled; keep the caller's
 
@@ -147,11 +152,26 @@ class _Steps:
             self.progress(self.done, self.total, msg)
 
 
+class _Tests:
+    """The jam tests of the gallery's pool as one status line for ``activity``."""
+
+    def __init__(self, streams: int, activity: Callable[[str], None] | None):
+        self.streams, self.activity, self.at = streams, activity, {}
+
+    def __call__(self, st) -> None:
+        self.at[(st.job, st.scale)] = st
+        if self.activity is not None:
+            decided = sum(s.done for s in self.at.values())
+            used = sum(s.samples for s in self.at.values())
+            self.activity(f"jam tests: {decided} of {self.streams} decided, {used} samples used")
+
+
 def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: MaterialLibrary, dt: float,
-               gif_frames: int, samples: int, seed: int, jobs: int | None, step: "_Steps"):
+               gif_frames: int, samples: int, seed: int, jobs: int | None, step: "_Steps", activity=None):
     """The material chart and every design's entry, built in one process pool with every
     design's Monte-Carlo (:func:`foldprint.simulation.batch.run_batch`)."""
     from ..simulation.batch import MonteCarloJob, run_batch
+    from ..simulation.verdict import jam_test
 
     # the workers fork from here: import what they all need once, before the fork
     from ..checks import rules as checks  # noqa: F401
@@ -159,17 +179,26 @@ def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: M
     from ..render import figures as render, anim as render_anim, viewer  # noqa: F401
     from ..simulation import simulate  # noqa: F401
 
-    # one pool for everything: every design's Monte-Carlo chunks (check's samples at 1x
-    # and each sweep scale, costliest first), each design's build once its outcomes are
-    # in, and the material chart (foldprint.simulation.batch)
-    mc = [MonteCarloJob(d, samples, seed, (1.0, *CHECK_SCALES), dt=dt) for d in designs]
+    # one pool for everything: every design's jam test at 1x and each sweep scale (chunks
+    # submitted as workers free up, costliest first, none after a test decides), each
+    # design's build once its tests are decided, and the material chart
+    # (foldprint.simulation.batch)
+    test = jam_test(max_samples=samples) if samples else None  # check's test, default thresholds
+    mc = [MonteCarloJob(d, samples, seed, (1.0, *CHECK_SCALES), dt=dt, test=test) for d in designs]
     labels = [f"{d.name}: simulated, checked, rendered, exported" for d in designs]
 
     def after(i, pre):
         return build_design, (designs[i], out, dirnames[i], lib, dt, gif_frames, samples, seed, pre)
 
+    tests = _Tests(sum(len(job.scales) for job in mc if job.samples), activity)
+
+    def report(kind, what):
+        if kind == "samples":
+            tests(what)
+        else:
+            step("material chart" if kind == "task" else labels[what])
+
     _, entries, (materials_img,) = run_batch(
         mc, library=lib, workers=max(1, jobs or os.cpu_count() or 1), after=after,
-        tasks=[(chart_task, (out, lib))],
-        progress=lambda kind, i: step("material chart" if kind == "task" else labels[i]))
+        tasks=[(chart_task, (out, lib))], progress=report)
     return materials_img, entries

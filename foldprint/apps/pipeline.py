@@ -41,14 +41,17 @@ from ..physics.recovery import hinge_fold_times
 from ..model.composition import fraction_profile
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
-                          AfterContact, HingeModel, Method, State, parse)
+                          AfterContact, HingeModel, Method, SampleRule, State, parse)
 from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, draw_samples, jam_probability, outcome_of,
                                  sample_drive)
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
+from ..simulation.sequential import jam_tests
+from ..simulation.verdict import jam_test
 from ..simulation.simulate import SimulationResult, simulate
 
 Progress = Callable[[str, int, int], None]
-"""``progress(stage, done, total)``: the Monte-Carlo stages report their samples."""
+"""``progress(stage, done, total)``: the Monte-Carlo stages report their samples (a jam
+test, stage ``"jam test at 1x"`` etc., its samples of the maximum, then (n, n) once decided)."""
 
 
 @dataclass(frozen=True)
@@ -56,7 +59,9 @@ class EvalOptions:
     """How a design is evaluated; the defaults are ``foldprint check``'s
     (:mod:`foldprint.core.constants`). ``method`` is the collision method of the
     evaluation's simulation (check: the 3D swept check; ``simulate`` passes ``both``);
-    ``samples`` = 0 skips the jam probability; ``scales``: the sigma scales of the
+    ``samples`` = 0 skips the jam probability, else it is the most samples of check's
+    sequential test (``sample_rule`` SEQUENTIAL) or the count of ``robust``'s fixed-size
+    estimate (FIXED); ``scales``: the sigma scales of the
     sensitivity sweep beside the estimate (empty: none; 1 is the estimate itself, check
     sweeps :data:`CHECK_SCALES` and 1); ``state``, ``formats``: what
     :meth:`Evaluation.export` writes by default."""
@@ -68,6 +73,7 @@ class EvalOptions:
     bath_c: float | None = None
     duration: float | None = None
     samples: int = CHECK_SAMPLES
+    sample_rule: SampleRule = SampleRule.SEQUENTIAL
     seed: int = CHECK_SEED
     scales: tuple[float, ...] = ()
     thresholds: Thresholds = field(default_factory=Thresholds)
@@ -81,6 +87,7 @@ class EvalOptions:
         object.__setattr__(self, "method", parse(Method, self.method, "method"))
         object.__setattr__(self, "after_contact", parse(AfterContact, self.after_contact, "after_contact"))
         object.__setattr__(self, "state", parse(State, self.state, "state"))
+        object.__setattr__(self, "sample_rule", parse(SampleRule, self.sample_rule, "sample_rule"))
         object.__setattr__(self, "scales", tuple(float(k) for k in self.scales))
         object.__setattr__(self, "formats", tuple(self.formats))
 
@@ -306,11 +313,24 @@ class Evaluation:
 
         return self._stage("clearance", run)
 
+    def run_jam_tests(self) -> dict[float, RobustResult]:
+        """Check's sequential jam test (the options' thresholds, at most ``options.samples``)
+        at 1x and each of ``options.scales``, all at once, by scale (:func:`jam_tests`)."""
+        o, sim, th = self.options, self.simulation, self.options.thresholds
+        report = None if self.progress is None else (lambda st: self.progress(
+            f"jam test at {st.scale:g}x", st.samples, st.samples if st.done else st.max_samples))
+        return self._stage("jam_tests", lambda: jam_tests(
+            self.design, jam_test(th.warning, th.error, o.samples), (1.0, *o.scales), o.seed, scatter=self.scatter,
+            library=self.library, hinge_model=o.hinge_model, dt=o.dt, nominal=sim, workers=o.workers,
+            mapper=self.mapper, progress=report))
+
     def run_robust(self, progress: Callable[[int, int], None] | None = None) -> RobustResult | None:
         """:attr:`robust`, reporting to ``progress(done, total)`` if it is computed now."""
         o = self.options
         if not o.samples:
             return None
+        if o.sample_rule == SampleRule.SEQUENTIAL:
+            return self.run_jam_tests()[1.0]
         sim = self.simulation
         return self._stage("robust", lambda: jam_probability(
             self.design, o.samples, o.seed, scatter=self.scatter, library=self.library, hinge_model=o.hinge_model,
@@ -319,7 +339,8 @@ class Evaluation:
 
     @property
     def robust(self) -> RobustResult | None:
-        """The jam probability under scatter (None when ``options.samples`` is 0)."""
+        """The jam probability under scatter (None when ``options.samples`` is 0): check's
+        jam test at the model's spreads, or robust's fixed-size estimate."""
         return self.run_robust()
 
     def run_sweep(self, progress: Callable[[int, int], None] | None = None) -> tuple[SweepPoint, ...]:
@@ -328,13 +349,16 @@ class Evaluation:
         if r is None or not self.options.scales:
             return ()
         o = self.options
+        if o.sample_rule == SampleRule.SEQUENTIAL:
+            return tuple(SweepPoint(k, self.run_jam_tests()[k]) for k in sorted({1.0, *o.scales}))
         return self._stage("sweep", lambda: sweep(
             self.design, r, o.scales, library=self.library, dt=o.dt, workers=o.workers,
             mapper=self.mapper, progress=self._report("sigma scales", progress)))
 
     @property
     def sweep(self) -> tuple[SweepPoint, ...]:
-        """The estimate with the spreads times each of ``options.scales`` (1 reuses :attr:`robust`)."""
+        """The verdict or estimate with the spreads times each of ``options.scales`` (1 is
+        :attr:`robust`): check's jam test at each, or robust's estimate."""
         return self.run_sweep()
 
     def run_contributions(self, progress: Callable[[int, int], None] | None = None) -> Contributions | None:
