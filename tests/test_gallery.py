@@ -220,7 +220,7 @@ def test_page_reports_status_collision_hinges_and_checks(gallery):
     a, b = failing["first_collision"]["panels"]
     bad = " ".join(page.text[f"d-{FAILING}"])
     assert "Does not complete" in bad
-    assert f"panels {a} and {b} touch at {t:.3f} s" in bad
+    assert f"panels {a} and {b} touch at {t:.2f} s" in bad
     assert "NOT met" in bad  # the two holes
     errors = json.loads((out / FAILING / "check.json").read_text())["errors"]
     assert f"{errors} error(s)" in bad and "FP170" in bad  # the check summary with messages
@@ -557,7 +557,9 @@ def test_gallery_gives_the_verdict_of_foldprint_check(gallery, capsys):
     cli = json.loads(capsys.readouterr().out)
     mine = json.loads((out / JAMS / "check.json").read_text())
     assert code == 1 and cli["ok"] is False and any(f["code"] == "FP180" for f in cli["findings"])
-    assert cli["robust"]["samples"] == constants.CHECK_SAMPLES and cli["robust"]["seed"] == constants.CHECK_SEED
+    test = cli["robust"]["test"]  # check's sequential test: its maximum, its stop
+    assert test["max_samples"] == constants.CHECK_SAMPLES and cli["robust"]["seed"] == constants.CHECK_SEED
+    assert cli["robust"]["samples"] == test["samples"] and test["verdict"] == "error"
     assert mine == cli  # every finding, the estimate, its interval, the colliding pairs, the nominal fold
     row = next(r for r in re.findall(r"<tr>(.*?)</tr>", index.read_text(encoding="utf-8"), re.S)
                if f'href="#d-{JAMS}"' in r)
@@ -565,8 +567,9 @@ def test_gallery_gives_the_verdict_of_foldprint_check(gallery, capsys):
     lo, hi = cli["robust"]["ci95"]
     codes = ", ".join(dict.fromkeys(f["code"] for f in cli["findings"] if f["severity"] == "error"))
     assert f"fails (exit 1): {codes}" in text
-    assert (f"{100 * cli['robust']['jam_probability']:.1f} % (95 % CI {100 * lo:.1f} %\u2013{100 * hi:.1f} %)"
-            in text)
+    n, k = cli["robust"]["samples"], cli["robust"]["jams"]
+    assert (f"{100 * cli['robust']['jam_probability']:.1f} % (95 % interval {100 * lo:.1f}-{100 * hi:.1f} %), "
+            f"{k} of {n} samples jam" in text)  # the number check prints, in the summary
     assert "completes" in text and "does not complete" not in text  # the nominal fold, beside the verdict
     good = next(r for r in re.findall(r"<tr>(.*?)</tr>", index.read_text(encoding="utf-8"), re.S)
                 if 'href="#d-helix_graded"' in r)
@@ -602,8 +605,8 @@ def test_design_page_shows_the_distribution_of_the_samples(gallery):
         assert sum(counts.values()) == mc["failures"]["collision"] <= mc["jams"]
         for (a, b), k in counts.items():
             times = [o["contact_s"] for o in mc["outcomes"] if o["pair"] == [a, b]]
-            assert re.search(rf"{a}\u2013{b} {k} {100 * k / mc['samples']:.1f} % {min(times):.3f} s "
-                             rf"{np.median(times):.3f} s {max(times):.3f} s", text), (name, a, b)
+            assert re.search(rf"{a}\u2013{b} {k} {100 * k / mc['samples']:.1f} % {min(times):.2f} s "
+                             rf"{np.median(times):.2f} s {max(times):.2f} s", text), (name, a, b)
         ft = [o["fold_time_s"] for o in mc["outcomes"] if o["fold_time_s"] is not None]
         if ft:
             p5, p50, p95 = np.percentile(ft, [5, 50, 95])

@@ -202,6 +202,8 @@ def _first_crossings(sprt: Sprt, cumk: np.ndarray, full: np.ndarray):
     0 below, 1 above), the samples at acceptance (m + 1 when none) and whether it was the
     truncation (rows where ``full``: the stream reached the maximum)."""
     s, m = cumk.shape
+    if m == 0:  # no sample yet
+        return np.full(s, -1), np.ones(s, dtype=np.int64), np.zeros(s, dtype=bool)
     n = np.arange(1, m + 1)
     llr = sprt.llr(cumk, n[None, :])
     up, down = llr >= sprt.upper, llr <= sprt.lower
@@ -212,8 +214,7 @@ def _first_crossings(sprt: Sprt, cumk: np.ndarray, full: np.ndarray):
     side = np.where(crossed, up[rows, np.minimum(idx, m - 1)].astype(int), -1)
     at = idx + 1
     trunc = ~crossed & full
-    if m:
-        side = np.where(trunc, (llr[:, -1] >= sprt.midpoint).astype(int), side)
+    side = np.where(trunc, (llr[:, -1] >= sprt.midpoint).astype(int), side)
     at = np.where(trunc, m, at)
     return side, at, trunc
 
