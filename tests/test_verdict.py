@@ -109,13 +109,13 @@ CASES = [(0.02, "not pass"), (0.025, "not pass"), (0.075, "pass"), (0.10, "pass"
 def test_error_rates_are_what_is_stated(p, wrong):
     """20 000 Bernoulli streams per p (one seed; pure numpy): the share of wrong verdicts
     stays below 5 % plus three standard errors of the simulation; the average sample
-    number stays below what docs/verdict.md states (165)."""
+    number stays below what docs/verdict.md states (170)."""
     n = 20_000
     o = operating_point(p, T, n, seed=int(p * 1000))
     rate = {"not pass": 1 - o.passed, "pass": o.passed, "error": o.error, "not error": 1 - o.error, None: 0.0}[wrong]
     limit = 0.05 + 3 * math.sqrt(0.05 * 0.95 / n)
     assert rate <= limit, (p, wrong, rate)
-    assert o.average_samples <= 165 and o.passed + o.warning + o.error == pytest.approx(1.0)
+    assert o.average_samples <= 170 and o.passed + o.warning + o.error == pytest.approx(1.0)
 
 
 def test_operating_point_matches_the_one_stream_path():

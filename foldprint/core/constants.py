@@ -32,9 +32,9 @@ RECOVERY_HORIZON_S = 600.0
 #: The most Monte-Carlo samples ``foldprint check`` (and the gallery, which runs the same
 #: check) draws for its jam verdict, a sequential test that stops as soon as the answer is
 #: known at its stated error rates (:mod:`foldprint.simulation.verdict`, ``docs/verdict.md``);
-#: ``--samples N`` sets it. Our choice: 400 (25 chunks) is about 2.5x the test's largest
-#: average sample number (about 165, at a jam probability near 4.6 %, the warning test's
-#: hardest case, where 7 % of runs reach the maximum; under 1 % do at the edges of the
+#: ``--samples N`` sets it. Our choice: 400 (25 chunks) is about 2.4x the test's largest
+#: average sample number (167, at a jam probability near 4.6 %, the warning test's
+#: hardest case, where 7.6 % of runs reach the maximum; under 1 % do at the edges of the
 #: indifference regions, and the error rates hold with the truncation:
 #: ``benchmarks/bench_verdict.py``, ``docs/verdict.md``), and a marginal design gets up to
 #: 5x the 80 samples of a fixed-size check whose 95 % intervals at 5 % and 20 % just part.
