@@ -2,6 +2,7 @@
 verdict and cost, and the gallery's.
 
     python benchmarks/bench_check.py [--before REV] [--templates a,b] [--no-gallery] [--jobs 2] [--json]
+    python benchmarks/bench_check.py --write-doc   # the table of docs/verdict.md from docs/data/bench_check.json
 
 "Before" is the code of ``REV`` (default: the merge base with ``main``, the fixed-size
 check: 80 samples at 1x, 0.5x and 2x), exported with ``git archive`` into a temporary
@@ -30,6 +31,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "docs" / "data" / "bench_check.json"
+DOC = ROOT / "docs" / "verdict.md"
+BEGIN, END = "<!-- bench_check:begin -->", "<!-- bench_check:end -->"
 #: Targets (issue 29), wall seconds on two idle cores.
 TARGETS = {"helix_uniform": 3.0, "helix_graded": 10.0, "miura_3x3": 15.0, "gallery": 30.0}
 CODES = {"FP180": "error", "FP181": "warning", "FP182": "pass"}
@@ -95,6 +98,30 @@ def _fmt(v: dict) -> str:
             f"{100 * v['estimate']:.1f} % ({100 * lo:.1f}-{100 * hi:.1f} %); {sc}")
 
 
+def _cell(v: dict) -> str:
+    lo, hi = v["interval"]
+    sc = " / ".join(f"{s['verdict']} {s['jams']}/{s['samples']}" for s in v["scales"].values())
+    return (f"{v['exit']}, **{v['verdict']}**{' (truncated)' if v['truncated'] else ''} {v['jams']}/{v['samples']} "
+            f"= {100 * v['estimate']:.1f} % ({100 * lo:.1f}-{100 * hi:.1f} %); 0.5x / 2x: {sc}")
+
+
+def doc_table(out: dict) -> str:
+    """The before/after table of docs/verdict.md from a run's JSON."""
+    rows = "".join(f"| `{name}` | {_cell(r['before'])} | {_cell(r['after'])} | {r['before']['cpu_s']:.1f} / "
+                   f"{r['after']['cpu_s']:.1f} ({r['cpu_ratio']:.2f}x) |\n" for name, r in out["checks"].items())
+    g = out.get("gallery")
+    tail = ("" if g is None else
+            f"\nThe gallery (`foldprint --quiet gallery --jobs 2`, every template): before {g['before']['wall_s']} s "
+            f"wall, {g['before']['cpu_s']} CPU-s; after {g['after']['wall_s']} s wall, {g['after']['cpu_s']} CPU-s "
+            f"({g['cpu_ratio']}x fewer CPU-s).\n")
+    return ("| template | before: exit, verdict at 1x, jams/samples = estimate (95 % Wilson) | after: exit, verdict "
+            "at 1x, jams/samples used = estimate (95 % confidence sequence) | CPU-s before / after |\n"
+            "|---|---|---|---|\n" + rows + tail +
+            f"\n(before {out['before_rev'][:10]}, after {out['after_rev']}; load average {out['load_avg_1min']:.1f} "
+            f"at the start, {out.get('load_avg_1min_end', 0):.1f} at the end, on {out['cpus']} CPUs: wall seconds "
+            "under load mean little, CPU seconds and their ratios do.)\n")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--before", default=None, help="git revision of the fixed-size check (default: merge base with main)")
@@ -102,7 +129,14 @@ def main() -> int:
     ap.add_argument("--no-gallery", action="store_true")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--json", action="store_true", help=f"write {DATA.relative_to(ROOT)}")
+    ap.add_argument("--write-doc", action="store_true", help=f"only write the table of {DOC.relative_to(ROOT)} "
+                    f"from {DATA.relative_to(ROOT)}")
     a = ap.parse_args()
+    if a.write_doc:
+        doc = DOC.read_text(encoding="utf-8")
+        i, j = doc.index(BEGIN) + len(BEGIN), doc.index(END)
+        DOC.write_text(doc[:i] + "\n" + doc_table(json.loads(DATA.read_text())) + doc[j:], encoding="utf-8")
+        return 0
     rev = a.before or subprocess.run(["git", "-C", str(ROOT), "merge-base", "HEAD", "main"], check=True,
                                      capture_output=True, text=True).stdout.strip()
     names = a.templates.split(",") if a.templates else _templates()

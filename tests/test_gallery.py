@@ -35,6 +35,7 @@ PER_DESIGN = ("programmed.png", "permanent.png", "frames.png", "fold.gif", "hing
               "collision_index.png", "samples.png", "check.json", "simulation.json", "samples.json",
               "viewer.html")
 PNGS_PER_DESIGN = 6  # programmed, permanent, frames, hinge angles, collision index, samples
+ACTIVITY: list[str] = []  # the gallery's live status lines (its jam tests), as the fixture saw them
 VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source",
         "track", "wbr"}
 
@@ -45,7 +46,7 @@ def gallery(tmp_path_factory):
     out = root / "site"
     steps: list[tuple[int, int, str]] = []
     designs = [load_design(templates_dir() / f"{n}.toml") for n in DESIGNS]
-    index = build_gallery(designs, out, progress=lambda *a: steps.append(a), jobs=2)
+    index = build_gallery(designs, out, progress=lambda *a: steps.append(a), jobs=2, activity=ACTIVITY.append)
     return root, out, index, steps
 
 
@@ -575,6 +576,19 @@ def test_gallery_gives_the_verdict_of_foldprint_check(gallery, capsys):
                 if 'href="#d-helix_graded"' in r)
     graded = json.loads((out / "helix_graded" / "check.json").read_text())
     assert graded["ok"] is ("passes (exit 0)" in good)
+
+
+def test_gallery_reports_its_jam_tests_as_they_run(gallery):
+    """From its first jam-test samples the gallery says how many of its tests have decided
+    (three per design: 1x, 0.5x, 2x) and how many samples they used; at the end all have,
+    and the samples are those the designs' samples.json files hold."""
+    _, out, _, _ = gallery
+    assert ACTIVITY and all(a.startswith("jam tests: ") for a in ACTIVITY)
+    used = sum(json.loads((out / n / "check.json").read_text())["robust"]["samples"] +
+               sum(p["samples"] for p in json.loads((out / n / "check.json").read_text())["sensitivity"]
+                   if p["scale"] != 1.0) for n in DESIGNS)
+    assert ACTIVITY[-1] == f"jam tests: {3 * len(DESIGNS)} of {3 * len(DESIGNS)} decided, {used} samples used"
+    assert any(" 0 of " in a for a in ACTIVITY[:3])  # it speaks before the first test decides
 
 
 def test_page_names_the_hinge_model(gallery):

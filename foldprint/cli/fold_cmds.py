@@ -131,7 +131,7 @@ def check(
     sc = load_scatter(scatter_file)
     d, lib = load_input(design, materials_file, scale, crease_materials)
     opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=check_scales(ks), thresholds=th)
-    with stage_progress(f"check {d.name}: nominal fold, printed part, clearance, jam tests", json_out) as cb:
+    with stage_progress(f"check {d.name}", json_out) as cb:
         ev = Evaluation(d, opts, library=lib, printer=pr, scatter=sc, progress=cb)
         findings = ev.findings
     n_err = ev.errors

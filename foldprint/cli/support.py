@@ -187,9 +187,13 @@ def _bar(at_most: bool):
     (``at_most``: an upper bound, the total being a maximum a sequential test may not
     need) or a note ("decided"), the time elapsed."""
     from rich.console import Console
-    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, ProgressColumn, SpinnerColumn, TextColumn,
-                               TimeElapsedColumn)
+    from rich.progress import BarColumn, Progress, ProgressColumn, SpinnerColumn, TextColumn, TimeElapsedColumn
     from rich.text import Text
+
+    class Count(ProgressColumn):
+        def render(self, task):
+            return Text("" if task.total is None else f"{int(task.completed)}/{int(task.total)}",
+                        style="progress.download")
 
     class Rate(ProgressColumn):
         def render(self, task):
@@ -204,7 +208,7 @@ def _bar(at_most: bool):
             left = f"{secs // 60}:{secs % 60:02d} left"
             return Text(f"at most {left}" if at_most else left, style="progress.remaining")
 
-    return Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), Rate(),
+    return Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(bar_width=16), Count(), Rate(),
                     Left(), TimeElapsedColumn(), transient=True, console=Console(stderr=True))
 
 

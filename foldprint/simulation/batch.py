@@ -204,6 +204,8 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
     a stream consumes samples (``"samples"``, a :class:`StreamStatus`). Returns the
     Precomputed per job, the follow-ups' results and the tasks' results (in input order)."""
     batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress)
+    for s in batch.streams:  # every stream, at 0 of its maximum, before the first chunk
+        batch.report("samples", s.status())
     if workers <= 1 or sum(s.total for s in batch.streams if not s.done) + len(batch.tasks) <= 1:  # no pool for one task
         batch.run_here()
     else:
