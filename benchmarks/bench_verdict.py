@@ -47,8 +47,7 @@ def row(p: float, streams: int, seed: int, block: int = 5000) -> dict:
         counts += np.bincount(v, minlength=3)[:3]
         n_sum += int(r["samples"].sum())
         over80 += int(np.sum(r["samples"] > FIXED_N))
-        trunc += int(np.sum(np.where(v == 0, r["warning_truncated"], np.where(
-            v == 2, r["error_truncated"], r["warning_truncated"] | r["error_truncated"]))))
+        trunc += int(r["truncated"].sum())
         left -= b
     share = counts / streams
     return {"p": p, "pass": share[0], "warning": share[1], "error": share[2], "asn": n_sum / streams,

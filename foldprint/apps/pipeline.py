@@ -45,13 +45,11 @@ from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_ME
 from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, draw_samples, jam_probability, outcome_of,
                                  sample_drive)
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
-from ..simulation.sequential import jam_tests
-from ..simulation.verdict import jam_test
+from ..simulation.sequential import jam_test, jam_tests
 from ..simulation.simulate import SimulationResult, simulate
 
 Progress = Callable[[str, int, int], None]
-"""``progress(stage, done, total)``: the Monte-Carlo stages report their samples (a jam
-test, stage ``"jam test at 1x"`` etc., its samples of the maximum, then (n, n) once decided)."""
+"""``progress(stage, done, total)``: the Monte-Carlo stages report their samples."""
 
 
 @dataclass(frozen=True)
@@ -59,9 +57,8 @@ class EvalOptions:
     """How a design is evaluated; the defaults are ``foldprint check``'s
     (:mod:`foldprint.core.constants`). ``method`` is the collision method of the
     evaluation's simulation (check: the 3D swept check; ``simulate`` passes ``both``);
-    ``samples`` = 0 skips the jam probability, else it is the most samples of check's
-    sequential test (``sample_rule`` SEQUENTIAL) or the count of ``robust``'s fixed-size
-    estimate (FIXED); ``scales``: the sigma scales of the
+    ``samples`` = 0 skips the jam probability, else the most of check's sequential test
+    (``sample_rule``; FIXED: robust's count); ``scales``: the sigma scales of the
     sensitivity sweep beside the estimate (empty: none; 1 is the estimate itself, check
     sweeps :data:`CHECK_SCALES` and 1); ``state``, ``formats``: what
     :meth:`Evaluation.export` writes by default."""
@@ -314,15 +311,12 @@ class Evaluation:
         return self._stage("clearance", run)
 
     def run_jam_tests(self) -> dict[float, RobustResult]:
-        """Check's sequential jam test (the options' thresholds, at most ``options.samples``)
-        at 1x and each of ``options.scales``, all at once, by scale (:func:`jam_tests`)."""
+        """Check's jam test (:func:`jam_tests`) at 1x and each of ``options.scales``, by scale."""
         o, sim, th = self.options, self.simulation, self.options.thresholds
-        report = None if self.progress is None else (lambda st: self.progress(
-            f"jam test at {st.scale:g}x", st.samples, st.samples if st.done else st.max_samples))
         return self._stage("jam_tests", lambda: jam_tests(
             self.design, jam_test(th.warning, th.error, o.samples), (1.0, *o.scales), o.seed, scatter=self.scatter,
             library=self.library, hinge_model=o.hinge_model, dt=o.dt, nominal=sim, workers=o.workers,
-            mapper=self.mapper, progress=report))
+            mapper=self.mapper, progress=self.progress))
 
     def run_robust(self, progress: Callable[[int, int], None] | None = None) -> RobustResult | None:
         """:attr:`robust`, reporting to ``progress(done, total)`` if it is computed now."""
@@ -339,8 +333,7 @@ class Evaluation:
 
     @property
     def robust(self) -> RobustResult | None:
-        """The jam probability under scatter (None when ``options.samples`` is 0): check's
-        jam test at the model's spreads, or robust's fixed-size estimate."""
+        """The jam probability under scatter (None when ``options.samples`` is 0)."""
         return self.run_robust()
 
     def run_sweep(self, progress: Callable[[int, int], None] | None = None) -> tuple[SweepPoint, ...]:
@@ -357,8 +350,7 @@ class Evaluation:
 
     @property
     def sweep(self) -> tuple[SweepPoint, ...]:
-        """The verdict or estimate with the spreads times each of ``options.scales`` (1 is
-        :attr:`robust`): check's jam test at each, or robust's estimate."""
+        """The estimate with the spreads times each of ``options.scales`` (1 reuses :attr:`robust`)."""
         return self.run_sweep()
 
     def run_contributions(self, progress: Callable[[int, int], None] | None = None) -> Contributions | None:

@@ -356,6 +356,12 @@ def jam_verdict(r, th: Thresholds) -> str:
     return "warning" if r.jam_probability > th.warning else "info"
 
 
+def _thresholds(ctx: CheckContext) -> Thresholds:
+    """The thresholds the jam probability was judged by: its test's, else the context's."""
+    d = getattr(ctx.robust, "decision", None)
+    return ctx.thresholds if d is None else Thresholds(d.test.error.threshold, d.test.warning.threshold)
+
+
 def _scaled(points, th: Thresholds) -> str:
     """The sweep's other scales: each one's verdict and estimate."""
     word = {"error": "fails", "warning": "warns", "info": "passes"}
@@ -368,10 +374,7 @@ def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
     r = ctx.robust
     if r is None:
         return []
-    th = ctx.thresholds
-    d = getattr(r, "decision", None)
-    if d is not None:  # the thresholds the test ran with
-        th = Thresholds(d.test.error.threshold, d.test.warning.threshold)
+    th, d = _thresholds(ctx), getattr(r, "decision", None)
     pairs = ", ".join(f"{a}-{b} ({k}x)" for (a, b), k in r.collisions()[:3])
     what = ("the printed geometry (arc hinges)" if r.hinge_model == HingeModel.ARC else
             f"the {r.hinge_model.value}-hinge model (not the printed geometry)")
@@ -395,10 +398,7 @@ def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
     r = ctx.robust
     if r is None or not ctx.sweep:
         return []
-    th = ctx.thresholds
-    d = getattr(r, "decision", None)
-    if d is not None:
-        th = Thresholds(d.test.error.threshold, d.test.warning.threshold)
+    th, d = _thresholds(ctx), getattr(r, "decision", None)
     rank = {"error": 0, "warning": 1, "info": 2}
     word = {"error": "fails (FP180)", "warning": f"jams above {threshold(th.warning)} (FP181)", "info": "passes (FP182)"}
     base = jam_verdict(r, th)

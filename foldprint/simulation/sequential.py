@@ -28,17 +28,25 @@ from .batch import MonteCarloJob, StreamStatus, run_batch
 from .robust import CHUNK, Outcome, RobustResult, outcome_of, run_samples
 from .scatter import COMPONENTS, Scatter, default_scatter, iter_samples
 from .simulate import SimulationResult, simulate
-from .verdict import JamDecision, JamTest, decide, jam_test
+from .verdict import JamDecision, JamTest, decide, jam_test  # noqa: F401 (jam_test re-exported for the pipeline)
 
-SampleProgress = Callable[[StreamStatus], None]
-"""``progress(status)``: a stream consumed samples or finished (:class:`~foldprint.simulation.batch.StreamStatus`)."""
+StageProgress = Callable[[str, int, int], None]
+"""``progress(stage, done, total)``: stage ``"jam test at 1x"`` (each scale), its samples so
+far of the maximum, then ``(n, n)`` once its test decided at n (the evaluation's progress)."""
+
+
+def _stage(progress: StageProgress | None):
+    """A :class:`~foldprint.simulation.batch.StreamStatus` callback reporting to ``progress``."""
+    if progress is None:
+        return None
+    return lambda st: progress(f"jam test at {st.scale:g}x", st.samples, st.samples if st.done else st.max_samples)
 
 
 def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), seed: int = CHECK_SEED, *,
               scatter: Scatter | None = None, library: MaterialLibrary | None = None,
               hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = CHECK_DT_S,
               method: Method | str = VERDICT_METHOD, nominal: SimulationResult | None = None,
-              workers: int | None = None, mapper=None, progress: SampleProgress | None = None
+              workers: int | None = None, mapper=None, progress: StageProgress | None = None
               ) -> dict[float, RobustResult]:
     """The jam test of ``design`` with every spread of ``scatter`` times each of ``scales``
     (1 is the model's own): per scale a :class:`~foldprint.simulation.robust.RobustResult`
@@ -48,12 +56,13 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     spread is zero folds nothing: each sample is the nominal part). ``workers``: the
     pool's processes (default: all cores; 1 folds here). ``mapper``: a
     :class:`~foldprint.simulation.batch.Precomputed` answers from its outcomes; another
-    mapper ``(fn, items, progress)`` folds rounds of ``workers`` chunks."""
+    mapper ``(fn, items, progress)`` folds rounds of ``workers`` chunks. ``progress``: see
+    :data:`StageProgress`."""
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise DesignError(f"seed must be a whole number >= 0, got {seed!r}")
     from ..core.parallel import default_workers
 
-    lib = library or default_library()
+    lib, report = library or default_library(), _stage(progress)
     scatter = scatter or default_scatter()
     model, method = parse(HingeModel, hinge_model, "hinge_model"), parse(Method, method, "method")
     n_workers = default_workers() if workers is None else max(1, int(workers))
@@ -75,19 +84,19 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     if missing and (mapper is None or lookup is not None):
         job = MonteCarloJob(design, test.max_samples, seed, tuple(missing), scatter, model, dt, method, test)
         (pre,), _, _ = run_batch([job], library=lib, workers=n_workers,
-                                 progress=(lambda kind, st: progress(st)) if progress else None)
+                                 progress=(lambda kind, st: report(st)) if report else None)
         found.update(zip(missing, (o for _, o in pre.outcomes)))
     for k in missing if mapper is not None and lookup is None else ():
         found[k] = _rounds(design, lib, at[k], seed, test, model, dt, method, mapper, n_workers,
-                           (lambda st, k=k: progress(StreamStatus(0, k, *st))) if progress else None)
+                           (lambda st, k=k: report(StreamStatus(0, k, *st))) if report else None)
     out = {}
     for k in ks:
         d = decide([o.jammed for o in found[k]], test)
         if not d.decided:
             raise RuntimeError(f"{design.name}: the jam test at {k:g}x did not decide on its {len(found[k])} samples")
         outs = found[k][:d.samples]
-        if progress is not None and k not in missing:
-            progress(StreamStatus(0, k, d.samples, test.max_samples, True))
+        if report is not None and k not in missing:
+            report(StreamStatus(0, k, d.samples, test.max_samples, True))
         out[k] = RobustResult(design.name, d.samples, seed, model, at[k], outs, nominal, method, d)
     return out
 

@@ -170,17 +170,11 @@ class JamDecision:
     jams: int
     warning: SprtOutcome
     error: SprtOutcome
+    truncated: bool = False  # the verdict needed a test decided by the truncation at the maximum
 
     @property
     def decided(self) -> bool:
         return self.verdict is not None
-
-    @property
-    def truncated(self) -> bool:
-        """The verdict needed a truncated decision at the maximum."""
-        used = {JamVerdict.PASS: (self.warning,), JamVerdict.ERROR: (self.error,)}.get(
-            self.verdict, (self.warning, self.error))
-        return self.verdict is not None and any(o.truncated for o in used)
 
     @property
     def estimate(self) -> float:
@@ -223,7 +217,7 @@ def decide_many(jammed, test: JamTest) -> dict[str, np.ndarray]:
     """The test on many streams at once: ``jammed`` (streams x samples, bool; the samples
     beyond the maximum are ignored) -> arrays ``verdict`` (-1 undecided, 0 pass, 1 warning,
     2 error), ``samples`` (the stopping index, or all samples when undecided), ``jams``,
-    and per test ``warning_side``/``error_side`` (-1, 0 below, 1 above), ``..._at``,
+    ``truncated`` (the verdict needed a test decided by the truncation), and per test ``warning_side``/``error_side`` (-1, 0 below, 1 above), ``..._at``,
     ``..._truncated``."""
     x = np.asarray(jammed, dtype=bool)
     if x.ndim != 2:
@@ -240,8 +234,9 @@ def decide_many(jammed, test: JamTest) -> dict[str, np.ndarray]:
     verdict = np.select([error, passed, warning], [2, 0, 1], -1)
     n = np.select([error, passed, warning], [eat, wat, np.maximum(wat, eat)], m)
     k = np.where(n > 0, cumk[np.arange(s), np.maximum(n, 1) - 1] if m else 0, 0)
-    return {"verdict": verdict, "samples": n, "jams": k, "warning_side": ws, "warning_at": wat,
-            "warning_truncated": wtr, "error_side": es, "error_at": eat, "error_truncated": etr}
+    truncated = np.select([error, passed, warning], [etr, wtr, wtr | etr], False)  # the tests the verdict used
+    return {"verdict": verdict, "samples": n, "jams": k, "truncated": truncated, "warning_side": ws,
+            "warning_at": wat, "warning_truncated": wtr, "error_side": es, "error_at": eat, "error_truncated": etr}
 
 
 def decide(jammed: Sequence[bool], test: JamTest) -> JamDecision:
@@ -256,7 +251,7 @@ def decide(jammed: Sequence[bool], test: JamTest) -> JamDecision:
 
     v = int(r["verdict"])
     return JamDecision(test, None if v < 0 else _VERDICTS[v], int(r["samples"]), int(r["jams"]), one("warning"),
-                       one("error"))
+                       one("error"), bool(r["truncated"]))
 
 
 def confidence_sequence(jams: int, samples: int, level: float = JAM_INTERVAL_LEVEL) -> tuple[float, float]:
@@ -265,8 +260,8 @@ def confidence_sequence(jams: int, samples: int, level: float = JAM_INTERVAL_LEV
     stays below 1 / (1 - level) (Robbins 1970; by Ville's inequality it covers the true p at
     every n at once with probability >= level). Its ends solve the equality (scipy's brentq).
 
-    >>> [round(x, 4) for x in confidence_sequence(0, 56)]
-    [0.0, 0.0729]
+    >>> [round(x, 4) for x in confidence_sequence(0, 57)]
+    [0.0, 0.1164]
     """
     k, n = int(jams), int(samples)
     if not 0 <= k <= n:
@@ -318,9 +313,6 @@ def operating_point(p: float, test: JamTest, streams: int, seed: int, block: int
         r = decide_many(rng.random((b, test.max_samples)) < p, test)
         counts += np.bincount(r["verdict"], minlength=3)[:3]
         total_n += int(r["samples"].sum())
-        v = r["verdict"]
-        truncated += int(np.sum(np.where(v == 0, r["warning_truncated"],
-                                         np.where(v == 2, r["error_truncated"],
-                                                  r["warning_truncated"] | r["error_truncated"]))))
+        truncated += int(r["truncated"].sum())
         left -= b
     return OperatingPoint(float(p), int(streams), *(counts / streams), total_n / streams, truncated / streams)
