@@ -180,3 +180,26 @@ def test_no_chunk_is_folded_past_a_decided_stop(monkeypatch):
     d = _designs()[0]
     (p,), _, _ = run_batch([MonteCarloJob(d, MAX, SEED, (1.0, 2.0), test=jam_test(max_samples=MAX))], workers=1)
     assert sorted(folded) == [(0, 1.0, 0), (0, 2.0, 0)] and [len(o) for _, o in p.outcomes] == [6, 6]
+
+
+def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
+    """Chunks that come back out of order wait for their predecessors: the outcomes are
+    the stream's in order and the stop is counted over them, whatever the arrival order
+    (chunks of 4 here: jams only from sample 8 on, so a pass-or-not hinges on the order)."""
+    from foldprint.simulation import batch, robust
+    from foldprint.simulation.robust import Outcome
+    from foldprint.simulation.verdict import decide, jam_test
+
+    monkeypatch.setattr(robust, "CHUNK", 4)
+    clean, jam = Outcome(False, None, None, None, 1.0), Outcome(True, None, None, None, None)
+    stream = [clean] * 8 + [jam] * 12
+    test = jam_test(max_samples=20)
+    want = decide([o.jammed for o in stream], test)
+    for order in ([0, 1, 2, 3, 4], [4, 3, 2, 1, 0], [2, 0, 4, 1, 3]):
+        s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED, test=test))
+        for c in range(s.total):
+            s.take()
+        for c in order:
+            s.add(c, stream[4 * c:4 * c + 4])
+        assert s.done and s.outcomes == stream[:want.samples], order
+        assert decide([o.jammed for o in s.outcomes], test) == want

@@ -375,7 +375,7 @@ def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
     if r is None:
         return []
     th, d = _thresholds(ctx), getattr(r, "decision", None)
-    pairs = ", ".join(f"{a}-{b} ({k}x)" for (a, b), k in r.collisions()[:3])
+    pairs = ", ".join(f"{a}-{b} in {k}" for (a, b), k in r.collisions()[:3])
     what = ("the printed geometry (arc hinges)" if r.hinge_model == HingeModel.ARC else
             f"the {r.hinge_model.value}-hinge model (not the printed geometry)")
     text = f"jam probability {jam_estimate_text(r)}, {what} under scatter" + (f"; colliding: {pairs}" if pairs else "")
