@@ -1,5 +1,6 @@
 """Gallery build time: every template, as ``foldprint gallery`` builds it (the check with
-check's Monte-Carlo samples and seed, :data:`foldprint.core.constants.CHECK_SAMPLES`), against
+check's sequential jam test and seed, at most :data:`foldprint.core.constants.CHECK_SAMPLES`
+samples per scale), against
 the same gallery without the Monte-Carlo (0 samples: what the gallery did before it ran
 the check), and the material chart's fold-time table against one recovery curve per point.
 
@@ -189,7 +190,7 @@ def main() -> None:
         print(json.dumps(res))
         return
     print(f"{res['cpus']} CPUs, load average {load:.1f} at start, {load_end:.1f} at the end")
-    print(f"foldprint gallery (every template, {CHECK_SAMPLES} scatter samples per design, check's): "
+    print(f"foldprint gallery (every template, check's jam test, at most {CHECK_SAMPLES} samples per scale): "
           f"{t_cmd:.1f} s wall, {cpu_cmd:.1f} CPU-s with {args.jobs} processes, largest process {peak_mb:.0f} MB; "
           f"target < {TARGET_S:g} s")
     if "gallery_s" in res:

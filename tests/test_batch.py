@@ -88,3 +88,118 @@ def test_time_guard_refuses_as_jam_probability_does(monkeypatch, workers):
     with pytest.raises(ResourceError):
         run_batch([MonteCarloJob(d, N, SEED)], workers=workers)
     assert len(calls) == 2 and calls[0] == calls[1] == (N, workers, d.name, True)
+
+
+# -- check's sequential jam test ------------------------------------------------------------
+
+MAX = 20  # two chunks (16 + 4): helix_uniform decides inside the first, helix_graded runs to the maximum
+
+
+def _tested(design, **kw):
+    from foldprint.simulation.sequential import jam_tests
+    from foldprint.simulation.verdict import jam_test
+
+    return jam_tests(design, jam_test(max_samples=MAX), (1.0, 2.0), SEED, **kw)
+
+
+def _same(a, b):
+    """Two jam tests' results per scale agree in everything reported."""
+    assert sorted(a) == sorted(b)
+    for k in a:
+        assert a[k].outcomes == b[k].outcomes and a[k].decision == b[k].decision, k
+        assert (a[k].samples, a[k].jams, a[k].ci95) == (b[k].samples, b[k].jams, b[k].ci95)
+
+
+@pytest.fixture(scope="module")
+def sequential():
+    designs = [load_design(templates_dir() / f"{n}.toml") for n in ("helix_uniform", "helix_graded")]
+    return designs, {d.name: _tested(d, workers=1) for d in designs}
+
+
+def test_jam_test_stops_where_its_outcomes_say(sequential):
+    """The samples kept are the stream's first n, n the test's stop on them: the uniform
+    helix fails after 6 (every sample jams), the graded one reaches the maximum."""
+    from foldprint.simulation.verdict import decide
+
+    designs, ref = sequential
+    for d in designs:
+        for k, r in ref[d.name].items():
+            sc = default_scatter() if k == 1.0 else default_scatter().scaled(k)
+            fixed = jam_probability(d, MAX, SEED, scatter=sc, workers=1)  # the same stream, all of it
+            assert r.outcomes == fixed.outcomes[:r.samples]
+            assert r.decision == decide([o.jammed for o in fixed.outcomes], r.decision.test)
+    assert [ref["helix_uniform"][k].samples for k in (1.0, 2.0)] == [6, 6]
+    assert str(ref["helix_uniform"][1.0].decision.verdict) == "error"
+    assert ref["helix_graded"][1.0].samples == MAX and ref["helix_graded"][1.0].decision.truncated
+
+
+@pytest.mark.parametrize("workers,chunk", [(2, 16), (2, 5), (1, 3)])
+def test_jam_test_is_the_same_on_any_workers_and_chunks(sequential, monkeypatch, workers, chunk):
+    """One worker or two, chunks of 16, 5 or 3 samples (so chunks come back in any order
+    and stops fall mid-chunk): the same samples, verdicts, stops and intervals."""
+    from foldprint.simulation import batch, robust, sequential as seq
+
+    for mod in (batch, robust, seq):
+        monkeypatch.setattr(mod, "CHUNK", chunk)
+    designs, ref = sequential
+    for d in designs:
+        _same(_tested(d, workers=workers), ref[d.name])
+
+
+def test_jam_test_through_a_plain_mapper_in_rounds(sequential):
+    designs, ref = sequential
+    plain = lambda fn, items, progress=None: [fn(x) for x in items]  # noqa: E731 - e.g. a cluster
+    for d in designs:
+        _same(_tested(d, workers=2, mapper=plain), ref[d.name])
+
+
+def test_shared_pool_answers_the_jam_test_as_check_alone(sequential):
+    """The gallery's path: both designs' streams in one adaptive pool with a follow-up
+    each; the Precomputed it hands on gives each design's jam test without folding, equal
+    to the test run alone."""
+    from foldprint.simulation.verdict import jam_test
+
+    designs, ref = sequential
+    jobs = [MonteCarloJob(d, MAX, SEED, (1.0, 2.0), test=jam_test(max_samples=MAX)) for d in designs]
+    pre, after, _ = run_batch(jobs, workers=2, after=_size)
+    assert after == [2, 2]
+    for d, p in zip(designs, pre):
+        _same(_tested(d, workers=1, mapper=p), ref[d.name])
+        assert [len(o) for _, o in p.outcomes] == [ref[d.name][k].samples for k in (1.0, 2.0)]
+
+
+def test_no_chunk_is_folded_past_a_decided_stop(monkeypatch):
+    """In one process the pool folds exactly the chunks a stream needs: the uniform helix
+    decides after 6 samples at each scale, so one chunk each."""
+    from foldprint.simulation import batch
+    from foldprint.simulation.verdict import jam_test
+
+    folded = []
+    real = batch._chunk_task
+    monkeypatch.setattr(batch, "_chunk_task", lambda j, k, c: folded.append((j, k, c)) or real(j, k, c))
+    d = _designs()[0]
+    (p,), _, _ = run_batch([MonteCarloJob(d, MAX, SEED, (1.0, 2.0), test=jam_test(max_samples=MAX))], workers=1)
+    assert sorted(folded) == [(0, 1.0, 0), (0, 2.0, 0)] and [len(o) for _, o in p.outcomes] == [6, 6]
+
+
+def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
+    """Chunks that come back out of order wait for their predecessors: the outcomes are
+    the stream's in order and the stop is counted over them, whatever the arrival order
+    (chunks of 4 here: jams only from sample 8 on, so a pass-or-not hinges on the order)."""
+    from foldprint.simulation import batch, robust
+    from foldprint.simulation.robust import Outcome
+    from foldprint.simulation.verdict import decide, jam_test
+
+    monkeypatch.setattr(robust, "CHUNK", 4)
+    clean, jam = Outcome(False, None, None, None, 1.0), Outcome(True, None, None, None, None)
+    stream = [clean] * 8 + [jam] * 12
+    test = jam_test(max_samples=20)
+    want = decide([o.jammed for o in stream], test)
+    for order in ([0, 1, 2, 3, 4], [4, 3, 2, 1, 0], [2, 0, 4, 1, 3]):
+        s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED, test=test))
+        for c in range(s.total):
+            s.take()
+        for c in order:
+            s.add(c, stream[4 * c:4 * c + 4])
+        assert s.done and s.outcomes == stream[:want.samples], order
+        assert decide([o.jammed for o in s.outcomes], test) == want

@@ -63,7 +63,7 @@ def test_temperatures_against_tg():
 def test_fold_time_within_duration():
     d = strip("short", [20, 20], [90], ["H-7"], process=Process(duration_s=3.0))
     f = [x for x in run_checks(d) if x.code == "FP160"]
-    assert f and "needs 5.4 s" in f[0].message
+    assert f and "needs 5.37 s" in f[0].message
 
 
 @pytest.mark.parametrize("name", ["helix_graded", "mailbox"])
@@ -84,24 +84,24 @@ def test_paper_rom_collision_names_panels_and_time(capsys):
 
 def test_jam_probability_decides_the_helices(capsys):
     """Issue 8's done-when: at the shipped geometry and the default scatter, the graded
-    helix passes the pre-print check and the uniform one fails on its jam probability."""
+    helix passes the pre-print check and the uniform one fails on its jam probability,
+    each by check's sequential test (at most CHECK_SAMPLES samples, stopped when decided)."""
     assert main(["check", "helix_uniform", "--json", "--no-sensitivity"]) == 1
     out = json.loads(capsys.readouterr().out)
     assert [f["code"] for f in out["findings"] if f["severity"] == "error"] == ["FP180"]
-    assert out["robust"]["samples"] == CHECK_SAMPLES and out["robust"]["ci95"][0] > 0.2
+    test = out["robust"]["test"]
+    assert test["verdict"] == "error" and test["max_samples"] == CHECK_SAMPLES and not test["truncated"]
+    assert out["robust"]["samples"] == test["samples"] < CHECK_SAMPLES  # a clear case stops early
+    assert test["error"]["accepted"] == "above" and test["error"]["at_samples"] == test["samples"]
     assert out["sensitivity"] is None
     assert main(["check", "helix_graded", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["robust"]["ci95"][0] <= 0.2
-    # the default sweep (0.5x, 1x, 2x, the same draws): FP183 exactly when the verdict
-    # a scale earns differs from the one at 1x
+    assert out["robust"]["test"]["verdict"] == "pass" and out["robust"]["test"]["warning"]["accepted"] == "below"
+    # the default sweep (0.5x, 1x, 2x, the same draws, each its own test): FP183 exactly
+    # when the verdict a scale earns differs from the one at 1x
     sweep = {p["scale"]: p for p in out["sensitivity"]}
     assert sorted(sweep) == [0.5, 1.0, 2.0] and sweep[1.0]["jams"] == out["robust"]["jams"]
-
-    def verdict(p):
-        return "error" if p["ci95"][0] > 0.2 else "warning" if p["jam_probability"] > 0.05 else "info"
-
-    flips = {verdict(sweep[k]) for k in (0.5, 2.0)} - {verdict(sweep[1.0])}
+    flips = {sweep[k]["verdict"] for k in (0.5, 2.0)} - {sweep[1.0]["verdict"]}
     assert any(f["code"] == "FP183" for f in out["findings"]) == bool(flips)
 
 
@@ -131,6 +131,42 @@ def test_jam_thresholds(k, n, code):
 class _Point:
     def __init__(self, scale, k, n):
         self.scale, self.result = scale, _Fake(k, n)
+
+
+class _Tested(_Fake):
+    """A stand-in for check's result: the sequential test on k jams then n - k clean samples."""
+
+    def __init__(self, k, n, test=None):
+        from foldprint.simulation.verdict import decide, jam_test
+
+        self.decision = decide([True] * k + [False] * (n - k), test or jam_test())
+        super().__init__(self.decision.jams, self.decision.samples)
+        self.ci95 = self.decision.interval
+
+
+@pytest.mark.parametrize("k,n,code", [(0, 400, "FP182"), (3, 400, "FP181"), (6, 400, "FP180"), (20, 400, "FP180")])
+def test_sequential_verdict_is_the_finding(k, n, code):
+    """With check's test the finding is the test's verdict (not a reading of the interval):
+    3 jams first then clean samples is a warning (the warning test accepts "above" at 3
+    jams, the error test "below" later), 6 jams in a row an error at sample 6, none a pass
+    at sample 57; the message names the test, its samples and maximum."""
+    r = _Tested(k, n)
+    ctx = CheckContext(strip("x", [20, 20], [90], ["H-3"]), default_library(), load_printers()["connex260"],
+                       robust=r, thresholds=Thresholds(error=0.2, warning=0.05))
+    (f,) = rule_jam_probability(ctx)
+    assert f.code == code
+    assert "sequential test" in f.message and f"decided after {r.decision.samples} of at most 400" in f.message
+    assert r.samples == {0: 57, 3: r.decision.samples, 6: 6, 20: 6}[k]
+
+
+def test_sequential_sweep_flips_by_verdict():
+    """FP183 with check's test compares the tests' verdicts, not the intervals."""
+    lib, pr = default_library(), load_printers()["connex260"]
+    one, two = _Tested(0, 400), _Tested(6, 400)
+    pts = (type("P", (), {"scale": 1.0, "result": one})(), type("P", (), {"scale": 2.0, "result": two})())
+    ctx = CheckContext(strip("x", [20, 20], [90], ["H-3"]), lib, pr, robust=one, sweep=pts)
+    (f,) = rule_jam_sensitivity(ctx)
+    assert f.code == "FP183" and f.severity == "warning" and "fails (FP180) at 2x" in f.message
 
 
 @pytest.mark.parametrize("at_half,at_one,at_two,expect", [

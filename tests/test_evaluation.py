@@ -43,7 +43,7 @@ def _count(monkeypatch, module, name):
 def test_a_stage_not_asked_for_is_not_computed(helix, monkeypatch):
     sims = _count(monkeypatch, pipeline, "simulate")
     builds = _count(monkeypatch, pipeline, "build_assembly")
-    mc = _count(monkeypatch, pipeline, "jam_probability")
+    mc = _count(monkeypatch, pipeline, "jam_tests")
     ev = Evaluation(helix, EvalOptions(samples=4, seed=1))
     assert (sims, builds, mc) == ([], [], [])  # nothing runs at construction
     first = ev.simulation
@@ -51,13 +51,13 @@ def test_a_stage_not_asked_for_is_not_computed(helix, monkeypatch):
     assert ev.simulation is first and len(sims) == 1  # kept
     ev.clearance  # needs the simulation (kept), not the assembly nor the samples
     assert len(sims) == 1 and builds == [] and mc == []
-    assert ev.computed["simulation"] == 1 and not ev.has("robust") and not ev.has("assembly")
+    assert ev.computed["simulation"] == 1 and not ev.has("jam_tests") and not ev.has("assembly")
 
 
 def test_findings_compute_each_stage_once(helix, monkeypatch):
     sims = _count(monkeypatch, pipeline, "simulate")
     builds = _count(monkeypatch, pipeline, "build_assembly")
-    mc = _count(monkeypatch, pipeline, "jam_probability")
+    mc = _count(monkeypatch, pipeline, "jam_tests")
     ev = Evaluation(helix, EvalOptions(samples=4, seed=1))
     ev.findings
     ev.to_json()

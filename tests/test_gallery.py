@@ -36,6 +36,7 @@ PER_DESIGN = ("programmed.png", "permanent.png", "frames.png", "fold.gif", "hing
               "collision_index.png", "samples.png", "check.json", "simulation.json", "samples.json",
               "viewer.html")
 PNGS_PER_DESIGN = 6  # programmed, permanent, frames, hinge angles, collision index, samples
+ACTIVITY: list[str] = []  # the gallery's live status lines (its jam tests), as the fixture saw them
 VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source",
         "track", "wbr"}
 
@@ -46,7 +47,7 @@ def gallery(tmp_path_factory):
     out = root / "site"
     steps: list[tuple[int, int, str]] = []
     designs = [load_design(templates_dir() / f"{n}.toml") for n in DESIGNS]
-    index = build_gallery(designs, out, progress=lambda *a: steps.append(a), jobs=2)
+    index = build_gallery(designs, out, progress=lambda *a: steps.append(a), jobs=2, activity=ACTIVITY.append)
     return root, out, index, steps
 
 
@@ -236,7 +237,7 @@ def test_page_reports_status_collision_hinges_and_checks(gallery):
     a, b = failing["first_collision"]["panels"]
     bad = " ".join(page.text[f"d-{FAILING}"])
     assert "Does not complete" in bad
-    assert f"panels {a} and {b} touch at {t:.3f} s" in bad
+    assert f"panels {a} and {b} touch at {t:.2f} s" in bad
     assert "NOT met" in bad  # the two holes
     errors = json.loads((out / FAILING / "check.json").read_text())["errors"]
     assert f"{errors} error(s)" in bad and "FP170" in bad  # the check summary with messages
@@ -581,7 +582,9 @@ def test_gallery_gives_the_verdict_of_foldprint_check(gallery, capsys):
     cli = json.loads(capsys.readouterr().out)
     mine = json.loads((out / JAMS / "check.json").read_text())
     assert code == 1 and cli["ok"] is False and any(f["code"] == "FP180" for f in cli["findings"])
-    assert cli["robust"]["samples"] == constants.CHECK_SAMPLES and cli["robust"]["seed"] == constants.CHECK_SEED
+    test = cli["robust"]["test"]  # check's sequential test: its maximum, its stop
+    assert test["max_samples"] == constants.CHECK_SAMPLES and cli["robust"]["seed"] == constants.CHECK_SEED
+    assert cli["robust"]["samples"] == test["samples"] and test["verdict"] == "error"
     assert mine == cli  # every finding, the estimate, its interval, the colliding pairs, the nominal fold
     row = next(r for r in re.findall(r"<tr>(.*?)</tr>", index.read_text(encoding="utf-8"), re.S)
                if f'href="#d-{JAMS}"' in r)
@@ -589,13 +592,27 @@ def test_gallery_gives_the_verdict_of_foldprint_check(gallery, capsys):
     lo, hi = cli["robust"]["ci95"]
     codes = ", ".join(dict.fromkeys(f["code"] for f in cli["findings"] if f["severity"] == "error"))
     assert f"fails (exit 1): {codes}" in text
-    assert (f"{100 * cli['robust']['jam_probability']:.1f} % (95 % CI {100 * lo:.1f} %\u2013{100 * hi:.1f} %)"
-            in text)
+    n, k = cli["robust"]["samples"], cli["robust"]["jams"]
+    assert (f"{100 * cli['robust']['jam_probability']:.1f} % (95 % interval {100 * lo:.1f}-{100 * hi:.1f} %), "
+            f"{k} of {n} samples jam" in text)  # the number check prints, in the summary
     assert "completes" in text and "does not complete" not in text  # the nominal fold, beside the verdict
     good = next(r for r in re.findall(r"<tr>(.*?)</tr>", index.read_text(encoding="utf-8"), re.S)
                 if 'href="#d-helix_graded"' in r)
     graded = json.loads((out / "helix_graded" / "check.json").read_text())
     assert graded["ok"] is ("passes (exit 0)" in good)
+
+
+def test_gallery_reports_its_jam_tests_as_they_run(gallery):
+    """From its first jam-test samples the gallery says how many of its tests have decided
+    (three per design: 1x, 0.5x, 2x) and how many samples they used; at the end all have,
+    and the samples are those the designs' samples.json files hold."""
+    _, out, _, _ = gallery
+    assert ACTIVITY and all(a.startswith("jam tests: ") for a in ACTIVITY)
+    used = sum(json.loads((out / n / "check.json").read_text())["robust"]["samples"] +
+               sum(p["samples"] for p in json.loads((out / n / "check.json").read_text())["sensitivity"]
+                   if p["scale"] != 1.0) for n in DESIGNS)
+    assert ACTIVITY[-1] == f"jam tests: {3 * len(DESIGNS)} of {3 * len(DESIGNS)} decided, {used} samples used"
+    assert any(" 0 of " in a for a in ACTIVITY[:3])  # it speaks before the first test decides
 
 
 def test_page_names_the_hinge_model(gallery):
@@ -626,8 +643,8 @@ def test_design_page_shows_the_distribution_of_the_samples(gallery):
         assert sum(counts.values()) == mc["failures"]["collision"] <= mc["jams"]
         for (a, b), k in counts.items():
             times = [o["contact_s"] for o in mc["outcomes"] if o["pair"] == [a, b]]
-            assert re.search(rf"{a}\u2013{b} {k} {100 * k / mc['samples']:.1f} % {min(times):.3f} s "
-                             rf"{np.median(times):.3f} s {max(times):.3f} s", text), (name, a, b)
+            assert re.search(rf"{a}\u2013{b} {k} {100 * k / mc['samples']:.1f} % {min(times):.2f} s "
+                             rf"{np.median(times):.2f} s {max(times):.2f} s", text), (name, a, b)
         ft = [o["fold_time_s"] for o in mc["outcomes"] if o["fold_time_s"] is not None]
         if ft:
             p5, p50, p95 = np.percentile(ft, [5, 50, 95])

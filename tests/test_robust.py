@@ -88,6 +88,22 @@ def test_robust_cli_contract(capsys):
     assert json.loads(capsys.readouterr().out) == out
 
 
+def test_robust_says_what_check_makes_of_its_samples(capsys):
+    """robust keeps its fixed count (Wilson) and, on check's seed, says where check's
+    sequential test stops on these very samples; on another seed, that they differ."""
+    assert main(["robust", "helix_uniform", "--samples", "16", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["samples"] == 16 and out["test"] is None and out["interval"] == "Wilson score interval"
+    rel = out["check"]
+    assert rel["same_stream"] and rel["decided"] and rel["verdict"] == "error" and rel["samples"] == 6
+    assert main(["check", "helix_uniform", "--json", "--no-sensitivity"]) == 1
+    chk = json.loads(capsys.readouterr().out)["robust"]
+    assert (chk["samples"], chk["jams"], chk["seed"]) == (rel["samples"], rel["jams"], out["seed"])
+    assert main(["robust", "helix_uniform", "--samples", "2", "--seed", "3"]) == 0
+    text = capsys.readouterr().out
+    assert "check draws seed 0, other samples than these (seed 3)" in text
+
+
 @pytest.mark.parametrize("text,needle", [
     ("[hinge.tg]\nsd_c = -1.0\n", "hinge.tg.sd_c"),
     ("[hinge.tg]\nsd_c = nan\n", "hinge.tg.sd_c"),

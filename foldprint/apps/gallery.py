@@ -75,7 +75,8 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
                   progress: Progress | None = None, *,
                   library: MaterialLibrary | None = None, dt: float = CHECK_DT_S,
                   gif_frames: int = GIF_FRAMES, jobs: int | None = None, samples: int = CHECK_SAMPLES,
-                  seed: int = CHECK_SEED, force: bool = False) -> Path:
+                  seed: int = CHECK_SEED, force: bool = False,
+                  activity: Callable[[str], None] | None = None) -> Path:
     """Simulate, check, render and export ``designs`` into a static HTML gallery.
 
     Parameters
@@ -99,12 +100,16 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
         Worker processes (default: the number of CPUs); designs are built in parallel,
         the page is the same whatever the number.
     samples, seed : int
-        Monte-Carlo samples of the jam probability per design and their seed (default:
-        what ``foldprint check`` runs, :data:`foldprint.core.constants.CHECK_SAMPLES` and
+        The most Monte-Carlo samples of each design's jam test (per sigma scale) and their
+        seed (default: what ``foldprint check`` runs, its sequential test at most
+        :data:`foldprint.core.constants.CHECK_SAMPLES` and
         :data:`~foldprint.core.constants.CHECK_SEED`); 0 samples skips it.
     force : bool
         Publish into a folder that holds other files (beside them, file by file) instead
         of refusing it.
+    activity : callable, optional
+        ``activity(text)``, called as the jam tests consume samples: what the pool is
+        doing now ("jam tests: 12 of 30 decided, 1 204 samples"), for a live status line.
 
     Returns
     -------
@@ -130,7 +135,8 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
         out = staged.path
         for name in ASSETS:
             staged.write(f"viewer/{name}", asset_bytes(name))
-        materials_img, entries = _build_all(designs, out, dirnames, lib, dt, gif_frames, samples, seed, jobs, step)
+        materials_img, entries = _build_all(designs, out, dirnames, lib, dt, gif_frames, samples, seed, jobs, step,
+                                            activity)
         for entry, design in zip(entries, designs):
             entry.design = design  # the worker's copy came back pickled; keep the caller's
         staged.write("index.html", page_html(entries, materials_img, lib, dt, samples, seed).encode("utf-8"))
@@ -152,11 +158,26 @@ class _Steps:
             self.progress(self.done, self.total, msg)
 
 
+class _Tests:
+    """The jam tests of the gallery's pool as one status line for ``activity``."""
+
+    def __init__(self, streams: int, activity: Callable[[str], None] | None):
+        self.streams, self.activity, self.at = streams, activity, {}
+
+    def __call__(self, st) -> None:
+        self.at[(st.job, st.scale)] = st
+        if self.activity is not None:
+            decided = sum(s.done for s in self.at.values())
+            used = sum(s.samples for s in self.at.values())
+            self.activity(f"jam tests: {decided} of {self.streams} decided, {used} samples used")
+
+
 def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: MaterialLibrary, dt: float,
-               gif_frames: int, samples: int, seed: int, jobs: int | None, step: "_Steps"):
+               gif_frames: int, samples: int, seed: int, jobs: int | None, step: "_Steps", activity=None):
     """The material chart and every design's entry, built in one process pool with every
     design's Monte-Carlo (:func:`foldprint.simulation.batch.run_batch`)."""
     from ..simulation.batch import MonteCarloJob, run_batch
+    from ..simulation.verdict import jam_test
 
     # the workers fork from here: import what they all need once, before the fork
     from ..checks import rules as checks  # noqa: F401
@@ -164,16 +185,25 @@ def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: M
     from ..render import figures as render, anim as render_anim, viewer  # noqa: F401
     from ..simulation import simulate  # noqa: F401
 
-    # one pool for everything: every design's Monte-Carlo chunks (check's samples at 1x
-    # and each sweep scale, costliest first), each design's build once its outcomes are
-    # in, and the material chart (foldprint.simulation.batch)
-    mc = [MonteCarloJob(d, samples, seed, (1.0, *CHECK_SCALES), dt=dt) for d in designs]
+    # one pool for everything: every design's jam test at 1x and each sweep scale (chunks
+    # submitted as workers free up, costliest first, none after a test decides), each
+    # design's build once its tests are decided, and the material chart
+    # (foldprint.simulation.batch)
+    test = jam_test(max_samples=samples) if samples else None  # check's test, default thresholds
+    mc = [MonteCarloJob(d, samples, seed, (1.0, *CHECK_SCALES), dt=dt, test=test) for d in designs]
 
     def after(i, pre):
         return build_design, (designs[i], out, dirnames[i], lib, dt, gif_frames, samples, seed, pre)
 
+    tests = _Tests(sum(len(job.scales) for job in mc if job.samples), activity)
+
+    def report(kind, what, out=None):
+        if kind == "samples":
+            tests(what)
+        else:
+            step("material chart" if kind == "task" else entry_done(out))
+
     _, entries, (materials_img,) = run_batch(
         mc, library=lib, workers=max(1, jobs or os.cpu_count() or 1), after=after,
-        tasks=[(chart_task, (out, lib))],
-        progress=lambda kind, i, done: step("material chart" if kind == "task" else entry_done(done)))
+        tasks=[(chart_task, (out, lib))], progress=report)
     return materials_img, entries

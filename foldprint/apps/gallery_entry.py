@@ -55,8 +55,11 @@ def url(rel: str) -> str:
     return "/".join(quote(part) for part in rel.split("/"))
 
 
-def fmt_s(t: float | None, nd: int = 2) -> str:
-    return "\u2014" if t is None else f"{t:.{nd}f} s"
+def fmt_s(t: float | None) -> str:
+    """A time as every output prints it (:func:`foldprint.checks.report.seconds`)."""
+    from ..checks.report import seconds
+
+    return seconds(t)
 
 
 def json_bytes(obj) -> bytes:

@@ -9,6 +9,7 @@ from .. import __version__
 from ..core.constants import CHECK_SAMPLES, CHECK_SEED
 from ..model import composition
 from ..model.materials import MaterialLibrary
+from ..checks.report import seconds
 from .gallery_entry import Entry, Image, Link, esc, fmt_s
 from .gallery_samples import jam_text, mc_html
 
@@ -61,7 +62,7 @@ def nominal_status(entry: Entry) -> tuple[bool, str]:
     reasons = []
     if entry.contacts:
         a, b, t, method = entry.contacts[0]
-        reasons.append(f"collision: panels {a} and {b} touch at {t:.3f} s ({method})")
+        reasons.append(f"collision: panels {a} and {b} touch at {seconds(t)} ({method})")
     stalled = [h["id"] for h, done in zip(sim["hinges"], entry.hinge_done) if not done]
     if stalled:
         reasons.append(f"hinges {', '.join(stalled)} do not reach 98 % within {sim['duration_s']:g} s")
@@ -198,7 +199,7 @@ def _design_html(entry: Entry, lib: MaterialLibrary) -> str:
            "</td></tr>" if entry.mc is not None else "")
         + "</tbody></table>")
     if entry.contacts:
-        rows = "".join(f"<tr><td>{esc(a)}\u2013{esc(b)}</td><td class=\"num\">{t:.3f} s</td><td>{esc(m)}</td></tr>"
+        rows = "".join(f"<tr><td>{esc(a)}\u2013{esc(b)}</td><td class=\"num\">{seconds(t)}</td><td>{esc(m)}</td></tr>"
                        for a, b, t, m in entry.contacts)
         parts.append("<h3>Contacts</h3><table><thead><tr><th>panels</th><th>time</th><th>found by</th>"
                      f"</tr></thead><tbody>{rows}</tbody></table>")
@@ -258,7 +259,7 @@ def _hinges_and_goals(d, sim: dict, lib: MaterialLibrary) -> list[str]:
         for g in sim["goals"]:
             what = f"{g['panel']} passes through holes[{g['hole']}] of {g['target']}" \
                 if g["type"] == "pass_through" else g["type"]
-            met = f"met at {g['time_s']:.2f} s" if g["met"] else (
+            met = f"met at {seconds(g['time_s'])}" if g["met"] else (
                 "passed out of order" if g["passes_s"] else "NOT met")
             rows.append(f"<tr><td>{esc(g['id'])}</td><td>{esc(what)}</td><td class=\"num\">{g['order']}</td>"
                         f"<td class=\"{'ok' if g['met'] else 'fail'}\">{esc(met)}</td></tr>")
@@ -313,7 +314,7 @@ def page_html(entries: list[Entry], materials_img: Image, lib: MaterialLibrary, 
     for en in entries:
         passes, _ = check_verdict(en)
         codes = ", ".join(dict.fromkeys(f["code"] for f in en.checks["findings"] if f["severity"] == "error"))
-        first = (f"{esc(en.contacts[0][0])}\u2013{esc(en.contacts[0][1])} at {en.contacts[0][2]:.3f} s"
+        first = (f"{esc(en.contacts[0][0])}\u2013{esc(en.contacts[0][1])} at {seconds(en.contacts[0][2])}"
                  if en.contacts else "none")
         ft = fmt_s(en.fold_time)
         jam = "not run" if en.mc is None else jam_text(en.mc)
@@ -333,9 +334,10 @@ def page_html(entries: list[Entry], materials_img: Image, lib: MaterialLibrary, 
                f"</tr></thead><tbody>{''.join(rows)}</tbody></table>" + _LEGEND)
     models = sorted({en.sim["hinge_model"] for en in entries})
     model_text = "; ".join(HINGE_MODEL_TEXT.get(m, f"{m} hinges") for m in models) or "no design"
-    mc_text = (f"and each folded {samples} more times under manufacturing scatter (seed {seed}) for its jam "
-               "probability: the same check, samples and seed as <code>foldprint check</code>, whose verdict "
-               "(exit status and error codes) the summary gives" if samples else
+    mc_text = (f"and folded again under manufacturing scatter (seed {seed}) until a sequential test knows its jam "
+               f"verdict (at most {samples} samples per sigma scale): the same check, test and seed as "
+               "<code>foldprint check</code>, whose verdict (exit status and error codes) the summary gives"
+               if samples else
                "without the Monte-Carlo jam probability (0 samples; <code>foldprint check</code> runs it)")
     body = "\n".join(_design_html(en, lib) for en in entries)
     ours = [(en.design.paper.label, en.design.name) for en in entries

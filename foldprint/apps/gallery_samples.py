@@ -3,6 +3,7 @@ every sample's outcome, the worst sample's drawn parameters) and as the page's H
 
 from __future__ import annotations
 
+from ..checks.report import jam_estimate_text, jam_test_json, jam_test_text, seconds
 from ..model.design import Design
 from .gallery_entry import Entry, esc
 
@@ -19,7 +20,9 @@ def mc_summary(robust) -> dict:
     reasons = {k: sum(o.reason == k for o in robust.outcomes) for k in ("collision", "goal", "unfolded")}
     return {"samples": robust.samples, "seed": robust.seed, "hinge_model": str(robust.hinge_model.value),
             "jams": robust.jams, "jam_probability": float(robust.jam_probability),
-            "ci95": [float(x) for x in robust.ci95], "failures": reasons, "pairs": pairs,
+            "ci95": [float(x) for x in robust.ci95], "interval": robust.interval_name,
+            "text": jam_estimate_text(robust), "how": jam_test_text(robust),
+            "test": jam_test_json(robust.decision), "failures": reasons, "pairs": pairs,
             "fold_time_s": robust.fold_time_percentiles(),
             "outcomes": [{"sample": k, "jammed": o.jammed, "reason": o.reason,
                           "pair": None if o.pair is None else list(o.pair),
@@ -54,8 +57,9 @@ def _pct(p: float) -> str:
 
 
 def jam_text(mc: dict) -> str:
-    lo, hi = mc["ci95"]
-    return f"{_pct(mc['jam_probability'])} (95 % CI {_pct(lo)}\u2013{_pct(hi)})"
+    """The jam probability as ``foldprint check`` prints it (one writer:
+    :func:`foldprint.checks.report.jam_estimate_text`)."""
+    return mc["text"]
 
 
 def mc_html(entry: Entry) -> str:
@@ -68,15 +72,15 @@ def mc_html(entry: Entry) -> str:
     ways = ", ".join(f"{k} {w}" for w, k in (("collide", f["collision"]), ("miss a goal", f["goal"]),
                                                ("do not finish folding", f["unfolded"])) if k)
     parts = [f"<h3>Under manufacturing scatter ({n} samples, seed {mc['seed']})</h3>",
-             f"<p>Jam probability <strong>{esc(jam_text(mc))}</strong>: {mc['jams']} of {n} samples jam"
-             + (f" ({esc(ways)})" if ways else "") + ". The same samples, seed and time step as "
-             f"<code>foldprint check</code>; each sample draws Tg, thickness and heat transfer per hinge and "
-             f"the bath temperature, and folds the printed part ({esc(mc['hinge_model'])} hinges).</p>"]
+             f"<p>Jam probability <strong>{esc(jam_text(mc))}</strong>"
+             + (f" ({esc(ways)})" if ways else "") + f"; {esc(mc['how'])}. The same test, samples, seed and time "
+             f"step as <code>foldprint check</code>; each sample draws Tg, thickness and heat transfer per hinge "
+             f"and the bath temperature, and folds the printed part ({esc(mc['hinge_model'])} hinges).</p>"]
     if mc["pairs"]:
         rows = "".join(
             f"<tr><td>{esc(p['pair'][0])}\u2013{esc(p['pair'][1])}</td><td class=\"num\">{p['count']}</td>"
-            f"<td class=\"num\">{_pct(p['count'] / n)}</td><td class=\"num\">{p['first_s']:.3f} s</td>"
-            f"<td class=\"num\">{p['median_s']:.3f} s</td><td class=\"num\">{p['last_s']:.3f} s</td></tr>"
+            f"<td class=\"num\">{_pct(p['count'] / n)}</td><td class=\"num\">{seconds(p['first_s'])}</td>"
+            f"<td class=\"num\">{seconds(p['median_s'])}</td><td class=\"num\">{seconds(p['last_s'])}</td></tr>"
             for p in mc["pairs"])
         parts.append("<table><caption>First-colliding panel pairs</caption><thead><tr><th>panels</th>"
                      "<th>samples</th><th>share</th><th>earliest contact</th><th>median</th><th>latest</th>"
@@ -88,9 +92,9 @@ def mc_html(entry: Entry) -> str:
         p = mc["fold_time_s"]
         parts.append("<table><caption>Fold time of the samples that complete</caption><thead><tr><th>samples</th>"
                      "<th>fastest</th><th>5 %</th><th>median</th><th>95 %</th><th>slowest</th></tr></thead>"
-                     f"<tbody><tr><td class=\"num\">{len(ft)}</td><td class=\"num\">{min(ft):.2f} s</td>"
-                     f"<td class=\"num\">{p['p5']:.2f} s</td><td class=\"num\">{p['p50']:.2f} s</td>"
-                     f"<td class=\"num\">{p['p95']:.2f} s</td><td class=\"num\">{max(ft):.2f} s</td></tr>"
+                     f"<tbody><tr><td class=\"num\">{len(ft)}</td><td class=\"num\">{seconds(min(ft))}</td>"
+                     f"<td class=\"num\">{seconds(p['p5'])}</td><td class=\"num\">{seconds(p['p50'])}</td>"
+                     f"<td class=\"num\">{seconds(p['p95'])}</td><td class=\"num\">{seconds(max(ft))}</td></tr>"
                      "</tbody></table>")
     else:
         parts.append("<p>No sample completes its fold.</p>")
@@ -101,7 +105,7 @@ def mc_html(entry: Entry) -> str:
         rep = w["replay"]
         again = ("completes" if rep["completed"] else "does not complete") + (
             f", first contact {rep['first_collision']['panels'][0]}\u2013{rep['first_collision']['panels'][1]} "
-            f"at {rep['first_collision']['time_s']:.3f} s" if rep["first_collision"] else "")
+            f"at {seconds(rep['first_collision']['time_s'])}" if rep["first_collision"] else "")
         note = "" if w["replay_agrees"] else " (the replay does not give the recorded outcome: a bug, please report)"
         prm = w["parameters"]
         rows = []

@@ -43,12 +43,13 @@ from ..model.composition import fraction_profile
 from ..model.materials import MaterialLibrary, default_library
 from ..model.printers import find_printer, tool_fit
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
-                          AfterContact, HingeModel, Method, State, parse)
+                          AfterContact, HingeModel, Method, SampleRule, State, parse)
 from ..simulation.margin import ScatterMargin, scatter_margin
 from ..simulation.paper_beside import PaperLine, paper_lines
 from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, default_scatter, draw_samples, jam_probability,
                                  outcome_of, sample_drive)
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
+from ..simulation.sequential import jam_test, jam_tests
 from ..simulation.simulate import SimulationResult, simulate
 
 Progress = Callable[[str, int, int], None]
@@ -60,7 +61,8 @@ class EvalOptions:
     """How a design is evaluated; the defaults are ``foldprint check``'s
     (:mod:`foldprint.core.constants`). ``method`` is the collision method of the
     evaluation's simulation (check: the 3D swept check; ``simulate`` passes ``both``);
-    ``samples`` = 0 skips the jam probability; ``scales``: the sigma scales of the
+    ``samples`` = 0 skips the jam probability, else the most of check's sequential test
+    (``sample_rule``; FIXED: robust's count); ``scales``: the sigma scales of the
     sensitivity sweep beside the estimate (empty: none; 1 is the estimate itself, check
     sweeps :data:`CHECK_SCALES` and 1); ``state``, ``formats``: what
     :meth:`Evaluation.export` writes by default."""
@@ -72,6 +74,7 @@ class EvalOptions:
     bath_c: float | None = None
     duration: float | None = None
     samples: int = CHECK_SAMPLES
+    sample_rule: SampleRule = SampleRule.SEQUENTIAL
     seed: int = CHECK_SEED
     scales: tuple[float, ...] = ()
     thresholds: Thresholds = field(default_factory=Thresholds)
@@ -85,6 +88,7 @@ class EvalOptions:
         object.__setattr__(self, "method", parse(Method, self.method, "method"))
         object.__setattr__(self, "after_contact", parse(AfterContact, self.after_contact, "after_contact"))
         object.__setattr__(self, "state", parse(State, self.state, "state"))
+        object.__setattr__(self, "sample_rule", parse(SampleRule, self.sample_rule, "sample_rule"))
         object.__setattr__(self, "scales", tuple(float(k) for k in self.scales))
         object.__setattr__(self, "formats", tuple(self.formats))
 
@@ -330,14 +334,24 @@ class Evaluation:
     def paper_lines(self) -> tuple[PaperLine, ...]:
         """The paper's statements about this design beside the model's values (none for a
         design not from the paper), with the jam probability when it was estimated."""
-        r = self._stages.get("robust")
+        r = self._stages.get("robust") or self._stages.get("jam_tests", {}).get(1.0)
         return paper_lines(self.design, self.simulation, self.clearance, None if r is None else r.jam_probability)
+
+    def run_jam_tests(self) -> dict[float, RobustResult]:
+        """Check's jam test (:func:`jam_tests`) at 1x and each of ``options.scales``, by scale."""
+        o, sim, th = self.options, self.simulation, self.options.thresholds
+        return self._stage("jam_tests", lambda: jam_tests(
+            self.design, jam_test(th.warning, th.error, o.samples), (1.0, *o.scales), o.seed, scatter=self.scatter,
+            library=self.library, hinge_model=o.hinge_model, dt=o.dt, nominal=sim, workers=o.workers,
+            mapper=self.mapper, progress=self.progress))
 
     def run_robust(self, progress: Callable[[int, int], None] | None = None) -> RobustResult | None:
         """:attr:`robust`, reporting to ``progress(done, total)`` if it is computed now."""
         o = self.options
         if not o.samples:
             return None
+        if o.sample_rule == SampleRule.SEQUENTIAL:
+            return self.run_jam_tests()[1.0]
         sim = self.simulation
         return self._stage("robust", lambda: jam_probability(
             self.design, o.samples, o.seed, scatter=self.scatter, library=self.library, hinge_model=o.hinge_model,
@@ -355,6 +369,8 @@ class Evaluation:
         if r is None or not self.options.scales:
             return ()
         o = self.options
+        if o.sample_rule == SampleRule.SEQUENTIAL:
+            return tuple(SweepPoint(k, self.run_jam_tests()[k]) for k in sorted({1.0, *o.scales}))
         return self._stage("sweep", lambda: sweep(
             self.design, r, o.scales, library=self.library, dt=o.dt, workers=o.workers,
             mapper=self.mapper, progress=self._report("sigma scales", progress)))

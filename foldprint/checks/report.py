@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 
-from ..core.modes import JamReason
+from ..core.constants import TIME_DECIMALS
+from ..core.modes import JamReason, JamVerdict
 
 
 def _r(x, nd=4):
@@ -12,6 +13,71 @@ def _r(x, nd=4):
         return None
     x = float(x)
     return None if not math.isfinite(x) else round(x, nd)
+
+
+def seconds(t: float | None) -> str:
+    """A time as every text output prints it: to :data:`~foldprint.core.constants.TIME_DECIMALS`
+    decimals of a second, with its unit ("2.52 s"; an em dash for none).
+
+    >>> seconds(2.5149), seconds(None)
+    ('2.51 s', '\u2014')
+    """
+    return "\u2014" if t is None else f"{float(t):.{TIME_DECIMALS}f} s"
+
+
+def percent(p: float) -> str:
+    """A probability as every output prints it ("97.5 %")."""
+    return f"{100 * float(p):.1f} %"
+
+
+def threshold(p: float) -> str:
+    """A threshold or error rate as a round percentage ("20 %", "2.5 %")."""
+    return f"{100 * float(p):g} %"
+
+
+#: The verdict of a jam test as a finding's severity (FP180 error, FP181 warning, FP182 info).
+VERDICT_SEVERITY = {JamVerdict.ERROR: "error", JamVerdict.WARNING: "warning", JamVerdict.PASS: "info"}
+
+
+def jam_estimate_text(r) -> str:
+    """A jam probability with its interval and counts, as check, robust and the gallery
+    print it: "97.5 % (95 % interval 91.3-99.3 %), 78 of 80 samples jam"."""
+    lo, hi = r.ci95
+    return (f"{percent(r.jam_probability)} (95 % interval {100 * lo:.1f}-{percent(hi)}), "
+            f"{r.jams} of {r.samples} samples jam")
+
+
+def jam_test_text(r) -> str:
+    """How the jam test decided: its error rates, the samples it used of its maximum, and
+    "truncated" when it reached the maximum undecided (a marginal design)."""
+    d = getattr(r, "decision", None)
+    if d is None:
+        return f"a fixed count of {r.samples} samples"
+    t = d.test
+    rates = (f"{threshold(t.warning.alpha)} error rates" if len({t.warning.alpha, t.warning.beta, t.error.alpha,
+                                                                 t.error.beta}) == 1 else "stated error rates")
+    how = (f"truncated at the maximum of {t.max_samples} samples: the probability is close to a threshold"
+           if d.truncated else f"decided after {d.samples} of at most {t.max_samples} samples")
+    return f"sequential test, {rates}, {how}"
+
+
+def jam_test_json(d) -> dict | None:
+    """A jam test's decision (:class:`foldprint.simulation.verdict.JamDecision`), None for a
+    fixed-size estimate."""
+    if d is None:
+        return None
+    t = d.test
+
+    def one(sprt, outcome) -> dict:
+        return {"threshold": sprt.threshold, "indifference": [sprt.lo, sprt.hi], "alpha": sprt.alpha,
+                "beta": sprt.beta, "accepted": None if outcome.side is None else str(outcome.side),
+                "at_samples": outcome.at, "truncated": outcome.truncated}
+
+    lo, hi = d.interval
+    return {"name": t.name, "verdict": str(d.verdict), "samples": d.samples, "jams": d.jams,
+            "estimate": _r(d.estimate), "interval": [_r(lo), _r(hi)], "interval_name": d.interval_name,
+            "level": t.level, "max_samples": t.max_samples, "truncated": d.truncated,
+            "warning": one(t.warning, d.warning), "error": one(t.error, d.error)}
 
 
 def contact_json(c) -> dict:
@@ -74,6 +140,8 @@ def robust_json(r) -> dict:
         "hinge_model": str(r.hinge_model),
         "jam_probability": _r(r.jam_probability),
         "ci95": [_r(lo), _r(hi)],
+        "interval": r.interval_name,
+        "test": jam_test_json(r.decision),
         "jams": r.jams,
         "failures": reasons,
         "collisions": [{"pair": list(p), "count": k} for p, k in r.collisions()],
@@ -84,9 +152,36 @@ def robust_json(r) -> dict:
 
 
 def estimate_json(r) -> dict:
-    """The short form of a jam-probability estimate: jams, samples, p and its interval."""
+    """The short form of a jam-probability estimate: jams, samples, p and its interval
+    (and the verdict and whether it was truncated, for a jam test)."""
     lo, hi = r.ci95
-    return {"jams": r.jams, "samples": r.samples, "jam_probability": _r(r.jam_probability), "ci95": [_r(lo), _r(hi)]}
+    out = {"jams": r.jams, "samples": r.samples, "jam_probability": _r(r.jam_probability), "ci95": [_r(lo), _r(hi)]}
+    d = getattr(r, "decision", None)
+    if d is not None:
+        out.update(verdict=str(d.verdict), truncated=d.truncated)
+    return out
+
+
+def check_relation_json(r, check_seed: int, decision=None) -> dict:
+    """How a fixed-size estimate (``robust``) relates to ``check``'s figure: check draws
+    the same stream at its seed and stops when its test decides, so on that seed its
+    figure is the first n of these samples (``decision``: check's test on them, None for
+    another seed)."""
+    out = {"seed": check_seed, "same_stream": decision is not None, "decided": False}
+    if decision is None:
+        out["text"] = (f"check draws seed {check_seed}, other samples than these (seed {r.seed}); run robust "
+                       f"--seed {check_seed} to see check's stream")
+    elif not decision.decided:
+        out["text"] = (f"check's sequential test (seed {check_seed}, this stream) needs more than these "
+                       f"{r.samples} samples (at most {decision.test.max_samples}): the probability is near a "
+                       "threshold")
+    else:
+        word = {"error": "fails", "warning": "warns", "pass": "passes"}[str(decision.verdict)]
+        out.update(decided=True, verdict=str(decision.verdict), samples=decision.samples, jams=decision.jams)
+        out["text"] = (f"check's sequential test (seed {check_seed}, this stream) {word} after the first "
+                       f"{decision.samples} of these samples ({decision.jams} jam); its figure is theirs, "
+                       "this one is all of them")
+    return out
 
 
 def contributions_json(c) -> list[dict]:

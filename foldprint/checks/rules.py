@@ -19,6 +19,7 @@ from ..model.materials import MaterialLibrary
 from ..model.printers import (Printer, default_printer_key, default_voxel_printer_key,  # noqa: F401
                               load_printers, tool_fit)
 from ..core.modes import HingeModel
+from .report import VERDICT_SEVERITY, jam_estimate_text, jam_test_text, seconds, threshold
 
 SEVERITIES = ("error", "warning", "info")
 
@@ -259,7 +260,7 @@ def rule_fold_within_duration(ctx: CheckContext) -> list[Finding]:
             continue  # reported by FP151
         if ft is None or ft > d.process.duration_s:
             out.append(_f("FP160", "error", f"hinge {h.id!r} ({h.material}) does not reach 98 % within the "
-                          f"{d.process.duration_s:g} s process" + ("" if ft is None else f" (needs {ft:.1f} s)"),
+                          f"{d.process.duration_s:g} s process" + ("" if ft is None else f" (needs {seconds(ft)})"),
                           "lengthen duration_s or raise the bath temperature", hinge=h.id))
     return out
 
@@ -280,7 +281,7 @@ def rule_folding(ctx: CheckContext) -> list[Finding]:
         hint = ("these panels cross in the printed (permanent) state (FP122): no hinge order or material "
                 "avoids it; change the target angles, lengths or holes" if crossing else
                 "give the hinges that must fold first lower-Tg materials, so these panels fold in sequence")
-        out.append(_f("FP170", "error", f"panels {c.panels[0]!r} and {c.panels[1]!r} collide at {c.time:.3f} s "
+        out.append(_f("FP170", "error", f"panels {c.panels[0]!r} and {c.panels[1]!r} collide at {seconds(c.time)} "
                       f"while folding ({model} hinges, 3D swept check)", hint,
                       c.point if all(map(math.isfinite, c.point)) else None, panels=list(c.panels)))
     for g in res.goals:
@@ -292,47 +293,58 @@ def rule_folding(ctx: CheckContext) -> list[Finding]:
     gap = ctx.clearance
     if c is None and gap is not None:
         out.append(_f("FP172", "info", f"smallest clearance between non-adjacent panels while folding: "
-                      f"{gap.distance:.2f} mm ({gap.panels[0]!r}-{gap.panels[1]!r} at {gap.time:.2f} s, "
+                      f"{gap.distance:.2f} mm ({gap.panels[0]!r}-{gap.panels[1]!r} at {seconds(gap.time)}, "
                       f"{model} hinges)", "", panels=list(gap.panels)))
     return out
 
 
 def jam_verdict(r, th: Thresholds) -> str:
-    """The severity a jam-probability estimate earns: error when the interval's lower end
-    is above ``th.error``, warning when the estimate is above ``th.warning``, else info."""
+    """The severity a jam probability earns: its sequential test's verdict (``check``,
+    :mod:`foldprint.simulation.verdict`: error, warning or pass = info); for a fixed-size
+    estimate, error when the 95 % interval's lower end is above ``th.error``, warning when
+    the estimate is above ``th.warning``, else info."""
+    d = getattr(r, "decision", None)
+    if d is not None:
+        return VERDICT_SEVERITY[d.verdict]
     if r.ci95[0] > th.error:
         return "error"
     return "warning" if r.jam_probability > th.warning else "info"
 
 
-def _pct(r) -> str:
-    lo, hi = r.ci95
-    return f"{r.jam_probability:.0%} ({lo:.0%}-{hi:.0%})"
+def _thresholds(ctx: CheckContext) -> Thresholds:
+    """The thresholds the jam probability was judged by: its test's, else the context's."""
+    d = getattr(ctx.robust, "decision", None)
+    return ctx.thresholds if d is None else Thresholds(d.test.error.threshold, d.test.warning.threshold)
+
+
+def _scaled(points, th: Thresholds) -> str:
+    """The sweep's other scales: each one's verdict and estimate."""
+    word = {"error": "fails", "warning": "warns", "info": "passes"}
+    return "; ".join(f"{p.scale:g}x: {word[jam_verdict(p.result, th)]}, {jam_estimate_text(p.result)}"
+                     for p in points if p.scale != 1.0)
 
 
 def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
-    """The fold under manufacturing and process scatter (``foldprint robust``)."""
+    """The fold under manufacturing and process scatter: check's jam test (FP180-FP182)."""
     r = ctx.robust
     if r is None:
         return []
-    lo, hi = r.ci95
-    th = ctx.thresholds
-    pairs = ", ".join(f"{a}-{b} ({k}x)" for (a, b), k in r.collisions()[:3])
+    th, d = _thresholds(ctx), getattr(r, "decision", None)
+    pairs = ", ".join(f"{a}-{b} in {k}" for (a, b), k in r.collisions()[:3])
     what = ("the printed geometry (arc hinges)" if r.hinge_model == HingeModel.ARC else
             f"the {r.hinge_model.value}-hinge model (not the printed geometry)")
-    text = (f"jam probability {r.jam_probability:.0%} (95 % interval {lo:.0%}-{hi:.0%}) in {r.samples} samples "
-            f"of {what} under scatter" + (f"; colliding: {pairs}" if pairs else ""))
-    others = [p for p in ctx.sweep if p.scale != 1.0]
-    if others:
-        text += "; with the spreads scaled " + ", ".join(f"{p.scale:g}x: {_pct(p.result)}" for p in others)
+    text = f"jam probability {jam_estimate_text(r)}, {what} under scatter" + (f"; colliding: {pairs}" if pairs else "")
+    how = f" ({jam_test_text(r)})"
+    scaled = _scaled(ctx.sweep, th)
+    tail = f"; with the spreads scaled {scaled}" if scaled else ""
     hint = "give neighbouring hinges materials further apart in Tg, so scatter cannot swap their order"
     verdict = jam_verdict(r, th)
     if verdict == "error":
-        return [_f("FP180", "error", text + f": above the {th.error:.0%} error threshold even at the interval's "
-                   "lower end", hint)]
+        above = "" if d is not None else " even at the interval's lower end"
+        return [_f("FP180", "error", text + f": above the {threshold(th.error)} error threshold{above}{how}{tail}", hint)]
     if verdict == "warning":
-        return [_f("FP181", "warning", text + f": above the {th.warning:.0%} warning threshold", hint)]
-    return [_f("FP182", "info", text)]
+        return [_f("FP181", "warning", text + f": above the {threshold(th.warning)} warning threshold{how}{tail}", hint)]
+    return [_f("FP182", "info", text + f": below the {threshold(th.warning)} warning threshold{how}{tail}")]
 
 
 def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
@@ -341,9 +353,9 @@ def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
     r = ctx.robust
     if r is None or not ctx.sweep:
         return []
-    th = ctx.thresholds
+    th, d = _thresholds(ctx), getattr(r, "decision", None)
     rank = {"error": 0, "warning": 1, "info": 2}
-    word = {"error": "fails (FP180)", "warning": f"jams above {th.warning:.0%} (FP181)", "info": "passes (FP182)"}
+    word = {"error": "fails (FP180)", "warning": f"jams above {threshold(th.warning)} (FP181)", "info": "passes (FP182)"}
     base = jam_verdict(r, th)
     flips = [(p, jam_verdict(p.result, th)) for p in ctx.sweep if p.scale != 1.0]
     worse = [(p, v) for p, v in flips if rank[v] < rank[base]]
@@ -351,9 +363,10 @@ def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
     if not worse and not better:
         return []
     shown = worse or better
-    at = "; ".join(f"{word[v]} at {p.scale:g}x: {_pct(p.result)}" for p, v in shown)
+    at = "; ".join(f"{word[v]} at {p.scale:g}x: {jam_estimate_text(p.result)}" for p, v in shown)
+    same = "the same draws" if d is None else "the same draws, each scale its own sequential test"
     text = (f"the jam verdict depends on the scatter model: it {word[base]} at the model's spreads "
-            f"({_pct(r)}) but {at} ({r.samples} samples each, the same draws)")
+            f"({jam_estimate_text(r)}) but {at} ({same})")
     if worse:
         return [_f("FP183", "warning", text, "most spreads are our choices, not measurements "
                    "(docs/robustness-model.md): measure your bath, hinges and heat transfer (--scatter FILE) or "

@@ -118,15 +118,17 @@ def _assign_request(materials, temperature, temperature_range, fixed, objective,
 
 def _print_assign(name: str, r, out: dict, objective: Objective) -> None:
     """``assign``'s human output: the best assignments and what blocks the others."""
+    from ..checks.report import percent, seconds
+
     space = (f"{r.evaluated / r.search_space:.2e} of {r.search_space}" if math.isfinite(r.search_space)
              else "of a continuous space")
     echo(f"{name}: {r.feasible} feasible assignment(s) in {r.evaluated} evaluations ({space}), "
          f"objective {objective}")
     for k, c in enumerate(out["best"], 1):
         mats_s = ", ".join(f"{h}={m}" for h, m in c["assignment"].items())
-        extra = "" if c["jam_probability"] is None else f", jam probability {c['jam_probability']:.1%}"
+        extra = "" if c["jam_probability"] is None else f", jam probability {percent(c['jam_probability'])}"
         clear = "-" if c["min_clearance_mm"] is None else f"{c['min_clearance_mm']:.2f} mm"
-        echo(f"  {k}. {mats_s} at {c['temperature_c']:g} C: folds in {c['fold_time_s']:.2f} s, "
+        echo(f"  {k}. {mats_s} at {c['temperature_c']:g} C: folds in {seconds(c['fold_time_s'])}, "
              f"smallest clearance {clear}{extra}")
     for b in out["blocking"][:5]:
         if r.permanent_blocked:  # found before any evaluation: no count to give

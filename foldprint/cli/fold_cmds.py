@@ -18,7 +18,7 @@ from ..core.errors import FoldprintError
 from .root import app
 from .support import (ExitCode, MAX_SAMPLES, CREASE_HELP, SCALE_HELP, check_count, echo_json, check_fraction, load_input, open_mapper, parse_mode,
                       echo_note, check_out_dir, print_paper, print_simulation, load_printer, samples_progress, check_temperature, time_options,
-                      verdict_word)
+                      stage_progress, verdict_word)
 
 
 @app.command()
@@ -85,16 +85,19 @@ def check(
     printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML)."),
     hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
-    samples: int = typer.Option(CHECK_SAMPLES, "--samples", help="Monte-Carlo samples for the jam probability "
-                                f"(0 skips it; {CHECK_SAMPLES}: the 95 % intervals at 5 % and 20 % do not overlap; run once per sigma scale of the sweep; the gallery runs the same)."),
+    samples: int = typer.Option(CHECK_SAMPLES, "--samples", help="The MOST Monte-Carlo samples of the jam test "
+                                "(per sigma scale; 0 skips it). The test is sequential: it stops as soon as the "
+                                "verdict is known at 5 % error rates (clear designs in 6-60 samples, marginal ones "
+                                "up to this maximum); the gallery runs the same."),
     seed: int = typer.Option(CHECK_SEED, "--seed", help="Seed of the samples."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
-    error_above: float = typer.Option(JAM_ERROR_ABOVE, "--error-above", help="Fail when the 95 % interval's lower end "
-                                      "of the jam probability is above this."),
-    warn_above: float = typer.Option(JAM_WARN_ABOVE, "--warn-above", help="Warn when the jam probability is above this."),
+    error_above: float = typer.Option(JAM_ERROR_ABOVE, "--error-above", help="Fail when the jam test finds the jam "
+                                      "probability above this (tested between it -/+ 0.05)."),
+    warn_above: float = typer.Option(JAM_WARN_ABOVE, "--warn-above", help="Warn when the jam test finds the jam "
+                                     "probability above this (tested between half and 1.5x it)."),
     sensitivity: bool = typer.Option(True, "--sensitivity/--no-sensitivity",
-                                     help="Also estimate it with the scatter spreads scaled by --scales and say "
-                                     "(FP183) when the verdict flips in that range."),
+                                     help="Also run the jam test with the scatter spreads scaled by --scales (the "
+                                     "same draws) and say (FP183) when the verdict flips in that range."),
     scales: str = typer.Option(",".join(f"{k:g}" for k in CHECK_SCALES), "--scales", help="Sigma scales of the sensitivity (comma-separated)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
@@ -104,7 +107,9 @@ def check(
 ):
     """Design-rule checks before printing, on the printed geometry: build volume, walls
     and gaps, hinge strain and size, temperatures, fold time, collisions and goals, and
-    the jam probability under manufacturing scatter, also with the spreads at 0.5x and 2x
+    the jam verdict under manufacturing scatter: a sequential test that folds samples
+    until it knows whether the jam probability is below 5 % (pass), above 20 % (fail) or
+    between (warning), with 5 % error rates; the same test with the spreads at 0.5x and 2x
     (FP183 says when the verdict flips in that range). Exit 0 without errors, 1 with.
 
     Example: foldprint check helix_uniform --json
@@ -126,9 +131,8 @@ def check(
     sc = load_scatter(scatter_file)
     d, lib = load_input(design, materials_file, scale, crease_materials)
     opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=check_scales(ks), thresholds=th)
-    with samples_progress(f"{d.name}: scatter samples") as cb:
-        ev = Evaluation(d, opts, library=lib, printer=pr, scatter=sc,
-                        progress=(lambda _s, done, total: cb(done, total)) if cb else None)
+    with stage_progress(f"check {d.name}", json_out) as cb:
+        ev = Evaluation(d, opts, library=lib, printer=pr, scatter=sc, progress=cb)
         findings = ev.findings
     n_err = ev.errors
     if json_out:
@@ -164,16 +168,21 @@ def robust(
 ):
     """Jam probability under manufacturing and process scatter (foldprint/data/scatter.toml):
     shared by the part and run (bath temperature, the heat-transfer correlation's error)
-    and per hinge (Tg, thickness, local heat transfer); N Monte-Carlo folds of the printed
-    geometry on all cores, with each component's contribution and (--sensitivity) the
-    curve over sigma scales. Exit 0; 2 on bad input.
+    and per hinge (Tg, thickness, local heat transfer); exactly N Monte-Carlo folds of the
+    printed geometry on all cores (an estimate with a Wilson interval), with (opt-in) each
+    component's contribution and (--sensitivity) the curve over sigma scales. `check`
+    draws the same stream at its seed (0) but stops when its sequential test decides, so
+    its figure is that of the first n samples: the output says what check's test makes of
+    these samples. Exit 0; 2 on bad input.
 
     Example: foldprint robust helix_uniform --samples 60 --seed 1 --sensitivity --json
     """
-    from ..core.modes import HingeModel
+    from ..core.modes import HingeModel, SampleRule
     from ..apps.pipeline import EvalOptions, Evaluation
+    from ..checks.report import check_relation_json
     from ..simulation.robust import load_scatter
     from ..simulation.sensitivity import parse_scales
+    from ..simulation.sequential import on_check_stream
 
     model = parse_mode(HingeModel, hinge_model, "--hinge-model")
     check_count(samples, "--samples", 1, MAX_SAMPLES)
@@ -182,31 +191,40 @@ def robust(
     ks = parse_scales(scales)
     sc = load_scatter(scatter_file)
     d, lib = load_input(design, materials_file)
-    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=ks if sensitivity else ())
+    opts = EvalOptions(hinge_model=model, samples=samples, sample_rule=SampleRule.FIXED, seed=seed,
+                       scales=ks if sensitivity else ())
     with open_mapper(scheduler) as mapper:
         ev = Evaluation(d, opts, library=lib, scatter=sc, mapper=mapper)
-        with samples_progress(f"{d.name}: scatter samples") as cb:
+        with samples_progress(f"{d.name}: scatter samples", json_out) as cb:
             ev.run_robust(cb)
         if contributions:
-            with samples_progress(f"{d.name}: one component at a time") as cb:
+            with samples_progress(f"{d.name}: one component at a time", json_out) as cb:
                 ev.run_contributions(cb)
         if sensitivity:
-            with samples_progress(f"{d.name}: sigma scales") as cb:
+            with samples_progress(f"{d.name}: sigma scales", json_out) as cb:
                 ev.run_sweep(cb)
     out = ev.robust_json()
+    out["check"] = check_relation_json(ev.robust, CHECK_SEED, on_check_stream(ev.robust, CHECK_SEED))
     if json_out:
         echo_json(out)
         return
-    lo, hi = out["ci95"]
-    echo(f"{d.name}: jam probability {out['jam_probability']:.1%} (95 % interval {lo:.1%}-{hi:.1%}) "
-         f"in {samples} samples, seed {seed} ({model.value} hinges)")
+    _print_robust(out, ev.robust, seed, model.value)
+
+
+def _print_robust(out: dict, r, seed: int, model: str) -> None:
+    """``robust``'s text output: the estimate, its pairs and fold times, check's relation,
+    the contributions and the sweep."""
+    from ..checks.report import jam_estimate_text, seconds
+
+    echo(f"{r.design}: jam probability {jam_estimate_text(r)}, seed {seed} ({model} hinges)")
     for c in out["collisions"][:5]:
         echo(f"  {c['pair'][0]}-{c['pair'][1]} collide in {c['count']} samples")
     ft = out["fold_time_s"]
     if ft:
-        echo(f"  fold time of the samples that completed: {ft['p5']:.2f} / {ft['p50']:.2f} / "
-             f"{ft['p95']:.2f} s (5th / 50th / 95th percentile)")
+        echo(f"  fold time of the samples that completed: {seconds(ft['p5'])} / {seconds(ft['p50'])} / "
+             f"{seconds(ft['p95'])} (5th / 50th / 95th percentile)")
     echo(f"  nominal: {verdict_word(out['nominal'])}")
+    echo(f"  check: {out['check']['text']}")
 
     def est(e):
         a, b = e["ci95"]

@@ -114,7 +114,7 @@ def gallery(
 ):
     """Simulate, check, render and export designs into an offline HTML gallery
     (index.html with an interactive 3D viewer per design, renders, fold animations, plots,
-    and 3MF/STL links). Each design gets the same check as `foldprint check` (its samples
+    and 3MF/STL links). Each design gets the same check as `foldprint check` (its jam test
     and seed): the summary gives its verdict and jam probability. Designs are built in
     parallel processes.
 
@@ -145,8 +145,11 @@ def gallery(
 
         with Progress(TextColumn("gallery"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                       TextColumn("{task.description}"), transient=True, console=Console(stderr=True)) as bar:
-            task = bar.add_task(f"building {len(loaded)} design(s)", total=len(loaded) + 2)
+            task = bar.add_task(f"building {len(loaded)} design(s): nominal folds, then the jam tests",
+                                total=len(loaded) + 2)
+            tests = bar.add_task("jam tests: starting", total=None)  # the Monte-Carlo, live
             index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force,
                                   progress=lambda done, total, msg: bar.update(task, completed=done, total=total,
-                                                                               description=msg))
+                                                                               description=msg),
+                                  activity=lambda text: bar.update(tests, description=text))
     echo_note(f"wrote {index}")

@@ -29,12 +29,38 @@ ONSET_LEVEL = 0.05
 #: How long the recovery model looks ahead before it calls a hinge "does not fold" (s).
 RECOVERY_HORIZON_S = 600.0
 
-#: Monte-Carlo samples ``foldprint check`` (and everything that runs its estimate by default:
-#: the gallery runs the same check) draws for the jam probability. The smallest round count whose Wilson 95 % intervals at
-#: the check's two thresholds, p = 0.05 (warning) and p = 0.2 (error), do not overlap: at
-#: N = 75 they first separate (0.05 N jams: up to 12.3 %; 0.2 N jams: from 12.6 %) and stay
-#: apart for every larger N; 80 gives 0.020-0.122 vs 0.127-0.300 (tests/test_robust.py).
-CHECK_SAMPLES = 80
+#: The most Monte-Carlo samples ``foldprint check`` (and the gallery, which runs the same
+#: check) draws for its jam verdict, a sequential test that stops as soon as the answer is
+#: known at its stated error rates (:mod:`foldprint.simulation.verdict`, ``docs/verdict.md``);
+#: ``--samples N`` sets it. Our choice: 400 (25 chunks) is about 2.4x the test's largest
+#: average sample number (167, at a jam probability near 4.6 %, the warning test's
+#: hardest case, where 7.6 % of runs reach the maximum; under 1 % do at the edges of the
+#: indifference regions, and the error rates hold with the truncation:
+#: ``benchmarks/bench_verdict.py``, ``docs/verdict.md``), and a marginal design gets up to
+#: 5x the 80 samples of a fixed-size check whose 95 % intervals at 5 % and 20 % just part.
+CHECK_SAMPLES = 400
+#: The sequential test of each jam threshold theta (warning :data:`JAM_WARN_ABOVE`, error
+#: :data:`JAM_ERROR_ABOVE`): Wald's SPRT of p <= theta - delta against p >= theta + delta,
+#: with delta = min(JAM_TEST_RELATIVE_HALF_WIDTH x theta, JAM_TEST_MAX_HALF_WIDTH): at the
+#: defaults 0.025 against 0.075 (warning) and 0.15 against 0.25 (error). Our choice: a
+#: half-width of half the threshold where the threshold is small (a 5 % question is about
+#: factors: 2.5 % is clearly fine, 7.5 % clearly not; a fixed 5 points would put the lower
+#: hypothesis at 0, which no finite number of samples proves), capped at 5 points where
+#: it is large (a 1-in-4 jam should not pass a 20 % test). Narrower regions cost samples:
+#: the average sample number grows as 1 / delta^2 (docs/verdict.md).
+JAM_TEST_RELATIVE_HALF_WIDTH = 0.5
+JAM_TEST_MAX_HALF_WIDTH = 0.05
+#: The smallest half-width (a threshold of 0 or 1 still gives a test that ends): our choice.
+JAM_TEST_MIN_HALF_WIDTH = 0.005
+#: Error rates of each threshold's test (our choice, the usual 5 %): alpha, the chance of
+#: saying "above" when p is at or below the lower end of its indifference region; beta,
+#: of saying "below" when p is at or above the upper end (strict bounds: the boundaries
+#: are log(1 / alpha) and log(beta), :class:`foldprint.simulation.verdict.Sprt`).
+JAM_TEST_ALPHA = 0.05
+JAM_TEST_BETA = 0.05
+#: Level of the interval reported beside the verdict (an anytime-valid confidence
+#: sequence: valid at the data-dependent stopping time of the test).
+JAM_INTERVAL_LEVEL = 0.95
 
 #: Defaults for a design that does not say (the paper's helix, Mao et al. 2015, Fig. 2).
 DEFAULT_THICKNESS_MM = 0.8
@@ -63,9 +89,8 @@ DEFAULT_SEED = 0
 #: of every sample. The gallery runs the same check with these and :data:`CHECK_SAMPLES`.
 CHECK_SEED = DEFAULT_SEED
 CHECK_DT_S = DEFAULT_DT_S
-#: The jam probability above which ``check`` fails (FP180: the lower end of the 95 %
-#: interval above it) and warns (FP181: the estimate above it); our choices, see
-#: :data:`CHECK_SAMPLES` for why 80 samples separate them.
+#: The jam probability above which ``check`` fails (FP180) and warns (FP181); our choices.
+#: Each is tested sequentially with the error rates and indifference regions above.
 JAM_ERROR_ABOVE = 0.2
 JAM_WARN_ABOVE = 0.05
 #: Monte-Carlo samples ``foldprint robust`` (and :func:`~foldprint.simulation.robust.jam_probability`)
@@ -78,11 +103,16 @@ ASSIGN_BUDGET = 600
 ASSIGN_SAMPLES = 40
 #: The formats ``export`` writes when none is asked for (the files a printer needs).
 EXPORT_FORMATS = ("3mf", "prusa3mf", "stl")
-#: Sigma scales ``check`` also runs (the same samples and seed) to say when its verdict
-#: flips inside that range (FP183); the gallery runs the same.
+#: Sigma scales ``check`` also runs (the same draws and seed, the same sequential test at
+#: each) to say when its verdict flips inside that range (FP183); the gallery runs the same.
 CHECK_SCALES = (0.5, 2.0)
 #: The sigma scales ``foldprint robust --sensitivity`` sweeps by default.
 SWEEP_SCALES = (0.5, 1.0, 2.0)
+#: Decimals of a second every text output prints a time with (fold times, contacts,
+#: clearances; ``checks.report.seconds``): 0.01 s, the default time step. Our choice: the
+#: contact times are refined to 1 ms (``tol.time``), but a model whose inputs scatter
+#: (``docs/robustness-model.md``) moves them by more than that.
+TIME_DECIMALS = 2
 #: Poses sampled along a fold for its smallest clearance (check, the gallery and assign's
 #: confirmed finalists): an even spread over the run, refined exactly between the two
 #: nearest samples (:func:`foldprint.collision.clearance.min_clearance`).

@@ -86,6 +86,33 @@ class JamReason(Mode):
     UNFOLDED = "unfolded"
 
 
+class JamVerdict(Mode):
+    """What the jam test of ``check`` concludes (:mod:`foldprint.simulation.verdict`):
+    ``PASS`` below the warning threshold (FP182), ``WARNING`` between the two (FP181),
+    ``ERROR`` above the error threshold (FP180)."""
+
+    PASS = "pass"
+    WARNING = "warning"
+    ERROR = "error"
+
+
+class Side(Mode):
+    """Which hypothesis one threshold's sequential test accepted: the jam probability is
+    ``BELOW`` the lower end of its indifference region or ``ABOVE`` the upper end."""
+
+    BELOW = "below"
+    ABOVE = "above"
+
+
+class SampleRule(Mode):
+    """How many Monte-Carlo samples a jam probability takes: ``SEQUENTIAL`` (``check``
+    and the gallery) until its test decides, at most the maximum; ``FIXED`` (``robust``,
+    ``assign``) exactly the count asked for, an estimate with a Wilson interval."""
+
+    SEQUENTIAL = "sequential"
+    FIXED = "fixed"
+
+
 class Objective(Mode):
     """What ``foldprint assign`` optimises (:mod:`foldprint.apps.assign`): ``TIME`` the
     fastest fold, ``MARGIN`` the widest smallest clearance along the fold, ``ROBUST`` the

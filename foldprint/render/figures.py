@@ -208,7 +208,9 @@ def sample_outcomes_figure(robust, worst: int | None = None):
         ax1.xaxis.get_major_locator().set_params(integer=True)
         ax1.set_title("first-colliding panel pairs", fontsize=10)
         ax1.grid(alpha=0.3, axis="x")
-    fig.suptitle(f"{robust.design}: jam probability {robust.jam_probability:.0%} under scatter "
+    from ..checks.report import percent
+
+    fig.suptitle(f"{robust.design}: jam probability {percent(robust.jam_probability)} under scatter "
                  f"({robust.hinge_model.value} hinges)", fontsize=11)
     fig.tight_layout()
     return fig

@@ -1,23 +1,26 @@
-"""The Monte-Carlo of many designs, and the work that follows each, in one process pool.
+"""The Monte-Carlo of many designs, and the work that follows each, in one adaptive process pool.
 
-``foldprint check`` runs one design's samples at 1x and at each sweep scale; the gallery
-runs that check for every template. Run one design at a time, each run (and each sweep
-scale) starts its own pool and ends on its slowest chunk while the other cores idle.
-:func:`run_batch` instead schedules every chunk of every design and scale as one task
-in one pool, the costliest first (a loop pattern's sample costs tens of strip samples),
-and hands each design's outcomes, as soon as its last chunk is in, to a follow-up task
-in the same pool (the gallery's per-design build, which then runs
-:func:`foldprint.simulation.robust.jam_probability` on the :class:`Precomputed` outcomes
-instead of folding again). Independent tasks (the material chart) go in the same pool.
+``foldprint check`` runs one design's jam test at 1x and at each sweep scale; the gallery
+runs that check for every template. :func:`run_batch` folds every (design, scale)
+*stream* of samples in one pool: chunks are submitted as workers free up, a stream with
+nothing in flight first (the costliest design first: a loop pattern's sample costs tens
+of strip samples), then the follow-up work of a design whose streams are all decided
+(the gallery's per-design build, which then answers its check from the
+:class:`Precomputed` outcomes instead of folding again), and only when every open stream
+already has a chunk in flight a second chunk of one (it may be discarded). A stream
+with a sequential test (:class:`~foldprint.simulation.verdict.JamTest`) stops being fed
+once its test decides; the chunks folded beyond the stop are discarded.
 
-The samples are the ones ``jam_probability`` draws (:func:`iter_samples`, same seed, in
-chunks of :data:`~foldprint.simulation.robust.CHUNK`), folded by the same
-:func:`~foldprint.simulation.robust.run_samples`; only where and in what order they are
-folded changes, so the outcomes are the same. Workers receive the jobs once, at start
-(inherited on fork); a task names (job, scale, chunk), so a design's FCL geometry is
-built once per worker (:func:`foldprint.collision.swept3d.checker_for`), not per chunk.
-The first chunk of each job and scale is timed in its worker and the run is refused
-(:func:`foldprint.core.guards.check_samples`) as ``jam_probability`` would refuse it.
+The samples are the ones :func:`~foldprint.simulation.robust.jam_probability` draws
+(:func:`iter_samples`, same seed, in chunks of :data:`~foldprint.simulation.robust.CHUNK`),
+folded by the same :func:`~foldprint.simulation.robust.run_samples`, and each stream
+consumes its chunks **in stream order, one sample at a time**: the outcomes kept and the
+stopping index depend on the seed alone, never on the number of workers, on which chunk
+came back first or on how many were folded past the stop. Workers receive the jobs once,
+at start (inherited on fork); a task names (job, scale, chunk), so a design's FCL
+geometry is built once per worker. The first chunk of each stream is timed in its worker
+and the run is refused (:func:`foldprint.core.guards.check_samples`, on the maximum
+sample count) as ``jam_probability`` would refuse it.
 """
 
 from __future__ import annotations
@@ -34,12 +37,14 @@ from ..model.design import Design, has_loops
 from ..model.materials import MaterialLibrary, default_library
 from .robust import CHUNK, Outcome, n_chunks, run_samples
 from .scatter import Scatter, default_scatter, iter_samples
+from .verdict import JamTest, decide
 
 
 @dataclass(frozen=True)
 class MonteCarloJob:
-    """One design's Monte-Carlo: ``samples`` samples of ``seed`` under ``scatter`` times
-    each of ``scales`` (1.0 is the estimate itself)."""
+    """One design's Monte-Carlo: up to ``samples`` samples of ``seed`` under ``scatter``
+    times each of ``scales`` (1.0 is the estimate itself); with a ``test``, each scale's
+    stream stops when the test decides (``samples`` is then the test's maximum)."""
 
     design: Design
     samples: int
@@ -49,10 +54,14 @@ class MonteCarloJob:
     hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL
     dt: float = DEFAULT_DT_S
     method: Method = VERDICT_METHOD
+    test: JamTest | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "hinge_model", parse(HingeModel, self.hinge_model, "hinge_model"))
         object.__setattr__(self, "method", parse(Method, self.method, "method"))
+        if self.test is not None and self.test.max_samples != self.samples:
+            raise ValueError(f"a sequential job's samples ({self.samples}) must be its test's maximum "
+                             f"({self.test.max_samples})")
 
     def scatter_at(self, k: float) -> Scatter:
         sc = self.scatter or default_scatter()
@@ -61,9 +70,10 @@ class MonteCarloJob:
 
 @dataclass(frozen=True)
 class Precomputed:
-    """A design's folded outcomes per scatter model, to hand to ``jam_probability`` as its
-    ``mapper``: it then returns these instead of folding (same design name, samples, seed,
-    hinge model, time step, collision method and scatter, else it folds as usual)."""
+    """A design's folded outcomes per scatter model (for a sequential job: the samples its
+    test consumed, up to the stop), to hand to ``jam_probability`` or the jam test as
+    their ``mapper``: they then use these instead of folding (same design name, samples,
+    seed, hinge model, time step, collision method, test and scatter, else they fold)."""
 
     design: str
     samples: int
@@ -72,11 +82,12 @@ class Precomputed:
     dt: float
     outcomes: tuple[tuple[Scatter, tuple[Outcome, ...]], ...]
     method: Method = VERDICT_METHOD
+    test: JamTest | None = None
 
     def lookup(self, design: Design, scatter: Scatter, samples: int, seed: int, hinge_model: HingeModel,
-               dt: float, method: Method = VERDICT_METHOD) -> tuple[Outcome, ...] | None:
-        if (design.name, samples, seed, hinge_model, dt, method) != (
-                self.design, self.samples, self.seed, self.hinge_model, self.dt, self.method):
+               dt: float, method: Method = VERDICT_METHOD, test: JamTest | None = None) -> tuple[Outcome, ...] | None:
+        if (design.name, samples, seed, hinge_model, dt, method, test) != (
+                self.design, self.samples, self.seed, self.hinge_model, self.dt, self.method, self.test):
             return None
         return next((o for sc, o in self.outcomes if sc == scatter), None)
 
@@ -87,6 +98,18 @@ class Precomputed:
             if progress:
                 progress(k + 1, len(items))
         return out
+
+
+@dataclass(frozen=True)
+class StreamStatus:
+    """Where one (job, scale) stream is: samples consumed in order so far, its maximum,
+    and whether it is finished (its test decided, or every sample of a fixed job in)."""
+
+    job: int
+    scale: float
+    samples: int
+    max_samples: int
+    done: bool
 
 
 _STATE: dict = {}
@@ -117,18 +140,74 @@ def _cost(design: Design) -> float:
     return len(design.hinges) * (50.0 if has_loops(design) else 1.0)
 
 
+class _Stream:
+    """One (job, scale) stream: the chunks submitted, in flight and back, and the outcomes
+    consumed in stream order (cut at the test's stop)."""
+
+    def __init__(self, j: int, k: float, job: MonteCarloJob):
+        self.j, self.k, self.job = j, k, job
+        self.total = n_chunks(job.samples)
+        self.next = 0  # the next chunk to submit
+        self.flying = 0
+        self.back: dict[int, list[Outcome]] = {}
+        self.used = 0  # chunks consumed
+        self.outcomes: list[Outcome] = []
+        self.done = job.samples == 0
+        self.timed = False
+
+    @property
+    def wants(self) -> bool:
+        return not self.done and self.next < self.total
+
+    @property
+    def sure(self) -> bool:
+        """Its next chunk will be used: a fixed job, or nothing of it in flight."""
+        return self.job.test is None or self.flying == 0
+
+    def take(self) -> int:
+        self.next += 1
+        self.flying += 1
+        return self.next - 1
+
+    def add(self, c: int, out: list[Outcome]) -> bool:
+        """A chunk came back; consume what is in order; True when this finished the stream."""
+        self.flying -= 1
+        if self.done:
+            return False  # folded past the stop: discarded
+        self.back[c] = out
+        while self.used in self.back:
+            self.outcomes.extend(self.back.pop(self.used))
+            self.used += 1
+        test = self.job.test
+        if test is not None:
+            d = decide([o.jammed for o in self.outcomes], test)
+            if d.decided:
+                del self.outcomes[d.samples:]
+                self.done = True
+        if self.used == self.total:
+            self.done = True
+        return self.done
+
+    def status(self) -> StreamStatus:
+        return StreamStatus(self.j, self.k, len(self.outcomes), self.job.samples, self.done)
+
+
 def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None = None, workers: int = 1,
               after: Callable[[int, Precomputed], tuple] | None = None, tasks: Sequence[tuple] = (),
-              progress: Callable[[str, int, object], None] | None = None) -> tuple[list[Precomputed], list, list]:
-    """Fold every chunk of every job and scale in one pool of ``workers`` processes.
+              progress: Callable[..., None] | None = None) -> tuple[list[Precomputed], list, list]:
+    """Fold every job's streams (one per scale) in one pool of ``workers`` processes.
 
     ``after(i, pre)`` -> ``(fn, args)``: a task run in the same pool once job ``i``'s
-    outcomes are all in (``pre`` its :class:`Precomputed`); ``tasks``: ``(fn, args)``
-    run in the pool beside them. ``progress(kind, i, out)`` is called as a follow-up
-    ("after") or independent task ("task") ``i`` finishes with its result ``out``. Returns the Precomputed per
-    job, the follow-ups' results and the tasks' results (in input order)."""
+    streams are all finished (``pre`` its :class:`Precomputed`); ``tasks``: ``(fn, args)``
+    run in the pool beside them. ``progress(kind, what, out)`` is called as a follow-up
+    (``"after"``, job index, its result) or independent task (``"task"``, its index, its
+    result) finishes, and as a stream consumes samples (``"samples"``, a
+    :class:`StreamStatus`, None). Returns the Precomputed per job, the follow-ups' results
+    and the tasks' results (in input order)."""
     batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress)
-    if workers <= 1:
+    for s in batch.streams:  # every stream, at 0 of its maximum, before the first chunk
+        batch.report("samples", s.status())
+    if workers <= 1 or sum(s.total for s in batch.streams if not s.done) + len(batch.tasks) <= 1:  # no pool for one task
         batch.run_here()
     else:
         batch.run_pool()
@@ -136,8 +215,7 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
 
 
 class _Batch:
-    """The state of one :func:`run_batch`: the chunks still to fold, their outcomes, the
-    follow-ups' and tasks' results."""
+    """The state of one :func:`run_batch`: the streams, the follow-ups' and tasks' results."""
 
     def __init__(self, jobs: list[MonteCarloJob], lib: MaterialLibrary, workers: int, after, tasks: list,
                  progress):
@@ -145,50 +223,55 @@ class _Batch:
             guards.check_sample_memory(job.design, job.samples)
         self.jobs, self.lib, self.workers, self.after, self.tasks = jobs, lib, workers, after, tasks
         self.progress = progress
-        chunks = [(j, float(k), c) for j, job in enumerate(jobs) if job.samples for k in job.scales
-                  for c in range(n_chunks(job.samples))]
-        chunks.sort(key=lambda t: -_cost(jobs[t[0]].design))  # stable: job, scale, chunk order kept
-        self.chunks = chunks
-        self.results: dict[tuple[int, float, int], list[Outcome]] = {}
-        self.left = {j: sum(1 for t in chunks if t[0] == j) for j in range(len(jobs))}
-        self.timed: set = set()
+        streams = [_Stream(j, float(k), job) for j, job in enumerate(jobs) for k in job.scales]
+        streams.sort(key=lambda s: -_cost(jobs[s.j].design))  # stable: job and scale order kept
+        self.streams = streams
+        self.ready: list[int] = []  # jobs whose streams are all finished, follow-up not yet run
         self.pre: list[Precomputed | None] = [None] * len(jobs)
         self.after_out: list = [None] * len(jobs)
         self.task_out: list = [None] * len(tasks)
 
     def precomputed(self, j: int) -> Precomputed:
         job = self.jobs[j]
-        n = n_chunks(job.samples)
-        outs = tuple((job.scatter_at(float(k)),
-                      tuple(o for c in range(n) for o in self.results.get((j, float(k), c), ())))
-                     for k in job.scales) if job.samples else ()
-        return Precomputed(job.design.name, job.samples, job.seed, job.hinge_model, job.dt, outs, job.method)
+        mine = {s.k: s for s in self.streams if s.j == j}
+        outs = tuple((job.scatter_at(float(k)), tuple(mine[float(k)].outcomes)) for k in job.scales)
+        return Precomputed(job.design.name, job.samples, job.seed, job.hinge_model, job.dt, outs, job.method,
+                           job.test)
 
-    def chunk_done(self, key: tuple[int, float, int], out: list[Outcome], per_sample: float) -> bool:
-        """Record a folded chunk (the first of each job and scale times the run, refused
-        as jam_probability would refuse it); True when it was the job's last."""
-        j, k, _ = key
-        if (j, k) not in self.timed:
-            self.timed.add((j, k))
-            if n_chunks(self.jobs[j].samples) > 1:
-                guards.check_samples(self.jobs[j].samples, per_sample, self.workers, self.jobs[j].design.name)
-        self.results[key] = out
-        self.left[j] -= 1
-        return self.left[j] == 0
-
-    def report(self, kind: str, i: int) -> None:
+    def report(self, kind: str, what) -> None:
         if self.progress:
-            self.progress(kind, i, self.after_out[i] if kind == "after" else self.task_out[i])
+            out = self.after_out[what] if kind == "after" else self.task_out[what] if kind == "task" else None
+            self.progress(kind, what, out)
+
+    def chunk_done(self, s: _Stream, c: int, out: list[Outcome], per_sample: float) -> None:
+        """Record a folded chunk (the first back of each stream times the run, refused as
+        jam_probability would refuse it); a job whose streams are all finished is ready."""
+        if not s.timed:
+            s.timed = True
+            if s.total > 1:
+                guards.check_samples(s.job.samples, per_sample, self.workers, s.job.design.name)
+        was = s.done
+        s.add(c, out)
+        if not was:
+            self.report("samples", s.status())
+        if s.done and not was and all(t.done for t in self.streams if t.j == s.j):
+            self.pre[s.j] = self.precomputed(s.j)
+            self.ready.append(s.j)
 
     def run_here(self) -> None:
         _init(self.jobs, self.lib)
         try:
-            for t in self.chunks:
-                self.chunk_done(t, *_chunk_task(*t))
+            for j in range(len(self.jobs)):
+                if all(s.done for s in self.streams if s.j == j):  # no samples
+                    self.pre[j] = self.precomputed(j)
+                    self.ready.append(j)
+            for s in self.streams:
+                while s.wants:
+                    c = s.take()
+                    self.chunk_done(s, c, *_chunk_task(s.j, s.k, c))
         finally:
             _STATE.clear()
-        for j in range(len(self.jobs)):
-            self.pre[j] = self.precomputed(j)
+        for j in sorted(self.ready):
             if self.after is not None:
                 fn, args = self.after(j, self.pre[j])
                 self.after_out[j] = fn(*args)
@@ -197,47 +280,101 @@ class _Batch:
             self.task_out[i] = fn(*args)
             self.report("task", i)
 
+    def next_work(self) -> tuple | None:
+        """What to submit to a free worker: a chunk whose outcome will be used (costliest
+        stream first), else a finished job's follow-up, else a chunk that may be folded
+        past its stream's stop; None when there is nothing left to start."""
+        for s in self.streams:
+            if s.wants and s.sure:
+                return ("chunk", s, s.take())
+        while self.ready:
+            j = self.ready.pop(0)
+            if self.after is not None:
+                fn, args = self.after(j, self.pre[j])
+                return ("after", j, fn, args)
+        open_ = [s for s in self.streams if s.wants]
+        if open_:
+            s = min(open_, key=lambda t: t.flying)  # stable: the costliest among the least fed
+            return ("chunk", s, s.take())
+        return None
+
     def run_pool(self) -> None:
         import multiprocessing as mp
         import sys
         from concurrent.futures import ProcessPoolExecutor
 
         ctx = mp.get_context("fork") if sys.platform.startswith("linux") else None
-        with ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_init,
-                                 initargs=(self.jobs, self.lib)) as pool:
-            pending: dict = {}
+        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_init,
+                                   initargs=(self.jobs, self.lib))
+        pending: dict = {}
+        try:
             for i, (fn, args) in enumerate(self.tasks):  # short, independent: first, off the critical path
                 pending[pool.submit(fn, *args)] = ("task", i)
-            for t in self.chunks:
-                pending[pool.submit(_chunk_task, *t)] = ("chunk", t)
             for j in range(len(self.jobs)):
-                if self.left[j] == 0:
-                    self.finish(pool, pending, j)
-            try:
-                self.drain(pool, pending)
-            except BaseException:
-                pool.shutdown(wait=True, cancel_futures=True)
-                raise
+                if all(s.done for s in self.streams if s.j == j):  # no samples
+                    self.pre[j] = self.precomputed(j)
+                    self.ready.append(j)
+            self.drain(pool, pending)
+        except BaseException:
+            _stop(pool)
+            raise
+        _stop(pool)
 
-    def finish(self, pool, pending: dict, j: int) -> None:
-        self.pre[j] = self.precomputed(j)
-        if self.after is not None:
-            fn, args = self.after(j, self.pre[j])
-            pending[pool.submit(fn, *args)] = ("after", j)
+    def fill(self, pool, pending: dict) -> None:
+        """Start work until every worker has some (or nothing is left to start)."""
+        while sum(1 for kind, *_ in pending.values() if kind != "stale") < self.workers:
+            work = self.next_work()
+            if work is None:
+                return
+            if work[0] == "chunk":
+                _, s, c = work
+                pending[pool.submit(_chunk_task, s.j, s.k, c)] = ("chunk", s, c)
+            else:
+                _, j, fn, args = work
+                pending[pool.submit(fn, *args)] = ("after", j)
 
     def drain(self, pool, pending: dict) -> None:
         from concurrent.futures import FIRST_COMPLETED, wait
 
-        while pending:
+        self.fill(pool, pending)
+        while any(kind != "stale" for kind, *_ in pending.values()):
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
-                kind, key = pending.pop(fut)
+                kind, *key = pending.pop(fut)
                 if kind == "chunk":
-                    if self.chunk_done(key, *fut.result()):
-                        self.finish(pool, pending, key[0])
+                    self.chunk_done(key[0], key[1], *fut.result())
+                    self.cancel_stale(pending)
                 elif kind == "after":
-                    self.after_out[key] = fut.result()
-                    self.report("after", key)
+                    self.after_out[key[0]] = fut.result()
+                    self.report("after", key[0])
+                elif kind == "task":
+                    self.task_out[key[0]] = fut.result()
+                    self.report("task", key[0])
+            self.fill(pool, pending)
+
+    @staticmethod
+    def cancel_stale(pending: dict) -> None:
+        """Chunks of finished streams: cancelled if not started, else marked stale (their
+        outcomes would be discarded; nothing waits for them)."""
+        for fut, (kind, *key) in list(pending.items()):
+            if kind == "chunk" and key[0].done:
+                if fut.cancel():
+                    key[0].flying -= 1
+                    del pending[fut]
                 else:
-                    self.task_out[key] = fut.result()
-                    self.report("task", key)
+                    pending[fut] = ("stale", *key)
+
+
+def _stop(pool) -> None:
+    """Shut the pool down without waiting for chunks folded past their stream's stop: the
+    workers still folding one are ended (``terminate_workers`` where the executor has it,
+    Python >= 3.14, else each worker process is terminated)."""
+    running = [p for p in (getattr(pool, "_processes", None) or {}).values() if p.is_alive()]
+    pool.shutdown(wait=False, cancel_futures=True)
+    if hasattr(pool, "terminate_workers"):
+        pool.terminate_workers()
+        return
+    for p in running:
+        p.terminate()
+    for p in running:
+        p.join()

@@ -45,6 +45,7 @@ from ..physics.recovery_batch import grid_until, material_batch_ratios
 from .scatter import (TRUNCATE_SD, Sample, Scatter, default_scatter, draw_samples, iter_samples,  # noqa: F401
                       load_scatter)
 from .simulate import SimulationResult, simulate
+from .verdict import INTERVAL_NAME, JamDecision
 
 #: z of a two-sided 95 % interval.
 Z95 = 1.959963984540054
@@ -208,6 +209,11 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
 
 @dataclass(frozen=True)
 class RobustResult:
+    """A jam probability: the ``samples`` outcomes of the stream of ``seed``; with a
+    ``decision`` (``check``'s sequential test, :mod:`foldprint.simulation.verdict`) they
+    are the samples the test used, up to its stop, and the interval is its anytime-valid
+    confidence sequence; without, a fixed count and its Wilson interval."""
+
     design: str
     samples: int
     seed: int
@@ -216,6 +222,7 @@ class RobustResult:
     outcomes: tuple[Outcome, ...]
     nominal: SimulationResult
     method: Method = VERDICT_METHOD
+    decision: JamDecision | None = None
 
     @property
     def jams(self) -> int:
@@ -227,7 +234,12 @@ class RobustResult:
 
     @property
     def ci95(self) -> tuple[float, float]:
-        return wilson(self.jams, self.samples)
+        """The 95 % interval: the test's confidence sequence, else Wilson's."""
+        return self.decision.interval if self.decision is not None else wilson(self.jams, self.samples)
+
+    @property
+    def interval_name(self) -> str:
+        return INTERVAL_NAME if self.decision is not None else "Wilson score interval"
 
     def collisions(self) -> list[tuple[tuple[str, str], int]]:
         """Colliding pairs, most frequent first (ties by name)."""

@@ -1,0 +1,135 @@
+"""``check``'s jam test run on a design: the sequential test of
+:mod:`foldprint.simulation.verdict` on the stream of samples of one seed, at the model's
+spreads and at each sigma scale of the sweep (the same draws scaled: common random
+numbers), each stream stopping when its test decides.
+
+:func:`jam_tests` is the one function ``check`` and the gallery get their verdicts from.
+The streams are folded in one adaptive pool (:func:`foldprint.simulation.batch.run_batch`:
+all scales at once, chunks submitted as workers free up, none after a stream's stop), or
+answered from the outcomes the gallery's shared pool folded
+(:class:`~foldprint.simulation.batch.Precomputed`), or, with another mapper (a cluster), in
+rounds of chunks. Every path consumes outcomes in stream order, so the samples used, the
+jams, the verdict and the interval are the same on any number of workers.
+"""
+
+from __future__ import annotations
+
+import time
+from itertools import islice
+from typing import Callable, Sequence
+
+from ..core import guards
+from ..core.constants import CHECK_DT_S, CHECK_SEED
+from ..core.errors import DesignError
+from ..core.modes import DEFAULT_HINGE_MODEL, VERDICT_METHOD, HingeModel, Method, parse
+from ..model.design import Design
+from ..model.materials import MaterialLibrary, default_library
+from .batch import MonteCarloJob, StreamStatus, run_batch
+from .robust import CHUNK, Outcome, RobustResult, outcome_of, run_samples
+from .scatter import COMPONENTS, Scatter, default_scatter, iter_samples
+from .simulate import SimulationResult, simulate
+from .verdict import JamDecision, JamTest, decide, jam_test  # noqa: F401 (jam_test re-exported for the pipeline)
+
+StageProgress = Callable[[str, int, int], None]
+"""``progress(stage, done, total)``: stage ``"jam test at 1x"`` (each scale), its samples so
+far of the maximum, then ``(n, n)`` once its test decided at n (the evaluation's progress)."""
+
+
+def _stage(progress: StageProgress | None):
+    """A :class:`~foldprint.simulation.batch.StreamStatus` callback reporting to ``progress``."""
+    if progress is None:
+        return None
+    return lambda st: progress(f"jam test at {st.scale:g}x", st.samples, st.samples if st.done else st.max_samples)
+
+
+def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), seed: int = CHECK_SEED, *,
+              scatter: Scatter | None = None, library: MaterialLibrary | None = None,
+              hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = CHECK_DT_S,
+              method: Method | str = VERDICT_METHOD, nominal: SimulationResult | None = None,
+              workers: int | None = None, mapper=None, progress: StageProgress | None = None
+              ) -> dict[float, RobustResult]:
+    """The jam test of ``design`` with every spread of ``scatter`` times each of ``scales``
+    (1 is the model's own): per scale a :class:`~foldprint.simulation.robust.RobustResult`
+    whose outcomes are the samples its test used and whose ``decision`` is the verdict.
+
+    ``nominal``: the nominal simulation if the caller has it (a scale at which every
+    spread is zero folds nothing: each sample is the nominal part). ``workers``: the
+    pool's processes (default: all cores; 1 folds here). ``mapper``: a
+    :class:`~foldprint.simulation.batch.Precomputed` answers from its outcomes; another
+    mapper ``(fn, items, progress)`` folds rounds of ``workers`` chunks. ``progress``: see
+    :data:`StageProgress`."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise DesignError(f"seed must be a whole number >= 0, got {seed!r}")
+    from ..core.parallel import default_workers
+
+    lib, report = library or default_library(), _stage(progress)
+    scatter = scatter or default_scatter()
+    model, method = parse(HingeModel, hinge_model, "hinge_model"), parse(Method, method, "method")
+    n_workers = default_workers() if workers is None else max(1, int(workers))
+    guards.check_sample_memory(design, test.max_samples)  # refuse before any fold
+    if nominal is None:
+        nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib)
+    ks = tuple(dict.fromkeys(float(k) for k in scales))
+    at = {k: scatter if k == 1.0 else scatter.scaled(k) for k in ks}
+    found: dict[float, tuple[Outcome, ...]] = {}
+    lookup = getattr(mapper, "lookup", None)  # simulation.batch.Precomputed: folded in a shared pool
+    for k in ks:
+        if all(at[k].spread(c.key) == 0 for c in COMPONENTS):  # no scatter: every sample is the nominal part
+            found[k] = (outcome_of(nominal),) * test.max_samples
+        elif lookup is not None:
+            got = lookup(design, at[k], test.max_samples, seed, model, dt, method, test)
+            if got is not None:
+                found[k] = tuple(got)
+    missing = [k for k in ks if k not in found]
+    if missing and (mapper is None or lookup is not None):
+        job = MonteCarloJob(design, test.max_samples, seed, tuple(missing), scatter, model, dt, method, test)
+        (pre,), _, _ = run_batch([job], library=lib, workers=n_workers,
+                                 progress=(lambda kind, st: report(st)) if report else None)
+        found.update(zip(missing, (o for _, o in pre.outcomes)))
+    for k in missing if mapper is not None and lookup is None else ():
+        found[k] = _rounds(design, lib, at[k], seed, test, model, dt, method, mapper, n_workers,
+                           (lambda st, k=k: report(StreamStatus(0, k, *st))) if report else None)
+    out = {}
+    for k in ks:
+        d = decide([o.jammed for o in found[k]], test)
+        if not d.decided:
+            raise RuntimeError(f"{design.name}: the jam test at {k:g}x did not decide on its {len(found[k])} samples")
+        outs = found[k][:d.samples]
+        if report is not None and k not in missing:
+            report(StreamStatus(0, k, d.samples, test.max_samples, True))
+        out[k] = RobustResult(design.name, d.samples, seed, model, at[k], outs, nominal, method, d)
+    return out
+
+
+def _rounds(design: Design, lib: MaterialLibrary, scatter: Scatter, seed: int, test: JamTest, model: HingeModel,
+            dt: float, method: Method, mapper, workers: int,
+            progress: Callable[[tuple], None] | None) -> tuple[Outcome, ...]:
+    """One stream through a plain ``mapper``: the first chunk here (it times the run for
+    the guard), then rounds of ``workers`` chunks until the test decides."""
+    stream = iter_samples(design, scatter, test.max_samples, seed)
+    chunks = iter(lambda: list(islice(stream, CHUNK)), [])
+    outcomes: list[Outcome] = []
+    start = time.perf_counter()
+    first = next(chunks)
+    outcomes += run_samples((design, lib, first, model, dt, False, method))
+    if test.max_samples > CHUNK:
+        guards.check_samples(test.max_samples, (time.perf_counter() - start) / len(first), workers, design.name)
+    while True:
+        d = decide([o.jammed for o in outcomes], test)
+        if progress:
+            progress((min(len(outcomes), d.samples) if d.decided else len(outcomes), test.max_samples, d.decided))
+        if d.decided:
+            return tuple(outcomes[:d.samples])
+        items = [(design, lib, c, model, dt, False, method) for c in islice(chunks, workers)]
+        for part in mapper(run_samples, items, None):
+            outcomes += part
+
+
+def on_check_stream(r: RobustResult, seed: int = CHECK_SEED, test: JamTest | None = None) -> JamDecision | None:
+    """What ``check``'s test (default thresholds and maximum) makes of a fixed-size
+    estimate's samples when they are check's stream (its seed; the same scatter model,
+    hinge model and time step assumed): its first n samples are the ones check uses.
+    None for another seed; undecided when check needs more samples than ``r`` has."""
+    if r.seed != seed or r.decision is not None:
+        return None
+    return decide([o.jammed for o in r.outcomes], test or jam_test())

@@ -1,0 +1,188 @@
+"""check's sequential jam test (foldprint.simulation.verdict): the SPRT boundaries and steps
+against hand-computed values, streams that stop where a hand count says, the verdict's
+independence of how a stream is cut, the stated error rates on simulated Bernoulli
+streams, and the confidence sequence's values and its coverage over time."""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as hs
+
+from foldprint.core.constants import CHECK_SAMPLES, JAM_TEST_ALPHA, JAM_TEST_BETA
+from foldprint.core.errors import DesignError
+from foldprint.core.modes import JamVerdict, Side
+from foldprint.simulation.verdict import (confidence_sequence, decide, decide_many, indifference, jam_test,
+                                          operating_point)
+
+T = jam_test()  # check's defaults: warning 5 % (2.5-7.5 %), error 20 % (15-25 %), 5 % error rates, 400 samples
+
+
+def test_boundaries_and_steps_by_hand():
+    # A = log(1 / 0.05) = log 20, B = log 0.05; a jam adds log(hi / lo), a clean sample log((1 - hi) / (1 - lo))
+    for sprt in (T.warning, T.error):
+        assert sprt.upper == pytest.approx(2.995732273553991, abs=1e-12)
+        assert sprt.lower == pytest.approx(-2.995732273553991, abs=1e-12)
+        assert sprt.midpoint == pytest.approx(0.0, abs=1e-12)
+    assert (T.warning.lo, T.warning.hi, T.error.lo, T.error.hi) == (0.025, 0.075, 0.15, 0.25)
+    assert T.warning.jam_step == pytest.approx(1.0986122886681098)  # log 3
+    assert T.warning.clean_step == pytest.approx(-0.05264373348542191)  # log(0.925 / 0.975)
+    assert T.error.jam_step == pytest.approx(0.5108256237659907)  # log(5 / 3)
+    assert T.error.clean_step == pytest.approx(-0.12516314295400605)  # log(0.75 / 0.85)
+    assert float(T.error.llr(3, 10)) == pytest.approx(3 * 0.5108256237659907 - 7 * 0.12516314295400605)
+    assert T.max_samples == CHECK_SAMPLES and (T.warning.alpha, T.warning.beta) == (JAM_TEST_ALPHA, JAM_TEST_BETA)
+
+
+def test_indifference_rule_and_edges():
+    assert indifference(0.05) == (0.025, 0.075) and indifference(0.2) == (0.15, 0.25)  # theta/2..3theta/2, theta-/+0.05
+    assert indifference(0.5) == (0.45, 0.55) and indifference(0.01) == (0.005, 0.015)
+    assert indifference(0.0) == (0.0, 0.005) and indifference(1.0) == (0.95, 1.0)  # cut to [0, 1]
+    with pytest.raises(DesignError):
+        indifference(1.5)
+    with pytest.raises(DesignError):
+        jam_test(max_samples=0)
+
+
+def test_streams_stop_where_a_hand_count_says():
+    # every sample jams: the warning test crosses log 20 at 3 jams (3 log 3 = 3.30), the
+    # error test at 6 (6 log(5/3) = 3.06; 5 give 2.55): an error after 6 samples
+    d = decide([True] * 50, T)
+    assert (d.verdict, d.samples, d.jams) == (JamVerdict.ERROR, 6, 6)
+    assert (d.warning.side, d.warning.at, d.error.side, d.error.at) == (Side.ABOVE, 3, Side.ABOVE, 6)
+    # none jams: the error test says below at 24 clean (24 x 0.1252 = 3.004; 23: 2.879), the
+    # warning test at 57 (57 x 0.05264 = 3.0007; 56: 2.948): a pass after 57
+    d = decide([False] * 100, T)
+    assert (d.verdict, d.samples, d.jams, d.error.at) == (JamVerdict.PASS, 57, 0, 24)
+    # three jams, then clean: "above 5 %" at sample 3, and the error test's L = 3 x 0.5108 -
+    # m x 0.1252 reaches -2.996 at m = 37 clean samples (36.18 by hand): a warning after 40
+    d = decide([True] * 3 + [False] * 100, T)
+    assert (d.verdict, d.samples, d.jams) == (JamVerdict.WARNING, 40, 3)
+    assert not d.truncated
+    # too few samples to decide: more are needed, nothing is claimed
+    d = decide([False] * 56, T)
+    assert d.verdict is None and not d.decided and d.samples == 56
+
+
+def test_truncation_decides_by_the_sign_at_the_maximum():
+    short = jam_test(max_samples=10)
+    d = decide([False] * 10, short)  # L_warning = 10 x -0.0526 = -0.53: undecided, below the midpoint 0
+    assert (d.verdict, d.samples, d.truncated) == (JamVerdict.PASS, 10, True)
+    assert d.warning == type(d.warning)(Side.BELOW, 10, True)
+    d = decide([True] + [False] * 9, short)  # 1.0986 - 9 x 0.0526 = 0.625 > 0: above 5 %; error test below
+    assert (d.verdict, d.truncated) == (JamVerdict.WARNING, True) and d.error.side == Side.BELOW
+    # samples past the maximum are ignored
+    assert decide([False] * 10 + [True] * 50, short) == decide([False] * 10, short)
+
+
+@settings(max_examples=200, deadline=None, derandomize=True)
+@given(hs.lists(hs.booleans(), min_size=0, max_size=120), hs.integers(1, 120), hs.floats(0.0, 0.6))
+def test_a_decision_does_not_depend_on_where_the_stream_is_cut(head, max_samples, p_tail):
+    """Deciding on a prefix either says "undecided" or gives the very decision of any
+    longer stream (the stopping index is a function of the outcomes up to it); the
+    one-stream and many-stream paths agree."""
+    test = jam_test(max_samples=max_samples)
+    rng = np.random.default_rng(len(head))
+    full = head + list(rng.random(max_samples) < p_tail)
+    d_full = decide(full, test)
+    assert d_full.decided  # a stream that reaches the maximum is always decided
+    assert 1 <= d_full.samples <= max_samples and d_full.jams == sum(full[:d_full.samples])
+    d_head = decide(head, test)
+    if d_head.decided:
+        assert d_head == d_full
+    else:
+        assert d_head.samples == min(len(head), max_samples) and d_full.samples >= d_head.samples
+    many = decide_many(np.array([full[:max_samples]]), test)
+    assert int(many["samples"][0]) == d_full.samples and int(many["jams"][0]) == d_full.jams
+
+
+#: The stated error rates: at p at or below the lower end of a threshold's region the
+#: chance of the worse verdict, at or above its upper end the chance of missing it.
+CASES = [(0.02, "not pass"), (0.025, "not pass"), (0.075, "pass"), (0.10, "pass"), (0.15, "error"),
+         (0.05, None), (0.20, None), (0.25, "not error"), (0.30, "not error")]
+
+
+@pytest.mark.parametrize("p,wrong", CASES)
+def test_error_rates_are_what_is_stated(p, wrong):
+    """20 000 Bernoulli streams per p (one seed; pure numpy): the share of wrong verdicts
+    stays below 5 % plus three standard errors of the simulation; the average sample
+    number stays below what docs/verdict.md states (170)."""
+    n = 20_000
+    o = operating_point(p, T, n, seed=int(p * 1000))
+    rate = {"not pass": 1 - o.passed, "pass": o.passed, "error": o.error, "not error": 1 - o.error, None: 0.0}[wrong]
+    limit = 0.05 + 3 * math.sqrt(0.05 * 0.95 / n)
+    assert rate <= limit, (p, wrong, rate)
+    assert o.average_samples <= 170 and o.passed + o.warning + o.error == pytest.approx(1.0)
+
+
+def test_operating_point_matches_the_one_stream_path():
+    rng = np.random.default_rng(7)
+    x = rng.random((300, T.max_samples)) < 0.12
+    many = decide_many(x, T)
+    for row, v, n in zip(x, many["verdict"], many["samples"]):
+        d = decide(row, T)
+        assert (["pass", "warning", "error"][v], n) == (str(d.verdict), d.samples)
+
+
+def _loglik(k, n, q):
+    return (k * math.log(q) if k else 0.0) + ((n - k) * math.log1p(-q) if n - k else 0.0)
+
+
+def _g(k, n, p):
+    """log of the Beta(1, 1) mixture's likelihood ratio at p, by numerical integration (an
+    independent reference for the interval's ends): log int_0^1 q^k (1-q)^(n-k) dq - log p^k (1-p)^(n-k)."""
+    from scipy.integrate import quad
+
+    mode = k / n
+    top = _loglik(k, n, mode)
+    integral = quad(lambda q: math.exp(_loglik(k, n, q) - top), 0, 1, points=[mode] if 0 < mode < 1 else None,
+                    limit=200, epsabs=0, epsrel=1e-11)[0]
+    return math.log(integral) + top - _loglik(k, n, p)
+
+
+@pytest.mark.parametrize("k,n", [(0, 57), (3, 40), (6, 6), (26, 105), (1, 1), (199, 400), (400, 400), (5, 400)])
+def test_confidence_sequence_ends_solve_the_mixture_equation(k, n):
+    lo, hi = confidence_sequence(k, n)
+    assert 0 <= lo <= k / n <= hi <= 1
+    for end in (lo, hi):
+        if 0 < end < 1:
+            assert _g(k, n, end) == pytest.approx(math.log(20), abs=1e-6)  # B / (p^k (1-p)^(n-k)) = 1 / 0.05
+    # just inside the interval the ratio is below 20, just outside above
+    eps = 1e-4
+    if lo > eps:
+        assert _g(k, n, lo - eps) > math.log(20) > _g(k, n, lo + eps)
+    if hi < 1 - eps:
+        assert _g(k, n, hi + eps) > math.log(20) > _g(k, n, hi - eps)
+
+
+def test_confidence_sequence_by_hand():
+    # k = 0: B(1, n + 1) = 1 / (n + 1), so the upper end solves (1 - p)^n = 0.05 / (n + 1)
+    n = 57
+    assert confidence_sequence(0, n)[1] == pytest.approx(1 - (0.05 / (n + 1)) ** (1 / n), abs=1e-10)
+    assert confidence_sequence(0, 0) == (0.0, 1.0)
+    # k = n = 6: the lower end solves p^6 = 0.05 / 7
+    assert confidence_sequence(6, 6)[0] == pytest.approx((0.05 / 7) ** (1 / 6), abs=1e-10)
+    with pytest.raises(ValueError):
+        confidence_sequence(3, 2)
+
+
+@pytest.mark.parametrize("p", [0.03, 0.2, 0.6])
+def test_confidence_sequence_covers_at_every_time_at_once(p):
+    """Anytime-valid: the share of streams whose interval misses the true p at ANY of
+    their first 400 samples is at most 5 % (plus three standard errors)."""
+    streams = 1500
+    rng = np.random.default_rng(11)
+    x = rng.random((streams, 400)) < p
+    cs = lru_cache(maxsize=None)(confidence_sequence)
+    ks = np.cumsum(x, axis=1)
+    missed = 0
+    for row in ks:
+        for n in range(1, 401):
+            lo, hi = cs(int(row[n - 1]), n)
+            if not lo <= p <= hi:
+                missed += 1
+                break
+    assert missed / streams <= 0.05 + 3 * math.sqrt(0.05 * 0.95 / streams)
