@@ -15,7 +15,7 @@ checks, simulation and files.
   ``samples.json`` (every Monte-Carlo sample's outcome and the worst sample's drawn
   parameters);
 * ``samples.png``: the distribution of first-colliding pairs and fold times over the
-  samples; the viewer replays the worst sample (:func:`foldprint.apps.pipeline.worst_sample`)
+  samples; the viewer replays the worst sample (:func:`foldprint.apps.replay.worst_sample`)
   beside the nominal fold;
 * ``files/``: the printable files from :meth:`foldprint.apps.pipeline.Evaluation.export` (the part
   the check built)

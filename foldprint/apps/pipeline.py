@@ -21,8 +21,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from ..core import guards
-from ..checks.rules import (CheckContext, Finding, Printer, Thresholds, default_printer_key,
-                            default_voxel_printer_key, load_printers, run_checks)
+from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
@@ -31,26 +30,26 @@ from ..core.constants import (ANIMATION_DT_S, CHECK_DT_S, CHECK_SAMPLES, CHECK_S
 from ..model.derived import DerivedCache
 from ..model.design import Design
 from ..core.errors import ExportError, FoldprintError, GeometryError
-from ..exchange.voxels import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart, VoxelRegion
+from ..exchange.voxels import Pitch, VoxelPart
 from ..exchange.export import DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
 from ..exchange.recipe import check_summary
 from ..exchange.fem import PlacedState, check_strip
-from ..geometry import Assembly, build_assembly, hinge_axes, state_angles
+from ..geometry import Assembly, build_assembly, state_angles
 from ..geometry.surfaces import Frames, fold_frames
 from ..physics.kinematics import HingeDrive, forward, hinge_frames, run_times, solve_loops_many, target_angles
 from ..physics.recovery import hinge_fold_times
-from ..model.composition import fraction_profile
 from ..model.materials import MaterialLibrary, default_library
 from ..model.printers import find_printer, tool_fit
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
                           AfterContact, HingeModel, Method, SampleRule, State, parse)
 from ..simulation.margin import ScatterMargin, scatter_margin
 from ..simulation.paper_beside import PaperLine, paper_lines
-from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, default_scatter, draw_samples, jam_probability,
-                                 outcome_of, sample_drive)
+from ..simulation.robust import RobustResult, Scatter, default_scatter, jam_probability
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
 from ..simulation.sequential import jam_test, jam_tests
 from ..simulation.simulate import SimulationResult, simulate
+from .replay import Replay, replay_sample, worst_sample  # noqa: F401 (re-exported: the pipeline's API)
+from .voxel_part import voxel_part, voxel_pitch  # noqa: F401 (re-exported: the pipeline's API)
 
 Progress = Callable[[str, int, int], None]
 """``progress(stage, done, total)``: the Monte-Carlo stages report their samples."""
@@ -104,52 +103,6 @@ class Comparison:
 def _verdict(r: SimulationResult):
     c = r.first_collision
     return r.completed, None if c is None else tuple(sorted(c.panels))
-
-
-def worst_sample(robust: RobustResult) -> int | None:
-    """Index of the worst Monte-Carlo sample of ``robust``: the earliest first contact
-    among the samples that collide; else the first sample that jams another way (a goal
-    missed, a hinge short of 98 %); else the slowest fold. None when there is no sample."""
-    outs = robust.outcomes
-    hits = [k for k, o in enumerate(outs) if o.reason == "collision" and o.time is not None]
-    if hits:
-        return min(hits, key=lambda k: (outs[k].time, k))
-    jammed = [k for k, o in enumerate(outs) if o.jammed]
-    if jammed:
-        return jammed[0]
-    done = [k for k, o in enumerate(outs) if o.fold_time is not None]
-    return max(done, key=lambda k: (outs[k].fold_time, -k)) if done else None
-
-
-@dataclass(frozen=True)
-class Replay:
-    """One Monte-Carlo sample folded again with its whole trajectory kept (the
-    Monte-Carlo keeps only each sample's :class:`~foldprint.simulation.robust.Outcome`)."""
-
-    index: int
-    sample: Sample  # its drawn parameters
-    outcome: Outcome  # what the Monte-Carlo recorded for it
-    result: SimulationResult
-
-    @property
-    def agrees(self) -> bool:
-        """The replay gives the recorded verdict (jams or not, first colliding pair)."""
-        o = outcome_of(self.result)
-        return (o.jammed, o.reason, o.pair) == (self.outcome.jammed, self.outcome.reason, self.outcome.pair)
-
-
-def replay_sample(design: Design, robust: RobustResult, index: int, *, library: MaterialLibrary | None = None,
-                  dt: float = CHECK_DT_S, after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT) -> Replay:
-    """Sample ``index`` of ``robust`` (a result for ``design`` run with time step ``dt``)
-    drawn again from the same seed and spreads and folded as the Monte-Carlo folds it,
-    keeping the trajectory, e.g. to show the :func:`worst_sample` beside the nominal fold."""
-    if not 0 <= index < robust.samples:
-        raise ValueError(f"sample index {index} is outside 0..{robust.samples - 1}")
-    lib = library or default_library()
-    sample = draw_samples(design, robust.scatter, robust.samples, robust.seed)[index]
-    res = simulate(design, dt=dt, method=robust.method, hinge_model=robust.hinge_model, after_contact=after_contact,
-                   drive=sample_drive(design, lib, sample))
-    return Replay(index, sample, robust.outcomes[index], res)
 
 
 class Evaluation:
@@ -548,42 +501,6 @@ def evaluate(design: Design, *, library: MaterialLibrary | None = None, printer:
                     mapper=mapper, progress=progress)
     ev.findings  # noqa: B018 - computes every stage the rules read
     return ev
-
-
-def voxel_pitch(printer: str | Printer | None = None, printers_file: str | Path | None = None) -> Pitch:
-    """The voxel pitch of a printer profile (``data/printers.toml``, or the profile itself;
-    default: the one marked ``voxel_default``, the J750); ExportError names printers that have one."""
-    printers = load_printers(printers_file)
-    key = printer.key if isinstance(printer, Printer) else printer or default_voxel_printer_key()
-    pr = printer if isinstance(printer, Printer) else printers.get(key)
-    if pr is None or pr.voxel_mm is None:
-        have = sorted(k for k, p in printers.items() if p.voxel_mm is not None)
-        what = "unknown printer" if pr is None else "printer without a voxel pitch (voxel_mm)"
-        raise ExportError(f"--printer {key!r}: {what}; voxel print knows {have}")
-    return Pitch(*pr.voxel_mm, printer=f"{key} ({pr.name})", source=pr.voxel_source)
-
-
-def voxel_part(design: Design, assembly: Assembly, library: MaterialLibrary | None = None,
-               pitch: Pitch | None = None, profiles: Callable | None = None) -> VoxelPart:
-    """What the voxel writer writes: every panel and hinge of ``assembly`` (its units)
-    with its VeroWhite fraction profile (panels: VeroWhite 1, TangoBlack 0; hinges:
-    ``profiles(library, material)``, by default :func:`foldprint.model.composition.fraction_profile`)
-    and, for hinges, the axes that give u (:func:`foldprint.geometry.hinge_axes`)."""
-    lib = library or default_library()
-    profiles = profiles or fraction_profile
-    axes = hinge_axes(design, assembly.state)
-    regions = []
-    for u in assembly.units:
-        if u.kind == "panel":
-            if u.material not in (VERO_WHITE, TANGO_BLACK):
-                raise ExportError(f"panel {u.owner!r}: material {u.material!r} is not a base resin; voxel print "
-                                  f"jets panels in {VERO_WHITE} or {TANGO_BLACK} (set the panel's material)")
-            prof = Uniform(1.0 if u.material == VERO_WHITE else 0.0)
-            regions.append(VoxelRegion("panel", u.owner, u.material, u.solid, prof))
-        else:
-            regions.append(VoxelRegion("hinge", u.owner, u.material, u.solid, profiles(lib, u.material),
-                                       axes.get(u.owner)))
-    return VoxelPart(design.name, assembly.state, tuple(regions), pitch or voxel_pitch(), assembly.print_offset)
 
 
 def build(design: Design, state: State | str = DEFAULT_STATE,

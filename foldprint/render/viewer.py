@@ -172,7 +172,7 @@ def _contacts(result, items: list[dict], model: HingeModel) -> list[dict]:
 
 
 def worst_text(replay) -> str:
-    """Why a replayed sample (:func:`foldprint.apps.pipeline.worst_sample`) is the worst, in words."""
+    """Why a replayed sample (:func:`foldprint.apps.replay.worst_sample`) is the worst, in words."""
     o = replay.outcome
     if o.reason == JamReason.COLLISION:
         return f"the earliest first contact of the samples: panels {o.pair[0]}\u2013{o.pair[1]} at {o.time:.3f} s"
@@ -228,7 +228,7 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
     frames : int
         Frames over the motion, from the flat sheet to :func:`foldprint.render.scene.motion_end`.
     worst : Replay, optional
-        A Monte-Carlo sample folded again (:func:`foldprint.apps.pipeline.replay_sample`: its
+        A Monte-Carlo sample folded again (:func:`foldprint.apps.replay.replay_sample`: its
         ``.result``, ``.index``, ``.outcome``), drawn as a second run under ``"worst"``
         that the page can show instead of the nominal fold (same geometry, its own
         times, poses, ribbons and contacts; one quantisation box for both).
