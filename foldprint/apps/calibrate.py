@@ -71,7 +71,7 @@ def calibrate(data: HingeData, library: MaterialLibrary, fixed: dict | None = No
     free = tuple(n for n in FITTABLE if n not in fixed)
     held = {n: v for n, v in fixed.items() if v is not None}
     problem = Problem(data, library, free=free, per_material=tuple(per_material), fixed=held)
-    r0 = problem.residuals(problem.start())
+    r0 = problem.residuals(problem.library_point())
     result = fit(problem)
     log.info("fit: chi2 %.3f after %d evaluations (%s)", result.chi2, result.nfev, result.message)
     intervals = profile(problem, result) if with_profile else ()
@@ -140,7 +140,7 @@ def to_json(cal: Calibration) -> dict:
     pb, f = cal.problem, cal.fit
     ivs = {iv.label: iv for iv in cal.intervals}
     params = []
-    for p, v, x0 in zip(pb.params, f.x, pb.start()):
+    for p, v, x0 in zip(pb.params, f.x, pb.library_point()):
         b = pb.config.bounds[p.name]
         iv = ivs.get(p.label)
         params.append({"name": p.name, "material": p.material, "value": float(v), "unit": b.unit,

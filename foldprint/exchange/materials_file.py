@@ -39,7 +39,12 @@ def _str(text: str) -> str:
 
 
 def _num(v: float | int) -> str:
-    return str(int(v)) if isinstance(v, int) and not isinstance(v, bool) else repr(float(v))
+    """An int as is; a float to 7 significant digits (a fit's last digits are noise), always
+    with a decimal point or exponent so it reads back as a float."""
+    if isinstance(v, int) and not isinstance(v, bool):
+        return str(v)
+    text = f"{float(v):.7g}"
+    return text if any(c in text for c in ".en") else text + ".0"
 
 
 def _comment(lines: Sequence[str]) -> str:

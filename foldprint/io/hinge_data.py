@@ -228,7 +228,7 @@ def _row(cells: dict[str, str], line: int, src: str) -> Observation | Property:
     if kind in CURVE_KINDS:
         time_s = _number(cells["time_s"], at["time_s"], 0.0, 1e6, "s")
         value = (_number(cells["value"], at["value"], -0.25, 1.25) if kind == "ratio" else
-                 _number(cells["value"], at["value"], 0.0, 180.0, "deg"))
+                 _number(cells["value"], at["value"], 0.0, 225.0, "deg"))  # noise near flat reads past 180
     else:
         level = _number(cells["level"], at["level"], 0.0, 1.0, lo_open=True)
         if level >= 1.0:

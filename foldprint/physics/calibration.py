@@ -176,9 +176,13 @@ class Problem:
     def upper(self) -> np.ndarray:
         return np.array([self.config.bounds[p.name].upper for p in self.params])
 
+    def library_point(self) -> np.ndarray:
+        """The free parameters as the library the fit starts from has them."""
+        return np.array([getattr(self.base[p.material or self.materials[0]].recovery, p.name) for p in self.params])
+
     def start(self) -> np.ndarray:
-        """The library's values, moved inside the bounds (least_squares needs a strict start)."""
-        x = np.array([getattr(self.base[p.material or self.materials[0]].recovery, p.name) for p in self.params])
+        """:meth:`library_point` moved inside the bounds (least_squares needs a strict start)."""
+        x = self.library_point()
         span = self.upper - self.lower
         return np.clip(x, self.lower + 1e-3 * span, self.upper - 1e-3 * span)
 

@@ -45,6 +45,14 @@ class Interval:
         return ("yes", "one side", "no")[n]
 
 
+def at_bound(problem: Problem, fit: Fit, j: int) -> str | None:
+    """"lower" or "upper" when free parameter ``j`` sits on that bound, else None."""
+    lo, hi = problem.lower[j], problem.upper[j]
+    if fit.x[j] - lo <= AT_BOUND * (hi - lo):
+        return "lower"
+    return "upper" if hi - fit.x[j] <= AT_BOUND * (hi - lo) else None
+
+
 def threshold(fit: Fit, confidence: float) -> float:
     from scipy.stats import chi2
 
@@ -83,9 +91,7 @@ def profile(problem: Problem, fit: Fit, confidence: float | None = None) -> tupl
     out = []
     max_nfev = 30 * len(fit.x)
     for j, p in enumerate(problem.params):
-        span = hi[j] - lo[j]
-        at = ("lower" if fit.x[j] - lo[j] <= AT_BOUND * span else
-              "upper" if hi[j] - fit.x[j] <= AT_BOUND * span else None)
+        at = at_bound(problem, fit, j)
         ends, opens, pts = [], [], []
         for bound, is_at in ((lo[j], at == "lower"), (hi[j], at == "upper")):
             if is_at:
@@ -135,11 +141,11 @@ def findings(problem: Problem, fit: Fit, intervals: tuple[Interval, ...]) -> lis
     if fit.dof <= 0:
         out.append({"code": "underdetermined", "message":
                     f"{n} measurement rows for {k} free parameters: the data can fix at most {n} combinations "
-                    "of them; add curves (ratio rows) or fix parameters (--fix)"})
+                    "of them; add curves (ratio rows) or hold parameters (--fix)"})
     if fit.rank < k:
         out.append({"code": "rank", "message":
                     f"the data fix only {fit.rank} of {k} parameter combinations (rank of the Jacobian at the "
-                    "optimum); the intervals below show which parameters move freely"})
+                    "optimum); the profile intervals show which parameters move freely"})
     if fit.dof > 0 and fit.scale > 1.0:
         from scipy.stats import chi2
 
@@ -149,19 +155,21 @@ def findings(problem: Problem, fit: Fit, intervals: tuple[Interval, ...]) -> lis
                         f"the model misses the data beyond their stated uncertainty (chi2 {fit.chi2:.1f} for "
                         f"{fit.dof} degrees of freedom, p = {p:.2g}); the intervals are widened by "
                         f"sqrt(chi2/dof) = {np.sqrt(fit.scale):.2f}"})
-    for p, iv in zip(problem.params, intervals):
-        b = problem.config.bounds[p.name]
-        if iv.at_bound:
-            edge = b.lower if iv.at_bound == "lower" else b.upper
+    ivs = {iv.label: iv for iv in intervals}
+    for j, p in enumerate(problem.params):
+        b, iv, at = problem.config.bounds[p.name], ivs.get(p.label), at_bound(problem, fit, j)
+        if at:
+            edge = b.lower if at == "lower" else b.upper
             why = ("a physical limit: the data push the model past physics" if b.kind == "physical"
                    else "our choice, not a physical limit: the value is set by the box, not by the data")
-            out.append({"code": "at_bound", "parameter": iv.label, "message":
-                        f"{iv.label} = {_fmt(iv.value, b.unit)} is at its {iv.at_bound} bound {_fmt(edge, b.unit)} "
+            out.append({"code": "at_bound", "parameter": p.label, "message":
+                        f"{p.label} = {_fmt(fit.x[j], b.unit)} is at its {at} bound {_fmt(edge, b.unit)} "
                         f"({why}; {b.source}). To fix it: {b.remedy}"})
-        elif iv.open_low or iv.open_high:
-            side = "both sides" if iv.open_low and iv.open_high else ("below" if iv.open_low else "above")
-            out.append({"code": "not_identified", "parameter": iv.label, "message":
-                        f"{iv.label} is not identified {side} its value {_fmt(iv.value, b.unit)}: the fit stays "
+        elif iv is not None and (iv.open_low or iv.open_high):
+            side = ("on either side of" if iv.open_low and iv.open_high else
+                    "below" if iv.open_low else "above")
+            out.append({"code": "not_identified", "parameter": p.label, "message":
+                        f"{p.label} is not identified {side} its value {_fmt(iv.value, b.unit)}: the fit stays "
                         f"within the {problem.config.confidence:.0%} threshold up to the bound. To fix it: {b.remedy}"})
     for o, r, sg in zip(problem.data.observations, fit.residuals, problem.sigmas):
         if o.relation != "about" and r != 0.0:
