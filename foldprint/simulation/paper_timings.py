@@ -28,6 +28,10 @@ from ..physics.recovery_table import fold_times
 from .simulate import SimulationResult, simulate
 
 KINDS = ("about", "at_most", "at_least", "none", "qualitative")
+#: "fitted": the shipped recovery parameters were fitted to the statement (agreement is by
+#: construction, a calibration regression); "predicted": not used in any fit (agreement is
+#: validation).
+ROLES = ("fitted", "predicted")
 
 
 @dataclass(frozen=True)
@@ -38,6 +42,7 @@ class Statement:
     value_s: float | None
     quote: str
     source: str
+    role: str = "predicted"
 
 
 @dataclass(frozen=True)
@@ -66,8 +71,12 @@ def load_statements() -> Statements:
         value = row.get("value_s")
         if kind in ("about", "at_most", "at_least") and not isinstance(value, (int, float)):
             raise DesignError(f"paper_timings.toml: statement {row.get('id')!r} of kind {kind} needs value_s")
+        role = row.get("role")
+        if role not in ROLES:
+            raise DesignError(f"paper_timings.toml: statement {row.get('id')!r}: role {role!r} is not one of "
+                              f"{', '.join(ROLES)}")
         items.append(Statement(row["id"], row["what"], kind, None if value is None else float(value),
-                               row["quote"], row["source"]))
+                               row["quote"], row["source"], role))
     return Statements(float(data["approx_tol_s"]), tuple(items))
 
 
