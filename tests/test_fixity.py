@@ -104,8 +104,8 @@ def test_the_fixity_law_holds_at_intermediate_angles(lib, fixity):
 def test_a_4x4_miura_from_its_closed_form_folds_on_its_branch(lib):
     """A 4 x 4 Miura-ori written from its closed form (the template's geometry and
     materials): from a perfectly flat start (fixity 1) a scattered drive sends some creases
-    the wrong way (draw 9 of seed 0); at the materials' fixity no draw of the ten does
-    (robust: 0 of 80 at seeds 0 and 1, 11 of 80 from flat; docs/loops.md)."""
+    the wrong way (draw 9 of seed 0); at the materials' fixity none of the draws checked
+    does (robust: 0 of 80 at seeds 0 and 1, 11 of 80 from flat; docs/loops.md)."""
     data = cp.miura(4, 4, width=24.0, height=20.0, shift=8.0, zigzag_deg=60.0,
                     materials={"zigzag": "H-2", "straight": "H-4"})
     d = design_from_fold(data, default_radius_mm=5.0)
@@ -117,6 +117,8 @@ def test_a_4x4_miura_from_its_closed_form_folds_on_its_branch(lib):
         traj = simulate_kinematics(design, drive=sample_drive(design, lib, s), duration=2.5, dt=0.05)
         return bool((traj.angles * sign < -1e-6).any())
 
-    drawn = draw_samples(d, default_scatter(), 10, 0)
+    drawn = draw_samples(d, default_scatter(), 35, 0)
     assert wrong(flat, drawn[9])
-    assert not any(wrong(d, s) for s in drawn)
+    # draw 34 is the one the fixity alone does not hold: near flat the tracker restarts from
+    # the drive, and only keeping each hinge on its drive's side stops it taking the other branch
+    assert not any(wrong(d, s) for s in drawn[:10] + [drawn[34]])

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM
 from ..core.errors import DataError
-from ..core.schema import MAX_FILE_BYTES, MAX_LENGTH_MM, MIN_LENGTH_MM, TEMPERATURE_C
+from ..core.schema import MAX_FILE_BYTES, MAX_LENGTH_MM, MIN_LENGTH_MM, TEMPERATURE_C, range_text
 
 COLUMNS = ("kind", "material", "reference", "bath_c", "thickness_mm", "initial_c", "time_s", "level",
            "value", "relation", "sigma", "printed_deg", "source")
@@ -163,9 +163,7 @@ class _Cell:
 
 def _number(text: str, at: _Cell, lo: float | None = None, hi: float | None = None, unit: str = "",
             lo_open: bool = False) -> float:
-    u = f" {unit}" if unit else ""
-    rng = (f" in {'(' if lo_open else '['}{lo:g}, {hi:g}]{u}" if lo is not None and hi is not None else
-           f" {'>' if lo_open else '>='} {lo:g}{u}" if lo is not None else "")
+    rng = range_text(lo, hi, lo_open, f" {unit}" if unit else "")
     try:
         v = float(text)
     except ValueError:
