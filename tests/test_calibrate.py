@@ -236,8 +236,12 @@ def test_paper_data_rows_have_sources_and_the_fit_says_what_it_cannot_fix(paper)
     codes = [f["code"] for f in paper.findings]
     assert "underdetermined" in codes or "rank" in codes
     bounded = {f["parameter"]: f["message"] for f in paper.findings if f["code"] == "at_bound"}
-    assert "c1" in bounded and "not a physical limit" in bounded["c1"] and "DMA frequency sweep" in bounded["c1"]
+    assert "c1" in bounded and "a bound of our choosing" in bounded["c1"] and "DMA frequency sweep" in bounded["c1"]
     assert "spectrum_sigma_decades" in bounded
+    # and it says where the shipped library sits: c2 and sigma on bounds, c1 next to one
+    start = {f["parameter"]: f["message"] for f in paper.findings if f["code"] == "start_at_bound"}
+    assert set(start) == {"c1", "c2", "spectrum_sigma_decades"}, start
+    assert "on its upper bound 80 K (choice)" in start["c2"] and "next to its upper bound 20" in start["c1"]
 
 
 def test_shipped_library_is_inside_the_joint_region_of_the_paper_fit(paper):

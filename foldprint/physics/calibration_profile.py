@@ -20,8 +20,10 @@ from .calibration import Fit, Problem, solve
 #: Where the profile is evaluated on each side: fractions of the way from the optimum to
 #: the bound (numerical choice; the crossing is interpolated between two of them).
 STEPS = (0.03, 0.08, 0.16, 0.3, 0.5, 0.75, 1.0)
-#: A parameter within this share of its range of a bound is "at" it.
+#: A parameter within this share of its range of a bound is "at" it; within NEAR_BOUND,
+#: "next to" it (our choices, for the messages).
 AT_BOUND = 1e-3
+NEAR_BOUND = 0.1
 
 
 @dataclass(frozen=True)
@@ -156,15 +158,24 @@ def findings(problem: Problem, fit: Fit, intervals: tuple[Interval, ...]) -> lis
                         f"{fit.dof} degrees of freedom, p = {p:.2g}); the intervals are widened by "
                         f"sqrt(chi2/dof) = {np.sqrt(fit.scale):.2f}"})
     ivs = {iv.label: iv for iv in intervals}
+    lib_x, lo, hi = problem.library_point(), problem.lower, problem.upper
+    for j, p in enumerate(problem.params):
+        b, near = problem.config.bounds[p.name], NEAR_BOUND * (hi[j] - lo[j])
+        edge = "lower" if lib_x[j] - lo[j] <= near else "upper" if hi[j] - lib_x[j] <= near else None
+        if edge:
+            out.append({"code": "start_at_bound", "parameter": p.label, "message":
+                        f"the library the fit started from has {p.label} = {_fmt(lib_x[j], b.unit)}, "
+                        f"{'on' if min(lib_x[j] - lo[j], hi[j] - lib_x[j]) <= AT_BOUND * (hi[j] - lo[j]) else 'next to'} "
+                        f"its {edge} bound {_fmt(lo[j] if edge == 'lower' else hi[j], b.unit)} ({b.kind})"})
     for j, p in enumerate(problem.params):
         b, iv, at = problem.config.bounds[p.name], ivs.get(p.label), at_bound(problem, fit, j)
         if at:
             edge = b.lower if at == "lower" else b.upper
             why = ("a physical limit: the data push the model past physics" if b.kind == "physical"
-                   else "our choice, not a physical limit: the value is set by the box, not by the data")
+                   else "a bound of our choosing, so the value is set by the box, not by the data")
             out.append({"code": "at_bound", "parameter": p.label, "message":
                         f"{p.label} = {_fmt(fit.x[j], b.unit)} is at its {at} bound {_fmt(edge, b.unit)} "
-                        f"({why}; {b.source}). To fix it: {b.remedy}"})
+                        f"({why}; the bound: {b.source}). To fix it: {b.remedy}"})
         elif iv is not None and (iv.open_low or iv.open_high):
             side = ("on either side of" if iv.open_low and iv.open_high else
                     "below" if iv.open_low else "above")
