@@ -151,6 +151,7 @@ BAD = {
     "blank needed": (HEADER + "\nratio,H-1,,90,0.8,,,0.5,,,,\n", "line 2, column time_s (ratio row): is blank"),
     "not a number": (HEADER + "\n# a comment\nratio,H-1,,ninety,0.8,1,,0.5,,,,\n",
                      "line 3, column bath_c (ratio row): must be a number"),
+    "nan": (HEADER + "\nratio,H-1,,nan,0.8,1,,0.5,,,,\n", "column bath_c (ratio row): must be a finite number"),
     "ratio range": (HEADER + "\nratio,H-1,,90,0.8,1,,7,,,,\n", "line 2, column value (ratio row): must be in"),
     "unused cell": (HEADER + "\ntg,H-1,,90,,,,32,,,,\n", "line 2, column bath_c (tg row): means nothing"),
     "too many cells": (HEADER + "\nratio,H-1,,90,0.8,1,,0.5,,,,,x,y\n", "line 2: 14 cells for 12 columns"),

@@ -24,13 +24,12 @@ size limit, encoding).
 from __future__ import annotations
 
 import csv
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM
 from ..core.errors import DataError
-from ..core.schema import MAX_FILE_BYTES, MAX_LENGTH_MM, MIN_LENGTH_MM, TEMPERATURE_C, range_text
+from ..core.schema import MAX_FILE_BYTES, MAX_LENGTH_MM, MIN_LENGTH_MM, TEMPERATURE_C, number, range_text
 
 COLUMNS = ("kind", "material", "reference", "bath_c", "thickness_mm", "initial_c", "time_s", "level",
            "value", "relation", "sigma", "printed_deg", "source")
@@ -163,16 +162,14 @@ class _Cell:
 
 def _number(text: str, at: _Cell, lo: float | None = None, hi: float | None = None, unit: str = "",
             lo_open: bool = False) -> float:
-    rng = range_text(lo, hi, lo_open, f" {unit}" if unit else "")
+    """A cell's number, checked as a design file's (:func:`foldprint.core.schema.number`,
+    which reports through ``at.fail``)."""
     try:
         v = float(text)
     except ValueError:
+        rng = range_text(lo, hi, lo_open, f" {unit}" if unit else "")
         raise at.fail(f"must be a number{rng}, got {text[:40]!r}") from None
-    if not math.isfinite(v):
-        raise at.fail(f"must be a finite number{rng}, got {text!r}")
-    if (lo is not None and (v < lo or (lo_open and v <= lo))) or (hi is not None and v > hi):
-        raise at.fail(f"must be{rng}, got {v:g}")
-    return v
+    return number(v, at, lo, hi, unit, lo_open)
 
 
 def _header(row: list[str], src: str) -> list[str]:
