@@ -19,10 +19,6 @@ from foldprint.io.design_io import design_to_toml
 from foldprint.io.fold_format import design_from_fold
 
 WIDTH, HEIGHT, SHIFT, ZIGZAG_DEG, RADIUS_MM = 24.0, 20.0, 8.0, 60.0, 5.0
-#: programmed to 99 % flat, not 100 %: the flat sheet is a bifurcation point of the
-#: Miura's rigid folding (every branch passes through it), and a perfectly flat start lets
-#: scatter pick a wrong branch (measured with `foldprint robust`, docs/loops.md)
-FIXITY = 0.99
 MATERIALS = {"zigzag": "H-2", "straight": "H-4"}
 
 HEADER = f"""\
@@ -44,10 +40,10 @@ HEADER = f"""\
 # the arc tangent to both panels. The fold angle sets the programming strain: 60 deg with
 # R = 5 mm gives 19 % (10.3 % stretch + 8.8 % bending, FP130 limit 25 %).
 #
-# Programmed to 99 % flat (fixity 0.99: a 0.6 deg residual on the zigzag creases, held by
-# the programming jig), not 100 %: the flat sheet is a bifurcation point of rigid folding,
-# and from a perfectly flat start scatter sends the tracker down a wrong branch (creases
-# folding the wrong way) in a third to a half of the samples (docs/loops.md).
+# No hinge sets a fixity: each takes its material's shape fixity (materials.toml, default
+# 0.9967: the programmed sheet keeps 0.2 deg of the zigzags' 60 deg), which starts the fold
+# on the branch it was printed in; the flat sheet is a bifurcation point of rigid folding
+# (docs/loops.md, branch selection).
 """
 
 #: What the description claims (checked by tests/test_template_claims.py).
@@ -61,7 +57,7 @@ marginal = false
 if __name__ == "__main__":
     data = cp.miura(3, 3, width=WIDTH, height=HEIGHT, shift=SHIFT, zigzag_deg=ZIGZAG_DEG, materials=MATERIALS)
     d = design_from_fold(data, default_radius_mm=RADIUS_MM)
-    d = replace(d, name="miura_3x3", hinges=tuple(replace(h, fixity=FIXITY) for h in d.hinges),
+    d = replace(d, name="miura_3x3",
                 description='Miura-ori patch, 3 x 3 parallelogram panels (rigid origami, 4 interior vertices, one degree of freedom); zigzag creases H-2, straight creases H-4. It completes nominally, not marginal')
     out = Path(__file__).resolve().parent.parent / "templates" / "miura_3x3.toml"
     out.write_text(HEADER + design_to_toml(d) + "\n" + CLAIMS)

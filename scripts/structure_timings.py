@@ -10,7 +10,8 @@ default scatter, each sample folded with ``--after-contact arrest`` (N samples, 
 adopted, foldprint/data/recovery_structure_fit.toml).
 
 Usage:  python scripts/structure_timings.py [--json] [--scatter 60] [--materials FILE]
-The table printed is the one in docs/structure-timings.md.
+The docs' tables and Sample 1 figures are written by scripts/regen_docs.py (the shipped
+materials); this script is for looking at another material file or other samples.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ def main():
     rows = []
     for s in st.items:
         v = m[s.id]
-        rows.append({"id": s.id, "what": s.what, "kind": s.kind, "paper_s": s.value_s,
+        rows.append({"id": s.id, "what": s.what, "kind": s.kind, "role": s.role, "paper_s": s.value_s,
                      "model_s": None if v.value_s is None else round(v.value_s, 2), "note": v.note,
                      "compare": v.compare, "verdict": verdict(s, v, st.approx_tol_s)})
     out = {"approx_tol_s": st.approx_tol_s, "rows": rows, "measure_s": round(time.perf_counter() - t0, 1)}
@@ -52,12 +53,12 @@ def main():
     if args.json:
         print(json.dumps(out, indent=1))
         return
-    print("| id | statement | paper | model (arc) | verdict | notes |")
-    print("|---|---|---|---|---|---|")
+    print("| id | role | statement | paper | model (arc) | verdict | notes |")
+    print("|---|---|---|---|---|---|---|")
     for r in rows:
         paper = {"about": "~", "at_most": "≤ ~", "at_least": "≥ "}.get(r["kind"], "")
         paper = f"{paper}{r['paper_s']:g} s" if r["paper_s"] is not None else r["kind"]
-        print(f"| `{r['id']}` | {r['what']} | {paper} | {fmt(r['model_s'])} | {r['verdict']} | "
+        print(f"| `{r['id']}` | {r['role']} | {r['what']} | {paper} | {fmt(r['model_s'])} | {r['verdict']} | "
               f"{r['note']}; {json.dumps(r['compare']) if r['compare'] else ''} |")
     if args.scatter:
         print(json.dumps(out["sample1_scatter_arrest"]))

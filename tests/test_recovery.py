@@ -1,5 +1,6 @@
-"""The hinge recovery model: invariants, calibration bounds (issue 2), and an
-independent check of the heat-transfer solution against finite differences."""
+"""The hinge recovery model: invariants, a prediction, and an independent check of the
+heat-transfer solution against finite differences. The numbers the recovery parameters were
+fitted to are re-asserted apart, in test_calibration_regression.py."""
 
 import math
 
@@ -30,20 +31,12 @@ def test_fold_time_falls_with_temperature_for_every_material(lib):
         assert all(b < a for a, b in zip(times, times[1:])), (m.name, times)
 
 
-def test_spread_h7_minus_h1_matches_paper(lib):
-    s80 = ft(lib, "H-7", 80) - ft(lib, "H-1", 80)
-    s100 = ft(lib, "H-7", 100) - ft(lib, "H-1", 100)
-    assert 5.5 <= s80 <= 8.5, s80  # paper: ~7 s
-    assert 1.3 <= s100 <= 2.7, s100  # paper: ~2 s
-
-
-def test_times_at_90c_fit_the_graded_helix(lib):
-    assert ft(lib, "H-1", 90) <= 3.5
-    assert 5.0 <= ft(lib, "H-7", 90) <= 9.0
-    # onset matters as much as the 98 % time (facts.md): H-1 starts within ~1 s,
-    # H-7 starts late (paper: after ~3 s).
-    assert recovery_curve(lib["H-1"], 90).onset_time <= 1.0
-    assert recovery_curve(lib["H-7"], 90).onset_time >= 2.5
+def test_inner_hinges_start_within_a_second_predicted(lib):
+    """Predicted, not fitted (the shipped fit's targets are in
+    test_calibration_regression.py): Sample 2's inner hinges (H-1, H-1, H-2) "start the
+    shape recovery within ~1s" (paper_timings.toml, read as <= 1.5 s)."""
+    assert recovery_curve(lib["H-2"], 90).onset_time <= 1.5
+    assert recovery_curve(lib["H-1"], 90).onset_time <= recovery_curve(lib["H-2"], 90).onset_time
 
 
 def test_high_tg_hinge_is_barely_started_when_low_tg_is_done(lib):

@@ -61,7 +61,7 @@ def _drive(task: Task) -> HingeDrive:
     for h, m in zip(d.hinges, task.materials):
         c = recovery_curve(lib[m or h.material], task.bath_c, h.thickness, d.process.fix_temperature_c)
         curves.append(c if m is not None else replace(c, ratio=np.zeros_like(c.ratio)))
-    return HingeDrive(d, task.bath_c, curves=curves)
+    return HingeDrive(d, task.bath_c, lib, curves=curves)
 
 
 def run_task(task: Task) -> Verdict:

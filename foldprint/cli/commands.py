@@ -7,7 +7,7 @@ Machine output (``--json``) goes to stdout; human messages to stderr.
 The commands live in one module per group (:mod:`~foldprint.cli.info_cmds`: materials,
 templates; :mod:`~foldprint.cli.fold_cmds`: simulate, check, robust;
 :mod:`~foldprint.cli.assign_cmd`: assign; :mod:`~foldprint.cli.output_cmds`: export,
-gallery), registered on :mod:`~foldprint.cli.root`'s ``app`` in that order (the order
+gallery; :mod:`~foldprint.cli.calibrate_cmd`: calibrate), registered on :mod:`~foldprint.cli.root`'s ``app`` in that order (the order
 ``--help`` lists them) when this module imports them; :func:`main` and :func:`run` are the
 entry points. Every command function still imports from here.
 """
@@ -27,6 +27,7 @@ from .info_cmds import materials, templates  # noqa: F401,I001
 from .fold_cmds import check, robust, simulate  # noqa: F401
 from .assign_cmd import assign  # noqa: F401
 from .output_cmds import export, gallery  # noqa: F401
+from .calibrate_cmd import calibrate  # noqa: F401
 
 
 def main(argv: list[str] | None = None) -> int:

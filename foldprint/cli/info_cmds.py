@@ -47,7 +47,10 @@ def materials(
                 ft[key] = None if v is None else round(v, 3)
             else:
                 ft[key] = None
-        rows.append({"name": m.name, "role": m.role, "tg_c": m.tg_c, "color": m.color, "fold_time_s": ft})
+        rows.append({"name": m.name, "role": m.role, "tg_c": m.tg_c, "color": m.color, "fold_time_s": ft,
+                     "fixity": m.shape_fixity if m.role == "hinge" else None,
+                     "fixity_source": (m.fixity_source or "measured") if m.fixity is not None else
+                     ("default: E_g / (E_g + E_r), docs/calibrate.md" if m.role == "hinge" else None)})
     if plot is not None:
         from ..render.figures import fold_time_chart, save_figure
 
@@ -63,12 +66,14 @@ def materials(
     table.add_column("material")
     table.add_column("role")
     table.add_column("Tg (°C)", justify="right")
+    table.add_column("fixity", justify="right")
     for key, _ in temps:
         table.add_column(f"{key} °C", justify="right")
     for r in rows:
         cells = ["-" if r["role"] != "hinge" else ("does not fold" if v is None else f"{v:.2f}")
                  for v in r["fold_time_s"].values()]
-        table.add_row(r["name"], r["role"], f"{r['tg_c']:.1f}", *cells)
+        fx = "-" if r["fixity"] is None else f"{r['fixity']:.4g}"
+        table.add_row(r["name"], r["role"], f"{r['tg_c']:.1f}", fx, *cells)
     Console(file=sys.stdout, width=120).print(table)
 
 

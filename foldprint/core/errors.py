@@ -19,6 +19,11 @@ class GeometryError(FoldprintError, RuntimeError):
     """A solid could not be built (degenerate input, failed boolean)."""
 
 
+class DataError(FoldprintError, ValueError):
+    """A measurement file (``foldprint calibrate``'s CSV) is invalid. The message names the
+    file, the line and the column."""
+
+
 class ExportError(FoldprintError, OSError):
     """A file could not be written."""
 

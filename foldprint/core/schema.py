@@ -114,7 +114,7 @@ def number(value, at: Where, lo: float | None = None, hi: float | None = None,
            unit: str = "", lo_open: bool = False) -> float:
     """A finite int or float (not a boolean, not a string) in [lo, hi]."""
     u = f" {unit}" if unit else ""
-    rng = _range_text(lo, hi, lo_open, u)
+    rng = range_text(lo, hi, lo_open, u)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         hint = ""
         if isinstance(value, str):
@@ -135,7 +135,8 @@ def number(value, at: Where, lo: float | None = None, hi: float | None = None,
     return v
 
 
-def _range_text(lo, hi, lo_open, u) -> str:
+def range_text(lo, hi, lo_open, u) -> str:
+    """" in [lo, hi] u" (or a one-sided bound, or nothing): how a range reads in a message."""
     if lo is None and hi is None:
         return ""
     if hi is None:

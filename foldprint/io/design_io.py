@@ -81,8 +81,9 @@ def _angle(value, at: Where) -> float:
     return v
 
 
-def _fixity(value, at: Where) -> float:
-    return sc.number(value, at, 0.0, 1.0)
+def _fixity(value, at: Where) -> float | None:
+    """A hinge's shape fixity in [0, 1]; None (not given): the material's."""
+    return None if value is None else sc.number(value, at, 0.0, 1.0)
 
 
 def _style(raw, base: HingeStyle, at: Where) -> HingeStyle:
@@ -129,7 +130,7 @@ class _Defaults:
     panel_material: str
     radius: float
     hinge_thickness: float | None
-    fixity: float
+    fixity: float | None
     style: HingeStyle
 
 
@@ -173,7 +174,7 @@ def _defaults(data: Mapping, top: Where) -> _Defaults:
     radius = sc.length(dft.get("hinge_radius_mm", DEFAULT_HINGE_RADIUS_MM), at / "hinge_radius_mm")
     hthick = (sc.length(dft["hinge_thickness_mm"], at / "hinge_thickness_mm")
               if "hinge_thickness_mm" in dft else None)
-    fixity = _fixity(dft.get("fixity", 1.0), at / "fixity")
+    fixity = _fixity(dft.get("fixity"), at / "fixity")
     base_style = _style(dft.get("hinge_style"), HingeStyle(), at / "hinge_style")
     return _Defaults(thickness, depth, "depth_mm" in dft, pmat, radius, hthick, fixity, base_style)
 
@@ -209,7 +210,7 @@ def _strip_design(data: Mapping, top: Where, name: str, description: str, root: 
                                     sc.length) if "hinge_thickness_mm" in st else dflt.hinge_thickness),
               panel_material=dflt.panel_material, process=process, description=description, holes=holes,
               source=source, goals=goals, style=dflt.style)
-    if dflt.fixity != 1.0:
+    if dflt.fixity is not None:
         d = replace(d, hinges=tuple(replace(h, fixity=dflt.fixity) for h in d.hinges))
     if root:
         d = replace(d, root=root)
@@ -419,7 +420,7 @@ def design_to_dict(design: Design) -> dict:
         entry = {"id": h.id, "panels": list(h.panels), "line": h.line.tolist(),
                  "angle_deg": math.degrees(h.angle), "material": composition.material_spec(h.material),
                  "radius_mm": float(h.radius), "thickness_mm": float(h.thickness)}
-        if h.fixity != 1.0:
+        if h.fixity is not None:
             entry["fixity"] = float(h.fixity)
         style = {f.name: getattr(h.style, f.name) for f in fields(HingeStyle)
                  if getattr(h.style, f.name) != getattr(default, f.name)}

@@ -104,7 +104,9 @@ class Hinge:
 
     ``angle`` is the signed target fold angle rho (rad, FOLD convention), ``radius`` the
     bend radius R (mm) of the printed hinge, so its flat width is w = R |rho|.
-    ``fixity`` is the shape fixity of programming (1 = the hinge stays flat).
+    ``fixity`` is the shape fixity of programming (1 = the hinge stays flat; None, the
+    default: its material's, :attr:`foldprint.model.materials.Material.shape_fixity`): the
+    programmed hinge keeps rho_target (1 - fixity) of its printed angle.
     """
 
     id: str
@@ -114,7 +116,7 @@ class Hinge:
     material: str
     radius: float
     thickness: float
-    fixity: float = 1.0
+    fixity: float | None = None
     style: HingeStyle = field(default_factory=HingeStyle)
 
     def __post_init__(self):

@@ -67,6 +67,8 @@ class Material:
     ``tg_c`` is the glass transition (tan delta peak of DMA at 1 Hz, paper Methods).
     ``max_strain`` is the largest bending strain the material takes during programming
     (used by the design-rule checks). ``recovery`` is None for non-hinge materials.
+    ``fixity`` is a measured shape fixity (None: :func:`default_fixity`, see
+    :attr:`shape_fixity`), ``fixity_source`` where it comes from.
     """
 
     name: str
@@ -80,6 +82,14 @@ class Material:
     #: VeroWhite fraction profile of a continuous or graded material (``VW...`` names,
     #: synthesised by the library from :mod:`.composition`); None for library entries.
     profile: FractionProfile | None = None
+    fixity: float | None = None
+    fixity_source: str = ""
+
+    @property
+    def shape_fixity(self) -> float:
+        """The share of a programmed bend the hinge keeps when released: the measured
+        ``fixity``, else :func:`default_fixity`."""
+        return default_fixity() if self.fixity is None else self.fixity
 
     @property
     def rgba(self) -> tuple[float, float, float, float]:
@@ -88,6 +98,26 @@ class Material:
         vals = [int(h[i:i + 2], 16) / 255.0 for i in (0, 2, 4)]
         alpha = int(h[6:8], 16) / 255.0 if len(h) == 8 else 1.0
         return (vals[0], vals[1], vals[2], alpha)
+
+
+def default_fixity() -> float:
+    """Shape fixity of a digital SMP hinge that no measurement gives: E_g / (E_g + E_r).
+
+    Programming bends the rubbery hinge (its network, modulus E_r, stores the bend), cooling
+    under load freezes the bend into the glass (modulus E_g, stress-free in the programmed
+    shape); on release the network pulls back until the two balance, keeping
+    E_g / (E_g + E_r) of the bend (the two-phase picture of SMP fixity). E_g / E_r is the
+    composition model's ``stiffness_ratio`` (``data/composition.toml``: 300, glassy
+    VeroWhite-like resin 2-3 GPa against a rubbery digital SMP of a few MPa), so the default
+    is 300/301 = 0.9967; the ratio's plausible range 100-1000 gives 0.990-0.999. The paper
+    reports its protocol as "a shape fixity of 100%" (Mao 2015, Results): 0.997 is 0.3 deg
+    off flat on a 90 deg hinge, below what a video reading resolves (docs/calibrate.md).
+
+    >>> round(default_fixity(), 4)
+    0.9967
+    """
+    r = composition.composition_model().stiffness_ratio
+    return r / (r + 1.0)
 
 
 @dataclass(frozen=True)
@@ -146,7 +176,8 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     key = where(src, f"materials.{name}")
     if not isinstance(raw, Mapping):
         raise MaterialError(f"{key}expected a table, got {type(raw).__name__}")
-    known = {"role", "tg_c", "color", "description", "max_strain", "recovery", "source"}
+    known = {"role", "tg_c", "color", "description", "max_strain", "recovery", "source", "fixity",
+             "fixity_source"}
     unknown = set(raw) - known
     if unknown:
         raise MaterialError(f"{key}unknown keys {sorted(unknown)}; allowed: {sorted(known)}")
@@ -164,6 +195,10 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     max_strain = raw.get("max_strain", prev.max_strain if prev else 0.2)
     if not isinstance(max_strain, (int, float)) or not (0 < max_strain < 10):
         raise MaterialError(f"{key}max_strain must be a positive fraction, got {max_strain!r}")
+    fixity = raw.get("fixity", prev.fixity if prev else None)
+    if fixity is not None and (isinstance(fixity, bool) or not isinstance(fixity, (int, float))
+                               or not 0.0 < fixity <= 1.0):
+        raise MaterialError(f"{key}fixity must be a shape fixity in (0, 1], got {fixity!r}")
     rec = None
     if role == "hinge":
         merged = dict(base_rec)
@@ -187,6 +222,8 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
         description=str(raw.get("description", prev.description if prev else "")),
         max_strain=float(max_strain), recovery=rec,
         source=str(raw.get("source", prev.source if prev else "")),
+        fixity=None if fixity is None else float(fixity),
+        fixity_source=str(raw.get("fixity_source", prev.fixity_source if prev else "")),
     )
 
 

@@ -25,6 +25,10 @@ KINDS = ("about", "at_most", "at_least", "none", "qualitative")
 #: motion ends short of the target, the fold time (every hinge at 98 %), the last / first
 #: of ``hinges`` to reach 5 % or 98 %, the order of ``materials``' curves, the goals met
 #: in order; ``free_hinges``: not a structure (Fig. 1b, free hinges), measured apart.
+#: "fitted": the shipped recovery parameters were fitted to the statement (agreement is by
+#: construction, a calibration regression); "predicted": used in no fit (agreement is
+#: validation).
+ROLES = ("fitted", "predicted")
 MEASURES = ("first_contact", "motion_end", "fold_time", "onset_last", "fold_last", "onset_first", "order",
             "goals", "free_hinges")
 
@@ -41,6 +45,7 @@ class Statement:
     measure: str = ""
     hinges: tuple[str, ...] = ()  # hinge ids the measure reads (onset_*, fold_last)
     materials: tuple[str, ...] = ()  # hinge materials whose order ``order`` reads
+    role: str = "predicted"  # one of ROLES
 
 
 @dataclass(frozen=True)
@@ -70,9 +75,12 @@ def _statement(k: int, row: dict) -> Statement:
     measure = row.get("measure", "")
     if measure not in MEASURES:
         raise DesignError(f"{where}: measure {measure!r} is not one of {', '.join(MEASURES)}")
+    role = row.get("role")
+    if role not in ROLES:
+        raise DesignError(f"{where}: role {role!r} is not one of {', '.join(ROLES)}")
     return Statement(row["id"], row["what"], kind, None if value is None else float(value), row["quote"],
                      row["source"], row.get("figure", ""), measure, tuple(row.get("hinges", ())),
-                     tuple(row.get("materials", ())))
+                     tuple(row.get("materials", ())), role)
 
 
 @lru_cache(maxsize=1)

@@ -152,8 +152,8 @@ def _check_hinge_values(h: Hinge, item: str, ids: list, panel_ids: set, lib: Mat
                           "(FOLD convention: + valley, - mountain, 0 flat)")
     length_value(h.radius, "radius_mm", item)
     length_value(h.thickness, "thickness_mm", item)
-    fx = finite_value(h.fixity, "fixity", item)
-    if not 0.0 <= fx <= 1.0:
+    fx = None if h.fixity is None else finite_value(h.fixity, "fixity", item)
+    if fx is not None and not 0.0 <= fx <= 1.0:
         raise DesignError(f"{item}fixity must be in [0, 1], got {fx:g}")
     if not np.all(np.isfinite(h.line)):
         raise DesignError(f"{item}fold line has a NaN coordinate")

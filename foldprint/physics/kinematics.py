@@ -264,6 +264,14 @@ class Trajectory:
     loops: LoopSolution | None = None  # hinge graphs with loops: the closure solve's report
 
 
+def hinge_fixities(design: Design, library: MaterialLibrary | None = None) -> np.ndarray:
+    """Each hinge's shape fixity (n_hinges,): its own ``fixity``, else its material's
+    (:attr:`foldprint.model.materials.Material.shape_fixity`, measured or the default)."""
+    lib = library or default_library()
+    return np.array([float(h.fixity) if h.fixity is not None else lib[h.material].shape_fixity
+                     for h in design.hinges])
+
+
 class HingeDrive:
     """Continuous-time hinge angles: evaluates rho_i(t) at any times (used by the
     trajectory and by the collision refinement between samples)."""
@@ -275,15 +283,15 @@ class HingeDrive:
         ``design.hinges`` order: e.g. a scattered sample from :mod:`foldprint.simulation.robust`)."""
         self.design = design
         self.bath_c = float(design.process.bath_temperature_c if bath_c is None else bath_c)
+        lib = library or default_library()
         if curves is None:
-            lib = library or default_library()
             curves = [recovery_curve(lib[h.material], self.bath_c, h.thickness,
                                      design.process.fix_temperature_c) for h in design.hinges]
         elif len(curves) != len(design.hinges):
             raise DesignError(f"{len(curves)} recovery curves for {len(design.hinges)} hinges")
         self.curves = list(curves)
         self.target = target_angles(design)
-        self.fixity = np.array([h.fixity for h in design.hinges])
+        self.fixity = hinge_fixities(design, lib)
         self.frozen_at: dict[int, float] = {}  # hinge index -> time it was arrested
         # loops (rigid origami): angles() gives the closed angles nearest the drive
         self.loops = LoopSolver(hinge_frames(design), [h.id for h in design.hinges]) \

@@ -357,10 +357,14 @@ class LoopSolver:
                     if near_flat and np.abs(xn - ys).max(initial=0.0) > OPT_TOL:
                         # near the flat state (a bifurcation point) the step from x can
                         # stall between branches: also start from the drive itself and
-                        # keep whichever closed answer is nearer the drive
+                        # keep whichever closed answer is nearer the drive, but never one
+                        # that puts a hinge on the other side of flat from its drive (a
+                        # drive keeps its target's sign at every instant; the other side
+                        # is another branch, the one a scattered drive would flip to)
                         xb, rb, nb, sb, bb = yield from self._project_gen(ys, ys)
                         if (rb <= 1e-7 and np.linalg.norm(xb - ys) < np.linalg.norm(xn - ys) - 1e-9
-                                and np.abs(xb - x).max(initial=0.0) <= np.abs(xn - x).max(initial=0.0) + JUMP):
+                                and np.abs(xb - x).max(initial=0.0) <= np.abs(xn - x).max(initial=0.0) + JUMP
+                                and not np.any(xb * ys < 0.0)):
                             xn, res, null, settled, basis = xb, rb, nb, sb, bb
                     if res > 1e-7:  # lost the manifold: hold the last closed configuration
                         settled = True

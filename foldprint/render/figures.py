@@ -24,6 +24,11 @@ def _plt():
     return plt
 
 
+def pyplot():
+    """``matplotlib.pyplot`` on the headless Agg backend, for the other figure modules."""
+    return _plt()
+
+
 def figure_bytes(fig, fmt: str = "png", dpi: int = 110) -> bytes:
     """Render a figure to bytes (deterministic metadata) and close it."""
     buf = io.BytesIO()

@@ -76,7 +76,7 @@ def sample_drive(design: Design, library: MaterialLibrary, sample: Sample, *, un
         mat = replace(mat, tg_c=mat.tg_c + float(sample.tg_shift_c[k]), recovery=rec)
         curves.append(recovery_curve(mat, sample.bath_c, float(sample.thickness_mm[k]),
                                      design.process.fix_temperature_c))
-    return HingeDrive(design, sample.bath_c, curves=curves)
+    return HingeDrive(design, sample.bath_c, library, curves=curves)
 
 
 def run_end(design: Design, dt: float, duration: float | None = None) -> float:
@@ -133,7 +133,7 @@ def sample_drives(design: Design, library: MaterialLibrary, samples: Sequence[Sa
             s, k = divmod(j, len(ks))
             curves[s][ks[k]] = RecoveryCurve(name, float(tg[j]), float(tb[j]), float(th[j]), fix_c, t,
                                              ratio[j], mean_t[j])
-    return [HingeDrive(design, smp.bath_c, curves=c) for smp, c in zip(samples, curves)]
+    return [HingeDrive(design, smp.bath_c, library, curves=c) for smp, c in zip(samples, curves)]
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,169 @@
+"""``foldprint calibrate``: hinge measurements in, a materials file out, with what the data
+can and cannot say. Chains the reader (:mod:`foldprint.io.hinge_data`), the fit
+(:mod:`foldprint.physics.calibration`), its uncertainty and findings
+(:mod:`foldprint.physics.calibration_profile`), the writer
+(:mod:`foldprint.exchange.materials_file`) and the figure
+(:mod:`foldprint.render.calibration_figure`). ``docs/calibrate.md`` explains the output.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from .. import __version__
+from ..core.errors import DataError
+from ..exchange.materials_file import Entry, write_materials
+from ..io.hinge_data import HingeData, load_hinge_data, read_text
+from ..model.materials import MaterialLibrary
+from ..physics.calibration import FITTABLE, Fit, Problem, fit, fitted_materials
+from ..physics.calibration_profile import Interval, curve_residuals, findings, profile
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """One calibration: the problem, its optimum, the intervals (empty without the
+    profile), per-curve residuals, findings, and the starting library's chi2 on the data."""
+
+    problem: Problem
+    fit: Fit
+    intervals: tuple[Interval, ...]
+    curves: list
+    findings: list
+    start_chi2: float
+
+    @property
+    def joint_threshold(self) -> float:
+        """Delta chi2 of the joint confidence region of all free parameters."""
+        from scipy.stats import chi2
+
+        return float(chi2.ppf(self.problem.config.confidence, len(self.fit.x))) * self.fit.scale
+
+
+def parse_fixed(items) -> dict:
+    """``--fix NAME`` (hold at the library's value: returned as None) or ``NAME=VALUE``."""
+    out = {}
+    for item in items or ():
+        name, _, value = item.partition("=")
+        name = name.strip()
+        if name not in FITTABLE:
+            raise DataError(f"--fix {item!r}: {name!r} is not a recovery parameter calibrate fits; use one of "
+                            f"{', '.join(FITTABLE)}")
+        if value:
+            try:
+                out[name] = float(value)
+            except ValueError:
+                raise DataError(f"--fix {item!r}: {value!r} is not a number") from None
+        else:
+            out[name] = None
+    return out
+
+
+def calibrate(data: HingeData, library: MaterialLibrary, fixed: dict | None = None, per_material=(),
+              with_profile: bool = True) -> Calibration:
+    """Fit ``data`` starting from ``library``; ``fixed`` {name: value or None (the
+    library's)}; ``per_material`` parameters fitted once per material."""
+    fixed = dict(fixed or {})
+    free = tuple(n for n in FITTABLE if n not in fixed)
+    held = {n: v for n, v in fixed.items() if v is not None}
+    problem = Problem(data, library, free=free, per_material=tuple(per_material), fixed=held)
+    r0 = problem.residuals(problem.library_point())
+    result = fit(problem)
+    log.info("fit: chi2 %.3f after %d evaluations (%s)", result.chi2, result.nfev, result.message)
+    intervals = profile(problem, result) if with_profile else ()
+    found = findings(problem, result, intervals) if with_profile else findings(problem, result, ())
+    return Calibration(problem, result, intervals, curve_residuals(problem, result), found, float(r0 @ r0))
+
+
+def entries(cal: Calibration) -> list[Entry]:
+    """The materials the file holds: every measured one (fitted parameters, measured Tg and
+    fixity), then every other hinge material of the library with the shared fitted values
+    (the recovery parameters do not depend on the grade, data/composition.toml)."""
+    pb = cal.problem
+    fitted = fitted_materials(pb, cal.fit.x)
+    labels = {iv.label: iv for iv in cal.intervals}
+    out = []
+    for name, mat in fitted.items():
+        notes = [f"{name}: fitted to {sum(name in (o.material, o.reference) for o in pb.data.observations)} rows"]
+        tg = pb.data.tg(name)
+        notes.append(f"tg_c: {'measured, ' + pb.data.property_source('tg', name) if tg is not None else 'the library'}")
+        for p, v in zip(pb.params, cal.fit.x):
+            if p.material in (None, name):
+                iv = labels.get(p.label)
+                rng = f" [{iv.low:.4g}, {iv.high:.4g}] ({pb.config.confidence:.0%}, identified: {iv.identified})" \
+                    if iv else ""
+                notes.append(f"{p.name} = {v:.6g}{rng}")
+        out.append(Entry(mat, name not in pb.library, tg is not None or name not in pb.library, tuple(notes)))
+    shared = {p.name: float(v) for p, v in zip(pb.params, cal.fit.x) if p.material is None}
+    shared.update(pb.fixed)
+    for mat in pb.library.hinges():
+        if mat.name in fitted or mat.recovery is None:
+            continue
+        out.append(Entry(replace(mat, recovery=replace(mat.recovery, **shared), fixity=None), False, False,
+                         (f"{mat.name}: not measured; the shared fitted parameters",)))
+    return out
+
+
+def header(cal: Calibration, data_path: str | Path, command: str) -> list[str]:
+    digest = hashlib.sha256(read_text(data_path, "the measurements").encode("utf-8")).hexdigest()[:16]
+    f, pb = cal.fit, cal.problem
+    lines = [f"foldprint materials file, written by `{command}` (foldprint {__version__}).",
+             f"Data: {data_path} (sha256 {digest}...), {len(pb.data.observations)} rows fitted.",
+             f"Fit: scipy.optimize.least_squares, chi2 {f.chi2:.4g} for {f.dof} degrees of freedom, "
+             f"{f.rank} of {len(f.x)} parameter combinations fixed by the data; the library it started from: "
+             f"chi2 {cal.start_chi2:.4g}.",
+             "Load it with: foldprint <command> --materials THIS_FILE (docs/calibrate.md)."]
+    if pb.fixed:
+        lines.append("Held fixed: " + ", ".join(f"{k} = {v:g}" for k, v in pb.fixed.items()))
+    for fd in cal.findings:
+        lines.append("NOTE: " + fd["message"])
+    return lines
+
+
+def write(cal: Calibration, out: str | Path, data_path: str | Path, command: str) -> Path:
+    return write_materials(out, entries(cal), header(cal, data_path, command))
+
+
+def plot(cal: Calibration, path: str | Path) -> Path:
+    from ..render.calibration_figure import calibration_figure
+    from ..render.figures import save_figure
+
+    return save_figure(calibration_figure(cal.problem, cal.fit), path)
+
+
+def to_json(cal: Calibration) -> dict:
+    """What ``foldprint calibrate --json`` prints (docs/calibrate.md lists the keys)."""
+    pb, f = cal.problem, cal.fit
+    ivs = {iv.label: iv for iv in cal.intervals}
+    params = []
+    for p, v, x0 in zip(pb.params, f.x, pb.library_point()):
+        b = pb.config.bounds[p.name]
+        iv = ivs.get(p.label)
+        params.append({"name": p.name, "material": p.material, "value": float(v), "unit": b.unit,
+                       "start": float(x0), "low": iv.low if iv else None, "high": iv.high if iv else None,
+                       "identified": iv.identified if iv else None, "at_bound": iv.at_bound if iv else None,
+                       "bounds": [b.lower, b.upper], "bound_kind": b.kind, "bound_source": b.source})
+    rows = [{"line": o.line, "kind": o.kind, "material": o.material, "reference": o.reference, "bath_c": o.bath_c,
+             "thickness_mm": o.thickness_mm, "time_s": o.time_s, "level": o.level, "relation": o.relation,
+             "measured": o.value, "model": float(m), "sigma": float(s), "residual_sigma": float(r)}
+            for o, m, s, r in zip(pb.data.observations, f.predictions, pb.sigmas, f.residuals)]
+    delta = cal.start_chi2 - f.chi2
+    return {"data": pb.data.source, "materials": pb.materials, "parameters": params,
+            "fixed": {k: float(v) for k, v in pb.fixed.items()},
+            "fit": {"chi2": f.chi2, "dof": f.dof, "rank": f.rank, "scale": f.scale, "evaluations": f.nfev,
+                    "converged": f.success, "message": f.message},
+            "uncertainty": "profile" if cal.intervals else "none", "confidence": pb.config.confidence,
+            "start": {"chi2": cal.start_chi2, "delta_chi2": delta, "joint_threshold": cal.joint_threshold,
+                      "inside_joint_region": bool(delta <= cal.joint_threshold)},
+            "curves": cal.curves, "rows": rows, "findings": cal.findings,
+            "fixity": {m: float(x) for m, x in pb.fixity.items()}}
+
+
+def run(data_path: str | Path, library: MaterialLibrary, fixed: dict | None = None, per_material=(),
+        with_profile: bool = True) -> Calibration:
+    """:func:`calibrate` on the CSV file at ``data_path``."""
+    return calibrate(load_hinge_data(data_path), library, fixed, per_material, with_profile)

@@ -1,0 +1,90 @@
+"""``foldprint calibrate``: fit the hinge recovery model to a lab's measurements and write
+a materials file every command accepts with ``--materials`` (``docs/calibrate.md``)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from typer import echo
+
+from .root import app
+from .support import echo_json, echo_note, with_progress
+
+
+def _print(out: dict) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    f = out["fit"]
+    echo(f"{out['data']}: {len(out['rows'])} rows, materials {', '.join(out['materials'])}")
+    echo(f"  least squares: chi2 {f['chi2']:.3g} for {f['dof']} degrees of freedom; the data fix {f['rank']} of "
+         f"{len(out['parameters'])} parameter combinations; the starting library: chi2 {out['start']['chi2']:.3g}"
+         + (" (inside the joint confidence region)" if out["start"]["inside_joint_region"] else
+            " (outside the joint confidence region)"))
+    conf = f"{out['confidence']:.0%} interval" if out["uncertainty"] == "profile" else "interval (--no-profile)"
+    table = Table(title="fitted recovery parameters")
+    for col in ("parameter", "value", conf, "identified", "bounds"):
+        table.add_column(col)
+    for p in out["parameters"]:
+        label = p["name"] + (f"[{p['material']}]" if p["material"] else "")
+        iv = "-" if p["low"] is None else f"{p['low']:.4g} .. {p['high']:.4g}"
+        mark = f" (at {p['at_bound']} bound)" if p["at_bound"] else ""
+        table.add_row(label, f"{p['value']:.4g} {p['unit']}".strip() + mark, iv, p["identified"] or "-",
+                      f"{p['bounds'][0]:g} .. {p['bounds'][1]:g} ({p['bound_kind']})")
+    Console(file=sys.stdout, width=130).print(table)
+    echo("  per curve (RMS residual; in sigmas):")
+    for c in out["curves"]:
+        ref = f" - {c['reference']}" if c["reference"] else ""
+        lvl = f" to {c['level']:.0%}" if c["level"] is not None else ""
+        echo(f"    {c['kind']} {c['material']}{ref} {c['bath_c']:g} C {c['thickness_mm']:g} mm{lvl}: "
+             f"{c['rms']:.3g} {c['unit']} ({c['rms_sigma']:.2f} sigma, {c['rows']} rows)")
+    for fd in out["findings"]:
+        echo(f"  note: {fd['message']}")
+
+
+@app.command()
+def calibrate(
+    data: Path = typer.Argument(..., help="CSV of hinge measurements (layout: docs/calibrate.md)."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Write the fitted materials TOML here."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write the data-against-model figure (PNG/SVG/PDF)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
+    materials_file: Optional[List[Path]] = typer.Option(None, "--materials",
+                                                        help="Extra material TOML file(s): the library the fit "
+                                                             "starts from."),
+    fix: Optional[List[str]] = typer.Option(None, "--fix", metavar="NAME[=VALUE]",
+                                            help="Hold a recovery parameter (at the library's value or VALUE)."),
+    per_material: Optional[List[str]] = typer.Option(None, "--per-material", metavar="NAME",
+                                                     help="Fit this parameter once per material (default: shared)."),
+    no_profile: bool = typer.Option(False, "--no-profile",
+                                    help="Skip the profile-likelihood intervals (the point and residuals only)."),
+):
+    """Fit the recovery model to hinge measurements; write a materials file for --materials.
+
+    Example: foldprint calibrate foldprint/data/paper_hinge_data.csv --out mine.toml --plot fit.png
+    """
+    from ..apps import calibrate as cal
+    from ..model.materials import load_library
+
+    lib = load_library(materials_file or None)
+    fixed = cal.parse_fixed(fix)
+    result = with_progress("fitting the recovery model",
+                           lambda: cal.run(data, lib, fixed, per_material or (), not no_profile))
+    if out is not None:
+        command = " ".join(["foldprint calibrate", str(data), "--out", str(out)]
+                           + [f"--fix {x}" for x in fix or ()] + [f"--per-material {x}" for x in per_material or ()]
+                           + [f"--materials {x}" for x in materials_file or ()])
+        cal.write(result, out, data, command)
+        echo_note(f"wrote {out}")
+    if plot is not None:
+        cal.plot(result, plot)
+        echo_note(f"wrote {plot}")
+    payload = cal.to_json(result)
+    payload["out"] = None if out is None else str(out)
+    payload["plot"] = None if plot is None else str(plot)
+    if json_out:
+        echo_json(payload)
+    else:
+        _print(payload)
