@@ -162,8 +162,16 @@ def _rings(design: Design, eps: float) -> list[list[list[np.ndarray]]]:
 
 
 def _triangulate(rings: list[list[np.ndarray]], what: str) -> np.ndarray:
-    arrs = [np.array(r, dtype=np.float64) for r in rings]
-    tris = np.asarray(mf.triangulate(arrs), dtype=np.int64).reshape(-1, 3)
+    arrs, index, start = [], [], 0
+    for n, r in enumerate(rings):  # outline counter-clockwise, holes clockwise (positive fill)
+        a = np.array(r, dtype=np.float64)
+        area = 0.5 * float(np.sum(a[:, 0] * np.roll(a[:, 1], -1) - np.roll(a[:, 0], -1) * a[:, 1]))
+        keep = (area > 0) == (n == 0)
+        arrs.append(a if keep else a[::-1].copy())
+        ids = np.arange(start, start + len(a))
+        index.append(ids if keep else ids[::-1])
+        start += len(a)
+    tris = np.concatenate(index)[np.asarray(mf.triangulate(arrs), dtype=np.int64).reshape(-1, 3)]
     if len(tris) == 0:
         raise DesignError(f"panel {what!r}: its outline could not be triangulated for the bar-and-hinge model")
     return tris
