@@ -36,12 +36,13 @@ from ..exchange.export import DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats
 from ..exchange.fem import PlacedState, check_strip
 from ..geometry import Assembly, build_assembly, hinge_axes, state_angles
 from ..geometry.surfaces import Frames, fold_frames
+from ..physics.barhinge_solve import CompliantDrive
 from ..physics.kinematics import HingeDrive, forward, hinge_frames, run_times, solve_loops_many, target_angles
 from ..physics.recovery import hinge_fold_times
 from ..model.composition import fraction_profile
 from ..model.materials import MaterialLibrary, default_library
-from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
-                          AfterContact, HingeModel, Method, State, parse)
+from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, DEFAULT_STATE,
+                          VERDICT_METHOD, AfterContact, HingeModel, Mechanics, Method, State, parse)
 from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, draw_samples, jam_probability, outcome_of,
                                  sample_drive)
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
@@ -62,6 +63,7 @@ class EvalOptions:
     :meth:`Evaluation.export` writes by default."""
 
     hinge_model: HingeModel = DEFAULT_HINGE_MODEL
+    mechanics: Mechanics = DEFAULT_MECHANICS
     method: Method = VERDICT_METHOD
     after_contact: AfterContact = DEFAULT_AFTER_CONTACT
     dt: float = CHECK_DT_S
@@ -79,6 +81,7 @@ class EvalOptions:
     def __post_init__(self):
         object.__setattr__(self, "hinge_model", parse(HingeModel, self.hinge_model, "hinge_model"))
         object.__setattr__(self, "method", parse(Method, self.method, "method"))
+        object.__setattr__(self, "mechanics", parse(Mechanics, self.mechanics, "mechanics"))
         object.__setattr__(self, "after_contact", parse(AfterContact, self.after_contact, "after_contact"))
         object.__setattr__(self, "state", parse(State, self.state, "state"))
         object.__setattr__(self, "scales", tuple(float(k) for k in self.scales))
@@ -224,7 +227,11 @@ class Evaluation:
         simulation refuses it with its own message)."""
         if self._nominal_drive is None:
             o = self.options
-            d = HingeDrive(self.design, o.bath_c, self.library)
+            if o.mechanics == Mechanics.BAR_HINGE:  # its own equilibrium path, solved on first use
+                guards.check_mechanics(self.design)
+                d = CompliantDrive(self.design, o.bath_c, self.library)
+            else:
+                d = HingeDrive(self.design, o.bath_c, self.library)
             if d.loops is not None:
                 try:
                     guards.check_simulation(self.design, o.dt, o.duration, Method.FCL)

@@ -171,6 +171,7 @@ class CompliantSolution:
     splits: int
     unconverged: tuple[float, ...]
     variation: np.ndarray
+    strain_limit: float = 0.01  # the mechanics data's panel_strain_limit (check: FP190/191)
 
     def at(self, t) -> np.ndarray:
         """Fold angles (n, n_hinges) at ``t``, piecewise linear between grid times."""
@@ -262,7 +263,7 @@ def solve_path(design: Design, drive: HingeDrive, times, model: BarHinge | None 
             bad.append(float(grid[n]))
         xs.append(x)
         prev = (rest[n], kk[n])
-    return _solution(model, grid, rest, kk, np.array(xs), iters, splits, bad)
+    return _solution(model, grid, rest, kk, np.array(xs), iters, splits, bad, params.panel_strain_limit)
 
 
 def _step(model: BarHinge, x, start, end, depth: int = 0):
@@ -277,7 +278,7 @@ def _step(model: BarHinge, x, start, end, depth: int = 0):
     return xe, eq.iterations + i1 + i2, 1 + s1 + s2, ok2
 
 
-def _solution(model, grid, rest, kk, X, iters, splits, bad) -> CompliantSolution:
+def _solution(model, grid, rest, kk, X, iters, splits, bad, limit) -> CompliantSolution:
     n_p = len(model.panel_nodes)
     strain = np.zeros((len(grid), n_p))
     bend = np.zeros((len(grid), n_p))
@@ -294,7 +295,7 @@ def _solution(model, grid, rest, kk, X, iters, splits, bad) -> CompliantSolution
         energy[n] = model.energy(x, kk[n], rest[n], hessian=False)[0]
     var = np.vstack([np.zeros((1, model.n_hinges)), np.cumsum(np.abs(np.diff(angles, axis=0)), axis=0)])
     out = CompliantSolution(model, grid, angles, rest, kk, X, strain, bend, energy, iters, splits,
-                            tuple(bad), var)
+                            tuple(bad), var, float(limit))
     for a in (grid, angles, rest, kk, X, strain, bend, energy, var):
         a.setflags(write=False)
     return out
