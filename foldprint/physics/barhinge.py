@@ -225,72 +225,69 @@ def build(design: Design, params: MechanicsParams | None = None,
     tri, tri_panel = np.concatenate(tri), np.concatenate(tri_panel)
     nodes = np.column_stack([xy, np.zeros(len(xy))])
     thick = np.array([p.thickness for p in design.panels])
-    return _assemble(design, nodes, tri, tri_panel, thick, E, params, eps, tuple(panel_nodes))
-
-
-def _assemble(design, nodes, tri, tri_panel, thick, E, params, eps, panel_nodes) -> BarHinge:
-    xy = nodes[:, :2]
-    d1, d2 = xy[tri[:, 1]] - xy[tri[:, 0]], xy[tri[:, 2]] - xy[tri[:, 0]]
-    area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
-    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    opp = np.concatenate([tri[:, 2], tri[:, 0], tri[:, 1]])
-    etri = np.tile(np.arange(len(tri)), 3)
-    key = np.sort(edges, axis=1)
-    bars, inv = np.unique(key, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    rest = np.linalg.norm(nodes[bars[:, 1]] - nodes[bars[:, 0]], axis=1)
-    if (rest <= eps).any():
-        raise DesignError(f"{design.name}: two vertices closer than {eps:.2g} mm; merge them")
-    kb = np.bincount(inv, weights=bar_stiffness(E, thick[tri_panel[etri]], area[etri], rest[inv]),
-                     minlength=len(bars))
-    first = np.full(len(bars), -1)
-    second = np.full(len(bars), -1)
-    for e_, t_ in zip(inv.tolist(), etri.tolist()):
-        if first[e_] < 0:
-            first[e_] = t_
-        elif second[e_] < 0:
-            second[e_] = t_
-        else:
-            raise DesignError(f"{design.name}: a fold line is shared by more than two panels")
-    bar_panel = np.where((second < 0) | (tri_panel[first] == tri_panel[np.maximum(second, 0)]),
-                         tri_panel[first], -1)
-    springs, s_hinge, s_share, s_k, s_panel = [], [], [], [], []
     pidx = design.panel_index()
     lines = [(pidx[h.panels[0]], pidx[h.panels[1]], *(np.asarray(q, float) for q in h.line), h.length)
              for h in design.hinges]
-    opp_of = {}
-    for e_, t_, o_ in zip(inv.tolist(), etri.tolist(), opp.tolist()):
-        opp_of.setdefault(e_, []).append(o_)
-    for e_ in np.nonzero(second >= 0)[0].tolist():
-        j, k = bars[e_]
-        i, l_ = opp_of[e_]
-        pa, pb = tri_panel[first[e_]], tri_panel[second[e_]]
-        if pa == pb:
-            springs.append([i, j, k, l_])
-            s_hinge.append(-1)
-            s_share.append(0.0)
-            s_k.append(float(bending_stiffness(E, thick[pa], rest[e_], params.panel_poisson,
-                                               params.bending_coefficient)))
-            s_panel.append(pa)
-            continue
+
+    def crease_of(j: int, k: int, pa: int, pb: int):
         mid = 0.5 * (xy[j] + xy[k])
-        hit = [m for m, (a, b, p, q, L) in enumerate(lines) if {a, b} == {pa, pb}
-               and _on_segment(mid, p, q, eps) is not None]
-        if not hit:
-            continue  # panels meeting along an edge without a hinge: a cut
-        springs.append([i, j, k, l_])
-        s_hinge.append(hit[0])
-        s_share.append(rest[e_] / lines[hit[0]][4])
-        s_k.append(0.0)
-        s_panel.append(-1)
-    springs = _oriented(nodes, np.array(springs, dtype=np.int64).reshape(-1, 4))
-    root = design.panel_index()[design.root]
+        for m, (a, b, p, q, length) in enumerate(lines):
+            if {a, b} == {pa, pb} and _on_segment(mid, p, q, eps) is not None:
+                return m, float(np.linalg.norm(xy[k] - xy[j])) / length
+        return None  # panels meeting along an edge without a hinge: a cut
+
+    root = pidx[design.root]
     t0 = tri[np.nonzero(tri_panel == root)[0][0]]
-    fixed = (3 * t0[:, None] + np.arange(3)[None]).ravel()
+    return from_mesh(nodes, tri, tri_panel, thick, E, params, crease_of, len(design.hinges),
+                     tuple(panel_nodes), (3 * t0[:, None] + np.arange(3)[None]).ravel(), eps, design.name)
+
+
+def from_mesh(nodes, tri, tri_panel, thick, E, params: MechanicsParams, crease_of, n_hinges: int,
+              panel_nodes: tuple, fixed, eps: float = 1e-9, name: str = "mesh") -> BarHinge:
+    """A bar-and-hinge model of a triangle mesh (``nodes`` (n, 3) in their rest state,
+    ``tri`` (T, 3), ``tri_panel`` (T,), panel thicknesses ``thick`` and modulus ``E``):
+    a bar on every edge, a bending spring on every edge inside a panel and a fold spring
+    where ``crease_of(j, k, panel_a, panel_b)`` returns (hinge index, share of the hinge)
+    for an edge between two panels (None: no spring). ``fixed``: the dofs held."""
+    nodes = np.asarray(nodes, float)
+    area = 0.5 * np.linalg.norm(np.cross(nodes[tri[:, 1]] - nodes[tri[:, 0]], nodes[tri[:, 2]] - nodes[tri[:, 0]]),
+                                axis=1)
+    edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    opp = np.concatenate([tri[:, 2], tri[:, 0], tri[:, 1]])
+    etri = np.tile(np.arange(len(tri)), 3)
+    bars, inv = np.unique(np.sort(edges, axis=1), axis=0, return_inverse=True)
+    inv = inv.ravel()
+    rest = np.linalg.norm(nodes[bars[:, 1]] - nodes[bars[:, 0]], axis=1)
+    if (rest <= eps).any():
+        raise DesignError(f"{name}: two vertices closer than {eps:.2g} mm; merge them")
+    kb = np.bincount(inv, weights=bar_stiffness(E, thick[tri_panel[etri]], area[etri], rest[inv]),
+                     minlength=len(bars))
+    sides: dict[int, list] = {}
+    for e_, t_, o_ in zip(inv.tolist(), etri.tolist(), opp.tolist()):
+        sides.setdefault(e_, []).append((t_, o_))
+        if len(sides[e_]) > 2:
+            raise DesignError(f"{name}: a fold line is shared by more than two panels")
+    first = np.array([sides[e_][0][0] for e_ in range(len(bars))])
+    two = {e_: v for e_, v in sides.items() if len(v) == 2}
+    bar_panel = tri_panel[first].copy()
+    rows = []  # i, j, k, l, hinge, share, bending k, panel
+    for e_, ((ta, i), (tb, l_)) in sorted(two.items()):
+        j, k = bars[e_]
+        pa, pb = tri_panel[ta], tri_panel[tb]
+        if pa == pb:
+            kb_ = float(bending_stiffness(E, thick[pa], rest[e_], params.panel_poisson, params.bending_coefficient))
+            rows.append((i, j, k, l_, -1, 0.0, kb_, pa))
+            continue
+        bar_panel[e_] = -1
+        hit = crease_of(int(j), int(k), int(pa), int(pb))
+        if hit is not None:
+            rows.append((i, j, k, l_, hit[0], hit[1], 0.0, -1))
+    cols = list(zip(*rows)) if rows else [()] * 8
+    springs = _oriented(nodes, np.array(np.column_stack(cols[:4]) if rows else np.zeros((0, 4)), dtype=np.int64))
     arr = lambda a, dt=float: np.asarray(a, dtype=dt)  # noqa: E731
-    out = BarHinge(nodes, tri, tri_panel, bars, rest, kb, bar_panel, springs, arr(s_hinge, np.int64),
-                   arr(s_share), arr(s_k), arr(s_panel, np.int64), np.sort(fixed), len(design.hinges),
-                   panel_nodes)
+    out = BarHinge(nodes, tri, np.asarray(tri_panel), bars, rest, kb, bar_panel, springs, arr(cols[4], np.int64),
+                   arr(cols[5]), arr(cols[6]), arr(cols[7], np.int64), np.sort(np.asarray(fixed, np.int64)),
+                   n_hinges, panel_nodes)
     for a in (out.nodes, out.triangles, out.bars, out.bar_rest, out.bar_k, out.springs, out.spring_hinge,
               out.spring_share, out.bend_k, out.fixed):
         a.setflags(write=False)
