@@ -130,7 +130,7 @@ def _compare_with_rigid(d):
     times = run_times(d, 0.01)
     comp = bs.CompliantDrive(d, panel_modulus_mpa=STIFF)
     sol = comp.solve(times)
-    return sol, comp.angles(sol.times), HingeDrive(d).angles(sol.times)
+    return sol, sol.grid_angles, HingeDrive(d).angles(sol.grid)
 
 
 def test_strip_with_stiff_panels_follows_the_rigid_model_within_one_percent():
@@ -181,15 +181,16 @@ def test_one_dof_loop_settles_at_the_stiffness_weighted_balance():
     balance = (k[:, 0] * r[:, 0] + k[:, 1] * r[:, 1]) / k.sum(axis=1)
     moving = np.abs(r[:, 0] - r[:, 1]) > math.radians(2)
     assert moving.sum() > 5
+    ang = sol.grid_angles
     for j in (0, 1):
-        assert np.abs(sol.angles[moving, j] - balance[moving]).max() < 0.01 * np.abs(r[moving]).max()
+        assert np.abs(ang[moving, j] - balance[moving]).max() < 0.01 * np.abs(r[moving]).max()
     # somewhere the rubbery low-Tg hinge has recovered far more than the glassy one, and the pair
     # stays nearer the glassy hinge's angle: k_glassy / k_rubbery of tens to hundreds
     w = np.nonzero(moving & (k[:, 1] > 10 * k[:, 0]))[0]
     assert len(w)
-    assert (np.abs(sol.angles[w, 0] - r[w, 1]) < np.abs(sol.angles[w, 0] - r[w, 0])).all()
+    assert (np.abs(ang[w, 0] - r[w, 1]) < np.abs(ang[w, 0] - r[w, 0])).all()
     # the rigid loop tracker takes the unweighted compromise instead
-    rigid = HingeDrive(d).angles(sol.times[w])[:, 0]
+    rigid = HingeDrive(d).angles(sol.grid[w])[:, 0]
     assert (np.abs(rigid - 0.5 * (r[w, 0] + r[w, 1])) < 1e-3).all()
 
 
@@ -269,6 +270,16 @@ def test_pleated_hypar_twists_into_a_saddle_of_the_diagonals_sign(sign):
     a, b = np.linalg.lstsq(A, x[:, 2], rcond=None)[0][:2]
     assert sign * a < -1e-4 and sign * b > 1e-4
     assert sol.max_bending > math.radians(0.2)  # the panels twist: no rigid folding exists
+
+
+def test_halving_the_solve_grid_moves_the_angles_by_under_one_percent(monkeypatch):
+    d = load_design("templates/miura_3x3.toml")
+    t = run_times(d, 0.01)
+    a1 = bs.CompliantDrive(d).angles(t)
+    monkeypatch.setattr(bs, "GRID_ANGLE_RAD", bs.GRID_ANGLE_RAD / 2)
+    monkeypatch.setattr(bs, "GRID_LOG_K", bs.GRID_LOG_K / 2)
+    a2 = bs.CompliantDrive(d).angles(t)
+    assert np.abs(a1 - a2).max() < 0.01 * math.radians(60)
 
 
 def test_simulate_cli_bar_hinge_reports_panel_strain_per_step(capsys):

@@ -39,7 +39,7 @@ def mechanics_json(sol, design) -> dict:
         "panel_strain_limit": sol.strain_limit, "above_limit": bool(sol.max_strain > sol.strain_limit),
         "panels": [{"id": p.id, "max_strain": _r(float(strain[k]), 6),
                     "max_bending_deg": _r(math.degrees(float(bend[k])), 3)} for k, p in enumerate(design.panels)],
-        "steps": {"time_s": [_r(t) for t in sol.times],
+        "steps": {"time_s": [_r(t) for t in sol.grid],
                   "max_panel_strain": [_r(float(v), 6) for v in sol.panel_strain.max(axis=1, initial=0.0)],
                   "max_panel_bending_deg": [_r(math.degrees(float(v)), 3)
                                             for v in sol.panel_bending.max(axis=1, initial=0.0)],

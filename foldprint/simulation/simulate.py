@@ -138,6 +138,20 @@ def _path_hinges(design: Design, a: int, b: int) -> list[int]:
     return path
 
 
+def _run_drive(design: Design, bath_c, library, drive: HingeDrive | None, mechanics: Mechanics) -> HingeDrive:
+    """This run's own drive: the nominal one, a copy of the given one (arrests go to the
+    copy), or for ``bar-hinge`` a compliant drive (on the given drive's curves)."""
+    if mechanics == Mechanics.BAR_HINGE and not (drive is not None and drive.compliant):
+        guards.check_mechanics(design)
+        drive = CompliantDrive(design, bath_c if drive is None else drive.bath_c, library,
+                               None if drive is None else drive.curves)
+    if drive is None:
+        return HingeDrive(design, bath_c, library)
+    if drive.frozen_at:
+        raise DesignError("simulate needs a fresh HingeDrive (this one has arrested hinges)")
+    return drive.copy()  # arrests go to this run's copy: the caller's drive is left as given
+
+
 @scoped
 def simulate(design: Design, *, bath_c: float | None = None, duration: float | None = None,
              dt: float = DEFAULT_DT_S, method: Method | str = DEFAULT_METHOD,
@@ -172,17 +186,7 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
         raise DesignError(f"{design.name}: the paper's 2D collision index needs a planar strip "
                           "(every fold line parallel to y); use --method fcl")
     use3d = method in (Method.FCL, Method.BOTH)
-    mechanics = parse(Mechanics, mechanics, "mechanics")
-    if mechanics == Mechanics.BAR_HINGE and not (drive is not None and drive.compliant):
-        guards.check_mechanics(design)
-        drive = CompliantDrive(design, bath_c if drive is None else drive.bath_c, library,
-                               None if drive is None else drive.curves)
-    if drive is None:
-        drive = HingeDrive(design, bath_c, library)
-    elif drive.frozen_at:
-        raise DesignError("simulate needs a fresh HingeDrive (this one has arrested hinges)")
-    else:
-        drive = drive.copy()  # arrests go to this run's copy: the caller's drive is left as given
+    drive = _run_drive(design, bath_c, library, drive, parse(Mechanics, mechanics, "mechanics"))
     contacts: list[Contact] = []
     skip: set = set()
     initial: list[Contact] = []
