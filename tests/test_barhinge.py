@@ -322,3 +322,20 @@ def test_guard_refuses_a_design_too_large_for_the_solver(monkeypatch):
     monkeypatch.setattr(guards, "MAX_MECHANICS_NODES", 10)
     with pytest.raises(FoldprintError, match="--mechanics bar-hinge refused: 36 panel vertices"):
         simulate(load_design("templates/miura_3x3.toml"), mechanics="bar-hinge")
+
+
+def test_monte_carlo_samples_fold_the_bar_and_hinge_model_on_their_own_curves():
+    from foldprint.simulation.robust import default_scatter, draw_samples, jam_probability, outcome_of, sample_drive
+    from foldprint.simulation.simulate import simulate
+    from foldprint.model.materials import default_library
+
+    d = load_design("templates/miura_3x3.toml")
+    r = jam_probability(d, 3, 5, mechanics="bar-hinge", workers=1, dt=0.02)
+    assert r.mechanics == "bar-hinge" and r.nominal.compliant is not None
+    lib = default_library()
+    for o, smp in zip(r.outcomes, draw_samples(d, default_scatter(), 3, 5)):
+        res = simulate(d, dt=0.02, method="fcl", drive=sample_drive(d, lib, smp), mechanics="bar-hinge")
+        assert outcome_of(res) == o
+        # its own scattered curves: mid-fold it is not the nominal fold
+        assert np.abs(res.compliant.at(1.5) - r.nominal.compliant.at(1.5)).max() > 1e-3
+    assert jam_probability(d, 3, 5, workers=1, dt=0.02).mechanics == "rigid"

@@ -322,7 +322,7 @@ class Evaluation:
         return self._stage("robust", lambda: jam_probability(
             self.design, o.samples, o.seed, scatter=self.scatter, library=self.library, hinge_model=o.hinge_model,
             dt=o.dt, nominal=sim, workers=o.workers, progress=self._report("samples", progress),
-            mapper=self.mapper))
+            mapper=self.mapper, mechanics=o.mechanics))
 
     @property
     def robust(self) -> RobustResult | None:

@@ -99,6 +99,7 @@ def robust_json(r) -> dict:
         "samples": r.samples,
         "seed": r.seed,
         "hinge_model": str(r.hinge_model),
+        "mechanics": str(r.mechanics),
         "jam_probability": _r(r.jam_probability),
         "ci95": [_r(lo), _r(hi)],
         "jams": r.jams,

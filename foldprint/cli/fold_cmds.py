@@ -22,8 +22,8 @@ from .support import (ExitCode, MAX_SAMPLES, CREASE_HELP, SCALE_HELP, check_coun
 
 
 MECHANICS_HELP = ("rigid (default: rigid panels, exact and fast) | bar-hinge (panels stretch and bend, creases are "
-                  "springs of their material's modulus at its temperature: docs/mechanics.md; check's Monte-Carlo "
-                  "samples stay rigid)")
+                  "springs of their material's modulus at its temperature: docs/mechanics.md; slow: every "
+                  "Monte-Carlo sample solves the equilibrium path)")
 
 
 @app.command()
@@ -165,6 +165,7 @@ def robust(
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
     hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
+    mechanics: str = typer.Option(DEFAULT_MECHANICS.value, "--mechanics", help=MECHANICS_HELP),
     contributions: bool = typer.Option(False, "--contributions/--no-contributions",
                                        help="Also each scatter component alone and all but each (two more "
                                        "runs of the samples per component: about 11x the cost, so opt-in)."),
@@ -188,14 +189,17 @@ def robust(
     from ..simulation.robust import load_scatter
     from ..simulation.sensitivity import parse_scales
 
+    from ..core.modes import Mechanics
+
     model = parse_mode(HingeModel, hinge_model, "--hinge-model")
+    mech = parse_mode(Mechanics, mechanics, "--mechanics")
     check_count(samples, "--samples", 1, MAX_SAMPLES)
     if seed < 0:
         raise FoldprintError(f"--seed must be >= 0, got {seed}")
     ks = parse_scales(scales)
     sc = load_scatter(scatter_file)
     d, lib = load_input(design, materials_file)
-    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=ks if sensitivity else ())
+    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=ks if sensitivity else (), mechanics=mech)
     with open_mapper(scheduler) as mapper:
         ev = Evaluation(d, opts, library=lib, scatter=sc, mapper=mapper)
         with samples_progress(f"{d.name}: scatter samples") as cb:
