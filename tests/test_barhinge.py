@@ -339,3 +339,32 @@ def test_monte_carlo_samples_fold_the_bar_and_hinge_model_on_their_own_curves():
         # its own scattered curves: mid-fold it is not the nominal fold
         assert np.abs(res.compliant.at(1.5) - r.nominal.compliant.at(1.5)).max() > 1e-3
     assert jam_probability(d, 3, 5, workers=1, dt=0.02).mechanics == "rigid"
+
+
+def test_xdmf_series_and_viewer_carry_the_panel_strain(tmp_path, capsys):
+    import meshio
+
+    from foldprint.apps.pipeline import EvalOptions, Evaluation
+    from foldprint.model.materials import default_library
+    from foldprint.render.viewer import viewer_data
+
+    assert main(["export", "miura_3x3", "--format", "xdmf", "--mechanics", "bar-hinge", "--out", str(tmp_path),
+                 "--json"]) == 0
+    capsys.readouterr()
+    with meshio.xdmf.TimeSeriesReader(str(tmp_path / "miura_3x3_fold.xdmf")) as r:  # a real reader
+        r.read_points_cells()
+        steps = [r.read_data(k) for k in range(r.num_steps)]
+    ev = Evaluation(load_design("templates/miura_3x3.toml"), EvalOptions(mechanics="bar-hinge"))
+    sol, frames = ev.animation.compliant, ev.frames
+    panel = steps[0][2]["panel"][0]
+    for k in (0, len(steps) // 3, len(steps) - 1):
+        t, _, cells = steps[k]
+        strain = cells["panel_strain"][0]
+        j = int(np.searchsorted(sol.grid, t, side="right")) - 1
+        assert strain[panel >= 0] == pytest.approx(sol.panel_strain[j][panel[panel >= 0]], rel=1e-5, abs=1e-12)
+        assert (strain[panel < 0] == 0).all()
+    assert frames.panel_strain.shape == (len(frames.times), 9)
+    data = viewer_data(ev.animation, default_library())
+    assert data["mechanics"]["strain"] == pytest.approx(list(sol.panel_strain.max(axis=1)))
+    assert viewer_data(Evaluation(load_design("templates/miura_3x3.toml")).animation,
+                       default_library())["mechanics"] is None

@@ -380,13 +380,15 @@ class Evaluation:
     def animation(self) -> SimulationResult:
         """The fold at the time step of the files that show it over time (xdmf, glb):
         arc hinges, the default collision method and bath."""
-        return self._stage("animation", lambda: simulate(self.design, dt=ANIMATION_DT_S, library=self.library))
+        return self._stage("animation", lambda: simulate(self.design, dt=ANIMATION_DT_S, library=self.library,
+                                                         mechanics=self.options.mechanics))
 
     @property
     def frames(self) -> Frames:
         """The fold's surfaces placed at every step of :attr:`animation`: what the xdmf
         and glb writers draw (:func:`foldprint.geometry.surfaces.fold_frames`)."""
-        return self._stage("frames", lambda: fold_frames(self.design, self.animation.trajectory))
+        return self._stage("frames", lambda: fold_frames(self.design, self.animation.trajectory,
+                                                         self.animation.compliant))
 
     @property
     def fold_times(self) -> dict[str, float | None]:

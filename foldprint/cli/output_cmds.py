@@ -12,7 +12,7 @@ import typer
 from typer import echo
 
 from ..core.constants import EXPORT_FORMATS
-from ..core.modes import DEFAULT_STATE, State, parse
+from ..core.modes import DEFAULT_MECHANICS, DEFAULT_STATE, Mechanics, State, parse
 from ..core.errors import FoldprintError
 from .root import app
 from .support import (MAX_WORKERS, CREASE_HELP, SCALE_HELP, OUTPUT_STATE, check_count, echo_json, load_input, echo_note, check_out_dir,
@@ -35,6 +35,9 @@ def export(
     printer: Optional[str] = typer.Option(None, "--printer",
                                           help="Printer profile whose voxel pitch --format voxels uses "
                                                "(data/printers.toml; default j750: 600 x 300 dpi, 27 um layers)."),
+    mechanics: str = typer.Option(DEFAULT_MECHANICS.value, "--mechanics",
+                                  help="rigid | bar-hinge: the fold xdmf/glb draw (bar-hinge adds each panel's "
+                                       "strain per step to the xdmf series; docs/mechanics.md)"),
 ):
     """Build the printable part (one watertight body per material) and write multi-body
     3MF (spec + Bambu/Orca/Cura metadata), a PrusaSlicer 3MF, and one STL per material.
@@ -58,7 +61,8 @@ def export(
     if printer is not None and "voxels" not in fmts:
         raise FoldprintError("--printer sets the voxel pitch of --format voxels; add voxels to --format")
     records = with_progress(f"building {d.name} ({state})",
-                             lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts)),
+                             lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts),
+                                                               mechanics=parse(Mechanics, mechanics, "--mechanics")),
                                                 library=lib).export(out_dir, printer=printer))
     if json_out:
         echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records})
