@@ -21,7 +21,7 @@ from foldprint.io.load import load_design
 from foldprint.model import crease_patterns as cp
 from foldprint.model.design import Design, Hinge, Panel, strip
 from foldprint.physics import barhinge_solve as bs
-from foldprint.physics.barhinge import build, from_mesh
+from foldprint.physics.barhinge import build, kresling, kresling_heights
 from foldprint.physics.barhinge_energy import dihedral, fold_angles
 from foldprint.physics.kinematics import HingeDrive, run_times
 from foldprint.physics.modulus import ModulusCurve, default_params, hinge_modulus, params_from
@@ -194,25 +194,6 @@ def test_one_dof_loop_settles_at_the_stiffness_weighted_balance():
     assert (np.abs(rigid - 0.5 * (r[w, 0] + r[w, 1])) < 1e-3).all()
 
 
-def kresling(n=6, R=20.0, h=35.0, phi=math.radians(70)):
-    """A Kresling tower as a truss: bottom n-gon fixed, top n-gon (fanned, rigid) rotated by
-    phi at height h; every triangle its own panel, no fold stiffness."""
-    ang = 2 * math.pi * np.arange(n) / n
-    bottom = np.column_stack([R * np.cos(ang), R * np.sin(ang), np.zeros(n)])
-    top = np.column_stack([R * np.cos(ang + phi), R * np.sin(ang + phi), np.full(n, h)])
-    nodes = np.vstack([bottom, top])
-    tri = []
-    for k in range(n):
-        k1 = (k + 1) % n
-        tri += [[k, k1, n + k], [k1, n + k1, n + k]]
-    tri += [[n, n + k, n + k + 1] for k in range(1, n - 1)]
-    tri = np.array(tri)
-    fixed = np.arange(3 * n)
-    model = from_mesh(nodes, tri, np.arange(len(tri)), np.full(len(tri), 0.8), 1000.0, default_params(),
-                      lambda j, k, a, b: (0, 0.0), 1, (), fixed)
-    return model
-
-
 def test_kresling_tower_is_bistable_at_the_closed_form_heights():
     """All bars are unstrained at two heights: |b_k t_k|^2 = h^2 + 2R^2 (1 - cos phi) and
     |b_k+1 t_k|^2 = h^2 + 2R^2 (1 - cos(phi - 2 pi/n)) keep their lengths when
@@ -224,6 +205,7 @@ def test_kresling_tower_is_bistable_at_the_closed_form_heights():
     phi2 = math.pi + 2 * math.pi / n - phi1
     h2 = math.sqrt(h1**2 + 2 * R**2 * (math.cos(phi2) - math.cos(phi1)))
     m = kresling(n, R, h1, phi1)
+    assert kresling_heights(n, R, h1, phi1) == pytest.approx((h2, phi2))
     zero = np.zeros(1)
     top_z = 3 * np.arange(n, 2 * n) + 2
     free = m.free.copy()

@@ -14,6 +14,7 @@ elsewhere stay apart. Holes and non-convex panels are triangulated by
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import manifold3d as mf
@@ -292,6 +293,44 @@ def from_mesh(nodes, tri, tri_panel, thick, E, params: MechanicsParams, crease_o
               out.spring_share, out.bend_k, out.fixed):
         a.setflags(write=False)
     return out
+
+
+def kresling(n: int = 6, radius: float = 20.0, height: float = 35.0, twist: float = math.radians(70),
+             thickness: float = 0.8, params: MechanicsParams | None = None) -> BarHinge:
+    """A Kresling tower as a bar-and-hinge truss (the validation case of docs/mechanics.md):
+    a fixed bottom n-gon of circumradius ``radius`` (mm), the top n-gon (fanned into
+    triangles: rigid) turned by ``twist`` (rad) at ``height``; bars on every edge, every
+    triangle its own panel, so the edges between them are fold springs of one hinge (index
+    0, its stiffness the caller's). A tube, not a flat sheet: no foldprint design holds it."""
+    params = params or default_params()
+    ang = 2 * math.pi * np.arange(n) / n
+    bottom = np.column_stack([radius * np.cos(ang), radius * np.sin(ang), np.zeros(n)])
+    top = np.column_stack([radius * np.cos(ang + twist), radius * np.sin(ang + twist), np.full(n, height)])
+    tri = []
+    for k in range(n):
+        k1 = (k + 1) % n
+        tri += [[k, k1, n + k], [k1, n + k1, n + k]]
+    tri += [[n, n + k, n + k + 1] for k in range(1, n - 1)]
+    tri = np.array(tri)
+    return from_mesh(np.vstack([bottom, top]), tri, np.arange(len(tri)), np.full(len(tri), thickness),
+                     params.panel_modulus_mpa, params, lambda j, k, a, b: (0, 0.0), 1, (), np.arange(3 * n))
+
+
+def kresling_heights(n: int, radius: float, height: float, twist: float) -> tuple[float, float]:
+    """The other (height, twist) at which every bar of :func:`kresling` has its rest length:
+    the diagonals |b_k t_k|^2 = h^2 + 2R^2 (1 - cos phi) and |b_k+1 t_k|^2 = h^2 +
+    2R^2 (1 - cos(phi - 2 pi/n)) keep their lengths while sin(phi - pi/n) does, so
+    phi2 = pi + 2 pi/n - phi1 and h2^2 = h1^2 + 2R^2 (cos phi2 - cos phi1) (Cai et al. 2015;
+    Liu and Paulino 2017's bistable Kresling).
+
+    >>> [round(v, 3) for v in kresling_heights(6, 20.0, 35.0, math.radians(70))]
+    [12.785, 2.967]
+    """
+    phi2 = math.pi + 2 * math.pi / n - twist
+    h2sq = height**2 + 2 * radius**2 * (math.cos(phi2) - math.cos(twist))
+    if h2sq <= 0:
+        raise DesignError(f"Kresling n={n}, R={radius}, h={height}, twist={twist:.3f}: no second stable height")
+    return math.sqrt(h2sq), phi2
 
 
 def _oriented(nodes: np.ndarray, springs: np.ndarray) -> np.ndarray:
