@@ -18,7 +18,7 @@ from foldprint.io.load import load_design
 from foldprint.model import crease_patterns as cp
 from foldprint.model.design import Design, Hinge, Panel, strip
 from foldprint.physics import barhinge_solve as bs
-from foldprint.physics.barhinge import kresling, kresling_heights
+from foldprint.physics.barhinge import diagonal_curvatures, kresling, kresling_heights
 from foldprint.physics.kinematics import HingeDrive, run_times
 from foldprint.physics.modulus import default_params
 
@@ -67,15 +67,10 @@ def kresling_case(n=6, R=20.0, h1=35.0, phi1=math.radians(70), steps=121) -> dic
     h2, phi2 = kresling_heights(n, R, h1, phi1)
     m = kresling(n, R, h1, phi1)
     zero = np.zeros(1)
-    free = m.free.copy()
-    free[3 * np.arange(n, 2 * n) + 2] = False
-    x = m.nodes.copy()
     hs = np.linspace(h1, h2, steps)
-    energy = []
-    for h in hs:
-        x[n:, 2] = h
-        x = bs.equilibrium(m, x, zero, zero, free=free, max_iter=60).x
-        energy.append(bs.equilibrium(m, x, zero, zero, free=free, max_iter=1).energy)
+    path = bs.displacement_path(m, 3 * np.arange(n, 2 * n) + 2, np.repeat(hs[:, None], n, axis=1), zero, zero)
+    energy = [eq.energy for eq in path]
+    x = path[-1].x
     energy = np.array(energy)
     k = int(np.argmax(energy))
     return {"n": n, "radius_mm": R, "h1_mm": h1, "twist1_deg": math.degrees(phi1),
@@ -90,10 +85,7 @@ def hypar_case() -> dict:
     for sign in (1, -1):
         d = design_from_fold(cp.hypar(4, 80.0, diagonal_deg=20.0 * sign, material="H-3"))
         sol = bs.CompliantDrive(d).solve(run_times(d, 0.01))
-        x, x0 = sol.x[-1], sol.model.nodes
-        u0, v0 = (x0[:, 0] + x0[:, 1]) / math.sqrt(2), (x0[:, 1] - x0[:, 0]) / math.sqrt(2)
-        A = np.column_stack([u0**2, v0**2, u0 * v0, u0, v0, np.ones_like(u0)])
-        a, b = np.linalg.lstsq(A, x[:, 2], rcond=None)[0][:2]
+        a, b = diagonal_curvatures(sol.model.nodes, sol.x[-1])
         out["valley (+x,+y) diagonal" if sign > 0 else "mountain (+x,+y) diagonal"] = {
             "a_u2_per_mm": float(a), "b_v2_per_mm": float(b), "max_panel_strain": sol.max_strain,
             "max_bending_deg": float(np.degrees(sol.max_bending))}

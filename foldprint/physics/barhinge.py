@@ -333,6 +333,18 @@ def kresling_heights(n: int, radius: float, height: float, twist: float) -> tupl
     return math.sqrt(h2sq), phi2
 
 
+def diagonal_curvatures(nodes0: np.ndarray, x: np.ndarray) -> tuple[float, float]:
+    """(a, b) of the least-squares fit z = a u^2 + b v^2 + c u v + d u + e v + f of the
+    heights ``x[:, 2]`` over the sheet's diagonal coordinates u = (x + y)/sqrt 2,
+    v = (y - x)/sqrt 2 of the flat positions ``nodes0``: a < 0 < b is a saddle rising along
+    v (the pleated hypar's sign test, docs/mechanics.md)."""
+    u0 = (nodes0[:, 0] + nodes0[:, 1]) / math.sqrt(2)
+    v0 = (nodes0[:, 1] - nodes0[:, 0]) / math.sqrt(2)
+    A = np.column_stack([u0**2, v0**2, u0 * v0, u0, v0, np.ones_like(u0)])
+    a, b = np.linalg.lstsq(A, x[:, 2], rcond=None)[0][:2]
+    return float(a), float(b)
+
+
 def _oriented(nodes: np.ndarray, springs: np.ndarray) -> np.ndarray:
     """Springs with j, k ordered so that lifting the l side toward +z is a positive (valley)
     fold angle, the FOLD convention of the design's hinges."""

@@ -131,6 +131,25 @@ def retract(model: BarHinge, x: np.ndarray, length: np.ndarray, free: np.ndarray
     return x
 
 
+def displacement_path(model: BarHinge, dofs, values, hinge_k, hinge_rest, x0: np.ndarray | None = None,
+                      max_iter: int = 60) -> list[Equilibrium]:
+    """Displacement control: the equilibrium with the coordinates ``dofs`` (flat indices
+    into x) held at each row of ``values`` in turn, each solve starting from the last.
+    Traces a path through a snap-through that force or drive control would jump (the
+    Kresling tower's energy barrier, docs/mechanics.md)."""
+    dofs = np.asarray(dofs, int)
+    free = model.free.copy()
+    free[dofs] = False
+    x = np.array(model.nodes if x0 is None else x0, float)
+    out = []
+    for v in np.atleast_2d(np.asarray(values, float).T).T:
+        x.reshape(-1)[dofs] = v
+        eq = equilibrium(model, x, hinge_k, hinge_rest, free=free, max_iter=max_iter)
+        x = np.array(eq.x)
+        out.append(eq)
+    return out
+
+
 def _descent(Hf, gf: np.ndarray) -> np.ndarray:
     """-H^-1 g, shifted (H + mu I) until it is a descent direction."""
     scale = float(np.abs(Hf.diagonal()).mean()) or 1.0
