@@ -120,12 +120,10 @@ def check(
     Example: foldprint check helix_uniform --json
     """
     from ..checks.rules import Thresholds
-    from ..core.modes import HingeModel
+    from ..core.modes import HingeModel, Mechanics
     from ..apps.pipeline import EvalOptions, Evaluation, check_scales
     from ..simulation.robust import load_scatter
     from ..simulation.sensitivity import parse_scales
-
-    from ..core.modes import Mechanics
 
     model = parse_mode(HingeModel, hinge_model, "--hinge-model")
     mech = parse_mode(Mechanics, mechanics, "--mechanics")
@@ -184,12 +182,10 @@ def robust(
 
     Example: foldprint robust helix_uniform --samples 60 --seed 1 --sensitivity --json
     """
-    from ..core.modes import HingeModel
+    from ..core.modes import HingeModel, Mechanics
     from ..apps.pipeline import EvalOptions, Evaluation
     from ..simulation.robust import load_scatter
     from ..simulation.sensitivity import parse_scales
-
-    from ..core.modes import Mechanics
 
     model = parse_mode(HingeModel, hinge_model, "--hinge-model")
     mech = parse_mode(Mechanics, mechanics, "--mechanics")
