@@ -324,7 +324,7 @@ def kresling_heights(n: int, radius: float, height: float, twist: float) -> tupl
     Liu and Paulino 2017's bistable Kresling).
 
     >>> [round(v, 3) for v in kresling_heights(6, 20.0, 35.0, math.radians(70))]
-    [12.785, 2.967]
+    [12.788, 2.967]
     """
     phi2 = math.pi + 2 * math.pi / n - twist
     h2sq = height**2 + 2 * radius**2 * (math.cos(phi2) - math.cos(twist))
