@@ -1,7 +1,7 @@
 """Benchmark: the bar-and-hinge equilibrium path (``--mechanics bar-hinge``) on Miura sheets
 of growing size, against the rigid loop tracker on the same sheets, in the same run.
 
-    PYTHONPATH=. python benchmarks/bench_barhinge.py [--sizes 4,8,12,16,20] [--rigid-up-to 12] [--json FILE]
+    PYTHONPATH=. python benchmarks/bench_barhinge.py [--sizes 4,8,12,16,20] [--rigid-up-to 8] [--json FILE]
 
 Each sheet is ``crease_patterns.miura(n, n)`` with the Miura template's geometry and
 materials (24 x 20 mm panels, rows shifted 8 mm, zigzag creases H-2 at 60 deg, straight
@@ -60,11 +60,14 @@ def measure(n: int, rigid: bool) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--sizes", default="4,8,12,16,20")
-    ap.add_argument("--rigid-up-to", type=int, default=12)
+    ap.add_argument("--rigid-up-to", type=int, default=8)
     ap.add_argument("--json")
     a = ap.parse_args()
     sizes = [int(s) for s in a.sizes.split(",")]
-    rows = [measure(n, n <= a.rigid_up_to) for n in sizes]
+    rows = []
+    for n in sizes:  # each row printed as it is done: a loaded machine may stop a long run
+        rows.append(measure(n, n <= a.rigid_up_to))
+        print(json.dumps(rows[-1]), flush=True)
     nodes = np.array([r["nodes"] for r in rows], float)
     cpus = np.array([r["bar_hinge_cpu_s"] for r in rows])
     slope = float(np.polyfit(np.log(nodes), np.log(cpus), 1)[0]) if len(rows) > 1 else None
