@@ -36,12 +36,13 @@ from ..exchange.recipe import check_summary
 from ..exchange.fem import PlacedState, check_strip
 from ..geometry import Assembly, build_assembly, state_angles
 from ..geometry.surfaces import Frames, fold_frames
+from ..physics.barhinge_solve import CompliantDrive
 from ..physics.kinematics import HingeDrive, forward, hinge_frames, run_times, solve_loops_many, target_angles
 from ..physics.recovery import hinge_fold_times
 from ..model.materials import MaterialLibrary, default_library
 from ..model.printers import find_printer, tool_fit
-from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
-                          AfterContact, HingeModel, Method, SampleRule, State, parse)
+from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, DEFAULT_STATE,
+                          VERDICT_METHOD, AfterContact, HingeModel, Mechanics, Method, SampleRule, State, parse)
 from ..simulation.margin import ScatterMargin, scatter_margin
 from ..simulation.paper_beside import PaperLine, paper_lines
 from ..simulation.robust import RobustResult, Scatter, default_scatter, jam_probability
@@ -67,6 +68,7 @@ class EvalOptions:
     :meth:`Evaluation.export` writes by default."""
 
     hinge_model: HingeModel = DEFAULT_HINGE_MODEL
+    mechanics: Mechanics = DEFAULT_MECHANICS
     method: Method = VERDICT_METHOD
     after_contact: AfterContact = DEFAULT_AFTER_CONTACT
     dt: float = CHECK_DT_S
@@ -85,6 +87,7 @@ class EvalOptions:
     def __post_init__(self):
         object.__setattr__(self, "hinge_model", parse(HingeModel, self.hinge_model, "hinge_model"))
         object.__setattr__(self, "method", parse(Method, self.method, "method"))
+        object.__setattr__(self, "mechanics", parse(Mechanics, self.mechanics, "mechanics"))
         object.__setattr__(self, "after_contact", parse(AfterContact, self.after_contact, "after_contact"))
         object.__setattr__(self, "state", parse(State, self.state, "state"))
         object.__setattr__(self, "sample_rule", parse(SampleRule, self.sample_rule, "sample_rule"))
@@ -185,7 +188,11 @@ class Evaluation:
         simulation refuses it with its own message)."""
         if self._nominal_drive is None:
             o = self.options
-            d = HingeDrive(self.design, o.bath_c, self.library)
+            if o.mechanics == Mechanics.BAR_HINGE:  # its own equilibrium path, solved on first use
+                guards.check_mechanics(self.design)
+                d = CompliantDrive(self.design, o.bath_c, self.library)
+            else:
+                d = HingeDrive(self.design, o.bath_c, self.library)
             if d.loops is not None:
                 try:
                     guards.check_simulation(self.design, o.dt, o.duration, Method.FCL)
@@ -296,7 +303,7 @@ class Evaluation:
         return self._stage("jam_tests", lambda: jam_tests(
             self.design, jam_test(th.warning, th.error, o.samples), (1.0, *o.scales), o.seed, scatter=self.scatter,
             library=self.library, hinge_model=o.hinge_model, dt=o.dt, nominal=sim, workers=o.workers,
-            mapper=self.mapper, progress=self.progress))
+            mapper=self.mapper, progress=self.progress, mechanics=o.mechanics))
 
     def run_robust(self, progress: Callable[[int, int], None] | None = None) -> RobustResult | None:
         """:attr:`robust`, reporting to ``progress(done, total)`` if it is computed now."""
@@ -309,7 +316,7 @@ class Evaluation:
         return self._stage("robust", lambda: jam_probability(
             self.design, o.samples, o.seed, scatter=self.scatter, library=self.library, hinge_model=o.hinge_model,
             dt=o.dt, nominal=sim, workers=o.workers, progress=self._report("samples", progress),
-            mapper=self.mapper))
+            mapper=self.mapper, mechanics=o.mechanics))
 
     @property
     def robust(self) -> RobustResult | None:
@@ -369,13 +376,15 @@ class Evaluation:
     def animation(self) -> SimulationResult:
         """The fold at the time step of the files that show it over time (xdmf, glb):
         arc hinges, the default collision method and bath."""
-        return self._stage("animation", lambda: simulate(self.design, dt=ANIMATION_DT_S, library=self.library))
+        return self._stage("animation", lambda: simulate(self.design, dt=ANIMATION_DT_S, library=self.library,
+                                                         mechanics=self.options.mechanics))
 
     @property
     def frames(self) -> Frames:
         """The fold's surfaces placed at every step of :attr:`animation`: what the xdmf
         and glb writers draw (:func:`foldprint.geometry.surfaces.fold_frames`)."""
-        return self._stage("frames", lambda: fold_frames(self.design, self.animation.trajectory))
+        return self._stage("frames", lambda: fold_frames(self.design, self.animation.trajectory,
+                                                         self.animation.compliant))
 
     @property
     def fold_times(self) -> dict[str, float | None]:

@@ -87,6 +87,32 @@ def contact_json(c) -> dict:
     return out
 
 
+def mechanics_json(sol, design) -> dict:
+    """The ``mechanics`` block of ``simulate --json``: ``{"model": "rigid"}``, or the
+    bar-and-hinge run (docs/mechanics.md): its size and solver effort, the largest panel
+    strain and diagonal fold, and per solved time step the largest of each."""
+    if sol is None:
+        return {"model": "rigid"}
+    strain, bend = sol.panel_strain.max(axis=0), sol.panel_bending.max(axis=0)
+    worst = max(range(len(strain)), key=lambda k: strain[k]) if len(strain) else None
+    return {
+        "model": "bar-hinge", "nodes": len(sol.model.nodes), "bars": len(sol.model.bars),
+        "fold_springs": int(sol.model.fold.sum()), "bending_springs": int((~sol.model.fold).sum()),
+        "newton_iterations": int(sol.iterations), "split_steps": int(sol.splits),
+        "unconverged_at_s": [_r(t) for t in sol.unconverged],
+        "max_panel_strain": _r(sol.max_strain, 6), "max_panel_bending_deg": _r(math.degrees(sol.max_bending), 3),
+        "worst_panel": None if worst is None else design.panels[worst].id,
+        "panel_strain_limit": sol.strain_limit, "above_limit": bool(sol.max_strain > sol.strain_limit),
+        "panels": [{"id": p.id, "max_strain": _r(float(strain[k]), 6),
+                    "max_bending_deg": _r(math.degrees(float(bend[k])), 3)} for k, p in enumerate(design.panels)],
+        "steps": {"time_s": [_r(t) for t in sol.grid],
+                  "max_panel_strain": [_r(float(v), 6) for v in sol.panel_strain.max(axis=1, initial=0.0)],
+                  "max_panel_bending_deg": [_r(math.degrees(float(v)), 3)
+                                            for v in sol.panel_bending.max(axis=1, initial=0.0)],
+                  "energy_mj": [_r(float(v), 6) for v in sol.energy]},
+    }
+
+
 def simulation_json(result, brief: bool = False) -> dict:
     """The ``foldprint simulate --json`` object (``brief``: the verdict only)."""
     traj = result.trajectory
@@ -125,6 +151,7 @@ def simulation_json(result, brief: bool = False) -> dict:
         "dt_s": _r(traj.times[1] - traj.times[0]) if len(traj.times) > 1 else None,
         "initial_contacts": [contact_json(c) for c in result.initial_contacts],
         "loops": loops_json(traj.loops),
+        "mechanics": mechanics_json(result.compliant, design),
     }
 
 
@@ -138,6 +165,7 @@ def robust_json(r) -> dict:
         "samples": r.samples,
         "seed": r.seed,
         "hinge_model": str(r.hinge_model),
+        "mechanics": str(r.mechanics),
         "jam_probability": _r(r.jam_probability),
         "ci95": [_r(lo), _r(hi)],
         "interval": r.interval_name,

@@ -396,8 +396,42 @@ def rule_hole_walls(ctx: CheckContext) -> list[Finding]:
     return out
 
 
-RULES = [rule_build_volume, rule_tools, rule_buildable, rule_min_wall, rule_hole_walls, rule_min_gap, rule_hinge_strain, rule_hinge_fits,
-         rule_temperatures, rule_fold_within_duration, rule_folding, rule_jam_probability, rule_jam_sensitivity]
+def rule_mechanics(ctx: CheckContext) -> list[Finding]:
+    """FP190: the rigid model locks the pattern (its loops lock, or creases that do not
+    follow their drive end short of 98 %), so it folds, if at all, only with bending
+    panels: the bar-and-hinge model is needed. FP191:
+    the bar-and-hinge run strains a panel beyond the mechanics data's limit (warning) or
+    reports the largest strain (info). docs/mechanics.md."""
+    sim = ctx.simulation
+    if sim is None:
+        return []
+    sol = sim.compliant
+    if sol is None:
+        loops = sim.trajectory.loops
+        # lagging creases that still reach their targets (a Miura's least-squares compromise
+        # mid-fold) are not locked: only a lock, or creases held short of 98 %, count
+        if loops is None or (loops.locked_at is None and (not loops.stuck or all(sim.hinge_done))):
+            return []
+        at = loops.locked_at if loops.locked_at is not None else loops.stuck[0][0]
+        ids = sorted({h for _, hs in loops.stuck for h in hs})
+        return [_f("FP190", "warning", f"the rigid model cannot fold this pattern as driven: its loops lock at "
+                   f"{at:.3g} s" + (f" (creases {', '.join(ids)} do not follow their drive)" if ids else ""),
+                   "panels that bend may let it fold: run foldprint simulate --mechanics bar-hinge "
+                   "(docs/mechanics.md)")]
+    worst = max(range(len(sim.design.panels)), key=lambda k: float(sol.panel_strain[:, k].max(initial=0.0)))
+    pid = sim.design.panels[worst].id
+    text = (f"bar-and-hinge model: largest panel strain {sol.max_strain:.3%} (panel {pid!r}), largest "
+            f"diagonal fold {math.degrees(sol.max_bending):.2f} deg")
+    if sol.max_strain > sol.strain_limit:
+        return [_f("FP191", "warning", text + f", above the {sol.strain_limit:.1%} limit: the panels deform, "
+                   "the rigid model does not apply", "stiffen or thicken the panels, or change the hinge "
+                   "materials so the loops do not fight", panel=pid)]
+    return [_f("FP191", "info", text + f", within the {sol.strain_limit:.1%} limit")]
+
+
+RULES = [rule_build_volume, rule_tools, rule_buildable, rule_min_wall, rule_hole_walls, rule_min_gap, rule_hinge_strain,
+         rule_hinge_fits, rule_temperatures, rule_fold_within_duration, rule_folding, rule_mechanics,
+         rule_jam_probability, rule_jam_sensitivity]
 
 
 def run_checks(ctx: CheckContext, rules=None) -> list[Finding]:

@@ -13,12 +13,17 @@ from typer import echo
 from ..core import guards
 from ..core.constants import (CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S, DEFAULT_SEED, JAM_ERROR_ABOVE,
                               JAM_WARN_ABOVE, ROBUST_SAMPLES, SWEEP_SCALES)
-from ..core.modes import DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD
+from ..core.modes import DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD
 from ..core.errors import FoldprintError
 from .root import app
 from .support import (ExitCode, MAX_SAMPLES, CREASE_HELP, SCALE_HELP, check_count, echo_json, check_fraction, load_input, open_mapper, parse_mode,
                       echo_note, check_out_dir, print_paper, print_simulation, load_printer, samples_progress, check_temperature, time_options,
                       stage_progress, verdict_word)
+
+
+MECHANICS_HELP = ("rigid (default: rigid panels, exact and fast) | bar-hinge (panels stretch and bend, creases are "
+                  "springs of their material's modulus at its temperature: docs/mechanics.md; slow: every "
+                  "Monte-Carlo sample solves the equilibrium path)")
 
 
 @app.command()
@@ -31,6 +36,8 @@ def simulate(
     hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM, Eq. 2-4)"),
     after_contact: str = typer.Option(DEFAULT_AFTER_CONTACT.value, "--after-contact", help="stop | arrest"),
+    mechanics: str = typer.Option(DEFAULT_MECHANICS.value, "--mechanics",
+                                  help=MECHANICS_HELP),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout."),
     plot: Optional[str] = typer.Option(None, "--plot", help="Directory for hinge-angle and collision-index plots."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
@@ -45,11 +52,12 @@ def simulate(
 
     Example: foldprint simulate helix_graded --json
     """
-    from ..core.modes import AfterContact, HingeModel, Method
+    from ..core.modes import AfterContact, HingeModel, Mechanics, Method
     from ..apps.pipeline import EvalOptions, Evaluation
 
     m, model, after = (parse_mode(Method, method, "--method"), parse_mode(HingeModel, hinge_model, "--hinge-model"),
                        parse_mode(AfterContact, after_contact, "--after-contact"))
+    mech = parse_mode(Mechanics, mechanics, "--mechanics")
     if temperature is not None:
         check_temperature(temperature)
     time_options(duration, dt)
@@ -60,7 +68,7 @@ def simulate(
         from ..exchange.files import ensure_dir
         ensure_dir(plot)
     ev = Evaluation(d, EvalOptions(hinge_model=model, method=m, after_contact=after, dt=dt, bath_c=temperature,
-                                   duration=duration), library=lib)
+                                   duration=duration, mechanics=mech), library=lib)
     report = ev.simulation_json()  # with the printed crossings (issue 18) and the other hinge model's verdict
     res, crossing = ev.simulation, ev.printed_crossings
     if plot is not None:
@@ -85,6 +93,8 @@ def check(
     printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML)."),
     hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
+    mechanics: str = typer.Option(DEFAULT_MECHANICS.value, "--mechanics",
+                                  help=MECHANICS_HELP),
     samples: int = typer.Option(CHECK_SAMPLES, "--samples", help="The MOST Monte-Carlo samples of the jam test "
                                 "(per sigma scale; 0 skips it). The test is sequential: it stops as soon as the "
                                 "verdict is known at 5 % error rates (clear designs in 6-60 samples, marginal ones "
@@ -115,12 +125,13 @@ def check(
     Example: foldprint check helix_uniform --json
     """
     from ..checks.rules import Thresholds
-    from ..core.modes import HingeModel
+    from ..core.modes import HingeModel, Mechanics
     from ..apps.pipeline import EvalOptions, Evaluation, check_scales
     from ..simulation.robust import load_scatter
     from ..simulation.sensitivity import parse_scales
 
     model = parse_mode(HingeModel, hinge_model, "--hinge-model")
+    mech = parse_mode(Mechanics, mechanics, "--mechanics")
     guards.set_max_memory(max_memory)  # resource guard (issue 14)
     check_count(samples, "--samples", 0, MAX_SAMPLES)  # 0 skips the jam probability
     if seed < 0:
@@ -130,7 +141,8 @@ def check(
     key, pr = load_printer(printer, printers_file)
     sc = load_scatter(scatter_file)
     d, lib = load_input(design, materials_file, scale, crease_materials)
-    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=check_scales(ks), thresholds=th)
+    opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=check_scales(ks), thresholds=th,
+                       mechanics=mech)
     with stage_progress(f"check {d.name}", json_out) as cb:
         ev = Evaluation(d, opts, library=lib, printer=pr, scatter=sc, progress=cb)
         findings = ev.findings
@@ -156,6 +168,7 @@ def robust(
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
     hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
                                     help="arc (default: the printed hinges) | point (the paper's ROM)"),
+    mechanics: str = typer.Option(DEFAULT_MECHANICS.value, "--mechanics", help=MECHANICS_HELP),
     contributions: bool = typer.Option(False, "--contributions/--no-contributions",
                                        help="Also each scatter component alone and all but each (two more "
                                        "runs of the samples per component: about 11x the cost, so opt-in)."),
@@ -177,7 +190,7 @@ def robust(
 
     Example: foldprint robust helix_uniform --samples 60 --seed 1 --sensitivity --json
     """
-    from ..core.modes import HingeModel, SampleRule
+    from ..core.modes import HingeModel, Mechanics, SampleRule
     from ..apps.pipeline import EvalOptions, Evaluation
     from ..checks.report import check_relation_json
     from ..simulation.robust import load_scatter
@@ -185,6 +198,7 @@ def robust(
     from ..simulation.sequential import on_check_stream
 
     model = parse_mode(HingeModel, hinge_model, "--hinge-model")
+    mech = parse_mode(Mechanics, mechanics, "--mechanics")
     check_count(samples, "--samples", 1, MAX_SAMPLES)
     if seed < 0:
         raise FoldprintError(f"--seed must be >= 0, got {seed}")
@@ -192,7 +206,7 @@ def robust(
     sc = load_scatter(scatter_file)
     d, lib = load_input(design, materials_file)
     opts = EvalOptions(hinge_model=model, samples=samples, sample_rule=SampleRule.FIXED, seed=seed,
-                       scales=ks if sensitivity else ())
+                       scales=ks if sensitivity else (), mechanics=mech)
     with open_mapper(scheduler) as mapper:
         ev = Evaluation(d, opts, library=lib, scatter=sc, mapper=mapper)
         with samples_progress(f"{d.name}: scatter samples", json_out) as cb:

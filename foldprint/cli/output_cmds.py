@@ -12,7 +12,7 @@ import typer
 from typer import echo
 
 from ..core.constants import EXPORT_FORMATS
-from ..core.modes import DEFAULT_STATE, State, parse
+from ..core.modes import DEFAULT_MECHANICS, DEFAULT_STATE, Mechanics, State, parse
 from ..core.errors import FoldprintError
 from .root import app
 from .support import (MAX_WORKERS, CREASE_HELP, SCALE_HELP, OUTPUT_STATE, check_count, echo_json, load_input, echo_note, check_out_dir,
@@ -56,6 +56,9 @@ def export(
                                                "voxels uses its voxel pitch (default j750: 600 x 300 dpi, 27 um layers)."),
     printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML) for --printer."),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+    mechanics: str = typer.Option(DEFAULT_MECHANICS.value, "--mechanics",
+                                  help="rigid | bar-hinge: the fold xdmf/glb draw (bar-hinge adds each panel's "
+                                       "strain per step to the xdmf series; docs/mechanics.md)"),
 ):
     """Build the printable part (one watertight body per material) and write multi-body
     3MF (spec + Bambu/Orca/Cura metadata and an OrcaSlicer project with one filament per
@@ -81,7 +84,8 @@ def export(
     published = _plan_out(out_dir, force, "export").publish
     profile = None if printer is None else load_printer(printer, printers_file)[1]
     records = with_progress(f"building {d.name} ({state})",
-                             lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts)),
+                             lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts),
+                                                               mechanics=parse(Mechanics, mechanics, "--mechanics")),
                                                 library=lib).export(out_dir, printer=profile, force=force))
     if json_out:
         from ..exchange.outfolder import MANIFEST

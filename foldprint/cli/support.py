@@ -291,6 +291,11 @@ def print_simulation(r: dict) -> None:
         echo(f"  goal {g['id']}: {g['panel']} through holes[{g['hole']}] of {g['target']}: {state}")
     for n in r.get("notes") or []:
         echo(f"  note: {n}")
+    mech = r.get("mechanics") or {}
+    if mech.get("model") == "bar-hinge":
+        echo(f"  bar-and-hinge: largest panel strain {mech['max_panel_strain']:.3%} (panel {mech['worst_panel']}), "
+             f"largest diagonal fold {mech['max_panel_bending_deg']:.2f} deg, {mech['nodes']} nodes"
+             + (f"; ABOVE the {mech['panel_strain_limit']:.1%} limit" if mech["above_limit"] else ""))
     if r.get("comparison"):
         c = r["comparison"]
         echo(f"  note: the {c['hinge_model']} hinge model disagrees: it {verdict_word(c)} "

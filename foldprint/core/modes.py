@@ -34,6 +34,19 @@ class HingeModel(Mode):
     POINT = "point"
 
 
+class Mechanics(Mode):
+    """How the panels and creases carry load while the hinges recover. ``RIGID``: rigid
+    panels and ideal creases, each hinge at its recovered angle (loops: the closed angles
+    nearest the drive, docs/loops.md): exact and fast where it applies, the default.
+    ``BAR_HINGE``: the bar-and-hinge model (docs/mechanics.md): panels stretch and bend a
+    little, each crease is a rotational spring whose rest angle is its recovered angle and
+    whose stiffness is its material's modulus at its temperature, so loops settle at the
+    torque balance and patterns that need panel bending fold."""
+
+    RIGID = "rigid"
+    BAR_HINGE = "bar-hinge"
+
+
 class Method(Mode):
     """Collision method: the paper's 2D index, the FCL swept check of the 3D panels, or
     both (the index only where the design is a planar strip)."""
@@ -147,6 +160,7 @@ class Publish(Mode):
 
 
 DEFAULT_HINGE_MODEL = HingeModel.ARC
+DEFAULT_MECHANICS = Mechanics.RIGID
 DEFAULT_METHOD = Method.BOTH
 #: The collision method of the verdicts that fold a design many times or judge it (``check``,
 #: ``robust``, every Monte-Carlo sample, a replayed sample): the 3D swept check of the

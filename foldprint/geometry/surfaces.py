@@ -113,23 +113,32 @@ class Frames:
     ``times`` (n_t,) s; ``poses`` (n_t, n_panels, 4, 4) every panel's pose (mm);
     ``surfaces`` (:func:`fold_surfaces`: panels, then hinge segments) and ``points``, for
     each surface its world points (n_t, n, 3) mm at every time; ``model``, the hinge
-    model of the trajectory (always arc: the printed hinges). The arrays are read-only."""
+    model of the trajectory (always arc: the printed hinges); ``panel_strain`` (n_t,
+    n_panels), a bar-and-hinge run's largest bar strain in each panel at each time (None
+    for rigid mechanics). The arrays are read-only."""
 
     times: np.ndarray
     poses: np.ndarray
     surfaces: tuple[Surface, ...]
     points: tuple[np.ndarray, ...]
     model: HingeModel
+    panel_strain: np.ndarray | None = None
 
 
-def fold_frames(design: Design, trajectory: Trajectory) -> Frames:
+def fold_frames(design: Design, trajectory: Trajectory, compliant=None) -> Frames:
     """Every surface of ``design`` (:func:`fold_surfaces`) placed at every time of the
-    simulated ``trajectory`` (arc hinges; ExportError otherwise)."""
+    simulated ``trajectory`` (arc hinges; ExportError otherwise); with a bar-and-hinge
+    run's ``compliant`` solution, each panel's strain at those times (step-wise: the
+    solved step at or before each time)."""
     surfaces = fold_surfaces(design)
     times, poses, angles = frames_of(trajectory)
     points = tuple(s.track(poses, angles) for s in surfaces)
+    strain = None
+    if compliant is not None:
+        k = np.clip(np.searchsorted(compliant.grid, times, side="right") - 1, 0, len(compliant.grid) - 1)
+        strain = _read_only(compliant.panel_strain[k])
     return Frames(_read_only(times), _read_only(poses), tuple(surfaces), tuple(_read_only(p) for p in points),
-                  trajectory.model)
+                  trajectory.model, strain)
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:

@@ -118,3 +118,49 @@ def waterbomb(size: float = 40.0, diagonal_deg: float = 90.0, material: str | No
     assign = ["M" if r < 0 else "V" for r in rho] + ["B"] * 8
     mats = None if material is None else [material] * 8 + [None] * 8
     return _fold(verts, faces, edges, assign, rho + [0.0] * 8, "waterbomb base", mats)
+
+
+def hypar(rings: int = 4, size: float = 80.0, pleat_deg: float = 40.0, diagonal_deg: float = 20.0,
+          material: str | None = None) -> dict:
+    """A pleated hyperbolic paraboloid ("hypar"): a square sheet ``size`` mm wide with
+    ``rings`` concentric squares (the outermost is the border) whose creases alternate
+    valley (odd squares, counted outward) and mountain at ``pleat_deg``, and both diagonals
+    creased: the one through (+x, +y) valley, the other mountain, at ``diagonal_deg``.
+    No rigid folding exists (Demaine et al. 2011): the panels twist, and the sheet takes a
+    saddle whose sign the diagonals set: a valley line lifts the sheet on both of its
+    sides, a mountain line lowers it, so the corners on the mountain diagonal rise and
+    those on the valley diagonal sink (``docs/mechanics.md``)."""
+    signs = [(1, 1), (-1, 1), (-1, -1), (1, -1)]
+    verts = [(0.0, 0.0)]
+    cid = {}
+    for r in range(1, rings + 1):
+        h = size / 2 * r / rings
+        for q, (sx, sy) in enumerate(signs):
+            cid[r, q] = len(verts)
+            verts.append((sx * h, sy * h))
+    corner = lambda r, q: 0 if r == 0 else cid[r, q % 4]  # noqa: E731
+    faces, edges, assign, angles = [], [], [], []
+    for r in range(rings):
+        for q in range(4):
+            f = [corner(r, q), corner(r + 1, q), corner(r + 1, q + 1)]
+            if r > 0:
+                f.append(corner(r, q + 1))
+            faces.append(f)
+    for r in range(1, rings + 1):  # square edges
+        for q in range(4):
+            edges.append([corner(r, q), corner(r, q + 1)])
+            if r == rings:
+                assign.append("B")
+                angles.append(0.0)
+            else:
+                v = r % 2 == 1
+                assign.append("V" if v else "M")
+                angles.append(pleat_deg if v else -pleat_deg)
+    for r in range(rings):  # diagonal segments
+        for q in range(4):
+            edges.append([corner(r, q), corner(r + 1, q)])
+            v = q % 2 == 0
+            assign.append("V" if v else "M")
+            angles.append(diagonal_deg if v else -diagonal_deg)
+    mats = None if material is None else [None if a == "B" else material for a in assign]
+    return _fold(verts, faces, edges, assign, angles, "pleated hypar", mats)

@@ -276,6 +276,10 @@ class HingeDrive:
     """Continuous-time hinge angles: evaluates rho_i(t) at any times (used by the
     trajectory and by the collision refinement between samples)."""
 
+    #: True for a drive whose angles come from a compliant (bar-and-hinge) equilibrium
+    #: (:class:`foldprint.physics.barhinge_solve.CompliantDrive`)
+    compliant = False
+
     def __init__(self, design: Design, bath_c: float | None = None,
                  library: MaterialLibrary | None = None, curves=None):
         """Nominal recovery curves of each hinge's material, thickness and the bath, or
@@ -426,9 +430,10 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
     times = np.asarray(times, float)
     ratios = drive.ratios(times)
     loop = None
-    if drive.loops is not None:
-        loop = drive.solve_loops(times, loop_dt(times))
-        angles = loop.at(times)
+    if drive.loops is not None or drive.compliant:
+        if drive.loops is not None:
+            loop = drive.solve_loops(times, loop_dt(times))
+        angles = loop.at(times) if loop is not None else drive.angles(times)
         # the ratio a hinge actually reached: a hinge held back by its loops is not done
         with np.errstate(divide="ignore", invalid="ignore"):
             ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]

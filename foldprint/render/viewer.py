@@ -280,6 +280,7 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
             "ci95": [float(x) for x in robust.ci95],
             "samples": int(robust.samples), "seed": int(robust.seed)},
         "worst": None,
+        "mechanics": _mechanics(result),
     }
     if worst is not None:
         data["worst"] = _worst_run(worst, framed[1], col_major(poses[1]), quant(ribs[1]), items, model)
@@ -289,6 +290,19 @@ def viewer_data(result, library: MaterialLibrary, robust=None, frames: int = FRA
     if ramp is not None:
         data["ramp"] = ramp
     return data
+
+
+def _mechanics(result) -> dict | None:
+    """A bar-and-hinge run's largest panel strain and diagonal fold per solved step (the
+    page's clock shows them), None for rigid mechanics."""
+    sol = getattr(result, "compliant", None)
+    if sol is None:
+        return None
+    return {"times": [float(t) for t in sol.grid],
+            "strain": [float(v) for v in sol.panel_strain.max(axis=1, initial=0.0)],
+            "bending_deg": [float(np.degrees(v)) for v in sol.panel_bending.max(axis=1, initial=0.0)],
+            "max_strain": sol.max_strain, "max_bending_deg": float(np.degrees(sol.max_bending)),
+            "limit": sol.strain_limit}
 
 
 def _worst_run(worst, framed, poses_cm: np.ndarray, q: np.ndarray, items, model: str) -> dict:

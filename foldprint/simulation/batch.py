@@ -32,7 +32,7 @@ from typing import Callable, Sequence
 
 from ..core import guards
 from ..core.constants import DEFAULT_DT_S
-from ..core.modes import DEFAULT_HINGE_MODEL, VERDICT_METHOD, HingeModel, Method, parse
+from ..core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
 from ..model.design import Design, has_loops
 from ..model.materials import MaterialLibrary, default_library
 from .robust import CHUNK, Outcome, n_chunks, run_samples
@@ -55,10 +55,12 @@ class MonteCarloJob:
     dt: float = DEFAULT_DT_S
     method: Method = VERDICT_METHOD
     test: JamTest | None = None
+    mechanics: Mechanics = DEFAULT_MECHANICS
 
     def __post_init__(self):
         object.__setattr__(self, "hinge_model", parse(HingeModel, self.hinge_model, "hinge_model"))
         object.__setattr__(self, "method", parse(Method, self.method, "method"))
+        object.__setattr__(self, "mechanics", parse(Mechanics, self.mechanics, "mechanics"))
         if self.test is not None and self.test.max_samples != self.samples:
             raise ValueError(f"a sequential job's samples ({self.samples}) must be its test's maximum "
                              f"({self.test.max_samples})")
@@ -129,7 +131,8 @@ def _chunk_task(j: int, k: float, c: int) -> tuple[list[Outcome], float]:
     stream = iter_samples(job.design, job.scatter_at(k), job.samples, job.seed)
     samples = list(islice(stream, c * CHUNK, (c + 1) * CHUNK))
     t0 = time.perf_counter()  # wall, as jam_probability times its first chunk
-    out = run_samples((job.design, _STATE["library"], samples, job.hinge_model, job.dt, False, job.method))
+    out = run_samples((job.design, _STATE["library"], samples, job.hinge_model, job.dt, False, job.method,
+                       job.mechanics))
     return out, (time.perf_counter() - t0) / max(1, len(samples))
 
 

@@ -37,7 +37,8 @@ from ..core.constants import DEFAULT_DT_S, DEFAULT_SEED, ROBUST_SAMPLES
 from ..core.errors import DesignError, MaterialError
 from ..physics.kinematics import HingeDrive, run_times, solve_loops_many
 from ..model.materials import MaterialLibrary, default_library
-from ..core.modes import DEFAULT_HINGE_MODEL, VERDICT_METHOD, HingeModel, JamReason, Method, parse
+from ..core.modes import (DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, JamReason, Mechanics,
+                          Method, parse)
 from ..physics.recovery import RecoveryCurve, recovery_curve
 from ..physics.recovery_batch import grid_until, material_batch_ratios
 # What is drawn (the model, its data file, the samples) lives in foldprint.simulation.scatter; this
@@ -161,11 +162,13 @@ def outcome_of(result: SimulationResult) -> Outcome:
 def run_sample(args) -> Outcome:
     """Fold one sample with the exact per-curve drive (the reference path; a module-level
     function, so processes and clusters can run it). ``args``: (design, library, sample,
-    hinge_model, dt[, method]), the method :data:`~foldprint.core.modes.VERDICT_METHOD` by default."""
+    hinge_model, dt[, method[, mechanics]]), the method :data:`~foldprint.core.modes.VERDICT_METHOD`
+    and rigid mechanics by default."""
     design, library, sample, hinge_model, dt, *rest = args
     method = rest[0] if rest else VERDICT_METHOD
     drive = sample_drive(design, library, sample, exact=True)
-    res = simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=drive)
+    res = simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=drive,
+                   mechanics=rest[1] if len(rest) > 1 else DEFAULT_MECHANICS)
     return outcome_of(res)
 
 
@@ -173,8 +176,9 @@ def run_samples(args) -> list[Outcome]:
     """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), the
     closure of a pattern with loops tracked for all of them in lockstep
     (:func:`foldprint.physics.kinematics.solve_loops_many`), then one fold each. ``args``:
-    (design, library, samples, hinge_model, dt[, exact[, method]]), the method
-    :data:`~foldprint.core.modes.VERDICT_METHOD` by default. The design's derived data
+    (design, library, samples, hinge_model, dt[, exact[, method[, mechanics]]]), the method
+    :data:`~foldprint.core.modes.VERDICT_METHOD` and rigid mechanics by default (``bar-hinge``:
+    each sample folds the bar-and-hinge model on its own curves). The design's derived data
     (hinge frames, spanning tree, rigid polygons) and FCL geometry are made once per
     process and design content (:func:`foldprint.model.derived.design_scope`), not per chunk."""
     with design_scope(args[0]) as design:
@@ -184,11 +188,13 @@ def run_samples(args) -> list[Outcome]:
 def _run_samples(args) -> list[Outcome]:
     design, library, samples, hinge_model, dt, *rest = args
     method = rest[1] if len(rest) > 1 else VERDICT_METHOD
+    mech = parse(Mechanics, rest[2] if len(rest) > 2 else DEFAULT_MECHANICS, "mechanics")
     if rest and rest[0]:
-        return [run_sample((design, library, s, hinge_model, dt, method)) for s in samples]
+        return [run_sample((design, library, s, hinge_model, dt, method, mech)) for s in samples]
     drives = sample_drives(design, library, samples, until_s=run_end(design, dt))
-    solve_loops_many(drives, run_times(design, dt))  # a pattern with loops: closure tracked in lockstep
-    return [outcome_of(simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=d))
+    if mech == Mechanics.RIGID:
+        solve_loops_many(drives, run_times(design, dt))  # a pattern with loops: closure tracked in lockstep
+    return [outcome_of(simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=d, mechanics=mech))
             for d in drives]
 
 
@@ -223,6 +229,7 @@ class RobustResult:
     nominal: SimulationResult
     method: Method = VERDICT_METHOD
     decision: JamDecision | None = None
+    mechanics: Mechanics = DEFAULT_MECHANICS
 
     @property
     def jams(self) -> int:
@@ -262,7 +269,8 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
                     library: MaterialLibrary | None = None, hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
                     dt: float = DEFAULT_DT_S, nominal: SimulationResult | None = None, workers: int | None = None,
                     progress: Callable[[int, int], None] | None = None, mapper=None,
-                    exact: bool = False, method: Method | str = VERDICT_METHOD) -> RobustResult:
+                    exact: bool = False, method: Method | str = VERDICT_METHOD,
+                    mechanics: Mechanics | str = DEFAULT_MECHANICS) -> RobustResult:
     """Monte-Carlo estimate of the probability that ``design`` jams.
 
     ``nominal``: the nominal simulation if the caller has it (else it is run here).
@@ -272,7 +280,8 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     (folded in a shared pool, :func:`~foldprint.simulation.batch.run_batch`) returns them
     without folding. ``exact``: the reference path (one
     cached curve per hinge over the whole horizon, as before the batch path), for
-    comparisons. ``method``: the collision check of the nominal fold and of every sample.
+    comparisons. ``method``: the collision check of the nominal fold and of every sample;
+    ``mechanics``: theirs (``bar-hinge``: slow, the first chunk's time guards the rest).
     The first chunk runs here and times the run: a sample count whose
     estimated time exceeds the budget (:func:`foldprint.core.guards.check_samples`) is refused."""
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
@@ -285,17 +294,20 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     scatter = scatter or default_scatter()
     model = parse(HingeModel, hinge_model, "hinge_model")
     method = parse(Method, method, "method")
+    mech = parse(Mechanics, mechanics, "mechanics")
     guards.check_sample_memory(design, samples)  # refuse before any fold: the outcomes are held
     if nominal is None:
-        nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib)
-    lookup = getattr(mapper, "lookup", None)  # simulation.batch.Precomputed: folded in a shared pool
+        nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib, mechanics=mech)
+    # simulation.batch.Precomputed (folded in a shared pool) holds rigid folds only
+    lookup = getattr(mapper, "lookup", None) if mech == Mechanics.RIGID else None
     done_before = lookup(design, scatter, samples, seed, model, dt, method) if lookup is not None else None
     if done_before is not None:
         if progress:
             progress(samples, samples)
         return RobustResult(design.name, samples, seed, model, scatter, tuple(done_before), nominal, method)
     stream = iter_samples(design, scatter, samples, seed)
-    chunks = ((design, lib, chunk, model, dt, exact, method) for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
+    chunks = ((design, lib, chunk, model, dt, exact, method, mech)
+              for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
     chunks_total = n_chunks(samples)
     done = [0]
 
@@ -318,4 +330,4 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     else:
         rest = []
     outcomes = tuple(o for chunk in [first, *rest] for o in chunk)
-    return RobustResult(design.name, samples, seed, model, scatter, outcomes, nominal, method)
+    return RobustResult(design.name, samples, seed, model, scatter, outcomes, nominal, method, mech)

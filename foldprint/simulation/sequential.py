@@ -21,7 +21,7 @@ from typing import Callable, Sequence
 from ..core import guards
 from ..core.constants import CHECK_DT_S, CHECK_SEED
 from ..core.errors import DesignError
-from ..core.modes import DEFAULT_HINGE_MODEL, VERDICT_METHOD, HingeModel, Method, parse
+from ..core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
 from ..model.design import Design
 from ..model.materials import MaterialLibrary, default_library
 from .batch import MonteCarloJob, StreamStatus, run_batch
@@ -46,8 +46,8 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
               scatter: Scatter | None = None, library: MaterialLibrary | None = None,
               hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL, dt: float = CHECK_DT_S,
               method: Method | str = VERDICT_METHOD, nominal: SimulationResult | None = None,
-              workers: int | None = None, mapper=None, progress: StageProgress | None = None
-              ) -> dict[float, RobustResult]:
+              workers: int | None = None, mapper=None, progress: StageProgress | None = None,
+              mechanics: Mechanics | str = DEFAULT_MECHANICS) -> dict[float, RobustResult]:
     """The jam test of ``design`` with every spread of ``scatter`` times each of ``scales``
     (1 is the model's own): per scale a :class:`~foldprint.simulation.robust.RobustResult`
     whose outcomes are the samples its test used and whose ``decision`` is the verdict.
@@ -57,7 +57,8 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     pool's processes (default: all cores; 1 folds here). ``mapper``: a
     :class:`~foldprint.simulation.batch.Precomputed` answers from its outcomes; another
     mapper ``(fn, items, progress)`` folds rounds of ``workers`` chunks. ``progress``: see
-    :data:`StageProgress`."""
+    :data:`StageProgress`. ``mechanics``: the samples' (and the nominal fold's); a
+    ``Precomputed`` mapper holds rigid folds only."""
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise DesignError(f"seed must be a whole number >= 0, got {seed!r}")
     from ..core.parallel import default_workers
@@ -65,14 +66,17 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     lib, report = library or default_library(), _stage(progress)
     scatter = scatter or default_scatter()
     model, method = parse(HingeModel, hinge_model, "hinge_model"), parse(Method, method, "method")
+    mech = parse(Mechanics, mechanics, "mechanics")
     n_workers = default_workers() if workers is None else max(1, int(workers))
     guards.check_sample_memory(design, test.max_samples)  # refuse before any fold
     if nominal is None:
-        nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib)
+        nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib, mechanics=mech)
     ks = tuple(dict.fromkeys(float(k) for k in scales))
     at = {k: scatter if k == 1.0 else scatter.scaled(k) for k in ks}
     found: dict[float, tuple[Outcome, ...]] = {}
     lookup = getattr(mapper, "lookup", None)  # simulation.batch.Precomputed: folded in a shared pool
+    if mech != Mechanics.RIGID:
+        lookup = None
     for k in ks:
         if all(at[k].spread(c.key) == 0 for c in COMPONENTS):  # no scatter: every sample is the nominal part
             found[k] = (outcome_of(nominal),) * test.max_samples
@@ -82,12 +86,12 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
                 found[k] = tuple(got)
     missing = [k for k in ks if k not in found]
     if missing and (mapper is None or lookup is not None):
-        job = MonteCarloJob(design, test.max_samples, seed, tuple(missing), scatter, model, dt, method, test)
+        job = MonteCarloJob(design, test.max_samples, seed, tuple(missing), scatter, model, dt, method, test, mech)
         (pre,), _, _ = run_batch([job], library=lib, workers=n_workers,
                                  progress=(lambda kind, st: report(st)) if report else None)
         found.update(zip(missing, (o for _, o in pre.outcomes)))
     for k in missing if mapper is not None and lookup is None else ():
-        found[k] = _rounds(design, lib, at[k], seed, test, model, dt, method, mapper, n_workers,
+        found[k] = _rounds(design, lib, at[k], seed, test, (model, dt, method, mech), mapper, n_workers,
                            (lambda st, k=k: report(StreamStatus(0, k, *st))) if report else None)
     out = {}
     for k in ks:
@@ -97,21 +101,22 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
         outs = found[k][:d.samples]
         if report is not None and k not in missing:
             report(StreamStatus(0, k, d.samples, test.max_samples, True))
-        out[k] = RobustResult(design.name, d.samples, seed, model, at[k], outs, nominal, method, d)
+        out[k] = RobustResult(design.name, d.samples, seed, model, at[k], outs, nominal, method, d, mech)
     return out
 
 
-def _rounds(design: Design, lib: MaterialLibrary, scatter: Scatter, seed: int, test: JamTest, model: HingeModel,
-            dt: float, method: Method, mapper, workers: int,
-            progress: Callable[[tuple], None] | None) -> tuple[Outcome, ...]:
+def _rounds(design: Design, lib: MaterialLibrary, scatter: Scatter, seed: int, test: JamTest, fold: tuple,
+            mapper, workers: int, progress: Callable[[tuple], None] | None) -> tuple[Outcome, ...]:
     """One stream through a plain ``mapper``: the first chunk here (it times the run for
-    the guard), then rounds of ``workers`` chunks until the test decides."""
+    the guard), then rounds of ``workers`` chunks until the test decides. ``fold``: how
+    each sample is folded, (hinge model, dt, method, mechanics)."""
+    model, dt, method, mech = fold
     stream = iter_samples(design, scatter, test.max_samples, seed)
     chunks = iter(lambda: list(islice(stream, CHUNK)), [])
     outcomes: list[Outcome] = []
     start = time.perf_counter()
     first = next(chunks)
-    outcomes += run_samples((design, lib, first, model, dt, False, method))
+    outcomes += run_samples((design, lib, first, model, dt, False, method, mech))
     if test.max_samples > CHUNK:
         guards.check_samples(test.max_samples, (time.perf_counter() - start) / len(first), workers, design.name)
     while True:
@@ -120,7 +125,7 @@ def _rounds(design: Design, lib: MaterialLibrary, scatter: Scatter, seed: int, t
             progress((min(len(outcomes), d.samples) if d.decided else len(outcomes), test.max_samples, d.decided))
         if d.decided:
             return tuple(outcomes[:d.samples])
-        items = [(design, lib, c, model, dt, False, method) for c in islice(chunks, workers)]
+        items = [(design, lib, c, model, dt, False, method, mech) for c in islice(chunks, workers)]
         for part in mapper(run_samples, items, None):
             outcomes += part
 

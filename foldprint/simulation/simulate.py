@@ -18,8 +18,9 @@ from ..core.errors import DesignError
 from ..collision.goals import GoalResult, evaluate_goals
 from ..physics.kinematics import HingeDrive, Trajectory, simulate_kinematics
 from ..model.materials import MaterialLibrary
-from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, AfterContact, HingeModel,
-                    Method, parse)
+from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, AfterContact,
+                          HingeModel, Mechanics, Method, parse)
+from ..physics.barhinge_solve import CompliantDrive, CompliantSolution
 
 METHODS = tuple(m.value for m in Method)
 AFTER = tuple(m.value for m in AfterContact)
@@ -37,6 +38,7 @@ class SimulationResult:
     initial_contacts: tuple[Contact, ...] = ()
     arrested: dict = field(default_factory=dict)  # hinge id -> time frozen
     notes: tuple[str, ...] = ()  # what the run left out and why (e.g. the 2D index over the memory limit)
+    compliant: CompliantSolution | None = None  # --mechanics bar-hinge: the equilibrium path
 
     @property
     def first_collision(self) -> Contact | None:
@@ -136,13 +138,27 @@ def _path_hinges(design: Design, a: int, b: int) -> list[int]:
     return path
 
 
+def _run_drive(design: Design, bath_c, library, drive: HingeDrive | None, mechanics: Mechanics) -> HingeDrive:
+    """This run's own drive: the nominal one, a copy of the given one (arrests go to the
+    copy), or for ``bar-hinge`` a compliant drive (on the given drive's curves)."""
+    if mechanics == Mechanics.BAR_HINGE and not (drive is not None and drive.compliant):
+        guards.check_mechanics(design)
+        drive = CompliantDrive(design, bath_c if drive is None else drive.bath_c, library,
+                               None if drive is None else drive.curves)
+    if drive is None:
+        return HingeDrive(design, bath_c, library)
+    if drive.frozen_at:
+        raise DesignError("simulate needs a fresh HingeDrive (this one has arrested hinges)")
+    return drive.copy()  # arrests go to this run's copy: the caller's drive is left as given
+
+
 @scoped
 def simulate(design: Design, *, bath_c: float | None = None, duration: float | None = None,
              dt: float = DEFAULT_DT_S, method: Method | str = DEFAULT_METHOD,
              hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
              after_contact: AfterContact | str = DEFAULT_AFTER_CONTACT,
              library: MaterialLibrary | None = None, drive: HingeDrive | None = None,
-             progress=None) -> SimulationResult:
+             progress=None, mechanics: Mechanics | str = DEFAULT_MECHANICS) -> SimulationResult:
     """Run the ROM and the collision check(s).
 
     ``hinge_model``: ``arc`` (default: the printed hinges, :class:`~foldprint.core.modes.HingeModel`)
@@ -152,6 +168,8 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     contact; "arrest" freezes the hinges on the tree path between two touching panels from
     the contact on and goes on. ``drive``: the hinges' recovery (default: the nominal
     curves of each hinge's material; :mod:`foldprint.simulation.robust` passes scattered ones).
+    ``mechanics``: ``bar-hinge`` folds the bar-and-hinge model's equilibrium (a given rigid
+    drive's curves are kept); a given compliant drive is used as it is.
     """
     method = parse(Method, method, "method")
     notes: list[str] = []
@@ -168,12 +186,7 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
         raise DesignError(f"{design.name}: the paper's 2D collision index needs a planar strip "
                           "(every fold line parallel to y); use --method fcl")
     use3d = method in (Method.FCL, Method.BOTH)
-    if drive is None:
-        drive = HingeDrive(design, bath_c, library)
-    elif drive.frozen_at:
-        raise DesignError("simulate needs a fresh HingeDrive (this one has arrested hinges)")
-    else:
-        drive = drive.copy()  # arrests go to this run's copy: the caller's drive is left as given
+    drive = _run_drive(design, bath_c, library, drive, parse(Mechanics, mechanics, "mechanics"))
     contacts: list[Contact] = []
     skip: set = set()
     initial: list[Contact] = []
@@ -210,4 +223,5 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     goals = evaluate_goals(design, traj.times, traj.poses)
     arrested = {design.hinges[k].id: t for k, t in drive.frozen_at.items()}
     return SimulationResult(design, traj, method, after_contact, tuple(contacts), idx2d, tuple(goals),
-                            tuple(initial), arrested, tuple(notes))
+                            tuple(initial), arrested, tuple(notes),
+                            drive.solve(traj.times) if drive.compliant else None)

@@ -205,6 +205,15 @@
 
   function draw() { renderer.render(scene, camera); }
 
+  // bar-and-hinge runs (--mechanics bar-hinge): the largest panel strain at the solved step at or before t
+  function strainAt(t) {
+    var M = run === "worst" ? null : D.mechanics;
+    if (!M || !M.times.length) return "";
+    var k = 0;
+    while (k + 1 < M.times.length && M.times[k + 1] <= t) k++;
+    return " \u00b7 panel strain " + (100 * M.strain[k]).toFixed(3) + " %, bending " + M.bending_deg[k].toFixed(2) + "\u00b0";
+  }
+
   function setFraction(f, fromUser) {
     f = Math.min(1, Math.max(0, isFinite(f) ? f : 0));
     state.frac = f;
@@ -213,7 +222,7 @@
     var time = f * cur.end;
     show(fa, fb, x - fa, time);
     slider.value = String(Math.round(f * 1000));
-    clock.textContent = "t = " + time.toFixed(2) + " s";
+    clock.textContent = "t = " + time.toFixed(2) + " s" + strainAt(time);
     setPressed(null);
     if (fromUser) history.replaceState(null, "", runHash() + "t=" + f.toFixed(3));
     document.body.setAttribute("data-t", f.toFixed(3));
@@ -346,6 +355,12 @@
         facts += "<li class=\"muted\">After the first contact the model moves on kinematically; the real part jams there.</li>";
     } else {
       facts += "<li>no contact</li>";
+    }
+    if (D.mechanics && run !== "worst") {
+      facts += "<li" + (D.mechanics.max_strain > D.mechanics.limit ? " class=\"contact\"" : "") +
+        ">bar-and-hinge model: largest panel strain " + (100 * D.mechanics.max_strain).toFixed(3) + " % (limit " +
+        (100 * D.mechanics.limit).toFixed(1) + " %), largest diagonal fold " + D.mechanics.max_bending_deg.toFixed(2) +
+        "\u00b0</li>";
     }
     if (D.robust) {
       facts += "<li>jam probability " + (100 * D.robust.jam_probability).toFixed(1) + " % (95 % CI " +
