@@ -304,7 +304,8 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     if done_before is not None:
         if progress:
             progress(samples, samples)
-        return RobustResult(design.name, samples, seed, model, scatter, tuple(done_before), nominal, method)
+        return RobustResult(design.name, samples, seed, model, scatter, tuple(done_before), nominal, method,
+                            mechanics=mech)
     stream = iter_samples(design, scatter, samples, seed)
     chunks = ((design, lib, chunk, model, dt, exact, method, mech)
               for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
@@ -330,4 +331,4 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     else:
         rest = []
     outcomes = tuple(o for chunk in [first, *rest] for o in chunk)
-    return RobustResult(design.name, samples, seed, model, scatter, outcomes, nominal, method, mech)
+    return RobustResult(design.name, samples, seed, model, scatter, outcomes, nominal, method, mechanics=mech)

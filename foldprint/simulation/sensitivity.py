@@ -56,7 +56,7 @@ def _nominal_only(base: RobustResult, scatter: Scatter) -> RobustResult:
     """No scatter: every sample is the nominal part (no fold needed)."""
     o = outcome_of(base.nominal)
     return RobustResult(base.design, base.samples, base.seed, base.hinge_model, scatter, (o,) * base.samples,
-                        base.nominal)
+                        base.nominal, base.method, mechanics=base.mechanics)
 
 
 class _Runner:
@@ -80,7 +80,7 @@ class _Runner:
             r = jam_probability(self.design, self.base.samples, self.base.seed, scatter=scatter,
                                 library=self.library, hinge_model=self.base.hinge_model, dt=self.dt,
                                 nominal=self.base.nominal, workers=self.workers, progress=cb, mapper=self.mapper,
-                                method=self.base.method)
+                                method=self.base.method, mechanics=self.base.mechanics)
         self.done += self.base.samples
         return r
 
