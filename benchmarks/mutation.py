@@ -167,10 +167,13 @@ def _pytest_table() -> str:
     return m.group(0) if m else ""
 
 
-def prepare(name: str, work: Path) -> dict:
+def prepare(name: str, work: Path, resume: bool = False) -> dict:
     """A fresh scratch project for module ``name``: the package, the tests, a pyproject
-    whose [tool.mutmut] mutates that module only."""
+    whose [tool.mutmut] mutates that module only (``resume``: the one left by an earlier
+    run, if any)."""
     src = source_of(name)
+    if resume and (work / "prepared.json").is_file():
+        return json.loads((work / "prepared.json").read_text())
     if work.exists():
         shutil.rmtree(work)
     work.mkdir(parents=True)
@@ -187,8 +190,10 @@ def prepare(name: str, work: Path) -> dict:
         f"timeout_multiplier = {TIMEOUT_MULTIPLIER}\ntimeout_constant = {TIMEOUT_CONSTANT_S}\n"
         f"also_copy = {json.dumps(list(ALSO_COPY))}\n"
         "use_git_change_detection = false\nuse_setproctitle = false\n")
-    return {"source": str(src), "tests": list(tests), "decorators_lifted": lifted,
-            "decorated_not_mutated": kept}
+    entry = {"source": str(src), "tests": list(tests), "decorators_lifted": lifted,
+             "decorated_not_mutated": kept}
+    (work / "prepared.json").write_text(json.dumps(entry))
+    return entry
 
 
 # ---- running ---------------------------------------------------------------------------
@@ -207,7 +212,10 @@ def _env(work: Path, **extra: str) -> dict:
 
 
 def run_mutmut(work: Path, max_children: int) -> tuple[float, float]:
-    """mutmut run in ``work``; returns (CPU s, wall s)."""
+    """mutmut run in ``work`` (once: a resumed run reads what it cost); returns (CPU s, wall s)."""
+    done = work / "mutmut.done"
+    if done.is_file():
+        return tuple(json.loads(done.read_text()))
     cpu0, t0 = _children_cpu(), time.monotonic()
     exe = [sys.executable, "-m", "mutmut", "run", "--max-children", str(max_children)]
     with open(work / "mutmut.log", "w") as log:
@@ -216,7 +224,9 @@ def run_mutmut(work: Path, max_children: int) -> tuple[float, float]:
     if proc.returncode != 0:
         tail = (work / "mutmut.log").read_text(errors="replace")[-2000:]
         raise SystemExit(f"mutmut failed in {work} (exit {proc.returncode}):\n{tail}")
-    return _children_cpu() - cpu0, time.monotonic() - t0
+    cost = (_children_cpu() - cpu0, time.monotonic() - t0)
+    done.write_text(json.dumps(cost))
+    return cost
 
 
 def _pytest_map(work: Path, tests, mutant: str, timeout: float | None) -> tuple[int | None, float]:
@@ -241,17 +251,25 @@ def exit_codes(work: Path, src: str) -> dict[str, int | None]:
 
 def confirm(work: Path, tests, candidates: list[str]) -> tuple[dict[str, str], float, float]:
     """Re-run each of ``candidates`` against the whole map; returns ({mutant: status},
-    CPU s, the clean map's wall s)."""
+    CPU s, the clean map's wall s). Progress is kept in ``confirm.json``: a resumed run
+    goes on where the last one stopped."""
+    log = work / "confirm.json"
+    state = json.loads(log.read_text()) if log.is_file() else {"status": {}, "cpu_s": 0.0}
     cpu0 = _children_cpu()
-    rc, clean_wall = _pytest_map(work, tests, "", None)
-    if rc != 0:
-        raise SystemExit(f"the mapped tests fail without a mutant in {work}: {' '.join(tests)}")
-    timeout = CONFIRM_TIMEOUT_FACTOR * clean_wall + 60.0
-    status = {}
+    if "clean_wall_s" not in state:
+        rc, state["clean_wall_s"] = _pytest_map(work, tests, "", None)
+        if rc != 0:
+            raise SystemExit(f"the mapped tests fail without a mutant in {work}: {' '.join(tests)}")
+    timeout = CONFIRM_TIMEOUT_FACTOR * state["clean_wall_s"] + 60.0
+    status = state["status"]
     for name in candidates:
-        rc, _ = _pytest_map(work, tests, name, timeout)
-        status[name] = "timeout" if rc is None else ("killed" if rc in KILLED else "survived")
-    return status, _children_cpu() - cpu0, clean_wall
+        if name not in status:
+            rc, _ = _pytest_map(work, tests, name, timeout)
+            status[name] = "timeout" if rc is None else ("killed" if rc in KILLED else "survived")
+            log.write_text(json.dumps({**state, "cpu_s": state["cpu_s"] + _children_cpu() - cpu0}))
+    cpu = state["cpu_s"] + _children_cpu() - cpu0
+    log.write_text(json.dumps({**state, "cpu_s": cpu}))
+    return {k: status[k] for k in candidates}, cpu, state["clean_wall_s"]
 
 
 # ---- where a mutant is ------------------------------------------------------------------
@@ -313,40 +331,62 @@ def _equivalent_reason(name: str, m: dict, equivalent: list[dict]) -> str | None
     return None
 
 
-def evaluate(name: str, workdir: Path, max_children: int) -> dict:
-    src = source_of(name)
-    if src is None:
-        return {"skipped": f"none of {', '.join(MODULES[name][0])} exists"}
-    work = workdir / name
-    entry = prepare(name, work)
-    mutmut_cpu, mutmut_wall = run_mutmut(work, max_children)
+def _statuses(work: Path, src: Path, tests, max_children: int, report_only: bool) -> tuple[dict, dict]:
+    """{mutant: killed | timeout | survived | unconfirmed | not run} and the run's costs;
+    ``report_only`` runs nothing and reads what the scratch copy holds."""
+    done = work / "mutmut.done"
+    if report_only:
+        mutmut_cost = tuple(json.loads(done.read_text())) if done.is_file() else (None, None)
+    else:
+        mutmut_cost = run_mutmut(work, max_children)
     codes = exit_codes(work, str(src))
-    status = {k: ("killed" if c in KILLED else "timeout" if c in (24, -24, 36, 152, 255) else "survived")
+    status = {k: ("not run" if c is None else "killed" if c in KILLED
+                  else "timeout" if c in (24, -24, 36, 152, 255) else "unconfirmed")
               for k, c in codes.items()}
-    candidates = [k for k, s in status.items() if s == "survived"]
-    confirmed, confirm_cpu, clean_wall = confirm(work, entry["tests"], candidates)
+    candidates = [k for k, s in status.items() if s == "unconfirmed"]
+    if report_only:
+        log = work / "confirm.json"
+        state = json.loads(log.read_text()) if log.is_file() else {"status": {}, "cpu_s": None}
+        confirmed = {k: v for k, v in state["status"].items() if k in status}
+        confirm_cost = (state["cpu_s"], state.get("clean_wall_s"))
+    else:
+        confirmed, *confirm_cost = confirm(work, tests, candidates)
     status.update(confirmed)
+    costs = {"cpu_s": {"mutmut": mutmut_cost[0], "confirmation": confirm_cost[0]},
+             "wall_s": {"mutmut": mutmut_cost[1], "clean_map": confirm_cost[1]},
+             "killed_by_selection": sum(c in KILLED for c in codes.values()),
+             "killed_on_confirmation": sum(s in ("killed", "timeout") for s in confirmed.values())}
+    return status, costs
+
+
+def evaluate(name: str, workdir: Path, max_children: int, resume: bool = False,
+             report_only: bool = False) -> dict:
+    src = source_of(name)
+    work = workdir / name
+    if src is None or (report_only and not (work / "prepared.json").is_file()):
+        return {"skipped": f"none of {', '.join(MODULES[name][0])} exists" if src is None else "not run"}
+    entry = prepare(name, work, resume or report_only)
+    status, costs = _statuses(work, src, entry["tests"], max_children, report_only)
     texts = _function_texts(work / "mutants" / src)
     defs = _def_lines(ROOT / src)
     equivalent = load_equivalent()
     survivors = []
-    for key in sorted(k for k, s in status.items() if s == "survived"):
+    for key in sorted(k for k, s in status.items() if s in ("survived", "unconfirmed")):
         m = locate(work, str(src), key, texts, defs)
         m["equivalent"] = _equivalent_reason(name, m, equivalent)
+        m["confirmed"] = status[key] == "survived"
         survivors.append(m)
     survivors.sort(key=lambda m: (m["line"], m["id"]))
-    n = len(status)
+    n = sum(s != "not run" for s in status.values())
     killed = sum(s in ("killed", "timeout") for s in status.values())
     n_eq = sum(m["equivalent"] is not None for m in survivors)
     entry.update({
-        "mutants": n, "killed": killed, "timeouts": sum(s == "timeout" for s in status.values()),
-        "killed_by_selection": sum(c in KILLED for c in codes.values()),
-        "killed_on_confirmation": sum(s != "survived" for s in confirmed.values()),
-        "survived": n - killed, "equivalent": n_eq,
+        "mutants": n, "not_run": len(status) - n, "killed": killed,
+        "timeouts": sum(s == "timeout" for s in status.values()),
+        "survived": n - killed, "unconfirmed": sum(s == "unconfirmed" for s in status.values()),
+        "equivalent": n_eq,
         "score": round(killed / max(n - n_eq, 1), 4), "raw_score": round(killed / max(n, 1), 4),
-        "cpu_s": {"mutmut": round(mutmut_cpu, 1), "confirmation": round(confirm_cpu, 1)},
-        "wall_s": {"mutmut": round(mutmut_wall, 1), "clean_map": round(clean_wall, 1)},
-        "survivors": survivors,
+        **costs, "survivors": survivors,
     })
     return entry
 
@@ -360,9 +400,10 @@ def table(modules: dict) -> str:
         if "mutants" not in e:
             continue
         tests = ", ".join(Path(t).stem.removeprefix("test_") for t in e["tests"])
-        cpu = e["cpu_s"]["mutmut"] + e["cpu_s"]["confirmation"]
+        cpu = sum(v or 0.0 for v in e["cpu_s"].values())
+        partial = " (partial)" if e["not_run"] or e["unconfirmed"] else ""
         rows.append(f"| `{e['source']}` | {tests} | {e['mutants']} | {e['killed']} | {e['survived']} "
-                    f"| {e['equivalent']} | {100 * e['score']:.1f} % | {cpu:.0f} |")
+                    f"| {e['equivalent']} | {100 * e['score']:.1f} %{partial} | {cpu:.0f} |")
     return "\n".join(rows)
 
 
@@ -370,7 +411,8 @@ def survivors_md(modules: dict) -> str:
     out = []
     for name, e in modules.items():
         for m in e.get("survivors", []):
-            why = f"equivalent: {m['equivalent']}" if m["equivalent"] else "**not yet killed**"
+            why = (f"equivalent: {m['equivalent']}" if m["equivalent"]
+                   else "**not yet killed**" if m["confirmed"] else "survived mutmut's selection, not yet confirmed")
             out.append(f"- `{m['where']}` `{m['function']}`: `{m['from']}` -> `{m['to']}` ({why})")
     return "\n".join(out) or "- none"
 
@@ -395,6 +437,10 @@ def main() -> None:
     ap.add_argument("--workdir", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "foldprint-mutation")
     ap.add_argument("--max-children", type=int, default=1, help="mutants run at once (default 1)")
     ap.add_argument("--no-write", action="store_true", help="leave docs/ as it is")
+    ap.add_argument("--report-only", action="store_true",
+                    help="run nothing: report what the scratch copies in --workdir hold (a campaign under way)")
+    ap.add_argument("--resume", action="store_true",
+                    help="go on from the scratch copies an interrupted run left in --workdir")
     args = ap.parse_args()
     names = list(MODULES) if args.all else (args.modules.split(",") if args.modules else list(DEFAULT_MODULES))
     unknown = [n for n in names if n not in MODULES]
@@ -405,10 +451,10 @@ def main() -> None:
     modules = data.setdefault("modules", {})
     for name in names:
         print(f"mutating {name} ...", file=sys.stderr, flush=True)
-        modules[name] = evaluate(name, args.workdir, args.max_children)
+        modules[name] = evaluate(name, args.workdir, args.max_children, args.resume, args.report_only)
         e = modules[name]
         print(f"  {name}: " + (e.get("skipped") or f"{e['killed']}/{e['mutants']} killed, score "
-                                f"{100 * e['score']:.1f} %, {sum(e['cpu_s'].values()):.0f} CPU-s"),
+                                f"{100 * e['score']:.1f} %, {sum(v or 0.0 for v in e['cpu_s'].values()):.0f} CPU-s"),
               file=sys.stderr, flush=True)
         if not args.no_write:  # after each module: a long campaign keeps what it has done
             data["modules"] = {k: modules[k] for k in MODULES if k in modules}
