@@ -264,3 +264,16 @@ def test_single_branch_spectrum_sits_at_the_reference_time(lib):
     tau, g = spectrum(p)
     np.testing.assert_allclose(tau, [10.0 ** p.log10_tau_ref_s])
     np.testing.assert_allclose(g, [1.0])
+
+
+@pytest.mark.parametrize("name", ["H-3", "VW0.600-0.900@width", "VW0.600-0.900@length"])
+def test_curve_records_its_inputs_and_is_read_only(lib, name):
+    """A cached curve is shared by every caller: its arrays must refuse writes, and it
+    states the hinge it was computed for (uniform and graded)."""
+    m = lib[name]
+    c = recovery_curve(m, 87.0, thickness_mm=0.9, initial_c=15.0, horizon_s=300.0)
+    assert (c.material, c.tg_c, c.bath_c, c.thickness_mm, c.initial_c) == (m.name, m.tg_c, 87.0, 0.9, 15.0)
+    for arr in (c.t, c.ratio, c.mean_temperature_c):
+        assert not arr.flags.writeable
+        with pytest.raises(ValueError):
+            arr[0] = 0.5
