@@ -191,3 +191,82 @@ def _uniform_weight_ratio(material, bath_c, t, initial_c=10.0):
     tau, g = spectrum(p)
     unrec = sum(gb * np.exp(-xi / tb) for tb, gb in zip(tau, g)).mean(axis=1)
     return np.interp(t, grid, 1.0 - unrec)
+
+
+# ---- the model's contract at its edges (each found by a surviving mutant, docs/testing.md) ----
+
+def test_curve_grid_is_the_documented_grid():
+    """Steps of _DT_FINE up to _T_FINE exactly, then 399 more geometric points ending at the
+    horizon: strictly increasing, no duplicate at the seam, for a horizon past, at and
+    inside the fine part."""
+    from foldprint.physics import recovery as rec
+
+    n_fine = int(round(rec._T_FINE / rec._DT_FINE)) + 1
+    for horizon in (rec._T_FINE, 600.0, 17.0):
+        g = rec.curve_time_grid(horizon)
+        assert g[0] == 0.0 and g[-1] == pytest.approx(horizon, rel=1e-12)
+        assert np.all(np.diff(g) > 0)
+        fine = g[g <= min(horizon, rec._T_FINE) + 1e-9]
+        np.testing.assert_allclose(np.diff(fine), rec._DT_FINE, rtol=1e-6)
+        if horizon > rec._T_FINE:
+            assert len(fine) == n_fine and len(g) == n_fine + 399
+            ratios = g[n_fine:] / g[n_fine - 1:-1]
+            np.testing.assert_allclose(ratios, (horizon / rec._T_FINE) ** (1 / 399), rtol=1e-9)
+        else:
+            assert len(g) == int(round(horizon / rec._DT_FINE)) + 1
+
+
+def test_curve_is_zero_before_the_bath_and_knows_its_horizon(lib):
+    c = recovery_curve(lib["H-3"], 90.0, horizon_s=250.0)
+    assert c.horizon_s == pytest.approx(250.0, rel=1e-12)
+    np.testing.assert_array_equal(c(np.array([-5.0, -1e-3])), [0.0, 0.0])
+    assert c(c.horizon_s + 100.0) == c.ratio[-1]  # held past the horizon
+
+
+def test_every_argument_reaches_the_curve(lib):
+    """recovery_ratio, fold_time and hinge_fold_times pass each argument on: a thicker
+    hinge, a warmer start, a colder bath each change the answer the physical way."""
+    from foldprint.model.design import Process, strip
+    from foldprint.physics.recovery import hinge_fold_times, recovery_ratio
+
+    m = lib["H-3"]
+    t = np.linspace(1.0, 30.0, 7)
+    base = recovery_ratio(t, m, 90.0)
+    np.testing.assert_array_equal(base, recovery_curve(m, 90.0)(t))
+    assert np.all(recovery_ratio(t, m, 90.0, thickness_mm=1.6) <= base)
+    assert np.any(recovery_ratio(t, m, 90.0, thickness_mm=1.6) < base - 1e-3)
+    assert np.any(recovery_ratio(t, m, 90.0, initial_c=40.0) > base + 1e-3)
+    assert np.any(recovery_ratio(t, m, 80.0) < base - 1e-3)
+    assert fold_time(m, 90.0, 0.8, initial_c=40.0) < fold_time(m, 90.0, 0.8) < fold_time(m, 90.0, 1.6)
+
+    d = strip("s", [10, 10, 10], [90, 90], ["H-1", "H-7"], hinge_thickness=[0.8, 1.2],
+              process=Process(fix_temperature_c=30.0, bath_temperature_c=85.0))
+    got = hinge_fold_times(d, lib)
+    want = {"h1": fold_time(lib["H-1"], 85.0, 0.8, 30.0), "h2": fold_time(lib["H-7"], 85.0, 1.2, 30.0)}
+    assert got == pytest.approx(want, rel=1e-12)
+    assert got["h1"] != fold_time(lib["H-1"], 85.0, 0.8) and got["h2"] != fold_time(lib["H-7"], 85.0, 0.8, 30.0)
+    assert hinge_fold_times(d) == pytest.approx(want, rel=1e-12)  # the default library is the same
+
+
+def test_single_branch_spectrum_sits_at_the_reference_time(lib):
+    """A one-branch Prony series is one relaxation time, tau_ref, with weight 1 (the
+    general formula would put it half a span early)."""
+    from dataclasses import replace
+
+    p = replace(lib["H-1"].recovery, n_branches=1)
+    tau, g = spectrum(p)
+    np.testing.assert_allclose(tau, [10.0 ** p.log10_tau_ref_s])
+    np.testing.assert_allclose(g, [1.0])
+
+
+@pytest.mark.parametrize("name", ["H-3", "VW0.600-0.900@width", "VW0.600-0.900@length"])
+def test_curve_records_its_inputs_and_is_read_only(lib, name):
+    """A cached curve is shared by every caller: its arrays must refuse writes, and it
+    states the hinge it was computed for (uniform and graded)."""
+    m = lib[name]
+    c = recovery_curve(m, 87.0, thickness_mm=0.9, initial_c=15.0, horizon_s=300.0)
+    assert (c.material, c.tg_c, c.bath_c, c.thickness_mm, c.initial_c) == (m.name, m.tg_c, 87.0, 0.9, 15.0)
+    for arr in (c.t, c.ratio, c.mean_temperature_c):
+        assert not arr.flags.writeable
+        with pytest.raises(ValueError):
+            arr[0] = 0.5
