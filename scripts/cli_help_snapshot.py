@@ -21,10 +21,17 @@ def render(command: list[str]) -> str:
     """``foldprint <command> --help`` as printed at :data:`COLUMNS` columns, in-process."""
     from foldprint.cli.commands import main
 
+    before = os.environ.get("COLUMNS")
     os.environ["COLUMNS"] = COLUMNS
     buf = io.StringIO()
-    with contextlib.redirect_stdout(buf):
-        code = main([*command, "--help"])
+    try:
+        with contextlib.redirect_stdout(buf):
+            code = main([*command, "--help"])
+    finally:
+        if before is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = before
     assert code == 0, f"foldprint {' '.join(command)} --help exited {code}"
     return buf.getvalue()
 

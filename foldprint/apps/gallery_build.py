@@ -8,7 +8,7 @@ import logging
 from pathlib import Path
 from urllib.parse import quote
 
-from .. import __version__
+from ..core.version import __version__
 from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
 from ..core.errors import FoldprintError
 from ..core.modes import State

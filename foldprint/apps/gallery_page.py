@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import textwrap
 
-from .. import __version__
+from ..core.version import __version__
 from ..core.constants import CHECK_SAMPLES, CHECK_SEED
 from ..model import composition
 from ..model.materials import MaterialLibrary

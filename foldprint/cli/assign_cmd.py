@@ -14,12 +14,13 @@ from typer import echo
 from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_SEED
 from ..core.errors import FoldprintError
 from ..core.modes import DEFAULT_OBJECTIVE, Objective
+from .lazy import summary
 from .root import app
 from .support import (ExitCode, MAX_BUDGET, MAX_SAMPLES, MAX_TOP, MAX_WORKERS, check_count, echo_json, echo_err, load_input,
                       open_mapper, parse_mode, echo_note, samples_progress, check_temperature)
 
 
-@app.command()
+@app.command(short_help=summary('assign'))
 def assign(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     materials: Optional[str] = typer.Option(None, "--materials", metavar="H-1,...,H-7",

@@ -15,13 +15,14 @@ from ..core.constants import (CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_D
                               JAM_WARN_ABOVE, ROBUST_SAMPLES, SWEEP_SCALES)
 from ..core.modes import DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD
 from ..core.errors import FoldprintError
+from .lazy import summary
 from .root import app
 from .support import (ExitCode, MAX_SAMPLES, CREASE_HELP, SCALE_HELP, check_count, echo_json, check_fraction, load_input, open_mapper, parse_mode,
                       echo_note, check_out_dir, print_paper, print_simulation, load_printer, samples_progress, check_temperature, time_options,
                       stage_progress, verdict_word)
 
 
-@app.command()
+@app.command(short_help=summary('simulate'))
 def simulate(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); default: the design's."),
@@ -78,7 +79,7 @@ def simulate(
     raise ExitCode(0 if res.completed and not crossing else 1)
 
 
-@app.command()
+@app.command(short_help=summary('check'))
 def check(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     printer: Optional[str] = typer.Option(None, "--printer", help="Printer profile key (default: connex260)."),
@@ -148,7 +149,7 @@ def check(
     raise ExitCode(1 if n_err else 0)
 
 
-@app.command()
+@app.command(short_help=summary('robust'))
 def robust(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     samples: int = typer.Option(ROBUST_SAMPLES, "--samples", help="Monte-Carlo samples (>= 1)."),

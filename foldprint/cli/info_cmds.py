@@ -12,11 +12,12 @@ import typer
 from typer import echo
 
 from ..core.constants import DEFAULT_THICKNESS_MM
+from .lazy import summary
 from .root import app
 from .support import echo_json, check_in_range, echo_note, check_number, check_temperature
 
 
-@app.command()
+@app.command(short_help=summary('materials'))
 def materials(
     temperature: Optional[List[str]] = typer.Option(None, "--temperature", "-t", metavar="C ...",
                                                     help="Bath temperature(s) in deg C (default 80 90 100)."),
@@ -72,7 +73,7 @@ def materials(
     Console(file=sys.stdout, width=120).print(table)
 
 
-@app.command()
+@app.command(short_help=summary('templates'))
 def templates(json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout.")):
     """List the shipped design templates.
 

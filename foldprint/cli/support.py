@@ -16,18 +16,12 @@ from ..core.errors import FoldprintError
 _MULTI = {"--temperature"}
 
 
-def _click_exceptions() -> tuple[type, ...]:
-    """ClickException classes: typer >= 0.20 vendors its own click."""
-    found: list[type] = []
-    for mod in ("typer._click.exceptions", "click.exceptions"):
-        try:
-            found.append(__import__(mod, fromlist=["ClickException"]).ClickException)
-        except ImportError:
-            pass
-    return tuple(found)
-
-
-CLICK_ERRORS = _click_exceptions()
+def click_errors() -> tuple[type, ...]:
+    """The ClickException classes of the click modules loaded (typer >= 0.26 vendors its
+    own click, older typers use click's): only a loaded module can have raised one, so
+    the handler imports nothing."""
+    return tuple(sys.modules[mod].ClickException for mod in ("typer._click.exceptions", "click.exceptions")
+                 if mod in sys.modules)
 
 
 #: Exit codes: 0 ok, 1 the design fails, 2 bad input or a refused run, 3 an internal error

@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
-from .. import __version__
+from ..core.version import __version__
 from ..geometry import Assembly
 from ..model.design import Design
 from ..model.materials import MaterialLibrary

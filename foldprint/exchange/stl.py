@@ -13,7 +13,7 @@ from typing import Mapping
 
 import numpy as np
 
-from .. import __version__
+from ..core.version import __version__
 from ..model.design import Design
 from ..geometry import Assembly, Body
 from ..model.materials import MaterialLibrary, default_library
