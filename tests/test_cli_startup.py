@@ -70,6 +70,24 @@ def test_a_command_imports_what_it_needs():
     assert code == 0 and "numpy" in _heavy(mods) and "foldprint.physics.recovery" in mods
 
 
+def test_every_command_is_in_the_table():
+    """A command a module of foldprint/cli defines (``@app.command``) is in
+    :data:`~foldprint.cli.lazy.COMMANDS` under its module, or ``foldprint`` never imports it
+    (nothing else imports the command modules) and it is missing from ``--help``."""
+    import ast
+
+    found = {}
+    for path in sorted((ROOT / "foldprint" / "cli").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.FunctionDef) and any(
+                    isinstance(d, ast.Call) and isinstance(d.func, ast.Attribute) and d.func.attr == "command"
+                    for d in node.decorator_list):
+                found[node.name.replace("_", "-")] = path.stem
+    assert found == {name: mod for name, (mod, _) in COMMANDS.items()}, (
+        "foldprint/cli/lazy.py COMMANDS must list every command with its module (and each its summary: "
+        "@app.command(short_help=summary(NAME)))")
+
+
 def _eager_app():
     """The same app built the way typer builds any app: every command module imported,
     a plain TyperGroup, nothing lazy."""
