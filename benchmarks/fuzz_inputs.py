@@ -38,7 +38,7 @@ KINDS = ("design", "svg", "fold", "cli", "planted")
 
 def _warm():
     """Import the CLI and every stage once per worker, so each forked case starts warm."""
-    import foldprint.checks.rules, foldprint.cli.commands, foldprint.io.load, foldprint.apps.pipeline, foldprint.simulation.simulate  # noqa: E401,F401
+    import foldprint.checks.rules, foldprint.cli.fold_cmds, foldprint.cli.output_cmds, foldprint.io.load, foldprint.apps.pipeline, foldprint.simulation.simulate  # noqa: E401,F401
     import foldprint.geometry, foldprint.exchange.export, foldprint.io.svg_format  # noqa: E401,F401
 
 

@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "foldprint"
 DOC = ROOT / "docs" / "architecture.md"
 TOP = {"foldprint", "foldprint.__main__"}  # the facade and the entry point may import anything;
-# modules import only ``__version__`` from the facade
+# no module imports the facade (test_no_module_imports_the_facade)
 
 _ROW = re.compile(r"^\|\s*(\d+)\s*\|\s*`(\w+)/`\s*\|\s*([^|]*)\|")
 
@@ -154,7 +154,7 @@ def test_only_the_pipeline_chains_simulation_and_checks():
                 ("foldprint.simulation", "foldprint.apps")), (a, b)
 
 
-#: What ``exchange/`` may import besides itself (and the facade's ``__version__``): the
+#: What ``exchange/`` may import besides itself: the
 #: writers format what they are given (issue 21, "writers that only write"). ``io`` is
 #: needed: the 3MF and FOLD files embed the design (``io.design_io.design_to_dict``), and
 #: the FOLD writer shares the reader's tables and helpers (``io.fold_format``) and
@@ -165,9 +165,31 @@ EXCHANGE_MAY_IMPORT = ("core", "model", "io", "geometry")
 def test_writers_import_no_physics_or_simulation():
     allowed = tuple(f"foldprint.{p}." for p in ("exchange", *EXCHANGE_MAY_IMPORT))
     bad = [f"{a} -> {b}" for a, b in imports()
-           if a.startswith("foldprint.exchange.") and b not in TOP and not (b + ".").startswith(allowed)]
+           if a.startswith("foldprint.exchange.") and not (b + ".").startswith(allowed)]
     assert not bad, ("exchange/ imports outside core, model, io and geometry (hand the writer what it "
                      "writes instead): " + ", ".join(sorted(bad)))
+
+
+def test_no_module_imports_the_facade():
+    """``foldprint/__init__.py`` is the library's face for its users; it reaches every layer,
+    so a module importing it (even for ``__version__``: that is ``core.version``) would
+    import upward past the layer table. Only the entry point ``__main__`` may."""
+    bad = [a for a, b in imports() if b == "foldprint" and a not in TOP]
+    assert not bad, ("modules import the foldprint facade (import what they need from its layer; the "
+                     "version from foldprint.core.version): " + ", ".join(sorted(set(bad))))
+
+
+def test_the_walker_sees_a_facade_import_in_every_form():
+    """``from .. import __version__``, ``import foldprint``, ``from foldprint import X`` and
+    ``__import__('foldprint')`` reach the facade; ``from .. import geometry`` reaches the
+    subpackage (a test of the test)."""
+    modules = _modules()
+    for src in ("from .. import __version__\n", "import foldprint\n", "from foldprint import load_design\n",
+                "__import__('foldprint')\n", "from ... import strip\n"):
+        mod = "foldprint.exchange.sub.fake" if src.startswith("from ...") else "foldprint.exchange.fake"
+        assert {b for _, b in edges_of(mod, False, src, modules)} == {"foldprint"}, src
+    assert {b for _, b in edges_of("foldprint.apps.fake", False, "from .. import geometry\n", modules)} \
+        == {"foldprint.geometry"}
 
 
 #: Modules whose leading-underscore names other modules of their own subpackage may still

@@ -27,7 +27,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
 import foldprint.checks.rules  # noqa: E402,F401  (imported once: every forked case starts warm)
-import foldprint.cli.commands  # noqa: E402,F401
+import foldprint.cli.fold_cmds, foldprint.cli.output_cmds  # noqa: E401,E402,F401  (the commands it runs)
 import foldprint.apps.pipeline  # noqa: E402,F401
 
 ROOT = Path(__file__).resolve().parents[1]

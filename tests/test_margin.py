@@ -9,6 +9,7 @@ import pytest
 
 from foldprint.apps.pipeline import EvalOptions, Evaluation
 from foldprint.core.constants import CHECK_SEED, MARGIN_SAMPLES, tol
+from foldprint.core.display import seconds
 from foldprint.io.load import load_design
 from foldprint.io.templates import templates_dir
 from foldprint.model.materials import default_library
@@ -74,7 +75,7 @@ def test_simulate_says_a_nominal_fold_is_marginal(capsys):
     text = capsys.readouterr().out
     first = text.splitlines()[0]
     assert "completes nominally, but MARGINAL" in first
-    assert f"smallest clearance along the fold: {gap['distance_mm']:.2f} mm (p5-p9 at {gap['time_s']:.2f} s)" in text
+    assert f"smallest clearance along the fold: {gap['distance_mm']:.2f} mm (p5-p9 at {seconds(gap['time_s'])})" in text
     assert f"panels touch in {m['touching']} of {m['samples']} scattered folds" in text
     assert "`foldprint check` gives the jam probability" in text
 

@@ -9,6 +9,7 @@ import tomllib
 import pytest
 
 from foldprint.core.errors import DesignError
+from foldprint.core.display import percent, seconds
 from foldprint.io.design_io import design_from_dict, design_to_dict
 from foldprint.io.load import load_design
 from foldprint.io.templates import list_templates, templates_dir
@@ -68,10 +69,10 @@ def test_sample1_says_there_is_no_nominal_contact_and_where_scatter_is():
     assert contact.statement.id == "sample1_contact" and contact.verdict == "never happens"
     assert contact.value.value_s is None and contact.ratio is None
     gap = ev.clearance
-    assert f"closest {gap.distance:.2f} mm, p5-p9 at {gap.time:.2f} s" in contact.model
+    assert f"closest {gap.distance:.2f} mm, p5-p9 at {seconds(gap.time)}" in contact.model
     assert "`foldprint check` gives the jam probability" in contact.model
     with_jam = paper_lines(ev.design, ev.simulation, gap, 0.975)[0]
-    assert "under scatter the jam probability is 98%" in with_jam.model
+    assert "under scatter the jam probability is 97.5 %" in with_jam.model  # percent(), as check prints it
     stop = ev.paper_lines()[1]
     assert stop.statement.id == "sample1_stop" and "never stops short" in stop.model
 
@@ -119,7 +120,7 @@ def test_simulate_and_check_print_the_quote_beside_the_model(capsys):
     chk = json.loads(capsys.readouterr().out)
     p = chk["robust"]["jam_probability"]
     assert chk["paper"][0]["id"] == "sample1_contact"
-    assert f"under scatter the jam probability is {p:.0%}" in chk["paper"][0]["model"]
+    assert f"under scatter the jam probability is {percent(p)}" in chk["paper"][0]["model"]
     assert main(["check", "helix_uniform", "--samples", "8", "--no-sensitivity"]) == 1
     assert 'paper, Sample 1, Fig. 2b: "First, at ~7.5 s' in capsys.readouterr().out
 

@@ -24,6 +24,7 @@ import pytest
 
 from foldprint.apps.pipeline import EvalOptions, Evaluation
 from foldprint.checks.rules import CheckContext, rule_tools
+from foldprint.core.display import seconds
 from foldprint.cli.commands import main
 from foldprint.core.errors import DesignError, ExportError
 from foldprint.exchange.slicer_config import bed_layout
@@ -368,7 +369,7 @@ def test_recipe_states_tools_protocol_and_fold_order(tmp_path):
     rows = re.findall(r"^\| (\d+) \| (\S+) \| (\S+) \| ([\d.]+) s \|$", text, flags=re.M)
     assert [r[1] for r in rows] == sorted(times, key=lambda h: (times[h], h))
     assert all(float(t) == pytest.approx(times[h], abs=0.005) for _, h, _, t in rows)
-    assert f"folded in {max(times.values()):.2f} s" in text
+    assert f"folded in {seconds(max(times.values()))}" in text
     assert "Not checked in this export" in text
 
 

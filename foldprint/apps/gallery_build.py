@@ -8,7 +8,8 @@ import logging
 from pathlib import Path
 from urllib.parse import quote
 
-from .. import __version__
+from ..core.display import seconds
+from ..core.version import __version__
 from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
 from ..core.errors import FoldprintError
 from ..core.modes import State
@@ -94,12 +95,8 @@ def _data_files(ev, replay, base: Path, dirname: str) -> Entry:
     write_atomic(base / "simulation.json", json_bytes(sim))
     checks = ev.to_json(default_printer_key())
     write_atomic(base / "check.json", json_bytes(checks))
-    # the page's fold time: the latest hinge's 98 % time from its recovery curve, so it
-    # does not depend on the time step (simulation.json's is the first sample past it)
-    hinge_times = [h["fold_time_s"] for h in sim["hinges"]]
-    fold_time = (max(hinge_times, default=0.0) if sim["completed"] and None not in hinge_times
-                 else None)
-    entry = Entry(design, dirname, sim, checks, fold_time=fold_time,
+    # the page's fold time is the simulation's, the one `foldprint simulate` prints
+    entry = Entry(design, dirname, sim, checks, fold_time=sim["fold_time_s"],
                   contacts=[(c.panels[0], c.panels[1], c.time, c.method) for c in result.contacts],
                   hinge_done=list(result.hinge_done))
     entry.data_links = [Link(url(f"{dirname}/simulation.json"), "simulation (JSON)"),
@@ -153,18 +150,18 @@ def _pictures(entry: Entry, ev, out: Path, dirname: str, gif_frames: int) -> Non
             f"3D view of {name} in the {state} state", f"The {what}."))
     times = render3d.frame_times(result, 4)
     fig = render3d.render_frames(result, 4, library=lib)
-    t_list = ", ".join(f"{t:.2f}" for t in times)
+    t_list = ", ".join(seconds(t) for t in times)
     entry.images.append(write_image(
         out, f"{dirname}/frames.png", render.figure_bytes(fig, "png", PLOT_DPI),
-        f"Four 3D views of {name} while folding, at {t_list} s",
-        f"Mid-fold frames at {t_list} s (same camera and scale); panels in contact in red.",
+        f"Four 3D views of {name} while folding, at {t_list}",
+        f"Mid-fold frames at {t_list} (same camera and scale); panels in contact in red.",
         wide=True))
     gif = render_anim.fold_animation_gif(result, gif_frames, dpi=GIF_DPI, library=lib)
     end = render3d.motion_end(result)
     entry.images.append(write_image(
         out, f"{dirname}/fold.gif", gif,
-        f"Animation of {name} folding in a {bath:g} \u00b0C bath, from flat to {end:.1f} s",
-        f"The fold from 0 to {end:.2f} s ({gif_frames} frames, looping)."
+        f"Animation of {name} folding in a {bath:g} \u00b0C bath, from flat to {seconds(end)}",
+        f"The fold from 0 to {seconds(end)} ({gif_frames} frames, looping)."
         + (" After the first contact the model's motion is kinematic only: the real part jams."
            if result.contacts else "")))
     _plots(entry, result, robust, out, dirname)

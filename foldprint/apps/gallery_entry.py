@@ -37,7 +37,7 @@ class Entry:
     dirname: str
     sim: dict
     checks: dict
-    fold_time: float | None = None  # s, every hinge at 98 % (from the recovery curves)
+    fold_time: float | None = None  # s, every hinge at 98 % (the simulation's fold time of record)
     contacts: list = field(default_factory=list)  # (panel a, panel b, time, method)
     hinge_done: list = field(default_factory=list)
     images: list = field(default_factory=list)

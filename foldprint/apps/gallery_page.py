@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import textwrap
 
-from .. import __version__
+from ..core.version import __version__
 from ..core.constants import CHECK_SAMPLES, CHECK_SEED
 from ..model import composition
 from ..model.materials import MaterialLibrary
@@ -228,7 +228,7 @@ def _paper_html(entry: Entry) -> list[str]:
     rows = []
     for p in lines:
         paper = "" if p["paper_s"] is None else p["paper"]
-        model = "\u2014" if p["model_s"] is None else f"{p['model_s']:.2f} s"
+        model = seconds(p["model_s"])
         ratio = "" if p["ratio"] is None else f"{p['ratio']:.2f}"
         rows.append(f"<tr><td>{esc(p['figure'])}</td><td>{esc(p['what'])}<blockquote>\u201c{esc(p['quote'])}"
                     f"\u201d</blockquote></td><td class=\"num\">{esc(paper)}</td><td class=\"num\">{esc(model)}</td>"

@@ -4,30 +4,16 @@ from __future__ import annotations
 
 import math
 
-from ..core.constants import TIME_DECIMALS
+from ..core.constants import JSON_DECIMALS
+from ..core.display import percent, seconds  # noqa: F401  (the one formatter; callers import it from here too)
 from ..core.modes import JamReason, JamVerdict
 
 
-def _r(x, nd=4):
+def _r(x, nd=JSON_DECIMALS):
     if x is None:
         return None
     x = float(x)
     return None if not math.isfinite(x) else round(x, nd)
-
-
-def seconds(t: float | None) -> str:
-    """A time as every text output prints it: to :data:`~foldprint.core.constants.TIME_DECIMALS`
-    decimals of a second, with its unit ("2.52 s"; an em dash for none).
-
-    >>> seconds(2.5149), seconds(None)
-    ('2.51 s', '\u2014')
-    """
-    return "\u2014" if t is None else f"{float(t):.{TIME_DECIMALS}f} s"
-
-
-def percent(p: float) -> str:
-    """A probability as every output prints it ("97.5 %")."""
-    return f"{100 * float(p):.1f} %"
 
 
 def threshold(p: float) -> str:

@@ -14,12 +14,13 @@ from typer import echo
 from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_SEED
 from ..core.errors import FoldprintError
 from ..core.modes import DEFAULT_OBJECTIVE, Objective
+from .lazy import summary
 from .root import app
 from .support import (ExitCode, MAX_BUDGET, MAX_SAMPLES, MAX_TOP, MAX_WORKERS, check_count, echo_json, echo_err, load_input,
                       open_mapper, parse_mode, echo_note, samples_progress, check_temperature)
 
 
-@app.command()
+@app.command(short_help=summary('assign'))
 def assign(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     materials: Optional[str] = typer.Option(None, "--materials", metavar="H-1,...,H-7",
@@ -34,7 +35,7 @@ def assign(
                                   "clearance) | robust (lowest jam probability of the finalists)"),
     top: int = typer.Option(ASSIGN_TOP, "--top", help="How many assignments to report."),
     budget: int = typer.Option(ASSIGN_BUDGET, "--budget", help="Most simulations the search may run."),
-    samples: int = typer.Option(ASSIGN_SAMPLES, "--samples", help="Monte-Carlo samples per finalist (--objective robust)."),
+    samples: int = typer.Option(ASSIGN_SAMPLES, "--samples", help="Monte-Carlo samples per finalist (--objective robust, --continuous)."),
     seed: int = typer.Option(DEFAULT_SEED, "--seed", help="Seed of the samples."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="tcp://HOST:PORT",
                                             help="Run the evaluations on this Dask scheduler (default: local cores)."),
@@ -140,11 +141,12 @@ def _print_assign(name: str, r, out: dict, objective: Objective) -> None:
 
 def _assign_verdict(name: str, r, out: dict, single_bath: bool) -> None:
     """The hint for a cooler bath, and exit 1 naming what blocks when nothing is feasible."""
+    from ..checks.report import percent, threshold
     from ..checks.rules import Thresholds
 
     best_jam, warn = (r.best[0].jam_probability if r.best else None), Thresholds().warning
     if best_jam is not None and best_jam > warn and single_bath:
-        echo_note(f"the best jam probability {best_jam:.0%} is above {warn:.0%}: a cooler bath "
+        echo_note(f"the best jam probability {percent(best_jam)} is above {threshold(warn)}: a cooler bath "
               "spreads the materials' fold times, try --temperature-range 75 90 (docs/assign.md)")
     if r.best:
         return

@@ -10,6 +10,7 @@ from typing import List, Optional
 import typer
 from typer import echo
 
+from .lazy import summary
 from .root import app
 from .support import echo_json, echo_note, with_progress
 
@@ -45,7 +46,7 @@ def _print(out: dict) -> None:
         echo(f"  note: {fd['message']}")
 
 
-@app.command()
+@app.command(short_help=summary('calibrate'))
 def calibrate(
     data: Path = typer.Argument(..., help="CSV of hinge measurements (layout: docs/calibrate.md)."),
     out: Optional[Path] = typer.Option(None, "--out", help="Write the fitted materials TOML here."),

@@ -7,9 +7,12 @@ Machine output (``--json``) goes to stdout; human messages to stderr.
 The commands live in one module per group (:mod:`~foldprint.cli.info_cmds`: materials,
 templates; :mod:`~foldprint.cli.fold_cmds`: simulate, check, robust;
 :mod:`~foldprint.cli.assign_cmd`: assign; :mod:`~foldprint.cli.output_cmds`: export,
-gallery; :mod:`~foldprint.cli.calibrate_cmd`: calibrate), registered on :mod:`~foldprint.cli.root`'s ``app`` in that order (the order
-``--help`` lists them) when this module imports them; :func:`main` and :func:`run` are the
-entry points. Every command function still imports from here.
+gallery; :mod:`~foldprint.cli.calibrate_cmd`: calibrate), listed in :data:`~foldprint.cli.lazy.COMMANDS` (the order ``--help`` lists them);
+a command's module is imported and its command built only when it runs
+(:class:`~foldprint.cli.lazy.LazyGroup`), so ``foldprint --help`` and ``foldprint
+templates`` start without numpy or the geometry libraries. :func:`main` and :func:`run`
+are the entry points. Every command function still imports from here
+(``from foldprint.cli.commands import check``).
 """
 
 from __future__ import annotations
@@ -19,15 +22,18 @@ import sys
 import typer
 
 from ..core.errors import FoldprintError
+from .lazy import COMMANDS
 from .root import app
-from .support import ExitCode, CLICK_ERRORS, echo_err, expand_multi, internal_error
+from .support import ExitCode, click_errors, echo_err, expand_multi, internal_error
 
-# the command groups, imported in the order --help lists their commands (they register on app)
-from .info_cmds import materials, templates  # noqa: F401,I001
-from .fold_cmds import check, robust, simulate  # noqa: F401
-from .assign_cmd import assign  # noqa: F401
-from .output_cmds import export, gallery  # noqa: F401
-from .calibrate_cmd import calibrate  # noqa: F401
+
+def __getattr__(name: str):
+    """A command function by its name (``commands.check``), its module imported on first use."""
+    if name in COMMANDS:
+        import importlib
+
+        return getattr(importlib.import_module(f"{__package__}.{COMMANDS[name][0]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -43,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
     except typer.Abort:
         echo_err("aborted")
         return 130
-    except CLICK_ERRORS as e:
+    except click_errors() as e:
         echo_err(e.format_message())
         return 2
     except FoldprintError as e:

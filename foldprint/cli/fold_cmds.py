@@ -15,6 +15,7 @@ from ..core.constants import (CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_D
                               JAM_WARN_ABOVE, ROBUST_SAMPLES, SWEEP_SCALES)
 from ..core.modes import DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD
 from ..core.errors import FoldprintError
+from .lazy import summary
 from .root import app
 from .support import (ExitCode, MAX_SAMPLES, CREASE_HELP, SCALE_HELP, check_count, echo_json, check_fraction, load_input, open_mapper, parse_mode,
                       echo_note, check_out_dir, print_paper, print_simulation, load_printer, samples_progress, check_temperature, time_options,
@@ -26,7 +27,7 @@ MECHANICS_HELP = ("rigid (default: rigid panels, exact and fast) | bar-hinge (pa
                   "Monte-Carlo sample solves the equilibrium path)")
 
 
-@app.command()
+@app.command(short_help=summary('simulate'))
 def simulate(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); default: the design's."),
@@ -45,10 +46,13 @@ def simulate(
     scale: Optional[float] = typer.Option(None, "--scale", help=SCALE_HELP),
     crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=CREASE_HELP),
 ):
-    """Fold the design in the bath: hinge angles, collisions, goals. Exit 0 when it
-    completes, 1 when it collides, stalls or misses a goal. The printed geometry (arc
-    hinges) is the default; the paper's point-hinge ROM is run beside it and reported
-    when its verdict differs.
+    """Fold the design in the bath: hinge angles, collisions, goals, the smallest
+    clearance along the fold and whether scatter closes it (a few scattered folds;
+    `check` gives the jam probability), and for the paper's structures the paper's
+    statements beside the model's values. Exit 0 when it completes, 1 when it collides,
+    stalls, misses a goal or cannot be printed. The printed geometry (arc hinges) is the
+    default; the paper's point-hinge ROM is run beside it and reported when its verdict
+    differs.
 
     Example: foldprint simulate helix_graded --json
     """
@@ -86,7 +90,7 @@ def simulate(
     raise ExitCode(0 if res.completed and not crossing else 1)
 
 
-@app.command()
+@app.command(short_help=summary('check'))
 def check(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     printer: Optional[str] = typer.Option(None, "--printer", help="Printer profile key (default: connex260)."),
@@ -115,12 +119,13 @@ def check(
     scale: Optional[float] = typer.Option(None, "--scale", help=SCALE_HELP),
     crease_materials: Optional[str] = typer.Option(None, "--crease-materials", help=CREASE_HELP),
 ):
-    """Design-rule checks before printing, on the printed geometry: build volume, walls
-    and gaps, hinge strain and size, temperatures, fold time, collisions and goals, and
-    the jam verdict under manufacturing scatter: a sequential test that folds samples
+    """Design-rule checks before printing, on the printed geometry: build volume, the
+    printer's materials, walls and gaps, hinge strain and size, temperatures, fold time,
+    collisions and goals, and the jam verdict under manufacturing scatter: a sequential test that folds samples
     until it knows whether the jam probability is below 5 % (pass), above 20 % (fail) or
     between (warning), with 5 % error rates; the same test with the spreads at 0.5x and 2x
-    (FP183 says when the verdict flips in that range). Exit 0 without errors, 1 with.
+    (FP183 says when the verdict flips in that range). For the paper's structures, the
+    paper's statements beside the model's values. Exit 0 without errors, 1 with.
 
     Example: foldprint check helix_uniform --json
     """
@@ -160,7 +165,7 @@ def check(
     raise ExitCode(1 if n_err else 0)
 
 
-@app.command()
+@app.command(short_help=summary('robust'))
 def robust(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     samples: int = typer.Option(ROBUST_SAMPLES, "--samples", help="Monte-Carlo samples (>= 1)."),
@@ -182,11 +187,12 @@ def robust(
     """Jam probability under manufacturing and process scatter (foldprint/data/scatter.toml):
     shared by the part and run (bath temperature, the heat-transfer correlation's error)
     and per hinge (Tg, thickness, local heat transfer); exactly N Monte-Carlo folds of the
-    printed geometry on all cores (an estimate with a Wilson interval), with (opt-in) each
-    component's contribution and (--sensitivity) the curve over sigma scales. `check`
-    draws the same stream at its seed (0) but stops when its sequential test decides, so
-    its figure is that of the first n samples: the output says what check's test makes of
-    these samples. Exit 0; 2 on bad input.
+    printed geometry on all cores or --scheduler (an estimate with a Wilson interval);
+    on request (both off by default) each scatter component's contribution
+    (--contributions, about 11x the cost) and the curve over sigma scales
+    (--sensitivity). `check` draws the same stream at its seed (0) but stops when its
+    sequential test decides, so its figure is that of the first n samples: the output
+    says what check's test makes of these samples. Exit 0; 2 on bad input.
 
     Example: foldprint robust helix_uniform --samples 60 --seed 1 --sensitivity --json
     """
@@ -228,7 +234,7 @@ def robust(
 def _print_robust(out: dict, r, seed: int, model: str) -> None:
     """``robust``'s text output: the estimate, its pairs and fold times, check's relation,
     the contributions and the sweep."""
-    from ..checks.report import jam_estimate_text, seconds
+    from ..checks.report import jam_estimate_text, percent, seconds
 
     echo(f"{r.design}: jam probability {jam_estimate_text(r)}, seed {seed} ({model} hinges)")
     for c in out["collisions"][:5]:
@@ -242,14 +248,14 @@ def _print_robust(out: dict, r, seed: int, model: str) -> None:
 
     def est(e):
         a, b = e["ci95"]
-        return f"{e['jams']:>3}/{e['samples']} {e['jam_probability']:6.1%} ({a:.1%}-{b:.1%})"
+        return f"{e['jams']:>3}/{e['samples']} {percent(e['jam_probability']):>7} ({percent(a)}-{percent(b)})"
 
     if out["contributions"] is not None:
         echo("  contribution of each scatter component (same draws; alone = the others at zero):")
-        echo(f"    {'component':<42} {'spread':>9}  {'alone':<24} all but it")
+        echo(f"    {'component':<42} {'spread':>9}  {'alone':<31} all but it")
         for c in out["contributions"]:
             name = f"{c['label']} [{c['scope']}]"
-            echo(f"    {name:<42} {c['spread']:>6g} {c['unit']:<2}  {est(c['alone']):<24} {est(c['all_but'])}")
+            echo(f"    {name:<42} {c['spread']:>6g} {c['unit']:<2}  {est(c['alone']):<31} {est(c['all_but'])}")
     if out["sensitivity"] is not None:
         echo("  sensitivity: every spread scaled by k (same draws):")
         for p in out["sensitivity"]:

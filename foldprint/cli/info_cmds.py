@@ -11,12 +11,14 @@ from typing import List, Optional
 import typer
 from typer import echo
 
-from ..core.constants import DEFAULT_THICKNESS_MM
+from ..core.constants import DEFAULT_THICKNESS_MM, JSON_DECIMALS
+from ..core.display import seconds
+from .lazy import summary
 from .root import app
 from .support import echo_json, check_in_range, echo_note, check_number, check_temperature
 
 
-@app.command()
+@app.command(short_help=summary('materials'))
 def materials(
     temperature: Optional[List[str]] = typer.Option(None, "--temperature", "-t", metavar="C ...",
                                                     help="Bath temperature(s) in deg C (default 80 90 100)."),
@@ -44,7 +46,7 @@ def materials(
         for key, val in temps:
             if m.role == "hinge":
                 v = fold_time(m, val, thickness)
-                ft[key] = None if v is None else round(v, 3)
+                ft[key] = None if v is None else round(v, JSON_DECIMALS)
             else:
                 ft[key] = None
         rows.append({"name": m.name, "role": m.role, "tg_c": m.tg_c, "color": m.color, "fold_time_s": ft,
@@ -62,7 +64,7 @@ def materials(
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"materials: fold time to 98 % (s), hinge {thickness:g} mm")
+    table = Table(title=f"materials: fold time to 98 %, hinge {thickness:g} mm")
     table.add_column("material")
     table.add_column("role")
     table.add_column("Tg (°C)", justify="right")
@@ -70,14 +72,14 @@ def materials(
     for key, _ in temps:
         table.add_column(f"{key} °C", justify="right")
     for r in rows:
-        cells = ["-" if r["role"] != "hinge" else ("does not fold" if v is None else f"{v:.2f}")
+        cells = ["-" if r["role"] != "hinge" else ("does not fold" if v is None else seconds(v))
                  for v in r["fold_time_s"].values()]
         fx = "-" if r["fixity"] is None else f"{r['fixity']:.4g}"
         table.add_row(r["name"], r["role"], f"{r['tg_c']:.1f}", fx, *cells)
     Console(file=sys.stdout, width=120).print(table)
 
 
-@app.command()
+@app.command(short_help=summary('templates'))
 def templates(json_out: bool = typer.Option(False, "--json", help="Print one JSON object to stdout.")):
     """List the shipped design templates.
 

@@ -14,6 +14,7 @@ from typer import echo
 from ..core.constants import EXPORT_FORMATS
 from ..core.modes import DEFAULT_MECHANICS, DEFAULT_STATE, Mechanics, State, parse
 from ..core.errors import FoldprintError
+from .lazy import summary
 from .root import app
 from .support import (MAX_WORKERS, CREASE_HELP, SCALE_HELP, OUTPUT_STATE, check_count, echo_json, load_input, echo_note, check_out_dir,
                       load_printer, with_progress)
@@ -36,7 +37,7 @@ def _plan_out(out_dir: Path, force: bool, what: str):
     return p
 
 
-@app.command()
+@app.command(short_help=summary('export'))
 def export(
     design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
     out: Optional[str] = typer.Option(None, "--out", help="Output directory (default: output/<design>/)."),
@@ -108,7 +109,7 @@ def export(
             echo(f"{r['path']}  ({r['format']}, {len(r['bodies'])} bodies, {vol:.1f} mm3)")
 
 
-@app.command()
+@app.command(short_help=summary('gallery'))
 def gallery(
     designs: Optional[List[str]] = typer.Argument(None, help="Designs or template names (default: every template)."),
     out: str = typer.Option(str(Path("output") / "gallery"), "--out", help="Output directory."),

@@ -1,18 +1,55 @@
-"""The ``foldprint`` Typer application and its root options (``--version``, ``--quiet``,
-``--verbose``). The command groups register on :data:`app` when :mod:`foldprint.cli.commands`
-imports them.
+"""The ``foldprint`` Typer application, its root options (``--version``, ``--quiet``,
+``--verbose``) and its group class: a command registers on :data:`app` when its module is
+imported, which :class:`LazyGroup` does when the command runs.
 """
 
 from __future__ import annotations
 
+import importlib
+
 import typer
 from typer import echo
+from typer.core import TyperGroup
 
-from .. import __version__
+from ..core.version import __version__
+from .lazy import COMMANDS, LazyCommands, summary
 from .support import OUTPUT_STATE
 
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,
+class LazyGroup(TyperGroup):
+    """typer's group whose commands are a :class:`~foldprint.cli.lazy.LazyCommands`:
+    ``--help`` lists the table's summaries, a command is imported and built when invoked."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.commands = LazyCommands(self.commands, build_command)
+
+    def list_commands(self, ctx) -> list[str]:
+        return list(self.commands)
+
+    def format_commands(self, ctx, formatter) -> None:
+        """The commands section of ``foldprint --help`` from the table alone: what typer
+        prints for commands whose ``short_help`` is their summary."""
+        rows = [(name, summary(name)) for name in self.commands if name in COMMANDS]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
+
+
+def build_command(name: str):
+    """The click command of ``name``: its module imported (its decorators register it on
+    :data:`app`), then typer builds the group of the commands registered so far."""
+    import typer.main
+
+    importlib.import_module(f"{__package__}.{COMMANDS[name][0]}")
+    built = typer.main.get_command(app).commands
+    built = built.built if isinstance(built, LazyCommands) else built
+    if name not in built:
+        raise LookupError(f"{__package__}.{COMMANDS[name][0]} registers no command {name!r}")
+    return built[name]
+
+
+app = typer.Typer(cls=LazyGroup, add_completion=False, no_args_is_help=True, rich_markup_mode=None,
                   help="foldprint: design, simulate, check and export sequentially self-folding "
                        "structures printed with digital shape-memory polymers.")
 

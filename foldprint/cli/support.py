@@ -11,23 +11,18 @@ from pathlib import Path
 from typer import echo
 
 from ..core.errors import FoldprintError
+from ..core.display import seconds
 
 #: Options that take several values after one flag (``--temperature 80 90 100``).
 _MULTI = {"--temperature"}
 
 
-def _click_exceptions() -> tuple[type, ...]:
-    """ClickException classes: typer >= 0.20 vendors its own click."""
-    found: list[type] = []
-    for mod in ("typer._click.exceptions", "click.exceptions"):
-        try:
-            found.append(__import__(mod, fromlist=["ClickException"]).ClickException)
-        except ImportError:
-            pass
-    return tuple(found)
-
-
-CLICK_ERRORS = _click_exceptions()
+def click_errors() -> tuple[type, ...]:
+    """The ClickException classes of the click modules loaded (typer >= 0.26 vendors its
+    own click, older typers use click's): only a loaded module can have raised one, so
+    the handler imports nothing."""
+    return tuple(sys.modules[mod].ClickException for mod in ("typer._click.exceptions", "click.exceptions")
+                 if mod in sys.modules)
 
 
 #: Exit codes: 0 ok, 1 the design fails, 2 bad input or a refused run, 3 an internal error
@@ -263,7 +258,7 @@ def verdict_word(r: dict) -> str:
     if r["completed"]:
         return "completes"
     c = r["first_collision"]
-    return "does NOT complete" + (f" ({c['panels'][0]}-{c['panels'][1]} at {c['time_s']:.3f} s)" if c else "")
+    return "does NOT complete" + (f" ({c['panels'][0]}-{c['panels'][1]} at {seconds(c['time_s'])})" if c else "")
 
 
 def print_simulation(r: dict) -> None:
@@ -280,14 +275,14 @@ def print_simulation(r: dict) -> None:
         else verdict_word(r)
     echo(f"{r['design']} at {r['temperature_c']:g} C ({r['hinge_model']} hinges, {r['method']}): {verdict}")
     if r["fold_time_s"] is not None:
-        echo(f"  folded in {r['fold_time_s']:.2f} s")
+        echo(f"  folded in {seconds(r['fold_time_s'])}")
     print_clearance(r.get("clearance"), margin, r["first_collision"] is None)
     for c in r["contacts"]:
-        echo(f"  contact {c['panels'][0]}-{c['panels'][1]} at {c['time_s']:.3f} s ({c['method']})")
+        echo(f"  contact {c['panels'][0]}-{c['panels'][1]} at {seconds(c['time_s'])} ({c['method']})")
     for h in r["hinges"]:
         echo(f"  {h['id']:<6} {h['material']:<6} {hinge_text(h)}")
     for g in r["goals"]:
-        state = f"met at {g['time_s']:.2f} s" if g["met"] else "NOT met"
+        state = f"met at {seconds(g['time_s'])}" if g["met"] else "NOT met"
         echo(f"  goal {g['id']}: {g['panel']} through holes[{g['hole']}] of {g['target']}: {state}")
     for n in r.get("notes") or []:
         echo(f"  note: {n}")
@@ -302,7 +297,7 @@ def print_simulation(r: dict) -> None:
              "(docs/simulation.md explains the two models)")
     loops = r.get("loops") or {}
     for stuck in loops.get("not_followed") or []:
-        echo(f"  note: from {stuck['time_s']:.2f} s the loops' closure does not follow the drive of "
+        echo(f"  note: from {seconds(stuck['time_s'])} the loops' closure does not follow the drive of "
              f"{', '.join(stuck['hinges'])}: they stay where the closure holds them (docs/loops.md)")
     print_paper(r.get("paper") or [])
 
@@ -312,9 +307,9 @@ def hinge_text(h: dict) -> str:
     short of 98 % of its target at the end: e.g. held by a loop's closure)."""
     from ..core.constants import FOLD_LEVEL
 
-    ft = "does not fold" if h["fold_time_s"] is None else f"{h['fold_time_s']:.2f} s"
+    ft = "does not fold" if h["fold_time_s"] is None else seconds(h["fold_time_s"])
     if h["arrested_at_s"] is not None:
-        return f"{ft}, arrested at {h['arrested_at_s']:.3f} s, {h['angle_error_deg']:.1f} deg short"
+        return f"{ft}, arrested at {seconds(h['arrested_at_s'])}, {h['angle_error_deg']:.1f} deg short"
     if abs(h["angle_error_deg"]) > (1 - FOLD_LEVEL) * abs(h["target_angle_deg"]) + 1e-9:
         alone = "" if h["fold_time_s"] is None else f" (its material alone folds in {ft})"
         return (f"does not fold: {h['final_angle_deg'] + 0.0:.1f} of {h['target_angle_deg']:g} deg at the end, "
@@ -326,12 +321,12 @@ def print_clearance(gap: dict | None, margin: dict | None, no_contact: bool) -> 
     """The smallest clearance along the fold and whether scatter closes it."""
     if gap is None or not no_contact:
         return
-    at = f"{gap['panels'][0]}-{gap['panels'][1]} at {gap['time_s']:.2f} s"
+    at = f"{gap['panels'][0]}-{gap['panels'][1]} at {seconds(gap['time_s'])}"
     echo(f"  smallest clearance along the fold: {gap['distance_mm']:.2f} mm ({at})")
     if margin is None:
         return
     w, n = margin["worst"], margin["samples"]
-    where = f"{w['panels'][0]}-{w['panels'][1]} at {w['time_s']:.2f} s"
+    where = f"{w['panels'][0]}-{w['panels'][1]} at {seconds(w['time_s'])}"
     if margin["marginal"]:
         echo(f"  MARGINAL: panels touch in {margin['touching']} of {n} scattered folds (the first samples "
              f"`foldprint check` draws), e.g. {where}: scatter moves them more than the "

@@ -109,10 +109,13 @@ CHECK_SCALES = (0.5, 2.0)
 #: The sigma scales ``foldprint robust --sensitivity`` sweeps by default.
 SWEEP_SCALES = (0.5, 1.0, 2.0)
 #: Decimals of a second every text output prints a time with (fold times, contacts,
-#: clearances; ``checks.report.seconds``): 0.01 s, the default time step. Our choice: the
+#: clearances; ``core.display.seconds``): 0.01 s, the default time step. Our choice: the
 #: contact times are refined to 1 ms (``tol.time``), but a model whose inputs scatter
 #: (``docs/robustness-model.md``) moves them by more than that.
 TIME_DECIMALS = 2
+#: Decimals the JSON outputs round a time or probability to (0.1 ms; our choice: below any
+#: time step, so the rounding never shows in a printed time, ``core.display.seconds``).
+JSON_DECIMALS = 4
 #: Poses sampled along a fold for its smallest clearance (check, the gallery and assign's
 #: confirmed finalists): an even spread over the run, refined exactly between the two
 #: nearest samples (:func:`foldprint.collision.clearance.min_clearance`).

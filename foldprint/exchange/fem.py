@@ -39,7 +39,7 @@ from typing import NamedTuple
 import meshio
 import numpy as np
 
-from .. import __version__
+from ..core.version import __version__
 from ..model.design import Design
 from ..core.errors import ExportError
 from ..geometry import MAX_SLICE_RAD, arc_transform

@@ -27,7 +27,7 @@ from shapely.geometry import LineString, MultiLineString, Polygon
 from shapely.geometry.polygon import orient
 from shapely.ops import split
 
-from .. import __version__
+from ..core.version import __version__
 from ..core.constants import tol
 from ..model.design import Design
 from ..io.design_io import design_to_dict

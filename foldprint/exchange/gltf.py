@@ -22,7 +22,7 @@ import numpy as np
 import pygltflib as gl
 from scipy.spatial.transform import Rotation
 
-from .. import __version__
+from ..core.version import __version__
 from ..geometry.surfaces import Frames
 from ..model.design import Design
 from ..model.materials import MaterialLibrary

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
-from .. import __version__
+from ..core.version import __version__
 from ..core.errors import ExportError
 from ..core.files import TMP_NAME
 from ..core.modes import OutFolder, Publish

@@ -16,7 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
-from .. import __version__
+from ..core.display import seconds
+from ..core.version import __version__
 from ..geometry import Assembly
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
@@ -92,11 +93,11 @@ def _fold(design: Design, fold_times: Mapping[str, float | None] | None, bath_c:
     for k, h in enumerate(timed):
         t = fold_times.get(h.id)
         rows.append(f"| {k + 1} | {_md(h.id)} | {_md(h.material)} | "
-                    + ("does not fold in this bath |" if t is None else f"{t:.2f} s |"))
+                    + ("does not fold in this bath |" if t is None else f"{seconds(t)} |"))
     prog = programming(design, fold_times)
     done = prog["expected_fold_time_s"]
     rows.append("")
-    rows.append(f"Expected: folded in {done:.2f} s in the {bath_c:g} °C bath (the slowest hinge)." if done is not None
+    rows.append(f"Expected: folded in {seconds(done)} in the {bath_c:g} °C bath (the slowest hinge)." if done is not None
                 else "Expected: at least one hinge does not fold in this bath.")
     rows.append("Times are the recovery model's for each hinge's material and thickness (98 % recovery, "
                 "docs/recovery-model.md), not measurements; hinges that fold close together may swap under "

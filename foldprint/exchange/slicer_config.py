@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import __version__
+from ..core.version import __version__
 from ..geometry import Assembly
 from ..model.materials import MaterialLibrary
 from ..model.printers import FdmSetup

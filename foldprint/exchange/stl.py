@@ -13,7 +13,8 @@ from typing import Mapping
 
 import numpy as np
 
-from .. import __version__
+from ..core.constants import JSON_DECIMALS
+from ..core.version import __version__
 from ..model.design import Design
 from ..geometry import Assembly, Body
 from ..model.materials import MaterialLibrary, default_library
@@ -43,7 +44,7 @@ def read_stl_volume(data: bytes) -> float:
 
 
 def _finite_or_none(x):
-    return None if x is None or not math.isfinite(x) else round(float(x), 3)
+    return None if x is None or not math.isfinite(x) else round(float(x), JSON_DECIMALS)
 
 
 def programming(design: Design, fold_times: Mapping[str, float | None]) -> dict:

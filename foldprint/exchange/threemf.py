@@ -33,7 +33,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .. import __version__
+from ..core.version import __version__
 from ..model.design import Design
 from ..io.design_io import design_to_toml
 from ..core.errors import ExportError

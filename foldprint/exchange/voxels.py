@@ -36,7 +36,7 @@ from typing import Any, Callable
 import manifold3d as mf
 import numpy as np
 
-from .. import __version__
+from ..core.version import __version__
 from ..core.errors import ExportError
 from .voxel_pixels import (EMPTY, GOLDEN, MASK_SIZE, PALETTE, TANGO, VERO, ZLIB_LEVEL, blue_noise,  # noqa: F401
                            fill, layer_mask, paint_runs, padded_width, pixel_runs, png_bytes, png_padded, read_png,

@@ -6,9 +6,12 @@ import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from ..core import schema as sc
 from ..core.errors import DesignError
+
+if TYPE_CHECKING:
+    from ..core import schema as sc
 
 
 def templates_dir() -> Path:
@@ -82,6 +85,8 @@ _CLAIM_KEYS = set(Claims.__dataclass_fields__)
 
 def parse_claims(raw, at: sc.Where) -> Claims:
     """A ``[claims]`` table checked (keys, types, values); ``Claims()`` when absent."""
+    from ..core import schema as sc  # here, not at the top: `foldprint templates` lists without it
+
     if raw is None:
         return Claims()
     raw = sc.table(raw, at, _CLAIM_KEYS)
@@ -111,6 +116,8 @@ def parse_claims(raw, at: sc.Where) -> Claims:
 
 def template_claims(name_or_path: str) -> Claims:
     """The ``[claims]`` of a template (or design file)."""
+    from ..core import schema as sc
+
     p = resolve_design_path(name_or_path)
     data = tomllib.loads(p.read_text(encoding="utf-8"))
     return parse_claims(data.get("claims"), sc.Where(str(p)) / "claims")

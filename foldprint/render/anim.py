@@ -8,6 +8,7 @@ import logging
 
 import numpy as np
 
+from ..core.display import seconds
 from ..model.derived import scoped
 from ..model.materials import MaterialLibrary, default_library
 from .stills import TITLE_IN, Painter, View, bounds, new_figure, title
@@ -56,7 +57,7 @@ def fold_animation_gif(result, n_frames: int = 40, *, dpi: float = 72.0,
     scenes = []
     for t, p in zip(times, poses_at(result, times)):
         hl, note = contact_state(result, float(t))
-        scenes.append((scene(design, p, model, lib, hl), f"{design.name}   t = {t:5.2f} s{note}"))
+        scenes.append((scene(design, p, model, lib, hl), f"{design.name}   t = {seconds(t):>7}{note}"))
     cam = camera_for(design)
     view = View.fit(bounds([s for s, _ in scenes], cam), max_size_in)
     cw, ch = view.cell

@@ -9,6 +9,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core.display import seconds
 from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM
 from ..model.materials import MaterialLibrary
 from ..physics.recovery import recovery_curve
@@ -188,14 +189,14 @@ def sample_outcomes_figure(robust, worst: int | None = None):
             ax0.hist(hit, bins=bins, color="#d62728", alpha=0.75, label=f"first contact, {hit.size} that collide")
     c = nominal.first_collision
     if nominal.fold_time is not None:
-        ax0.axvline(nominal.fold_time, color="k", ls="--", lw=1, label=f"nominal fold time {nominal.fold_time:.2f} s")
+        ax0.axvline(nominal.fold_time, color="k", ls="--", lw=1, label=f"nominal fold time {seconds(nominal.fold_time)}")
     elif c is not None:
-        ax0.axvline(c.time, color="k", ls="--", lw=1, label=f"nominal contact {c.time:.2f} s")
+        ax0.axvline(c.time, color="k", ls="--", lw=1, label=f"nominal contact {seconds(c.time)}")
     if worst is not None:
         o = outs[worst]
         t = o.time if o.time is not None else o.fold_time
         if t is not None:
-            ax0.axvline(t, color="#9467bd", ls=":", lw=1.5, label=f"worst sample (#{worst}) {t:.2f} s")
+            ax0.axvline(t, color="#9467bd", ls=":", lw=1.5, label=f"worst sample (#{worst}) {seconds(t)}")
     other = sum(o.jammed and o.time is None for o in outs)
     ax0.set_xlabel("time (s)")
     ax0.set_ylabel("samples")

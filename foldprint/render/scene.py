@@ -17,6 +17,7 @@ from typing import Iterable
 
 import numpy as np
 
+from ..core.display import seconds
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel, State
 from ..model.derived import derived
 from ..model.design import Design
@@ -242,5 +243,5 @@ def contact_state(result, t: float) -> tuple[set[int], str]:
             hl.update(int(i) for i in c.pair)
     first = result.first_collision
     if first is not None and first.time <= t + 1e-9:
-        note = f" | contact {first.panels[0]}\u2013{first.panels[1]} at {first.time:.2f} s"
+        note = f" | contact {first.panels[0]}\u2013{first.panels[1]} at {seconds(first.time)}"
     return hl, note

@@ -16,6 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core.display import seconds
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
 from ..model.derived import scoped
 from ..model.design import Design
@@ -203,7 +204,7 @@ def render_frames(result, n: int = 4, *, library: MaterialLibrary | None = None,
     for t, p in zip(times, poses_at(result, times)):
         hl, note = contact_state(result, float(t))
         scenes.append(scene(design, p, model, lib, hl))
-        titles.append(f"t = {t:.2f} s{note}")
+        titles.append(f"t = {seconds(t)}{note}")
     cam = camera_for(design)
     b = bounds(scenes, cam)
     w, h = b[1] - b[0], b[3] - b[2]

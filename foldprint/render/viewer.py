@@ -37,6 +37,7 @@ from importlib import resources
 
 import numpy as np
 
+from ..core.display import seconds
 from ..core.modes import HingeModel, JamReason, State
 from ..model.derived import scoped
 from ..model.design import Design
@@ -175,11 +176,11 @@ def worst_text(replay) -> str:
     """Why a replayed sample (:func:`foldprint.apps.replay.worst_sample`) is the worst, in words."""
     o = replay.outcome
     if o.reason == JamReason.COLLISION:
-        return f"the earliest first contact of the samples: panels {o.pair[0]}\u2013{o.pair[1]} at {o.time:.3f} s"
+        return f"the earliest first contact of the samples: panels {o.pair[0]}\u2013{o.pair[1]} at {seconds(o.time)}"
     if o.jammed:
         return "jams without a collision (" + ("a goal is not met" if o.reason == JamReason.GOAL
                                                else "a hinge does not reach 98 %") + ")"
-    return f"no sample jams; the slowest fold ({o.fold_time:.2f} s)"
+    return f"no sample jams; the slowest fold ({seconds(o.fold_time)})"
 
 
 def worst_banner(replay, samples: int | None = None) -> str:
@@ -189,11 +190,11 @@ def worst_banner(replay, samples: int | None = None) -> str:
     c = res.first_collision
     head = f"Worst scatter sample, #{replay.index}" + ("" if samples is None else f" of {samples}") + ": "
     if c is not None:
-        return head + (f"panels {c.panels[0]}\u2013{c.panels[1]} touch at {c.time:.3f} s, "
+        return head + (f"panels {c.panels[0]}\u2013{c.panels[1]} touch at {seconds(c.time)}, "
                        "the earliest contact of the samples; the printed part jams there.")
     if replay.outcome.jammed:
         return head + worst_text(replay) + "."
-    return head + f"no sample jams; this is the slowest fold ({res.fold_time:.2f} s)."
+    return head + f"no sample jams; this is the slowest fold ({seconds(res.fold_time)})."
 
 
 def _frame_boxes(rib: np.ndarray, poses: np.ndarray, items: list[dict]) -> np.ndarray:

@@ -17,10 +17,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.display import percent, seconds
 from ..core.constants import FOLD_LEVEL, ONSET_LEVEL
 from ..model.design import Design
 from ..model.paper_statements import Statement, load_statements
-from .simulate import SimulationResult
+from .simulate import SimulationResult, crossing_times
 
 
 @dataclass(frozen=True)
@@ -33,34 +34,16 @@ class ModelValue:
     compare: dict = field(default_factory=dict)
 
 
-def crossing_times(result: SimulationResult, level: float) -> np.ndarray:
-    """Per hinge, the first time (s) its recovery ratio reaches ``level`` on the simulated
-    trajectory (linear between samples); NaN where it never does."""
-    t, r = result.trajectory.times, result.trajectory.ratios
-    out = np.full(r.shape[1], np.nan)
-    for i in range(r.shape[1]):
-        k = np.nonzero(r[:, i] >= level)[0]
-        if len(k) == 0:
-            continue
-        j = int(k[0])
-        if j == 0:
-            out[i] = t[0]
-        else:
-            f = (level - r[j - 1, i]) / (r[j, i] - r[j - 1, i])
-            out[i] = t[j - 1] + f * (t[j] - t[j - 1])
-    return out
-
-
 def motion_end(result: SimulationResult) -> float | None:
     """When the last hinge stops moving: arrested hinges at their arrest, the others at
     98 %; None if some free hinge is still short of 98 % at the end of the run."""
     ids = [h.id for h in result.design.hinges]
-    done = crossing_times(result, FOLD_LEVEL)
+    done = result.hinge_fold_times
     ends = []
     for i, hid in enumerate(ids):
         if hid in result.arrested:
             ends.append(result.arrested[hid])
-        elif math.isnan(done[i]):
+        elif done[i] is None:
             return None
         else:
             ends.append(float(done[i]))
@@ -74,7 +57,9 @@ def _r(x: float | None, nd: int = 2) -> float | None:
 def _hinge_times(s: Statement, result: SimulationResult) -> ModelValue:
     level = ONSET_LEVEL if s.measure.startswith("onset") else FOLD_LEVEL
     ids = [h.id for h in result.design.hinges]
-    t = crossing_times(result, level)[[ids.index(h) for h in s.hinges]]
+    at = crossing_times(result, level) if level != FOLD_LEVEL else \
+        np.array([np.nan if t is None else t for t in result.hinge_fold_times])
+    t = at[[ids.index(h) for h in s.hinges]]
     pick = np.min if s.measure == "onset_first" else np.max
     v = None if np.all(np.isnan(t)) else float(pick(t))
     which = "first" if s.measure == "onset_first" else "last"
@@ -84,13 +69,13 @@ def _hinge_times(s: Statement, result: SimulationResult) -> ModelValue:
 def _order(s: Statement, result: SimulationResult) -> ModelValue:
     mats = [h.material for h in result.design.hinges]
     picks = {m: mats.index(m) for m in s.materials}
-    half, fin = crossing_times(result, 0.5), crossing_times(result, FOLD_LEVEL)
+    half, fin = crossing_times(result, 0.5), [math.nan if t is None else t for t in result.hinge_fold_times]
     t50 = {m: float(half[k]) for m, k in picks.items()}
     t98 = {m: float(fin[k]) for m, k in picks.items()}
     holds = all(a[x] < a[y] for a in (t50, t98) for x, y in zip(s.materials, s.materials[1:]))
     order = " < ".join(s.materials)
-    note = (f"{order} at 50 % ({', '.join(f'{t50[m]:.2f}' for m in s.materials)} s) and 98 % "
-            f"({', '.join(f'{t98[m]:.2f}' for m in s.materials)} s)" if holds else f"not {order}")
+    note = (f"{order} at 50 % ({', '.join(seconds(t50[m]) for m in s.materials)}) and 98 % "
+            f"({', '.join(seconds(t98[m]) for m in s.materials)})" if holds else f"not {order}")
     return ModelValue(None, note, {"t50": {m: _r(v) for m, v in t50.items()},
                                    "t98": {m: _r(v) for m, v in t98.items()}, "holds": holds})
 
@@ -99,7 +84,7 @@ def _goals(result: SimulationResult) -> ModelValue:
     gs = result.goals
     holds = bool(gs) and all(g.met for g in gs)
     parts = [f"{g.goal.panel} through holes[{g.goal.hole}] of {g.goal.target} "
-             + (f"at {g.time:.2f} s" if g.met else "NOT met") for g in gs]
+             + (f"at {seconds(g.time)}" if g.met else "NOT met") for g in gs]
     return ModelValue(None, "; ".join(parts) or "no goals", {"holds": holds})
 
 
@@ -189,15 +174,15 @@ def _words(s: Statement, v: ModelValue, result: SimulationResult, clearance, jam
         text = "no contact: the nominal fold completes" if result.completed else "no contact"
         if clearance is not None:
             text += f" (closest {clearance.distance:.2f} mm, {clearance.panels[0]}-{clearance.panels[1]} " \
-                    f"at {clearance.time:.2f} s)"
+                    f"at {seconds(clearance.time)})"
         if jam_probability is None:
             return text + "; under scatter: `foldprint check` gives the jam probability"
-        return text + f"; under scatter the jam probability is {jam_probability:.0%}"
+        return text + f"; under scatter the jam probability is {percent(jam_probability)}"
     if s.measure == "motion_end" and v.value_s is None and result.completed:
-        return f"never stops short: every hinge reaches 98 % by {result.fold_time:.2f} s"
+        return f"never stops short: every hinge reaches 98 % by {seconds(result.fold_time)}"
     if v.value_s is None:
         return v.note
-    return f"{v.value_s:.2f} s, {v.note}"
+    return f"{seconds(v.value_s)}, {v.note}"
 
 
 def paper_lines(design: Design, result: SimulationResult, clearance=None,

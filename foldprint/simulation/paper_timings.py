@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.constants import FOLD_LEVEL
+from ..core.display import seconds
 from ..core.errors import DesignError
 from ..core.modes import AfterContact, HingeModel, Method
 from ..model.materials import MaterialLibrary, default_library
@@ -21,7 +21,7 @@ from ..model.materials import MaterialLibrary, default_library
 from ..model.paper_statements import KINDS, ROLES, Statement, Statements, load_statements  # noqa: F401
 from ..physics.recovery import recovery_curve
 from ..physics.recovery_table import fold_times
-from .paper_beside import ModelValue, crossing_times, model_value, motion_end, verdict  # noqa: F401
+from .paper_beside import ModelValue, model_value, motion_end, verdict  # noqa: F401
 from .simulate import simulate
 
 
@@ -72,8 +72,8 @@ def measure(library: MaterialLibrary | None = None) -> dict[str, ModelValue]:
     # Fig. 1b: free hinges, 0.8 mm, from the fixing temperature 10 C
     h1 = fold_times(lib["H-1"], (80.0, 90.0, 100.0))
     h7 = fold_times(lib["H-7"], (80.0, 90.0, 100.0))
-    out["fig1b_spread_80"] = ModelValue(h7[0] - h1[0], f"H-1 {h1[0]:.2f} s, H-7 {h7[0]:.2f} s")
-    out["fig1b_spread_100"] = ModelValue(h7[2] - h1[2], f"H-1 {h1[2]:.2f} s, H-7 {h7[2]:.2f} s")
+    out["fig1b_spread_80"] = ModelValue(h7[0] - h1[0], f"H-1 {seconds(h1[0])}, H-7 {seconds(h7[0])}")
+    out["fig1b_spread_100"] = ModelValue(h7[2] - h1[2], f"H-1 {seconds(h1[2])}, H-7 {seconds(h7[2])}")
     runs = {}
     for name, ids in STRUCTURES.items():
         d = _design(name, lib)
@@ -107,9 +107,9 @@ def _compare(out: dict[str, ModelValue], runs: dict, lib: MaterialLibrary) -> No
                                                           "completed": s.completed})
     d4, mb = runs["mailbox"]
     groups: dict[str, float] = {}
-    fin4 = crossing_times(mb, FOLD_LEVEL)
+    fin4 = mb.hinge_fold_times
     for k, h in enumerate(d4.hinges):
-        groups[h.material] = max(groups.get(h.material, 0.0), float(fin4[k]))
+        groups[h.material] = max(groups.get(h.material, 0.0), float("nan") if fin4[k] is None else fin4[k])
     out["mailbox_whole"] = replace(out["mailbox_whole"], compare={
         "groups": {m: _r(v) for m, v in sorted(groups.items())},
         "hinge_thickness_mm": sorted({h.thickness for h in d4.hinges})})

@@ -88,7 +88,7 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     if missing and (mapper is None or lookup is not None):
         job = MonteCarloJob(design, test.max_samples, seed, tuple(missing), scatter, model, dt, method, test, mech)
         (pre,), _, _ = run_batch([job], library=lib, workers=n_workers,
-                                 progress=(lambda kind, st: report(st)) if report else None)
+                                 progress=(lambda kind, st, *_: report(st)) if report else None)
         found.update(zip(missing, (o for _, o in pre.outcomes)))
     for k in missing if mapper is not None and lookup is None else ():
         found[k] = _rounds(design, lib, at[k], seed, test, (model, dt, method, mech), mapper, n_workers,
