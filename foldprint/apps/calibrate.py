@@ -13,7 +13,7 @@ import logging
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from .. import __version__
+from ..core.version import __version__
 from ..core.errors import DataError
 from ..exchange.materials_file import Entry, write_materials
 from ..io.hinge_data import HingeData, load_hinge_data, read_text

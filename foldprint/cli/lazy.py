@@ -24,7 +24,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "assign": ("assign_cmd", "Choose the hinge materials (and bath) under which it folds."),
     "export": ("output_cmds", "Write the printable part: 3MF, STL and a print recipe."),
     "gallery": ("output_cmds", "Simulate, check and export designs into an offline HTML page."),
-    "calibrate": ("calibrate_cmd", "Fit the hinge recovery model to your measurements; write a materials file."),
+    "calibrate": ("calibrate_cmd", "Fit the hinge recovery model to measurements: a materials file."),
 }
 
 
