@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from ..core.constants import TIME_DECIMALS
-from ..core.modes import JamReason, JamVerdict
+from ..core.modes import JamReason, JamVerdict, SpreadBasis
 
 
 def _r(x, nd=4):
@@ -37,6 +37,20 @@ def threshold(p: float) -> str:
 
 #: The verdict of a jam test as a finding's severity (FP180 error, FP181 warning, FP182 info).
 VERDICT_SEVERITY = {JamVerdict.ERROR: "error", JamVerdict.WARNING: "warning", JamVerdict.PASS: "info"}
+
+
+#: What a scatter spread rests on, as messages say it.
+BASIS_TEXT = {SpreadBasis.MEASURED: "measured", SpreadBasis.DATASHEET: "from a datasheet",
+              SpreadBasis.LITERATURE: "from the literature", SpreadBasis.CHOICE: "our choice, not measured"}
+
+
+def basis_text(basis: SpreadBasis | None) -> str:
+    """What a spread rests on, in words ("our choice, not measured"; "basis not stated").
+
+    >>> basis_text(SpreadBasis.DATASHEET), basis_text(None)
+    ('from a datasheet', 'basis not stated')
+    """
+    return "basis not stated" if basis is None else BASIS_TEXT[basis]
 
 
 def jam_estimate_text(r) -> str:
@@ -196,6 +210,26 @@ def sweep_json(points) -> list[dict]:
     return [{"scale": p.scale, **estimate_json(p.result)} for p in points]
 
 
+def flip_drivers_json(flips) -> list[dict]:
+    """What drives each flip of the jam verdict
+    (:class:`foldprint.simulation.flip_drivers.FlipDrivers`): per flip its scale, the
+    verdicts at 1x and there, the drivers (or the strongest removal) and each removal."""
+    out = []
+    for fd in flips:
+        strongest = fd.strongest
+        out.append({
+            "scale": fd.scale, "verdict_at_1x": str(fd.base.decision.verdict),
+            "verdict": str(fd.flipped.decision.verdict), "worse": fd.worse,
+            "drivers": [rm.component.key for rm in fd.drivers],
+            "strongest": None if strongest is None else strongest.component.key,
+            "without": [{"component": rm.component.key, "label": rm.component.label,
+                         "scope": rm.component.scope.value, "spread": rm.spread, "unit": rm.component.unit,
+                         "basis": None if rm.basis is None else rm.basis.value, "source": rm.source,
+                         "restores": rm.restores, "toward_1x": _r(fd.toward_base(rm)), **estimate_json(rm.result)}
+                        for rm in fd.removals]})
+    return out
+
+
 def loops_json(sol) -> dict | None:
     """The loop solver's report (hinge graphs with loops), None for a hinge tree."""
     if sol is None:
@@ -217,6 +251,7 @@ def check_json(ev, printer_key: str) -> dict:
             "findings": [f.to_json() for f in findings],
             "robust": None if ev.robust is None else robust_json(ev.robust),
             "sensitivity": sweep_json(ev.sweep) if ev.sweep else None,
+            "flip_drivers": flip_drivers_json(ev.flip_drivers) if ev.sweep else None,
             "paper": [line.to_json() for line in ev.paper_lines()]}
 
 
