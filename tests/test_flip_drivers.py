@@ -28,7 +28,7 @@ from foldprint.io.design_io import design_to_toml
 from foldprint.model.design import strip
 from foldprint.model.materials import default_library
 from foldprint.physics.recovery import recovery_curve
-from foldprint.simulation.flip_drivers import FlipDrivers, Removal, undoes
+from foldprint.simulation.flip_drivers import FlipDrivers, Probe, undoes
 from foldprint.simulation.scatter import KEYS, Scatter, component, default_scatter, draw_samples, scatter_from
 from foldprint.simulation.verdict import decide, jam_test
 
@@ -42,20 +42,26 @@ def _t98(lib, bath_c: float, fix_c: float) -> float:
     return recovery_curve(lib["H-7"], bath_c, 0.8, fix_c).fold_time
 
 
-@pytest.fixture(scope="module")
-def case():
+def _case(cold_c: float, scales: tuple[float, ...]):
+    """The strip whose run ends when a hinge in a bath ``cold_c`` below nominal reaches
+    98 %, b*, the scatter model, and its evaluation with the sweep ``scales``."""
     lib = default_library()
     d = strip("bath_only", [12.0, 12.0], [90.0], ["H-7"], hinge_thickness=0.8)
     fix_c = d.process.fix_temperature_c
-    run = round(_t98(lib, d.process.bath_temperature_c - COLD_C, fix_c), 2) + 0.005  # between grid times
+    run = round(_t98(lib, d.process.bath_temperature_c - cold_c, fix_c), 2) + 0.005  # between grid times
     d = replace(d, process=replace(d.process, duration_s=run))
     end = math.ceil(run / DT_S) * DT_S  # a run ends at the first grid time at or past its duration
     b_star = brentq(lambda b: _t98(lib, b, fix_c) - end, 80.0, 90.0, xtol=1e-6)
     sc = Scatter(1.0, 0.0, TG_SD_C, 0.0, 0.0, sources={"bath": "our bath log", "tg": "our DMA"},
                  bases={"bath": SpreadBasis.CHOICE, "tg": SpreadBasis.MEASURED})
-    ev = Evaluation(d, EvalOptions(dt=DT_S, scales=(0.5, 2.0, 1.0), workers=1), library=lib, scatter=sc)
+    ev = Evaluation(d, EvalOptions(dt=DT_S, scales=scales, workers=1), library=lib, scatter=sc)
     ev.findings  # noqa: B018
     return d, lib, sc, b_star, ev
+
+
+@pytest.fixture(scope="module")
+def case():
+    return _case(COLD_C, (0.5, 2.0, 1.0))
 
 
 def test_the_case_flips_at_twice_the_spreads(case):
@@ -72,15 +78,15 @@ def test_the_flip_is_the_baths_alone(case):
     d, _, sc, b_star, ev = case
     (fd,) = ev.flip_drivers
     assert fd.scale == 2.0 and fd.worse and fd.flipped is ev.run_jam_tests()[2.0]
-    by = {rm.component.key: rm for rm in fd.removals}
+    by = {pr.component.key: pr for pr in fd.probes}
     assert sorted(by) == ["bath", "tg"]  # components at zero spread are not folded again
-    assert [rm.component.key for rm in fd.drivers] == ["bath"] and fd.strongest is None
+    assert [pr.component.key for pr in fd.drivers] == ["bath"] and fd.strongest is None
     bath, tg = by["bath"], by["tg"]
     assert bath.restores and bath.verdict == P and bath.result.jams == 0
     assert bath.result.samples == 57  # no jam: the warning test accepts "below" after 57 (docs/verdict.md)
     assert bath.result.scatter == sc.scaled(2.0).without("bath")
     assert not tg.restores and tg.verdict == W
-    assert (bath.spread, tg.spread) == (2.0, 2 * TG_SD_C)
+    assert (bath.spread, tg.spread, bath.probe_spread, tg.probe_spread) == (2.0, 2 * TG_SD_C, 0.0, 0.0)
     assert (bath.basis, tg.basis) == (SpreadBasis.CHOICE, SpreadBasis.MEASURED) and tg.source == "our DMA"
     n = tg.result.samples
     baths = np.array([s.bath_c for s in draw_samples(d, sc.scaled(2.0).only(["bath"]), n, ev.options.seed)])
@@ -99,9 +105,9 @@ def test_fp183_names_the_driver_and_what_it_rests_on(case):
     assert "spreads nobody measured (bath: our choice, not measured)" in f.hint
     out = ev.to_json()
     (j,) = out["flip_drivers"]
-    assert (j["scale"], j["verdict_at_1x"], j["verdict"], j["drivers"], j["strongest"]) == (
-        2.0, "pass", "warning", ["bath"], None)
-    assert {w["component"]: (w["basis"], w["restores"], w["verdict"]) for w in j["without"]} == {
+    assert (j["scale"], j["verdict_at_1x"], j["verdict"], j["drivers"], j["strongest"], j["probe"]) == (
+        2.0, "pass", "warning", ["bath"], None, "removed")
+    assert {w["component"]: (w["basis"], w["restores"], w["verdict"]) for w in j["probes"]} == {
         "bath": ("choice", True, "pass"), "tg": ("measured", False, "warning")}
     assert out["robust"]["scatter"]["tg"]["basis"] == "measured"
 
@@ -162,9 +168,9 @@ class _Tested:
         return []
 
 
-def _removal(key, result, base, flipped, basis):
-    return Removal(component(key), 1.0, basis, "", result, undoes(base.decision.verdict, flipped.decision.verdict,
-                                                                    result.decision.verdict))
+def _probe(key, result, base, flipped, basis):
+    return Probe(component(key), 1.0, 0.0, basis, "", result, undoes(base.decision.verdict, flipped.decision.verdict,
+                                                                       result.decision.verdict))
 
 
 def test_when_no_component_undoes_the_flip_alone_the_strongest_is_named():
@@ -173,9 +179,9 @@ def test_when_no_component_undoes_the_flip_alone_the_strongest_is_named():
     strongest, with what it rests on, and said not to drive the flip alone."""
     base, flipped = _Tested(0, 400), _Tested(6, 400)
     assert (base.decision.verdict, flipped.decision.verdict) == (P, E)
-    rms = (_removal("bath", _Tested(6, 400), base, flipped, SpreadBasis.CHOICE),
-           _removal("h_local", _Tested(3, 400), base, flipped, SpreadBasis.CHOICE),  # a warning: 3 jams first
-           _removal("thickness", _Tested(4, 400), base, flipped, SpreadBasis.DATASHEET))
+    rms = (_probe("bath", _Tested(6, 400), base, flipped, SpreadBasis.CHOICE),
+           _probe("h_local", _Tested(3, 400), base, flipped, SpreadBasis.CHOICE),  # a warning: 3 jams first
+           _probe("thickness", _Tested(4, 400), base, flipped, SpreadBasis.DATASHEET))
     fd = FlipDrivers(2.0, base, flipped, rms)
     assert fd.drivers == () and fd.strongest is rms[1]
     assert fd.toward_base(rms[0]) == 0 and fd.toward_base(rms[1]) > fd.toward_base(rms[2]) > 0
@@ -184,23 +190,52 @@ def test_when_no_component_undoes_the_flip_alone_the_strongest_is_named():
                        robust=base, thresholds=Thresholds(), sweep=pts, flip_drivers=(fd,))
     (f,) = rule_jam_sensitivity(ctx)
     assert "at 2x no one component undoes the flip alone: it needs several together" in f.message
-    assert "moves the estimate most toward the verdict at 1x is the heat transfer: local (h_local, our choice, " \
-           "not measured; without it the test warns:" in f.message
+    assert "the one that moves the estimate most toward the verdict at 1x is the heat transfer: local (h_local, " \
+           "our choice, not measured; without it the test warns:" in f.message
     assert "h_local: our choice, not measured" in f.hint
     nowhere = FlipDrivers(2.0, base, flipped, rms[:1])  # the one removal moves nothing
     assert nowhere.strongest is None
     ctx = replace(ctx, flip_drivers=(nowhere,))
-    assert "no removal moves the estimate back toward the verdict at 1x" in rule_jam_sensitivity(ctx)[0].message
+    assert "none of them moves the estimate back toward the verdict at 1x" in rule_jam_sensitivity(ctx)[0].message
+
+
+def test_a_better_flip_is_driven_by_the_spread_whose_shrinking_passes_the_part():
+    """A run so short that the strip warns at 1x and passes at 0.5x (FP183 info): kept at
+    its 1x spread (Tg at 0.5x), the bath brings the warning back, sample by sample the
+    draws colder than b*; Tg kept at its 1x spread (the bath at 0.5x) leaves the pass."""
+    d, _, sc, b_star, ev = _case(1.3, (0.5, 1.0))
+    tests = ev.run_jam_tests()
+    assert (tests[1.0].decision.verdict, tests[0.5].decision.verdict) == (W, P)
+    (fd,) = ev.flip_drivers
+    assert fd.scale == 0.5 and not fd.worse
+    by = {pr.component.key: pr for pr in fd.probes}
+    assert [pr.component.key for pr in fd.drivers] == ["bath"]
+    assert (by["bath"].probe_spread, by["tg"].probe_spread) == (1.0, TG_SD_C)
+    assert by["bath"].result.scatter == replace(sc.scaled(0.5), bath_sd_c=1.0)
+    assert by["bath"].verdict == W and by["tg"].verdict == P
+    for key, bath_sd in (("bath", 1.0), ("tg", 0.5)):  # each probe's jams: its bath draws colder than b*
+        r = by[key].result
+        baths = np.array([s.bath_c for s in draw_samples(d, sc.only(["bath"]).scaled(bath_sd), r.samples,
+                                                          ev.options.seed)])
+        clear = np.abs(baths - b_star) > 0.02
+        got = np.array([o.jammed for o in r.outcomes])
+        assert clear.sum() >= r.samples - 2 and got[clear].tolist() == (baths < b_star)[clear].tolist()
+    (f,) = [f for f in ev.findings if f.code == "FP183"]
+    assert f.severity == "info"
+    assert ("at 0.5x the flip is driven by the bath temperature (bath, our choice, not measured; with it at its 1x "
+            "spread the test warns:") in f.message
+    assert "each scatter component in turn at its 1x spread, the others at 0.5x, the same draws" in f.message
+    assert ev.to_json()["flip_drivers"][0]["probe"] == "kept at its 1x spread"
 
 
 def test_a_better_flip_moves_toward_the_worse_1x_verdict():
     """An error at 1x, a pass at 0.5x: removing a component undoes it when the error comes
     back; the strongest removal is the one that raises the estimate most."""
     base, flipped = _Tested(6, 400), _Tested(0, 400)
-    rms = (_removal("tg", _Tested(3, 400), base, flipped, SpreadBasis.CHOICE),
-           _removal("bath", _Tested(6, 400), base, flipped, SpreadBasis.MEASURED))
+    rms = (_probe("tg", _Tested(3, 400), base, flipped, SpreadBasis.CHOICE),
+           _probe("bath", _Tested(6, 400), base, flipped, SpreadBasis.MEASURED))
     fd = FlipDrivers(0.5, base, flipped, rms)
-    assert not fd.worse and [rm.component.key for rm in fd.drivers] == ["bath"]
+    assert not fd.worse and [pr.component.key for pr in fd.drivers] == ["bath"]
     assert fd.toward_base(rms[0]) > 0
 
 

@@ -200,9 +200,11 @@ def check_relation_json(r, check_seed: int, decision=None) -> dict:
 
 def contributions_json(c) -> list[dict]:
     """Each scatter component's share (:class:`foldprint.simulation.sensitivity.Contributions`)."""
+    basis = c.full.scatter.basis
     return [{"component": it.component.key, "scope": it.component.scope.value, "label": it.component.label,
-             "spread": it.spread, "unit": it.component.unit, "alone": estimate_json(it.alone),
-             "all_but": estimate_json(it.without)} for it in c.items]
+             "spread": it.spread, "unit": it.component.unit,
+             "basis": None if basis(it.component.key) is None else basis(it.component.key).value,
+             "alone": estimate_json(it.alone), "all_but": estimate_json(it.without)} for it in c.items]
 
 
 def sweep_json(points) -> list[dict]:
@@ -213,20 +215,22 @@ def sweep_json(points) -> list[dict]:
 def flip_drivers_json(flips) -> list[dict]:
     """What drives each flip of the jam verdict
     (:class:`foldprint.simulation.flip_drivers.FlipDrivers`): per flip its scale, the
-    verdicts at 1x and there, the drivers (or the strongest removal) and each removal."""
+    verdicts at 1x and there, the drivers (or the strongest probe) and each probe (a
+    component removed, or kept at its 1x spread, at the flipping scale)."""
     out = []
     for fd in flips:
         strongest = fd.strongest
         out.append({
             "scale": fd.scale, "verdict_at_1x": str(fd.base.decision.verdict),
             "verdict": str(fd.flipped.decision.verdict), "worse": fd.worse,
-            "drivers": [rm.component.key for rm in fd.drivers],
+            "probe": "removed" if fd.worse else "kept at its 1x spread",
+            "drivers": [pr.component.key for pr in fd.drivers],
             "strongest": None if strongest is None else strongest.component.key,
-            "without": [{"component": rm.component.key, "label": rm.component.label,
-                         "scope": rm.component.scope.value, "spread": rm.spread, "unit": rm.component.unit,
-                         "basis": None if rm.basis is None else rm.basis.value, "source": rm.source,
-                         "restores": rm.restores, "toward_1x": _r(fd.toward_base(rm)), **estimate_json(rm.result)}
-                        for rm in fd.removals]})
+            "probes": [{"component": pr.component.key, "label": pr.component.label,
+                        "scope": pr.component.scope.value, "spread": pr.spread, "probe_spread": pr.probe_spread,
+                        "unit": pr.component.unit, "basis": None if pr.basis is None else pr.basis.value,
+                        "source": pr.source, "restores": pr.restores, "toward_1x": _r(fd.toward_base(pr)),
+                        **estimate_json(pr.result)} for pr in fd.probes]})
     return out
 
 

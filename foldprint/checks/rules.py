@@ -388,28 +388,30 @@ def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
 
 def _drivers_text(fd) -> str:
     """What drives one flip (:class:`~foldprint.simulation.flip_drivers.FlipDrivers`): each
-    named component, what its spread rests on, and the test's verdict without it."""
+    named component, what its spread rests on, and the test's verdict in its probe."""
     word = {"error": "fails", "warning": "warns", "info": "passes"}
+    change = "without it" if fd.worse else "with it at its 1x spread"
 
-    def without(rm) -> str:
-        return (f"{rm.component.label} ({rm.component.key}, {basis_text(rm.basis)}; without it the test "
-                f"{word[VERDICT_SEVERITY[rm.verdict]]}: {jam_estimate_text(rm.result)})")
+    def probe(pr) -> str:
+        return (f"{pr.component.label} ({pr.component.key}, {basis_text(pr.basis)}; {change} the test "
+                f"{word[VERDICT_SEVERITY[pr.verdict]]}: {jam_estimate_text(pr.result)})")
 
-    how = "each scatter component removed in turn, the same draws"
+    how = ("each scatter component removed in turn" if fd.worse else
+           f"each scatter component in turn at its 1x spread, the others at {fd.scale:g}x") + ", the same draws"
     if fd.drivers:
-        return f"at {fd.scale:g}x the flip is driven by the " + " and by the ".join(map(without, fd.drivers)) + \
+        return f"at {fd.scale:g}x the flip is driven by the " + " and by the ".join(map(probe, fd.drivers)) + \
             f" ({how})"
     what = f"at {fd.scale:g}x no one component undoes the flip alone: it needs several together ({how})"
     if fd.strongest is None:
-        return f"{what}, and no removal moves the estimate back toward the verdict at 1x"
-    return f"{what}; the removal that moves the estimate most toward the verdict at 1x is the {without(fd.strongest)}"
+        return f"{what}, and none of them moves the estimate back toward the verdict at 1x"
+    return f"{what}; the one that moves the estimate most toward the verdict at 1x is the {probe(fd.strongest)}"
 
 
 def _flip_hint(flip_drivers) -> str:
     """FP183's hint: measure the unmeasured spreads that drive the flip, else more margin."""
-    named = [rm for fd in flip_drivers for rm in (fd.drivers or ((fd.strongest,) if fd.strongest else ()))]
-    unmeasured = {rm.component.key: basis_text(rm.basis) for rm in named
-                  if rm.basis in (None, SpreadBasis.CHOICE)}
+    named = [pr for fd in flip_drivers for pr in (fd.drivers or ((fd.strongest,) if fd.strongest else ()))]
+    unmeasured = {pr.component.key: basis_text(pr.basis) for pr in named
+                  if pr.basis in (None, SpreadBasis.CHOICE)}
     if unmeasured:
         return (f"the flip rests on spreads nobody measured ({', '.join(f'{k}: {b}' for k, b in unmeasured.items())}): "
                 "measure them and give them with their basis (--scatter FILE, basis = \"measured\"; "
