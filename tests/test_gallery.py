@@ -749,8 +749,9 @@ def test_the_fp183_line_names_what_drives_the_flip(gallery):
             for fd in chk["flip_drivers"]:
                 flips += 1
                 named = fd["drivers"] or [fd["strongest"]]
-                for w in fd["without"]:
-                    said = f"({w['component']}, {basis_text(SpreadBasis(w['basis']))}; without it the test"
+                change = "without it" if fd["worse"] else "with it at its 1x spread"
+                for w in fd["probes"]:
+                    said = f"({w['component']}, {basis_text(SpreadBasis(w['basis']))}; {change} the test"
                     assert (said in f["message"]) == (w["component"] in named)
             section = " ".join(" ".join(page.text[f"d-{n}"]).split())
             assert " ".join(f["message"].split()) in section
