@@ -203,3 +203,21 @@ def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
             s.add(c, stream[4 * c:4 * c + 4])
         assert s.done and s.outcomes == stream[:want.samples], order
         assert decide([o.jammed for o in s.outcomes], test) == want
+
+
+def test_a_batch_run_inside_a_worker_keeps_the_workers_jobs():
+    """A gallery worker's follow-up (a design's build) may fold jam tests of its own in a
+    batch run there (FP183's probes, not in the shared pool's outcomes): afterwards the
+    worker still folds the shared pool's chunks, the same outcomes as before."""
+    from foldprint.model.materials import default_library
+    from foldprint.simulation import batch
+
+    d, lib = _designs()[1], default_library()
+    batch._init([MonteCarloJob(d, 4, SEED)], lib)  # what the pool's initializer gives a worker
+    try:
+        before, _ = batch._chunk_task(0, 1.0, 0)
+        run_batch([MonteCarloJob(d, 2, SEED + 1)], library=lib, workers=1)  # folded here, in the worker
+        after, _ = batch._chunk_task(0, 1.0, 0)
+    finally:
+        batch._STATE.clear()
+    assert len(after) == 4 and after == before

@@ -753,6 +753,34 @@ def test_a_design_that_jams_under_scatter_is_not_green(gallery):
     assert f"Printed parts jam under scatter: jam probability {100 * chk['robust']['jam_probability']:.1f} %" in section
 
 
+def test_the_fp183_line_names_what_drives_the_flip(gallery):
+    """The gallery's check takes each flip apart in the design's worker (its own jam tests
+    with a component removed, beside the shared pool's): a design whose verdict flips in the
+    sweep gets FP183 naming the driving components and what their spreads rest on, the same
+    line in check.json and on its page."""
+    from foldprint.checks.report import basis_text
+    from foldprint.core.modes import SpreadBasis
+
+    _, out, index, _ = gallery
+    page = _parse(index)
+    flips = 0
+    for n in DESIGNS:
+        chk = json.loads((out / n / "check.json").read_text())
+        fps = [f for f in chk["findings"] if f["code"] == "FP183"]
+        assert len(fps) == (1 if chk["flip_drivers"] else 0)
+        for f in fps:
+            for fd in chk["flip_drivers"]:
+                flips += 1
+                named = fd["drivers"] or [fd["strongest"]]
+                change = "without it" if fd["worse"] else "with it at its 1x spread"
+                for w in fd["probes"]:
+                    said = f"({w['component']}, {basis_text(SpreadBasis(w['basis']))}; {change} the test"
+                    assert (said in f["message"]) == (w["component"] in named)
+            section = " ".join(" ".join(page.text[f"d-{n}"]).split())
+            assert " ".join(f["message"].split()) in section
+    assert flips  # helix_graded's verdict flips at 2x at check's defaults (docs/robustness-model.md)
+
+
 def test_each_section_quotes_the_paper_beside_the_model(gallery):
     from foldprint.model.paper_statements import load_statements
 

@@ -115,6 +115,9 @@ def test_robust_cli_contributions_and_sensitivity(tmp_path, capsys):
     assert [p["scale"] for p in out["sensitivity"]] == [0.0, 1.0]
     assert out["sensitivity"][1]["jams"] == out["jams"]
     assert set(out["scatter"]) == set(KEYS) and all(out["scatter"][k]["source"] for k in KEYS)
+    shipped = {k: default_scatter().basis(k).value for k in KEYS}  # what each spread rests on, in the JSON
+    assert {k: out["scatter"][k]["basis"] for k in KEYS} == shipped
+    assert {c["component"]: c["basis"] for c in out["contributions"]} == shipped
 
 
 @pytest.mark.parametrize("args", [["check", "helix_graded", "--scales", "x"], ["robust", "helix_graded", "--scales", "-1"]])

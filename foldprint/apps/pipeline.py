@@ -21,7 +21,8 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from ..core import guards
-from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
+from ..checks.rules import (CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks,
+                            sweep_flips)
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
@@ -43,6 +44,7 @@ from ..model.materials import MaterialLibrary, default_library
 from ..model.printers import find_printer, tool_fit
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, DEFAULT_STATE,
                           VERDICT_METHOD, AfterContact, HingeModel, Mechanics, Method, SampleRule, State, parse)
+from ..simulation.flip_drivers import FlipDrivers, flip_drivers
 from ..simulation.margin import ScatterMargin, scatter_margin
 from ..simulation.paper_beside import PaperLine, paper_lines
 from ..simulation.robust import RobustResult, Scatter, default_scatter, jam_probability
@@ -340,6 +342,22 @@ class Evaluation:
         """The estimate with the spreads times each of ``options.scales`` (1 reuses :attr:`robust`)."""
         return self.run_sweep()
 
+    @property
+    def flip_drivers(self) -> tuple[FlipDrivers, ...]:
+        """What drives each flip of the jam verdict that FP183 reports: check's test at the
+        flipping scale with each scatter component removed, in this evaluation's pool or
+        mapper (:func:`~foldprint.simulation.flip_drivers.flip_drivers`); none without a
+        flip or a sequential test."""
+        def run():
+            r, o = self.robust, self.options
+            if r is None or r.decision is None or not self.sweep:
+                return ()
+            points = [p for p, _ in sweep_flips(r, self.sweep, o.thresholds)[0]]
+            return flip_drivers(self.design, r, points, library=self.library, dt=o.dt, workers=o.workers,
+                                mapper=self.mapper, progress=self.progress) if points else ()
+
+        return self._stage("flip_drivers", run)
+
     def run_contributions(self, progress: Callable[[int, int], None] | None = None) -> Contributions | None:
         """Each scatter component's share of :attr:`robust` (opt-in: about 11x its cost)."""
         r = self.robust
@@ -359,7 +377,7 @@ class Evaluation:
             gaps, clear = self.printed_gaps, self.clearance
             robust = self.robust
             ctx = CheckContext(self.design, self.library, self.printer, sim, asm, err, gaps, clear, robust,
-                               self.options.thresholds, self.sweep)
+                               self.options.thresholds, self.sweep, self.flip_drivers)
             return tuple(run_checks(ctx))
 
         return self._stage("findings", run)

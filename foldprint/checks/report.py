@@ -6,7 +6,7 @@ import math
 
 from ..core.constants import JSON_DECIMALS
 from ..core.display import percent, seconds  # noqa: F401  (the one formatter; callers import it from here too)
-from ..core.modes import JamReason, JamVerdict
+from ..core.modes import JamReason, JamVerdict, SpreadBasis
 
 
 def _r(x, nd=JSON_DECIMALS):
@@ -23,6 +23,20 @@ def threshold(p: float) -> str:
 
 #: The verdict of a jam test as a finding's severity (FP180 error, FP181 warning, FP182 info).
 VERDICT_SEVERITY = {JamVerdict.ERROR: "error", JamVerdict.WARNING: "warning", JamVerdict.PASS: "info"}
+
+
+#: What a scatter spread rests on, as messages say it.
+BASIS_TEXT = {SpreadBasis.MEASURED: "measured", SpreadBasis.DATASHEET: "from a datasheet",
+              SpreadBasis.LITERATURE: "from the literature", SpreadBasis.CHOICE: "our choice, not measured"}
+
+
+def basis_text(basis: SpreadBasis | None) -> str:
+    """What a spread rests on, in words ("our choice, not measured"; "basis not stated").
+
+    >>> basis_text(SpreadBasis.DATASHEET), basis_text(None)
+    ('from a datasheet', 'basis not stated')
+    """
+    return "basis not stated" if basis is None else BASIS_TEXT[basis]
 
 
 def jam_estimate_text(r) -> str:
@@ -200,14 +214,38 @@ def check_relation_json(r, check_seed: int, decision=None) -> dict:
 
 def contributions_json(c) -> list[dict]:
     """Each scatter component's share (:class:`foldprint.simulation.sensitivity.Contributions`)."""
+    basis = c.full.scatter.basis
     return [{"component": it.component.key, "scope": it.component.scope.value, "label": it.component.label,
-             "spread": it.spread, "unit": it.component.unit, "alone": estimate_json(it.alone),
-             "all_but": estimate_json(it.without)} for it in c.items]
+             "spread": it.spread, "unit": it.component.unit,
+             "basis": None if basis(it.component.key) is None else basis(it.component.key).value,
+             "alone": estimate_json(it.alone), "all_but": estimate_json(it.without)} for it in c.items]
 
 
 def sweep_json(points) -> list[dict]:
     """The sigma-scale sweep (:func:`foldprint.simulation.sensitivity.sweep`)."""
     return [{"scale": p.scale, **estimate_json(p.result)} for p in points]
+
+
+def flip_drivers_json(flips) -> list[dict]:
+    """What drives each flip of the jam verdict
+    (:class:`foldprint.simulation.flip_drivers.FlipDrivers`): per flip its scale, the
+    verdicts at 1x and there, the drivers (or the strongest probe) and each probe (a
+    component removed, or kept at its 1x spread, at the flipping scale)."""
+    out = []
+    for fd in flips:
+        strongest = fd.strongest
+        out.append({
+            "scale": fd.scale, "verdict_at_1x": str(fd.base.decision.verdict),
+            "verdict": str(fd.flipped.decision.verdict), "worse": fd.worse,
+            "probe": "removed" if fd.worse else "kept at its 1x spread",
+            "drivers": [pr.component.key for pr in fd.drivers],
+            "strongest": None if strongest is None else strongest.component.key,
+            "probes": [{"component": pr.component.key, "label": pr.component.label,
+                        "scope": pr.component.scope.value, "spread": pr.spread, "probe_spread": pr.probe_spread,
+                        "unit": pr.component.unit, "basis": None if pr.basis is None else pr.basis.value,
+                        "source": pr.source, "restores": pr.restores, "toward_1x": _r(fd.toward_base(pr)),
+                        **estimate_json(pr.result)} for pr in fd.probes]})
+    return out
 
 
 def loops_json(sol) -> dict | None:
@@ -231,6 +269,7 @@ def check_json(ev, printer_key: str) -> dict:
             "findings": [f.to_json() for f in findings],
             "robust": None if ev.robust is None else robust_json(ev.robust),
             "sensitivity": sweep_json(ev.sweep) if ev.sweep else None,
+            "flip_drivers": flip_drivers_json(ev.flip_drivers) if ev.sweep else None,
             "paper": [line.to_json() for line in ev.paper_lines()]}
 
 

@@ -18,8 +18,8 @@ from ..model.materials import MaterialLibrary
 # the printer profiles live in model.printers; importable from here as before
 from ..model.printers import (Printer, default_printer_key, default_voxel_printer_key,  # noqa: F401
                               load_printers, tool_fit)
-from ..core.modes import HingeModel
-from .report import VERDICT_SEVERITY, jam_estimate_text, jam_test_text, seconds, threshold
+from ..core.modes import HingeModel, SpreadBasis
+from .report import VERDICT_SEVERITY, basis_text, jam_estimate_text, jam_test_text, seconds, threshold
 
 SEVERITIES = ("error", "warning", "info")
 
@@ -64,7 +64,9 @@ class CheckContext:
     than the printer's minimum gap in the permanent state; ``clearance``: the smallest
     gap along the fold; ``robust``: the jam probability (or None when not run);
     ``sweep``: the same estimate with the scatter spreads scaled (points with ``.scale``
-    and ``.result``, :func:`foldprint.simulation.sensitivity.sweep`; empty when not run)."""
+    and ``.result``, :func:`foldprint.simulation.sensitivity.sweep`; empty when not run);
+    ``flip_drivers``: what drives each flip FP183 reports
+    (:func:`foldprint.simulation.flip_drivers.flip_drivers`; empty when not run)."""
 
     design: Design
     library: MaterialLibrary
@@ -77,6 +79,7 @@ class CheckContext:
     robust: object | None = None
     thresholds: Thresholds = Thresholds()
     sweep: tuple = ()
+    flip_drivers: tuple = ()
 
 
 def _f(code, sev, msg, hint="", point=None, **where):
@@ -347,31 +350,76 @@ def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
     return [_f("FP182", "info", text + f": below the {threshold(th.warning)} warning threshold{how}{tail}")]
 
 
+_RANK = {"error": 0, "warning": 1, "info": 2}
+
+
+def sweep_flips(r, sweep, th: Thresholds = Thresholds()) -> tuple[list, bool]:
+    """The sweep points FP183 reports, each with its verdict, and whether they are worse
+    than ``r``'s verdict (the points where it is worse; when none is, those where it is
+    better; none when no scale's verdict differs)."""
+    base = jam_verdict(r, th)
+    flips = [(p, jam_verdict(p.result, th)) for p in sweep if p.scale != 1.0]
+    worse = [(p, v) for p, v in flips if _RANK[v] < _RANK[base]]
+    return (worse, True) if worse else ([(p, v) for p, v in flips if _RANK[v] > _RANK[base]], False)
+
+
 def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
     """FP183: the jam verdict flips inside the swept range of scatter spreads: a warning
-    when it is worse at some scale than at the model's own spreads, info when only better."""
+    when it is worse at some scale than at the model's own spreads, info when only better.
+    With ``ctx.flip_drivers`` the message names the components that drive each flip and
+    what their spreads rest on (measured, datasheet, literature or our choice)."""
     r = ctx.robust
     if r is None or not ctx.sweep:
         return []
     th, d = _thresholds(ctx), getattr(r, "decision", None)
-    rank = {"error": 0, "warning": 1, "info": 2}
     word = {"error": "fails (FP180)", "warning": f"jams above {threshold(th.warning)} (FP181)", "info": "passes (FP182)"}
-    base = jam_verdict(r, th)
-    flips = [(p, jam_verdict(p.result, th)) for p in ctx.sweep if p.scale != 1.0]
-    worse = [(p, v) for p, v in flips if rank[v] < rank[base]]
-    better = [(p, v) for p, v in flips if rank[v] > rank[base]]
-    if not worse and not better:
+    shown, worse = sweep_flips(r, ctx.sweep, th)
+    if not shown:
         return []
-    shown = worse or better
     at = "; ".join(f"{word[v]} at {p.scale:g}x: {jam_estimate_text(p.result)}" for p, v in shown)
     same = "the same draws" if d is None else "the same draws, each scale its own sequential test"
-    text = (f"the jam verdict depends on the scatter model: it {word[base]} at the model's spreads "
+    text = (f"the jam verdict depends on the scatter model: it {word[jam_verdict(r, th)]} at the model's spreads "
             f"({jam_estimate_text(r)}) but {at} ({same})")
+    text += "".join(f"; {_drivers_text(fd)}" for fd in ctx.flip_drivers)
     if worse:
-        return [_f("FP183", "warning", text, "most spreads are our choices, not measurements "
-                   "(docs/robustness-model.md): measure your bath, hinges and heat transfer (--scatter FILE) or "
-                   "give the design more margin")]
+        return [_f("FP183", "warning", text, _flip_hint(ctx.flip_drivers))]
     return [_f("FP183", "info", text)]
+
+
+def _drivers_text(fd) -> str:
+    """What drives one flip (:class:`~foldprint.simulation.flip_drivers.FlipDrivers`): each
+    named component, what its spread rests on, and the test's verdict in its probe."""
+    word = {"error": "fails", "warning": "warns", "info": "passes"}
+    change = "without it" if fd.worse else "with it at its 1x spread"
+
+    def probe(pr) -> str:
+        return (f"{pr.component.label} ({pr.component.key}, {basis_text(pr.basis)}; {change} the test "
+                f"{word[VERDICT_SEVERITY[pr.verdict]]}: {jam_estimate_text(pr.result)})")
+
+    how = ("each scatter component removed in turn" if fd.worse else
+           f"each scatter component in turn at its 1x spread, the others at {fd.scale:g}x") + ", the same draws"
+    if fd.drivers:
+        return f"at {fd.scale:g}x the flip is driven by the " + " and by the ".join(map(probe, fd.drivers)) + \
+            f" ({how})"
+    what = f"at {fd.scale:g}x no one component undoes the flip alone: it needs several together ({how})"
+    if fd.strongest is None:
+        return f"{what}, and none of them moves the estimate back toward the verdict at 1x"
+    return f"{what}; the one that moves the estimate most toward the verdict at 1x is the {probe(fd.strongest)}"
+
+
+def _flip_hint(flip_drivers) -> str:
+    """FP183's hint: measure the unmeasured spreads that drive the flip, else more margin."""
+    named = [pr for fd in flip_drivers for pr in (fd.drivers or ((fd.strongest,) if fd.strongest else ()))]
+    unmeasured = {pr.component.key: basis_text(pr.basis) for pr in named
+                  if pr.basis in (None, SpreadBasis.CHOICE)}
+    if unmeasured:
+        return (f"the flip rests on spreads nobody measured ({', '.join(f'{k}: {b}' for k, b in unmeasured.items())}): "
+                "measure them and give them with their basis (--scatter FILE, basis = \"measured\"; "
+                "docs/robustness-model.md), or give the design more margin")
+    if named:
+        return "the spreads that drive the flip are not our choices: give the design more margin"
+    return ("most spreads are our choices, not measurements (docs/robustness-model.md): measure your bath, hinges "
+            "and heat transfer (--scatter FILE) or give the design more margin")
 
 
 def rule_hole_walls(ctx: CheckContext) -> list[Finding]:

@@ -252,10 +252,10 @@ def _print_robust(out: dict, r, seed: int, model: str) -> None:
 
     if out["contributions"] is not None:
         echo("  contribution of each scatter component (same draws; alone = the others at zero):")
-        echo(f"    {'component':<42} {'spread':>9}  {'alone':<31} all but it")
+        echo(f"    {'component [scope, basis]':<54} {'spread':>9}  {'alone':<31} all but it")
         for c in out["contributions"]:
-            name = f"{c['label']} [{c['scope']}]"
-            echo(f"    {name:<42} {c['spread']:>6g} {c['unit']:<2}  {est(c['alone']):<31} {est(c['all_but'])}")
+            name = f"{c['label']} [{c['scope']}, {c['basis'] or 'basis not stated'}]"
+            echo(f"    {name:<54} {c['spread']:>6g} {c['unit']:<2}  {est(c['alone']):<31} {est(c['all_but'])}")
     if out["sensitivity"] is not None:
         echo("  sensitivity: every spread scaled by k (same draws):")
         for p in out["sensitivity"]:

@@ -74,6 +74,18 @@ class ScatterScope(Mode):
     HINGE = "hinge"
 
 
+class SpreadBasis(Mode):
+    """What a scatter spread rests on (``basis`` of each table of ``data/scatter.toml``):
+    ``MEASURED`` on parts, hinges or baths like these; a vendor's ``DATASHEET``; published
+    data on comparable systems (``LITERATURE``); or our ``CHOICE``, no measurement behind
+    it (a value inside a plausible range is still a choice)."""
+
+    MEASURED = "measured"
+    DATASHEET = "datasheet"
+    LITERATURE = "literature"
+    CHOICE = "choice"
+
+
 class State(Mode):
     """Which shape the geometry is built in: ``PERMANENT`` (printed, folded) or
     ``PROGRAMMED`` (the flat sheet after programming)."""

@@ -262,6 +262,7 @@ class _Batch:
             self.ready.append(s.j)
 
     def run_here(self) -> None:
+        outer = dict(_STATE)  # a worker of an enclosing batch (the gallery's) keeps its jobs
         _init(self.jobs, self.lib)
         try:
             for j in range(len(self.jobs)):
@@ -274,6 +275,7 @@ class _Batch:
                     self.chunk_done(s, c, *_chunk_task(s.j, s.k, c))
         finally:
             _STATE.clear()
+            _STATE.update(outer)
         for j in sorted(self.ready):
             if self.after is not None:
                 fn, args = self.after(j, self.pre[j])

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..model.design import Design
 from ..core.errors import DesignError
-from ..core.modes import ScatterScope
+from ..core.modes import ScatterScope, SpreadBasis
 
 #: Normal draws are truncated to mean +/- this many standard deviations (a printed
 #: hinge is never 5 sd off: the printer's QA would reject it).
@@ -81,8 +81,9 @@ def component(key: str) -> Component:
 
 @dataclass(frozen=True)
 class Scatter:
-    """The spreads of the five components (units in :data:`COMPONENTS`) and their
-    sources (by component key; not compared). Values come from the data file: build one
+    """The spreads of the five components (units in :data:`COMPONENTS`), their sources and
+    their bases (what each spread rests on: measured, a datasheet, the literature or our
+    choice), by component key, not compared. Values come from the data file: build one
     with :func:`default_scatter`, :func:`load_scatter` or :meth:`zero`."""
 
     bath_sd_c: float
@@ -91,6 +92,7 @@ class Scatter:
     thickness_sd_mm: float
     h_local_sigma_ln: float
     sources: Mapping[str, str] = field(default_factory=dict, compare=False)
+    bases: Mapping[str, SpreadBasis] = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
         for c in COMPONENTS:
@@ -105,6 +107,10 @@ class Scatter:
 
     def spread(self, key: str) -> float:
         return float(getattr(self, component(key).attr))
+
+    def basis(self, key: str) -> SpreadBasis | None:
+        """What the spread of ``key`` rests on (None: not stated, a model built in code)."""
+        return self.bases.get(component(key).key)
 
     def scaled(self, k: float) -> "Scatter":
         """Every spread times ``k`` (the sigma-scale sweep)."""
@@ -123,7 +129,8 @@ class Scatter:
 
     def to_json(self) -> dict:
         return {c.key: {"scope": c.scope.value, "label": c.label, "spread": getattr(self, c.attr),
-                        "unit": c.unit, "source": self.sources.get(c.key, "")} for c in COMPONENTS}
+                        "unit": c.unit, "source": self.sources.get(c.key, ""),
+                        "basis": None if self.basis(c.key) is None else self.basis(c.key).value} for c in COMPONENTS}
 
 
 def _old_layout(src: str, key: str) -> DesignError:
@@ -134,11 +141,15 @@ def _old_layout(src: str, key: str) -> DesignError:
                        f"per-hinge quantities: write it as {where[key]} (see foldprint/data/scatter.toml)")
 
 
-def _scatter_from(data: Mapping, src: str, base: Scatter | None) -> Scatter:
+def scatter_from(data: Mapping, src: str, base: Scatter | None = None) -> Scatter:
+    """The model a TOML table ``data`` (read from ``src``, named in errors) describes: with
+    ``base`` (a user file), the fields it names replace base's; without (the shipped
+    file), every spread, basis and source must be there."""
     if not isinstance(data, Mapping):
         raise DesignError(f"{src}: expected a TOML table")
     values = {} if base is None else {c.attr: getattr(base, c.attr) for c in COMPONENTS}
     sources = dict(base.sources) if base is not None else {}
+    bases = dict(base.bases) if base is not None else {}
     groups = {s.value for s in ScatterScope}
     for key, group in data.items():
         if key == "schema":
@@ -160,25 +171,51 @@ def _scatter_from(data: Mapping, src: str, base: Scatter | None) -> Scatter:
                                   f"{', '.join(f'[{key}.{n}]' for n in names)}")
             if not isinstance(table, Mapping):
                 raise DesignError(f"{src}: {key}.{name}: expected a table like [{key}.{name}]")
-            for k, v in table.items():
-                if k == "source":
-                    sources[comp.key] = str(v)
-                    continue
-                if k != comp.field:
-                    raise DesignError(f"{src}: {key}.{name}.{k}: unknown key; expected {comp.field} or source")
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                    raise DesignError(f"{src}: {key}.{name}.{k}: must be a finite number >= 0, got {v!r}")
-                values[comp.attr] = float(v)
-    missing = [f"{c.scope.value}.{c.table}.{c.field}" for c in COMPONENTS if c.attr not in values]
+            _read_table(comp, table, src, f"{key}.{name}", values, sources, bases, user=base is not None)
+    where = [f"{c.scope.value}.{c.table}" for c in COMPONENTS]
+    missing = [f"{w}.{c.field}" for w, c in zip(where, COMPONENTS) if c.attr not in values]
+    if base is None:  # the shipped model states what every spread rests on
+        missing += [f"{w}.{k}" for w, c in zip(where, COMPONENTS) for k, got in (("basis", bases), ("source", sources))
+                    if c.key not in got]
     if missing:
         raise DesignError(f"{src}: missing {', '.join(missing)}")
-    return Scatter(**values, sources=sources)
+    return Scatter(**values, sources=sources, bases=bases)
+
+
+def _read_table(comp: Component, table: Mapping, src: str, name: str, values: dict, sources: dict,
+                bases: dict, user: bool) -> None:
+    """One component's table into ``values``, ``sources`` and ``bases``. In a ``user``
+    file a spread set without a basis counts as our choice (nothing says it was
+    measured), and without a source gets one saying where it was set."""
+    basis, where = None, f"{src}: {name}"
+    for k, v in table.items():
+        if k == "source":
+            sources[comp.key] = str(v)
+        elif k == "basis":
+            try:
+                basis = SpreadBasis(v) if isinstance(v, str) else None
+            except ValueError:
+                basis = None
+            if basis is None:
+                raise DesignError(f"{where}.basis: expected one of {', '.join(repr(b.value) for b in SpreadBasis)} "
+                                  f"(what the spread rests on), got {v!r}")
+            bases[comp.key] = basis
+        elif k != comp.field:
+            raise DesignError(f"{where}.{k}: unknown key; expected {comp.field}, basis or source")
+        elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+            raise DesignError(f"{where}.{k}: must be a finite number >= 0, got {v!r}")
+        else:
+            values[comp.attr] = float(v)
+    if user and comp.field in table and basis is None:
+        bases[comp.key] = SpreadBasis.CHOICE
+        if "source" not in table:
+            sources[comp.key] = f"set in {src} without a basis or source"
 
 
 def default_scatter() -> Scatter:
     """The shipped scatter model (``foldprint/data/scatter.toml``)."""
     text = (resources.files("foldprint") / "data" / "scatter.toml").read_text(encoding="utf-8")
-    return _scatter_from(tomllib.loads(text), "foldprint/data/scatter.toml", None)
+    return scatter_from(tomllib.loads(text), "foldprint/data/scatter.toml", None)
 
 
 def load_scatter(path: str | Path | None = None) -> Scatter:
@@ -197,7 +234,7 @@ def load_scatter(path: str | Path | None = None) -> Scatter:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise DesignError(f"{p}: not valid TOML: {exc}") from None
-    return _scatter_from(data, str(p), base)
+    return scatter_from(data, str(p), base)
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,9 @@ jams, the verdict and the interval are the same on any number of workers.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from itertools import islice
-from typing import Callable, Sequence
+from typing import Callable, Mapping, Sequence
 
 from ..core import guards
 from ..core.constants import CHECK_DT_S, CHECK_SEED
@@ -35,11 +36,12 @@ StageProgress = Callable[[str, int, int], None]
 far of the maximum, then ``(n, n)`` once its test decided at n (the evaluation's progress)."""
 
 
-def _stage(progress: StageProgress | None):
-    """A :class:`~foldprint.simulation.batch.StreamStatus` callback reporting to ``progress``."""
+def _stage(progress: StageProgress | None, labels: Sequence[str]):
+    """A :class:`~foldprint.simulation.batch.StreamStatus` callback reporting to ``progress``
+    (a stream's job indexes ``labels``)."""
     if progress is None:
         return None
-    return lambda st: progress(f"jam test at {st.scale:g}x", st.samples, st.samples if st.done else st.max_samples)
+    return lambda st: progress(labels[st.job], st.samples, st.samples if st.done else st.max_samples)
 
 
 def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), seed: int = CHECK_SEED, *,
@@ -59,49 +61,67 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     mapper ``(fn, items, progress)`` folds rounds of ``workers`` chunks. ``progress``: see
     :data:`StageProgress`. ``mechanics``: the samples' (and the nominal fold's); a
     ``Precomputed`` mapper holds rigid folds only."""
+    scatter = scatter or default_scatter()
+    ks = tuple(dict.fromkeys(float(k) for k in scales))
+    models = {f"jam test at {k:g}x": scatter if k == 1.0 else scatter.scaled(k) for k in ks}
+    got = jam_tests_of(design, test, models, seed, library=library, hinge_model=hinge_model, dt=dt, method=method,
+                       nominal=nominal, workers=workers, mapper=mapper, progress=progress, mechanics=mechanics)
+    return dict(zip(ks, got.values()))
+
+
+def jam_tests_of(design: Design, test: JamTest, models: Mapping[str, Scatter], seed: int = CHECK_SEED, *,
+                 library: MaterialLibrary | None = None, hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
+                 dt: float = CHECK_DT_S, method: Method | str = VERDICT_METHOD,
+                 nominal: SimulationResult | None = None, workers: int | None = None, mapper=None,
+                 progress: StageProgress | None = None,
+                 mechanics: Mechanics | str = DEFAULT_MECHANICS) -> dict[str, RobustResult]:
+    """The jam test of ``design`` under each scatter model of ``models`` (by the name its
+    progress reports, e.g. ``"jam test at 2x"``), all on the draws of ``seed`` (common
+    random numbers) and, folded here, in one pool: :func:`jam_tests` with the models
+    given (the sweep's scales, or a flip's components removed, :mod:`.flip_drivers`)."""
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise DesignError(f"seed must be a whole number >= 0, got {seed!r}")
     from ..core.parallel import default_workers
 
-    lib, report = library or default_library(), _stage(progress)
-    scatter = scatter or default_scatter()
+    labels = tuple(models)
+    lib, report = library or default_library(), _stage(progress, labels)
     model, method = parse(HingeModel, hinge_model, "hinge_model"), parse(Method, method, "method")
     mech = parse(Mechanics, mechanics, "mechanics")
     n_workers = default_workers() if workers is None else max(1, int(workers))
     guards.check_sample_memory(design, test.max_samples)  # refuse before any fold
     if nominal is None:
         nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib, mechanics=mech)
-    ks = tuple(dict.fromkeys(float(k) for k in scales))
-    at = {k: scatter if k == 1.0 else scatter.scaled(k) for k in ks}
-    found: dict[float, tuple[Outcome, ...]] = {}
-    lookup = getattr(mapper, "lookup", None)  # simulation.batch.Precomputed: folded in a shared pool
-    if mech != Mechanics.RIGID:
-        lookup = None
-    for k in ks:
-        if all(at[k].spread(c.key) == 0 for c in COMPONENTS):  # no scatter: every sample is the nominal part
-            found[k] = (outcome_of(nominal),) * test.max_samples
+    found: dict[str, tuple[Outcome, ...]] = {}
+    # simulation.batch.Precomputed (folded in a shared pool) holds rigid folds only
+    lookup = getattr(mapper, "lookup", None) if mech == Mechanics.RIGID else None
+    for name, sc in models.items():
+        if all(sc.spread(c.key) == 0 for c in COMPONENTS):  # no scatter: every sample is the nominal part
+            found[name] = (outcome_of(nominal),) * test.max_samples
         elif lookup is not None:
-            got = lookup(design, at[k], test.max_samples, seed, model, dt, method, test)
+            got = lookup(design, sc, test.max_samples, seed, model, dt, method, test)
             if got is not None:
-                found[k] = tuple(got)
-    missing = [k for k in ks if k not in found]
+                found[name] = tuple(got)
+    missing = [name for name in labels if name not in found]
     if missing and (mapper is None or lookup is not None):
-        job = MonteCarloJob(design, test.max_samples, seed, tuple(missing), scatter, model, dt, method, test, mech)
-        (pre,), _, _ = run_batch([job], library=lib, workers=n_workers,
-                                 progress=(lambda kind, st, *_: report(st)) if report else None)
-        found.update(zip(missing, (o for _, o in pre.outcomes)))
-    for k in missing if mapper is not None and lookup is None else ():
-        found[k] = _rounds(design, lib, at[k], seed, test, (model, dt, method, mech), mapper, n_workers,
-                           (lambda st, k=k: report(StreamStatus(0, k, *st))) if report else None)
+        jobs = [MonteCarloJob(design, test.max_samples, seed, (1.0,), models[name], model, dt, method, test, mech)
+                for name in missing]
+        order = [labels.index(name) for name in missing]
+        pre, _, _ = run_batch(jobs, library=lib, workers=n_workers,
+                              progress=(lambda kind, st, _out: report(replace(st, job=order[st.job]))) if report else None)
+        found.update((name, p.outcomes[0][1]) for name, p in zip(missing, pre))
+    for name in missing if mapper is not None and lookup is None else ():
+        j = labels.index(name)
+        found[name] = _rounds(design, lib, models[name], seed, test, (model, dt, method, mech), mapper, n_workers,
+                              (lambda st, j=j: report(StreamStatus(j, 1.0, *st))) if report else None)
     out = {}
-    for k in ks:
-        d = decide([o.jammed for o in found[k]], test)
+    for j, name in enumerate(labels):
+        d = decide([o.jammed for o in found[name]], test)
         if not d.decided:
-            raise RuntimeError(f"{design.name}: the jam test at {k:g}x did not decide on its {len(found[k])} samples")
-        outs = found[k][:d.samples]
-        if report is not None and k not in missing:
-            report(StreamStatus(0, k, d.samples, test.max_samples, True))
-        out[k] = RobustResult(design.name, d.samples, seed, model, at[k], outs, nominal, method, d, mech)
+            raise RuntimeError(f"{design.name}: the {name} did not decide on its {len(found[name])} samples")
+        outs = found[name][:d.samples]
+        if report is not None and name not in missing:
+            report(StreamStatus(j, 1.0, d.samples, test.max_samples, True))
+        out[name] = RobustResult(design.name, d.samples, seed, model, models[name], outs, nominal, method, d, mech)
     return out
 
 

@@ -1,0 +1,156 @@
+"""What drives a flip of ``check``'s jam verdict inside the sigma-scale sweep (FP183).
+
+When the verdict at a scale k of the sweep differs from the one at the model's own
+spreads (1x), the flip is taken apart at k, one component of non-zero spread at a time,
+with check's sequential jam test on the same draws (the same seed:
+:mod:`foldprint.simulation.scatter` scales the same standard normals, common random
+numbers):
+
+* a flip to a **worse** verdict (e.g. a pass at 1x, a failure at 2x): the test at k with
+  the component **removed** (all but it). The component drives the flip when its removal
+  brings the verdict back to the one at 1x, or past it: without it the flip does not
+  happen.
+* a flip to a **better** verdict (a failure at 1x, a warning at 0.5x): removing a spread
+  can only make it better still, so the counterpart is asked: the test at k with the
+  component **kept at its 1x spread** (the others at k). The component drives the flip
+  when that brings the 1x verdict back: its smaller spread is what makes the part pass.
+
+When no component does that alone, the flip needs several together; the probe that moves
+the estimate furthest toward the 1x verdict is reported as the **strongest**, and said to
+be so. Each component carries its basis (:class:`~foldprint.core.modes.SpreadBasis`:
+measured, a datasheet, the literature, or our choice), so the report says whether a flip
+rests on a measured spread or on a chosen one (``docs/robustness-model.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Sequence
+
+from ..core.constants import CHECK_DT_S
+from ..core.modes import JamVerdict, SpreadBasis
+from ..model.design import Design
+from ..model.materials import MaterialLibrary
+from .robust import RobustResult
+from .scatter import COMPONENTS, Component
+from .sequential import StageProgress, jam_tests_of
+
+#: The verdicts from best to worst.
+_ORDER = (JamVerdict.PASS, JamVerdict.WARNING, JamVerdict.ERROR)
+
+
+def worse(a: JamVerdict, b: JamVerdict) -> bool:
+    """Whether verdict ``a`` is worse than ``b`` (pass < warning < error).
+
+    >>> worse(JamVerdict.ERROR, JamVerdict.PASS), worse(JamVerdict.PASS, JamVerdict.PASS)
+    (True, False)
+    """
+    return _ORDER.index(a) > _ORDER.index(b)
+
+
+def undoes(base: JamVerdict, flipped: JamVerdict, probed: JamVerdict) -> bool:
+    """Whether a probe undoes a flip from ``base`` (1x) to ``flipped``: its verdict
+    ``probed`` is back at ``base`` or past it, away from ``flipped``.
+
+    >>> P, W, E = JamVerdict.PASS, JamVerdict.WARNING, JamVerdict.ERROR
+    >>> undoes(P, E, W), undoes(W, E, P), undoes(E, P, W), undoes(W, P, E)
+    (False, True, False, True)
+    """
+    if base == flipped:
+        raise ValueError(f"not a flip: {base} at 1x and at the scale")
+    return not worse(probed, base) if worse(flipped, base) else not worse(base, probed)
+
+
+@dataclass(frozen=True)
+class Probe:
+    """The jam test at the flipping scale with one component changed: the component, its
+    spread at that scale and in the probe (0: removed, for a worse flip; its 1x spread,
+    for a better one), what that spread rests on, the test's result, and whether the
+    probe undoes the flip (:func:`undoes`)."""
+
+    component: Component
+    spread: float
+    probe_spread: float
+    basis: SpreadBasis | None
+    source: str
+    result: RobustResult
+    restores: bool
+
+    @property
+    def verdict(self) -> JamVerdict:
+        return self.result.decision.verdict
+
+
+@dataclass(frozen=True)
+class FlipDrivers:
+    """One flip taken apart: the sweep's ``scale``, the test at 1x (``base``) and at the
+    scale (``flipped``), and one :class:`Probe` per component with a non-zero spread."""
+
+    scale: float
+    base: RobustResult
+    flipped: RobustResult
+    probes: tuple[Probe, ...]
+
+    @property
+    def worse(self) -> bool:
+        """The verdict at the scale is worse than at 1x (FP183's warning), else better:
+        the probes remove a component (worse) or keep it at its 1x spread (better)."""
+        return worse(self.flipped.decision.verdict, self.base.decision.verdict)
+
+    def toward_base(self, probe: Probe) -> float:
+        """How far ``probe`` moves the jam estimate toward the 1x verdict (down from the
+        estimate at the scale for a worse flip, up for a better one; negative: away)."""
+        moved = self.flipped.jam_probability - probe.result.jam_probability
+        return moved if self.worse else -moved
+
+    @property
+    def drivers(self) -> tuple[Probe, ...]:
+        """The probes whose component alone undoes the flip."""
+        return tuple(p for p in self.probes if p.restores)
+
+    @property
+    def strongest(self) -> Probe | None:
+        """When no component drives the flip alone: the probe that moves the estimate
+        furthest toward the 1x verdict (None when there are drivers, or when no probe
+        moves it toward the 1x verdict)."""
+        if self.drivers or not self.probes:
+            return None
+        best = max(self.probes, key=self.toward_base)
+        return best if self.toward_base(best) > 0 else None
+
+
+def flip_drivers(design: Design, base: RobustResult, flips: Sequence, *, library: MaterialLibrary | None = None,
+                 dt: float = CHECK_DT_S, workers: int | None = None, mapper=None,
+                 progress: StageProgress | None = None) -> tuple[FlipDrivers, ...]:
+    """Take apart each flip of ``flips`` (sweep points: ``.scale`` and ``.result``, check's
+    jam test at that scale, whose verdict differs from ``base``'s, the test at 1x): the
+    same test (``base``'s seed, hinge model, collision method, mechanics and test; time step ``dt``)
+    with each component of non-zero spread removed (a worse flip) or kept at its 1x spread
+    (a better one), every run in one pool (``workers``, ``mapper`` and ``progress`` as
+    :func:`~foldprint.simulation.sequential.jam_tests`)."""
+    if base.decision is None or any(p.result.decision is None for p in flips):
+        raise ValueError("flip drivers take check's sequential jam tests (results with a decision)")
+    if any(p.result.decision.verdict == base.decision.verdict for p in flips):
+        raise ValueError("a flip's verdict must differ from the verdict at 1x")
+    runs = {}
+    for p in flips:
+        sc, up = p.result.scatter, worse(p.result.decision.verdict, base.decision.verdict)
+        for c in COMPONENTS:
+            if sc.spread(c.key) > 0:
+                to = 0.0 if up else base.scatter.spread(c.key)
+                what = f"without {c.key}" if up else f"{c.key} at 1x"
+                runs[f"flip at {p.scale:g}x, {what}"] = (p, c, to, replace(sc, **{c.attr: to}))
+    if not runs:
+        return ()
+    got = jam_tests_of(design, base.decision.test, {name: run[3] for name, run in runs.items()}, base.seed,
+                       library=library, hinge_model=base.hinge_model, dt=dt, method=base.method,
+                       nominal=base.nominal, workers=workers, mapper=mapper, progress=progress,
+                       mechanics=base.mechanics)
+    out = []
+    for p in flips:
+        was, flipped, sc = base.decision.verdict, p.result.decision.verdict, p.result.scatter
+        probes = tuple(Probe(c, sc.spread(c.key), to, sc.basis(c.key), sc.sources.get(c.key, ""), got[name],
+                             undoes(was, flipped, got[name].decision.verdict))
+                       for name, (q, c, to, _) in runs.items() if q is p)
+        out.append(FlipDrivers(float(p.scale), base, p.result, probes))
+    return tuple(out)
