@@ -461,7 +461,7 @@ def test_viewer_data_is_the_printed_part_in_the_simulated_poses():
     import numpy as np
 
     from foldprint.geometry.hinges import hinge_segments
-    from foldprint.physics.kinematics import forward, hinge_frames, target_angles
+    from foldprint.physics.kinematics import HingeDrive, forward, hinge_frames, target_angles
     from foldprint.model.materials import default_library
     from foldprint.render.scene import motion_end
     from foldprint.simulation.simulate import simulate
@@ -474,7 +474,12 @@ def test_viewer_data_is_the_printed_part_in_the_simulated_poses():
     n_f, n_p = data["frames"], len(d.panels)
     poses = dec(data["poses"], "<f4").reshape(n_f + 2, n_p, 4, 4).swapaxes(-1, -2)
     assert data["times"][0] == 0.0 and data["times"][-1] == pytest.approx(motion_end(res))
-    np.testing.assert_allclose(poses[0], np.broadcast_to(np.eye(4), (n_p, 4, 4)), atol=1e-6)
+    # t = 0: the programmed sheet (flat but for the share of each printed angle its fixity keeps)
+    programmed = HingeDrive(d).angles([0.0])
+    np.testing.assert_allclose(poses[0], forward(d, programmed, "arc")[0], atol=1e-4)
+    # near flat: no panel turned by more than the programmed angles along the chain add up to
+    assert 0 < np.abs(programmed).sum() < 0.1
+    assert np.abs(poses[0][:, :3, :3] - np.eye(3)).max() <= np.abs(programmed).sum() + 1e-4
     np.testing.assert_allclose(poses[-1], forward(d, target_angles(d)[None], "arc")[0], atol=1e-4)
     k = n_f // 2
     traj = res.trajectory
@@ -702,7 +707,7 @@ def test_viewer_replays_the_worst_sample(gallery):
         n_f, n_p = data["frames"], len(data["panels"])
         poses = np.frombuffer(base64.b64decode(w["poses"]), "<f4").reshape(n_f + 2, n_p, 4, 4)
         nominal = np.frombuffer(base64.b64decode(data["poses"]), "<f4").reshape(n_f + 2, n_p, 4, 4)
-        np.testing.assert_allclose(poses[0], np.broadcast_to(np.eye(4), (n_p, 4, 4)), atol=1e-6)  # flat
+        np.testing.assert_allclose(poses[0], nominal[0], atol=1e-6)  # the same programmed sheet at t = 0
         np.testing.assert_allclose(poses[-2:], nominal[-2:], atol=1e-6)  # same programmed/permanent states
         assert np.abs(poses[n_f // 2] - nominal[n_f // 2]).max() > 1e-3  # a different fold
         q = np.frombuffer(base64.b64decode(w["q"]), "<u2")

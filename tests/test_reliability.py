@@ -40,7 +40,7 @@ def _random_path(n: int, seed: int = 1) -> str:
 
 BAD = {  # name: (file name, text, words the message must hold)
     "toml_5000_digits": ("big.toml", TOML.replace("[process]", "[process]\nx = " + "9" * 5000, 1),
-                         ["big.toml", "line 18", "5000+ digits"]),
+                         ["big.toml", f"line {TOML[:TOML.index('[process]')].count(chr(10)) + 2}", "5000+ digits"]),
     "fold_angle_5000_digits": ("big.fold", json.dumps(FOLD).replace('"edges_foldAngle": [90]',
                                                                    '"edges_foldAngle": [' + "9" * 5000 + "]"),
                                ["big.fold", "digits"]),
