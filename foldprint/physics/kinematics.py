@@ -31,6 +31,8 @@ from .recovery import recovery_curve
 
 #: time step of the loop solver's continuation grid (s)
 LOOP_DT = 0.01
+#: grid times closer than this to a simulation time are that time (arange against linspace), s
+GRID_TOL_S = 1e-9
 
 HINGE_MODELS = tuple(m.value for m in HingeModel)
 
@@ -371,7 +373,12 @@ class HingeDrive:
         grid = np.arange(0.0, end + dt, dt)
         if sol is not None and self._solved_for == key:
             grid = np.union1d(grid, sol.times)
-        return np.union1d(grid[grid <= end + 1e-12], times[times >= 0]), key
+        grid, times = grid[grid <= end + 1e-12], np.unique(times[times >= 0])
+        if len(times):  # a grid time this close to a requested one is that time in another rounding
+            j = np.searchsorted(times, grid)
+            gap = np.minimum(np.abs(grid - times[np.maximum(j - 1, 0)]), np.abs(grid - times[np.minimum(j, len(times) - 1)]))
+            grid = grid[gap >= GRID_TOL_S]
+        return np.union1d(grid, times), key
 
 
 def run_times(design: Design, dt: float = DEFAULT_DT_S, duration: float | None = None) -> np.ndarray:

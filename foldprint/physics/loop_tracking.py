@@ -1,0 +1,478 @@
+"""Closure tracking of many drives at once: the predictor-corrector on the constraint
+manifold as array code (``docs/loops.md``).
+
+Every drive (n_t, n) rad is followed from the flat sheet on the closure manifold
+``C(x) = 0``: at each grid time the closed configuration nearest the drive, continued from
+the previous answer, found by Gauss-Newton steps ``dx = J^+ (-C) + (I - J^+ J)(rho - x)``.
+This module holds the numbers only; the closure equations come in as a function
+``evaluate(xs (P, n)) -> C (P, k), J (P, k, n)`` (:class:`foldprint.physics.loops.LoopSolver`),
+so it imports nothing of the pipeline.
+
+All drives advance together through a pool of *points*, one per solve in progress: a
+drive's next grid step (sub-step), near the flat sheet also its restart from the drive
+itself, and, away from it, the next grid steps solved ahead of time (a *window*). One
+*round* evaluates C and J at every point of the pool and takes one eigen-decomposition of
+the stacked normal matrices ``J^T J``; a point that converged (or ran out of steps) leaves
+the pool, and a drive whose points have all left ends its step and puts its next ones in,
+while the other drives go on iterating.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: closure residual accepted as closed (rad for rotation, mm for translation)
+CLOSURE_TOL = 1e-9
+#: a hinge whose closed angle stays this far from its driven angle "cannot follow" (rad)
+FOLLOW_TOL = np.radians(2.0)
+#: tracking stops when a Gauss-Newton step moves no angle more than this (rad)
+OPT_TOL = 1e-5
+#: how much farther than the continued answer a restart from the drive may land (rad)
+JUMP = 0.05
+#: below this largest angle (rad) the tracker also restarts from the drive
+NEAR_FLAT = 0.2
+#: a drive that moved less than this since the last solve (rad) is not re-solved
+SKIP_TOL = 1e-8
+#: largest change of any driven angle per continuation sub-step (rad)
+MAX_STEP = 0.1
+#: Gauss-Newton steps of one solve; after them it only restores closure, in at most NEWTON_STEPS
+GN_STEPS = 8
+NEWTON_STEPS = 20
+#: a solve that ends with a residual above this lost the manifold (the configuration is held)
+LOST_TOL = 1e-7
+#: singular values of J below RANK_TOL times the largest (at least 1) count as zero (round-off)
+RANK_TOL = 1e-7
+#: away from the flat sheet, singular values below RANK_RES times the residual count as
+#: zero too: a direction only the distance from the manifold makes stiff (our choice:
+#: Newton then converges quadratically where the constraints are dependent on the manifold,
+#: as Miura-ori's 12 vertex equations in 12 angles; no decision at a closed point changes,
+#: |C| < 1e-9). Not near the flat sheet, where genuine singular values are as small as the
+#: angles, hence as the residual, and the restart's path decides the branch.
+RANK_RES = 1.0
+BATCH_ENDS = 16
+#: most grid steps of one drive solved ahead in one window (our choice)
+WINDOW = 32
+#: a window's answer is kept when the step-by-step predictor lands within this of it (rad,
+#: our choice: 30 times the predictor's largest error on the templates' fastest steps)
+ACCEPT = 0.01
+
+
+@dataclass(frozen=True)
+class Solves:
+    """The answers of a batch of solves, one row per point: ``x`` (P, n), ``res`` |C|
+    (P,), ``null`` the null-space dimension of J, ``done`` the solve converged (a step
+    below OPT_TOL at a closed point), ``basis`` (P, n, n) eigenvectors of J^T J and
+    ``free`` (P, n) which of them span J's null space (the tangent space at ``x``)."""
+
+    x: np.ndarray
+    res: np.ndarray
+    null: np.ndarray
+    done: np.ndarray
+    basis: np.ndarray
+    free: np.ndarray
+
+
+def _mv(a, v):
+    """Stacked matrix-vector products a (P, i, j) @ v (P, j)."""
+    return (a @ v[..., None])[..., 0]
+
+
+def predict(x, target, basis, free):
+    """The predictor: from closed configurations x (P, n) along their tangent spaces toward
+    ``target``, ``N N^T (target - x)``, no angle moved more than MAX_STEP."""
+    step = _mv(basis, free * _mv(basis.transpose(0, 2, 1), target - x))
+    big = np.abs(step).max(axis=1, initial=0.0)
+    return x + step * np.minimum(1.0, MAX_STEP / np.maximum(big, 1e-300))[:, None]
+
+
+class _Pool:
+    """Solves in progress and their answers, one row per point; rows are reused."""
+
+    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "owner")
+
+    def __init__(self, n: int, size: int = 64):
+        self.n, self.size = n, 0
+        self.unused = np.zeros(0, int)
+        self._grow(size)
+
+    def _grow(self, size):
+        n, old = self.n, self.size
+        shapes = {"x": (n,), "target": (n,), "basis": (n, n), "free": (n,)}
+        kinds = {"it": int, "null": int, "owner": int, "spec": bool, "done": bool, "alive": bool, "free": bool}
+        for f in self._fields:
+            a = np.zeros((size,) + shapes.get(f, ()), kinds.get(f, float))
+            if old:
+                a[:old] = getattr(self, f)
+            setattr(self, f, a)
+        self.unused = np.concatenate([self.unused, np.arange(old, size)])
+        self.size = size
+
+    def add(self, x, target, owner, speculative=False, far=False):
+        """New points from ``x`` (m, n) toward ``target``; returns their rows.
+        ``speculative``: dropped (not done) when not converged within GN_STEPS steps;
+        ``far``: away from the flat sheet (the RANK_RES rule applies)."""
+        m = len(x)
+        if m > len(self.unused):
+            self._grow(max(2 * self.size, self.size + m))
+        ids, self.unused = self.unused[:m], self.unused[m:]
+        self.x[ids], self.target[ids], self.owner[ids] = x, target, owner
+        self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = 0, speculative, far, True
+        self.res[ids], self.done[ids], self.null[ids] = np.inf, False, 0
+        return ids
+
+    def release(self, ids):
+        self.unused = np.concatenate([self.unused, ids])
+
+    def view(self, ids) -> Solves:
+        return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids])
+
+    def round(self, evaluate):
+        """One Gauss-Newton step of every live point: the step toward the nearest closed
+        configuration for GN_STEPS steps, then only the closure correction; a point stops
+        when closed and its step is below OPT_TOL (converged) or past GN_STEPS, and after
+        GN_STEPS + NEWTON_STEPS steps with the residual as it is and no tangent space."""
+        act = np.nonzero(self.alive)[0]
+        xa, it = self.x[act], self.it[act]
+        c, jac = evaluate(xa)
+        r = np.abs(c).max(axis=1, initial=0.0)
+        jt = jac.transpose(0, 2, 1)
+        lam, vec = np.linalg.eigh(jt @ jac)
+        stiff = RANK_RES * r * self.far[act]
+        keep = lam > np.maximum(RANK_TOL ** 2 * np.maximum(1.0, lam[:, -1]), stiff ** 2)[:, None]
+        vt = vec.transpose(0, 2, 1)
+        g = _mv(vt, _mv(jt, c))
+        gn = it < GN_STEPS
+        coef = np.where(keep, -g / np.where(keep, lam, 1.0), _mv(vt, self.target[act] - xa) * gn[:, None])
+        step = _mv(vec, coef)
+        big = np.abs(step).max(axis=1, initial=0.0)
+        final = it >= GN_STEPS + NEWTON_STEPS
+        stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | ~gn)) | final
+        drop = ~stop & self.spec[act] & (it + 1 >= GN_STEPS)
+        s = act[stop]
+        self.res[s], self.done[s] = r[stop], (big[stop] < OPT_TOL) & ~final[stop]
+        self.basis[s], self.free[s] = vec[stop], ~keep[stop] & ~final[stop, None]
+        self.null[act[~final]] = self.n - keep[~final].sum(axis=1)
+        go = ~stop & ~drop
+        self.x[act[go]] = xa[go] + step[go] * np.minimum(1.0, MAX_STEP / big[go])[:, None]
+        self.it[act[go]] += 1
+        self.alive[act[stop | drop]] = False
+
+
+def solve(evaluate, x, target) -> Solves:
+    """Gauss-Newton from ``x`` (P, n) toward ``target`` (P, n), all points at once
+    (:meth:`_Pool.round` until every point stopped)."""
+    x = np.atleast_2d(np.asarray(x, float))
+    pool = _Pool(x.shape[1], len(x))
+    ids = pool.add(x, np.atleast_2d(np.asarray(target, float)), np.zeros(len(x), int))
+    while pool.alive.any():
+        pool.round(evaluate)
+    return pool.view(ids)
+
+
+@dataclass(frozen=True)
+class Tracks:
+    """What :func:`track` found for S drives on one grid of n_t times: ``angles`` (S, n_t,
+    n) closed angles, ``closure`` (S,) the worst residual of an accepted answer,
+    ``locked_at`` (S,) the first time a drive had no motion left while asking for some
+    (nan: never), ``dof`` (S,) the null-space dimension at the first folded step (-1: never
+    folded), ``evaluations`` the number of configurations C and J were evaluated at and
+    ``rounds`` the number of array evaluations that took."""
+
+    angles: np.ndarray
+    closure: np.ndarray
+    locked_at: np.ndarray
+    dof: np.ndarray
+    evaluations: int
+    rounds: int
+
+
+class _State:
+    """Per drive: the last answer and its tangent space, the grid step to solve next and
+    what was met on the way (the step-by-step tracker's variables, one row per drive)."""
+
+    def __init__(self, times, driven):
+        self.times, self.driven = times, driven
+        s, self.n_t, n = driven.shape
+        self.x = np.zeros((s, n))
+        self.basis = np.zeros((s, n, n))
+        self.free = np.zeros((s, n), bool)
+        self.tangent = np.zeros(s, bool)  # the last answer converged: predict along its tangent
+        self.settled = np.ones(s, bool)
+        self.prev = np.zeros((s, n))  # the drive at the last solved step
+        self.k = np.zeros(s, int)  # the next grid step
+        self.sub = np.zeros(s, int)  # the continuation sub-step within step k (0: none begun)
+        self.nsub = np.ones(s, int)
+        self.locked = np.full(s, np.nan)
+        self.dof = np.full(s, -1)
+        self.worst = np.zeros(s)
+        self.res_x = np.zeros(s)
+        self.width = np.full(s, 2)
+        self.out = np.zeros_like(driven)
+
+    def skip(self, i):
+        """Advance the settled drives ``i`` over steps whose drive moved at most SKIP_TOL
+        since the last solve (their answer is the last one)."""
+        k = np.minimum(self.k[i], self.n_t - 1)
+        idle = (self.k[i] < self.n_t) & (k > 0) & self.settled[i] & (self.sub[i] == 0) & (
+            np.abs(self.driven[i, k] - self.prev[i]).max(axis=1) <= SKIP_TOL)
+        for i in i[idle]:
+            moved = np.abs(self.driven[i, self.k[i]:] - self.prev[i]).max(axis=1) > SKIP_TOL
+            nxt = self.k[i] + (int(moved.argmax()) if moved.any() else len(moved))
+            self.out[i, self.k[i]:nxt] = self.x[i]
+            self.k[i] = nxt
+
+    def begin(self, live):
+        """Targets of the live drives' next solve: their step's (sub-step's) drive."""
+        k = self.k[live]
+        y = self.driven[live, k]
+        fresh = self.sub[live] == 0
+        delta = np.abs(y - self.prev[live]).max(axis=1, initial=0.0)
+        self.nsub[live] = np.where(fresh, np.maximum(1, np.ceil(delta / MAX_STEP)).astype(int), self.nsub[live])
+        self.sub[live] = np.where(fresh, 1, self.sub[live])
+        frac = (self.sub[live] / self.nsub[live])[:, None]
+        return y, self.prev[live] + (y - self.prev[live]) * frac
+
+    def ahead(self, live, far):
+        """Window widths (len(live),): how many grid steps from k each live drive solves now;
+        1 unless ``far`` (away from the flat sheet, with a tangent, no sub-steps): then the
+        next steps whose drive moves (by more than SKIP_TOL, at most MAX_STEP) up to the
+        drive's current width."""
+        w = np.ones(len(live), int)
+        if not far.any():
+            return w
+        i = live[far]
+        idx = np.minimum(self.k[i, None] + np.arange(WINDOW + 1), self.n_t - 1)
+        y = self.driven[i[:, None], idx]
+        d = np.abs(np.diff(y, axis=1)).max(axis=2)
+        ok = (d > SKIP_TOL) & (d <= MAX_STEP) & (self.k[i, None] + np.arange(1, WINDOW + 1) < self.n_t)
+        w[far] = np.minimum(1 + np.cumprod(ok, axis=1).sum(axis=1), self.width[i])
+        return w
+
+    def finish(self, i, y, x, res, null):
+        """End grid step k of drives ``i``: their answer ``x`` (len(i), n) for drive ``y``."""
+        k = self.k[i]
+        stop = np.isnan(self.locked[i]) & (null == 0) & (np.abs(x - y).max(axis=1, initial=0.0) > FOLLOW_TOL)
+        self.locked[i[stop]] = self.times[k[stop]]
+        self.worst[i] = np.maximum(self.worst[i], res)
+        self.prev[i] = y
+        self.out[i, k] = x
+        self.k[i] = k + 1
+        self.sub[i] = 0
+
+    def settle(self, i, sol: Solves, rows):
+        """Take the converged answers ``sol`` rows ``rows`` as the drives' ``i`` configuration."""
+        self.x[i], self.res_x[i] = sol.x[rows], sol.res[rows]
+        self.settled[i] = self.tangent[i] = sol.done[rows]
+        self.basis[i], self.free[i] = sol.basis[rows], sol.free[rows]
+        first = (self.dof[i] < 0) & (np.abs(sol.x[rows]).max(axis=1, initial=0.0) > 1e-3)
+        self.dof[i[first]] = sol.null[rows][first]
+
+
+class _Counted:
+    """``evaluate`` counting its configurations and calls."""
+
+    def __init__(self, evaluate):
+        self.evaluate, self.evaluations, self.rounds = evaluate, 0, 0
+
+    def __call__(self, xs):
+        self.evaluations += len(xs)
+        self.rounds += 1
+        return self.evaluate(xs)
+
+
+def _blocks(w):
+    """Owner (index into w) and offset (1, 2, ...) of the window points beyond each first."""
+    owner = np.repeat(np.arange(len(w)), w - 1)
+    return owner, np.arange(len(owner)) - np.repeat(np.cumsum(w - 1) - (w - 1), w - 1) + 1
+
+
+def _extrapolate(st: _State, d, k):
+    """Where drives ``d`` will be at grid steps ``k``: the quadratic through their last three
+    answers (at steps k0 - 1, k0 - 2, k0 - 3, k0 the drive's next step), a window point's
+    start."""
+    k0 = st.k[d]
+    t, tt = st.times[k], st.times[k0[:, None] - np.arange(1, 4)]
+    w = np.stack([(t - tt[:, 1]) * (t - tt[:, 2]) / ((tt[:, 0] - tt[:, 1]) * (tt[:, 0] - tt[:, 2])),
+                  (t - tt[:, 0]) * (t - tt[:, 2]) / ((tt[:, 1] - tt[:, 0]) * (tt[:, 1] - tt[:, 2])),
+                  (t - tt[:, 0]) * (t - tt[:, 1]) / ((tt[:, 2] - tt[:, 0]) * (tt[:, 2] - tt[:, 1]))], axis=1)
+    return np.einsum("pj,pjn->pn", w, st.out[d[:, None], k0[:, None] - np.arange(1, 4)])
+
+
+class _Requests:
+    """Per drive, the points of the step it is solving: its main solve, its restart from
+    the drive (near the flat sheet) and its window points."""
+
+    def __init__(self, s: int, n: int):
+        self.open = np.zeros(s, bool)
+        self.main = np.zeros(s, int)
+        self.restart = np.full(s, -1)
+        self.window = np.zeros((s, WINDOW), int)
+        self.w = np.ones(s, int)
+        self.y, self.ys = np.zeros((s, n)), np.zeros((s, n))
+
+    def prune(self, pool: _Pool):
+        """Stop the points whose answers can no longer matter: a restart where the main
+        solve landed on its drive (within OPT_TOL), the window points of a main solve that
+        did not converge."""
+        i = np.nonzero(self.open & ~pool.alive[self.main])[0]
+        if not i.size:
+            return
+        m = self.main[i]
+        r = self.restart[i]
+        on = (r >= 0) & (np.abs(pool.x[m] - self.ys[i]).max(axis=1) <= OPT_TOL)
+        pool.alive[r[on]] = False
+        bad = i[~pool.done[m] | (pool.res[m] > LOST_TOL)]
+        for d in bad[self.w[bad] > 1]:
+            pool.alive[self.window[d, :self.w[d] - 1]] = False
+
+    def post(self, st: _State, pool: _Pool, live):
+        """Put the live drives' next points into the pool."""
+        y, ys = st.begin(live)
+        x = st.x[live]
+        near = np.abs(x).max(axis=1, initial=0.0) < NEAR_FLAT
+        pred = ~near & st.tangent[live]
+        w = st.ahead(live, pred & (st.nsub[live] == 1))
+        start = x.copy()
+        i = live[pred]
+        start[pred] = predict(x[pred], ys[pred], st.basis[i], st.free[i])
+        self.main[live] = pool.add(start, ys, live, far=pred)
+        self.restart[live] = -1
+        self.restart[live[near]] = pool.add(ys[near], ys[near], live[near])
+        owner, offset = _blocks(w)
+        if len(owner):
+            d = live[owner]
+            k = st.k[d] + offset
+            hist = st.k[d] >= 3
+            guess = predict(st.x[d], st.driven[d, k], st.basis[d], st.free[d])
+            guess[hist] = _extrapolate(st, d[hist], k[hist])
+            self.window[d, offset - 1] = pool.add(guess, st.driven[d, k], d, speculative=True, far=True)
+        self.w[live], self.y[live], self.ys[live] = w, y, ys
+        self.open[live] = True
+
+
+def track(evaluate, times, driven) -> Tracks:
+    """Follow S drives ``driven`` (S, n_t, n) rad on the grid ``times`` (n_t,) s on the
+    closure manifold from the flat sheet, all at once (module docstring)."""
+    st = _State(np.asarray(times, float), np.asarray(driven, float))
+    s, _, n = st.driven.shape
+    pool, req, ev = _Pool(n, 4 * s), _Requests(s, n), _Counted(evaluate)
+    todo = np.arange(s)
+    while True:
+        if todo.size:
+            st.skip(todo)
+            live = todo[st.k[todo] < st.n_t]
+            if live.size:
+                req.post(st, pool, live)
+        if not pool.alive.any():
+            break
+        pool.round(ev)
+        req.prune(pool)
+        busy = np.bincount(pool.owner[pool.alive], minlength=s) > 0
+        todo = np.nonzero(req.open & ~busy)[0]
+        if todo.size:
+            _ended(st, pool, req, todo)
+    return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
+
+
+def _ended(st: _State, pool: _Pool, req: _Requests, live):
+    """The live drives' points have all stopped: choose each one's answer (the restart
+    near the flat sheet), end its step, keep what its window allows, free the rows."""
+    w = req.w[live]
+    owner, offset = _blocks(w)
+    again = np.nonzero(req.restart[live] >= 0)[0]
+    rows = np.concatenate([req.main[live], req.window[live[owner], offset - 1], req.restart[live[again]]])
+    sol = pool.view(rows)
+    main = _choose(sol, st.x[live], req.ys[live], again, len(live) + len(owner))
+    ok = _after_main(st, live, req.y[live], sol, main)
+    if len(owner):
+        _window(st, live, w, ok, sol, main, owner, offset)
+    pool.release(rows)
+    req.open[live] = False
+
+
+def _choose(sol: Solves, x, ys, again, base, rows=None):
+    """Rows of ``sol`` holding each solve's answer: the solve from the last answer ``x``
+    (row ``rows[j]``, default j), or, near the flat sheet (entries ``again``, whose restart
+    from the drive is row base + j), the restart where the continued answer missed the
+    drive and the restart closed nearer to it without jumping more than JUMP farther (a
+    drive starting on a branch's tangent does not stall at the bifurcation)."""
+    rows = np.arange(len(x)) if rows is None else np.array(rows)
+    if not len(again):
+        return rows
+    b = base + np.arange(len(again))
+    xn, xb, yb, x0 = sol.x[rows[again]], sol.x[b], ys[again], x[again]
+    take = ((np.abs(xn - yb).max(axis=1) > OPT_TOL) & (sol.res[b] <= LOST_TOL)
+            & (np.linalg.norm(xb - yb, axis=1) < np.linalg.norm(xn - yb, axis=1) - 1e-9)
+            & (np.abs(xb - x0).max(axis=1) <= np.abs(xn - x0).max(axis=1) + JUMP))
+    rows[again[take]] = b[take]
+    return rows
+
+
+def _after_main(st: _State, live, y, sol: Solves, rows):
+    """The live drives' solves of their next step (sub-step): a solve that lost the manifold
+    holds the last closed configuration and ends the step (the drive is locked there);
+    otherwise its answer is taken. Returns which drives ended their step converged."""
+    res = sol.res[rows]
+    lost = res > LOST_TOL
+    i = live[lost]
+    st.settled[i] = True
+    st.locked[i] = np.where(np.isnan(st.locked[i]), st.times[st.k[i]], st.locked[i])
+    st.settle(live[~lost], sol, rows[~lost])
+    ended = lost | (st.sub[live] >= st.nsub[live])
+    st.sub[live[~ended]] += 1
+    e = live[ended]
+    st.finish(e, y[ended], st.x[e], st.res_x[e], sol.null[rows][ended])
+    return ~lost & ended & sol.done[rows]
+
+
+def _window(st: _State, live, w, ok, sol: Solves, main, owner, offset):
+    """Keep each window's answers up to the first one the step-by-step tracker might not
+    have given: kept while every answer converged, closed, keeps the tangent space's
+    dimension, follows an answer away from the flat sheet and lies within ACCEPT of the
+    step-by-step predictor from the answer before it (so the corrector from there has it
+    to converge to)."""
+    row = len(live) + np.arange(len(owner))
+    prev = np.where(offset == 1, main[owner], row - 1)
+    yw = st.driven[live[owner], st.k[live[owner]] + offset - 1]
+    xp, xr = sol.x[prev], sol.x[row]
+    p = predict(xp, yw, sol.basis[prev], sol.free[prev])
+    acc = (ok[owner] & sol.done[prev] & sol.done[row] & (sol.res[row] <= LOST_TOL)
+           & (np.abs(xp).max(axis=1, initial=0.0) >= NEAR_FLAT) & (sol.null[row] == sol.null[prev])
+           & (np.abs(p - xr).max(axis=1) <= ACCEPT))
+    _keep(st, live, w, owner, offset, acc, sol, row, yw)
+
+
+def _keep(st: _State, live, w, owner, offset, acc, sol: Solves, row, yw):
+    """Take each window's accepted prefix (``acc`` per point, in order): its steps end with
+    those answers; the drive continues from the last one. Widths double while whole
+    windows are kept and shrink to what was kept otherwise."""
+    fail = np.cumsum(~acc)
+    first = np.cumsum(w - 1) - (w - 1)  # each live drive's first window point
+    kept = fail - np.where(first > 0, fail[np.maximum(first - 1, 0)], 0)[owner] == 0
+    nacc = np.bincount(owner, weights=kept, minlength=len(live)).astype(int)
+    has = w > 1
+    d = live[has]
+    st.width[d] = np.where(nacc[has] == w[has] - 1, np.minimum(2 * st.width[d], WINDOW), np.maximum(2, nacc[has] + 1))
+    q = np.nonzero(kept)[0]
+    if not q.size:
+        return
+    d, k = live[owner[q]], st.k[live[owner[q]]] + offset[q] - 1
+    x, y, r = sol.x[row[q]], yw[q], row[q]
+    st.out[d, k] = x
+    t = np.where((sol.null[r] == 0) & (np.abs(x - y).max(axis=1) > FOLLOW_TOL), st.times[k], np.inf)
+    first_stop = np.full(len(st.k), np.inf)
+    np.minimum.at(first_stop, d, t)
+    st.locked = np.where(np.isnan(st.locked) & np.isfinite(first_stop), first_stop, st.locked)
+    np.maximum.at(st.worst, d, sol.res[r])
+    folded = np.where((st.dof[d] < 0) & (np.abs(x).max(axis=1) > 1e-3), q, len(owner))
+    at = np.full(len(st.k), len(owner))
+    np.minimum.at(at, d, folded)
+    f = np.nonzero(at < len(owner))[0]
+    st.dof[f] = sol.null[row[at[f]]]
+    g = np.nonzero(nacc)[0]
+    last = first[g] + nacc[g] - 1
+    st.settle(live[g], sol, row[last])
+    st.prev[live[g]] = yw[last]
+    st.k[live[g]] += nacc[g]
