@@ -10,6 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from foldprint.core.constants import DEFAULT_DT_S
+from foldprint.core.errors import DesignError
+from foldprint.core.modes import DEFAULT_HINGE_MODEL, HingeModel
+from foldprint.model.design import Design
+from foldprint.model.materials import MaterialLibrary
+from foldprint.physics.kinematics import (HINGE_MODELS, HingeDrive, Trajectory, _with_arc_gap, forward, loop_dt,
+                                          run_times)
 from foldprint.physics.loops import (CLOSURE_TOL, FOLLOW_TOL, JUMP, MAX_STEP, NEAR_FLAT, OPT_TOL, SKIP_TOL,
                                      LoopSolution, LoopSolver, _cross3, _rotvec)
 
@@ -224,3 +231,52 @@ class OldSolver(LoopSolver):
             a.setflags(write=False)
         return LoopSolution(times, out, driven, worst, tuple((t, tuple(h)) for t, h in groups.items()),
                             locked_at, max(dof, 0), len(self.cycles), var)
+
+
+def old_loop_grid(self, times, dt: float):
+    """``HingeDrive._loop_grid`` before: the union of the LOOP_DT grid and the simulation's
+    times, each of which it then held twice (arange against linspace rounding)."""
+    times = np.atleast_1d(np.asarray(times if times is not None else [0.0], float))
+    end = max(float(times.max(initial=0.0)), float(self.design.process.duration_s))
+    key = tuple(sorted(self.frozen_at.items()))
+    sol = self._solution
+    if sol is not None and self._solved_for == key and sol.times[-1] >= end - 1e-12:
+        return None, key
+    grid = np.arange(0.0, end + dt, dt)
+    if sol is not None and self._solved_for == key:
+        grid = np.union1d(grid, sol.times)
+    return np.union1d(grid[grid <= end + 1e-12], times[times >= 0]), key
+
+
+def old_simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath_c: float | None = None,
+                            model: HingeModel = DEFAULT_HINGE_MODEL, dt: float = DEFAULT_DT_S,
+                            duration: float | None = None, library: MaterialLibrary | None = None,
+                            drive: HingeDrive | None = None) -> Trajectory:
+    """``simulate_kinematics`` before: the poses (and arc gap) of every time, held
+    configurations included."""
+    if model not in HINGE_MODELS:
+        raise DesignError(f"hinge model must be one of {HINGE_MODELS}, got {model!r}")
+    model = HingeModel(str(model))
+    drive = drive or HingeDrive(design, bath_c, library)
+    if times is None:
+        times = run_times(design, dt, duration)
+    times = np.asarray(times, float)
+    ratios = drive.ratios(times)
+    loop = None
+    if drive.loops is not None:
+        loop = drive.solve_loops(times, loop_dt(times))
+        angles = loop.at(times)
+        # the ratio a hinge actually reached: a hinge held back by its loops is not done
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
+        ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
+    else:
+        angles = drive.angles(times)
+    poses = forward(design, angles, model)
+    if loop is not None and model == HingeModel.ARC:
+        loop = _with_arc_gap(design, loop, angles, poses)
+    for a in (times, ratios, angles, poses):
+        a.setflags(write=False)
+    return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c,
+                      tuple(c.fold_time for c in drive.curves), tuple(c.onset_time for c in drive.curves),
+                      loop)

@@ -210,3 +210,18 @@ def test_the_loop_grid_holds_each_simulation_time_once():
     grid = HingeDrive(d)._loop_grid(times, loop_dt(times))[0]
     assert np.diff(grid).min() >= GRID_TOL_S and np.isin(times, grid).all()
     assert len(grid) == len(times)
+
+
+@pytest.mark.parametrize("model", ["arc", "point"])
+def test_held_configurations_give_the_poses_and_gap_of_every_time(model):
+    """simulate_kinematics computes the poses (and the arc gap) of a pattern with loops once
+    per distinct configuration: the same arrays as forward() and loop_gap_mm() of every time."""
+    from foldprint.core.modes import HingeModel
+    from foldprint.physics.kinematics import forward, loop_gap_mm, simulate_kinematics
+
+    d = _design("miura_3x3")
+    traj = simulate_kinematics(d, model=model)
+    assert (np.diff(traj.angles, axis=0) == 0).all(axis=1).sum() > 100  # it does hold still
+    assert np.array_equal(traj.poses, forward(d, traj.angles, HingeModel(model)))
+    if model == "arc":
+        assert traj.loops.arc_gap_mm == loop_gap_mm(d, traj.angles, HingeModel.ARC)

@@ -432,11 +432,18 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         with np.errstate(divide="ignore", invalid="ignore"):
             ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
         ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
+        # a pattern with loops holds its configuration wherever its drive stopped moving:
+        # poses and the arc gap of each distinct configuration once (the same numbers)
+        moved = np.ones(len(angles), bool)
+        moved[1:] = np.any(angles[1:] != angles[:-1], axis=1)
+        held = np.cumsum(moved) - 1
+        poses = forward(design, angles[moved], model)
+        if model == HingeModel.ARC:
+            loop = _with_arc_gap(design, loop, angles[moved], poses)
+        poses = poses[held]
     else:
         angles = drive.angles(times)
-    poses = forward(design, angles, model)
-    if loop is not None and model == HingeModel.ARC:
-        loop = _with_arc_gap(design, loop, angles, poses)
+        poses = forward(design, angles, model)
     for a in (times, ratios, angles, poses):
         a.setflags(write=False)
     return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c,

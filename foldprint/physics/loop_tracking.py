@@ -54,6 +54,8 @@ RANK_RES = 1.0
 BATCH_ENDS = 16
 #: most grid steps of one drive solved ahead in one window (our choice)
 WINDOW = 32
+#: near the flat sheet, restarts from the drive of this many next grid steps run ahead (our choice)
+PREFETCH = 8
 #: a window's answer is kept when the step-by-step predictor lands within this of it (rad,
 #: our choice: 30 times the predictor's largest error on the templates' fastest steps)
 ACCEPT = 0.01
@@ -90,7 +92,8 @@ def predict(x, target, basis, free):
 class _Pool:
     """Solves in progress and their answers, one row per point; rows are reused."""
 
-    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "owner")
+    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "owner",
+               "line", "guide")
 
     def __init__(self, n: int, size: int = 64):
         self.n, self.size = n, 0
@@ -99,8 +102,9 @@ class _Pool:
 
     def _grow(self, size):
         n, old = self.n, self.size
-        shapes = {"x": (n,), "target": (n,), "basis": (n, n), "free": (n,)}
-        kinds = {"it": int, "null": int, "owner": int, "spec": bool, "done": bool, "alive": bool, "free": bool}
+        shapes = {"x": (n,), "target": (n,), "basis": (n, n), "free": (n,), "guide": (n,)}
+        kinds = {"it": int, "null": int, "owner": int, "spec": bool, "done": bool, "alive": bool, "free": bool,
+                 "line": bool}
         for f in self._fields:
             a = np.zeros((size,) + shapes.get(f, ()), kinds.get(f, float))
             if old:
@@ -109,10 +113,12 @@ class _Pool:
         self.unused = np.concatenate([self.unused, np.arange(old, size)])
         self.size = size
 
-    def add(self, x, target, owner, speculative=False, far=False):
+    def add(self, x, target, owner, speculative=False, far=False, guide=None):
         """New points from ``x`` (m, n) toward ``target``; returns their rows.
         ``speculative``: dropped (not done) when not converged within GN_STEPS steps;
-        ``far``: away from the flat sheet (the RANK_RES rule applies)."""
+        ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide`` (m, n):
+        the tangent direction of the answer they start from, where that tangent space is a
+        line (the points then solve with it instead of the eigen-decomposition, :func:`_gn_line`)."""
         m = len(x)
         if m > len(self.unused):
             self._grow(max(2 * self.size, self.size + m))
@@ -120,9 +126,13 @@ class _Pool:
         self.x[ids], self.target[ids], self.owner[ids] = x, target, owner
         self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = 0, speculative, far, True
         self.res[ids], self.done[ids], self.null[ids] = np.inf, False, 0
+        self.line[ids] = guide is not None
+        if guide is not None:
+            self.guide[ids] = guide
         return ids
 
     def release(self, ids):
+        self.alive[ids] = False
         self.unused = np.concatenate([self.unused, ids])
 
     def view(self, ids) -> Solves:
@@ -138,26 +148,79 @@ class _Pool:
         c, jac = evaluate(xa)
         r = np.abs(c).max(axis=1, initial=0.0)
         jt = jac.transpose(0, 2, 1)
-        lam, vec = np.linalg.eigh(jt @ jac)
-        stiff = RANK_RES * r * self.far[act]
-        keep = lam > np.maximum(RANK_TOL ** 2 * np.maximum(1.0, lam[:, -1]), stiff ** 2)[:, None]
-        vt = vec.transpose(0, 2, 1)
-        g = _mv(vt, _mv(jt, c))
-        gn = it < GN_STEPS
-        coef = np.where(keep, -g / np.where(keep, lam, 1.0), _mv(vt, self.target[act] - xa) * gn[:, None])
-        step = _mv(vec, coef)
+        gram, g = jt @ jac, _mv(jt, c)
+        d = (self.target[act] - xa) * (it < GN_STEPS)[:, None]
+        line = self.line[act]
+        step, vec = np.empty_like(xa), np.empty(gram.shape)
+        free, null = np.zeros(xa.shape, bool), np.ones(len(act), int)
+        if line.any():
+            step[line], vec[line] = _gn_line(gram[line], g[line], d[line], self.guide[act[line]])
+            free[line, 0] = True
+            self.guide[act[line]] = vec[line, :, 0]
+        e = ~line
+        if e.any():
+            step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e] * self.far[act[e]])
+            null[e] = free[e].sum(axis=1)
         big = np.abs(step).max(axis=1, initial=0.0)
         final = it >= GN_STEPS + NEWTON_STEPS
-        stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | ~gn)) | final
-        drop = ~stop & self.spec[act] & (it + 1 >= GN_STEPS)
+        stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | (it >= GN_STEPS))) | final
+        check = stop & line & ~final
+        unsure = np.zeros_like(stop)
+        unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
+        self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
+        stop &= ~unsure
+        drop = ~stop & ~unsure & self.spec[act] & (it + 1 >= GN_STEPS)
         s = act[stop]
         self.res[s], self.done[s] = r[stop], (big[stop] < OPT_TOL) & ~final[stop]
-        self.basis[s], self.free[s] = vec[stop], ~keep[stop] & ~final[stop, None]
-        self.null[act[~final]] = self.n - keep[~final].sum(axis=1)
-        go = ~stop & ~drop
+        self.basis[s], self.free[s] = vec[stop], free[stop] & ~final[stop, None]
+        self.null[act[~final]] = null[~final]
+        go = ~stop & ~drop & ~unsure
         self.x[act[go]] = xa[go] + step[go] * np.minimum(1.0, MAX_STEP / big[go])[:, None]
         self.it[act[go]] += 1
         self.alive[act[stop | drop]] = False
+
+
+def _gn_eigh(gram, g, d, stiff):
+    """Gauss-Newton steps from the eigen-decomposition of J^T J (P, n, n): the closure
+    correction -J^+ C (g = J^T C) on the singular values above RANK_TOL (relative) and
+    ``stiff``, the part of ``d`` in the null space of the rest. Returns the step, the
+    eigenvectors and which of them span the null space."""
+    lam, vec = np.linalg.eigh(gram)
+    keep = lam > np.maximum(RANK_TOL ** 2 * np.maximum(1.0, lam[:, -1]), stiff ** 2)[:, None]
+    vt = vec.transpose(0, 2, 1)
+    coef = np.where(keep, -_mv(vt, g) / np.where(keep, lam, 1.0), _mv(vt, d))
+    return _mv(vec, coef), vec, ~keep
+
+
+def _gn_line(gram, g, d, guide):
+    """Gauss-Newton steps where the null space of J is a line near ``guide`` (P, n): one
+    linear solve with J^T J + guide guide^T gives that line exactly (inverse iteration: a
+    null vector v of J solves it with right-hand side guide (guide . v)) and the closure
+    correction -J^+ C orthogonal to it. Returns the step and a basis (P, n, n) whose first
+    column spans the line (the other columns are not used)."""
+    a = gram + guide[:, :, None] * guide[:, None, :]
+    sol = np.linalg.solve(a, np.stack([guide, g], axis=2))
+    w = sol[..., 0] / np.linalg.norm(sol[..., 0], axis=1)[:, None]
+    dx = sol[..., 1]
+    step = w * ((w * d).sum(axis=1) + (w * dx).sum(axis=1))[:, None] - dx
+    vec = np.zeros(gram.shape)
+    vec[:, :, 0] = w
+    return step, vec
+
+
+def _certified(jac, gram, w):
+    """Whether J's null space is exactly the line ``w`` (P, n) by the rank rule: J w below
+    RANK_TOL times the largest singular value (at least 1), every other singular value above
+    it (J^T J + w w^T less that threshold squared positive definite). The largest singular
+    value is bounded by the Frobenius norm, so the test errs toward "no"."""
+    thr = RANK_TOL * np.maximum(1.0, np.sqrt(np.trace(gram, axis1=1, axis2=2)))
+    ok = np.linalg.norm(_mv(jac, w), axis=1) <= thr
+    a = gram + w[:, :, None] * w[:, None, :] - (thr ** 2)[:, None, None] * np.eye(gram.shape[1])
+    try:
+        np.linalg.cholesky(a)
+    except np.linalg.LinAlgError:
+        ok &= np.linalg.eigvalsh(a)[:, 0] > 0
+    return ok
 
 
 def solve(evaluate, x, target) -> Solves:
@@ -282,6 +345,11 @@ class _Counted:
         return self.evaluate(xs)
 
 
+def _line(st: _State, d):
+    """The tangent direction of drives ``d`` whose tangent space is a line."""
+    return st.basis[d, :, st.free[d].argmax(axis=1)]
+
+
 def _blocks(w):
     """Owner (index into w) and offset (1, 2, ...) of the window points beyond each first."""
     owner = np.repeat(np.arange(len(w)), w - 1)
@@ -311,6 +379,51 @@ class _Requests:
         self.window = np.zeros((s, WINDOW), int)
         self.w = np.ones(s, int)
         self.y, self.ys = np.zeros((s, n)), np.zeros((s, n))
+        self.early = np.full((s, PREFETCH), -1)  # restarts started ahead: their rows ...
+        self.early_k = np.full((s, PREFETCH), -1)  # ... and grid steps
+
+    def busy(self, pool: _Pool):
+        """Which drives' current points are not all stopped."""
+        win = (np.arange(WINDOW)[None] < self.w[:, None] - 1) & pool.alive[self.window]
+        return self.open & (pool.alive[self.main] | ((self.restart >= 0) & pool.alive[self.restart]) | win.any(axis=1))
+
+    def forget(self, pool: _Pool, i):
+        """Drop the restarts drives ``i`` started ahead."""
+        pool.release(self.early[i][self.early[i] >= 0])
+        self.early[i], self.early_k[i] = -1, -1
+
+    def _restarts(self, st: _State, pool: _Pool, live, ys):
+        """Rows of the live drives' restarts from their drive at step k (all near the flat
+        sheet): started ahead when the step is a single one toward exactly this drive,
+        else now; and the restarts of the next PREFETCH grid steps started ahead (a restart
+        depends on its drive alone, so near the flat sheet, where every step restarts, the
+        steps wait only for their solves from the last answer)."""
+        k, n_t = st.k[live], st.n_t
+        ek, ei = self.early_k[live], self.early[live]
+        hit = (ek == k[:, None]) & ((st.nsub[live] == 1) & (st.sub[live] == 1))[:, None]
+        r, c = np.nonzero(hit)
+        good = np.all(pool.target[ei[r, c]] == ys[r], axis=1)
+        rows = np.full(len(live), -1)
+        rows[r[good]] = ei[r[good], c[good]]
+        taken = np.zeros_like(hit)
+        taken[r[good], c[good]] = True
+        stale = (ek >= 0) & (ek <= k[:, None]) & ~taken
+        pool.release(ei[stale])
+        ek, ei = np.where(stale | taken, -1, ek), np.where(stale | taken, -1, ei)
+        new = rows < 0
+        rows[new] = pool.add(ys[new], ys[new], live[new])
+        want = k[:, None] + 1 + np.arange(PREFETCH)
+        miss = ~(ek[:, None, :] == want[:, :, None]).any(axis=2) & (want < n_t)
+        slot = np.argsort(ek >= 0, axis=1, kind="stable")  # free slots first
+        rank = np.cumsum(miss, axis=1) - 1
+        mr, mc = np.nonzero(miss)
+        if mr.size:
+            d, kk = live[mr], want[mr, mc]
+            y0 = st.driven[d, kk - 1]
+            ids = pool.add(y0 + (st.driven[d, kk] - y0), y0 + (st.driven[d, kk] - y0), d)
+            ek[mr, slot[mr, rank[mr, mc]]], ei[mr, slot[mr, rank[mr, mc]]] = kk, ids
+        self.early_k[live], self.early[live] = ek, ei
+        return rows
 
     def prune(self, pool: _Pool):
         """Stop the points whose answers can no longer matter: a restart where the main
@@ -337,9 +450,12 @@ class _Requests:
         start = x.copy()
         i = live[pred]
         start[pred] = predict(x[pred], ys[pred], st.basis[i], st.free[i])
-        self.main[live] = pool.add(start, ys, live, far=pred)
+        line = pred & (st.free[live].sum(axis=1) == 1)
+        self.main[live[~line]] = pool.add(start[~line], ys[~line], live[~line], far=pred[~line])
+        self.main[live[line]] = pool.add(start[line], ys[line], live[line], far=True, guide=_line(st, live[line]))
         self.restart[live] = -1
-        self.restart[live[near]] = pool.add(ys[near], ys[near], live[near])
+        self.restart[live[near]] = self._restarts(st, pool, live[near], ys[near])
+        self.forget(pool, live[~near])
         owner, offset = _blocks(w)
         if len(owner):
             d = live[owner]
@@ -347,7 +463,11 @@ class _Requests:
             hist = st.k[d] >= 3
             guess = predict(st.x[d], st.driven[d, k], st.basis[d], st.free[d])
             guess[hist] = _extrapolate(st, d[hist], k[hist])
-            self.window[d, offset - 1] = pool.add(guess, st.driven[d, k], d, speculative=True, far=True)
+            line = st.free[d].sum(axis=1) == 1
+            self.window[d[~line], offset[~line] - 1] = pool.add(guess[~line], st.driven[d[~line], k[~line]], d[~line],
+                                                                speculative=True, far=True)
+            self.window[d[line], offset[line] - 1] = pool.add(guess[line], st.driven[d[line], k[line]], d[line],
+                                                              speculative=True, far=True, guide=_line(st, d[line]))
         self.w[live], self.y[live], self.ys[live] = w, y, ys
         self.open[live] = True
 
@@ -363,14 +483,14 @@ def track(evaluate, times, driven) -> Tracks:
         if todo.size:
             st.skip(todo)
             live = todo[st.k[todo] < st.n_t]
+            req.forget(pool, todo[st.k[todo] >= st.n_t])
             if live.size:
                 req.post(st, pool, live)
         if not pool.alive.any():
             break
         pool.round(ev)
         req.prune(pool)
-        busy = np.bincount(pool.owner[pool.alive], minlength=s) > 0
-        todo = np.nonzero(req.open & ~busy)[0]
+        todo = np.nonzero(req.open & ~req.busy(pool))[0]
         if todo.size:
             _ended(st, pool, req, todo)
     return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
