@@ -202,6 +202,18 @@ def test_windows_solve_ahead_without_changing_the_answers(monkeypatch):
     assert ahead.rounds < 0.7 * single.rounds
 
 
+def test_restarts_ahead_cut_the_rounds_near_the_flat_sheet(monkeypatch):
+    """Restarts from the drive started PREFETCH steps ahead against each started with its
+    step: the same answers (a restart depends on its drive alone), in fewer rounds."""
+    d, grid, drivens = _check_drives("cross_lock_uniform", 4)
+    evaluate = _solvers(d)[0].residuals
+    ahead = loop_tracking.track(evaluate, grid[:250], np.stack(drivens)[:, :250])
+    monkeypatch.setattr(loop_tracking, "PREFETCH", 0)
+    each = loop_tracking.track(evaluate, grid[:250], np.stack(drivens)[:, :250])
+    assert np.array_equal(ahead.angles, each.angles)
+    assert ahead.rounds < 0.7 * each.rounds
+
+
 def test_the_loop_grid_holds_each_simulation_time_once():
     """The continuation grid (LOOP_DT) and the simulation's times (another rounding of the
     same instants) merge without near-duplicates, and every simulation time is a grid time."""
@@ -225,3 +237,123 @@ def test_held_configurations_give_the_poses_and_gap_of_every_time(model):
     assert np.array_equal(traj.poses, forward(d, traj.angles, HingeModel(model)))
     if model == "arc":
         assert traj.loops.arc_gap_mm == loop_gap_mm(d, traj.angles, HingeModel.ARC)
+
+
+class _Toy(OldSolver):
+    """A closure of two angles given as functions: the reference tracker runs on it as on a
+    crease pattern (and the array tracker on ``residuals``)."""
+
+    def __init__(self, closure, jacobian):
+        self.n, self.ids, self.cycles = 2, ["a", "b"], [[(0, 1.0)]]
+        self._c, self._j = closure, jacobian
+
+    def residuals(self, xs, jacobian=True):
+        xs = np.asarray(xs, float)
+        return self._c(xs), (self._j(xs) if jacobian else None)
+
+
+def test_on_a_parabola_the_tracker_finds_the_nearest_closed_point():
+    """Closure x1 = x0^2, drive (a(t), 0): the answer is the point of the parabola nearest
+    the drive, x0 the root of 2 (x0 - a) + 4 x0^3 = 0 (one real root), an independent
+    reference; and the replaced tracker gives the same answers and events. The tangent
+    space is a line, so away from the flat sheet the line solve runs (near it, the restarts)."""
+    toy = _Toy(lambda x: (x[:, 1] - x[:, 0] ** 2)[:, None],
+               lambda x: np.stack([-2 * x[:, 0], np.ones(len(x))], axis=1)[:, None, :])
+    t = np.linspace(0.0, 3.0, 301)
+    drive = np.stack([1.5 * np.sin(t / 2), np.zeros_like(t)], axis=1)
+    got = loop_tracking.track(toy.residuals, t, drive[None])
+    x = got.angles[0]
+    exact = [min(np.roots([4.0, 0.0, 2.0, -2 * a]), key=lambda r: abs(r.imag)).real for a in drive[:, 0]]
+    assert np.abs(x[:, 0] - exact).max() < ANGLE_TOL and np.abs(x[:, 1] - x[:, 0] ** 2).max() < CLOSURE_TOL
+    ref = toy.track(t, drive)
+    assert np.abs(ref.angles - x).max() < ANGLE_TOL and (got.dof[0], np.isnan(got.locked_at[0])) == (1, True)
+
+
+def test_a_solve_that_cannot_close_holds_the_last_configuration_and_locks():
+    """A closure that holds for x0 <= 0.5 and fails beyond (residual 1, no Jacobian): the
+    drive is followed to 0.5, then every solve loses the manifold, the last closed
+    configuration is held and the drive is locked at the first step beyond; as the
+    replaced tracker does."""
+    toy = _Toy(lambda x: (x[:, :1] > 0.5).astype(float), lambda x: np.zeros((len(x), 1, 2)))
+    t = np.linspace(0.0, 1.0, 101)
+    drive = np.stack([t, 0.2 * t], axis=1)
+    got = loop_tracking.track(toy.residuals, t, drive[None])
+    ref = toy.track(t, drive)
+    first = int(np.argmax(t > 0.5))
+    assert got.locked_at[0] == ref.locked_at == t[first]
+    assert np.array_equal(got.angles[0, first:], np.repeat(drive[first - 1][None], len(t) - first, axis=0))
+    assert np.abs(ref.angles - got.angles[0]).max() < ANGLE_TOL
+
+
+def _solves(x, res=None, null=None, done=None, free=None):
+    """Answers of solves in two angles, tangent spaces along the first axis by default."""
+    x = np.asarray(x, float)
+    p = len(x)
+    free = np.array([[True, False]] * p) if free is None else np.asarray(free)
+    return loop_tracking.Solves(x, np.full(p, 1e-12) if res is None else np.asarray(res, float),
+                                np.full(p, 1) if null is None else np.asarray(null),
+                                np.full(p, True) if done is None else np.asarray(done),
+                                np.repeat(np.eye(2)[None], p, axis=0), free)
+
+
+def test_a_window_answer_is_kept_only_where_the_step_by_step_tracker_gives_it():
+    """Row 0 is the answer before; the predictor from it toward the drive (0.6, 0.3) moves
+    along its tangent (the first axis) to (0.6, 0.3). Kept: an answer within ACCEPT of that
+    predictor. Not kept: one farther, one not converged, not closed, with another tangent
+    dimension, or after an answer near the flat sheet (row 7)."""
+    a = loop_tracking.ACCEPT
+    sol = _solves([[0.5, 0.3], [0.6, 0.3 + 0.5 * a], [0.6, 0.3 + 2 * a], [0.6, 0.3], [0.6, 0.3], [0.6, 0.3],
+                   [0.1, 0.05], [0.15, 0.05]],
+                  res=[1e-12, 1e-12, 1e-12, 1e-12, 1e-6, 1e-12, 1e-12, 1e-12],
+                  null=[1, 1, 1, 1, 1, 2, 1, 1], done=[True, True, True, False, True, True, True, True])
+    prev, row = np.array([0, 0, 0, 0, 0, 6]), np.array([1, 2, 3, 4, 5, 7])
+    y = np.array([[0.6, 0.3]] * 5 + [[0.15, 0.05]])
+    assert loop_tracking._acceptable(sol, prev, row, y).tolist() == [True, False, False, False, False, False]
+
+
+def test_near_the_flat_sheet_the_restart_is_taken_only_when_it_closed_nearer_without_a_jump():
+    """Drive ys = (0.1, 0); last answer x = 0. Rows 0-4: the continued solves; rows 5-9 the
+    restarts. Taken: a closed restart nearer the drive (row 5). Not: a restart that jumps
+    more than JUMP beyond the continued answer (6), one not closed (7), one nearer a drive
+    the continued answer already met within OPT_TOL (8), one no nearer (9)."""
+    j = loop_tracking.JUMP
+    main = [[0.05, 0.0], [0.05, 0.0], [0.05, 0.0], [0.1 + 0.5 * OPT_TOL, 0.0], [0.05, 0.0]]
+    restart = [[0.09, 0.0], [0.1, -0.05 - 2 * j], [0.09, 0.0], [0.1, 0.0], [0.05, 0.0]]
+    sol = _solves(main + restart, res=[1e-12] * 7 + [1e-6] + [1e-12] * 2)
+    ys = np.array([[0.1, 0.0]] * 4 + [[0.1, 0.0]])
+    ys[1] = [0.1, -0.02 - 2 * j]  # a drive the restart reaches nearer, but far off the continued answer
+    rows = loop_tracking._choose(sol, np.zeros((5, 2)), ys, np.arange(5), 5)
+    assert rows.tolist() == [5, 1, 2, 3, 4]
+
+
+def test_a_line_is_certified_only_as_the_whole_null_space():
+    """J with the null line w (certified), with a second null direction, with no null
+    direction, and a w that is not null (none certified)."""
+    rng = np.random.default_rng(3)
+    q, _ = np.linalg.qr(rng.standard_normal((4, 4)))
+    w = q[:, 0]
+    full = rng.standard_normal((6, 4)) @ (np.eye(4) - np.outer(w, w))  # rank 3, null space w
+    two = full @ (np.eye(4) - np.outer(q[:, 1], q[:, 1]))  # null space w and q1
+    rank4 = rng.standard_normal((6, 4))
+    jac = np.stack([full, two, rank4, full])
+    gram = jac.transpose(0, 2, 1) @ jac
+    ws = np.stack([w, w, w, q[:, 1]])
+    assert loop_tracking._certified(jac, gram, ws).tolist() == [True, False, False, False]
+
+
+def test_the_line_solve_takes_the_eigen_decompositions_step():
+    """Where J's null space is the line w, the solve with J^T J + t t^T (t near w) takes
+    the same Gauss-Newton step as the eigen-decomposition: -J^+ C orthogonal to w plus the
+    drive's part along w, and returns w itself (inverse iteration, exact in one solve)."""
+    rng = np.random.default_rng(5)
+    q, _ = np.linalg.qr(rng.standard_normal((5, 5)))
+    w = q[:, 0]
+    jac = (rng.standard_normal((8, 5)) @ (np.eye(5) - np.outer(w, w)))[None]
+    gram = jac.transpose(0, 2, 1) @ jac
+    c, d = rng.standard_normal((1, 8)), rng.standard_normal((1, 5))
+    g = (jac.transpose(0, 2, 1) @ c[..., None])[..., 0]
+    guide = w + 0.05 * rng.standard_normal(5)
+    line, vec = loop_tracking._gn_line(gram, g, d, (guide / np.linalg.norm(guide))[None])
+    eig, _, free = loop_tracking._gn_eigh(gram, g, d, np.zeros(1))
+    assert free.sum() == 1 and np.allclose(line, eig, atol=1e-12)
+    assert abs(abs(vec[0, :, 0] @ w) - 1.0) < 1e-12

@@ -173,7 +173,7 @@ class _Pool:
         self.basis[s], self.free[s] = vec[stop], free[stop] & ~final[stop, None]
         self.null[act[~final]] = null[~final]
         go = ~stop & ~drop & ~unsure
-        self.x[act[go]] = xa[go] + step[go] * np.minimum(1.0, MAX_STEP / big[go])[:, None]
+        self.x[act[go]] = xa[go] + step[go] * np.minimum(1.0, MAX_STEP / np.maximum(big[go], 1e-300))[:, None]
         self.it[act[go]] += 1
         self.alive[act[stop | drop]] = False
 
@@ -411,21 +411,6 @@ class _Requests:
         self.early_k[live], self.early[live] = ek, ei
         return rows
 
-    def prune(self, pool: _Pool):
-        """Stop the points whose answers can no longer matter: a restart where the main
-        solve landed on its drive (within OPT_TOL), the window points of a main solve that
-        did not converge."""
-        i = np.nonzero(self.open & ~pool.alive[self.main])[0]
-        if not i.size:
-            return
-        m = self.main[i]
-        r = self.restart[i]
-        on = (r >= 0) & (np.abs(pool.x[m] - self.ys[i]).max(axis=1) <= OPT_TOL)
-        pool.alive[r[on]] = False
-        bad = i[~pool.done[m] | (pool.res[m] > LOST_TOL)]
-        for d in bad[self.w[bad] > 1]:
-            pool.alive[self.window[d, :self.w[d] - 1]] = False
-
     def post(self, st: _State, pool: _Pool, live):
         """Put the live drives' next points into the pool."""
         y, ys = st.begin(live)
@@ -473,7 +458,6 @@ def track(evaluate, times, driven) -> Tracks:
         if not pool.alive.any():
             break
         pool.round(ev)
-        req.prune(pool)
         todo = np.nonzero(req.open & ~req.busy(pool))[0]
         if todo.size:
             _ended(st, pool, req, todo)
@@ -533,19 +517,24 @@ def _after_main(st: _State, live, y, sol: Solves, rows):
 
 def _window(st: _State, live, w, ok, sol: Solves, main, owner, offset):
     """Keep each window's answers up to the first one the step-by-step tracker might not
-    have given: kept while every answer converged, closed, keeps the tangent space's
-    dimension, follows an answer away from the flat sheet and lies within ACCEPT of the
-    step-by-step predictor from the answer before it (so the corrector from there has it
-    to converge to)."""
+    have given (:func:`_acceptable`, the answer before it being the one kept last)."""
     row = len(live) + np.arange(len(owner))
     prev = np.where(offset == 1, main[owner], row - 1)
     yw = st.driven[live[owner], st.k[live[owner]] + offset - 1]
+    _keep(st, live, w, owner, offset, ok[owner] & _acceptable(sol, prev, row, yw), sol, row, yw)
+
+
+def _acceptable(sol: Solves, prev, row, y):
+    """Whether the answers ``row`` of ``sol`` (toward drives ``y``) are what the step-by-step
+    tracker gives from the answers ``prev``: both converged, the answer closed, the one
+    before away from the flat sheet, the same tangent space dimension, and the answer within
+    ACCEPT of the predictor from the one before (so the corrector from there has this answer
+    to converge to)."""
     xp, xr = sol.x[prev], sol.x[row]
-    p = predict(xp, yw, sol.basis[prev], sol.free[prev])
-    acc = (ok[owner] & sol.done[prev] & sol.done[row] & (sol.res[row] <= LOST_TOL)
-           & (np.abs(xp).max(axis=1, initial=0.0) >= NEAR_FLAT) & (sol.null[row] == sol.null[prev])
-           & (np.abs(p - xr).max(axis=1) <= ACCEPT))
-    _keep(st, live, w, owner, offset, acc, sol, row, yw)
+    p = predict(xp, y, sol.basis[prev], sol.free[prev])
+    return (sol.done[prev] & sol.done[row] & (sol.res[row] <= LOST_TOL)
+            & (np.abs(xp).max(axis=1, initial=0.0) >= NEAR_FLAT) & (sol.null[row] == sol.null[prev])
+            & (np.abs(p - xr).max(axis=1) <= ACCEPT))
 
 
 def _keep(st: _State, live, w, owner, offset, acc, sol: Solves, row, yw):
