@@ -38,6 +38,7 @@ from foldprint.model import derived
 from foldprint.model.materials import default_library
 from foldprint.physics import kinematics
 from foldprint.physics.kinematics import run_times, solve_loops_many
+from foldprint.physics.loops import LoopSolver
 from foldprint.simulation import robust
 from foldprint.simulation.scatter import default_scatter, iter_samples
 from foldprint.simulation.simulate import simulate
@@ -70,11 +71,14 @@ def _chunk(design, samples) -> dict:
         c2 = pt()
         solve_loops_many(drives, run_times(dd, CHECK_DT_S))
         c3 = pt()
+        solver = drives[0].loops
         for x in drives:
             simulate(dd, dt=CHECK_DT_S, method=VERDICT_METHOD, hinge_model=HingeModel.ARC, drive=x)
         c4 = pt()
     ms = lambda a, b: (b - a) / len(samples) * 1e3  # noqa: E731
-    return {"chunk": ms(c0, c1), "curves": ms(c1, c2), "loops": ms(c2, c3), "folds": ms(c3, c4), "outcomes": outcomes}
+    counts = {"evaluations": solver.evaluations, "rounds": solver.rounds} if type(solver) is LoopSolver else {}
+    return {"chunk": ms(c0, c1), "curves": ms(c1, c2), "loops": ms(c2, c3), "folds": ms(c3, c4), "outcomes": outcomes,
+            **counts}
 
 
 def measure(name: str, repeat: int) -> dict:
@@ -91,7 +95,10 @@ def measure(name: str, repeat: int) -> dict:
                 got = _chunk(d, samples)
             if r:
                 runs[key].append(got)
-    out = {"design": name, "same_outcomes": all(a["outcomes"] == b["outcomes"] for a, b in zip(runs["new"], runs["old"]))}
+    out = {"design": name, "same_outcomes": all(a["outcomes"] == b["outcomes"] for a, b in zip(runs["new"], runs["old"])),
+           "jams": sum(o.jammed for o in runs["new"][0]["outcomes"])}
+    if "rounds" in runs["new"][0]:  # the array tracker's work for the chunk: C and J evaluations, rounds
+        out["evaluations"], out["rounds"] = runs["new"][0]["evaluations"], runs["new"][0]["rounds"]
     for phase in ("chunk", "curves", "loops", "folds"):
         new, old = median(x[phase] for x in runs["new"]), median(x[phase] for x in runs["old"])
         out[phase] = {"new_ms": round(new, 1), "old_ms": round(old, 1), "ratio": round(old / new, 2) if new > 0 else None}
@@ -111,7 +118,8 @@ def main(argv=None) -> int:
         for phase in ("chunk", "curves", "loops", "folds"):
             v = row[phase]
             print(f"{row['design']:20s} {phase:7s} {v['new_ms']:8.1f} {v['old_ms']:8.1f} {v['ratio'] or 0:8.2f}")
-        print(f"{row['design']:20s} same outcomes: {row['same_outcomes']}")
+        work = f", {row['evaluations']} evaluations in {row['rounds']} rounds" if "rounds" in row else ""
+        print(f"{row['design']:20s} same outcomes: {row['same_outcomes']} ({row['jams']} of {CHUNK} jam{work})")
     if a.json:
         a.json.write_text(json.dumps({"load_average": round(load, 2), "chunk": CHUNK, "repeat": a.repeat, "rows": rows},
                                      indent=1) + "\n")

@@ -145,7 +145,8 @@ class LoopSolver:
             cyc = [(k, 1.0) for k in ca[c:]] + [(f.index, 1.0)] + [(k, -1.0) for k in cb[c:][::-1]]
             self.cycles.append(cyc)
         # twists [w; v] of the point hinges: rotation about the fold line through origin
-        self.evaluations = 0  # configurations C and J were evaluated at
+        self.evaluations = 0  # configurations C and J were evaluated at, in ...
+        self.rounds = 0  # ... this many array evaluations (:meth:`track_many`)
         self.twist = np.hstack([self.axis, -np.cross(self.axis, self.point)])
         self._k = np.array([_hat(a) for a in self.axis]).reshape(self.n, 3, 3)
         self._k2 = self._k @ self._k
@@ -235,6 +236,7 @@ class LoopSolver:
         if not drivens:
             return []
         got = track_all(self._evaluate, times, np.stack(drivens))
+        self.rounds += got.rounds
         return [self._solution(times, got.angles[i], d, float(got.closure[i]), got.locked_at[i], int(got.dof[i]))
                 for i, d in enumerate(drivens)]
 
