@@ -202,7 +202,8 @@ class OldSolver(LoopSolver):
                         # keep whichever closed answer is nearer the drive
                         xb, rb, nb, sb, bb = yield from self._project_gen(ys, ys)
                         if (rb <= 1e-7 and np.linalg.norm(xb - ys) < np.linalg.norm(xn - ys) - 1e-9
-                                and np.abs(xb - x).max(initial=0.0) <= np.abs(xn - x).max(initial=0.0) + JUMP):
+                                and np.abs(xb - x).max(initial=0.0) <= np.abs(xn - x).max(initial=0.0) + JUMP
+                                and not np.any(xb * ys < 0.0)):
                             xn, res, null, settled, basis = xb, rb, nb, sb, bb
                     if res > 1e-7:  # lost the manifold: hold the last closed configuration
                         settled = True

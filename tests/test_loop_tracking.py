@@ -315,15 +315,16 @@ def test_near_the_flat_sheet_the_restart_is_taken_only_when_it_closed_nearer_wit
     """Drive ys = (0.1, 0); last answer x = 0. Rows 0-4: the continued solves; rows 5-9 the
     restarts. Taken: a closed restart nearer the drive (row 5). Not: a restart that jumps
     more than JUMP beyond the continued answer (6), one not closed (7), one nearer a drive
-    the continued answer already met within OPT_TOL (8), one no nearer (9)."""
+    the continued answer already met within OPT_TOL (8), one no nearer (9), one nearer but
+    with a hinge on the other side of flat from its drive (row 10, for row 5's drive)."""
     j = loop_tracking.JUMP
-    main = [[0.05, 0.0], [0.05, 0.0], [0.05, 0.0], [0.1 + 0.5 * OPT_TOL, 0.0], [0.05, 0.0]]
-    restart = [[0.09, 0.0], [0.1, -0.05 - 2 * j], [0.09, 0.0], [0.1, 0.0], [0.05, 0.0]]
-    sol = _solves(main + restart, res=[1e-12] * 7 + [1e-6] + [1e-12] * 2)
-    ys = np.array([[0.1, 0.0]] * 4 + [[0.1, 0.0]])
+    main = [[0.05, 0.0], [0.05, 0.0], [0.05, 0.0], [0.1 + 0.5 * OPT_TOL, 0.0], [0.05, 0.0], [0.05, 0.01]]
+    restart = [[0.09, 0.0], [0.1, -0.05 - 2 * j], [0.09, 0.0], [0.1, 0.0], [0.05, 0.0], [0.09, -0.001]]
+    sol = _solves(main + restart, res=[1e-12] * 8 + [1e-6] + [1e-12] * 3)
+    ys = np.array([[0.1, 0.0]] * 5 + [[0.1, 0.002]])
     ys[1] = [0.1, -0.02 - 2 * j]  # a drive the restart reaches nearer, but far off the continued answer
-    rows = loop_tracking._choose(sol, np.zeros((5, 2)), ys, np.arange(5), 5)
-    assert rows.tolist() == [5, 1, 2, 3, 4]
+    rows = loop_tracking._choose(sol, np.zeros((6, 2)), ys, np.arange(6), 6)
+    assert rows.tolist() == [6, 1, 2, 3, 4, 5]
 
 
 def test_a_line_is_certified_only_as_the_whole_null_space():

@@ -383,9 +383,9 @@ def test_a_small_programming_bias_selects_the_miura_branch():
     sign = np.sign([h.angle for h in d.hinges])
     flat = replace(d, hinges=tuple(replace(h, fixity=1.0) for h in d.hinges))
     for design, wrong_expected in ((flat, True), (d, False)):
-        drawn = draw_samples(design, default_scatter(), 2, 0)
+        drawn = draw_samples(design, default_scatter(), 4, 0)
         wrong = [bool((simulate_kinematics(design, drive=sample_drive(design, default_library(), s),
-                                           duration=2.0, dt=0.05).angles * sign < -1e-6).any()) for s in drawn]
+                                           duration=2.5, dt=0.05).angles * sign < -1e-6).any()) for s in drawn]
         assert any(wrong) == wrong_expected, wrong
 
 

@@ -432,23 +432,31 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         with np.errstate(divide="ignore", invalid="ignore"):
             ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
         ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
-        # a pattern with loops holds its configuration wherever its drive stopped moving:
-        # poses and the arc gap of each distinct configuration once (the same numbers)
-        moved = np.ones(len(angles), bool)
-        moved[1:] = np.any(angles[1:] != angles[:-1], axis=1)
-        held = np.cumsum(moved) - 1
-        poses = forward(design, angles[moved], model)
-        if model == HingeModel.ARC:
-            loop = _with_arc_gap(design, loop, angles[moved], poses)
-        poses = poses[held]
     else:
         angles = drive.angles(times)
-        poses = forward(design, angles, model)
+    poses = forward(design, angles, model) if loop is None else _held_forward(design, angles, model)
+    if loop is not None and model == HingeModel.ARC:
+        loop = _with_arc_gap(design, loop, angles, poses)
     for a in (times, ratios, angles, poses):
         a.setflags(write=False)
     return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c,
                       tuple(c.fold_time for c in drive.curves), tuple(c.onset_time for c in drive.curves),
                       loop)
+
+
+def _held(angles: np.ndarray) -> np.ndarray:
+    """Which rows of ``angles`` (n_t, n) differ from the row before (the first always)."""
+    moved = np.ones(len(angles), bool)
+    moved[1:] = np.any(angles[1:] != angles[:-1], axis=1)
+    return moved
+
+
+def _held_forward(design: Design, angles: np.ndarray, model: HingeModel) -> np.ndarray:
+    """:func:`forward` of a pattern with loops, which holds its configuration wherever its
+    drive stopped moving: the poses of each distinct configuration computed once (the
+    same numbers)."""
+    moved = _held(angles)
+    return forward(design, angles[moved], model)[np.cumsum(moved) - 1]
 
 
 def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HINGE_MODEL,
@@ -459,7 +467,8 @@ def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_
     (loop hinges turn about their fold lines, ``HingeFrame.centred``, so closed angles
     give round-off; docs/loops.md)."""
     angles = np.atleast_2d(np.asarray(angles, float))
-    poses = forward(design, angles, model) if poses is None else poses
+    moved = _held(angles)  # a held configuration has the gap it had
+    angles, poses = angles[moved], (forward(design, angles[moved], model) if poses is None else poses[moved])
     gap = 0.0
     for f in hinge_frames(design):
         if f.tree:

@@ -485,7 +485,9 @@ def _choose(sol: Solves, x, ys, again, base):
     (row j), or, near the flat sheet (drives ``again``, whose restart from the drive is row
     base + j), the restart where the continued answer missed the drive and the restart
     closed nearer to it without jumping more than JUMP farther (a drive starting on a
-    branch's tangent does not stall at the bifurcation)."""
+    branch's tangent does not stall at the bifurcation), and puts no hinge on the other side
+    of flat from its drive (a drive keeps its target's sign at every instant; the other
+    side is another branch, the one a scattered drive would flip to)."""
     rows = np.arange(len(x))
     if not len(again):
         return rows
@@ -493,7 +495,7 @@ def _choose(sol: Solves, x, ys, again, base):
     xn, xb, yb, x0 = sol.x[rows[again]], sol.x[b], ys[again], x[again]
     take = ((np.abs(xn - yb).max(axis=1) > OPT_TOL) & (sol.res[b] <= LOST_TOL)
             & (np.linalg.norm(xb - yb, axis=1) < np.linalg.norm(xn - yb, axis=1) - 1e-9)
-            & (np.abs(xb - x0).max(axis=1) <= np.abs(xn - x0).max(axis=1) + JUMP))
+            & (np.abs(xb - x0).max(axis=1) <= np.abs(xn - x0).max(axis=1) + JUMP) & ~np.any(xb * yb < 0.0, axis=1))
     rows[again[take]] = b[take]
     return rows
 
