@@ -13,8 +13,8 @@ configurations included). Printed: CPU ms per sample of the
 chunk (``run_samples``, after one warm-up chunk) and of its phases (recovery curves, loop
 closure, the folds with their swept collision checks), the ratios old / new, and whether
 the outcomes are the same. ``helix_graded`` (a strip: no loops) shows the strip path is
-untouched (ratio ~1). Each measurement is repeated alternately (default 3) and the
-median kept; CPU time (this process) because other processes on a loaded machine slow
+untouched (ratio ~1). Each measurement is repeated (default 3; the two alternate, each
+first in turn) and the median kept; CPU time (this process) because other processes on a loaded machine slow
 wall time down; the load average is printed.
 """
 
@@ -86,7 +86,7 @@ def measure(name: str, repeat: int) -> dict:
     samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), CHUNK))
     runs: dict[str, list[dict]] = {"new": [], "old": []}
     for r in range(repeat + 1):  # the first round warms the caches and is dropped
-        for key in ("new", "old"):
+        for key in (("new", "old") if r % 2 else ("old", "new")):  # alternate which runs first
             if key == "old":
                 p, q, u = _baseline()
                 with p, q, u:

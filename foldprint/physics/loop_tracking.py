@@ -155,10 +155,13 @@ class _Pool:
             step[line], vec[line] = _gn_line(gram[line], g[line], d[line], self.guide[act[line]])
             free[line, 0] = True
             self.guide[act[line]] = vec[line, :, 0]
-        e = ~line
+        e = ~line & (self.far[act] > 0)
         if e.any():
-            step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e] * self.far[act[e]])
-            null[e] = free[e].sum(axis=1)
+            step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e])
+        v = ~line & (self.far[act] == 0)
+        if v.any():
+            step[v], vec[v], free[v] = _gn_svd(jac[v], c[v], d[v])
+        null[~line] = free[~line].sum(axis=1)
         big = np.abs(step).max(axis=1, initial=0.0)
         final = it >= GN_STEPS + NEWTON_STEPS
         stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | (it >= GN_STEPS))) | final
@@ -187,6 +190,24 @@ def _gn_eigh(gram, g, d, stiff):
     keep = lam > np.maximum(RANK_TOL ** 2 * np.maximum(1.0, lam[:, -1]), stiff ** 2)[:, None]
     vt = vec.transpose(0, 2, 1)
     coef = np.where(keep, -_mv(vt, g) / np.where(keep, lam, 1.0), _mv(vt, d))
+    return _mv(vec, coef), vec, ~keep
+
+
+def _gn_svd(jac, c, d):
+    """Gauss-Newton steps from the SVD of J (P, k, n), the rank rule alone: near the flat
+    sheet, where singular values as small as the angles decide the branch and J^T J
+    would square them into its round-off (the eigen-decomposition resolves a singular
+    value s only to ~1e-8 max(s), the SVD to ~1e-16 max(s)). Returns what :func:`_gn_eigh`
+    does."""
+    p, k, n = jac.shape
+    u, sv, vt = np.linalg.svd(jac, full_matrices=k < n)
+    s = np.zeros((p, n))
+    s[:, :min(k, n)] = sv
+    keep = s > (RANK_TOL * np.maximum(1.0, s[:, :1]))
+    uc = np.zeros((p, n))
+    uc[:, :min(k, n)] = _mv(u.transpose(0, 2, 1), c)[:, :min(k, n)]
+    vec = vt.transpose(0, 2, 1)
+    coef = np.where(keep, -uc / np.where(keep, s, 1.0), _mv(vt, d))
     return _mv(vec, coef), vec, ~keep
 
 
