@@ -51,6 +51,13 @@ RANK_TOL = 1e-7
 #: |C| < 1e-9). Not near the flat sheet, where genuine singular values are as small as the
 #: angles, hence as the residual, and the restart's path decides the branch.
 RANK_RES = 1.0
+#: within this of the flat sheet (largest angle, rad) every step takes the SVD of J: the
+#: genuine singular values are as small as the angles there, and the eigen-decomposition of
+#: J^T J resolves a singular value only to ~1e-8 of the largest (the SVD to ~1e-16), which
+#: decides the branch at a bifurcation (our choice: 10 times the largest angle at which it
+#: changed an answer of tests/test_loop_tracking.py, 1e-3 rad on cross_lock_uniform's
+#: nominal drive)
+SVD_BELOW = 1e-2
 #: most grid steps of one drive solved ahead in one window (our choice)
 WINDOW = 32
 #: near the flat sheet, restarts from the drive of this many next grid steps run ahead (our choice)
@@ -155,10 +162,10 @@ class _Pool:
             step[line], vec[line] = _gn_line(gram[line], g[line], d[line], self.guide[act[line]])
             free[line, 0] = True
             self.guide[act[line]] = vec[line, :, 0]
-        e = ~line & (self.far[act] > 0)
+        v = ~line & (self.far[act] == 0) & (np.abs(xa).max(axis=1, initial=0.0) < SVD_BELOW)
+        e = ~line & ~v
         if e.any():
-            step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e])
-        v = ~line & (self.far[act] == 0)
+            step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e] * self.far[act[e]])
         if v.any():
             step[v], vec[v], free[v] = _gn_svd(jac[v], c[v], d[v])
         null[~line] = free[~line].sum(axis=1)
@@ -194,11 +201,8 @@ def _gn_eigh(gram, g, d, stiff):
 
 
 def _gn_svd(jac, c, d):
-    """Gauss-Newton steps from the SVD of J (P, k, n), the rank rule alone: near the flat
-    sheet, where singular values as small as the angles decide the branch and J^T J
-    would square them into its round-off (the eigen-decomposition resolves a singular
-    value s only to ~1e-8 max(s), the SVD to ~1e-16 max(s)). Returns what :func:`_gn_eigh`
-    does."""
+    """Gauss-Newton steps from the SVD of J (P, k, n), the rank rule alone (SVD_BELOW).
+    Returns what :func:`_gn_eigh` does."""
     p, k, n = jac.shape
     u, sv, vt = np.linalg.svd(jac, full_matrices=k < n)
     s = np.zeros((p, n))
