@@ -24,7 +24,7 @@ from foldprint.io.fold_format import design_from_fold
 from foldprint.io.load import load_design
 from foldprint.model import crease_patterns as cp
 from foldprint.model.materials import default_library
-from foldprint.physics import loop_tracking
+from foldprint.physics import loop_solve, loop_tracking
 from foldprint.physics.kinematics import GRID_TOL_S, HingeDrive, hinge_frames, loop_dt, run_times
 from foldprint.physics.loops import CLOSURE_TOL, OPT_TOL, LoopSolver, _rotvec
 from foldprint.simulation.robust import sample_drives
@@ -284,7 +284,7 @@ def _solves(x, res=None, null=None, done=None, free=None):
     x = np.asarray(x, float)
     p = len(x)
     free = np.array([[True, False]] * p) if free is None else np.asarray(free)
-    return loop_tracking.Solves(x, np.full(p, 1e-12) if res is None else np.asarray(res, float),
+    return loop_solve.Solves(x, np.full(p, 1e-12) if res is None else np.asarray(res, float),
                                 np.full(p, 1) if null is None else np.asarray(null),
                                 np.full(p, True) if done is None else np.asarray(done),
                                 np.repeat(np.eye(2)[None], p, axis=0), free)
@@ -333,7 +333,7 @@ def test_a_line_is_certified_only_as_the_whole_null_space():
     jac = np.stack([full, two, rank4, full])
     gram = jac.transpose(0, 2, 1) @ jac
     ws = np.stack([w, w, w, q[:, 1]])
-    assert loop_tracking._certified(jac, gram, ws).tolist() == [True, False, False, False]
+    assert loop_solve._certified(jac, gram, ws).tolist() == [True, False, False, False]
 
 
 def test_the_line_solve_takes_the_eigen_decompositions_step():
@@ -348,7 +348,7 @@ def test_the_line_solve_takes_the_eigen_decompositions_step():
     c, d = rng.standard_normal((1, 8)), rng.standard_normal((1, 5))
     g = (jac.transpose(0, 2, 1) @ c[..., None])[..., 0]
     guide = w + 0.05 * rng.standard_normal(5)
-    line, vec = loop_tracking._gn_line(gram, g, d, (guide / np.linalg.norm(guide))[None])
-    eig, _, free = loop_tracking._gn_eigh(gram, g, d, np.zeros(1))
+    line, vec = loop_solve._gn_line(gram, g, d, (guide / np.linalg.norm(guide))[None])
+    eig, _, free = loop_solve._gn_eigh(gram, g, d, np.zeros(1))
     assert free.sum() == 1 and np.allclose(line, eig, atol=1e-12)
     assert abs(abs(vec[0, :, 0] @ w) - 1.0) < 1e-12

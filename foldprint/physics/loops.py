@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .loop_tracking import (CLOSURE_TOL, FOLLOW_TOL, JUMP, MAX_STEP, NEAR_FLAT, OPT_TOL, SKIP_TOL,  # noqa: F401
-                            solve, track as track_all)
+from .loop_solve import CLOSURE_TOL, MAX_STEP, OPT_TOL, solve  # noqa: F401
+from .loop_tracking import FOLLOW_TOL, JUMP, NEAR_FLAT, SKIP_TOL, track as track_all  # noqa: F401
 
 
 def _hat(w: np.ndarray) -> np.ndarray:
