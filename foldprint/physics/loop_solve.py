@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: closure residual accepted as closed (rad for rotation, mm for translation)
 CLOSURE_TOL = 1e-9
 #: tracking stops when a Gauss-Newton step moves no angle more than this (rad)
 OPT_TOL = 1e-5
