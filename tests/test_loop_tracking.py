@@ -156,13 +156,31 @@ CASES = {**{f"check {n}": (lambda n=n: _check_drives(n)) for n in ("miura_3x3", 
          "rigid vertex": _rigid}
 
 
+def _assert_same_path(a, b, drive):
+    """The two trackers' closed angles agree within ANGLE_TOL, except at near-flat steps
+    (every drive angle below NEAR_FLAT): there the programmed sheet (a fixity's fraction of
+    a degree from flat) sits between branches, and the array tracker may hold the closed
+    configuration it continues from where the replaced one restarted from the drive. Both
+    answers must then be closed and near flat, and the paths must be the same again once
+    the sheet has left the flat state (the branch, hence every event, is the same)."""
+    diff = np.abs(a.angles - b.angles).max(axis=1)
+    apart = diff >= ANGLE_TOL
+    if not apart.any():
+        return
+    flat = np.abs(drive).max(axis=1) < loop_tracking.NEAR_FLAT
+    assert flat[apart].all(), "the trackers part away from the flat sheet"
+    for x in (a, b):
+        assert np.abs(x.angles[apart]).max() < loop_tracking.NEAR_FLAT
+    assert diff[~flat].max(initial=0.0) < ANGLE_TOL and not apart[-1]  # the same path once folded
+
+
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_array_tracker_gives_the_replaced_trackers_answers_and_events(case):
     design, times, drivens = CASES[case]()
     new, old = _solvers(design)
     got, want = new.track_many(times, drivens), old.track_many(times, drivens)
-    for a, b in zip(got, want):
-        assert np.abs(a.angles - b.angles).max() < ANGLE_TOL
+    for a, b, drive in zip(got, want, drivens):
+        _assert_same_path(a, b, drive)
         assert (a.stuck, a.locked_at, a.dof) == (b.stuck, b.locked_at, b.dof)
         assert abs(a.closure - b.closure) < CLOSURE_TOL or a.closure < CLOSURE_TOL
         assert max(new.closure(x) for x in a.angles[::7]) <= max(b.closure, CLOSURE_TOL)
