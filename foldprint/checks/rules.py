@@ -17,7 +17,8 @@ import numpy as np
 
 from ..model.design import Design, has_loops, tangent_factor
 from ..core.constants import JAM_ERROR_ABOVE, JAM_WARN_ABOVE, tol
-from ..core.errors import DesignError
+from ..core import schema as sc
+from ..core.inputs import read_toml, shown
 from ..model.materials import MaterialLibrary
 from ..core.modes import HingeModel
 
@@ -55,37 +56,47 @@ class Printer:
     voxel_source: str = ""
 
 
+#: Printer profiles one file may hold (the shipped file has 6).
+MAX_PRINTERS = 256
+_PRINTER_KEYS = {"name", "technology", "build_mm", "layer_mm", "min_wall_mm", "min_gap_mm", "voxel_mm",
+                 "voxel_source", "default", "voxel_default"}
+
+
 def load_printers(extra: str | Path | None = None) -> dict[str, Printer]:
-    """Shipped printer profiles plus a user TOML file of the same layout."""
+    """Shipped printer profiles plus a user TOML file of the same layout, each value
+    through the boundary schema (lengths from 1 um to 10 m, names bounded)."""
     text = (resources.files("foldprint") / "data" / "printers.toml").read_text(encoding="utf-8")
     tables = [("foldprint/data/printers.toml", tomllib.loads(text))]
     if extra is not None:
-        p = Path(extra)
-        try:
-            tables.append((str(p), tomllib.loads(p.read_text(encoding="utf-8"))))
-        except FileNotFoundError:
-            raise DesignError(f"{p}: printer file not found") from None
-        except ValueError as exc:  # also a >4300-digit integer
-            raise DesignError(f"{p}: not valid TOML: {exc}") from None
+        tables.append((shown(extra), read_toml(extra, "printer profiles (TOML, [printers.KEY] tables)")))
     out: dict[str, Printer] = {}
     for src, data in tables:
-        for key, raw in data.get("printers", {}).items():
-            try:
-                build = tuple(float(v) for v in raw["build_mm"])
-                vox = raw.get("voxel_mm")
-                vox = None if vox is None else tuple(float(v) for v in vox)
-                pr = Printer(key, str(raw.get("name", key)), str(raw.get("technology", "")), build,
-                             float(raw.get("layer_mm", 0.1)), float(raw["min_wall_mm"]), float(raw["min_gap_mm"]),
-                             vox, str(raw.get("voxel_source", "")))
-            except (KeyError, TypeError, ValueError) as exc:
-                raise DesignError(f"{src}: printers.{key}: needs build_mm = [x, y, z], min_wall_mm and "
-                                  f"min_gap_mm ({exc})") from None
-            if vox is not None and (len(vox) != 3 or not all(math.isfinite(v) and v > 0 for v in vox)):
-                raise DesignError(f"{src}: printers.{key}: voxel_mm must be three positive lengths [x, y, z] in mm")
-            if len(build) != 3 or min(build) <= 0 or pr.min_wall_mm <= 0 or pr.min_gap_mm <= 0:
-                raise DesignError(f"{src}: printers.{key}: sizes must be positive")
-            out[key] = pr
+        top = sc.Where(src)
+        profiles = sc.table(data.get("printers", {}), top / "printers")
+        if len(profiles) > MAX_PRINTERS:
+            raise (top / "printers").fail(f"{len(profiles)} profiles; at most {MAX_PRINTERS} are accepted")
+        for key, raw in profiles.items():
+            out[key] = _printer(key, sc.table(raw, top / f"printers.{key}", _PRINTER_KEYS), top / f"printers.{key}")
     return out
+
+
+def _printer(key: str, raw, at: sc.Where) -> Printer:
+    sc.ident(key, at)
+    for need in ("build_mm", "min_wall_mm", "min_gap_mm"):
+        if need not in raw:
+            raise at.fail(f"needs build_mm = [x, y, z], min_wall_mm and min_gap_mm (missing {need})")
+
+    def lengths(name):
+        vals = sc.array(raw[name], at / name, 3, "three lengths [x, y, z] in mm")
+        if len(vals) != 3:
+            raise (at / name).fail(f"must be three lengths [x, y, z] in mm, got {len(vals)}")
+        return tuple(sc.length(v, at / name / i) for i, v in enumerate(vals))
+
+    return Printer(key, sc.string(raw.get("name", key), at / "name"), sc.string(raw.get("technology", ""),
+                   at / "technology"), lengths("build_mm"), sc.length(raw.get("layer_mm", 0.1), at / "layer_mm"),
+                   sc.length(raw["min_wall_mm"], at / "min_wall_mm"), sc.length(raw["min_gap_mm"], at / "min_gap_mm"),
+                   lengths("voxel_mm") if "voxel_mm" in raw else None,
+                   sc.string(raw.get("voxel_source", ""), at / "voxel_source", sc.MAX_TEXT))
 
 
 def default_voxel_printer_key() -> str:

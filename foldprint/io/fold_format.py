@@ -23,7 +23,8 @@ from shapely.geometry.polygon import orient
 from ..core.constants import (DEFAULT_HINGE_MATERIAL, DEFAULT_HINGE_RADIUS_MM, DEFAULT_PANEL_MATERIAL,
                               DEFAULT_THICKNESS_MM, tol)
 from ..model.design import Design
-from .design_io import design_from_dict, read_text
+from .design_io import design_from_dict
+from ..core.inputs import read_input_text, shown, stem_text
 from ..core.errors import DesignError, where
 from ..model import composition
 from ..model.materials import MaterialLibrary
@@ -441,7 +442,7 @@ def _design_dict(frame: Mapping, fp: Mapping, source: str, panels: list, hinges:
     """The design as the dict :func:`design_from_dict` reads: ``foldprint:design``'s keys,
     the name and description from the frame, the panels and hinges, scaled to mm."""
     name = (frame.get("frame_title") or frame.get("file_title") or fp.get("name")
-            or (Path(source).stem if source else "") or "fold")
+            or (stem_text(source) if source else "") or "fold")
     d = {k: v for k, v in fp.items() if k not in ("hinges", "schema", "name")}
     d.update(name=str(name), panels=panels, hinges=hinges)
     if "description" not in d and frame.get("frame_description"):
@@ -521,10 +522,9 @@ def design_from_fold_file(path: str | Path, library: MaterialLibrary | None = No
     """Read a ``.fold`` file (FOLD 1.1/1.2); the design is named after ``frame_title``,
     ``file_title`` or the file stem. Keyword arguments go to :func:`design_from_fold`."""
     path = Path(path)
-
-    text = read_text(path, "a FOLD (JSON) file (.fold)")
+    text = read_input_text(path, "a FOLD (JSON) file (.fold)", "json")
     try:
         data = json.loads(text)
     except ValueError as exc:  # JSONDecodeError, or an integer of more than 4300 digits
-        raise DesignError(parse_error(exc, text, str(path), "json")) from None
+        raise DesignError(parse_error(exc, text, shown(path), "json")) from None
     return design_from_fold(data, source=str(path), library=library, **kw)
