@@ -179,10 +179,24 @@ class Evaluation:
         """The value of stage ``key``: ``compute()`` (with this evaluation's cache active)
         the first time, kept after."""
         if key not in self._stages:
-            with self.cache.active():
+            with self.cache.active(), guards.holding(self.held_bytes, id(self)):
                 self._stages[key] = compute()
             self.computed[key[0] if isinstance(key, tuple) else key] += 1
         return self._stages[key]
+
+    @property
+    def held_bytes(self) -> int:
+        """Bytes of the simulations this evaluation keeps (its own, the comparison's, the
+        replay's): counted by the memory guard of every later run (:func:`guards.holding`)."""
+        runs = [getattr(v, "result", v) for v in self._stages.values()]
+        return sum(r.nbytes for r in runs if isinstance(r, SimulationResult))
+
+    def guard(self, runs: int, clearance: bool = False) -> None:
+        """Refuse up front (ResourceError) when ``runs`` simulations held at once (and the
+        clearance search) would not fit in memory: before the first of them is computed."""
+        o = self.options
+        skip = o.method == Method.BOTH and guards.index2d_skip_reason(self.design, o.dt, o.duration)
+        guards.check_simulation(self.design, o.dt, o.duration, Method.FCL if skip else o.method, runs, clearance)
 
     def has(self, stage: str) -> bool:
         """Whether ``stage`` was computed (or given)."""
@@ -311,6 +325,8 @@ class Evaluation:
         o = self.options
         if not o.samples:
             return None
+        if "robust" not in self._stages:
+            self.guard(2)  # the nominal fold held while a sample folds in this process
         sim = self.simulation
         return self._stage("robust", lambda: jam_probability(
             self.design, o.samples, o.seed, scatter=self.scatter, library=self.library, hinge_model=o.hinge_model,
@@ -350,6 +366,9 @@ class Evaluation:
     @property
     def findings(self) -> tuple[Finding, ...]:
         """Every design rule's findings, given the stages above (computed as needed)."""
+        if "findings" not in self._stages:  # the fold, a sample beside it, the clearance search
+            self.guard(2 if self.options.samples else 1, clearance=True)
+
         def run():
             sim = self.simulation
             asm, err = self.assembly, self.assembly_error
@@ -461,6 +480,8 @@ class Evaluation:
         and the other hinge model's verdict (:func:`foldprint.checks.report.simulate_json`)."""
         from ..checks.report import simulate_json
 
+        if "comparison" not in self._stages:
+            self.guard(2)  # the fold and the other hinge model's, held at once
         sim, other = self.simulation, self.comparison
         return simulate_json(sim, other, self.printed_crossings)
 

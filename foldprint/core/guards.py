@@ -21,6 +21,7 @@ Estimates are computed in floats, so absurd sizes (1e300 steps) are refused, not
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
@@ -45,6 +46,10 @@ TRAJ_BYTES_PER_HINGE_STEP = 64
 #: broad phase of the 3D check: prefix sums (3 x 8 B), centroids (24 B) and the
 #: centroid temporaries (3 x 24 B) per panel and step, held with the trajectory
 BROAD_BYTES_PER_PANEL_STEP = 120
+#: the hinge drive's recovery table, held with a run's trajectory: one curve per hinge on
+#: the recovery model's time grid, 15,400 floats (physics.recovery.curve_time_grid: 4 ms
+#: steps to 60 s, then 400 to the 600 s horizon; 117 MiB of a 1000-panel strip's drive)
+DRIVE_BYTES_PER_HINGE = 15_400 * 8
 #: kinematics (recovery lookup, hinge transforms, forward poses) per hinge and step, s
 KIN_S_PER_HINGE_STEP = 1.5e-6
 #: broad phase per panel and step, s
@@ -138,7 +143,7 @@ def simulation_estimate(n_panels: int, n_hinges: int, n_steps: float, use2d: boo
     n, nh, steps = float(n_panels), float(n_hinges), float(n_steps)
     pairs = n * (n - 1) / 2
     segs = n if n_segments is None else float(n_segments)
-    traj = steps * (n * TRAJ_BYTES_PER_PANEL_STEP + nh * TRAJ_BYTES_PER_HINGE_STEP + 8)
+    traj = steps * (n * TRAJ_BYTES_PER_PANEL_STEP + nh * TRAJ_BYTES_PER_HINGE_STEP + 8) + nh * DRIVE_BYTES_PER_HINGE
     broad = steps * n * BROAD_BYTES_PER_PANEL_STEP if use3d else 0.0
     index = steps * (pairs * (8 + 3) + segs * 4 * 8 * 3) if use2d else 0.0
     seconds = steps * nh * KIN_S_PER_HINGE_STEP + (steps * n * BROAD_S_PER_PANEL_STEP if use3d else 0.0)
@@ -167,8 +172,9 @@ def index2d_skip_reason(design, dt: float, duration: float | None) -> str | None
     """Why ``--method both`` leaves out the paper's 2D index of a planar strip, or None.
 
     ``both`` means both checks where they apply: the 3D swept check is the verdict, the 2D
-    index the paper's comparison. When the index alone would exceed the memory limit while
-    the 3D check fits (a 1000-panel strip: ~11 GB of index against ~0.7 GB), the run goes on
+    index the paper's comparison. When the index alone would exceed the memory limit (less
+    what the caller holds, :func:`holding`) while the 3D check fits (a 1000-panel strip:
+    ~11 GB of index against ~0.7 GB), the run goes on
     with the 3D check and says so; ``--method index2d`` still asks for the index (and is
     refused with the estimate)."""
     sizes = _run_sizes(design, dt, duration)
@@ -179,36 +185,99 @@ def index2d_skip_reason(design, dt: float, duration: float | None) -> str | None
     with2d = simulation_estimate(n, nh, steps, True, n_seg, use3d=True)
     without = simulation_estimate(n, nh, steps, False, n_seg, use3d=True)
     limit = max_memory()
-    if with2d["bytes"] <= limit or without["bytes"] > limit:
+    room = limit - held_elsewhere()  # beside what the caller already holds
+    if with2d["bytes"] <= room or without["bytes"] > room:
         return None
     return (f"the paper's 2D collision index was left out: it needs {_fmt(with2d['index2d_bytes'])} "
             f"({steps:.3g} steps x {with2d['pairs']:.0f} panel pairs), over the {_fmt(limit)} memory limit; "
             "the verdict is the 3D swept check's (--method index2d with a larger --max-memory runs the index)")
 
 
-def check_simulation(design, dt: float, duration: float | None, method: Method) -> dict:
-    """Refuse a simulation whose memory estimate exceeds the memory limit or whose time
-    estimate (kinematics and the 3D broad phase) exceeds the time budget.
+#: The bytes of results each evaluation holds while it computes another stage (its earlier
+#: simulations' trajectories and indexes), set by :func:`holding` and added to every
+#: simulation's estimate: what is held stays allocated while the next run allocates.
+_HOLDERS: dict = {}
 
-    Called at the top of :func:`foldprint.simulation.simulate.simulate` (one line)."""
+
+def held_elsewhere() -> float:
+    """Bytes the callers of this process say they hold (:func:`holding`)."""
+    return float(sum(_HOLDERS.values()))
+
+
+@contextlib.contextmanager
+def holding(nbytes: float, owner=None):
+    """Within the block, :func:`check_simulation` counts ``nbytes`` already held by
+    ``owner`` (an evaluation: nested stages of one owner replace its count, owners add)."""
+    key = owner if owner is not None else object()
+    before = _HOLDERS.get(key)
+    _HOLDERS[key] = float(nbytes)
+    try:
+        yield
+    finally:
+        if before is None:
+            _HOLDERS.pop(key, None)
+        else:
+            _HOLDERS[key] = before
+
+
+#: The clearance search (check's FP172) over the kept trajectory: the non-adjacent pair
+#: array (two int64 a pair) and one chunk of 2^20 pose-pair bounds (gathers, differences,
+#: squares: ~100 B each). It runs after the simulation's broad phase is freed.
+PAIR_BYTES = 16
+CLEARANCE_CHUNK_BYTES = 100 * 2 ** 20
+
+
+def run_estimate(design, dt: float, duration: float | None, method: Method, runs: int = 1,
+                 clearance: bool = False) -> dict | None:
+    """:func:`simulation_estimate` of the peak of a command that holds ``runs``
+    simulations at once (``simulate``: the nominal fold and the other hinge model's;
+    ``check`` with samples and ``robust``: the nominal fold and one sample in this
+    process), plus the clearance search after it (``clearance``) and what :func:`holding`
+    says is held. None for values simulate() refuses itself."""
     sizes = _run_sizes(design, dt, duration)
     if sizes is None:
-        return {}  # simulate() reports bad values itself
-    dur, steps, n_seg = sizes
+        return None
+    _dur, steps, n_seg = sizes
     m = str(method)
     use2d = m in (Method.INDEX2D, Method.BOTH) and design.is_planar_strip
     est = simulation_estimate(len(design.panels), len(design.hinges), steps, use2d, n_seg,
                               use3d=m in (Method.FCL, Method.BOTH))
+    work = max(est["broad_bytes"], est["index2d_bytes"])
+    clear = est["pairs"] * PAIR_BYTES + CLEARANCE_CHUNK_BYTES if clearance else 0.0
+    held = held_elsewhere() + ((runs - 1) * (est["trajectory_bytes"] + est["index2d_bytes"]) if runs > 1 else 0.0)
+    est.update(held_bytes=held, clearance_bytes=clear, runs=runs, run_bytes=est["bytes"],
+               bytes=est["bytes"] + held + max(0.0, clear - work))
+    return est
+
+
+def check_simulation(design, dt: float, duration: float | None, method: Method, runs: int = 1,
+                     clearance: bool = False) -> dict:
+    """Refuse a simulation whose memory estimate (:func:`run_estimate`: with ``runs``
+    simulations held at once, the clearance search and what the caller holds) exceeds the
+    memory limit, or whose time estimate (kinematics and the 3D broad phase) exceeds the
+    time budget.
+
+    Called at the top of :func:`foldprint.simulation.simulate.simulate` (one line) and up
+    front by the commands that hold more than one run (``apps.pipeline``)."""
+    est = run_estimate(design, dt, duration, method, runs, clearance)
+    if est is None:
+        return {}  # simulate() reports bad values itself
+    dur, steps = _run_sizes(design, dt, duration)[:2]
     limit = max_memory()
     src = f"{design.source}: " if design.source else f"{design.name}: "
     if est["bytes"] > limit:
+        held = ", ".join(([f"{runs} runs held at once"] if runs > 1 else [])
+                         + ([f"{_fmt(held_elsewhere())} of earlier results held"] if held_elsewhere() else [])
+                         + ([f"{_fmt(est['clearance_bytes'])} for the clearance search"]
+                            if est["bytes"] > est["run_bytes"] + est["held_bytes"] else []))
+        held = f" ({held}: {_fmt(est['bytes'])} in all)" if held else ""
         part = (f"the 2D collision index needs {_fmt(est['index2d_bytes'])} "
                 f"({steps:.3g} steps x {est['pairs']:.0f} panel pairs)" if est["index2d_bytes"] > est["trajectory_bytes"]
-                else f"the trajectory and the 3D check's broad phase need {_fmt(est['bytes'])} "
+                else f"the trajectory and the 3D check's broad phase need {_fmt(est['run_bytes'])} "
                      f"({steps:.3g} steps of {dt:g} s over {dur:g} s x {len(design.panels)} panels)"
                      .replace("inf steps", "more than 1e308 steps"))
         lift = "use --method fcl, " if est["index2d_bytes"] > est["trajectory_bytes"] else ""
-        raise ResourceError(f"{src}simulation refused: {part}, over the {_fmt(limit)} memory limit; "
+        raise ResourceError(f"{src}simulation refused: {part}{held}, over the {_fmt(limit)} memory limit; "
                             f"{lift}raise --dt, shorten --duration (or process.duration_s), or lift the "
                             f"limit with {_lift(est)}")
     budget = time_budget()

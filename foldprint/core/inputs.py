@@ -106,9 +106,13 @@ def read_input(path: str | os.PathLike, what: str, limit: int = MAX_FILE_BYTES,
         os.close(fd)
 
 
+def _size(n: float) -> str:
+    return f"{n / 2 ** 20:.3g} MiB" if n >= 2 ** 20 else f"{n / 2 ** 10:.3g} KiB"
+
+
 def _too_big(at: str, size: int | None, limit: int) -> str:
-    have = f"is {size / 2 ** 20:.0f} MiB" if size is not None else f"holds more than {limit / 2 ** 20:.0f} MiB"
-    return f"{at}: file {have}; input files of at most {limit // 2 ** 20} MiB are accepted"
+    have = f"is {_size(size)}" if size is not None else f"holds more than {_size(limit)}"
+    return f"{at}: file {have}; input files of at most {_size(limit)} are accepted"
 
 
 def read_input_text(path: str | os.PathLike, what: str, syntax: str | None = None, limit: int = MAX_FILE_BYTES,

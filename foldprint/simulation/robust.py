@@ -51,6 +51,11 @@ Z95 = 1.959963984540054
 #: Samples per task: drawn, given their curves in one array pass and folded together.
 #: Fixed (not tied to the number of workers), though the answer does not depend on it.
 CHUNK = 16
+#: Bytes of sampled recovery curves made at once (ratio and mean temperature, 8 B each per
+#: time point, twice while a batch's parts are joined): a chunk of 16 samples of a
+#: 1000-hinge strip held 1.3 GB in one pass; its samples are now given their curves a few
+#: at a time (one at a time there), the same curves, so memory stays bounded.
+CURVE_BATCH_BYTES = 128 * 2 ** 20
 
 
 def n_chunks(samples: int) -> int:
@@ -185,10 +190,14 @@ def _run_samples(args) -> list[Outcome]:
     method = rest[1] if len(rest) > 1 else VERDICT_METHOD
     if rest and rest[0]:
         return [run_sample((design, library, s, hinge_model, dt, method)) for s in samples]
-    drives = sample_drives(design, library, samples, until_s=run_end(design, dt))
-    solve_loops_many(drives, run_times(design, dt))  # a pattern with loops: closure tracked in lockstep
-    return [outcome_of(simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=d))
-            for d in drives]
+    samples, until = list(samples), run_end(design, dt)
+    per = max(1, CURVE_BATCH_BYTES // max(1, 32 * len(design.hinges) * len(grid_until(until))))
+    out = []
+    for a in range(0, len(samples), per):
+        drives = sample_drives(design, library, samples[a:a + per], until_s=until)
+        solve_loops_many(drives, run_times(design, dt))  # a pattern with loops: closure tracked in lockstep
+        out += [outcome_of(simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=d)) for d in drives]
+    return out
 
 
 def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
