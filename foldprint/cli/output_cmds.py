@@ -4,6 +4,7 @@ offline HTML gallery of many designs.
 
 from __future__ import annotations
 
+import shutil
 import sys
 from pathlib import Path
 from typing import List, Optional
@@ -92,7 +93,6 @@ def gallery(
     """
     from ..io.load import load_design
     from ..exchange.files import ensure_dir
-    from ..apps.gallery import build_gallery
     from ..model.materials import load_library
     from ..io.templates import list_templates, resolve_design_path
 
@@ -104,7 +104,20 @@ def gallery(
     if not names:
         raise FoldprintError("no designs given and no templates found")
     loaded = [load_design(resolve_design_path(n), lib) for n in names]
+    made = not out.exists()
     ensure_dir(out)
+    try:
+        index = _gallery(loaded, out, lib, jobs)
+    except BaseException:  # a refused or failed gallery leaves no folder it made (exit 2 writes nothing)
+        if made:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    echo_note(f"wrote {index}")
+
+
+def _gallery(loaded, out, lib, jobs):
+    from ..apps.gallery import build_gallery
+
     if OUTPUT_STATE["quiet"]:
         index = build_gallery(loaded, out, library=lib, jobs=jobs)
     elif not sys.stderr.isatty():  # a log: one line per finished part
@@ -119,4 +132,4 @@ def gallery(
             task = bar.add_task(f"building {len(loaded)} design(s)", total=len(loaded) + 2)
             index = build_gallery(loaded, out, library=lib, jobs=jobs, progress=lambda done, total, msg: bar.update(
                 task, completed=done, total=total, description=msg))
-    echo_note(f"wrote {index}")
+    return index

@@ -2,7 +2,7 @@
 :class:`ResourceError` (exit 2) that names the estimate, the limit and how to lift it,
 never a MemoryError and never a run that would fit.
 
-The estimates (``docs/robustness.md`` has a table of estimate vs measured) count:
+The estimates (``docs/input-safety.md`` has a table of estimate vs measured) count:
 
 * the trajectory: ``n_t`` time steps x (panels x a 4x4 pose + hinges x ratios, angles and
   the drive's temporaries), 8-byte floats;
@@ -36,7 +36,7 @@ DEFAULT_MAX_MEMORY = 2 * GiB
 DEFAULT_TIME_BUDGET_S = 900.0
 
 # Cost model. Measured on the 2-core sandbox with benchmarks/bench_scale.py (strips of 100
-# to 1000 panels, 2001 steps; peak RSS of fresh processes, docs/robustness.md):
+# to 1000 panels, 2001 steps; peak RSS of fresh processes, docs/input-safety.md):
 #: resident memory of the imported package (numpy, fcl, shapely, manifold3d), bytes
 BASE_BYTES = 110 * 2 ** 20
 #: trajectory bytes per panel and step (one 4x4 pose) and per hinge and step (ratios,
@@ -221,10 +221,11 @@ def holding(nbytes: float, owner=None):
 
 
 #: The clearance search (check's FP172) over the kept trajectory: the non-adjacent pair
-#: array (two int64 a pair) and one chunk of 2^20 pose-pair bounds (gathers, differences,
-#: squares: ~100 B each). It runs after the simulation's broad phase is freed.
-PAIR_BYTES = 16
-CLEARANCE_CHUNK_BYTES = 100 * 2 ** 20
+#: array (two int64 a pair, and the list it is made from, ~120 B a pair) and one chunk of
+#: 2^19 pose-pair bounds (gathers, differences, squares, order: ~100 B each). It runs
+#: after the simulation's broad phase is freed.
+PAIR_BYTES = 136
+CLEARANCE_CHUNK_BYTES = 64 * 2 ** 20
 
 
 def run_estimate(design, dt: float, duration: float | None, method: Method, runs: int = 1,
@@ -328,7 +329,7 @@ def check_sample_memory(design, samples: float, what: str = "the Monte-Carlo jam
 
 
 #: export: seconds and bytes per geometric feature (panel outline points, hinge bend
-#: slices per segment, teeth), measured with benchmarks/bench_scale.py (docs/robustness.md)
+#: slices per segment, teeth), measured with benchmarks/bench_scale.py (docs/input-safety.md)
 EXPORT_S_PER_FEATURE = 1.5e-3
 EXPORT_BYTES_PER_FEATURE = 8_000
 
@@ -374,18 +375,6 @@ def check_export(design) -> dict:
                             "(fewer slices and teeth), or lift the budget with the environment variable "
                             "FOLDPRINT_TIME_BUDGET (seconds)")
     return est
-
-
-#: Exact distance queries the clearance margin (check's FP172) may make: about 0.1 ms each,
-#: so 1e5 is ~10 s. Up to 200 frames are sampled; fewer when there are many panel pairs
-#: (at least 10), so the margin of a large design is coarser in time but bounded in work.
-MAX_DISTANCE_QUERIES = 100_000
-
-
-def clearance_stride(n_times: int, n_pairs: int) -> int:
-    """Sampling stride over the trajectory for the clearance margin, bounded in work."""
-    frames = min(200, max(10, MAX_DISTANCE_QUERIES // max(1, n_pairs)))
-    return max(1, n_times // frames)
 
 
 def check_samples(samples: int, seconds_per_sample: float, workers: int, name: str = "") -> float:

@@ -1,6 +1,6 @@
 """The boundary schema: every value of a design file is checked here before anything runs.
 
-Hand-written on purpose (``docs/robustness.md`` says why): each check knows the file,
+Hand-written on purpose (``docs/input-safety.md`` says why): each check knows the file,
 the key path (``hinges[1].radius_mm``), the item's id and what would be right, and raises
 :class:`~foldprint.core.errors.DesignError`.
 

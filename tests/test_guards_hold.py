@@ -1,0 +1,125 @@
+"""The memory guard holds (issue 30 item 2): representative large designs of every input
+kind through every command, each in a fresh interpreter under a 2 GiB address-space limit
+(RLIMIT_AS: an allocation past it is a MemoryError, as on a machine that small). Each run
+keeps the contract of ``fuzz_gen.contract_violations``: exit 0, 1 (the design fails) or 2
+(refused with its estimate), never a kill, a traceback or a MemoryError, and a peak
+resident size under the guard's 2 GiB. Before: a 1000-panel strip under ``check
+--samples 0`` reached 6.5 GB (the clearance search held every pose-pair bound), a
+1,500-face FOLD strip 3.6 GB, 16 Monte-Carlo samples of a 1000-hinge strip 1.3 GB of
+curves at once (MemoryError under the limit), and a 150 x 150 SVG grid was refused only
+after 40 CPU-s."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from fuzz_gen import contract_violations, run_fresh
+
+GiB = 2 ** 30
+
+
+def _strip(n: int, angle: float) -> str:
+    angles = [angle if k % 2 == 0 else -angle for k in range(n - 1)]
+    return (f'schema = 1\nname = "s{n}"\n[strip]\nlengths_mm = {[10] * n}\nangles_deg = {angles}\n'
+            f'materials = {["H-3"] * (n - 1)}\n').replace("'", '"')
+
+
+def _fold_strip(n: int) -> str:
+    xy = [[5 * i, 0] for i in range(n + 1)] + [[5 * i, 6] for i in range(n + 1)]
+    return json.dumps({"file_spec": 1.2, "frame_unit": "mm", "vertices_coords": xy,
+                       "faces_vertices": [[i, i + 1, n + 2 + i, n + 1 + i] for i in range(n)],
+                       "edges_vertices": [[i, n + 1 + i] for i in range(1, n)],
+                       "edges_assignment": ["V" if i % 2 else "M" for i in range(n - 1)],
+                       "edges_foldAngle": [30 if i % 2 else -30 for i in range(n - 1)]})
+
+
+def _svg_grid(n: int) -> str:
+    lines = [f'<rect x="0" y="0" width="{n}" height="{n}" stroke="#000" fill="none"/>']
+    for i in range(1, n):
+        lines += [f'<line x1="{i}" y1="0" x2="{i}" y2="{n}" stroke="#00f"/>',
+                  f'<line x1="0" y1="{i}" x2="{n}" y2="{i}" stroke="#f00"/>']
+    return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{n}mm" height="{n}mm" viewBox="0 0 {n} {n}">'
+            + "".join(lines) + "</svg>")
+
+
+FILES = {"s1000.toml": lambda: _strip(1000, 30.0), "s1000a10.toml": lambda: _strip(1000, 10.0),
+         "s300.toml": lambda: _strip(300, 30.0), "f1500.fold": lambda: _fold_strip(1500),
+         "grid150.svg": lambda: _svg_grid(150)}
+
+# (command line, environment, the exit codes it may give): every command, every input kind
+CASES = [
+    (["check", "s1000.toml", "--samples", "0", "--json"], {}, (1,)),  # 9.4 m long: fails FP100
+    (["simulate", "f1500.fold", "--json"], {}, (0, 1)),
+    (["check", "grid150.svg", "--samples", "0"], {}, (2,)),  # 22,500 panels, refused before noding
+    (["export", "s1000.toml", "--format", "stl", "--out", "out"], {}, (0,)),
+    (["robust", "s1000a10.toml", "--samples", "2", "--json"], {}, (0,)),
+    (["assign", "s1000.toml", "--budget", "2", "--workers", "1", "--json"], {}, (0, 1)),
+    # 80 samples x 3 scales of a 300-panel strip do not fit a 10 s budget: refused after
+    # the first chunk, with the measured rate
+    (["gallery", "s300.toml", "--out", "gallery", "--jobs", "1"], {"FOLDPRINT_TIME_BUDGET": "10"}, (2,)),
+]
+
+
+@pytest.fixture(scope="module")
+def designs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("large")
+    for name, text in FILES.items():
+        (d / name).write_text(text())
+    return d
+
+
+@pytest.mark.slow  # ~60 CPU-s for the seven runs: the large designs are the point
+@pytest.mark.parametrize("argv, env, codes", CASES, ids=lambda v: " ".join(v[:2]) if isinstance(v, list) else "")
+def test_large_designs_stay_under_the_guard_in_2_gib(designs, tmp_path, argv, env, codes):
+    for name in FILES:
+        (tmp_path / name).symlink_to(designs / name)
+    res = run_fresh(argv, tmp_path, address_limit=2 * GiB, cpu_s=120, env=env)
+    made = sorted(p.name for p in tmp_path.iterdir() if p.name not in FILES)
+    bad = contract_violations(res, wrote_on_exit_2=res["code"] == 2 and made != [], warnings_banned=True,
+                              wrote_outside=bool(set(made) - {"out", "gallery"}), peak_limit_mib=2 * GiB / 2 ** 20)
+    assert bad == [] and res["code"] in codes, (argv, res["code"], bad, res["err"][-800:], made)
+
+
+def test_a_monte_carlo_chunk_makes_its_curves_a_few_samples_at_a_time(monkeypatch):
+    """The chunk's samples get their curves in batches of at most CURVE_BATCH_BYTES (one
+    sample when even one is larger), and the outcomes are those of one batch."""
+    from foldprint.io.load import load_design
+    from foldprint.model.materials import default_library
+    from foldprint.simulation import robust
+
+    d = load_design(Path(__file__).resolve().parents[1] / "templates" / "helix_graded.toml")
+    lib = default_library()
+    smp = robust.draw_samples(d, robust.default_scatter(), 5, 3)
+    whole = robust.run_samples((d, lib, smp, "arc", 0.05))
+    sizes = []
+    real = robust.sample_drives
+    monkeypatch.setattr(robust, "sample_drives", lambda *a, **k: sizes.append(len(a[2])) or real(*a, **k))
+    one_sample = 32 * len(d.hinges) * len(robust.grid_until(robust.run_end(d, 0.05)))
+    monkeypatch.setattr(robust, "CURVE_BATCH_BYTES", 2 * one_sample)
+    assert robust.run_samples((d, lib, smp, "arc", 0.05)) == whole
+    assert sizes == [2, 2, 1]
+    sizes.clear()
+    monkeypatch.setattr(robust, "CURVE_BATCH_BYTES", 1)
+    assert robust.run_samples((d, lib, smp, "arc", 0.05)) == whole and sizes == [1] * 5
+
+
+def test_a_gallery_refused_after_it_started_leaves_no_folder_it_made(tmp_path, monkeypatch, capsys):
+    """Its viewer files were written before a design's samples were refused (exit 2 with a
+    folder left); a folder that was there before stays."""
+    import foldprint.apps.gallery as gallery
+    from foldprint.core.guards import ResourceError
+    from foldprint.cli.commands import main
+
+    def refused(designs, out, **kw):
+        (out / "viewer").mkdir()
+        raise ResourceError("s: --samples 80 refused")
+
+    monkeypatch.setattr(gallery, "build_gallery", refused)
+    assert main(["gallery", "helix_graded", "--out", str(tmp_path / "g")]) == 2
+    assert not (tmp_path / "g").exists() and capsys.readouterr().err.count("\n") == 1
+    (tmp_path / "mine").mkdir()
+    assert main(["gallery", "helix_graded", "--out", str(tmp_path / "mine")]) == 2
+    assert (tmp_path / "mine").is_dir()
