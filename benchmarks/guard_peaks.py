@@ -39,12 +39,14 @@ RUNS = {"check": (1, True), "simulate": (2, False), "robust": (2, False)}
 def _estimate(path: Path, command: str) -> float:
     from foldprint.core import guards
     from foldprint.io.load import load_design
+    from foldprint.simulation.robust import curve_batch
 
     runs, clearance = RUNS[command]
     d = load_design(path)
     # simulate runs --method both: the paper's 2D index too on a strip, unless it is left out
     both = command == "simulate" and not guards.index2d_skip_reason(d, 0.01, None)
-    return guards.run_estimate(d, 0.01, None, "both" if both else "fcl", runs, clearance)["bytes"]
+    curves = curve_batch(d, 0.01, 16)[1] if command == "robust" else 0.0  # the chunk's sampled curves
+    return guards.run_estimate(d, 0.01, None, "both" if both else "fcl", runs, clearance, curves)["bytes"]
 
 
 def _args(command: str, name: str) -> list[str]:

@@ -270,7 +270,7 @@ def test_samples_at_the_widest_scatter_stay_finite():
         warnings.simplefilter("error")
         for bath in TEMPERATURE_C:
             dd = d.replace(process=replace(d.process, bath_temperature_c=bath))
-            for drive in sample_drives(dd, default_library(), draw_samples(dd, sc, 32, 1)):
+            for drive in sample_drives(dd, default_library(), draw_samples(dd, sc, 8, 1)):
                 assert all(np.isfinite(c.ratio).all() for c in drive.curves)
     with pytest.raises(DesignError, match=r"\[0, 5\]"):
         sc.scaled(MAX_SCALE + 1)

@@ -42,8 +42,8 @@ from ..model.composition import fraction_profile
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_METHOD, DEFAULT_STATE, VERDICT_METHOD,
                           AfterContact, HingeModel, Method, State, parse)
-from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, draw_samples, jam_probability, outcome_of,
-                                 sample_drive)
+from ..simulation.robust import (Outcome, RobustResult, Sample, Scatter, curve_batch, draw_samples, jam_probability,
+                                 outcome_of, sample_drive)
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
 from ..simulation.simulate import SimulationResult, simulate
 
@@ -191,12 +191,15 @@ class Evaluation:
         runs = [getattr(v, "result", v) for v in self._stages.values()]
         return sum(r.nbytes for r in runs if isinstance(r, SimulationResult))
 
-    def guard(self, runs: int, clearance: bool = False) -> None:
-        """Refuse up front (ResourceError) when ``runs`` simulations held at once (and the
-        clearance search) would not fit in memory: before the first of them is computed."""
+    def guard(self, runs: int, clearance: bool = False, samples: bool = False) -> None:
+        """Refuse up front (ResourceError) when ``runs`` simulations held at once (the
+        second a Monte-Carlo sample, with its chunk's curves, when there are samples) and
+        the clearance search would not fit in memory: before the first is computed."""
         o = self.options
         skip = o.method == Method.BOTH and guards.index2d_skip_reason(self.design, o.dt, o.duration)
-        guards.check_simulation(self.design, o.dt, o.duration, Method.FCL if skip else o.method, runs, clearance)
+        curves = curve_batch(self.design, o.dt, o.samples)[1] if samples else 0.0
+        guards.check_simulation(self.design, o.dt, o.duration, Method.FCL if skip else o.method, runs, clearance,
+                                curves)
 
     def has(self, stage: str) -> bool:
         """Whether ``stage`` was computed (or given)."""
@@ -326,7 +329,7 @@ class Evaluation:
         if not o.samples:
             return None
         if "robust" not in self._stages:
-            self.guard(2)  # the nominal fold held while a sample folds in this process
+            self.guard(2, samples=True)  # the nominal fold held while a sample folds in this process
         sim = self.simulation
         return self._stage("robust", lambda: jam_probability(
             self.design, o.samples, o.seed, scatter=self.scatter, library=self.library, hinge_model=o.hinge_model,
@@ -367,7 +370,7 @@ class Evaluation:
     def findings(self) -> tuple[Finding, ...]:
         """Every design rule's findings, given the stages above (computed as needed)."""
         if "findings" not in self._stages:  # the fold, a sample beside it, the clearance search
-            self.guard(2 if self.options.samples else 1, clearance=True)
+            self.guard(2 if self.options.samples else 1, clearance=True, samples=bool(self.options.samples))
 
         def run():
             sim = self.simulation

@@ -229,11 +229,12 @@ CLEARANCE_CHUNK_BYTES = 64 * 2 ** 20
 
 
 def run_estimate(design, dt: float, duration: float | None, method: Method, runs: int = 1,
-                 clearance: bool = False) -> dict | None:
+                 clearance: bool = False, extra: float = 0.0) -> dict | None:
     """:func:`simulation_estimate` of the peak of a command that holds ``runs``
     simulations at once (``simulate``: the nominal fold and the other hinge model's;
     ``check`` with samples and ``robust``: the nominal fold and one sample in this
-    process), plus the clearance search after it (``clearance``) and what :func:`holding`
+    process), plus the clearance search after it (``clearance``), ``extra`` bytes held
+    beside the last run (a Monte-Carlo chunk's recovery curves) and what :func:`holding`
     says is held. None for values simulate() refuses itself."""
     sizes = _run_sizes(design, dt, duration)
     if sizes is None:
@@ -245,14 +246,15 @@ def run_estimate(design, dt: float, duration: float | None, method: Method, runs
                               use3d=m in (Method.FCL, Method.BOTH))
     work = max(est["broad_bytes"], est["index2d_bytes"])
     clear = est["pairs"] * PAIR_BYTES + CLEARANCE_CHUNK_BYTES if clearance else 0.0
-    held = held_elsewhere() + ((runs - 1) * (est["trajectory_bytes"] + est["index2d_bytes"]) if runs > 1 else 0.0)
+    held = held_elsewhere() + float(extra) + (
+        (runs - 1) * (est["trajectory_bytes"] + est["index2d_bytes"]) if runs > 1 else 0.0)
     est.update(held_bytes=held, clearance_bytes=clear, runs=runs, run_bytes=est["bytes"],
                bytes=est["bytes"] + held + max(0.0, clear - work))
     return est
 
 
 def check_simulation(design, dt: float, duration: float | None, method: Method, runs: int = 1,
-                     clearance: bool = False) -> dict:
+                     clearance: bool = False, extra: float = 0.0) -> dict:
     """Refuse a simulation whose memory estimate (:func:`run_estimate`: with ``runs``
     simulations held at once, the clearance search and what the caller holds) exceeds the
     memory limit, or whose time estimate (kinematics and the 3D broad phase) exceeds the
@@ -260,7 +262,7 @@ def check_simulation(design, dt: float, duration: float | None, method: Method, 
 
     Called at the top of :func:`foldprint.simulation.simulate.simulate` (one line) and up
     front by the commands that hold more than one run (``apps.pipeline``)."""
-    est = run_estimate(design, dt, duration, method, runs, clearance)
+    est = run_estimate(design, dt, duration, method, runs, clearance, extra)
     if est is None:
         return {}  # simulate() reports bad values itself
     dur, steps = _run_sizes(design, dt, duration)[:2]
@@ -268,6 +270,7 @@ def check_simulation(design, dt: float, duration: float | None, method: Method, 
     src = f"{design.source}: " if design.source else f"{design.name}: "
     if est["bytes"] > limit:
         held = ", ".join(([f"{runs} runs held at once"] if runs > 1 else [])
+                         + ([f"{_fmt(extra)} of sampled recovery curves"] if extra else [])
                          + ([f"{_fmt(held_elsewhere())} of earlier results held"] if held_elsewhere() else [])
                          + ([f"{_fmt(est['clearance_bytes'])} for the clearance search"]
                             if est["bytes"] > est["run_bytes"] + est["held_bytes"] else []))

@@ -191,13 +191,23 @@ def _run_samples(args) -> list[Outcome]:
     if rest and rest[0]:
         return [run_sample((design, library, s, hinge_model, dt, method)) for s in samples]
     samples, until = list(samples), run_end(design, dt)
-    per = max(1, CURVE_BATCH_BYTES // max(1, 32 * len(design.hinges) * len(grid_until(until))))
+    per = curve_batch(design, dt)[0]
     out = []
     for a in range(0, len(samples), per):
         drives = sample_drives(design, library, samples[a:a + per], until_s=until)
         solve_loops_many(drives, run_times(design, dt))  # a pattern with loops: closure tracked in lockstep
         out += [outcome_of(simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=d)) for d in drives]
     return out
+
+
+def curve_batch(design: Design, dt: float, samples: int = CHUNK) -> tuple[int, float]:
+    """(samples given their curves at once, the bytes those curves hold while made) of a
+    chunk of ``samples``: ratio and mean temperature, 8 B each per hinge and time point up
+    to the run's end, twice while a batch's parts are joined; at most CURVE_BATCH_BYTES,
+    or one sample when one is larger (what the memory guard adds for a sample's fold)."""
+    one = 32.0 * len(design.hinges) * len(grid_until(run_end(design, dt)))
+    per = max(1, min(int(samples), int(CURVE_BATCH_BYTES // max(1.0, one))))
+    return per, per * one
 
 
 def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
