@@ -60,10 +60,13 @@ def _run_design(seed: int) -> list[dict]:
                      v["err"], seed) for cmd, v in r.items()]
 
 
-def _contract(res: dict, before: list, after: list) -> list[str]:
-    from fuzz_gen import contract_violations
+def _contract(res: dict, before: list, after: list, args: list[str] = (), folder=".") -> list[str]:
+    from foldprint.core.guards import DEFAULT_MAX_MEMORY
+    from fuzz_gen import contract_violations, written_outside
 
-    return contract_violations(res, wrote_on_exit_2=after != before, warnings_banned=True)
+    return contract_violations(res, wrote_on_exit_2=after != before, warnings_banned=True,
+                               wrote_outside=written_outside(list(args), before, after, folder),
+                               peak_limit_mib=DEFAULT_MAX_MEMORY / 2 ** 20)
 
 
 def _run_file(kind: str, name: str, raw: bytes, args: list[str]) -> list[dict]:
@@ -77,7 +80,7 @@ def _run_file(kind: str, name: str, raw: bytes, args: list[str]) -> list[dict]:
         before = sorted(p.name for p in case.iterdir())
         res = run_case(args, case)
         after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
-    bad = _contract(res, before, after)
+    bad = _contract(res, before, after, args, case)
     return [_summary(kind, res["code"], bad, res["seconds"], res["cpu_seconds"], res["peak_mib"], res["err"],
                      {"args": args, "file": raw.decode("utf-8", "replace")[:20000] if name else None})]
 
@@ -98,7 +101,7 @@ def _run_path(reader: str, kind: str, suffix: str) -> list[dict]:
         before = sorted(p.name for p in case.iterdir())
         res = run_case(args, case)
         after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
-    bad = _contract(res, before, after)
+    bad = _contract(res, before, after, args, case)
     if kind in ("fifo", "dev_zero", "dev_urandom", "directory") and reader[2:] not in ("out", "plot") \
             and res["code"] != 2:
         bad.append("not refused")

@@ -335,6 +335,17 @@ def contract_violations(res: dict, *, wrote_on_exit_2: bool, json_stdout: bool =
         bad.append("warning printed")
     return bad
 
+OUTPUT_OPTIONS = ("--out", "--plot", "--write")
+
+
+def written_outside(args: list[str], before: list[str], after: list[str], folder=".") -> bool:
+    """Whether a run in ``folder`` made an entry there other than what its output options
+    name (``--out``, ``--plot``, ``--write``: their first path component inside it)."""
+    named = {os.path.relpath(os.path.join(folder, v), folder).split(os.sep)[0]
+             for o, v in zip(args, args[1:]) if o in OUTPUT_OPTIONS and v}
+    return bool(set(after) - set(before) - named)
+
+
 def run_fresh(args: list[str], cwd, *, address_limit: int | None = None, cpu_s: float = 120.0,
               env: dict | None = None) -> dict:
     """``python -m foldprint <args>`` in a fresh interpreter under an address-space limit

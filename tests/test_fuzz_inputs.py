@@ -23,7 +23,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
 from fuzz_gen import (FILE_NAMES, PLANTS, READERS, SMALL_DESIGN, command_lines, contract_violations, fold_documents,
-                      make_path, numeric_command_lines, option_files, path_cases, plant, svg_documents)
+                      make_path, numeric_command_lines, option_files, path_cases, plant, svg_documents,
+                      written_outside)
 from foldprint.core.errors import ExportError, FoldprintError
 from foldprint.exchange.files import write_set
 from foldprint.io.load import load_design
@@ -146,8 +147,9 @@ def test_command_lines_keep_the_contract(cli_dir, args):
         before = sorted(p.name for p in case.iterdir())
         res = run_case(args, case)
         after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
-        assert contract_violations(res, wrote_on_exit_2=after != before) == [], (args, res["code"],
-                                                                                   res["err"][-1500:], after)
+        assert contract_violations(res, wrote_on_exit_2=after != before,
+                                   wrote_outside=written_outside(args, before, after, case)) == [], (
+            args, res["code"], res["err"][-1500:], after)
 
 
 # -- issue 30: option files, paths that are not regular files, numeric extremes ---------------
@@ -212,7 +214,7 @@ def _cli_case(cli_dir, args, make=None):
         before = sorted(p.name for p in case.iterdir())
         res = run_case(args, case)
         after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
-        return res, after != before
+        return res, after != before, written_outside(args, before, after, case)
 
 
 @settings(max_examples=max(8, int(20 * SCALE)), deadline=None, database=None, derandomize=True,
@@ -228,8 +230,9 @@ def test_input_paths_that_are_not_files_keep_the_contract(cli_dir, case):
         p = make_path(str(folder), kind, suffix)
         return [a.format(p) for a in args]
 
-    res, wrote = _cli_case(cli_dir, READERS[reader], make)
-    assert contract_violations(res, wrote_on_exit_2=wrote, warnings_banned=True) == [], (case, res["err"][-800:])
+    res, wrote, outside = _cli_case(cli_dir, READERS[reader], make)
+    assert contract_violations(res, wrote_on_exit_2=wrote, warnings_banned=True, wrote_outside=outside) == [], (
+        case, res["err"][-800:])
     if kind in ("fifo", "dev_zero", "dev_urandom", "directory", "long_path", "deep_path") and reader[2:] not in ("out", "plot"):
         assert res["code"] == 2, (case, res["err"])
 
@@ -238,5 +241,6 @@ def test_input_paths_that_are_not_files_keep_the_contract(cli_dir, case):
           suppress_health_check=list(HealthCheck))
 @given(args=numeric_command_lines())
 def test_numeric_options_at_their_extremes_keep_the_contract(cli_dir, args):
-    res, wrote = _cli_case(cli_dir, args)
-    assert contract_violations(res, wrote_on_exit_2=wrote, warnings_banned=True) == [], (args, res["err"][-800:])
+    res, wrote, outside = _cli_case(cli_dir, args)
+    assert contract_violations(res, wrote_on_exit_2=wrote, warnings_banned=True, wrote_outside=outside) == [], (
+        args, res["err"][-800:])

@@ -274,3 +274,11 @@ def test_samples_at_the_widest_scatter_stay_finite():
                 assert all(np.isfinite(c.ratio).all() for c in drive.curves)
     with pytest.raises(DesignError, match=r"\[0, 5\]"):
         sc.scaled(MAX_SCALE + 1)
+
+
+def test_an_output_folder_that_is_a_loop_of_links_exits_2(tmp_path, capsys, monkeypatch):
+    """Found by the path fuzz: --out naming a link to itself was a RuntimeError (exit 3)."""
+    monkeypatch.chdir(tmp_path)
+    os.symlink("loop", "loop")
+    for argv in (["export", "helix_graded", "--out", "loop"], ["simulate", "helix_graded", "--plot", "loop"]):
+        _one_line_exit_2(*_run(argv, capsys), ["'loop'", "loop of symbolic links"])

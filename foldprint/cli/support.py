@@ -208,7 +208,12 @@ def check_out_dir(value: str | None, option: str = "--out"):
                              f"(or {option} . for the current folder)")
     _check_out_path(value, option)
     p = Path(value)
-    if os.path.abspath(p) == os.path.abspath(os.sep) or p.resolve() == Path(p.resolve().anchor):
+    try:
+        real = p.resolve()
+    except (OSError, RuntimeError):  # a loop of symbolic links
+        raise FoldprintError(f"{option} {value!r} cannot be resolved (a loop of symbolic links); give a directory, "
+                             f"e.g. {option} output/mine") from None
+    if os.path.abspath(p) == os.path.abspath(os.sep) or real == Path(real.anchor):
         raise FoldprintError(f"{option} {value!r} is the root of the file system; give a directory of its own, "
                              f"e.g. {option} output/mine")
     return p
