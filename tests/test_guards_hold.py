@@ -123,3 +123,86 @@ def test_a_gallery_refused_after_it_started_leaves_no_folder_it_made(tmp_path, m
     (tmp_path / "mine").mkdir()
     assert main(["gallery", "helix_graded", "--out", str(tmp_path / "mine")]) == 2
     assert (tmp_path / "mine").is_dir()
+
+
+def _s(n):
+    from foldprint.model.design import strip
+
+    return strip(f"s{n}", [10.0] * n, [30.0 if k % 2 == 0 else -30.0 for k in range(n - 1)], ["H-3"] * (n - 1))
+
+
+@pytest.fixture
+def default_guards(monkeypatch):
+    from foldprint.core import guards
+
+    monkeypatch.delenv("FOLDPRINT_MAX_MEMORY", raising=False)
+    monkeypatch.delenv("FOLDPRINT_TIME_BUDGET", raising=False)
+    guards.set_max_memory(None)
+    yield guards
+    guards.set_max_memory(None)
+
+
+def test_runs_held_at_once_and_what_callers_hold_add_up(default_guards):
+    guards = default_guards
+    d = _s(50)
+    one = guards.run_estimate(d, 0.01, None, "fcl")
+    two = guards.run_estimate(d, 0.01, None, "fcl", runs=2)
+    assert two["bytes"] - one["bytes"] == pytest.approx(one["trajectory_bytes"])
+    assert guards.run_estimate(d, 0.01, None, "fcl", extra=5e6)["bytes"] == pytest.approx(one["bytes"] + 5e6)
+    with guards.holding(3e6, "a"), guards.holding(4e6, "b"):
+        with guards.holding(1e6, "a"):  # an owner's nested stage replaces its count
+            assert guards.held_elsewhere() == 5e6
+        assert guards.run_estimate(d, 0.01, None, "fcl")["bytes"] == pytest.approx(one["bytes"] + 7e6)
+        guards.set_max_memory(int(one["bytes"] + 6e6))
+        with pytest.raises(guards.ResourceError, match="of earlier results held"):
+            guards.check_simulation(d, 0.01, None, "fcl")
+    assert guards.held_elsewhere() == 0.0
+    guards.check_simulation(d, 0.01, None, "fcl")  # fits once nothing is held
+    with pytest.raises(guards.ResourceError, match=r"2 runs held at once: .* in all"):
+        guards.check_simulation(d, 0.01, None, "fcl", runs=2)
+
+
+def test_an_evaluation_counts_what_it_keeps_in_every_later_run(default_guards, monkeypatch):
+    """simulate's comparison runs beside the kept fold: its guard sees the fold's bytes,
+    which are the arrays the result holds (and the estimate bounds them)."""
+    from foldprint.apps.pipeline import EvalOptions, Evaluation
+
+    guards = default_guards
+    d = _s(40)
+    seen = []
+    real = guards.check_simulation
+    monkeypatch.setattr(guards, "check_simulation",
+                        lambda *a, **k: seen.append(guards.held_elsewhere()) or real(*a, **k))
+    ev = Evaluation(d, EvalOptions(method="fcl"))
+    ev.simulation_json()
+    kept = ev.simulation.nbytes
+    assert ev.held_bytes == kept > 0
+    assert seen[-1] == kept  # the comparison's own guard, inside simulate()
+    est = guards.run_estimate(d, ev.options.dt, None, "fcl")
+    assert kept <= est["trajectory_bytes"] <= 4 * kept
+
+
+def test_simulate_is_refused_up_front_when_its_two_runs_do_not_fit(default_guards, monkeypatch, tmp_path, capsys):
+    """One run fits, the fold and its comparison do not: refused before the first fold."""
+    import foldprint.apps.pipeline as pipeline
+    from foldprint.cli.commands import main
+    from foldprint.io.design_io import design_to_toml
+
+    guards = default_guards
+    d = _s(60)
+    f = tmp_path / "s60.toml"
+    f.write_text(design_to_toml(d))
+    skip = guards.index2d_skip_reason
+    one = guards.run_estimate(d, 0.01, None, "fcl")["bytes"]
+    two = guards.run_estimate(d, 0.01, None, "fcl", runs=2)["bytes"]
+    limit = int((one + two) / 2)
+    guards.set_max_memory(limit)
+    assert skip(d, 0.01, None)  # the index does not fit either: both runs are the 3D check's
+
+    def boom(*a, **k):
+        raise AssertionError("simulated despite the refusal")
+
+    monkeypatch.setattr(pipeline, "simulate", boom)
+    assert main(["simulate", str(f), "--max-memory", str(limit), "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "2 runs held at once" in err and err.count("\n") == 1
