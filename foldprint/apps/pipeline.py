@@ -186,20 +186,15 @@ class Evaluation:
 
     @property
     def held_bytes(self) -> int:
-        """Bytes of the simulations this evaluation keeps (its own, the comparison's, the
-        replay's): counted by the memory guard of every later run (:func:`guards.holding`)."""
+        """Bytes of the simulations kept (own, comparison, replay): every later run's guard counts them."""
         runs = [getattr(v, "result", v) for v in self._stages.values()]
         return sum(r.nbytes for r in runs if isinstance(r, SimulationResult))
 
     def guard(self, runs: int, clearance: bool = False, samples: bool = False) -> None:
-        """Refuse up front (ResourceError) when ``runs`` simulations held at once (the
-        second a Monte-Carlo sample, with its chunk's curves, when there are samples) and
-        the clearance search would not fit in memory: before the first is computed."""
+        """Refuse up front what ``runs`` runs held at once (a sample's, ``samples``) would need (guards.check_runs)."""
         o = self.options
-        skip = o.method == Method.BOTH and guards.index2d_skip_reason(self.design, o.dt, o.duration)
-        curves = curve_batch(self.design, o.dt, o.samples)[1] if samples else 0.0
-        guards.check_simulation(self.design, o.dt, o.duration, Method.FCL if skip else o.method, runs, clearance,
-                                curves)
+        guards.check_runs(self.design, o.dt, o.duration, o.method, runs, clearance,
+                          (lambda: curve_batch(self.design, o.dt, o.samples)[1]) if samples else None)
 
     def has(self, stage: str) -> bool:
         """Whether ``stage`` was computed (or given)."""

@@ -25,6 +25,7 @@ import contextlib
 import math
 import os
 import re
+from typing import Callable
 
 from .errors import FoldprintError
 from .modes import Interface, Method
@@ -291,6 +292,18 @@ def check_simulation(design, dt: float, duration: float | None, method: Method, 
                             "shorten --duration (or process.duration_s), or lift the budget with the "
                             "environment variable FOLDPRINT_TIME_BUDGET (seconds)")
     return est
+
+
+def check_runs(design, dt: float, duration: float | None, method: Method, runs: int, clearance: bool = False,
+               curves: Callable[[], float] | None = None) -> None:
+    """:func:`check_simulation` of a command up front: ``runs`` simulations held at once
+    (``both`` counts the 2D index only where a run keeps it), the clearance search, and
+    ``curves()`` bytes of a Monte-Carlo chunk's recovery curves, asked only once the runs
+    alone fit (finding the run's end allocates its time grid)."""
+    m = Method.FCL if str(method) == Method.BOTH and index2d_skip_reason(design, dt, duration) else method
+    check_simulation(design, dt, duration, m, runs, clearance)
+    if curves is not None:
+        check_simulation(design, dt, duration, m, runs, clearance, curves())
 
 
 def narrow_deadline(what: str = "the 3D swept check"):
