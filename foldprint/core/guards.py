@@ -262,7 +262,7 @@ def check_simulation(design, dt: float, duration: float | None, method: Method, 
     time budget.
 
     Called at the top of :func:`foldprint.simulation.simulate.simulate` (one line) and up
-    front by the commands that hold more than one run (``apps.pipeline``)."""
+    front, through :func:`check_runs`, by the commands that hold more than one run."""
     est = run_estimate(design, dt, duration, method, runs, clearance, extra)
     if est is None:
         return {}  # simulate() reports bad values itself
