@@ -15,7 +15,7 @@ from ..core.constants import DEFAULT_THICKNESS_MM, JSON_DECIMALS
 from ..core.display import seconds
 from .lazy import summary
 from .root import app
-from .support import echo_json, check_in_range, echo_note, check_number, check_temperature
+from .support import check_out_file, echo_json, check_in_range, echo_note, check_number, check_temperature
 
 
 @app.command(short_help=summary('materials'))
@@ -34,6 +34,7 @@ def materials(
     from ..model.materials import load_library
     from ..physics.recovery import fold_time
 
+    plot = check_out_file(plot, "--plot")
     lib = load_library(materials_file or None)
     temps_raw = list(temperature) if temperature else ["80", "90", "100"]
     temps = [(_t, check_temperature(check_number(_t, "--temperature"))) for _t in temps_raw]
