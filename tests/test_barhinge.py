@@ -144,7 +144,8 @@ def test_strip_with_stiff_panels_follows_the_rigid_model_within_one_percent():
 def test_miura_with_stiff_panels_stays_on_the_rigid_folding_path():
     """Rigid-foldable: at every solved time each interior vertex's straight and zigzag
     creases satisfy the one-DOF relation tan(|rho_h|/2) = cos(gamma) tan(|rho_z|/2), and
-    the final angles are the rigid model's, within 1 % of the target angle."""
+    the final angles are the rigid model's, within 1 % of the target angle; the panels
+    barely strain, less as they stiffen."""
     d = load_design("templates/miura_3x3.toml")
     sol, ca, ra = _compare_with_rigid(d)
     target = np.abs([h.angle for h in d.hinges])
@@ -158,7 +159,10 @@ def test_miura_with_stiff_panels_stays_on_the_rigid_folding_path():
     folded = z > math.radians(5)
     assert folded.sum() > 20
     assert (np.abs(h[folded] - pred[folded, None]) <= 0.01 * target[straight][None]).all()
-    assert sol.max_strain < 1e-5
+    # near rigid: the panels' strain is a small share of the strain limit and falls as they stiffen
+    assert sol.max_strain < 0.01 * sol.strain_limit
+    stiffer = bs.CompliantDrive(d, panel_modulus_mpa=10 * STIFF).solve(run_times(d, 0.01))
+    assert stiffer.max_strain < sol.max_strain / 3
 
 
 def _two_hinge_loop(mat_a="H-1", mat_b="H-7", angle=90.0):
