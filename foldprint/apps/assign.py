@@ -71,7 +71,7 @@ PHASE1_SHARE = 0.5
 #: :func:`order_risk` are folded ROBUST_SCREEN_SAMPLES times each under scatter with the
 #: cheap screen; the ROBUST_FINALISTS (or ``top + 2``) with the fewest jams are confirmed
 #: and get ``samples`` folds of the printed part each (the batch Monte-Carlo made these
-#: cheap: 12 finalists x 60 samples cost what 5 x 60 did before, issue 19).
+#: cheap: 12 finalists x 60 samples cost what 5 x 60 cost on the per-curve path).
 ROBUST_POOL = 48
 #: ``robust`` pattern search: the largest wave it proposes (but the last, "all the rest").
 ROBUST_WAVE_MAX = 2

@@ -1,4 +1,4 @@
-"""Continuous inverse design (issue 22): choose every hinge's glass transition (its
+"""Continuous inverse design: choose every hinge's glass transition (its
 VeroWhite fraction) and the bath temperature directly, for the lowest jam probability
 under scatter (``foldprint assign DESIGN --continuous``, ``docs/assign.md``).
 

@@ -50,7 +50,7 @@ def _local(frame: HingeFrame, rho: float) -> np.ndarray:
 def tree_poses(design: Design, frames: list[HingeFrame], angles: np.ndarray) -> np.ndarray:
     """Each panel's pose, placed from the root outward along the spanning tree, whatever
     the order of ``frames`` (the layout lists them in hinge order: placing a child before
-    its parent left the pose all zeros, an empty solid; issue 18, the 8-crease waterbomb)."""
+    its parent would leave the pose all zeros, an empty solid: the 8-crease waterbomb)."""
     poses = np.zeros((len(design.panels), 4, 4))
     root = design.panel_index()[design.root]
     poses[root] = np.eye(4)

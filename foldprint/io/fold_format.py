@@ -162,7 +162,7 @@ def _index_lists(frame: Mapping, key: str, nv: int, src: str, size: int | None) 
         if not isinstance(item, list) or (len(item) != size if size else not 3 <= len(item) <= MAX_RING):
             raise DesignError(f"{src}{key}[{i}] must be a list of {size or f'3 to {MAX_RING}'} vertex indices, "
                               f"got {_short(item)}")
-        for v in item:  # FOLD indices are integers: 2.0 is a float (issue 20), true is a boolean
+        for v in item:  # FOLD indices are integers: 2.0 is a float, true is a boolean
             if isinstance(v, bool) or not isinstance(v, int):
                 raise DesignError(f"{src}{key}[{i}] holds {_short(v)}, not a vertex index; indices are whole "
                                   "numbers written without a decimal point (2, not 2.0)")
@@ -477,7 +477,7 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     if not isinstance(data, Mapping):
         raise DesignError(f"{src}a FOLD file must hold a JSON object, got {type(data).__name__}")
     frame = _frame(data, src)
-    check_fold(frame, source)  # issue 14: types of the foldprint per-item fields
+    check_fold(frame, source)  # the types of the foldprint per-item fields
     if "faces_vertices" not in frame:
         raise DesignError(f"{src}faces_vertices is missing; foldprint needs faces (its panels), "
                           "re-export the crease pattern with faces")

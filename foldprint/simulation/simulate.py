@@ -229,7 +229,7 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
         method == Method.BOTH and design.is_planar_strip) else None
     if skip2d:
         notes.append(skip2d)
-    # refuse before allocating (issue 14)
+    # refuse before allocating
     guards.check_simulation(design, dt, duration, Method.FCL if skip2d else method)
     after_contact = parse(AfterContact, after_contact, "after_contact")
     hinge_model = parse(HingeModel, hinge_model, "hinge_model")
