@@ -99,9 +99,7 @@ def _history(page: Path) -> list[str]:
             if HISTORY.search(line)]
 
 
-@pytest.mark.parametrize("page", [
-    pytest.param(README, marks=pytest.mark.xfail(strict=False, reason="the lead rewrites README.md")),
-    *sorted(DOCS.glob("*.md"))], ids=_ids(PAGES))
+@pytest.mark.parametrize("page", PAGES, ids=_ids(PAGES))
 def test_no_page_reads_like_a_development_log(page):
     assert _history(page) == []
 

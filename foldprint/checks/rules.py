@@ -280,7 +280,7 @@ def rule_folding(ctx: CheckContext) -> list[Finding]:
     crossing = {tuple(sorted(g.panels)) for g in ctx.printed_gaps if g.distance <= 0.0}
     if c is not None:
         # panels that already cross in the printed state (FP122) collide whatever the order:
-        # a lower-Tg hint would send the designer on a search that cannot succeed (issue 18)
+        # a lower-Tg hint would send the designer on a search that cannot succeed
         hint = ("these panels cross in the printed (permanent) state (FP122): no hinge order or material "
                 "avoids it; change the target angles, lengths or holes" if crossing else
                 "give the hinges that must fold first lower-Tg materials, so these panels fold in sequence")

@@ -66,14 +66,14 @@ def simulate(
         check_temperature(temperature)
     time_options(duration, dt)
     plot = check_out_dir(plot, "--plot")
-    guards.set_max_memory(max_memory)  # issue 14 resource guard
+    guards.set_max_memory(max_memory)  # the resource guard
     d, lib = load_input(design, materials_file, scale, crease_materials)
     if plot is not None:
         from ..exchange.files import ensure_dir
         ensure_dir(plot)
     ev = Evaluation(d, EvalOptions(hinge_model=model, method=m, after_contact=after, dt=dt, bath_c=temperature,
                                    duration=duration, mechanics=mech), library=lib)
-    report = ev.simulation_json()  # with the printed crossings (issue 18) and the other hinge model's verdict
+    report = ev.simulation_json()  # with the printed crossings and the other hinge model's verdict
     res, crossing = ev.simulation, ev.printed_crossings
     if plot is not None:
         from ..render.figures import collision_index_figure, hinge_angle_figure, save_figure
@@ -137,7 +137,7 @@ def check(
 
     model = parse_mode(HingeModel, hinge_model, "--hinge-model")
     mech = parse_mode(Mechanics, mechanics, "--mechanics")
-    guards.set_max_memory(max_memory)  # resource guard (issue 14)
+    guards.set_max_memory(max_memory)  # the resource guard
     check_count(samples, "--samples", 0, MAX_SAMPLES)  # 0 skips the jam probability
     if seed < 0:
         raise FoldprintError(f"--seed must be >= 0, got {seed}")

@@ -110,7 +110,7 @@ def parse_mode(enum, value: str, option: str):
         raise FoldprintError(f"{option} must be one of {', '.join(m.value for m in enum)}, got {value!r}") from None
 
 
-#: Admissible ranges of the command line's numeric options (issue 20 item 3): outside
+#: Admissible ranges of the command line's numeric options: outside
 #: them a value is refused with exit 2 naming the option and the range.
 #: --dt: 1 us is 1e4 below the default step and far below any recovery time constant;
 #: --duration: schema.MAX_DURATION_S (the resource guard refuses long runs with an

@@ -1,8 +1,8 @@
-"""Issue 19's figures in one run: dense folds and guards (``bench_scale.py``), then the
+"""The scale figures in one run: dense folds and guards (``bench_scale.py``), then the
 Monte-Carlo, check and assign (``bench_robust.py``), one after the other so neither loads
 the other's timings.
 
-    python benchmarks/bench_issue19.py [--json] [--quick]
+    python benchmarks/bench_scale_all.py [--json] [--quick]
 
 ``--quick`` skips the 1000-panel runs and the assign search. Each part prints its own
 figures beside the baseline measured in the same run; with ``--json`` the two JSON objects
