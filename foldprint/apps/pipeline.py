@@ -47,7 +47,8 @@ from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_ME
 from ..simulation.flip_drivers import FlipDrivers, flip_drivers
 from ..simulation.margin import ScatterMargin, margin_batch_bytes, scatter_margin
 from ..simulation.paper_beside import PaperLine, paper_lines
-from ..simulation.robust import RobustResult, Scatter, curve_batch, default_scatter, jam_probability, run_end
+from ..simulation.robust import (RobustResult, Scatter, curve_batch, curves_at_once, default_scatter, jam_probability,
+                                 run_end)
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
 from ..simulation.sequential import jam_test, jam_tests
 from ..simulation.simulate import SimulationResult, simulate
@@ -163,10 +164,12 @@ class Evaluation:
                           (lambda: curve_batch(self.design, o.dt, o.samples)[1]) if samples else None)
 
     def margin_batch(self, upfront: bool = False) -> int:
-        """Samples of the margin screen given their curves at once, in the memory left (guards.check_margin)."""
+        """Samples of the margin screen given their curves at once: in the memory left (guards.check_margin),
+        at most CURVE_BATCH_BYTES of curves (robust.curves_at_once)."""
         o = self.options
-        return guards.check_margin(self.design, o.dt, o.duration, o.method, lambda k: margin_batch_bytes(
+        per = guards.check_margin(self.design, o.dt, o.duration, o.method, lambda k: margin_batch_bytes(
             self.design, run_end(self.design, o.dt, o.duration), k), MARGIN_SAMPLES, upfront)
+        return per if per == 1 else min(per, curves_at_once(self.design, run_end(self.design, o.dt, o.duration), per)[0])
 
     def has(self, stage: str) -> bool:
         """Whether ``stage`` was computed (or given)."""
