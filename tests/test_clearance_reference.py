@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from foldprint.apps.pipeline import EvalOptions, Evaluation
-from foldprint.collision.clearance import min_clearance
+from foldprint.collision.clearance import earliest_within, min_clearance
 from foldprint.core.constants import tol
 from foldprint.collision.swept3d import SweptChecker, non_adjacent_pairs
 from foldprint.collision.swept3d import min_clearance as swept_min_clearance
@@ -68,6 +68,12 @@ def test_every_pose_sampled_gives_the_brute_force_minimum(folded):
     assert gap.time == pytest.approx(t_best, abs=1e-12), name
     k = int(np.argmin(np.abs(times - gap.time)))
     assert d[k, pairs.index(gap.pair)] == pytest.approx(best, abs=TIE_MM), name  # the pair named is that gap
+    # the earliest pose within a distance, its bounds made a few poses at a time or all at once
+    within = best + TIE_MM
+    first = int(np.argwhere(d <= within)[0][0])
+    for chunk in (1, 3 * len(pairs), 1 << 19):
+        k, (i, j) = earliest_within(checker, poses, within, chunk=chunk)
+        assert k == first and d[k, pairs.index((i, j))] <= within, (name, chunk)
 
 
 def test_the_reported_clearance_is_the_dense_minimum_within_sampling_error(folded):

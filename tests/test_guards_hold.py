@@ -107,22 +107,31 @@ def test_a_monte_carlo_chunk_makes_its_curves_a_few_samples_at_a_time(monkeypatc
 
 
 def test_a_gallery_refused_after_it_started_leaves_no_folder_it_made(tmp_path, monkeypatch, capsys):
-    """Its viewer files were written before a design's samples were refused (exit 2 with a
-    folder left); a folder that was there before stays."""
+    """The real gallery, refused after its viewer files were staged (a design's samples
+    refused by the guard): exit 2, one line, no folder it made (the output folder, its
+    parents, the staging folder beside it); a folder that was there before stays as it was."""
     import foldprint.apps.gallery as gallery
     from foldprint.core.guards import ResourceError
     from foldprint.cli.commands import main
 
-    def refused(designs, out, **kw):
-        (out / "viewer").mkdir()
+    staged = []
+
+    def refused(designs, out, *args, **kw):
+        staged.append(sorted(p.name for p in (out / "viewer").iterdir()))
         raise ResourceError("s: --samples 80 refused")
 
-    monkeypatch.setattr(gallery, "build_gallery", refused)
-    assert main(["gallery", "helix_graded", "--out", str(tmp_path / "g")]) == 2
-    assert not (tmp_path / "g").exists() and capsys.readouterr().err.count("\n") == 1
+    monkeypatch.setattr(gallery, "_build_all", refused)
+    assert main(["gallery", "helix_graded", "--out", str(tmp_path / "new" / "g")]) == 2
+    assert staged and staged[0] != []  # it had started writing
+    assert list(tmp_path.iterdir()) == [] and capsys.readouterr().err.count("\n") == 1
     (tmp_path / "mine").mkdir()
     assert main(["gallery", "helix_graded", "--out", str(tmp_path / "mine")]) == 2
-    assert (tmp_path / "mine").is_dir()
+    (tmp_path / "theirs").mkdir()
+    (tmp_path / "theirs" / "notes.txt").write_text("kept")
+    assert main(["gallery", "helix_graded", "--out", str(tmp_path / "theirs"), "--force"]) == 2
+    assert len(staged) == 3 and sorted(p.name for p in tmp_path.iterdir()) == ["mine", "theirs"]
+    assert list((tmp_path / "mine").iterdir()) == []
+    assert [p.name for p in (tmp_path / "theirs").iterdir()] == ["notes.txt"]
 
 
 def _s(n):

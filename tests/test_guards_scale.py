@@ -121,18 +121,24 @@ def test_bad_time_budget_is_a_clear_error(monkeypatch):
         guards.time_budget()
 
 
+@pytest.mark.slow  # ~20 CPU-s: the strip must be large enough (150 panels) for its index to outweigh the rest
 def test_both_leaves_out_an_index_over_the_limit_and_says_so(tmp_path, capsys):
     """--method both on a planar strip whose paper index alone would exceed the memory
     limit runs the 3D check (the verdict) and notes the index left out; --method index2d
-    still asks for it and is refused with the estimate."""
+    still asks for it and is refused with the estimate. The limit sits just under one run
+    with the index, over all that ``simulate`` holds at once without it: the fold and the
+    other hinge model's with the clearance search, then the margin screen's scattered folds
+    beside the fold (a 60-panel strip has no such limit: its index is smaller than that)."""
+    from foldprint.apps.pipeline import EvalOptions, Evaluation
     from foldprint.io.design_io import design_to_toml
 
-    d = _strip(60)
-    with2d = guards.simulation_estimate(60, 59, 2001, True, 240)["bytes"]
-    without = guards.simulation_estimate(60, 59, 2001, False, 240)["bytes"]
-    limit = int((with2d + without) / 2)
-    assert without < limit < with2d
-    f = tmp_path / "s60.toml"
+    d = _strip(150)
+    with2d = guards.simulation_estimate(150, 149, 2001, True, 600)["bytes"]
+    limit = int(with2d) - 2 ** 20
+    assert guards.run_estimate(d, 0.01, None, "fcl", 2, True)["bytes"] < limit
+    guards.set_max_memory(limit)
+    assert Evaluation(d, EvalOptions(method="fcl")).margin_batch(upfront=True) >= 1  # not refused
+    f = tmp_path / "s150.toml"
     f.write_text(design_to_toml(d))
     assert main(["simulate", str(f), "--max-memory", str(limit), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -142,3 +148,39 @@ def test_both_leaves_out_an_index_over_the_limit_and_says_so(tmp_path, capsys):
     assert "memory limit" in capsys.readouterr().err
     guards.set_max_memory(None)
     assert simulate(d).notes == ()  # under the default limit the index runs
+
+
+def test_the_margin_screen_fits_its_batches_to_the_memory_left():
+    """The margin screen's scattered folds give the same closest approaches made one sample
+    at a time as all at once; the guard gives every sample room under a large limit, fewer
+    under a smaller one, and refuses (exit-2 error naming the screen) when one does not fit."""
+    from dataclasses import replace as dc_replace
+
+    from foldprint.apps.pipeline import EvalOptions, Evaluation
+    from foldprint.simulation.margin import margin_batch_bytes, scatter_margin
+    from foldprint.simulation.robust import default_scatter
+
+    d = _strip(12)
+    d = dc_replace(d, process=dc_replace(d.process, duration_s=6.0))
+    ev = Evaluation(d, EvalOptions(method="fcl"))
+    sim, gap = ev.simulation, ev.clearance
+    args = (sim, gap, ev.clearance_checker, default_scatter(), ev.library)
+    assert scatter_margin(*args, batch=1).closest == scatter_margin(*args).closest
+    guards.set_max_memory(2 ** 40)
+    assert ev.margin_batch(upfront=True) == 16
+    one, two = (margin_batch_bytes(d, 6.0, k) for k in (1, 2))
+    assert 0 < one < two
+    lo, hi = 0, 2 ** 40  # the least limit that takes one sample at once
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        guards.set_max_memory(mid)
+        try:
+            ev.margin_batch(upfront=True)
+            hi = mid
+        except guards.ResourceError:
+            lo = mid
+    guards.set_max_memory(hi + (two - one) - 1)
+    assert ev.margin_batch(upfront=True) == 1
+    guards.set_max_memory(hi - 1)
+    with pytest.raises(guards.ResourceError, match="margin screen"):
+        ev.margin_batch(upfront=True)

@@ -27,7 +27,7 @@ from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_cr
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
 from ..core.constants import (ANIMATION_DT_S, CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S,  # noqa: F401 (re-exported)
-                              CLEARANCE_SAMPLES)
+                              CLEARANCE_SAMPLES, MARGIN_SAMPLES)
 from ..model.derived import DerivedCache
 from ..model.design import Design
 from ..core.errors import ExportError, FoldprintError, GeometryError
@@ -45,9 +45,10 @@ from ..model.printers import find_printer, tool_fit
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, DEFAULT_STATE,
                           VERDICT_METHOD, AfterContact, HingeModel, Mechanics, Method, SampleRule, State, parse)
 from ..simulation.flip_drivers import FlipDrivers, flip_drivers
-from ..simulation.margin import ScatterMargin, scatter_margin
+from ..simulation.margin import ScatterMargin, margin_batch_bytes, scatter_margin
 from ..simulation.paper_beside import PaperLine, paper_lines
-from ..simulation.robust import RobustResult, Scatter, curve_batch, default_scatter, jam_probability
+from ..simulation.robust import (RobustResult, Scatter, curve_batch, curves_at_once, default_scatter, jam_probability,
+                                 run_end)
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
 from ..simulation.sequential import jam_test, jam_tests
 from ..simulation.simulate import SimulationResult, simulate
@@ -161,6 +162,14 @@ class Evaluation:
         o = self.options
         guards.check_runs(self.design, o.dt, o.duration, o.method, runs, clearance,
                           (lambda: curve_batch(self.design, o.dt, o.samples)[1]) if samples else None)
+
+    def margin_batch(self, upfront: bool = False) -> int:
+        """Samples of the margin screen given their curves at once: in the memory left (guards.check_margin),
+        at most CURVE_BATCH_BYTES of curves (robust.curves_at_once)."""
+        o = self.options
+        per = guards.check_margin(self.design, o.dt, o.duration, o.method, lambda k: margin_batch_bytes(
+            self.design, run_end(self.design, o.dt, o.duration), k), MARGIN_SAMPLES, upfront)
+        return per if per == 1 else min(per, curves_at_once(self.design, run_end(self.design, o.dt, o.duration), per)[0])
 
     def has(self, stage: str) -> bool:
         """Whether ``stage`` was computed (or given)."""
@@ -301,7 +310,7 @@ class Evaluation:
             sim, gap = self.simulation, self.clearance
             return None if not sim.completed or gap is None else scatter_margin(
                 sim, gap, self.clearance_checker, self.scatter or default_scatter(), self.library,
-                seed=self.options.seed)
+                seed=self.options.seed, batch=self.margin_batch())
 
         return self._stage("scatter_margin", run)
 
@@ -514,6 +523,7 @@ class Evaluation:
 
         if "comparison" not in self._stages:
             self.guard(2, clearance=True)  # the fold and the other hinge model's, held at once, and the clearance search
+            self.margin_batch(upfront=True)  # the margin screen's samples, one at a time at least, beside the fold
         sim, other, crossing = self.simulation, self.comparison, self.printed_crossings
         return simulate_json(sim, other, crossing, self.clearance, None if crossing else self.scatter_margin,
                              self.paper_lines())

@@ -294,6 +294,41 @@ def check_simulation(design, dt: float, duration: float | None, method: Method, 
     return est
 
 
+def check_margin(design, dt: float, duration: float | None, method: Method, batch_bytes: Callable[[int], float],
+                 samples: int, upfront: bool = False) -> int:
+    """How many of the margin screen's ``samples`` scattered folds
+    (:mod:`foldprint.simulation.margin`) get their recovery curves at once: the most whose
+    ``batch_bytes(k)`` (curves and their making) fit beside one sample's kinematic
+    trajectory, its clearance search and what is held (what :func:`holding` says, and
+    ``upfront``: the nominal fold of ``method``, before it runs). ResourceError, naming the
+    estimate, when not even one fits."""
+    sizes = _run_sizes(design, dt, duration)
+    if sizes is None or samples < 1:
+        return max(1, samples)
+    _dur, steps, n_seg = sizes
+    n, nh = len(design.panels), len(design.hinges)
+    kin = steps * (n * TRAJ_BYTES_PER_PANEL_STEP + nh * TRAJ_BYTES_PER_HINGE_STEP + 8)
+    clear = n * (n - 1) / 2 * PAIR_BYTES + CLEARANCE_CHUNK_BYTES
+    held = held_elsewhere()
+    if upfront:
+        m = Method.FCL if str(method) == Method.BOTH and index2d_skip_reason(design, dt, duration) else method
+        nominal = run_estimate(design, dt, duration, m)
+        held += nominal["trajectory_bytes"] + nominal["index2d_bytes"]
+    fixed = BASE_BYTES + held + kin + clear
+    limit = max_memory()
+    for k in range(int(samples), 0, -1):
+        if fixed + batch_bytes(k) <= limit:
+            return k
+    one = kin + clear + batch_bytes(1)
+    est = {"bytes": fixed + batch_bytes(1)}
+    src = f"{design.source}: " if design.source else f"{design.name}: "
+    raise ResourceError(f"{src}simulation refused: the scatter margin screen folds {samples} scattered samples, "
+                        f"one at a time at least, and one needs {_fmt(one)} (its trajectory, recovery curves and "
+                        f"clearance search) beside {_fmt(held)} of the nominal fold held: {_fmt(est['bytes'])} in "
+                        f"all, over the {_fmt(limit)} memory limit; raise --dt, shorten --duration (or "
+                        f"process.duration_s), or lift the limit with {_lift(est)}")
+
+
 #: Most panel vertices ``--mechanics bar-hinge`` takes (our choice: a 20 x 20 Miura sheet, 441
 #: nodes, folds in ~10 CPU-s; one Newton iteration's sparse solve grows about linearly with
 #: the nodes, and a run solves ~2-3 per grid time, ~100-300 grid times)

@@ -35,7 +35,8 @@ from ..collision.swept3d import SweptChecker
 from ..core.constants import CHECK_SEED, CLEARANCE_SAMPLES, MARGIN_SAMPLES, tol
 from ..model.materials import MaterialLibrary
 from ..physics.kinematics import simulate_kinematics, solve_loops_many
-from .robust import sample_drives
+from ..physics.recovery_batch import MAX_BATCH_ELEMENTS, N_LAYERS, grid_until
+from .robust import curves_at_once, sample_drives
 from .scatter import Scatter, draw_samples
 from .simulate import SimulationResult
 
@@ -75,22 +76,44 @@ class ScatterMargin:
                           "distance_mm": round(float(w.distance), 4)}}
 
 
+#: bytes per element (hinge x time x layer) of a recovery batch's working arrays (the
+#: temperatures, rates, reduced times, relaxation terms and their temporaries): measured
+#: 69 B at MAX_BATCH_ELEMENTS (tracemalloc, the margin screen of a 150-panel strip), 72
+#: counted
+BATCH_BYTES_PER_ELEMENT = 72
+
+
+def margin_batch_bytes(design, until_s: float, k: int) -> float:
+    """Bytes the recovery curves of ``k`` samples hold while they are made: the curves
+    (:func:`~foldprint.simulation.robust.curves_at_once`) and the batch's working arrays
+    (:data:`BATCH_BYTES_PER_ELEMENT` per hinge, time and layer, at most
+    :data:`~foldprint.physics.recovery_batch.MAX_BATCH_ELEMENTS` elements at once)."""
+    n_t = len(grid_until(until_s))
+    elements = min(k * len(design.hinges) * n_t * N_LAYERS // 2, MAX_BATCH_ELEMENTS)
+    return curves_at_once(design, until_s, k)[1] + BATCH_BYTES_PER_ELEMENT * elements
+
+
 def scatter_margin(result: SimulationResult, clearance: Gap, checker: SweptChecker, scatter: Scatter,
                    library: MaterialLibrary, samples: int = MARGIN_SAMPLES,
-                   seed: int = CHECK_SEED) -> ScatterMargin:
+                   seed: int = CHECK_SEED, batch: int | None = None) -> ScatterMargin:
     """The closest approach of ``samples`` scattered folds of ``result``'s design (the
     first samples of ``seed``, as ``foldprint check`` draws them) beside the nominal
-    ``clearance``, on the nominal fold's time grid and hinge model (``checker``)."""
+    ``clearance``, on the nominal fold's time grid and hinge model (``checker``); their
+    curves made ``batch`` samples at a time (default: as many as CURVE_BATCH_BYTES holds;
+    the result is the same)."""
     design = result.design
     traj = result.trajectory
     shift = float(traj.bath_c) - float(design.process.bath_temperature_c)  # a bath given for this run
     drawn = [replace(s, bath_c=s.bath_c + shift) for s in draw_samples(design, scatter, samples, seed)]
-    drives = sample_drives(design, library, drawn, until_s=float(traj.times[-1]))
-    solve_loops_many(drives, traj.times)  # a pattern with loops: closure tracked in lockstep
+    per = batch or curves_at_once(design, float(traj.times[-1]), samples)[0]
     gaps = []
-    for d in drives:
-        k = simulate_kinematics(design, traj.times, model=traj.model, drive=d)
-        gaps.append(min_clearance(checker, k.times, k.poses, n_samples=CLEARANCE_SAMPLES))
+    for a in range(0, len(drawn), per):  # the curves of a few samples at a time, as check's chunks
+        drives = sample_drives(design, library, drawn[a:a + per], until_s=float(traj.times[-1]))
+        solve_loops_many(drives, traj.times)  # a pattern with loops: closure tracked in lockstep
+        for d in drives:
+            k = simulate_kinematics(design, traj.times, model=traj.model, drive=d)
+            gaps.append(min_clearance(checker, k.times, k.poses, n_samples=CLEARANCE_SAMPLES))
+        del drives, k
     closest = tuple(float(g.distance) for g in gaps)
     worst = gaps[int(np.argmin(closest))]
     return ScatterMargin(float(clearance.distance), samples, seed, closest, worst)

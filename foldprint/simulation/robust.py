@@ -210,10 +210,17 @@ def _run_samples(args) -> list[Outcome]:
 
 def curve_batch(design: Design, dt: float, samples: int = CHUNK) -> tuple[int, float]:
     """(samples given their curves at once, the bytes those curves hold while made) of a
-    chunk of ``samples``: ratio and mean temperature, 8 B each per hinge and time point up
-    to the run's end, twice while a batch's parts are joined; at most CURVE_BATCH_BYTES,
-    or one sample when one is larger (what the memory guard adds for a sample's fold)."""
-    one = 32.0 * len(design.hinges) * len(grid_until(run_end(design, dt)))
+    chunk of ``samples`` folded at step ``dt``: :func:`curves_at_once` up to the run's end
+    (what the memory guard adds for a sample's fold)."""
+    return curves_at_once(design, run_end(design, dt), samples)
+
+
+def curves_at_once(design: Design, until_s: float, samples: int) -> tuple[int, float]:
+    """(samples given their curves at once, the bytes those curves hold while made) of
+    ``samples`` whose curves run to ``until_s``: ratio and mean temperature, 8 B each per
+    hinge and time point, twice while a batch's parts are joined; at most
+    CURVE_BATCH_BYTES, or one sample when one is larger."""
+    one = 32.0 * len(design.hinges) * len(grid_until(until_s))
     per = max(1, min(int(samples), int(CURVE_BATCH_BYTES // max(1.0, one))))
     return per, per * one
 
