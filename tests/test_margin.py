@@ -87,3 +87,46 @@ def test_simulate_says_when_scatter_leaves_the_gap_open(capsys):
     text = capsys.readouterr().out
     assert "MARGINAL" not in text and "completes" in text.splitlines()[0]
     assert f"no panels touch in {MARGIN_SAMPLES} scattered folds" in text
+
+
+def test_a_fold_without_loops_is_screened_at_the_searched_poses_only():
+    """The screen makes a loop-free sample's kinematics only at the poses the clearance
+    search samples: each sample's closest approach equals the one searched on its whole
+    trajectory (every step made), with scatter on (octagon_stack: touching and not)."""
+    from foldprint.collision.clearance import min_clearance
+    from foldprint.physics.kinematics import simulate_kinematics
+    from foldprint.simulation.robust import default_scatter, sample_drives
+    from foldprint.simulation.scatter import draw_samples
+
+    ev = _ev("octagon_stack", method="fcl")
+    sim, k = ev.simulation, 6
+    m = scatter_margin(sim, ev.clearance, ev.clearance_checker, default_scatter(), ev.library, samples=k)
+    drawn = draw_samples(ev.design, default_scatter(), k, CHECK_SEED)
+    drives = sample_drives(ev.design, ev.library, drawn, until_s=float(sim.trajectory.times[-1]))
+    full = [min_clearance(ev.clearance_checker, t.times, t.poses) for t in
+            (simulate_kinematics(ev.design, sim.trajectory.times, model=sim.trajectory.model, drive=d) for d in drives)]
+    assert all(d.loops is None for d in drives)
+    assert m.closest == pytest.approx(tuple(g.distance for g in full), abs=1e-9)
+
+
+def test_a_design_with_too_many_pairs_to_screen_says_it_is_left_out(monkeypatch, capsys):
+    """Above MARGIN_MAX_PAIRS the screen is not run (its 16 exact searches would cost
+    minutes) and simulate says so, text and JSON; at the limit it runs. The pair count is
+    the listed pairs' (a second way)."""
+    import foldprint.simulation.margin as pl
+    from foldprint.cli.commands import main
+    from foldprint.collision.broadphase import count_non_adjacent_pairs, non_adjacent_pairs
+
+    d = load_design(templates_dir() / "helix_graded.toml")
+    pairs = len(non_adjacent_pairs(d))
+    assert count_non_adjacent_pairs(d) == pairs
+    monkeypatch.setattr(pl, "MARGIN_MAX_PAIRS", pairs - 1)
+    assert main(["simulate", "helix_graded", "--method", "fcl", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["scatter_margin"] is None and any("margin screen is left out" in n for n in r["notes"])
+    assert main(["simulate", "helix_graded", "--method", "fcl"]) == 0
+    assert "note: the scatter margin screen is left out" in capsys.readouterr().out
+    monkeypatch.setattr(pl, "MARGIN_MAX_PAIRS", pairs)
+    assert main(["simulate", "helix_graded", "--method", "fcl", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["scatter_margin"] is not None and not any("left out" in n for n in r["notes"])

@@ -30,6 +30,7 @@ from ..core.constants import (ANIMATION_DT_S, CHECK_DT_S, CHECK_SAMPLES, CHECK_S
                               CLEARANCE_SAMPLES, MARGIN_SAMPLES)
 from ..model.derived import DerivedCache
 from ..model.design import Design
+from ..model.hinge_graph import has_loops
 from ..core.errors import ExportError, FoldprintError, GeometryError
 from ..exchange.voxels import Pitch, VoxelPart
 from ..exchange.export import DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
@@ -46,6 +47,7 @@ from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_ME
                           VERDICT_METHOD, AfterContact, HingeModel, Mechanics, Method, SampleRule, State, parse)
 from ..simulation.flip_drivers import FlipDrivers, flip_drivers
 from ..simulation.margin import ScatterMargin, margin_batch_bytes, scatter_margin
+from ..simulation.margin import left_out as margin_left_out
 from ..simulation.paper_beside import PaperLine, paper_lines
 from ..simulation.robust import (RobustResult, Scatter, curve_batch, curves_at_once, default_scatter, jam_probability,
                                  run_end)
@@ -167,8 +169,9 @@ class Evaluation:
         """Samples of the margin screen given their curves at once: in the memory left (guards.check_margin),
         at most CURVE_BATCH_BYTES of curves (robust.curves_at_once)."""
         o = self.options
+        poses = None if has_loops(self.design) or o.mechanics != Mechanics.RIGID else CLEARANCE_SAMPLES
         per = guards.check_margin(self.design, o.dt, o.duration, o.method, lambda k: margin_batch_bytes(
-            self.design, run_end(self.design, o.dt, o.duration), k), MARGIN_SAMPLES, upfront)
+            self.design, run_end(self.design, o.dt, o.duration), k), MARGIN_SAMPLES, upfront, poses)
         return per if per == 1 else min(per, curves_at_once(self.design, run_end(self.design, o.dt, o.duration), per)[0])
 
     def has(self, stage: str) -> bool:
@@ -308,7 +311,7 @@ class Evaluation:
         scattered folds (:mod:`foldprint.simulation.margin`); None unless the fold completes."""
         def run():
             sim, gap = self.simulation, self.clearance
-            return None if not sim.completed or gap is None else scatter_margin(
+            return None if not sim.completed or gap is None or margin_left_out(self.design) else scatter_margin(
                 sim, gap, self.clearance_checker, self.scatter or default_scatter(), self.library,
                 seed=self.options.seed, batch=self.margin_batch())
 
@@ -523,10 +526,14 @@ class Evaluation:
 
         if "comparison" not in self._stages:
             self.guard(2, clearance=True)  # the fold and the other hinge model's, held at once, and the clearance search
-            self.margin_batch(upfront=True)  # the margin screen's samples, one at a time at least, beside the fold
+            if not margin_left_out(self.design):
+                self.margin_batch(upfront=True)  # the margin screen's samples, one at a time at least, beside the fold
         sim, other, crossing = self.simulation, self.comparison, self.printed_crossings
-        return simulate_json(sim, other, crossing, self.clearance, None if crossing else self.scatter_margin,
-                             self.paper_lines())
+        report = simulate_json(sim, other, crossing, self.clearance, None if crossing else self.scatter_margin,
+                               self.paper_lines())
+        if (why := margin_left_out(self.design)) and sim.completed and not crossing:
+            report["notes"] = [*report.get("notes", []), why]
+        return report
 
     def robust_json(self) -> dict:
         """The ``foldprint robust --json`` object: the estimate, and the contributions and

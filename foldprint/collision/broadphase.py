@@ -31,6 +31,13 @@ def non_adjacent_pairs(design: Design) -> list[tuple[int, int]]:
     return [(i, j) for i in range(n) for j in range(i + 1, n) if (i, j) not in adj]
 
 
+def count_non_adjacent_pairs(design: Design) -> int:
+    """``len(non_adjacent_pairs(design))`` without listing them."""
+    idx = design.panel_index()
+    n = len(design.panels)
+    return n * (n - 1) // 2 - len({tuple(sorted((idx[h.panels[0]], idx[h.panels[1]]))) for h in design.hinges})
+
+
 def panel_centres(checker: SweptChecker, poses: np.ndarray) -> np.ndarray:
     """World centroids (n_t, n, 3) of every panel."""
     c = checker.tree.centroid

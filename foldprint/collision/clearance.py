@@ -96,6 +96,14 @@ def gaps_in_pose(checker: SweptChecker, poses: np.ndarray, within_mm: float,
     return sorted(out, key=lambda g: g.distance)
 
 
+def sampled_poses(n: int, n_samples: int = CLEARANCE_SAMPLES) -> np.ndarray:
+    """Indices of the poses :func:`min_clearance` searches among ``n``: ``n_samples``
+    evenly spaced, the last always in (a caller that needs only these poses makes only
+    these: the margin screen's scattered folds)."""
+    n = max(int(n), 1)
+    return np.unique(np.r_[np.linspace(0, n - 1, min(n, n_samples)).round().astype(int), n - 1])
+
+
 def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
                   n_samples: int = CLEARANCE_SAMPLES, t_end: float | None = None) -> Gap | None:
     """The smallest gap between non-adjacent panels over ``n_samples`` poses of the
@@ -103,8 +111,7 @@ def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
     The search over those poses is :func:`foldprint.collision.swept3d.min_clearance` (exact,
     branch and bound on sphere bounds); this adds the sampling, the time and the point."""
     n = len(times) if t_end is None else int(np.searchsorted(times, t_end, side="right"))
-    n = max(n, 1)
-    ks = np.unique(np.r_[np.linspace(0, n - 1, min(n, n_samples)).round().astype(int), n - 1])
+    ks = sampled_poses(n, n_samples)
     found = swept_min_clearance(checker, poses[ks])
     if found is None:
         return None

@@ -295,19 +295,21 @@ def check_simulation(design, dt: float, duration: float | None, method: Method, 
 
 
 def check_margin(design, dt: float, duration: float | None, method: Method, batch_bytes: Callable[[int], float],
-                 samples: int, upfront: bool = False) -> int:
+                 samples: int, upfront: bool = False, poses: int | None = None) -> int:
     """How many of the margin screen's ``samples`` scattered folds
     (:mod:`foldprint.simulation.margin`) get their recovery curves at once: the most whose
     ``batch_bytes(k)`` (curves and their making) fit beside one sample's kinematic
     trajectory, its clearance search and what is held (what :func:`holding` says, and
-    ``upfront``: the nominal fold of ``method``, before it runs). ResourceError, naming the
-    estimate, when not even one fits."""
+    ``upfront``: the nominal fold of ``method``, before it runs). A sample's trajectory holds
+    ``poses`` poses when given (a fold without loops is made only at the poses its clearance
+    search samples), else every step. ResourceError, naming the estimate, when not even one
+    fits."""
     sizes = _run_sizes(design, dt, duration)
     if sizes is None or samples < 1:
         return max(1, samples)
     _dur, steps, n_seg = sizes
     n, nh = len(design.panels), len(design.hinges)
-    kin = steps * (n * TRAJ_BYTES_PER_PANEL_STEP + nh * TRAJ_BYTES_PER_HINGE_STEP + 8)
+    kin = (steps if poses is None else min(steps, poses)) * (n * TRAJ_BYTES_PER_PANEL_STEP + nh * TRAJ_BYTES_PER_HINGE_STEP + 8)
     clear = n * (n - 1) / 2 * PAIR_BYTES + CLEARANCE_CHUNK_BYTES
     held = held_elsewhere()
     if upfront:
