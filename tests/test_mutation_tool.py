@@ -152,3 +152,11 @@ def test_every_mapped_module_and_test_file_exists(tool):
     for name, (src, tests) in mutation.MODULES.items():
         assert (root / src).is_file(), name
         assert tests and all((root / t).is_file() for t in tests), name
+
+
+def test_the_docs_worked_interval_is_the_tools(tool):
+    """docs/testing.md reads a 50-mutant sample with 2 survivors as 96 %, 86-99.5 %."""
+    _, report = tool
+    lo, hi = report.clopper_pearson(48, 50)
+    assert (round(100 * lo), round(100 * hi, 1)) == (86, 99.5)
+    assert "2 survivors the score is 96 % and the interval 86–99.5 %" in " ".join(report.TESTING_MD.read_text().split())

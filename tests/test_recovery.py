@@ -87,28 +87,49 @@ def test_spectrum_has_16_branches_with_unit_weight(lib):
     assert g.sum() == pytest.approx(1.0)
 
 
+def _slab_by_finite_differences(p, thick_m, bath, t0, times, n=81):
+    """Explicit finite differences of the same 1-D problem (Robin faces by ghost nodes:
+    -k dT/dz = h (T - Tb)); the temperatures at ``times`` (ascending), (len(times), n)."""
+    dz = thick_m / (n - 1)
+    alpha = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk)
+    dt = 0.2 * dz**2 / alpha / (1.0 + p.h_w_m2k * dz / p.k_w_mk)  # stable with the Robin faces
+    temp, t, out = np.full(n, t0), 0.0, []
+    for t_end in times:
+        steps = max(int(np.ceil((t_end - t) / dt)), 1)
+        step = (t_end - t) / steps
+        for _ in range(steps):
+            new = temp.copy()
+            new[1:-1] = temp[1:-1] + alpha * step / dz**2 * (temp[2:] - 2 * temp[1:-1] + temp[:-2])
+            for i, nb in ((0, 1), (n - 1, n - 2)):
+                ghost = temp[nb] - 2 * dz * p.h_w_m2k / p.k_w_mk * (temp[i] - bath)
+                new[i] = temp[i] + alpha * step / dz**2 * (ghost - 2 * temp[i] + temp[nb])
+            temp = new
+        t = t_end
+        out.append(temp)
+    return np.array(out)
+
+
 def test_slab_temperature_against_finite_differences(lib):
     """Independent reference: explicit finite differences of the same 1-D problem."""
     p = lib["H-1"].recovery
-    thick_m, bath, t0 = 0.8e-3, 90.0, 10.0
-    n = 81
-    dz = thick_m / (n - 1)
-    alpha = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk)
-    dt = 0.2 * dz**2 / alpha
-    temp = np.full(n, t0)
-    t_end = 2.0
-    steps = int(t_end / dt)
-    for _ in range(steps):
-        new = temp.copy()
-        new[1:-1] = temp[1:-1] + alpha * dt / dz**2 * (temp[2:] - 2 * temp[1:-1] + temp[:-2])
-        # Robin boundary with a ghost node: -k dT/dz = h (T - Tb)
-        for i, nb in ((0, 1), (n - 1, n - 2)):
-            ghost = temp[nb] - 2 * dz * p.h_w_m2k / p.k_w_mk * (temp[i] - bath)
-            new[i] = temp[i] + alpha * dt / dz**2 * (ghost - 2 * temp[i] + temp[nb])
-        temp = new
-    z_frac = np.linspace(-1, 1, n)
-    series = slab_temperature(np.array([steps * dt]), z_frac, bath, t0, 0.8, p)[0]
-    assert np.max(np.abs(series - temp)) < 0.3  # deg C
+    fd = _slab_by_finite_differences(p, 0.8e-3, 90.0, 10.0, [2.0])[0]
+    series = slab_temperature(np.array([2.0]), np.linspace(-1, 1, 81), 90.0, 10.0, 0.8, p)[0]
+    assert np.max(np.abs(series - fd)) < 0.3  # deg C
+
+
+@pytest.mark.parametrize("h_w_m2k", [361.8, 5000.0])
+def test_slab_temperature_early_and_at_high_biot_against_finite_differences(lib, h_w_m2k):
+    """The series at early times (Fourier number 0.014 to 0.07), where many of its terms
+    count, and at the fitted Biot number (0.72) and a high one (10, a thick hinge or a
+    stirred bath: the eigenvalues crowd the top of each bracket (k pi, k pi + pi/2)); a
+    root taken from the wrong bracket moves the profile by degrees."""
+    from dataclasses import replace
+
+    p = replace(lib["H-1"].recovery, h_w_m2k=h_w_m2k)
+    times = [0.02, 0.1]
+    fd = _slab_by_finite_differences(p, 0.8e-3, 90.0, 10.0, times)
+    series = slab_temperature(np.array(times), np.linspace(-1, 1, 81), 90.0, 10.0, 0.8, p)
+    assert np.max(np.abs(series - fd)) < 0.25  # deg C, of an 80 deg C step
 
 
 def test_panel_material_has_no_recovery(lib):
