@@ -87,9 +87,21 @@ def test_spectrum_has_16_branches_with_unit_weight(lib):
     assert g.sum() == pytest.approx(1.0)
 
 
+def _fd_step(temp, p, bath, dz, dt):
+    """One explicit step of the heat equation through the thickness; Robin faces by ghost
+    nodes (-k dT/dz = h (T - Tb))."""
+    r = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk) * dt / dz**2
+    new = temp.copy()
+    new[1:-1] = temp[1:-1] + r * (temp[2:] - 2 * temp[1:-1] + temp[:-2])
+    for i, nb in ((0, 1), (len(temp) - 1, len(temp) - 2)):
+        ghost = temp[nb] - 2 * dz * p.h_w_m2k / p.k_w_mk * (temp[i] - bath)
+        new[i] = temp[i] + r * (ghost - 2 * temp[i] + temp[nb])
+    return new
+
+
 def _slab_by_finite_differences(p, thick_m, bath, t0, times, n=81):
-    """Explicit finite differences of the same 1-D problem (Robin faces by ghost nodes:
-    -k dT/dz = h (T - Tb)); the temperatures at ``times`` (ascending), (len(times), n)."""
+    """Explicit finite differences of the same 1-D problem; the temperatures at ``times``
+    (ascending), (len(times), n)."""
     dz = thick_m / (n - 1)
     alpha = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk)
     dt = 0.2 * dz**2 / alpha / (1.0 + p.h_w_m2k * dz / p.k_w_mk)  # stable with the Robin faces
@@ -98,12 +110,7 @@ def _slab_by_finite_differences(p, thick_m, bath, t0, times, n=81):
         steps = max(int(np.ceil((t_end - t) / dt)), 1)
         step = (t_end - t) / steps
         for _ in range(steps):
-            new = temp.copy()
-            new[1:-1] = temp[1:-1] + alpha * step / dz**2 * (temp[2:] - 2 * temp[1:-1] + temp[:-2])
-            for i, nb in ((0, 1), (n - 1, n - 2)):
-                ghost = temp[nb] - 2 * dz * p.h_w_m2k / p.k_w_mk * (temp[i] - bath)
-                new[i] = temp[i] + alpha * step / dz**2 * (ghost - 2 * temp[i] + temp[nb])
-            temp = new
+            temp = _fd_step(temp, p, bath, dz, step)
         t = t_end
         out.append(temp)
     return np.array(out)
@@ -169,12 +176,7 @@ def _recovery_by_finite_differences(material, bath_c, t_end, thickness_mm=0.8, i
     tau, g = spectrum(p)
     times, ratios = [0.0], [0.0]
     for k in range(steps):
-        new = temp.copy()
-        new[1:-1] = temp[1:-1] + alpha * dt / dz**2 * (temp[2:] - 2 * temp[1:-1] + temp[:-2])
-        for i, nb in ((0, 1), (n - 1, n - 2)):
-            ghost = temp[nb] - 2 * dz * p.h_w_m2k / p.k_w_mk * (temp[i] - bath_c)
-            new[i] = temp[i] + alpha * dt / dz**2 * (ghost - 2 * temp[i] + temp[nb])
-        temp = new
+        temp = _fd_step(temp, p, bath_c, dz, dt)
         new_rate = 10.0 ** (-log10_shift(temp, material.tg_c, p))
         xi += 0.5 * (rate + new_rate) * dt
         rate = new_rate
