@@ -293,3 +293,31 @@ def test_curve_records_its_inputs_and_is_read_only(lib, name):
         assert not arr.flags.writeable
         with pytest.raises(ValueError):
             arr[0] = 0.5
+
+
+def test_a_horizon_that_is_not_positive_is_refused(lib):
+    from foldprint.core.errors import MaterialError
+
+    for horizon in (0.0, -1.0):
+        with pytest.raises(MaterialError, match="horizon must be > 0 s"):
+            recovery_curve(lib["H-3"], 90.0, horizon_s=horizon)
+
+
+@settings(max_examples=300, derandomize=True, database=None)
+@given(steps=st.lists(st.tuples(st.floats(0.01, 5.0), st.floats(0.0, 0.3)), min_size=1, max_size=25),
+       level=st.floats(0.01, 1.0))
+def test_time_to_is_the_first_crossing_of_the_tabulated_curve(steps, level):
+    """Reference: the piecewise-linear curve the model tabulates, read by np.interp: the
+    time returned reaches ``level`` exactly, and no earlier grid point does; None exactly
+    when the curve never gets there."""
+    from foldprint.physics.recovery import RecoveryCurve
+
+    t = np.concatenate([[0.0], np.cumsum([dt for dt, _ in steps])])
+    ratio = np.minimum(np.concatenate([[0.0], np.cumsum([dr for _, dr in steps])]), 1.0)
+    curve = RecoveryCurve("m", 50.0, 90.0, 0.8, 10.0, t, ratio, np.zeros_like(t))
+    got = curve.time_to(level)
+    if ratio[-1] < level:
+        assert got is None
+        return
+    assert np.interp(got, t, ratio) == pytest.approx(level, abs=1e-9)
+    assert np.all(ratio[t < got - 1e-9] < level)
