@@ -447,6 +447,7 @@ def recheck(name: str, work: Path, entry: dict) -> dict:
     src = source_of(name)
     if entry.get("source_sha256") != sha256(ROOT / src):
         raise SystemExit(f"{src} changed since its mutants were made: draw them again (--sample N --seed S)")
+    entry = rescore(name, entry, load_equivalent())  # a mutant explained since is not run again
     fresh = prepare(name, work)
     generate(work)
     todo = {m["id"]: _full(src, m["id"]) for m in entry["survivors"] if m["equivalent"] is None}
