@@ -10,7 +10,13 @@ Kinds (``--kind``, comma-separated or ``all``; ``--cases`` is split evenly betwe
   through ``check --samples 0 --json`` (the whole pipeline when the file is valid);
 * ``cli``: command lines with hostile option values on a small strip design;
 * ``planted``: an export (``write_set``) into an output folder with planted entries,
-  in process (it only writes files).
+  in process (it only writes files);
+* ``options``: option files (``--materials``, ``--printers``, ``--scatter``) with 1-3
+  hostile values, through the command that reads each;
+* ``paths``: FIFOs, devices, directories, dangling or looping links, names and paths too
+  long or too deep, as a design, an option file, ``--out`` or ``--plot``;
+* ``numeric``: numeric options of every command at their extremes (1e308, 5e-324, nan,
+  400 digits, ...).
 
 Every command runs in a forked child with a budget of 30 s of its own CPU time (wall time
 on the shared machine is reported, not used). Prints per kind: the exit codes,
@@ -33,7 +39,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_fuzz import one, run_case  # noqa: E402
 
-KINDS = ("design", "svg", "fold", "cli", "planted")
+KINDS = ("design", "svg", "fold", "cli", "planted", "options", "paths", "numeric")
 
 
 def _warm():
@@ -54,10 +60,13 @@ def _run_design(seed: int) -> list[dict]:
                      v["err"], seed) for cmd, v in r.items()]
 
 
-def _contract(res: dict, before: list, after: list) -> list[str]:
-    from fuzz_gen import contract_violations
+def _contract(res: dict, before: list, after: list, args: list[str] = (), folder=".") -> list[str]:
+    from foldprint.core.guards import DEFAULT_MAX_MEMORY
+    from fuzz_gen import contract_violations, written_outside
 
-    return contract_violations(res, wrote_on_exit_2=after != before, warnings_banned=True)
+    return contract_violations(res, wrote_on_exit_2=after != before, warnings_banned=True,
+                               wrote_outside=written_outside(list(args), before, after, folder),
+                               peak_limit_mib=DEFAULT_MAX_MEMORY / 2 ** 20)
 
 
 def _run_file(kind: str, name: str, raw: bytes, args: list[str]) -> list[dict]:
@@ -71,9 +80,33 @@ def _run_file(kind: str, name: str, raw: bytes, args: list[str]) -> list[dict]:
         before = sorted(p.name for p in case.iterdir())
         res = run_case(args, case)
         after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
-    bad = _contract(res, before, after)
+    bad = _contract(res, before, after, args, case)
     return [_summary(kind, res["code"], bad, res["seconds"], res["cpu_seconds"], res["peak_mib"], res["err"],
                      {"args": args, "file": raw.decode("utf-8", "replace")[:20000] if name else None})]
+
+
+OPTION_ARGS = {"--materials": ["materials", "--materials", "opt.toml"],
+               "--printers": ["check", "d.toml", "--samples", "0", "--printers", "opt.toml"],
+               "--scatter": ["robust", "d.toml", "--samples", "2", "--scatter", "opt.toml"]}
+
+
+def _run_path(reader: str, kind: str, suffix: str) -> list[dict]:
+    from fuzz_gen import READERS, SMALL_DESIGN, make_path
+
+    with tempfile.TemporaryDirectory(prefix="fpfuzz") as tmp:
+        case = Path(tmp)
+        (case / "d.toml").write_text(SMALL_DESIGN)
+        path = make_path(tmp, kind, suffix)
+        args = [a.format(path) for a in READERS[reader]]
+        before = sorted(p.name for p in case.iterdir())
+        res = run_case(args, case)
+        after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
+    bad = _contract(res, before, after, args, case)
+    if kind in ("fifo", "dev_zero", "dev_urandom", "directory") and reader[2:] not in ("out", "plot") \
+            and res["code"] != 2:
+        bad.append("not refused")
+    return [_summary("paths", res["code"], bad, res["seconds"], res["cpu_seconds"], res["peak_mib"], res["err"],
+                     {"reader": reader, "kind": kind, "suffix": suffix})]
 
 
 def _run_planted(plants, names, twice, force) -> list[dict]:
@@ -102,12 +135,14 @@ def _jobs(kind: str, n: int, seed_base: int):
     from hypothesis import HealthCheck, given, settings
     from hypothesis import strategies as hs
 
-    from fuzz_gen import FILE_NAMES, PLANTS, command_lines, fold_documents, svg_documents
+    from fuzz_gen import (FILE_NAMES, PLANTS, command_lines, fold_documents, numeric_command_lines, option_files,
+                          path_cases, svg_documents)
 
     out = []
     strat = {"svg": svg_documents(), "fold": fold_documents(), "cli": command_lines(),
              "planted": hs.tuples(hs.lists(hs.sampled_from(PLANTS), max_size=3, unique=True), FILE_NAMES,
-                                  hs.booleans(), hs.booleans())}[kind]
+                                  hs.booleans(), hs.booleans()),
+             "options": option_files(), "paths": path_cases(), "numeric": numeric_command_lines()}[kind]
 
     @settings(max_examples=n, deadline=None, database=None, derandomize=True,
               suppress_health_check=list(HealthCheck))
@@ -119,8 +154,12 @@ def _jobs(kind: str, n: int, seed_base: int):
             out.append((_run_file, ("svg", "case.svg", x, ["check", "case.svg", "--samples", "0", "--json"])))
         elif kind == "fold":
             out.append((_run_file, ("fold", "case.fold", x, ["check", "case.fold", "--samples", "0", "--json"])))
-        elif kind == "cli":
-            out.append((_run_file, ("cli", "", b"", x)))
+        elif kind in ("cli", "numeric"):
+            out.append((_run_file, (kind, "", b"", x)))
+        elif kind == "options":
+            out.append((_run_file, ("options", "opt.toml", x[1], OPTION_ARGS[x[0]])))
+        elif kind == "paths":
+            out.append((_run_path, x))
         else:
             out.append((_run_planted, x))
 

@@ -174,6 +174,120 @@ angles_deg = [90, 90]
 materials = ["H-1", "H-4"]
 """
 
+# -- option files (--materials, --printers, --scatter) ----------------------------------------
+
+#: TOML values as text, hostile or plausible (numbers past float, past int conversion,
+#: absolute zero, strings, tables, nesting past the parsers)
+TOML_VALUES = hs.one_of(
+    hs.sampled_from(["-273.15", "1e308", "-1e308", "5e-324", "inf", "-inf", "nan", "0", "-0.0", "1", "40",
+                     "9" * 401, "9" * 5000, '"5"', '"\\u00e9"', "true", "[]", "{}", "[1, 2]", "[1, 2, 3]",
+                     "[" * 40 + "]" * 40, "[" * 2000 + "]" * 2000, "{a = 1}", '"#ff00ff"', '"hinge"', '"panel"']),
+    hs.floats(-1e4, 1e4, allow_nan=False).map(repr),
+    hs.integers(-(10 ** 6), 10 ** 6).map(str),
+)
+OPTION_BASES = {  # a valid file of each kind: table -> {key: TOML text}
+    "--materials": {"materials.X": {"role": '"hinge"', "tg_c": "40.0", "color": '"#112233"'},
+                    "materials.X.recovery": {"h_w_m2k": "400.0", "c1": "17.0", "n_branches": "16"},
+                    "materials.H-1": {"max_strain": "0.2"}, "recovery_defaults": {}},
+    "--printers": {"printers.p": {"build_mm": "[100, 100, 100]", "layer_mm": "0.03", "min_wall_mm": "0.6",
+                                  "min_gap_mm": "0.2", "voxel_mm": "[0.04, 0.08, 0.03]"}},
+    "--scatter": {"shared.bath": {"sd_c": "1.0"}, "hinge.tg": {"sd_c": "1.0"}, "hinge.thickness": {"sd_mm": "0.04"},
+                  "shared.heat_transfer": {"sigma_ln": "0.2"}, "hinge.heat_transfer": {"sigma_ln": "0.1"}},
+}
+OPTION_KEYS = {"--materials": ["role", "tg_c", "color", "max_strain", "description", "source", "bogus", "k_w_mk",
+                               "rho_kg_m3", "c_j_kgk", "h_w_m2k", "c1", "c2", "log10_tau_ref_s",
+                               "spectrum_sigma_decades", "spectrum_span_decades", "n_branches"],
+               "--printers": ["build_mm", "layer_mm", "min_wall_mm", "min_gap_mm", "voxel_mm", "name",
+                              "technology", "voxel_source", "bogus"],
+               "--scatter": ["sd_c", "sd_mm", "sigma_ln", "source", "bogus"]}
+
+
+@hs.composite
+def option_files(draw) -> tuple[str, bytes]:
+    """(option, file bytes): a valid option file with 1-3 values replaced or added."""
+    option = draw(hs.sampled_from(sorted(OPTION_BASES)))
+    tables = json.loads(json.dumps(OPTION_BASES[option]))
+    for _ in range(draw(hs.integers(1, 3))):
+        table = draw(hs.sampled_from(sorted(tables)))
+        tables[table][draw(hs.sampled_from(OPTION_KEYS[option]))] = draw(TOML_VALUES)
+    text = "".join(f"[{t}]\n" + "".join(f"{k} = {v}\n" for k, v in kv.items()) for t, kv in tables.items())
+    raw = text.encode()
+    cut = draw(hs.integers(0, 30))
+    return option, (raw[: len(raw) * cut // 30] if cut < 2 else raw)
+
+
+# -- input paths that are not regular files, or too long or deep ----------------------------
+
+PATH_KINDS = ["fifo", "dev_zero", "dev_urandom", "directory", "missing", "long_name", "long_path", "deep_path",
+              "dangling_link", "link_loop"]
+READERS = {"design": ["check", "{}", "--samples", "0"], "--materials": ["materials", "--materials", "{}"],
+           "--printers": ["check", "d.toml", "--samples", "0", "--printers", "{}"],
+           "--scatter": ["robust", "d.toml", "--samples", "1", "--scatter", "{}"],
+           "--out": ["export", "d.toml", "--format", "stl", "--out", "{}"],
+           "--plot": ["materials", "--plot", "{}"]}
+
+
+def make_path(case, kind: str, suffix: str) -> str:
+    """Make an input of ``kind`` in the folder ``case`` (or only its name); its path."""
+    p = os.path.join(case, "input" + suffix)
+    if kind == "fifo":
+        os.mkfifo(p)
+    elif kind in ("dev_zero", "dev_urandom"):
+        os.symlink("/dev/" + kind[4:], p)
+    elif kind == "directory":
+        os.mkdir(p)
+    elif kind == "dangling_link":
+        os.symlink("nowhere" + suffix, p)
+    elif kind == "link_loop":
+        os.symlink("input" + suffix, p)
+    elif kind == "long_name":
+        p = os.path.join(case, "n" * 300 + suffix)
+    elif kind == "long_path":
+        p = os.path.join(case, "x" * 5000 + suffix)
+    elif kind == "deep_path":
+        p = os.path.join(case, "a/" * 2100 + "d" + suffix)
+    return p
+
+
+@hs.composite
+def path_cases(draw) -> tuple[str, str, str]:
+    """(reader, path kind, suffix)."""
+    reader = draw(hs.sampled_from(sorted(READERS)))
+    suffix = draw(hs.sampled_from([".toml", ".fold", ".svg"] if reader == "design" else
+                                  [".png", ".exe", ""] if reader == "--plot" else [".toml", ""]))
+    return reader, draw(hs.sampled_from(PATH_KINDS)), suffix
+
+
+# -- numeric options at their extremes ---------------------------------------------------------
+
+EXTREMES = hs.sampled_from(["1e308", "-1e308", "1e-308", "5e-324", "1e309", "inf", "-inf", "nan", "0", "-0",
+                            "-1", "9" * 400, "1e6", "1000001", "4.9e-324", "0x10", "1_0", ""])
+NUMERIC = {"simulate": ["--temperature", "--duration", "--dt", "--scale", "--max-memory"],
+           "check": ["--samples", "--seed", "--error-above", "--warn-above", "--scales", "--scale", "--max-memory"],
+           "robust": ["--samples", "--seed", "--scales"],
+           "materials": ["--temperature", "--thickness"],
+           "export": ["--scale"],
+           "assign": ["--top", "--budget", "--samples", "--temperature", "--workers", "--seed"]}
+
+
+@hs.composite
+def numeric_command_lines(draw) -> list[str]:
+    """A command on ``d.toml`` with 1-3 numeric options at extreme values (``--scales``
+    gets one or a list); runs stay short: robust and check add few samples, assign a small budget."""
+    cmd = draw(hs.sampled_from(sorted(NUMERIC)))
+    args = [cmd] + ([] if cmd == "materials" else ["d.toml"])
+    for opt in draw(hs.lists(hs.sampled_from(NUMERIC[cmd]), min_size=1, max_size=3, unique=True)):
+        v = draw(EXTREMES)
+        args += [opt, ",".join([v, draw(EXTREMES)]) if opt == "--scales" and draw(hs.booleans()) else v]
+    if cmd in ("robust", "check", "assign") and "--samples" not in args:
+        args += ["--samples", "2" if cmd != "check" else "0"]
+    if cmd == "assign" and "--budget" not in args:
+        args += ["--budget", "4"]
+    if cmd == "export":
+        args += ["--format", "stl", "--out", "out"]
+    return args
+
+
 # -- planted output folders ---------------------------------------------------------------
 
 PLANTS = ["current->../keep.txt", "current->/etc", "current-file", "sets->..", "sets-dir-junk", "legacy-export",
@@ -191,12 +305,16 @@ PLANTS_OURS = {"legacy-export": ["out/.foldprint-", "real_out/.foldprint-"],
 
 
 def contract_violations(res: dict, *, wrote_on_exit_2: bool, json_stdout: bool = False,
-                        warnings_banned: bool = False) -> list[str]:
+                        warnings_banned: bool = False, wrote_outside: bool = False,
+                        peak_limit_mib: float | None = None) -> list[str]:
     """The exit-and-output contract every foldprint run keeps, as a list of violations (empty:
     fine): no timeout, no traceback, exit 0/1/2 only, JSON on stdout where ``json_stdout``, and
     on exit 2 one line on stderr and nothing written (``wrote_on_exit_2`` says whether the
-    caller saw a write). The one definition for tests/test_fuzz.py, tests/test_fuzz_inputs.py
-    and benchmarks/fuzz_inputs.py.
+    caller saw a write); nothing written outside ``--out`` (``wrote_outside``); no
+    MemoryError (the guards refuse before one) and a peak resident size under
+    ``peak_limit_mib`` (the memory guard's limit) when given. The one definition for
+    tests/test_fuzz.py, tests/test_fuzz_inputs.py, tests/test_guards_hold.py and
+    benchmarks/fuzz_inputs.py.
     """
     if res["timeout"]:
         return ["timeout"]
@@ -205,6 +323,12 @@ def contract_violations(res: dict, *, wrote_on_exit_2: bool, json_stdout: bool =
         bad.append("traceback")
     if res["code"] not in (0, 1, 2):
         bad.append(f"exit {res['code']}")
+    if "out of memory (MemoryError)" in res["err"]:
+        bad.append("MemoryError")
+    if peak_limit_mib is not None and res.get("peak_mib", 0.0) > peak_limit_mib:
+        bad.append(f"peak {res['peak_mib']:.0f} MiB over {peak_limit_mib:.0f}")
+    if wrote_outside:
+        bad.append("wrote outside --out")
     if json_stdout and res["code"] in (0, 1):
         try:
             json.loads(res["out"])
@@ -223,6 +347,55 @@ def _manifest(rows) -> str:
     return json.dumps({"tool": "foldprint", "complete": True,
                        "files": [{"name": n, "bytes": len(b), "sha256": hashlib.sha256(b).hexdigest()}
                                  for n, b in rows]})
+
+
+OUTPUT_OPTIONS = ("--out", "--plot", "--write")
+
+
+def written_outside(args: list[str], before: list[str], after: list[str], folder=".") -> bool:
+    """Whether a run in ``folder`` made an entry there other than what its output options
+    name (``--out``, ``--plot``, ``--write``: their first path component inside it)."""
+    named = {os.path.relpath(os.path.join(folder, v), folder).split(os.sep)[0]
+             for o, v in zip(args, args[1:]) if o in OUTPUT_OPTIONS and v}
+    return bool(set(after) - set(before) - named)
+
+
+def run_fresh(args: list[str], cwd, *, address_limit: int | None = None, cpu_s: float = 120.0,
+              env: dict | None = None) -> dict:
+    """``python -m foldprint <args>`` in a fresh interpreter under an address-space limit
+    (``address_limit`` bytes, RLIMIT_AS: an allocation past it is a MemoryError, as on a
+    machine that small) and a CPU limit; the dict of ``tests/test_fuzz.py:run_case``
+    (code, out, err, seconds, cpu_seconds, timeout, peak_mib: the child's max RSS).
+    A fresh process, not a fork: the test process's own address space would count."""
+    import resource
+    import subprocess
+    import sys
+    import tempfile
+    import time
+
+    def limits():
+        if address_limit:
+            resource.setrlimit(resource.RLIMIT_AS, (address_limit, address_limit))
+        resource.setrlimit(resource.RLIMIT_CPU, (int(cpu_s) + 1, int(cpu_s) + 2))
+
+    t0 = time.monotonic()
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        p = subprocess.Popen([sys.executable, "-m", "foldprint", *args], stdout=out, stderr=err, cwd=cwd,
+                             preexec_fn=limits, env=dict(os.environ, **(env or {})))
+        while True:  # reaped here, not by Popen, to read the child's resource usage
+            done, status, usage = os.wait4(p.pid, os.WNOHANG)
+            if done:
+                break
+            if time.monotonic() - t0 > 5 * cpu_s:  # a sleeping hang: the CPU limit never fires
+                p.kill()
+            time.sleep(0.05)
+        p.returncode = code = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        text_out, text_err = out.read().decode(errors="replace"), err.read().decode(errors="replace")
+    cpu = usage.ru_utime + usage.ru_stime
+    return {"code": code, "out": text_out, "err": text_err, "seconds": time.monotonic() - t0, "cpu_seconds": cpu,
+            "timeout": code in (-9, -24) or cpu > cpu_s, "peak_mib": usage.ru_maxrss / 1024}
 
 
 def plant(out, kind: str, names: list[str]) -> None:

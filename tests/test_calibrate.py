@@ -15,8 +15,8 @@ from foldprint.cli.commands import main
 from foldprint.core.errors import DataError
 from foldprint.io.hinge_data import load_hinge_data, parse_hinge_data
 from foldprint.model.materials import default_library, load_library
-from foldprint.physics.calibration import Problem, fit, settings
-from foldprint.physics.calibration_profile import profile
+from foldprint.physics.calibration import Problem, fit, holds, settings
+from foldprint.physics.calibration_profile import findings, profile
 from foldprint.physics.recovery import recovery_curve
 
 DATA = Path(__file__).resolve().parent.parent / "foldprint" / "data"
@@ -185,7 +185,12 @@ def test_cli_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys):
     for args, needle in ((["calibrate", str(tmp_path / "missing.csv")], "file not found"),
                          (["calibrate", str(tmp_path)], "not a regular file"),
                          (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fix", "c9"], "'c9' is not a recovery"),
-                         (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fix", "c1=abc"], "is not a number")):
+                         (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fix", "c1=abc"], "is not a number"),
+                         (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fit", "c9"], "'c9': not a recovery"),
+                         (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fit", "c1", "--fix", "c1=3"],
+                          "--fit c1 and --fix c1: a parameter is either fitted or held"),
+                         (["calibrate", str(DATA / "paper_hinge_data.csv"), "--per-material", "c2"],
+                          "c2 is held, not fitted; add --fit c2")):
         code = main(args)
         _, err = capsys.readouterr()
         assert code == 2 and needle in err and err.count("\n") == 1, (args, err)
@@ -197,20 +202,45 @@ def test_cli_json_out_and_plot(tmp_path, capsys):
     csv.write_text("\n".join([HEADER] + [f"ratio,{o.material},,{o.bath_c},{o.thickness_mm},{o.time_s},,{o.value},,0.02,,"
                                          for o in rows]))
     out, png = tmp_path / "m.toml", tmp_path / "fit.png"
-    code = main(["calibrate", str(csv), "--json", "--no-profile", "--out", str(out), "--plot", str(png),
+    code = main(["calibrate", str(csv), "--json", "--no-profile", "--out", str(out), "--plot", str(png), "--fit", "c1",
                  "--fix", "c2=45", "--fix", "spectrum_sigma_decades=0.8", "--fix", "spectrum_span_decades=8"])
     stdout, _ = capsys.readouterr()
     assert code == 0
     data = json.loads(stdout)
-    assert {"data", "materials", "parameters", "fixed", "fit", "uncertainty", "start", "curves", "rows",
+    assert {"data", "materials", "parameters", "fixed", "held", "fit", "uncertainty", "start", "curves", "rows",
             "findings", "fixity", "out", "plot"} <= set(data)
     assert data["uncertainty"] == "none" and data["fixed"]["c2"] == 45.0
     assert {p["name"] for p in data["parameters"]} == set(FREE)
+    assert {h["name"]: (h["value"], h["source"]) for h in data["held"]} == {
+        "c2": (45.0, "--fix"), "spectrum_sigma_decades": (0.8, "--fix"), "spectrum_span_decades": (8.0, "--fix")}
+    assert len(data["fit"]["start_ends"]) == 1 + settings().starts and data["fit"]["chi2"] == min(data["fit"]["start_ends"])
+    assert "--fit c1" in out.read_text().splitlines()[0]
     assert len(data["rows"]) == len(rows) and len(data["curves"]) == 4
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and load_library(out)["H-2"].recovery.c2 == 45.0
     code = main(["calibrate", str(csv), "--no-profile", "--per-material", "h_w_m2k", "--fix", "c1"])
     stdout, _ = capsys.readouterr()
     assert code == 0 and "h_w_m2k[H-2]" in stdout and "h_w_m2k[H-6]" in stdout
+
+
+# -- what calibrate holds ------------------------------------------------------------------
+
+def test_calibrate_holds_what_calibration_toml_holds_unless_told_to_fit_it():
+    """data/calibration.toml holds c1 and c2 at the universal WLF values and the spectrum's
+    span at our choice, each with its source; --fit frees one, --fix overrides the value;
+    naming a parameter in both is refused."""
+    hs = {h.name: h for h in holds()}
+    assert {n: h.value for n, h in hs.items()} == {"c1": 17.44, "c2": 51.6, "spectrum_span_decades": 9.336}
+    assert all("Williams, Landel & Ferry" in hs[n].source for n in ("c1", "c2"))
+    assert hs["spectrum_span_decades"].source.startswith("our choice")
+    hs = {h.name: h for h in holds({"c1": None, "c2": 40.0}, ("spectrum_span_decades",))}
+    assert {n: (h.value, h.source) for n, h in hs.items()} == {"c1": (None, "--fix: the library's value"),
+                                                              "c2": (40.0, "--fix")}
+    with pytest.raises(DataError, match="either fitted or held"):
+        holds({"c1": 3.0}, ("c1",))
+    c = cal.calibrate(synthetic(5), default_library(), with_profile=False)
+    assert [p.name for p in c.problem.params] == ["h_w_m2k", "log10_tau_ref_s", "spectrum_sigma_decades"]
+    assert c.held_values()["c1"] == (17.44, settings().bounds["c1"].hold_source)
+    assert c.problem.recovery(c.fit.x)["H-2"].c2 == 51.6
 
 
 # -- the paper's data ----------------------------------------------------------------------
@@ -220,43 +250,25 @@ def paper():
     return cal.calibrate(load_hinge_data(DATA / "paper_hinge_data.csv"), default_library(), with_profile=False)
 
 
-def test_calibration_regression_paper_fit_is_the_shipped_file(paper):
-    """Calibration regression (a fitted result re-asserted, not a validation):
-    ``foldprint calibrate foldprint/data/paper_hinge_data.csv`` gives the parameters of
-    foldprint/data/paper_calibration.toml, to 1 % of each parameter's range."""
-    shipped = load_library(DATA / "paper_calibration.toml")["H-1"].recovery
-    for p, v in zip(paper.problem.params, paper.fit.x):
-        b = settings().bounds[p.name]
-        assert v == pytest.approx(getattr(shipped, p.name), abs=0.01 * (b.upper - b.lower)), p.name
-
-
-def test_paper_data_rows_have_sources_and_the_fit_says_what_it_cannot_fix(paper):
+def test_paper_data_rows_have_sources_and_the_fit_says_what_it_misses(paper):
+    """With the holds, the paper's six rows fix the three free parameters (rank 3, 3 degrees
+    of freedom), and calibrate names the row it misses beyond two sigma: Fig. 1b's 100 C
+    spread (docs/recovery-model.md)."""
     data = paper.problem.data
     assert all(o.source for o in data.observations) and all(p.source for p in data.properties)
     assert {o.relation for o in data.observations} == {"about", "at_most", "at_least"}
+    assert (paper.fit.rank, paper.fit.dof) == (3, 3)
     codes = [f["code"] for f in paper.findings]
-    assert "underdetermined" in codes or "rank" in codes
-    bounded = {f["parameter"]: f["message"] for f in paper.findings if f["code"] == "at_bound"}
-    assert "c1" in bounded and "a bound of our choosing" in bounded["c1"] and "DMA frequency sweep" in bounded["c1"]
-    assert "spectrum_sigma_decades" in bounded
-    # and it says where the shipped library sits: c2 and sigma on bounds, c1 next to one
-    start = {f["parameter"]: f["message"] for f in paper.findings if f["code"] == "start_at_bound"}
-    assert set(start) == {"c1", "c2", "spectrum_sigma_decades"}, start
-    assert "on its upper bound 80 K (choice)" in start["c2"] and "next to its upper bound 20" in start["c1"]
+    assert "underdetermined" not in codes and "rank" not in codes
+    line = next(o.line for o in data.observations if o.kind == "spread" and o.bath_c == 100.0)
+    missed = {f["line"]: f["message"] for f in paper.findings if f["code"] == "miss"}
+    assert set(missed) == {line} and "spread of H-7 - H-1 at 100 C: measured 2 s" in missed[line]
 
 
-def test_shipped_library_is_inside_the_joint_region_of_the_paper_fit(paper):
-    """The shipped recovery parameters (materials.toml) are not calibrate's optimum on the
-    paper's statements, but the data cannot tell them from it: their chi2 is within the joint
-    95 % region of the six free parameters (docs/calibrate.md). A parameter moved well away
-    (h halved) leaves the region."""
-    pb = paper.problem
-    x_lib = pb.library_point()
-    assert x_lib[0] == default_library()["H-1"].recovery.h_w_m2k
-    r = pb.residuals(x_lib)
-    assert float(r @ r) == pytest.approx(paper.start_chi2)
-    assert float(r @ r) - paper.fit.chi2 <= paper.joint_threshold
-    x_far = x_lib.copy()
-    x_far[[p.name for p in pb.params].index("h_w_m2k")] *= 0.5
-    r = pb.residuals(x_far)
-    assert float(r @ r) - paper.fit.chi2 > paper.joint_threshold
+def test_all_six_parameters_are_not_identified_by_the_paper_data():
+    """Why calibrate holds three: fitted all together (one start, from the library), six
+    rows fix fewer than six combinations of the six parameters (the Jacobian's rank)."""
+    pb = Problem(load_hinge_data(DATA / "paper_hinge_data.csv"), default_library())
+    f = fit(pb)
+    assert len(pb.params) == 6 and f.dof == 0 and f.rank < 6
+    assert {x["code"] for x in findings(pb, f, ())} >= {"underdetermined", "rank"}

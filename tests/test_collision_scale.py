@@ -127,7 +127,8 @@ def _dense_first_touch(ch, d, model, times):
 def _assert_no_contact_missed(d, model):
     """Samples 0.25 s apart; every pair that touches at a dense (4 ms) sample lies in a
     broad-phase run around that time, and the swept contact is no later than the dense
-    one (to the 1 ms time tolerance) and real."""
+    one (to the 1 ms time tolerance) and real. Returns the dense first touch of each pair
+    not touching at the start."""
     coarse = simulate_kinematics(d, dt=0.25, duration=4.0, model=model)
     ch = SweptChecker(d, model, HingeDrive(d))
     dense_t = np.arange(0.0, 4.0, 0.004)
@@ -148,21 +149,27 @@ def _assert_no_contact_missed(d, model):
     if contact is not None:
         pose = forward(d, HingeDrive(d).angles([contact.time]), model)[0]
         assert ch.distance(*contact.pair, pose[contact.pair[0]], pose[contact.pair[1]])[0] <= ch.tol + 1e-9
+    return later
 
 
-#: strips on which a narrow phase that steps three times too far finds the contact late
-#: (found by the property test below against such a step rule; kept as fixed cases)
+#: strips on which a narrow phase that steps three times too far (``target = cum[c] + 2.7 * d``
+#: in ``SweptChecker._steps``) finds the contact late or not at all, under the shipped
+#: materials: found by a seeded random search (numpy seeds 1 and 2, 60 strips per hinge model,
+#: the property test's ranges; 9 and 15 strips caught it), the smallest kept. They depend on
+#: the recovery curves: when materials.toml moves, check that they still catch that rule
+#: (the dense touch below must exist) and search again if not.
 ADVERSARIAL = [
-    ([6.0, 6.0, 6.0, 6.0], [-170, -170, -170], ["H-1", "H-1", "H-1"], "point"),
-    ([6.0, 6.0, 6.0, 6.0], [-170, -170, -170], ["H-1", "H-1", "H-1"], "arc"),
-    ([22.58753329941557, 10.0, 23.838767319084518, 25.4], [90, 120, -90], ["H-1", "H-5", "H-3"], "point"),
-    ([22.58753329941557, 10.0, 23.838767319084518, 25.4], [90, 120, -90], ["H-1", "H-5", "H-3"], "arc"),
+    ([6.0, 6.0, 6.0], [-120, -150], ["H-1", "H-3"], "point"),
+    ([16.09, 17.346, 25.2], [-120, -170], ["H-3", "H-4"], "point"),
+    ([6.0, 6.0, 6.0], [150, 170], ["H-3", "H-3"], "arc"),
+    ([25.276, 14.82, 27.361], [-150, -170], ["H-1", "H-4"], "arc"),
 ]
 
 
 @pytest.mark.parametrize("lengths,angles,materials,model", ADVERSARIAL)
 def test_no_contact_missed_on_fixed_adversarial_strips(lengths, angles, materials, model):
-    _assert_no_contact_missed(strip("r", lengths, angles, materials, radius=2.0), model)
+    first = _assert_no_contact_missed(strip("r", lengths, angles, materials, radius=2.0), model)
+    assert first, "the case has no contact in the checked window any more: search again (comment above)"
 
 
 # derandomised, with a fixed example count: the same 40 designs every run, enough to

@@ -22,8 +22,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
-from fuzz_gen import (FILE_NAMES, PLANTS, PLANTS_OURS, SMALL_DESIGN, command_lines, contract_violations, fold_documents, plant,
-                      svg_documents)
+from fuzz_gen import (FILE_NAMES, PLANTS, PLANTS_OURS, READERS, SMALL_DESIGN, command_lines, contract_violations,
+                      fold_documents, make_path, numeric_command_lines, option_files, path_cases, plant, svg_documents,
+                      written_outside)
 from foldprint.core.errors import ExportError, FoldprintError
 from foldprint.exchange.files import write_set
 from foldprint.io.load import load_design
@@ -157,5 +158,100 @@ def test_command_lines_keep_the_contract(cli_dir, args):
         before = sorted(p.name for p in case.iterdir())
         res = run_case(args, case)
         after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
-        assert contract_violations(res, wrote_on_exit_2=after != before) == [], (args, res["code"],
-                                                                                   res["err"][-1500:], after)
+        assert contract_violations(res, wrote_on_exit_2=after != before,
+                                   wrote_outside=written_outside(args, before, after, case)) == [], (
+            args, res["code"], res["err"][-1500:], after)
+
+
+# -- issue 30: option files, paths that are not regular files, numeric extremes ---------------
+
+def _use_options(option: str, path: Path) -> None:
+    """Load an option file and use what it holds the way the commands do: every hinge
+    material's fold time at the ends of the bath range, the scatter's samples' curves."""
+    from foldprint.checks.rules import load_printers
+    from foldprint.core.schema import TEMPERATURE_C
+    from foldprint.model.design import strip
+    from foldprint.model.materials import load_library
+    from foldprint.physics.recovery import fold_time
+    from foldprint.simulation.robust import sample_drives
+    from foldprint.simulation.scatter import draw_samples, load_scatter
+
+    if option == "--materials":
+        lib = load_library(path)
+        for m in lib.hinges():
+            for bath in (*TEMPERATURE_C, 90.0):
+                fold_time(m, bath, 0.8)
+    elif option == "--printers":
+        load_printers(path)
+    else:
+        d = strip("s", [10.0, 10.0, 10.0], [90.0, -90.0], ["H-1", "H-2"])
+        from foldprint.model.materials import default_library
+
+        sample_drives(d, default_library(), draw_samples(d, load_scatter(path), 4, 0))
+
+
+@FAST
+@given(case=option_files())
+def test_option_files_are_read_or_refused_cleanly(case):
+    """Read and usable, or refused with one line naming the file, no warning, in time."""
+    option, raw = case
+    with tempfile.TemporaryDirectory() as tmp:
+        f = Path(tmp) / "opt.toml"
+        f.write_bytes(raw)
+        old = signal.signal(signal.SIGALRM, _alarm)
+        signal.setitimer(signal.ITIMER_REAL, LOAD_BUDGET_S)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                _use_options(option, f)
+        except FoldprintError as exc:
+            msg = str(exc)
+            assert "\n" not in msg.strip() and str(f) in msg and len(msg) < 2000, msg
+        except _Slow:
+            raise AssertionError(f"{option}: over {LOAD_BUDGET_S} s") from None
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, old)
+
+
+def _cli_case(cli_dir, args, make=None):
+    from test_fuzz import run_case
+
+    with tempfile.TemporaryDirectory(dir=cli_dir) as case:
+        case = Path(case)
+        (case / "d.toml").write_text(SMALL_DESIGN)
+        if make is not None:
+            args = make(case, args)
+        before = sorted(p.name for p in case.iterdir())
+        res = run_case(args, case)
+        after = sorted(p.name for p in case.iterdir() if p.name not in (".stdout", ".stderr"))
+        return res, after != before, written_outside(args, before, after, case)
+
+
+@settings(max_examples=max(8, int(20 * SCALE)), deadline=None, database=None, derandomize=True,
+          suppress_health_check=list(HealthCheck))
+@given(case=path_cases())
+def test_input_paths_that_are_not_files_keep_the_contract(cli_dir, case):
+    """FIFOs, devices, directories, links that lead nowhere or in a loop, names and paths
+    too long or too deep, as a design, an option file, --out or --plot: exit 0/1/2, one
+    line on 2, nothing written on 2, no hang (the harness's CPU and wall limits)."""
+    reader, kind, suffix = case
+
+    def make(folder, args):
+        p = make_path(str(folder), kind, suffix)
+        return [a.format(p) for a in args]
+
+    res, wrote, outside = _cli_case(cli_dir, READERS[reader], make)
+    assert contract_violations(res, wrote_on_exit_2=wrote, warnings_banned=True, wrote_outside=outside) == [], (
+        case, res["err"][-800:])
+    if kind in ("fifo", "dev_zero", "dev_urandom", "directory", "long_path", "deep_path") and reader[2:] not in ("out", "plot"):
+        assert res["code"] == 2, (case, res["err"])
+
+
+@settings(max_examples=max(6, int(15 * SCALE)), deadline=None, database=None, derandomize=True,
+          suppress_health_check=list(HealthCheck))
+@given(args=numeric_command_lines())
+def test_numeric_options_at_their_extremes_keep_the_contract(cli_dir, args):
+    res, wrote, outside = _cli_case(cli_dir, args)
+    assert contract_violations(res, wrote_on_exit_2=wrote, warnings_banned=True, wrote_outside=outside) == [], (
+        args, res["err"][-800:])

@@ -1,34 +1,45 @@
-"""The loop tracker against the solver it replaced, kept here as the reference.
+"""The array tracker (:mod:`foldprint.physics.loop_tracking`) against the tracker it replaced.
 
-The reference evaluates each cycle's closure as a product of 4x4 transforms, one cycle
-at a time, and starts every Gauss-Newton solve by evaluating C and J at the previous
-answer. The tracker (:class:`foldprint.physics.loops.LoopSolver`) evaluates all cycles at
-once and predicts along the previous answer's tangent space instead of that first
-evaluation. Same C and J to round-off; same closed angles along a whole fold within
-ANGLE_TOL (both stop when a step moves no angle more than OPT_TOL); every answer closed."""
+Two references. C and J: each cycle's closure as a product of 4x4 transforms, one cycle at
+a time (:class:`Reference` below), equal to round-off. The tracking: the step-by-step
+tracker kept in ``tests/loop_reference.py`` (one generator per drive, an SVD per
+Gauss-Newton step, a solve at every grid step, no windows), on the templates' drives, the
+check's scattered samples and drives made to cross the flat sheet, jump (sub-steps) and
+lock: closed angles within ANGLE_TOL at every grid time, every answer closed, and the same
+events (the hinges that cannot follow and when, the time a drive locks, the degrees of
+freedom), also for drives that are exactly symmetric (every crease of a symmetric vertex on
+one material), whose branches are equally near the drive at the flat sheet."""
 
 from __future__ import annotations
 
+from itertools import islice
 from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from foldprint.core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
 from foldprint.io.fold_format import design_from_fold
 from foldprint.io.load import load_design
 from foldprint.model import crease_patterns as cp
-from foldprint.physics import loops
-from foldprint.physics.kinematics import HingeDrive, hinge_frames
+from foldprint.model.materials import default_library
+from foldprint.physics import loop_solve, loop_tracking
+from foldprint.physics.kinematics import GRID_TOL_S, HingeDrive, hinge_frames, loop_dt, run_times
 from foldprint.physics.loops import CLOSURE_TOL, OPT_TOL, LoopSolver, _rotvec
+from foldprint.simulation.robust import sample_drives
+from foldprint.simulation.scatter import default_scatter, iter_samples
+
+from loop_reference import OldSolver
 
 ROOT = Path(__file__).resolve().parent.parent
-#: largest difference (rad) of a closed angle between tracker and reference: a few OPT_TOL
+#: largest difference (rad) of a closed angle between the trackers: both stop a solve when a
+#: step moves no angle more than OPT_TOL, from different starting points (measured: <= 3e-5)
 ANGLE_TOL = 10 * OPT_TOL
 
 
 class Reference(LoopSolver):
-    """The solver before closure tracking: per-cycle 4x4 products, no predictor."""
+    """C and J the slow way: per-cycle 4x4 products."""
 
     def __init__(self, frames, hinge_ids):
         super().__init__(frames, hinge_ids)
@@ -67,29 +78,24 @@ class Reference(LoopSolver):
                 jac[6 * ci + 3:6 * ci + 6, ks] = (sgn[:, None] * v).T
         return c, jac
 
-    def _project_gen(self, x, target, iters=8, tangent=None):
-        return super()._project_gen(x, target, iters, None)  # every solve starts by evaluating at x
+
+def _design(name):
+    if name in ("miura_3x3", "cross_lock_uniform"):
+        return load_design(ROOT / "templates" / f"{name}.toml")
+    return design_from_fold({"waterbomb": cp.waterbomb, "degree4": cp.degree4, "miura": cp.miura}[name]())
 
 
-def _designs():
-    return {"miura_3x3": load_design(ROOT / "templates" / "miura_3x3.toml"),
-            "waterbomb": design_from_fold(cp.waterbomb()),
-            "degree4": design_from_fold(cp.degree4())}
-
-
-DESIGNS = _designs()
-
-
-def _pair(design):
+def _solvers(design):
     frames, ids = hinge_frames(design), [h.id for h in design.hinges]
-    return LoopSolver(frames, ids), Reference(frames, ids)
+    return LoopSolver(frames, ids), OldSolver(frames, ids)
 
 
-@pytest.mark.parametrize("name", sorted(DESIGNS))
+@pytest.mark.parametrize("name", ["miura_3x3", "waterbomb", "degree4"])
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), scale=st.floats(0.0, 3.0))
 def test_batched_residual_and_jacobian_equal_the_reference(name, seed, scale):
-    fast, ref = _pair(DESIGNS[name])
+    frames, ids = hinge_frames(_design(name)), [h.id for h in _design(name).hinges]
+    fast, ref = LoopSolver(frames, ids), Reference(frames, ids)
     x = scale * np.random.default_rng(seed).uniform(-1, 1, fast.n)
     c0, j0 = ref.residual(x)
     c1, j1 = fast.residual(x)
@@ -98,50 +104,269 @@ def test_batched_residual_and_jacobian_equal_the_reference(name, seed, scale):
     assert fast.residual(x, False)[1] is None and np.array_equal(fast.residual(x, False)[0], c1)
 
 
-@pytest.mark.parametrize("name", sorted(DESIGNS))
-def test_tracking_gives_the_reference_angles_closed_and_with_fewer_evaluations(name):
-    d = DESIGNS[name]
-    fast, ref = _pair(d)
-    drive = HingeDrive(d)
-    times = np.arange(0.0, min(float(d.process.duration_s), 6.0) + 1e-9, 0.01)
-    driven = drive.driven(times)
-    counts = {}
-    sols = {}
-    for key, solver in (("fast", fast), ("ref", ref)):
-        n = [0]
-        orig = solver.residual
-
-        def counted(x, jacobian=True, _o=orig, _n=n):
-            _n[0] += 1
-            return _o(x, jacobian)
-
-        solver.residual = counted
-        sols[key] = solver.track(times, driven)
-        counts[key] = n[0]
-    a, b = sols["fast"], sols["ref"]
-    assert np.abs(a.angles).max() > 0.5  # it folded
-    assert np.abs(a.angles - b.angles).max() < ANGLE_TOL
-    assert a.closure < CLOSURE_TOL and b.closure < CLOSURE_TOL
-    assert max(fast.closure(x) for x in a.angles) < CLOSURE_TOL  # every grid answer closes
-    assert a.locked_at == b.locked_at and a.dof == b.dof and a.stuck == b.stuck
-    assert counts["fast"] < counts["ref"]
+def _check_drives(name, n=6):
+    """The first ``n`` scattered drives ``check`` folds (its seed, 1x scatter) on its grid."""
+    d = _design(name)
+    drives = sample_drives(d, default_library(), list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES,
+                                                                              CHECK_SEED), n)))
+    times = run_times(d, CHECK_DT_S)
+    grid = drives[0]._loop_grid(times, loop_dt(times))[0]
+    return d, grid, [dr.driven(grid) for dr in drives]
 
 
-@pytest.mark.parametrize("name", ["miura_3x3", "waterbomb"])
-def test_lockstep_tracking_of_many_drives_gives_each_drives_own_answer(name):
-    """track_many (the Monte-Carlo's chunk, one array evaluation per round) against track
-    of each drive alone: the same closed angles, stuck hinges, lock and residual."""
-    from foldprint.simulation.robust import sample_drives
-    from foldprint.simulation.scatter import default_scatter, draw_samples
-    from foldprint.model.materials import default_library
+def _made_drives(name):
+    """Drives made to cross the flat sheet (fold, unfold past flat), to jump (a step larger
+    than MAX_STEP: sub-steps) and to overdrive, on a crease-by-crease asymmetric drive."""
+    d = _design(name)
+    t = np.arange(0.0, 4.0 + 1e-9, 0.01)
+    base = HingeDrive(d).driven(t) * (1 + 0.013 * np.arange(len(d.hinges)))[None]
+    s = np.sin(np.pi * t / 4.0)[:, None]
+    back = base[-1][None] * (1.2 * s - 0.6 * np.clip(t[:, None] - 2.0, 0.0, None))
+    jump = base.copy()
+    jump[150:] = np.minimum(base[150:] * 1.6, base[-1])
+    return d, t, [base, back, jump, base * 2.5]
 
-    d = DESIGNS[name]
-    fast, _ = _pair(d)
-    drives = sample_drives(d, default_library(), draw_samples(d, default_scatter(), 5, 11))
-    times = np.arange(0.0, 4.0 + 1e-9, 0.01)
-    many = fast.track_many(times, [dr.driven(times) for dr in drives])
-    for dr, got in zip(drives, many):
-        alone = fast.track(times, dr.driven(times))
+
+def _rigid():
+    """Three panels around one vertex: no folding motion at all (dof 0), so the drive
+    locks the moment it asks for more than FOLLOW_TOL."""
+    a = np.radians([0.0, 120.0, 240.0])
+    fold = {"frame_unit": "mm", "vertices_coords": [[0, 0]] + [[20 * np.cos(v), 20 * np.sin(v)] for v in a],
+            "faces_vertices": [[0, 1, 2], [0, 2, 3], [0, 3, 1]],
+            "edges_vertices": [[0, 1], [0, 2], [0, 3], [1, 2], [2, 3], [3, 1]],
+            "edges_assignment": ["V", "V", "M", "B", "B", "B"], "edges_foldAngle": [60, 60, -60, 0, 0, 0]}
+    d = design_from_fold(fold)
+    t = np.arange(0.0, 1.6 + 1e-9, 0.01)
+    return d, t, [HingeDrive(d).driven(t) * (1 + 0.013 * np.arange(3))[None]]
+
+
+def _nominal(name):
+    """The nominal drive for 4 s: on ``cross_lock_uniform`` and the waterbomb exactly
+    symmetric (every crease of a symmetric vertex on one material), so at the flat sheet
+    the branches are equally near it."""
+    d = _design(name)
+    t = np.arange(0.0, 4.0 + 1e-9, 0.01)
+    return d, t, [HingeDrive(d).driven(t)]
+
+
+CASES = {**{f"check {n}": (lambda n=n: _check_drives(n)) for n in ("miura_3x3", "cross_lock_uniform")},
+         **{f"nominal {n}": (lambda n=n: _nominal(n)) for n in ("miura_3x3", "cross_lock_uniform", "waterbomb")},
+         **{f"made {n}": (lambda n=n: _made_drives(n)) for n in ("miura_3x3", "cross_lock_uniform", "waterbomb",
+                                                                  "degree4")},
+         "rigid vertex": _rigid}
+
+
+def _assert_same_path(a, b, drive):
+    """The two trackers' closed angles agree within ANGLE_TOL, except at near-flat steps
+    (every drive angle below NEAR_FLAT): there the programmed sheet (a fixity's fraction of
+    a degree from flat) sits between branches, and the array tracker may hold the closed
+    configuration it continues from where the replaced one restarted from the drive. Both
+    answers must then be closed and near flat, and the paths must be the same again once
+    the sheet has left the flat state (the branch, hence every event, is the same)."""
+    diff = np.abs(a.angles - b.angles).max(axis=1)
+    apart = diff >= ANGLE_TOL
+    if not apart.any():
+        return
+    flat = np.abs(drive).max(axis=1) < loop_tracking.NEAR_FLAT
+    assert flat[apart].all(), "the trackers part away from the flat sheet"
+    for x in (a, b):
+        assert np.abs(x.angles[apart]).max() < loop_tracking.NEAR_FLAT
+    assert diff[~flat].max(initial=0.0) < ANGLE_TOL and not apart[-1]  # the same path once folded
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_array_tracker_gives_the_replaced_trackers_answers_and_events(case):
+    design, times, drivens = CASES[case]()
+    new, old = _solvers(design)
+    got, want = new.track_many(times, drivens), old.track_many(times, drivens)
+    for a, b, drive in zip(got, want, drivens):
+        _assert_same_path(a, b, drive)
+        assert (a.stuck, a.locked_at, a.dof) == (b.stuck, b.locked_at, b.dof)
+        assert abs(a.closure - b.closure) < CLOSURE_TOL or a.closure < CLOSURE_TOL
+        assert max(new.closure(x) for x in a.angles[::7]) <= max(b.closure, CLOSURE_TOL)
+    if case == "rigid vertex":
+        assert got[0].locked_at is not None and got[0].dof == 0  # the lock is exercised
+
+
+def test_lockstep_tracking_of_many_drives_gives_each_drives_own_answer():
+    """track_many (the Monte-Carlo's chunk: one pool, one array evaluation per round) against
+    track of each drive alone: the same answers to round-off."""
+    d, grid, drivens = _check_drives("miura_3x3", 5)
+    solver = _solvers(d)[0]
+    many = solver.track_many(grid[:400], [v[:400] for v in drivens])
+    for v, got in zip(drivens, many):
+        alone = solver.track(grid[:400], v[:400])
         assert np.abs(got.angles - alone.angles).max() < 1e-12
         assert (got.stuck, got.locked_at, got.dof) == (alone.stuck, alone.locked_at, alone.dof)
-        assert abs(got.closure - alone.closure) < 1e-12 and got.closure < CLOSURE_TOL
+
+
+def test_windows_solve_ahead_without_changing_the_answers(monkeypatch):
+    """Solving grid steps ahead from the last answer (windows) against one step at a time
+    (WINDOW = 1): the same answers within ANGLE_TOL, in fewer rounds."""
+    d, grid, drivens = _check_drives("miura_3x3", 4)
+    solver = _solvers(d)[0]
+    evaluate = solver.residuals
+    ahead = loop_tracking.track(evaluate, grid, np.stack(drivens))
+    monkeypatch.setattr(loop_tracking, "WINDOW", 1)
+    single = loop_tracking.track(evaluate, grid, np.stack(drivens))
+    assert np.abs(ahead.angles - single.angles).max() < ANGLE_TOL
+    assert np.array_equal(ahead.dof, single.dof) and np.array_equal(ahead.locked_at, single.locked_at, equal_nan=True)
+    assert ahead.rounds < 0.7 * single.rounds
+
+
+def test_restarts_ahead_cut_the_rounds_near_the_flat_sheet(monkeypatch):
+    """Restarts from the drive started PREFETCH steps ahead against each started with its
+    step: the same answers (a restart depends on its drive alone), in fewer rounds."""
+    d, grid, drivens = _check_drives("cross_lock_uniform", 4)
+    evaluate = _solvers(d)[0].residuals
+    ahead = loop_tracking.track(evaluate, grid[:250], np.stack(drivens)[:, :250])
+    monkeypatch.setattr(loop_tracking, "PREFETCH", 0)
+    each = loop_tracking.track(evaluate, grid[:250], np.stack(drivens)[:, :250])
+    assert np.array_equal(ahead.angles, each.angles)
+    assert ahead.rounds < 0.7 * each.rounds
+
+
+def test_the_loop_grid_holds_each_simulation_time_once():
+    """The continuation grid (LOOP_DT) and the simulation's times (another rounding of the
+    same instants) merge without near-duplicates, and every simulation time is a grid time."""
+    d = _design("miura_3x3")
+    times = run_times(d, CHECK_DT_S)
+    grid = HingeDrive(d)._loop_grid(times, loop_dt(times))[0]
+    assert np.diff(grid).min() >= GRID_TOL_S and np.isin(times, grid).all()
+    assert len(grid) == len(times)
+
+
+@pytest.mark.parametrize("model", ["arc", "point"])
+def test_held_configurations_give_the_poses_and_gap_of_every_time(model):
+    """simulate_kinematics computes the poses (and the arc gap) of a pattern with loops once
+    per distinct configuration: the same arrays as forward() and loop_gap_mm() of every time."""
+    from foldprint.core.modes import HingeModel
+    from foldprint.physics.kinematics import forward, loop_gap_mm, simulate_kinematics
+
+    d = _design("miura_3x3")
+    traj = simulate_kinematics(d, model=model)
+    assert (np.diff(traj.angles, axis=0) == 0).all(axis=1).sum() > 100  # it does hold still
+    assert np.array_equal(traj.poses, forward(d, traj.angles, HingeModel(model)))
+    if model == "arc":
+        assert traj.loops.arc_gap_mm == loop_gap_mm(d, traj.angles, HingeModel.ARC)
+
+
+class _Toy(OldSolver):
+    """A closure of two angles given as functions: the reference tracker runs on it as on a
+    crease pattern (and the array tracker on ``residuals``)."""
+
+    def __init__(self, closure, jacobian):
+        self.n, self.ids, self.cycles = 2, ["a", "b"], [[(0, 1.0)]]
+        self._c, self._j = closure, jacobian
+
+    def residuals(self, xs, jacobian=True):
+        xs = np.asarray(xs, float)
+        return self._c(xs), (self._j(xs) if jacobian else None)
+
+
+def test_on_a_parabola_the_tracker_finds_the_nearest_closed_point():
+    """Closure x1 = x0^2, drive (a(t), 0): the answer is the point of the parabola nearest
+    the drive, x0 the root of 2 (x0 - a) + 4 x0^3 = 0 (one real root), an independent
+    reference; and the replaced tracker gives the same answers and events. The tangent
+    space is a line, so away from the flat sheet the line solve runs (near it, the restarts)."""
+    toy = _Toy(lambda x: (x[:, 1] - x[:, 0] ** 2)[:, None],
+               lambda x: np.stack([-2 * x[:, 0], np.ones(len(x))], axis=1)[:, None, :])
+    t = np.linspace(0.0, 3.0, 301)
+    drive = np.stack([1.5 * np.sin(t / 2), np.zeros_like(t)], axis=1)
+    got = loop_tracking.track(toy.residuals, t, drive[None])
+    x = got.angles[0]
+    exact = [min(np.roots([4.0, 0.0, 2.0, -2 * a]), key=lambda r: abs(r.imag)).real for a in drive[:, 0]]
+    assert np.abs(x[:, 0] - exact).max() < ANGLE_TOL and np.abs(x[:, 1] - x[:, 0] ** 2).max() < CLOSURE_TOL
+    ref = toy.track(t, drive)
+    assert np.abs(ref.angles - x).max() < ANGLE_TOL and (got.dof[0], np.isnan(got.locked_at[0])) == (1, True)
+
+
+def test_a_solve_that_cannot_close_holds_the_last_configuration_and_locks():
+    """A closure that holds for x0 <= 0.5 and fails beyond (residual 1, no Jacobian): the
+    drive is followed to 0.5, then every solve loses the manifold, the last closed
+    configuration is held and the drive is locked at the first step beyond; as the
+    replaced tracker does."""
+    toy = _Toy(lambda x: (x[:, :1] > 0.5).astype(float), lambda x: np.zeros((len(x), 1, 2)))
+    t = np.linspace(0.0, 1.0, 101)
+    drive = np.stack([t, 0.2 * t], axis=1)
+    got = loop_tracking.track(toy.residuals, t, drive[None])
+    ref = toy.track(t, drive)
+    first = int(np.argmax(t > 0.5))
+    assert got.locked_at[0] == ref.locked_at == t[first]
+    assert np.array_equal(got.angles[0, first:], np.repeat(drive[first - 1][None], len(t) - first, axis=0))
+    assert np.abs(ref.angles - got.angles[0]).max() < ANGLE_TOL
+
+
+def _solves(x, res=None, null=None, done=None, free=None):
+    """Answers of solves in two angles, tangent spaces along the first axis by default."""
+    x = np.asarray(x, float)
+    p = len(x)
+    free = np.array([[True, False]] * p) if free is None else np.asarray(free)
+    return loop_solve.Solves(x, np.full(p, 1e-12) if res is None else np.asarray(res, float),
+                                np.full(p, 1) if null is None else np.asarray(null),
+                                np.full(p, True) if done is None else np.asarray(done),
+                                np.repeat(np.eye(2)[None], p, axis=0), free)
+
+
+def test_a_window_answer_is_kept_only_where_the_step_by_step_tracker_gives_it():
+    """Row 0 is the answer before; the predictor from it toward the drive (0.6, 0.3) moves
+    along its tangent (the first axis) to (0.6, 0.3). Kept: an answer within ACCEPT of that
+    predictor. Not kept: one farther, one not converged, not closed, with another tangent
+    dimension, or after an answer near the flat sheet (row 7)."""
+    a = loop_tracking.ACCEPT
+    sol = _solves([[0.5, 0.3], [0.6, 0.3 + 0.5 * a], [0.6, 0.3 + 2 * a], [0.6, 0.3], [0.6, 0.3], [0.6, 0.3],
+                   [0.1, 0.05], [0.15, 0.05]],
+                  res=[1e-12, 1e-12, 1e-12, 1e-12, 1e-6, 1e-12, 1e-12, 1e-12],
+                  null=[1, 1, 1, 1, 1, 2, 1, 1], done=[True, True, True, False, True, True, True, True])
+    prev, row = np.array([0, 0, 0, 0, 0, 6]), np.array([1, 2, 3, 4, 5, 7])
+    y = np.array([[0.6, 0.3]] * 5 + [[0.15, 0.05]])
+    assert loop_tracking._acceptable(sol, prev, row, y).tolist() == [True, False, False, False, False, False]
+
+
+def test_near_the_flat_sheet_the_restart_is_taken_only_when_it_closed_nearer_without_a_jump():
+    """Drive ys = (0.1, 0); last answer x = 0. Rows 0-4: the continued solves; rows 5-9 the
+    restarts. Taken: a closed restart nearer the drive (row 5). Not: a restart that jumps
+    more than JUMP beyond the continued answer (6), one not closed (7), one nearer a drive
+    the continued answer already met within OPT_TOL (8), one no nearer (9), one nearer but
+    with a hinge on the other side of flat from its drive (row 10, for row 5's drive)."""
+    j = loop_tracking.JUMP
+    main = [[0.05, 0.0], [0.05, 0.0], [0.05, 0.0], [0.1 + 0.5 * OPT_TOL, 0.0], [0.05, 0.0], [0.05, 0.01]]
+    restart = [[0.09, 0.0], [0.1, -0.05 - 2 * j], [0.09, 0.0], [0.1, 0.0], [0.05, 0.0], [0.09, -0.001]]
+    sol = _solves(main + restart, res=[1e-12] * 8 + [1e-6] + [1e-12] * 3)
+    ys = np.array([[0.1, 0.0]] * 5 + [[0.1, 0.002]])
+    ys[1] = [0.1, -0.02 - 2 * j]  # a drive the restart reaches nearer, but far off the continued answer
+    rows = loop_tracking._choose(sol, np.zeros((6, 2)), ys, np.arange(6), 6)
+    assert rows.tolist() == [6, 1, 2, 3, 4, 5]
+
+
+def test_a_line_is_certified_only_as_the_whole_null_space():
+    """J with the null line w (certified), with a second null direction, with no null
+    direction, and a w that is not null (none certified)."""
+    rng = np.random.default_rng(3)
+    q, _ = np.linalg.qr(rng.standard_normal((4, 4)))
+    w = q[:, 0]
+    full = rng.standard_normal((6, 4)) @ (np.eye(4) - np.outer(w, w))  # rank 3, null space w
+    two = full @ (np.eye(4) - np.outer(q[:, 1], q[:, 1]))  # null space w and q1
+    rank4 = rng.standard_normal((6, 4))
+    jac = np.stack([full, two, rank4, full])
+    gram = jac.transpose(0, 2, 1) @ jac
+    ws = np.stack([w, w, w, q[:, 1]])
+    assert loop_solve._certified(jac, gram, ws).tolist() == [True, False, False, False]
+
+
+def test_the_line_solve_takes_the_eigen_decompositions_step():
+    """Where J's null space is the line w, the solve with J^T J + t t^T (t near w) takes
+    the same Gauss-Newton step as the eigen-decomposition: -J^+ C orthogonal to w plus the
+    drive's part along w, and returns w itself (inverse iteration, exact in one solve)."""
+    rng = np.random.default_rng(5)
+    q, _ = np.linalg.qr(rng.standard_normal((5, 5)))
+    w = q[:, 0]
+    jac = (rng.standard_normal((8, 5)) @ (np.eye(5) - np.outer(w, w)))[None]
+    gram = jac.transpose(0, 2, 1) @ jac
+    c, d = rng.standard_normal((1, 8)), rng.standard_normal((1, 5))
+    g = (jac.transpose(0, 2, 1) @ c[..., None])[..., 0]
+    guide = w + 0.05 * rng.standard_normal(5)
+    line, vec = loop_solve._gn_line(gram, g, d, (guide / np.linalg.norm(guide))[None])
+    eig, _, free = loop_solve._gn_eigh(gram, g, d, np.zeros(1))
+    assert free.sum() == 1 and np.allclose(line, eig, atol=1e-12)
+    assert abs(abs(vec[0, :, 0] @ w) - 1.0) < 1e-12

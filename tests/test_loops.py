@@ -18,7 +18,7 @@ from foldprint.io.fold_format import design_from_fold
 from foldprint.physics.kinematics import HingeDrive, simulate_kinematics
 from foldprint.model.materials import default_library
 
-DURATION = 3.0  # s: the default H-3 creases finish folding by ~2 s at 90 C
+DURATION = 4.0  # s: the default H-3 creases finish folding by ~3 s at 90 C (3.03 s)
 
 
 def _rx(a):

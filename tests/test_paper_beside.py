@@ -55,7 +55,7 @@ def test_sample2_lines_are_the_materials_curves_and_the_paper_numbers():
         assert j["paper_s"] == ln.statement.value_s and j["structure"] == "Sample 2" and j["figure"] == "Fig. 2c"
         assert f"(model/paper {ln.ratio:.2f})" in j["summary"]
     whole = lines["sample2_whole"]
-    assert whole.verdict == "misses" and "paper ~7 s; model: 5.37 s" in whole.summary
+    assert whole.verdict == "misses" and "paper ~7 s; model: 6.39 s" in whole.summary
     assert lines["fig3b_order"].verdict == "meets" and lines["fig3b_order"].ratio is None
 
 
@@ -112,7 +112,7 @@ def test_simulate_and_check_print_the_quote_beside_the_model(capsys):
     assert main(["simulate", "helix_graded"]) == 0
     text = capsys.readouterr().out
     assert f'paper, Sample 2, Fig. 2c: "{quote}"' in text
-    assert "the whole fold: paper ~7 s; model: 5.37 s, every hinge at 98 % (model/paper 0.77): misses the paper" in text
+    assert "the whole fold: paper ~7 s; model: 6.39 s, every hinge at 98 % (model/paper 0.91): misses the paper" in text
     assert main(["simulate", "helix_graded", "--json"]) == 0
     lines = json.loads(capsys.readouterr().out)["paper"]
     assert [ln["id"] for ln in lines] == list(load_design(templates_dir() / "helix_graded.toml").paper.statements)
@@ -131,4 +131,30 @@ def test_a_run_at_another_bath_says_so():
     ev = Evaluation(load_design(templates_dir() / "helix_graded.toml"), EvalOptions(samples=0, bath_c=80.0))
     whole = ev.paper_lines()[0]
     assert whole.model.endswith("(this run's bath 80 C, the design's 90 C)")
-    assert whole.value.value_s > 5.37 + 0.5  # a cooler bath folds slower
+    assert whole.value.value_s > 6.39 + 0.5  # a cooler bath folds slower
+
+
+def test_materials_prints_fig1b_beside_the_model_and_says_what_it_misses(capsys):
+    """``foldprint materials`` puts Fig. 1b's two statements (free hinges) beside the model's
+    spreads, computed here on another path (each hinge's own recovery curve), with the
+    verdict under the data file's reading of "~"; the shipped library misses the 100 C one
+    and the line says so. At another hinge thickness the paper's statements do not apply."""
+    from foldprint.cli.commands import main
+
+    lib = default_library()
+    st = load_statements()
+    assert main(["materials", "--json"]) == 0
+    lines = {ln["id"]: ln for ln in json.loads(capsys.readouterr().out)["paper"]}
+    assert set(lines) == {"fig1b_spread_80", "fig1b_spread_100"}
+    for sid, bath in (("fig1b_spread_80", 80.0), ("fig1b_spread_100", 100.0)):
+        spread = recovery_curve(lib["H-7"], bath).fold_time - recovery_curve(lib["H-1"], bath).fold_time
+        ln = lines[sid]
+        assert ln["model_s"] == pytest.approx(spread, abs=1e-3) and ln["paper_s"] == st[sid].value_s
+        met = abs(spread - st[sid].value_s) <= st.approx_tol_s
+        assert ln["verdict"] == ("meets" if met else "misses") and ln["figure"] == "Fig. 1b"
+    assert lines["fig1b_spread_100"]["verdict"] == "misses"
+    assert main(["materials"]) == 0
+    assert 'paper, free hinges, Fig. 1b: "but at 100 °C, the difference becomes about 2 seconds"' in \
+        capsys.readouterr().out
+    assert main(["materials", "--json", "--thickness", "1.2"]) == 0
+    assert json.loads(capsys.readouterr().out)["paper"] == []

@@ -347,7 +347,7 @@ def test_bad_tool_counts_are_refused(tmp_path, line, what):
     f = tmp_path / "p.toml"
     f.write_text(f'[printers.bad]\ntechnology = "fdm"\nbuild_mm = [100, 100, 100]\nmin_wall_mm = 0.8\n'
                  f'min_gap_mm = 0.4\n{line}\n')
-    with pytest.raises(DesignError, match=f"printers.bad: {what}"):
+    with pytest.raises(DesignError, match=rf"printers\.bad\.{what}: must be"):
         find_printer("bad", f)
 
 

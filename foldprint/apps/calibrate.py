@@ -18,7 +18,7 @@ from ..core.errors import DataError
 from ..exchange.materials_file import Entry, write_materials
 from ..io.hinge_data import HingeData, load_hinge_data, read_text
 from ..model.materials import MaterialLibrary
-from ..physics.calibration import FITTABLE, Fit, Problem, fit, fitted_materials
+from ..physics.calibration import FITTABLE, Fit, Hold, Problem, fit_best, fitted_materials, holds
 from ..physics.calibration_profile import Interval, curve_residuals, findings, profile
 
 log = logging.getLogger(__name__)
@@ -27,7 +27,8 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class Calibration:
     """One calibration: the problem, its optimum, the intervals (empty without the
-    profile), per-curve residuals, findings, and the starting library's chi2 on the data."""
+    profile), per-curve residuals, findings, the starting library's chi2 on the data, and
+    the parameters held (not fitted) with their sources."""
 
     problem: Problem
     fit: Fit
@@ -35,6 +36,14 @@ class Calibration:
     curves: list
     findings: list
     start_chi2: float
+    holds: tuple[Hold, ...] = ()
+
+    def held_values(self) -> dict[str, tuple[float, str]]:
+        """{name: (value, source)} of every held parameter (the library's value where a
+        ``--fix NAME`` gave none)."""
+        pb = self.problem
+        rec = pb.base[pb.materials[0]].recovery
+        return {h.name: (getattr(rec, h.name) if h.value is None else h.value, h.source) for h in self.holds}
 
     @property
     def joint_threshold(self) -> float:
@@ -63,20 +72,31 @@ def parse_fixed(items) -> dict:
     return out
 
 
+def parse_fit(items) -> tuple[str, ...]:
+    """``--fit NAME``: fit a parameter ``data/calibration.toml`` holds by default."""
+    for name in items or ():
+        if name not in FITTABLE:
+            raise DataError(f"--fit {name!r}: not a recovery parameter calibrate fits; use one of {', '.join(FITTABLE)}")
+    return tuple(items or ())
+
+
 def calibrate(data: HingeData, library: MaterialLibrary, fixed: dict | None = None, per_material=(),
-              with_profile: bool = True) -> Calibration:
+              with_profile: bool = True, fit_names=()) -> Calibration:
     """Fit ``data`` starting from ``library``; ``fixed`` {name: value or None (the
-    library's)}; ``per_material`` parameters fitted once per material."""
-    fixed = dict(fixed or {})
-    free = tuple(n for n in FITTABLE if n not in fixed)
-    held = {n: v for n, v in fixed.items() if v is not None}
+    library's)}; the parameters ``data/calibration.toml`` holds are held too unless named
+    in ``fit_names``; ``per_material`` parameters fitted once per material."""
+    held_by = holds(fixed, fit_names)
+    names = {h.name for h in held_by}
+    free = tuple(n for n in FITTABLE if n not in names)
+    held = {h.name: h.value for h in held_by if h.value is not None}
     problem = Problem(data, library, free=free, per_material=tuple(per_material), fixed=held)
     r0 = problem.residuals(problem.library_point())
-    result = fit(problem)
+    result = fit_best(problem)
     log.info("fit: chi2 %.3f after %d evaluations (%s)", result.chi2, result.nfev, result.message)
     intervals = profile(problem, result) if with_profile else ()
     found = findings(problem, result, intervals) if with_profile else findings(problem, result, ())
-    return Calibration(problem, result, intervals, curve_residuals(problem, result), found, float(r0 @ r0))
+    return Calibration(problem, result, intervals, curve_residuals(problem, result), found, float(r0 @ r0),
+                       held_by)
 
 
 def entries(cal: Calibration) -> list[Entry]:
@@ -113,12 +133,13 @@ def header(cal: Calibration, data_path: str | Path, command: str) -> list[str]:
     f, pb = cal.fit, cal.problem
     lines = [f"foldprint materials file, written by `{command}` (foldprint {__version__}).",
              f"Data: {data_path} (sha256 {digest}...), {len(pb.data.observations)} rows fitted.",
-             f"Fit: scipy.optimize.least_squares, chi2 {f.chi2:.4g} for {f.dof} degrees of freedom, "
+             f"Fit: scipy.optimize.least_squares (best of {max(1, len(f.ends))} starts), chi2 {f.chi2:.4g} for "
+             f"{f.dof} degrees of freedom, "
              f"{f.rank} of {len(f.x)} parameter combinations fixed by the data; the library it started from: "
              f"chi2 {cal.start_chi2:.4g}.",
              "Load it with: foldprint <command> --materials THIS_FILE (docs/calibrate.md)."]
-    if pb.fixed:
-        lines.append("Held fixed: " + ", ".join(f"{k} = {v:g}" for k, v in pb.fixed.items()))
+    for name, (v, source) in cal.held_values().items():
+        lines.append(f"Held, not fitted: {name} = {v:g} ({source}).")
     for fd in cal.findings:
         lines.append("NOTE: " + fd["message"])
     return lines
@@ -154,7 +175,9 @@ def to_json(cal: Calibration) -> dict:
     delta = cal.start_chi2 - f.chi2
     return {"data": pb.data.source, "materials": pb.materials, "parameters": params,
             "fixed": {k: float(v) for k, v in pb.fixed.items()},
+            "held": [{"name": k, "value": float(v), "source": s} for k, (v, s) in cal.held_values().items()],
             "fit": {"chi2": f.chi2, "dof": f.dof, "rank": f.rank, "scale": f.scale, "evaluations": f.nfev,
+                    "start_ends": [float(c) for c in f.ends],
                     "converged": f.success, "message": f.message},
             "uncertainty": "profile" if cal.intervals else "none", "confidence": pb.config.confidence,
             "start": {"chi2": cal.start_chi2, "delta_chi2": delta, "joint_threshold": cal.joint_threshold,
@@ -164,6 +187,6 @@ def to_json(cal: Calibration) -> dict:
 
 
 def run(data_path: str | Path, library: MaterialLibrary, fixed: dict | None = None, per_material=(),
-        with_profile: bool = True) -> Calibration:
+        with_profile: bool = True, fit_names=()) -> Calibration:
     """:func:`calibrate` on the CSV file at ``data_path``."""
-    return calibrate(load_hinge_data(data_path), library, fixed, per_material, with_profile)
+    return calibrate(load_hinge_data(data_path), library, fixed, per_material, with_profile, fit_names)

@@ -47,7 +47,7 @@ from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_ME
 from ..simulation.flip_drivers import FlipDrivers, flip_drivers
 from ..simulation.margin import ScatterMargin, scatter_margin
 from ..simulation.paper_beside import PaperLine, paper_lines
-from ..simulation.robust import RobustResult, Scatter, default_scatter, jam_probability
+from ..simulation.robust import RobustResult, Scatter, curve_batch, default_scatter, jam_probability
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
 from ..simulation.sequential import jam_test, jam_tests
 from ..simulation.simulate import SimulationResult, simulate
@@ -145,10 +145,22 @@ class Evaluation:
         """The value of stage ``key``: ``compute()`` (with this evaluation's cache active)
         the first time, kept after."""
         if key not in self._stages:
-            with self.cache.active():
+            with self.cache.active(), guards.holding(self.held_bytes, id(self)):
                 self._stages[key] = compute()
             self.computed[key[0] if isinstance(key, tuple) else key] += 1
         return self._stages[key]
+
+    @property
+    def held_bytes(self) -> int:
+        """Bytes of the simulations kept (own, comparison, replay): every later run's guard counts them."""
+        runs = [getattr(v, "result", v) for v in self._stages.values()]
+        return sum(r.nbytes for r in runs if isinstance(r, SimulationResult))
+
+    def guard(self, runs: int, clearance: bool = False, samples: bool = False) -> None:
+        """Refuse up front what ``runs`` runs held at once (a sample's, ``samples``) would need (guards.check_runs)."""
+        o = self.options
+        guards.check_runs(self.design, o.dt, o.duration, o.method, runs, clearance,
+                          (lambda: curve_batch(self.design, o.dt, o.samples)[1]) if samples else None)
 
     def has(self, stage: str) -> bool:
         """Whether ``stage`` was computed (or given)."""
@@ -302,6 +314,8 @@ class Evaluation:
     def run_jam_tests(self) -> dict[float, RobustResult]:
         """Check's jam test (:func:`jam_tests`) at 1x and each of ``options.scales``, by scale."""
         o, sim, th = self.options, self.simulation, self.options.thresholds
+        if "jam_tests" not in self._stages:
+            self.guard(2, samples=True)  # the nominal fold held while a sample folds in this process
         return self._stage("jam_tests", lambda: jam_tests(
             self.design, jam_test(th.warning, th.error, o.samples), (1.0, *o.scales), o.seed, scatter=self.scatter,
             library=self.library, hinge_model=o.hinge_model, dt=o.dt, nominal=sim, workers=o.workers,
@@ -314,6 +328,8 @@ class Evaluation:
             return None
         if o.sample_rule == SampleRule.SEQUENTIAL:
             return self.run_jam_tests()[1.0]
+        if "robust" not in self._stages:
+            self.guard(2, samples=True)  # the nominal fold held while a sample folds in this process
         sim = self.simulation
         return self._stage("robust", lambda: jam_probability(
             self.design, o.samples, o.seed, scatter=self.scatter, library=self.library, hinge_model=o.hinge_model,
@@ -371,6 +387,9 @@ class Evaluation:
     @property
     def findings(self) -> tuple[Finding, ...]:
         """Every design rule's findings, given the stages above (computed as needed)."""
+        if "findings" not in self._stages:  # the fold, a sample beside it, the clearance search
+            self.guard(2 if self.options.samples else 1, clearance=True, samples=bool(self.options.samples))
+
         def run():
             sim = self.simulation
             asm, err = self.assembly, self.assembly_error
@@ -493,6 +512,8 @@ class Evaluation:
         and the other hinge model's verdict (:func:`foldprint.checks.report.simulate_json`)."""
         from ..checks.report import simulate_json
 
+        if "comparison" not in self._stages:
+            self.guard(2, clearance=True)  # the fold and the other hinge model's, held at once, and the clearance search
         sim, other, crossing = self.simulation, self.comparison, self.printed_crossings
         return simulate_json(sim, other, crossing, self.clearance, None if crossing else self.scatter_margin,
                              self.paper_lines())

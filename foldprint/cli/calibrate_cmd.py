@@ -25,6 +25,9 @@ def _print(out: dict) -> None:
          f"{len(out['parameters'])} parameter combinations; the starting library: chi2 {out['start']['chi2']:.3g}"
          + (" (inside the joint confidence region)" if out["start"]["inside_joint_region"] else
             " (outside the joint confidence region)"))
+    if len(f["start_ends"]) > 1:
+        echo(f"  best of {len(f['start_ends'])} starts; chi2 where each ended: "
+             + ", ".join(f"{c:.4g}" for c in f["start_ends"]) + " (the first from the starting library)")
     conf = f"{out['confidence']:.0%} interval" if out["uncertainty"] == "profile" else "interval (--no-profile)"
     table = Table(title="fitted recovery parameters")
     for col in ("parameter", "value", conf, "identified", "bounds"):
@@ -36,6 +39,10 @@ def _print(out: dict) -> None:
         table.add_row(label, f"{p['value']:.4g} {p['unit']}".strip() + mark, iv, p["identified"] or "-",
                       f"{p['bounds'][0]:g} .. {p['bounds'][1]:g} ({p['bound_kind']})")
     Console(file=sys.stdout, width=130).print(table)
+    if out["held"]:
+        echo("  held, not fitted (--fit NAME fits one):")
+        for h in out["held"]:
+            echo(f"    {h['name']} = {h['value']:g}: {h['source']}")
     echo("  per curve (RMS residual; in sigmas):")
     for c in out["curves"]:
         ref = f" - {c['reference']}" if c["reference"] else ""
@@ -57,6 +64,9 @@ def calibrate(
                                                              "starts from."),
     fix: Optional[List[str]] = typer.Option(None, "--fix", metavar="NAME[=VALUE]",
                                             help="Hold a recovery parameter (at the library's value or VALUE)."),
+    fit: Optional[List[str]] = typer.Option(None, "--fit", metavar="NAME",
+                                            help="Fit a parameter data/calibration.toml holds by default (c1, c2, "
+                                                 "spectrum_span_decades)."),
     per_material: Optional[List[str]] = typer.Option(None, "--per-material", metavar="NAME",
                                                      help="Fit this parameter once per material (default: shared)."),
     no_profile: bool = typer.Option(False, "--no-profile",
@@ -70,12 +80,13 @@ def calibrate(
     from ..model.materials import load_library
 
     lib = load_library(materials_file or None)
-    fixed = cal.parse_fixed(fix)
+    fixed, fit_names = cal.parse_fixed(fix), cal.parse_fit(fit)
     result = with_progress("fitting the recovery model",
-                           lambda: cal.run(data, lib, fixed, per_material or (), not no_profile))
+                           lambda: cal.run(data, lib, fixed, per_material or (), not no_profile, fit_names))
     if out is not None:
         command = " ".join(["foldprint calibrate", str(data), "--out", str(out)]
-                           + [f"--fix {x}" for x in fix or ()] + [f"--per-material {x}" for x in per_material or ()]
+                           + [f"--fix {x}" for x in fix or ()] + [f"--fit {x}" for x in fit_names]
+                           + [f"--per-material {x}" for x in per_material or ()]
                            + [f"--materials {x}" for x in materials_file or ()])
         cal.write(result, out, data, command)
         echo_note(f"wrote {out}")

@@ -39,6 +39,7 @@ def __getattr__(name: str):
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit code (also used by the tests, in-process)."""
     args = expand_multi(list(sys.argv[1:] if argv is None else argv))
+    _tolerant_output()
     try:
         rv = app(args=args, prog_name="foldprint", standalone_mode=False)
         return int(rv or 0)
@@ -60,6 +61,16 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as e:  # noqa: BLE001 -- a bug: exit 3 with a short report, never 1
         return internal_error(e, args)
+
+
+def _tolerant_output() -> None:
+    """A name the system gave as bytes that are not UTF-8 (a file or folder name, held as
+    lone surrogates) is printed as those bytes (stdout) or escaped (stderr), never an
+    error, whatever the locale's strictness. Text inside files never holds one: the schema
+    refuses it (:func:`foldprint.core.schema.string`)."""
+    for stream, errors in ((sys.stdout, "surrogateescape"), (sys.stderr, "backslashreplace")):
+        if getattr(stream, "errors", None) == "strict" and hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors=errors)
 
 
 def run() -> None:  # console script

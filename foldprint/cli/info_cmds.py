@@ -15,7 +15,7 @@ from ..core.constants import DEFAULT_THICKNESS_MM, JSON_DECIMALS
 from ..core.display import seconds
 from .lazy import summary
 from .root import app
-from .support import echo_json, check_in_range, echo_note, check_number, check_temperature
+from .support import check_out_file, echo_json, check_in_range, echo_note, check_number, check_temperature, print_paper
 
 
 @app.command(short_help=summary('materials'))
@@ -33,7 +33,9 @@ def materials(
     """
     from ..model.materials import load_library
     from ..physics.recovery import fold_time
+    from ..simulation.paper_timings import fig1b_lines
 
+    plot = check_out_file(plot, "--plot")
     lib = load_library(materials_file or None)
     temps_raw = list(temperature) if temperature else ["80", "90", "100"]
     temps = [(_t, check_temperature(check_number(_t, "--temperature"))) for _t in temps_raw]
@@ -58,8 +60,10 @@ def materials(
 
         save_figure(fold_time_chart(lib, [v for _, v in temps], thickness), plot)
         echo_note(f"wrote {plot}")
+    # Fig. 1b's statements (free hinges at the paper's 0.8 mm) beside the model's values
+    paper = [] if thickness != DEFAULT_THICKNESS_MM else [ln.to_json() for ln in fig1b_lines(lib)]
     if json_out:
-        echo_json({"materials": rows})
+        echo_json({"materials": rows, "paper": paper})
         return
     from rich.console import Console
     from rich.table import Table
@@ -77,6 +81,7 @@ def materials(
         fx = "-" if r["fixity"] is None else f"{r['fixity']:.4g}"
         table.add_row(r["name"], r["role"], f"{r['tg_c']:.1f}", fx, *cells)
     Console(file=sys.stdout, width=120).print(table)
+    print_paper(paper)
 
 
 @app.command(short_help=summary('templates'))

@@ -155,9 +155,45 @@ def check_count(value: int, option: str, lo: int, hi: int) -> int:
     return value
 
 
+#: An output path may be at most this long (bytes of its absolute form; the system's
+#: PATH_MAX is 4096 and the files written inside need room) and this many levels deep
+#: (the folders are created one level at a time).
+MAX_OUT_PATH_BYTES = 3800
+MAX_OUT_LEVELS = 128
+#: Formats of a chart (``materials --plot``).
+PLOT_FORMATS = ("png", "svg", "pdf")
+
+
+def _check_out_path(value: str, option: str) -> None:
+    """Refuse an output path the file system cannot hold, before anything is made."""
+    import os
+
+    from ..core.inputs import shown
+
+    full = os.fsencode(os.path.abspath(value))
+    parts = [c for c in full.split(b"/") if c]
+    if len(full) > MAX_OUT_PATH_BYTES or any(len(c) > 255 for c in parts) or len(parts) > MAX_OUT_LEVELS:
+        raise FoldprintError(f"{option} {shown(value)!r} is too long or too deep ({len(full)} bytes, {len(parts)} "
+                             f"levels; at most {MAX_OUT_PATH_BYTES} bytes, {MAX_OUT_LEVELS} levels and 255 bytes a "
+                             f"name); give a shorter path, e.g. {option} output/mine")
+
+
+def check_out_file(value: Path | None, option: str = "--plot", formats=PLOT_FORMATS) -> Path | None:
+    """An output file option: a path of a size the file system holds, ending in one of
+    ``formats``."""
+    if value is None:
+        return None
+    _check_out_path(str(value), option)
+    fmt = value.suffix.lstrip(".").lower()
+    if fmt not in formats:
+        raise FoldprintError(f"{option} {str(value)[:80]!r}: the file name must end in "
+                             f"{', '.join('.' + f for f in formats)} (the chart's format), got {fmt or 'no suffix'!r}")
+    return value
+
+
 def check_out_dir(value: str | None, option: str = "--out"):
     """An output directory option: refuses "" (it would mean the current folder without
-    saying so) and the file-system root."""
+    saying so), the file-system root and a path too long or deep to create."""
     import os
 
     if value is None:
@@ -165,8 +201,14 @@ def check_out_dir(value: str | None, option: str = "--out"):
     if not value.strip():
         raise FoldprintError(f"{option} is empty; give a directory, e.g. {option} output/mine "
                              f"(or {option} . for the current folder)")
+    _check_out_path(value, option)
     p = Path(value)
-    if os.path.abspath(p) == os.path.abspath(os.sep) or p.resolve() == Path(p.resolve().anchor):
+    try:
+        real = p.resolve()
+    except (OSError, RuntimeError):  # a loop of symbolic links
+        raise FoldprintError(f"{option} {value!r} cannot be resolved (a loop of symbolic links); give a directory, "
+                             f"e.g. {option} output/mine") from None
+    if os.path.abspath(p) == os.path.abspath(os.sep) or real == Path(real.anchor):
         raise FoldprintError(f"{option} {value!r} is the root of the file system; give a directory of its own, "
                              f"e.g. {option} output/mine")
     return p

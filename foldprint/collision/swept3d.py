@@ -380,39 +380,50 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
     return best, initial
 
 
-def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 20):
+def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 19, block: int = 4096):
     """Smallest FCL distance between non-adjacent panels over the given poses
     (n_t, n, 4, 4): ``(distance, (i, j), time index)``, or None without pairs. Exact:
-    sphere lower bounds order the candidates and end the search (branch and bound)."""
+    sphere lower bounds order the candidates and end the search (branch and bound).
+
+    Streamed over time in chunks of about ``chunk`` (pose, pair) bounds: a chunk keeps only
+    the candidates below the smallest distance found so far and visits them in order,
+    ``block`` at a time, so memory stays at one chunk (~100 B a bound) whatever the design
+    (all bounds at once held 24 B per pose and pair, 6.5 GB for a 1000-panel strip at 200
+    poses). Any candidate below the final answer is below the running best when its chunk
+    is searched, so the result is the same minimum."""
     pairs = np.array(non_adjacent_pairs(checker.design), dtype=np.int64).reshape(-1, 2)
     if len(pairs) == 0:
         return None
     C = panel_centres(checker, poses)
     rc = checker.tree.rc
-    n_t = len(poses)
+    r_pair = rc[pairs[:, 0]] + rc[pairs[:, 1]]
+    n_t, n_p = len(poses), len(pairs)
     best = (np.inf, None, None)
-    step = max(1, chunk // max(len(pairs), 1))
-    cands = []
+    step = max(1, chunk // n_p)
     for k0 in range(0, n_t, step):
         k = np.arange(k0, min(n_t, k0 + step))
-        lb = (np.linalg.norm(C[k][:, pairs[:, 0]] - C[k][:, pairs[:, 1]], axis=-1)
-              - rc[pairs[:, 0]] - rc[pairs[:, 1]])
-        # keep, per time chunk, the candidates below the chunk's smallest upper bound
-        flat = lb.ravel()
-        o = np.argsort(flat, kind="stable")
-        cands.append((flat[o], k[o // len(pairs)], o % len(pairs)))
-    lbs = np.concatenate([c[0] for c in cands])
-    ks = np.concatenate([c[1] for c in cands])
-    ps = np.concatenate([c[2] for c in cands])
-    o = np.argsort(lbs, kind="stable")
-    for m in o:
-        if lbs[m] >= best[0]:
+        diff = C[k][:, pairs[:, 0]] - C[k][:, pairs[:, 1]]
+        d2 = np.einsum("tpi,tpi->tp", diff, diff).ravel()
+        del diff
+        # lb = |c_i - c_j| - r_i - r_j < best, compared squared (no root of every pair)
+        keep = np.flatnonzero(d2 < np.tile(r_pair + best[0], len(k)) ** 2) if np.isfinite(best[0]) \
+            else np.arange(len(d2))
+        lb = np.sqrt(d2[keep]) - r_pair[keep % n_p]
+        del d2
+        order = keep[np.argsort(lb, kind="stable")]
+        lb.sort(kind="stable")
+        for b0 in range(0, len(order), block):
+            m = order[b0:b0 + block]
+            for bound, i, j, t in zip(lb[b0:b0 + block].tolist(), pairs[m % n_p, 0].tolist(),
+                                      pairs[m % n_p, 1].tolist(), k[m // n_p].tolist()):
+                if bound >= best[0]:
+                    break
+                d, _ = checker.distance(i, j, poses[t, i], poses[t, j])
+                if d < best[0]:
+                    best = (d, (i, j), t)
+            else:
+                continue
             break
-        i, j = pairs[ps[m]]
-        k = int(ks[m])
-        d, _ = checker.distance(int(i), int(j), poses[k][i], poses[k][j])
-        if d < best[0]:
-            best = (d, (int(i), int(j)), k)
     return best
 
 

@@ -2,7 +2,7 @@
 :class:`ResourceError` (exit 2) that names the estimate, the limit and how to lift it,
 never a MemoryError and never a run that would fit.
 
-The estimates (``docs/robustness.md`` has a table of estimate vs measured) count:
+The estimates (``docs/input-safety.md`` has a table of estimate vs measured) count:
 
 * the trajectory: ``n_t`` time steps x (panels x a 4x4 pose + hinges x ratios, angles and
   the drive's temporaries), 8-byte floats;
@@ -21,9 +21,11 @@ Estimates are computed in floats, so absurd sizes (1e300 steps) are refused, not
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
+from typing import Callable
 
 from .errors import FoldprintError
 from .modes import Interface, Method
@@ -35,7 +37,7 @@ DEFAULT_MAX_MEMORY = 2 * GiB
 DEFAULT_TIME_BUDGET_S = 900.0
 
 # Cost model. Measured on the 2-core sandbox with benchmarks/bench_scale.py (strips of 100
-# to 1000 panels, 2001 steps; peak RSS of fresh processes, docs/robustness.md):
+# to 1000 panels, 2001 steps; peak RSS of fresh processes, docs/input-safety.md):
 #: resident memory of the imported package (numpy, fcl, shapely, manifold3d), bytes
 BASE_BYTES = 110 * 2 ** 20
 #: trajectory bytes per panel and step (one 4x4 pose) and per hinge and step (ratios,
@@ -45,6 +47,10 @@ TRAJ_BYTES_PER_HINGE_STEP = 64
 #: broad phase of the 3D check: prefix sums (3 x 8 B), centroids (24 B) and the
 #: centroid temporaries (3 x 24 B) per panel and step, held with the trajectory
 BROAD_BYTES_PER_PANEL_STEP = 120
+#: the hinge drive's recovery table, held with a run's trajectory: one curve per hinge on
+#: the recovery model's time grid, 15,400 floats (physics.recovery.curve_time_grid: 4 ms
+#: steps to 60 s, then 400 to the 600 s horizon; 117 MiB of a 1000-panel strip's drive)
+DRIVE_BYTES_PER_HINGE = 15_400 * 8
 #: kinematics (recovery lookup, hinge transforms, forward poses) per hinge and step, s
 KIN_S_PER_HINGE_STEP = 1.5e-6
 #: broad phase per panel and step, s
@@ -138,7 +144,7 @@ def simulation_estimate(n_panels: int, n_hinges: int, n_steps: float, use2d: boo
     n, nh, steps = float(n_panels), float(n_hinges), float(n_steps)
     pairs = n * (n - 1) / 2
     segs = n if n_segments is None else float(n_segments)
-    traj = steps * (n * TRAJ_BYTES_PER_PANEL_STEP + nh * TRAJ_BYTES_PER_HINGE_STEP + 8)
+    traj = steps * (n * TRAJ_BYTES_PER_PANEL_STEP + nh * TRAJ_BYTES_PER_HINGE_STEP + 8) + nh * DRIVE_BYTES_PER_HINGE
     broad = steps * n * BROAD_BYTES_PER_PANEL_STEP if use3d else 0.0
     index = steps * (pairs * (8 + 3) + segs * 4 * 8 * 3) if use2d else 0.0
     seconds = steps * nh * KIN_S_PER_HINGE_STEP + (steps * n * BROAD_S_PER_PANEL_STEP if use3d else 0.0)
@@ -167,8 +173,9 @@ def index2d_skip_reason(design, dt: float, duration: float | None) -> str | None
     """Why ``--method both`` leaves out the paper's 2D index of a planar strip, or None.
 
     ``both`` means both checks where they apply: the 3D swept check is the verdict, the 2D
-    index the paper's comparison. When the index alone would exceed the memory limit while
-    the 3D check fits (a 1000-panel strip: ~11 GB of index against ~0.7 GB), the run goes on
+    index the paper's comparison. When the index alone would exceed the memory limit (less
+    what the caller holds, :func:`holding`) while the 3D check fits (a 1000-panel strip:
+    ~11 GB of index against ~0.7 GB), the run goes on
     with the 3D check and says so; ``--method index2d`` still asks for the index (and is
     refused with the estimate)."""
     sizes = _run_sizes(design, dt, duration)
@@ -179,36 +186,103 @@ def index2d_skip_reason(design, dt: float, duration: float | None) -> str | None
     with2d = simulation_estimate(n, nh, steps, True, n_seg, use3d=True)
     without = simulation_estimate(n, nh, steps, False, n_seg, use3d=True)
     limit = max_memory()
-    if with2d["bytes"] <= limit or without["bytes"] > limit:
+    room = limit - held_elsewhere()  # beside what the caller already holds
+    if with2d["bytes"] <= room or without["bytes"] > room:
         return None
     return (f"the paper's 2D collision index was left out: it needs {_fmt(with2d['index2d_bytes'])} "
             f"({steps:.3g} steps x {with2d['pairs']:.0f} panel pairs), over the {_fmt(limit)} memory limit; "
             "the verdict is the 3D swept check's (--method index2d with a larger --max-memory runs the index)")
 
 
-def check_simulation(design, dt: float, duration: float | None, method: Method) -> dict:
-    """Refuse a simulation whose memory estimate exceeds the memory limit or whose time
-    estimate (kinematics and the 3D broad phase) exceeds the time budget.
+#: The bytes of results each evaluation holds while it computes another stage (its earlier
+#: simulations' trajectories and indexes), set by :func:`holding` and added to every
+#: simulation's estimate: what is held stays allocated while the next run allocates.
+_HOLDERS: dict = {}
 
-    Called at the top of :func:`foldprint.simulation.simulate.simulate` (one line)."""
+
+def held_elsewhere() -> float:
+    """Bytes the callers of this process say they hold (:func:`holding`)."""
+    return float(sum(_HOLDERS.values()))
+
+
+@contextlib.contextmanager
+def holding(nbytes: float, owner=None):
+    """Within the block, :func:`check_simulation` counts ``nbytes`` already held by
+    ``owner`` (an evaluation: nested stages of one owner replace its count, owners add)."""
+    key = owner if owner is not None else object()
+    before = _HOLDERS.get(key)
+    _HOLDERS[key] = float(nbytes)
+    try:
+        yield
+    finally:
+        if before is None:
+            _HOLDERS.pop(key, None)
+        else:
+            _HOLDERS[key] = before
+
+
+#: The clearance search (check's FP172) over the kept trajectory: the non-adjacent pair
+#: array (two int64 a pair, and the list it is made from, ~120 B a pair) and one chunk of
+#: 2^19 pose-pair bounds (gathers, differences, squares, order: ~100 B each). It runs
+#: after the simulation's broad phase is freed.
+PAIR_BYTES = 136
+CLEARANCE_CHUNK_BYTES = 64 * 2 ** 20
+
+
+def run_estimate(design, dt: float, duration: float | None, method: Method, runs: int = 1,
+                 clearance: bool = False, extra: float = 0.0) -> dict | None:
+    """:func:`simulation_estimate` of the peak of a command that holds ``runs``
+    simulations at once (``simulate``: the nominal fold and the other hinge model's;
+    ``check`` with samples and ``robust``: the nominal fold and one sample in this
+    process), plus the clearance search after it (``clearance``), ``extra`` bytes held
+    beside the last run (a Monte-Carlo chunk's recovery curves) and what :func:`holding`
+    says is held. None for values simulate() refuses itself."""
     sizes = _run_sizes(design, dt, duration)
     if sizes is None:
-        return {}  # simulate() reports bad values itself
-    dur, steps, n_seg = sizes
+        return None
+    _dur, steps, n_seg = sizes
     m = str(method)
     use2d = m in (Method.INDEX2D, Method.BOTH) and design.is_planar_strip
     est = simulation_estimate(len(design.panels), len(design.hinges), steps, use2d, n_seg,
                               use3d=m in (Method.FCL, Method.BOTH))
+    work = max(est["broad_bytes"], est["index2d_bytes"])
+    clear = est["pairs"] * PAIR_BYTES + CLEARANCE_CHUNK_BYTES if clearance else 0.0
+    held = held_elsewhere() + float(extra) + (
+        (runs - 1) * (est["trajectory_bytes"] + est["index2d_bytes"]) if runs > 1 else 0.0)
+    est.update(held_bytes=held, clearance_bytes=clear, runs=runs, run_bytes=est["bytes"],
+               bytes=est["bytes"] + held + max(0.0, clear - work))
+    return est
+
+
+def check_simulation(design, dt: float, duration: float | None, method: Method, runs: int = 1,
+                     clearance: bool = False, extra: float = 0.0) -> dict:
+    """Refuse a simulation whose memory estimate (:func:`run_estimate`: with ``runs``
+    simulations held at once, the clearance search and what the caller holds) exceeds the
+    memory limit, or whose time estimate (kinematics and the 3D broad phase) exceeds the
+    time budget.
+
+    Called at the top of :func:`foldprint.simulation.simulate.simulate` (one line) and up
+    front, through :func:`check_runs`, by the commands that hold more than one run."""
+    est = run_estimate(design, dt, duration, method, runs, clearance, extra)
+    if est is None:
+        return {}  # simulate() reports bad values itself
+    dur, steps = _run_sizes(design, dt, duration)[:2]
     limit = max_memory()
     src = f"{design.source}: " if design.source else f"{design.name}: "
     if est["bytes"] > limit:
+        held = ", ".join(([f"{runs} runs held at once"] if runs > 1 else [])
+                         + ([f"{_fmt(extra)} of sampled recovery curves"] if extra else [])
+                         + ([f"{_fmt(held_elsewhere())} of earlier results held"] if held_elsewhere() else [])
+                         + ([f"{_fmt(est['clearance_bytes'])} for the clearance search"]
+                            if est["bytes"] > est["run_bytes"] + est["held_bytes"] else []))
+        held = f" ({held}: {_fmt(est['bytes'])} in all)" if held else ""
         part = (f"the 2D collision index needs {_fmt(est['index2d_bytes'])} "
                 f"({steps:.3g} steps x {est['pairs']:.0f} panel pairs)" if est["index2d_bytes"] > est["trajectory_bytes"]
-                else f"the trajectory and the 3D check's broad phase need {_fmt(est['bytes'])} "
+                else f"the trajectory and the 3D check's broad phase need {_fmt(est['run_bytes'])} "
                      f"({steps:.3g} steps of {dt:g} s over {dur:g} s x {len(design.panels)} panels)"
                      .replace("inf steps", "more than 1e308 steps"))
         lift = "use --method fcl, " if est["index2d_bytes"] > est["trajectory_bytes"] else ""
-        raise ResourceError(f"{src}simulation refused: {part}, over the {_fmt(limit)} memory limit; "
+        raise ResourceError(f"{src}simulation refused: {part}{held}, over the {_fmt(limit)} memory limit; "
                             f"{lift}raise --dt, shorten --duration (or process.duration_s), or lift the "
                             f"limit with {_lift(est)}")
     budget = time_budget()
@@ -236,6 +310,18 @@ def check_mechanics(design) -> int:
                             f"{MAX_MECHANICS_NODES} the bar-and-hinge solver takes; use --mechanics rigid or "
                             "simplify the panels' outlines")
     return n
+
+
+def check_runs(design, dt: float, duration: float | None, method: Method, runs: int, clearance: bool = False,
+               curves: Callable[[], float] | None = None) -> None:
+    """:func:`check_simulation` of a command up front: ``runs`` simulations held at once
+    (``both`` counts the 2D index only where a run keeps it), the clearance search, and
+    ``curves()`` bytes of a Monte-Carlo chunk's recovery curves, asked only once the runs
+    alone fit (finding the run's end allocates its time grid)."""
+    m = Method.FCL if str(method) == Method.BOTH and index2d_skip_reason(design, dt, duration) else method
+    check_simulation(design, dt, duration, m, runs, clearance)
+    if curves is not None:
+        check_simulation(design, dt, duration, m, runs, clearance, curves())
 
 
 def narrow_deadline(what: str = "the 3D swept check"):
@@ -277,7 +363,7 @@ def check_sample_memory(design, samples: float, what: str = "the Monte-Carlo jam
 
 
 #: export: seconds and bytes per geometric feature (panel outline points, hinge bend
-#: slices per segment, teeth), measured with benchmarks/bench_scale.py (docs/robustness.md)
+#: slices per segment, teeth), measured with benchmarks/bench_scale.py (docs/input-safety.md)
 EXPORT_S_PER_FEATURE = 1.5e-3
 EXPORT_BYTES_PER_FEATURE = 8_000
 
@@ -323,18 +409,6 @@ def check_export(design) -> dict:
                             "(fewer slices and teeth), or lift the budget with the environment variable "
                             "FOLDPRINT_TIME_BUDGET (seconds)")
     return est
-
-
-#: Exact distance queries the clearance margin (check's FP172) may make: about 0.1 ms each,
-#: so 1e5 is ~10 s. Up to 200 frames are sampled; fewer when there are many panel pairs
-#: (at least 10), so the margin of a large design is coarser in time but bounded in work.
-MAX_DISTANCE_QUERIES = 100_000
-
-
-def clearance_stride(n_times: int, n_pairs: int) -> int:
-    """Sampling stride over the trajectory for the clearance margin, bounded in work."""
-    frames = min(200, max(10, MAX_DISTANCE_QUERIES // max(1, n_pairs)))
-    return max(1, n_times // frames)
 
 
 def check_samples(samples: int, seconds_per_sample: float, workers: int, name: str = "") -> float:

@@ -1,6 +1,6 @@
 """The boundary schema: every value of a design file is checked here before anything runs.
 
-Hand-written on purpose (``docs/robustness.md`` says why): each check knows the file,
+Hand-written on purpose (``docs/input-safety.md`` says why): each check knows the file,
 the key path (``hinges[1].radius_mm``), the item's id and what would be right, and raises
 :class:`~foldprint.core.errors.DesignError`.
 
@@ -24,7 +24,7 @@ import math
 import re
 from typing import Any, Mapping
 
-from .errors import DesignError
+from .errors import DesignError, FoldprintError
 
 MIN_LENGTH_MM = 1e-3
 MAX_LENGTH_MM = 1e4
@@ -46,6 +46,11 @@ MAX_FILE_BYTES = 32 * 1024 * 1024
 #: recovery model's Arrhenius shift below Tg takes 1/T in kelvin: -273.15 C divided by zero
 #: (numpy warnings, then a verdict), and 1e308 C overflowed.
 TEMPERATURE_C = (-100.0, 500.0)
+#: Glass transitions a material may have: the same span. Printable polymers' Tg lie within it
+#: (photopolymers about -30 to 100 C, high-temperature ones up to ~300 C); the recovery
+#: law's Arrhenius shift divides by Tg in kelvin (tg_c = -273.15 divided by zero, 1e308
+#: overflowed), and a Tg drawn under the largest scatter (sd <= 10 C, x5, 3 sd) stays above 0 K.
+TG_C = TEMPERATURE_C
 MAX_DURATION_S = 1e12  # s; the resource guard (guards.py) refuses long runs with a better message
 
 
@@ -68,25 +73,27 @@ def describe(value: Any) -> str:
 
 
 class Where:
-    """A location in a design: file and key path, with the item's id for messages."""
+    """A location in a design or option file: file and key path, with the item's id for
+    messages; ``error`` is the class :meth:`fail` makes (DesignError, or MaterialError for
+    a material library)."""
 
-    def __init__(self, source: str = "", path: str = "", item: str = ""):
-        self.source, self.path, self.item = source, path, item
+    def __init__(self, source: str = "", path: str = "", item: str = "", error: type[FoldprintError] = DesignError):
+        self.source, self.path, self.item, self.error = source, path, item, error
 
     def __truediv__(self, key) -> "Where":
         if isinstance(key, int):
-            return Where(self.source, f"{self.path}[{key}]", self.item)
-        return Where(self.source, f"{self.path}.{key}" if self.path else str(key), self.item)
+            return Where(self.source, f"{self.path}[{key}]", self.item, self.error)
+        return Where(self.source, f"{self.path}.{key}" if self.path else str(key), self.item, self.error)
 
     def named(self, item: str) -> "Where":
-        return Where(self.source, self.path, item)
+        return Where(self.source, self.path, item, self.error)
 
     def __str__(self) -> str:
         parts = [p for p in (self.source, self.path + (f" ({self.item})" if self.item else "")) if p]
         return ": ".join(parts) + ": " if parts else ""
 
-    def fail(self, what: str) -> DesignError:
-        return DesignError(f"{self}{what}")
+    def fail(self, what: str) -> FoldprintError:
+        return self.error(f"{self}{what}")
 
 
 # -- typed readers ------------------------------------------------------------------------
@@ -167,10 +174,18 @@ def integer(value, at: Where, lo: int | None = None, hi: int | None = None) -> i
 
 
 def string(value, at: Where, max_len: int = MAX_NAME, what: str = "a string") -> str:
+    """Text of at most ``max_len`` characters that is valid Unicode: a lone surrogate (a
+    JSON escape such as \\ud800 without its pair) cannot be written to any file or
+    terminal, so it is refused here, where its key is known."""
     if not isinstance(value, str):
         raise at.fail(f"must be {what}, got {describe(value)}")
     if len(value) > max_len:
         raise at.fail(f"is {len(value)} characters long; at most {max_len} are accepted")
+    if not value.isascii():
+        bad = next((c for c in value if 0xD800 <= ord(c) <= 0xDFFF), None)
+        if bad is not None:
+            raise at.fail(f"holds a lone surrogate ({bad!r}), which is not text any file or terminal can hold; "
+                          "write the character itself (UTF-8) or leave it out")
     return value
 
 
@@ -238,8 +253,8 @@ def parse_error(exc: Exception, text: str, source: str, kind: str) -> str:
     m = _LONG_INT.search(text) if "digits" in str(exc) else None
     if m:
         line = text.count("\n", 0, m.start()) + 1
-        return (f"{source}: line {line}: a number with {len(m.group())}+ digits; no value of a design needs "
-                f"more than 20 (lengths at most {MAX_LENGTH_MM:g} mm, indices at most a few thousand)")
+        return (f"{source}: line {line}: a number with {len(m.group())}+ digits; no value of a design or option "
+                f"file needs more than 20 (lengths at most {MAX_LENGTH_MM:g} mm, indices at most a few thousand)")
     return f"{source}: not valid {what}: {exc}"
 
 
@@ -288,7 +303,7 @@ def check_text(text: str, source: str, kind: str) -> None:
                 if deepest > MAX_NESTING:
                     line = text.count("\n", 0, m.start()) + 1
                     raise DesignError(f"{source}: line {line}: lists or tables nested more than "
-                                      f"{MAX_NESTING} levels deep; a design needs at most 5")
+                                      f"{MAX_NESTING} levels deep; a design or option file needs at most 5")
         elif tok in "]}":
             depth = max(0, depth - 1)
 
@@ -305,11 +320,13 @@ def check_fold(frame, source: str) -> None:
         number(frame["file_spec"], top / "file_spec", 0.0, 100.0)
     for key in ("frame_title", "file_title", "file_creator", "file_author", "frame_unit", "frame_author",
                 "frame_description", "file_description"):
-        if key in frame and not isinstance(frame[key], str):
-            raise (top / key).fail(f"must be a string, got {describe(frame[key])}")
+        if key in frame:
+            string(frame[key], top / key, MAX_TEXT)
     for key in ("frame_classes", "file_classes", "frame_attributes"):
         if key in frame and not (isinstance(frame[key], list) and all(isinstance(c, str) for c in frame[key])):
             raise (top / key).fail(f"must be a list of strings, got {describe(frame[key])}")
+        for i, c in enumerate(frame.get(key) or ()):
+            string(c, top / key / i, MAX_TEXT)
     for key in ("faces_foldprint:holes",):
         raw = frame.get(key)
         if raw is None:

@@ -360,37 +360,6 @@ def _goal(raw, at: Where, i: int) -> Goal:
                 np.array(tip), sc.integer(raw.get("order", i), at / "order", -10**9, 10**9))
 
 
-def read_text(path: Path, expected: str, kind: str | None = None) -> str:
-    """A UTF-8 text file's contents; DesignError naming the path otherwise. Files too large
-    or nested too deeply for the parsers are refused here (:func:`foldprint.core.schema.check_text`);
-    ``kind`` "toml", "json" or "svg" (XML: its element depth is checked by the SVG reader,
-    brackets in its text mean nothing), by default from ``expected``."""
-    try:
-        size = path.stat().st_size
-        if size > sc.MAX_FILE_BYTES:
-            raise DesignError(f"{path}: file is {size / 2**20:.0f} MiB; design files of at most "
-                              f"{sc.MAX_FILE_BYTES // 2**20} MiB are accepted")
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise DesignError(f"{path}: file not found") from None
-    except IsADirectoryError:
-        raise DesignError(f"{path}: is a directory, expected {expected}") from None
-    except OSError as exc:
-        raise DesignError(f"{path}: cannot read: {exc.strerror}") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise DesignError(f"{path}: not a UTF-8 text file; expected {expected}") from None
-    kind = kind or ("toml" if "TOML" in expected else "json")
-    if kind == "svg":
-        if len(text) > sc.MAX_FILE_BYTES:
-            raise DesignError(f"{path}: file is {len(text) / 2**20:.0f} MiB; design files of at most "
-                              f"{sc.MAX_FILE_BYTES // 2**20} MiB are accepted")
-    else:
-        sc.check_text(text, str(path), kind)
-    return text
-
-
 def _material(value, at: sc.Where) -> str:
     """A hinge's material: a name (``"H-3"``, ``"VW0.620"``), a VeroWhite fraction, or
     ``{vero_fraction = 0.62}`` / ``{vero_fraction = [0.6, 0.9], along = "width"}``

@@ -7,13 +7,12 @@ convention, :mod:`foldprint.io.svg_format`).
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 from ..model.design import Design
-from .design_io import design_from_dict, read_text
+from .design_io import design_from_dict
 from ..core.errors import DesignError
-from ..core.schema import parse_error
+from ..core.inputs import read_toml
 from .fold_format import design_from_fold_file
 from ..model.materials import MaterialLibrary
 
@@ -56,9 +55,4 @@ def load_design(path: str | Path, library: MaterialLibrary | None = None, *,
     if scale is not None or rule:
         raise DesignError(f"{path}: --scale and --crease-materials apply to FOLD and SVG crease patterns; "
                           "a TOML design gives lengths in mm and a material per hinge")
-    text = read_text(path, "a TOML design (.toml)")
-    try:
-        data = tomllib.loads(text)
-    except ValueError as exc:  # TOMLDecodeError, or an integer of more than 4300 digits
-        raise DesignError(parse_error(exc, text, str(path), "toml")) from None
-    return design_from_dict(data, str(path), library)
+    return design_from_dict(read_toml(path, "a TOML design (.toml)"), str(path), library)

@@ -36,7 +36,7 @@ from ..core.errors import DesignError
 from ..core.schema import MAX_LENGTH_MM
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
-from .design_io import read_text
+from ..core.inputs import read_input_text, stem_text
 from .fold_format import design_from_fold
 from .svg_creases import (  # noqa: F401  (importable from here as before)
     KDTREE_POINTS,
@@ -101,10 +101,10 @@ def design_from_svg(text: str, source: str = "", library: MaterialLibrary | None
     fold = fold_from_svg(text, src, scale)
     if not kw.get("default_thickness_mm"):
         kw.pop("default_thickness_mm", None)
-    fold["frame_title"] = Path(source).stem if source else "svg"
+    fold["frame_title"] = stem_text(source) if source else "svg"
     return design_from_fold(fold, source=source, library=library, crease_materials=crease_materials, **kw)
 
 
 def design_from_svg_file(path: str | Path, library: MaterialLibrary | None = None, **kw) -> Design:
     path = Path(path)
-    return design_from_svg(read_text(path, "an SVG crease pattern (.svg)", kind="svg"), str(path), library, **kw)
+    return design_from_svg(read_input_text(path, "an SVG crease pattern (.svg)"), str(path), library, **kw)

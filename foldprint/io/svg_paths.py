@@ -84,7 +84,8 @@ def _matrix(text: str | None, src: str) -> np.ndarray:
             raise DesignError(f"{src}transform {name}({args}) is not understood; flatten transforms in your editor")
         if not np.isfinite(t).all():
             raise DesignError(f"{src}transform {name}({args.strip()[:40]}) has a number out of range")
-        m = m @ t
+        with np.errstate(over="ignore", invalid="ignore"):  # a product out of range is refused below
+            m = m @ t
     _check_matrix(m, src, f"transform {text.strip()[:60]!r}")
     return m
 

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import os
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..core.errors import DesignError
+from ..core.inputs import read_toml, shown
 
 if TYPE_CHECKING:
     from ..core import schema as sc
@@ -30,23 +30,24 @@ def list_templates() -> list[dict]:
         return out
     for p in sorted(d.glob("*.toml")):
         try:
-            data = tomllib.loads(p.read_text(encoding="utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError):
+            data = read_toml(p, "a TOML design (.toml)")
+        except DesignError:  # listed without a description; loading it says what is wrong
             data = {}
-        out.append({"name": p.stem, "path": str(p), "description": data.get("description", "")})
+        desc = data.get("description", "")
+        out.append({"name": p.stem, "path": str(p), "description": desc if isinstance(desc, str) else ""})
     return out
 
 
 def resolve_design_path(name_or_path: str) -> Path:
     """A path as given, or the template of that name."""
     p = Path(name_or_path)
-    if p.exists() or p.suffix in (".toml", ".fold") or "/" in name_or_path:
+    if p.suffix in (".toml", ".fold", ".svg") or "/" in name_or_path or os.path.lexists(p):
         return p
     cand = templates_dir() / f"{name_or_path}.toml"
-    if cand.exists():
+    if os.path.lexists(cand):
         return cand
     names = [t["name"] for t in list_templates()]
-    raise DesignError(f"{name_or_path}: no such file, and no template of that name; templates: {', '.join(names)}")
+    raise DesignError(f"{shown(name_or_path)}: no such file, and no template of that name; templates: {', '.join(names)}")
 
 
 #: simulate's verdicts a template may claim: it completes, it collides (a first contact),
@@ -119,5 +120,5 @@ def template_claims(name_or_path: str) -> Claims:
     from ..core import schema as sc
 
     p = resolve_design_path(name_or_path)
-    data = tomllib.loads(p.read_text(encoding="utf-8"))
-    return parse_claims(data.get("claims"), sc.Where(str(p)) / "claims")
+    data = read_toml(p, "a TOML design (.toml)")
+    return parse_claims(data.get("claims"), sc.Where(shown(p)) / "claims")

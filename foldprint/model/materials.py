@@ -8,14 +8,16 @@ overrides fields of shipped ones.
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass, field, fields, replace
 from importlib import resources
 from pathlib import Path
 from typing import Iterable, Mapping
 
+from ..core import schema as sc
 from ..core.errors import MaterialError, where
+from ..core.inputs import read_toml
+from ..core.schema import TG_C
 from . import composition
 from .composition import FractionProfile
 
@@ -47,17 +49,38 @@ class RecoveryParams:
     spectrum_span_decades: float
     n_branches: int = 16
 
-    def validate(self, src: str) -> None:
+    def validate(self, at: sc.Where) -> None:
+        """Every field a finite number within :data:`RECOVERY_BOUNDS` (``n_branches`` a
+        whole number), or ``at.error`` naming the field, its range and the reason."""
         for f in fields(self):
+            lo, hi, unit, why = RECOVERY_BOUNDS[f.name]
             v = getattr(self, f.name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise MaterialError(f"{src}{f.name} must be a finite number, got {v!r}")
-        for name in ("k_w_mk", "rho_kg_m3", "c_j_kgk", "h_w_m2k", "c1", "c2",
-                     "spectrum_sigma_decades", "spectrum_span_decades"):
-            if getattr(self, name) <= 0:
-                raise MaterialError(f"{src}{name} must be > 0, got {getattr(self, name)}")
-        if self.n_branches < 1:
-            raise MaterialError(f"{src}n_branches must be >= 1, got {self.n_branches}")
+            if f.name == "n_branches":
+                sc.integer(v, at / f.name, lo, hi)
+                continue
+            v = sc.number(v, at / f.name, unit=unit)
+            if not lo <= v <= hi:
+                raise (at / f.name).fail(f"must be in [{lo:g}, {hi:g}] {unit} ({why}), got {v:g}")
+
+
+#: What a materials file may set, (lo, hi, unit, reason): physical ranges, wide enough for
+#: any printable polymer, narrow enough that the recovery model stays in floating point
+#: (checked at the corners: tests/test_option_files.py).
+RECOVERY_BOUNDS = {
+    "k_w_mk": (1e-3, 1e4, "W/m/K", "solids span aerogels, ~0.01, to diamond, ~2000"),
+    "rho_kg_m3": (1.0, 3e4, "kg/m^3", "solids span aerogels to osmium, 22,600"),
+    "c_j_kgk": (10.0, 2e4, "J/kg/K", "solids and liquids span ~100 to ~15,000"),
+    "h_w_m2k": (0.1, 1e6, "W/m^2/K", "free convection in gas, ~5, to boiling water, ~1e5"),
+    "c1": (0.1, 100.0, "", "WLF C1 of polymers is 5-40; the shift 10^C1 overflows past ~300"),
+    "c2": (1.0, 1000.0, "K", "WLF C2 of polymers is 20-200 K"),
+    "log10_tau_ref_s": (-12.0, 12.0, "", "relaxation times from picoseconds to 30,000 years"),
+    "spectrum_sigma_decades": (0.01, 20.0, "decades", "a relaxation spectrum spans at most ~20 decades"),
+    "spectrum_span_decades": (0.01, 30.0, "decades", "a relaxation spectrum spans at most ~20 decades"),
+    "n_branches": (1, 256, "", "the paper's model has 16 branches; each costs a pass over the curve"),
+}
+#: Materials one file may define (the shipped library has 9; each hinge material is a
+#: recovery curve per bath temperature in `foldprint materials`).
+MAX_MATERIALS = 256
 
 
 @dataclass(frozen=True)
@@ -173,64 +196,52 @@ _COLOR_CHARS = set("0123456789abcdefABCDEF")
 
 def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
                     previous: Material | None) -> Material:
-    key = where(src, f"materials.{name}")
-    if not isinstance(raw, Mapping):
-        raise MaterialError(f"{key}expected a table, got {type(raw).__name__}")
-    known = {"role", "tg_c", "color", "description", "max_strain", "recovery", "source", "fixity",
-             "fixity_source"}
-    unknown = set(raw) - known
-    if unknown:
-        raise MaterialError(f"{key}unknown keys {sorted(unknown)}; allowed: {sorted(known)}")
+    at = sc.Where(src, f"materials.{name}", error=MaterialError)
+    sc.ident(name, at)
+    sc.table(raw, at, {"role", "tg_c", "color", "description", "max_strain", "recovery", "source", "fixity",
+                         "fixity_source"})
     prev = previous
     role = raw.get("role", prev.role if prev else None)
     if role not in ROLES:
-        raise MaterialError(f"{key}role must be one of {ROLES}, got {role!r}")
-    tg = raw.get("tg_c", prev.tg_c if prev else None)
-    if not isinstance(tg, (int, float)) or not math.isfinite(tg):
-        raise MaterialError(f"{key}tg_c must be a finite number in deg C, got {tg!r}")
+        raise (at / "role").fail(f"must be one of {ROLES}, got {sc.describe(role)}")
+    tg = sc.number(raw.get("tg_c", prev.tg_c if prev else None), at / "tg_c", unit="deg C")
+    if not TG_C[0] <= tg <= TG_C[1]:
+        raise (at / "tg_c").fail(f"must be in [{TG_C[0]:g}, {TG_C[1]:g}] deg C (glass transitions of printable "
+                                 f"polymers lie within it; the recovery law's Arrhenius shift divides by Tg in "
+                                 f"kelvin), got {tg:g}")
     color = raw.get("color", prev.color if prev else "#808080")
     if not (isinstance(color, str) and color.startswith("#") and len(color) in (7, 9)
             and set(color[1:]) <= _COLOR_CHARS):
-        raise MaterialError(f"{key}color must be '#RRGGBB' or '#RRGGBBAA', got {color!r}")
-    max_strain = raw.get("max_strain", prev.max_strain if prev else 0.2)
-    if not isinstance(max_strain, (int, float)) or not (0 < max_strain < 10):
-        raise MaterialError(f"{key}max_strain must be a positive fraction, got {max_strain!r}")
+        raise (at / "color").fail(f"must be '#RRGGBB' or '#RRGGBBAA', got {sc.describe(color)}")
+    max_strain = sc.number(raw.get("max_strain", prev.max_strain if prev else 0.2), at / "max_strain", 0.0, 10.0,
+                           "(a fraction)", lo_open=True)
     fixity = raw.get("fixity", prev.fixity if prev else None)
-    if fixity is not None and (isinstance(fixity, bool) or not isinstance(fixity, (int, float))
-                               or not 0.0 < fixity <= 1.0):
-        raise MaterialError(f"{key}fixity must be a shape fixity in (0, 1], got {fixity!r}")
+    if fixity is not None:  # a measured shape fixity; None: the material's default (default_fixity)
+        fixity = sc.number(fixity, at / "fixity", 0.0, 1.0, "(a fraction)", lo_open=True)
     rec = None
     if role == "hinge":
         merged = dict(base_rec)
         if prev is not None and prev.recovery is not None:
             merged.update({f.name: getattr(prev.recovery, f.name) for f in fields(prev.recovery)})
-        rec_raw = raw.get("recovery", {})
-        if not isinstance(rec_raw, Mapping):
-            raise MaterialError(f"{key}recovery must be a table")
-        merged.update(rec_raw)
+        merged.update(sc.table(raw.get("recovery", {}), at / "recovery"))
         allowed = {f.name for f in fields(RecoveryParams)}
-        unknown = set(merged) - allowed
-        if unknown:
-            raise MaterialError(f"{key}recovery: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
+        sc.table(merged, at / "recovery", allowed)
         missing = allowed - set(merged) - {"n_branches"}
         if missing:
-            raise MaterialError(f"{key}recovery: missing {sorted(missing)}")
+            raise (at / "recovery").fail(f"missing {sorted(missing)}")
         rec = RecoveryParams(**merged)
-        rec.validate(f"{key}recovery: ")
-    return Material(
-        name=name, role=role, tg_c=float(tg), color=color,
-        description=str(raw.get("description", prev.description if prev else "")),
-        max_strain=float(max_strain), recovery=rec,
-        source=str(raw.get("source", prev.source if prev else "")),
-        fixity=None if fixity is None else float(fixity),
-        fixity_source=str(raw.get("fixity_source", prev.fixity_source if prev else "")),
-    )
+        rec.validate(at / "recovery")
+    text = {k: sc.string(raw.get(k, getattr(prev, k) if prev else ""), at / k, sc.MAX_TEXT)
+            for k in ("description", "source", "fixity_source")}
+    return Material(name=name, role=role, tg_c=tg, color=color, max_strain=max_strain, recovery=rec,
+                    fixity=fixity, **text)
 
 
 def parse_library(data: Mapping, src: str, base: MaterialLibrary | None = None) -> MaterialLibrary:
     """Build a library from parsed TOML; entries override same-named ones in ``base``."""
     existing = {m.name: m for m in (base.materials if base else ())}
-    base_rec = data.get("recovery_defaults", {})
+    top = sc.Where(src, error=MaterialError)
+    base_rec = sc.table(data.get("recovery_defaults", {}), top / "recovery_defaults")
     if base is not None and not base_rec:
         first = next((m for m in base.materials if m.recovery is not None), None)
         if first is not None:
@@ -238,6 +249,8 @@ def parse_library(data: Mapping, src: str, base: MaterialLibrary | None = None) 
     mats = data.get("materials")
     if not isinstance(mats, Mapping) or not mats:
         raise MaterialError(f"{where(src)}expected a [materials.NAME] table for each material")
+    if len(mats) > MAX_MATERIALS:
+        raise MaterialError(f"{where(src)}{len(mats)} materials; at most {MAX_MATERIALS} per file are accepted")
     order = list(existing)
     for name, raw in mats.items():
         existing[name] = _parse_material(name, raw, base_rec, src, existing.get(name))
@@ -247,15 +260,7 @@ def parse_library(data: Mapping, src: str, base: MaterialLibrary | None = None) 
 
 
 def _read_toml(path: Path) -> dict:
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise MaterialError(f"{path}: file not found") from None
-    except ValueError as exc:  # also a >4300-digit integer
-        raise MaterialError(f"{path}: not valid TOML: {exc}") from None
-    except OSError as exc:
-        raise MaterialError(f"{path}: cannot read: {exc.strerror}") from None
+    return read_toml(path, "a materials file (TOML, [materials.NAME] tables)", error=MaterialError)
 
 
 _DEFAULT: MaterialLibrary | None = None

@@ -18,14 +18,15 @@ refuses a design that does not fit.
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 from typing import Iterable
 
+from ..core import schema as sc
 from ..core.errors import DesignError
+from ..core.inputs import read_toml, shown
 from .materials import MaterialLibrary
 
 #: The base resins every digital SMP of the library is jetted from (Mao 2015, Methods:
@@ -87,59 +88,65 @@ def _data_text() -> str:
     return (resources.files("foldprint") / "data" / "printers.toml").read_text(encoding="utf-8")
 
 
-def _positive(src: str, key: str, raw: dict, name: str, kind=float):
-    v = raw.get(name)
-    if v is None:
-        return None
-    try:
-        x = kind(v)
-    except (TypeError, ValueError):
-        x = None
-    if x is None or isinstance(v, bool) or not (math.isfinite(x) and x > 0) or (kind is int and x != v):
-        raise DesignError(f"{src}: printers.{key}: {name} must be a positive {'whole number' if kind is int else 'number'}, "
-                          f"got {v!r}")
-    return x
+#: Printer profiles one file may hold (the shipped file has 8).
+MAX_PRINTERS = 256
+#: Tools (or resin channels) a profile may state: no changer holds more.
+MAX_TOOLS = 64
+_PRINTER_KEYS = {"name", "technology", "build_mm", "layer_mm", "min_wall_mm", "min_gap_mm", "voxel_mm",
+                 "voxel_source", "default", "voxel_default", "tools", "tools_source", "base_resins",
+                 "single_nozzle", "nozzle_mm", "filament_mm", "source"}
 
 
-def _profile(src: str, key: str, raw: dict) -> Printer:
-    try:
-        build = tuple(float(v) for v in raw["build_mm"])
-        vox = raw.get("voxel_mm")
-        vox = None if vox is None else tuple(float(v) for v in vox)
-        resins = tuple(str(r) for r in raw.get("base_resins", ()))
-        pr = Printer(key, str(raw.get("name", key)), str(raw.get("technology", "")), build,
-                     float(raw.get("layer_mm", 0.1)), float(raw["min_wall_mm"]), float(raw["min_gap_mm"]),
-                     vox, str(raw.get("voxel_source", "")), _positive(src, key, raw, "tools", int),
-                     str(raw.get("tools_source", "")), resins, bool(raw.get("single_nozzle", False)),
-                     _positive(src, key, raw, "nozzle_mm"), _positive(src, key, raw, "filament_mm"))
-    except (KeyError, TypeError, ValueError) as exc:
-        raise DesignError(f"{src}: printers.{key}: needs build_mm = [x, y, z], min_wall_mm and "
-                          f"min_gap_mm ({exc})") from None
-    if vox is not None and (len(vox) != 3 or not all(math.isfinite(v) and v > 0 for v in vox)):
-        raise DesignError(f"{src}: printers.{key}: voxel_mm must be three positive lengths [x, y, z] in mm")
-    if len(build) != 3 or min(build) <= 0 or pr.min_wall_mm <= 0 or pr.min_gap_mm <= 0:
-        raise DesignError(f"{src}: printers.{key}: sizes must be positive")
-    if resins and pr.fdm:
-        raise DesignError(f"{src}: printers.{key}: base_resins are PolyJet resins; an fdm printer has one filament "
-                          "per tool (remove base_resins or set technology = \"polyjet\")")
-    return pr
+def _lengths(raw, at: sc.Where, name: str) -> tuple[float, float, float]:
+    vals = sc.array(raw[name], at / name, 3, "three lengths [x, y, z] in mm")
+    if len(vals) != 3:
+        raise (at / name).fail(f"must be three lengths [x, y, z] in mm, got {len(vals)}")
+    return tuple(sc.length(v, at / name / i) for i, v in enumerate(vals))
+
+
+def _optional_length(raw, at: sc.Where, name: str) -> float | None:
+    return None if name not in raw else sc.length(raw[name], at / name)
+
+
+def _profile(key: str, raw, at: sc.Where) -> Printer:
+    """One ``[printers.KEY]`` table, every value through the boundary schema (lengths from
+    1 um to 10 m, names and texts bounded, tools a whole number)."""
+    sc.ident(key, at)
+    raw = sc.table(raw, at, _PRINTER_KEYS)
+    for need in ("build_mm", "min_wall_mm", "min_gap_mm"):
+        if need not in raw:
+            raise at.fail(f"needs build_mm = [x, y, z], min_wall_mm and min_gap_mm (missing {need})")
+    technology = sc.string(raw.get("technology", ""), at / "technology")
+    resins = tuple(sc.string(r, at / "base_resins" / i)
+                   for i, r in enumerate(sc.array(raw.get("base_resins", []), at / "base_resins", MAX_TOOLS)))
+    if resins and technology == "fdm":
+        raise (at / "base_resins").fail("are PolyJet resins; an fdm printer has one filament per tool (remove "
+                                        "base_resins or set technology = \"polyjet\")")
+    return Printer(key, sc.string(raw.get("name", key), at / "name"), technology, _lengths(raw, at, "build_mm"),
+                   sc.length(raw.get("layer_mm", 0.1), at / "layer_mm"), sc.length(raw["min_wall_mm"], at / "min_wall_mm"),
+                   sc.length(raw["min_gap_mm"], at / "min_gap_mm"),
+                   _lengths(raw, at, "voxel_mm") if "voxel_mm" in raw else None,
+                   sc.string(raw.get("voxel_source", ""), at / "voxel_source", sc.MAX_TEXT),
+                   None if "tools" not in raw else sc.integer(raw["tools"], at / "tools", 1, MAX_TOOLS),
+                   sc.string(raw.get("tools_source", ""), at / "tools_source", sc.MAX_TEXT), resins,
+                   sc.boolean(raw.get("single_nozzle", False), at / "single_nozzle"),
+                   _optional_length(raw, at, "nozzle_mm"), _optional_length(raw, at, "filament_mm"))
 
 
 def load_printers(extra: str | Path | None = None) -> dict[str, Printer]:
-    """Shipped printer profiles plus a user TOML file of the same layout."""
+    """Shipped printer profiles plus a user TOML file of the same layout, read through the
+    one input door (:func:`foldprint.core.inputs.read_toml`) and the boundary schema."""
     tables = [(PRINTERS_DATA, tomllib.loads(_data_text()))]
     if extra is not None:
-        p = Path(extra)
-        try:
-            tables.append((str(p), tomllib.loads(p.read_text(encoding="utf-8"))))
-        except FileNotFoundError:
-            raise DesignError(f"{p}: printer file not found") from None
-        except ValueError as exc:  # also a >4300-digit integer
-            raise DesignError(f"{p}: not valid TOML: {exc}") from None
+        tables.append((shown(extra), read_toml(extra, "printer profiles (TOML, [printers.KEY] tables)")))
     out: dict[str, Printer] = {}
     for src, data in tables:
-        for key, raw in data.get("printers", {}).items():
-            out[key] = _profile(src, key, raw)
+        top = sc.Where(src)
+        profiles = sc.table(data.get("printers", {}), top / "printers")
+        if len(profiles) > MAX_PRINTERS:
+            raise (top / "printers").fail(f"{len(profiles)} profiles; at most {MAX_PRINTERS} are accepted")
+        for key, raw in profiles.items():
+            out[key] = _profile(key, raw, top / f"printers.{key}")
     return out
 
 

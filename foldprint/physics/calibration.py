@@ -45,7 +45,8 @@ KINDS = ("physical", "choice")
 @dataclass(frozen=True)
 class Bound:
     """The admissible range of one parameter, its kind, source, and the measurement that
-    pins it (``data/calibration.toml``)."""
+    pins it (``data/calibration.toml``); ``hold``: the value calibrate holds it at unless
+    told to fit it (None: fitted by default), ``hold_source`` where that value comes from."""
 
     name: str
     lower: float
@@ -54,6 +55,8 @@ class Bound:
     kind: str
     source: str
     remedy: str
+    hold: float | None = None
+    hold_source: str = ""
 
 
 @dataclass(frozen=True)
@@ -62,6 +65,7 @@ class Settings:
     sigma: dict
     min_horizon_s: float
     confidence: float
+    starts: int = 0
 
 
 @lru_cache(maxsize=1)
@@ -74,12 +78,49 @@ def settings() -> Settings:
         b = raw["parameters"][name]
         if not b["lower"] < b["upper"] or b["kind"] not in KINDS:
             raise DataError(f"calibration.toml: parameters.{name}: needs lower < upper and kind in {KINDS}")
+        hold = b.get("hold")
+        if hold is not None and not (b["lower"] <= hold <= b["upper"] and b.get("hold_source")):
+            raise DataError(f"calibration.toml: parameters.{name}: hold must lie within [lower, upper] and "
+                            "have a hold_source")
         bounds[name] = Bound(name, float(b["lower"]), float(b["upper"]), b["unit"], b["kind"], b["source"],
-                             b["remedy"])
+                             b["remedy"], None if hold is None else float(hold), b.get("hold_source", ""))
     sig = raw["sigma"]
     return Settings(bounds, {"ratio": float(sig["ratio"]), "angle": float(sig["angle"]),
                              "time_to": float(sig["time_s"]), "spread": float(sig["time_s"])},
-                    float(raw["fit"]["min_horizon_s"]), float(raw["fit"]["confidence"]))
+                    float(raw["fit"]["min_horizon_s"]), float(raw["fit"]["confidence"]), int(raw["fit"]["starts"]))
+
+
+@dataclass(frozen=True)
+class Hold:
+    """A recovery parameter calibrate does not fit: its value (None: the library's) and
+    where that value comes from."""
+
+    name: str
+    value: float | None
+    source: str
+
+
+def holds(fixed: dict | None = None, fit_names=(), config: Settings | None = None) -> tuple[Hold, ...]:
+    """The parameters a calibration holds: those ``fixed`` ({name: value, or None for the
+    library's}: ``--fix``), and those ``data/calibration.toml`` holds by default (its
+    ``hold`` entries) unless named in ``fit_names`` (``--fit``)."""
+    config = config or settings()
+    fixed = dict(fixed or {})
+    for name in list(fixed) + list(fit_names):
+        if name not in FITTABLE:
+            raise DataError(f"{name!r} is not a recovery parameter calibrate fits; use one of {', '.join(FITTABLE)}")
+    both = [n for n in fit_names if n in fixed]
+    if both:
+        raise DataError(f"--fit {both[0]} and --fix {both[0]}: a parameter is either fitted or held; drop one")
+    out = []
+    for name in FITTABLE:
+        b = config.bounds[name]
+        if name in fixed:
+            v = fixed[name]
+            out.append(Hold(name, v, "--fix" if v is not None else "--fix: the library's value"))
+        elif b.hold is not None and name not in fit_names:
+            out.append(Hold(name, b.hold, b.hold_source))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -146,7 +187,8 @@ class Problem:
                                 f"{', '.join(FITTABLE)}")
         bad = [n for n in per_material if n not in free]
         if bad:
-            raise DataError(f"--per-material {bad[0]} is not fitted (it is fixed)")
+            raise DataError(f"--per-material {bad[0]}: {bad[0]} is held, not fitted; add --fit {bad[0]} "
+                            "(or drop its --fix)")
         self.materials = data.materials()
         base = {m: _base_material(m, data, library) for m in self.materials}
         self.base = {m: replace(mat, recovery=replace(mat.recovery, **fixed)) for m, mat in base.items()}
@@ -257,6 +299,9 @@ class Fit:
     nfev: int
     success: bool
     message: str
+    #: chi2 at the end of each start of :func:`fit_best`, in the order of :func:`starts`
+    #: (the library's first); () for a single start
+    ends: tuple = ()
 
     @property
     def scale(self) -> float:
@@ -293,6 +338,28 @@ def fit(problem: Problem, x0: np.ndarray | None = None) -> Fit:
     s = np.linalg.svd(res.jac, compute_uv=False) if res.jac.size else np.zeros(0)
     rank = int(np.sum(s > 1e-6 * s.max())) if s.size and s.max() > 0 else 0
     return Fit(x, float(r @ r), len(r) - len(x), rank, r, pred, int(res.nfev), bool(res.success), str(res.message))
+
+
+def starts(problem: Problem, n: int) -> list[np.ndarray]:
+    """Where :func:`fit_best` starts: the library's point, then the first ``n`` points of
+    an unscrambled Halton sequence (deterministic) over the middle 90 % of the box."""
+    from scipy.stats import qmc
+
+    out = [problem.start()]
+    if n > 0:
+        u = qmc.Halton(d=len(problem.params), scramble=False).random(n + 1)[1:]  # the first point is a corner
+        out += list(problem.lower + (problem.upper - problem.lower) * (0.05 + 0.9 * u))
+    return out
+
+
+def fit_best(problem: Problem, n_starts: int | None = None) -> Fit:
+    """The best least-squares fit of several starts (:func:`starts`; ``n_starts`` beside the
+    library's point, default ``data/calibration.toml`` [fit] starts), so that the answer
+    does not depend on the library the fit starts from; ties go to the earlier start."""
+    n = problem.config.starts if n_starts is None else n_starts
+    fits = [fit(problem, x0) for x0 in starts(problem, n)]
+    best = min(range(len(fits)), key=lambda k: (fits[k].chi2, k))
+    return replace(fits[best], nfev=sum(f.nfev for f in fits), ends=tuple(f.chi2 for f in fits))
 
 
 def fitted_materials(problem: Problem, x) -> dict[str, Material]:

@@ -24,6 +24,9 @@ STEPS = (0.03, 0.08, 0.16, 0.3, 0.5, 0.75, 1.0)
 #: "next to" it (our choices, for the messages).
 AT_BOUND = 1e-3
 NEAR_BOUND = 0.1
+#: A row the optimum misses by more than this many of its sigmas is named in the findings
+#: (our choice: two sigma, outside ~95 % of a row's normal scatter).
+MISS_SIGMA = 2.0
 
 
 @dataclass(frozen=True)
@@ -182,9 +185,15 @@ def findings(problem: Problem, fit: Fit, intervals: tuple[Interval, ...]) -> lis
             out.append({"code": "not_identified", "parameter": p.label, "message":
                         f"{p.label} is not identified {side} its value {_fmt(iv.value, b.unit)}: the fit stays "
                         f"within the {problem.config.confidence:.0%} threshold up to the bound. To fix it: {b.remedy}"})
-    for o, r, sg in zip(problem.data.observations, fit.residuals, problem.sigmas):
+    for o, r, sg, m in zip(problem.data.observations, fit.residuals, problem.sigmas, fit.predictions):
         if o.relation != "about" and r != 0.0:
             out.append({"code": "relation", "line": o.line, "message":
                         f"line {o.line}: the data say {o.kind} of {o.material} at {o.bath_c:g} C is "
                         f"{o.relation.replace('_', ' ')} {o.value:g} s; the model misses that by {abs(r) * sg:.2f} s"})
+        elif abs(r) > MISS_SIGMA:
+            unit = {"ratio": "", "angle": " deg"}.get(o.kind, " s")
+            what = f"{o.kind} of {o.material}" + (f" - {o.reference}" if o.reference else "")
+            out.append({"code": "miss", "line": o.line, "message":
+                        f"line {o.line}: the model misses {what} at {o.bath_c:g} C: measured {o.value:g}{unit}, "
+                        f"model {m:.3g}{unit}, {abs(r):.1f} sigma off (sigma {sg:g}{unit})"})
     return out

@@ -31,6 +31,8 @@ from .recovery import recovery_curve
 
 #: time step of the loop solver's continuation grid (s)
 LOOP_DT = 0.01
+#: grid times closer than this to a simulation time are that time (arange against linspace), s
+GRID_TOL_S = 1e-9
 
 HINGE_MODELS = tuple(m.value for m in HingeModel)
 
@@ -383,7 +385,12 @@ class HingeDrive:
         grid = np.arange(0.0, end + dt, dt)
         if sol is not None and self._solved_for == key:
             grid = np.union1d(grid, sol.times)
-        return np.union1d(grid[grid <= end + 1e-12], times[times >= 0]), key
+        grid, times = grid[grid <= end + 1e-12], np.unique(times[times >= 0])
+        if len(times):  # a grid time this close to a requested one is that time in another rounding
+            j = np.searchsorted(times, grid)
+            gap = np.minimum(np.abs(grid - times[np.maximum(j - 1, 0)]), np.abs(grid - times[np.minimum(j, len(times) - 1)]))
+            grid = grid[gap >= GRID_TOL_S]
+        return np.union1d(grid, times), key
 
 
 def run_times(design: Design, dt: float = DEFAULT_DT_S, duration: float | None = None) -> np.ndarray:
@@ -440,7 +447,7 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
     else:
         angles = drive.angles(times)
-    poses = forward(design, angles, model)
+    poses = forward(design, angles, model) if loop is None else _held_forward(design, angles, model)
     if loop is not None and model == HingeModel.ARC:
         loop = _with_arc_gap(design, loop, angles, poses)
     for a in (times, ratios, angles, poses):
@@ -448,6 +455,21 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
     return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c,
                       tuple(c.fold_time for c in drive.curves), tuple(c.onset_time for c in drive.curves),
                       loop)
+
+
+def _held(angles: np.ndarray) -> np.ndarray:
+    """Which rows of ``angles`` (n_t, n) differ from the row before (the first always)."""
+    moved = np.ones(len(angles), bool)
+    moved[1:] = np.any(angles[1:] != angles[:-1], axis=1)
+    return moved
+
+
+def _held_forward(design: Design, angles: np.ndarray, model: HingeModel) -> np.ndarray:
+    """:func:`forward` of a pattern with loops, which holds its configuration wherever its
+    drive stopped moving: the poses of each distinct configuration computed once (the
+    same numbers)."""
+    moved = _held(angles)
+    return forward(design, angles[moved], model)[np.cumsum(moved) - 1]
 
 
 def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HINGE_MODEL,
@@ -458,7 +480,8 @@ def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_
     (loop hinges turn about their fold lines, ``HingeFrame.centred``, so closed angles
     give round-off; docs/loops.md)."""
     angles = np.atleast_2d(np.asarray(angles, float))
-    poses = forward(design, angles, model) if poses is None else poses
+    moved = _held(angles)  # a held configuration has the gap it had
+    angles, poses = angles[moved], (forward(design, angles[moved], model) if poses is None else poses[moved])
     gap = 0.0
     for f in hinge_frames(design):
         if f.tree:

@@ -30,33 +30,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: closure residual accepted as closed (rad for rotation, mm for translation)
-CLOSURE_TOL = 1e-9
-#: a hinge whose closed angle stays this far from its driven angle "cannot follow" (rad)
-FOLLOW_TOL = np.radians(2.0)
-#: tracking stops when a Gauss-Newton step moves no angle more than this (rad)
-OPT_TOL = 1e-5
-#: how much farther than the continued answer a restart from the drive may land (rad)
-JUMP = 0.05
-#: below this largest angle (rad) the tracker also restarts from the drive
-NEAR_FLAT = 0.2
-#: a drive that moved less than this since the last solve (rad) is not re-solved
-SKIP_TOL = 1e-8
-#: largest change of any driven angle per continuation sub-step (rad)
-MAX_STEP = 0.1
+from .loop_solve import CLOSURE_TOL, MAX_STEP, OPT_TOL, solve  # noqa: F401
+from .loop_tracking import FOLLOW_TOL, JUMP, NEAR_FLAT, SKIP_TOL, track as track_all  # noqa: F401
 
 
 def _hat(w: np.ndarray) -> np.ndarray:
     return np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
-
-
-def _rot(axis: np.ndarray, angle: float) -> np.ndarray:
-    k = _hat(axis)
-    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * (k @ k)
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -82,6 +61,18 @@ def _rotvec(r: np.ndarray) -> np.ndarray:
         v = m[:, k] / np.sqrt(max(m[k, k], 1e-300))
         return a * v
     return a / (2 * s) * w
+
+
+def _rotvecs(r: np.ndarray) -> np.ndarray:
+    """:func:`_rotvec` of stacked rotations r (..., 3, 3)."""
+    a = np.arccos(np.clip((r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2] - 1) / 2, -1.0, 1.0))
+    w = np.stack([r[..., 2, 1] - r[..., 1, 2], r[..., 0, 2] - r[..., 2, 0], r[..., 1, 0] - r[..., 0, 1]], axis=-1)
+    small = a < 1e-6
+    w *= np.where(small, 0.5, a / (2 * np.sin(np.where(small, 1.0, a))))[..., None]
+    if np.any(np.pi - a < 1e-6):  # pragma: no cover - half-turn residuals never occur near closure
+        for i in zip(*np.nonzero(np.pi - a < 1e-6)):
+            w[i] = _rotvec(r[i])
+    return w
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,7 +145,8 @@ class LoopSolver:
             cyc = [(k, 1.0) for k in ca[c:]] + [(f.index, 1.0)] + [(k, -1.0) for k in cb[c:][::-1]]
             self.cycles.append(cyc)
         # twists [w; v] of the point hinges: rotation about the fold line through origin
-        self.iterations = 0
+        self.evaluations = 0  # configurations C and J were evaluated at, in ...
+        self.rounds = 0  # ... this many array evaluations (:meth:`track_many`)
         self.twist = np.hstack([self.axis, -np.cross(self.axis, self.point)])
         self._k = np.array([_hat(a) for a in self.axis]).reshape(self.n, 3, 3)
         self._k2 = self._k @ self._k
@@ -166,14 +158,18 @@ class LoopSolver:
         for ci, cyc in enumerate(self.cycles):
             for l, (k, sg) in enumerate(cyc):
                 self._pk[ci, l], self._ps[ci, l] = k, sg
-        self._p_axis = np.vstack([self.axis, np.zeros((1, 3))])[self._pk]  # (m, L, 3)
-        self._p_v = np.vstack([self.twist[:, 3:], np.zeros((1, 3))])[self._pk]
-        self._p_point = np.vstack([self.point, np.zeros((1, 3))])[self._pk][..., None]  # (m, L, 3, 1)
-        self._p_k = np.concatenate([self._k, np.zeros((1, 3, 3))])[self._pk]  # (m, L, 3, 3)
-        self._p_k2 = np.concatenate([self._k2, np.zeros((1, 3, 3))])[self._pk]
+        pad = lambda a: np.concatenate([a, np.zeros((1,) + a.shape[1:])])[self._pk]  # noqa: E731
+        self._p_k, self._p_k2 = pad(self._k), pad(self._k2)  # (m, L, 3, 3)
         self._p_sign = np.where(self._ps < 0, -1.0, 1.0)
-        self._p_rows = np.repeat(np.arange(m), L)
-        self._p_cols = self._pk.ravel()
+        # what the prefix of a cycle moves at each place: the factor's translation (filled per
+        # evaluation), its axis and a point of it, as the columns of a 3 x 3
+        self._p_cols = np.zeros((m, L, 3, 3))
+        self._p_cols[..., 1], self._p_cols[..., 2] = pad(self.axis), pad(self.point)
+        self._p_kq = np.einsum("clij,clj->cli", self._p_k, pad(self.point))  # K q, K^2 q: q - R q = -(s K q + c K^2 q)
+        self._p_k2q = np.einsum("clij,clj->cli", self._p_k2, pad(self.point))
+        self._p_onto = np.zeros((m, L, self.n + 1))  # place -> signed hinge column of J
+        self._p_onto[np.arange(m)[:, None], np.arange(L)[None], self._pk] = self._ps
+        self._p_onto = self._p_onto[..., :self.n]
 
     def residual(self, x: np.ndarray, jacobian: bool = True):
         """C (6 m,) and J (6 m, n) of the m cycles at angles x (:meth:`residuals` of one)."""
@@ -188,200 +184,65 @@ class LoopSolver:
         m, S = len(self.cycles), xs.shape[0]
         if m == 0:
             return np.zeros((S, 0)), (np.zeros((S, 0, self.n)) if jacobian else None)
-        pk, ps = self._pk, self._ps
-        xa = np.concatenate([xs, np.zeros((S, 1))], axis=1)[:, pk] * self._p_sign  # (S, m, L) signed angles
-        sn, c1 = np.sin(xa)[..., None, None], (1 - np.cos(xa))[..., None, None]
-        r = sn * self._p_k + c1 * self._p_k2  # (S, m, L, 3, 3), minus the identity
-        r[..., 0, 0] += 1.0
-        r[..., 1, 1] += 1.0
-        r[..., 2, 2] += 1.0
-        q = self._p_point
-        t = (q - r @ q)[..., 0]  # (S, m, L, 3): exp(xi x) = [r, q - r q]
-        L = pk.shape[1]
-        pre_r = np.empty((S, m, L, 3, 3))
-        pre_t = np.empty((S, m, L, 3))
-        gr = np.empty((S, m, 3, 3))
-        gr[:] = np.eye(3)
-        gt = np.zeros((S, m, 3))
-        for l in range(L):
-            pre_r[:, :, l], pre_t[:, :, l] = gr, gt
-            gt = (gr @ t[:, :, l, :, None])[..., 0] + gt
+        th = np.concatenate([xs, np.zeros((S, 1))], axis=1)[:, self._pk] * self._p_sign  # (S, m, L) signed angles
+        sn, c1 = np.sin(th), 1.0 - np.cos(th)
+        r = sn[..., None, None] * self._p_k + c1[..., None, None] * self._p_k2  # (S, m, L, 3, 3), minus I
+        r += np.eye(3)
+        cols = np.broadcast_to(self._p_cols, r.shape).copy()
+        cols[..., 0] = -(sn[..., None] * self._p_kq + c1[..., None] * self._p_k2q)
+        L = th.shape[2]
+        w, q = np.empty((S, m, L, 3)), np.empty((S, m, L, 3))  # each place's axis and point, moved
+        gr, gt = r[:, :, 0], cols[:, :, 0, :, 0]
+        w[:, :, 0], q[:, :, 0] = cols[:, :, 0, :, 1], cols[:, :, 0, :, 2]
+        for l in range(1, L):
+            moved = gr @ cols[:, :, l]
+            w[:, :, l], q[:, :, l] = moved[..., 1], moved[..., 2] + gt
+            gt = gt + moved[..., 0]
             gr = gr @ r[:, :, l]
-        p = gt
         out = np.empty((S, m, 6))
-        out[..., 3:] = p
-        # axis-angle of gr, as _rotvec (the half-turn case, never met near closure, by it)
-        cosa = np.clip((gr[..., 0, 0] + gr[..., 1, 1] + gr[..., 2, 2] - 1) / 2, -1.0, 1.0)
-        a = np.arccos(cosa)
-        w = out[..., :3]
-        w[..., 0] = gr[..., 2, 1] - gr[..., 1, 2]
-        w[..., 1] = gr[..., 0, 2] - gr[..., 2, 0]
-        w[..., 2] = gr[..., 1, 0] - gr[..., 0, 1]
-        small = a < 1e-6
-        sa = np.sin(a)
-        w *= np.where(small, 0.5, a / (2 * np.where(small, 1.0, sa)))[..., None]
-        if np.any(np.pi - a < 1e-6):  # pragma: no cover - see _rotvec
-            for si, ci in zip(*np.nonzero(np.pi - a < 1e-6)):
-                out[si, ci, :3] = _rotvec(gr[si, ci])
+        out[..., 3:] = gt
+        out[..., :3] = _rotvecs(gr)
         c = out.reshape(S, 6 * m)
         if not jacobian:
             return c, None
-        wj = (pre_r @ self._p_axis[..., None])[..., 0]
-        vj = (pre_r @ self._p_v[..., None])[..., 0] + _cross3(pre_t, wj) + _cross3(wj, p[:, :, None, :])
-        cols = np.concatenate([wj, vj], axis=3) * ps[..., None]  # (S, m, L, 6)
-        jac = np.zeros((S, m, self.n + 1, 6))
-        jac[:, self._p_rows, self._p_cols, :] = cols.reshape(S, m * L, 6)
-        return c, jac.transpose(0, 1, 3, 2)[..., :self.n].reshape(S, 6 * m, self.n)
+        # d C / d x_k: the twist of place k moved by its prefix, (w, (q - p) x w), signed
+        cols6 = np.concatenate([w, _cross3(q - gt[:, :, None], w)], axis=3)  # (S, m, L, 6)
+        return c, (cols6.transpose(0, 1, 3, 2) @ self._p_onto).reshape(S, 6 * m, self.n)
 
     def closure(self, x: np.ndarray) -> float:
         return float(np.abs(self.residual(x, False)[0]).max(initial=0.0))
 
-    def project(self, x: np.ndarray, target: np.ndarray, iters: int = 8):
-        """Gauss-Newton tracking from ``x`` toward ``target``: at most ``iters`` steps
-        toward the nearest closed configuration, then Newton corrections until closed.
+    def project(self, x: np.ndarray, target: np.ndarray):
+        """Gauss-Newton tracking from ``x`` toward ``target``: at most GN_STEPS steps toward
+        the nearest closed configuration, then Newton corrections until closed.
         Returns (x, |C|, null-space dimension, converged)."""
-        return self._project(x, target, iters)[:4]
+        sol = solve(self._evaluate, np.asarray(x, float)[None], np.asarray(target, float)[None])
+        return sol.x[0], float(sol.res[0]), int(sol.null[0]), bool(sol.done[0])
 
-    def _evaluate(self, x: np.ndarray):
-        """C at x and the SVD (u, s, vt) of J there: what one Gauss-Newton step needs."""
-        c, jac = self.residual(x)
-        return (c, *np.linalg.svd(jac, full_matrices=True))
-
-    def _run(self, gen):
-        """Drive a solve generator, evaluating each configuration it yields here."""
-        try:
-            x = next(gen)
-            while True:
-                x = gen.send(self._evaluate(x))
-        except StopIteration as stop:
-            return stop.value
-
-    def _project(self, x: np.ndarray, target: np.ndarray, iters: int = 8, tangent: np.ndarray | None = None):
-        return self._run(self._project_gen(x, target, iters, tangent))
-
-    def _project_gen(self, x: np.ndarray, target: np.ndarray, iters: int = 8, tangent: np.ndarray | None = None):
-        """:meth:`project` as a generator: it yields each configuration it needs C and the
-        SVD of J at, and is sent them (:meth:`_run` one solve, :meth:`track_many` many
-        in lockstep, one array evaluation for all); returns what :meth:`project` does,
-        plus the tangent basis (rows) at the answer. ``tangent``: the
-        basis at ``x`` from the previous solve; the predictor then moves along it toward
-        ``target`` before the first evaluation (the step the first Gauss-Newton iteration
-        would take from a closed ``x``, without evaluating C and J there), and the
-        corrector iterates exactly as :meth:`project` until the same tests pass."""
-        x = x.copy()
-        if tangent is not None and tangent.shape[0]:
-            step = tangent.T @ (tangent @ (target - x))
-            big = np.abs(step).max(initial=0.0)
-            if big > 0.1:
-                step *= 0.1 / big
-            x = x + step
-        null, res, done, vn = 0, np.inf, False, np.zeros((0, self.n))
-        for it in range(iters + 20):
-            c, u, sv, vt = yield x
-            res = float(np.abs(c).max(initial=0.0))
-            rank = int((sv > 1e-7 * max(1.0, sv.max(initial=0.0))).sum())
-            vr, vn = vt[:rank], vt[rank:]
-            null = self.n - rank
-            corr = -(vr.T @ ((u[:, :rank].T @ c) / sv[:rank])) if rank else np.zeros(self.n)
-            if it < iters:
-                d = target - x
-                step = corr + d - vr.T @ (vr @ d)
-            else:  # out of tracking steps: only restore closure
-                step = corr
-            big = np.abs(step).max(initial=0.0)
-            if res < CLOSURE_TOL and (big < OPT_TOL or it >= iters):
-                done = big < OPT_TOL
-                break
-            if big > 0.1:
-                step *= 0.1 / big
-            x = x + step
-            self.iterations += 1
-        else:
-            c = (yield x)[0]
-            res = float(np.abs(c).max(initial=0.0))
-            vn = None
-        return x, res, null, done, vn
+    def _evaluate(self, xs: np.ndarray):
+        self.evaluations += len(xs)
+        return self.residuals(xs)
 
     def track(self, times: np.ndarray, driven: np.ndarray) -> LoopSolution:
         """Follow the driven angles (n_t, n) on the closure manifold from the flat sheet."""
-        return self._run(self._track_gen(times, driven))
+        return self.track_many(times, [driven])[0]
 
     def track_many(self, times: np.ndarray, drivens) -> list[LoopSolution]:
-        """:meth:`track` of several drives (each (n_t, n), on the same times) in lockstep:
-        every round evaluates C, J and its SVD at all the drives' current configurations
-        in one array pass. Each drive's solve is :meth:`track`'s, step by step, so the
-        answers are its answers (``tests/test_loop_tracking.py``)."""
-        gens = [self._track_gen(times, d) for d in drivens]
-        out: list = [None] * len(gens)
-        want: dict[int, np.ndarray] = {}
-        for i, g in enumerate(gens):
-            try:
-                want[i] = next(g)
-            except StopIteration as stop:  # pragma: no cover - a track always evaluates
-                out[i] = stop.value
-        while want:
-            idx = list(want)
-            c, jac = self.residuals(np.stack([want[i] for i in idx]))
-            u, sv, vt = np.linalg.svd(jac, full_matrices=True)
-            for j, i in enumerate(idx):
-                try:
-                    want[i] = gens[i].send((c[j], u[j], sv[j], vt[j]))
-                except StopIteration as stop:
-                    out[i] = stop.value
-                    del want[i]
-        return out
-
-    def _track_gen(self, times: np.ndarray, driven: np.ndarray):
+        """:meth:`track` of several drives (each (n_t, n), on the same times) at once
+        (:func:`foldprint.physics.loop_tracking.track`: every round evaluates C and J at all
+        the drives' unfinished solves in one array pass)."""
         times = np.asarray(times, float)
-        x = np.zeros(self.n)
-        out = np.zeros_like(driven)
-        worst = 0.0
-        locked_at = None
-        dof = -1
-        res_x = 0.0
-        settled = True
-        prev_drive = np.zeros(self.n)
-        tangent = None  # tangent basis at x when x is a converged answer (the predictor's)
-        for k in range(len(times)):
-            y = driven[k]
-            delta = np.abs(y - prev_drive).max(initial=0.0)
-            if delta > SKIP_TOL or k == 0 or not settled:
-                nsub = max(1, int(np.ceil(delta / MAX_STEP)))
-                for s in range(1, nsub + 1):
-                    ys = prev_drive + (y - prev_drive) * s / nsub
-                    # the predictor only away from the flat state: at a bifurcation point the
-                    # tangent space holds every branch, and which one is taken is decided below
-                    near_flat = np.abs(x).max(initial=0.0) < NEAR_FLAT
-                    xn, res, null, settled, basis = yield from self._project_gen(
-                        x, ys, tangent=None if near_flat else tangent)
-                    if near_flat and np.abs(xn - ys).max(initial=0.0) > OPT_TOL:
-                        # near the flat state (a bifurcation point) the step from x can
-                        # stall between branches: also start from the drive itself and
-                        # keep whichever closed answer is nearer the drive, but never one
-                        # that puts a hinge on the other side of flat from its drive (a
-                        # drive keeps its target's sign at every instant; the other side
-                        # is another branch, the one a scattered drive would flip to)
-                        xb, rb, nb, sb, bb = yield from self._project_gen(ys, ys)
-                        if (rb <= 1e-7 and np.linalg.norm(xb - ys) < np.linalg.norm(xn - ys) - 1e-9
-                                and np.abs(xb - x).max(initial=0.0) <= np.abs(xn - x).max(initial=0.0) + JUMP
-                                and not np.any(xb * ys < 0.0)):
-                            xn, res, null, settled, basis = xb, rb, nb, sb, bb
-                    if res > 1e-7:  # lost the manifold: hold the last closed configuration
-                        settled = True
-                        if locked_at is None:
-                            locked_at = float(times[k])
-                        break
-                    x, res_x = xn, res
-                    tangent = basis if settled else None
-                    if dof < 0 and np.abs(x).max(initial=0) > 1e-3:
-                        dof = null
-                if locked_at is None and null == 0 and np.abs(x - y).max(initial=0) > FOLLOW_TOL:
-                    locked_at = float(times[k])
-                worst = max(worst, res_x)
-                prev_drive = y
-            out[k] = x
-        # the first time each hinge's closed angle is more than FOLLOW_TOL from its drive
-        # (one array test after the run instead of one per step: the same comparisons)
+        drivens = [np.asarray(d, float) for d in drivens]
+        if not drivens:
+            return []
+        got = track_all(self._evaluate, times, np.stack(drivens))
+        self.rounds += got.rounds
+        return [self._solution(times, got.angles[i], d, float(got.closure[i]), got.locked_at[i], int(got.dof[i]))
+                for i, d in enumerate(drivens)]
+
+    def _solution(self, times, out, driven, worst, locked_at, dof) -> LoopSolution:
+        """The report of one tracked drive: the first time each hinge's closed angle is more
+        than FOLLOW_TOL from its drive, and each angle's cumulative total variation."""
         dev = np.abs(out - driven) > FOLLOW_TOL
         first = dev.argmax(axis=0)
         stuck = {int(i): float(times[first[i]]) for i in np.nonzero(dev.any(axis=0))[0]}
@@ -389,7 +250,8 @@ class LoopSolver:
         groups: dict[float, list[str]] = {}
         for i, t in sorted(stuck.items(), key=lambda it: (it[1], it[0])):
             groups.setdefault(t, []).append(self.ids[i])
+        times = times.copy()
         for a in (times, out, driven, var):
             a.setflags(write=False)
         return LoopSolution(times, out, driven, worst, tuple((t, tuple(h)) for t, h in groups.items()),
-                            locked_at, max(dof, 0), len(self.cycles), var)
+                            None if np.isnan(locked_at) else float(locked_at), max(dof, 0), len(self.cycles), var)

@@ -12,6 +12,7 @@ import numpy as np
 from ..core.display import seconds
 from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM
 from ..model.materials import MaterialLibrary
+from ..model.paper_statements import load_statements
 from ..physics.recovery import recovery_curve
 from ..physics.recovery_table import fold_times
 
@@ -97,8 +98,10 @@ def recovery_calibration_figure(lib: MaterialLibrary, thickness_mm: float = DEFA
         f7 = recovery_curve(h[-1], b, thickness_mm, initial_c).fold_time
         spreads.append(np.nan if f1 is None or f7 is None else f7 - f1)
     ax.plot(baths, spreads, "k-", label="model")
-    ax.errorbar([80, 100], [7.0, 2.0], yerr=[[1.5, 0.7], [1.5, 0.7]], fmt="rs", capsize=4,
-                label="paper (≈7 s, ≈2 s) with accepted band")
+    st = load_statements()
+    paper = [st[f"fig1b_spread_{b}"].value_s for b in (80, 100)]
+    ax.errorbar([80, 100], paper, yerr=st.approx_tol_s, fmt="rs", capsize=4,
+                label=f"paper (≈{paper[0]:g} s, ≈{paper[1]:g} s), ±{st.approx_tol_s:g} s: its '~'")
     ax.set_xlabel("bath temperature (°C)")
     ax.set_ylabel(f"{h[-1].name} − {h[0].name} fold time (s)")
     ax.set_title("spread of fold times")

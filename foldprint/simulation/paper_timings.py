@@ -21,7 +21,7 @@ from ..model.materials import MaterialLibrary, default_library
 from ..model.paper_statements import KINDS, ROLES, Statement, Statements, load_statements  # noqa: F401
 from ..physics.recovery import recovery_curve
 from ..physics.recovery_table import fold_times
-from .paper_beside import ModelValue, model_value, motion_end, verdict  # noqa: F401
+from .paper_beside import ModelValue, PaperLine, crossing_times, model_value, motion_end, verdict  # noqa: F401
 from .simulate import simulate
 
 
@@ -67,13 +67,7 @@ def measure(library: MaterialLibrary | None = None) -> dict[str, ModelValue]:
     ``simulate`` prints), with the paper's point-hinge ROM and ``arrest`` beside them."""
     lib = library or default_library()
     st = load_statements()
-    out: dict[str, ModelValue] = {}
-
-    # Fig. 1b: free hinges, 0.8 mm, from the fixing temperature 10 C
-    h1 = fold_times(lib["H-1"], (80.0, 90.0, 100.0))
-    h7 = fold_times(lib["H-7"], (80.0, 90.0, 100.0))
-    out["fig1b_spread_80"] = ModelValue(h7[0] - h1[0], f"H-1 {seconds(h1[0])}, H-7 {seconds(h7[0])}")
-    out["fig1b_spread_100"] = ModelValue(h7[2] - h1[2], f"H-1 {seconds(h1[2])}, H-7 {seconds(h7[2])}")
+    out: dict[str, ModelValue] = fig1b_values(lib)
     runs = {}
     for name, ids in STRUCTURES.items():
         d = _design(name, lib)
@@ -82,6 +76,36 @@ def measure(library: MaterialLibrary | None = None) -> dict[str, ModelValue]:
             out[sid] = model_value(st[sid], runs[name][1])
     _compare(out, runs, lib)
     return out
+
+
+def fig1b_values(library: MaterialLibrary) -> dict[str, ModelValue]:
+    """Fig. 1b's statements (H-7 minus H-1 fold time, free hinges 0.8 mm thick from the
+    fixing temperature 10 C, at 80 and 100 C): the model's values."""
+    out = {}
+    for sid, bath in (("fig1b_spread_80", 80.0), ("fig1b_spread_100", 100.0)):
+        t1, t7 = fold_times(library["H-1"], (bath,))[0], fold_times(library["H-7"], (bath,))[0]
+        value = None if t1 is None or t7 is None else t7 - t1
+        out[sid] = ModelValue(value, f"H-1 {_fold(t1)}, H-7 {_fold(t7)}")
+    return out
+
+
+def _fold(t: float | None) -> str:
+    return "does not fold" if t is None else seconds(t)
+
+
+def fig1b_lines(library: MaterialLibrary | None = None) -> tuple[PaperLine, ...]:
+    """Fig. 1b's statements beside the model's values (``foldprint materials`` prints them
+    as ``simulate`` prints a structure's); none when the library has no H-1 or H-7."""
+    lib = library or default_library()
+    if "H-1" not in lib or "H-7" not in lib:
+        return ()
+    st = load_statements()
+    out = []
+    for sid, v in fig1b_values(lib).items():
+        s = st[sid]
+        words = "a hinge does not fold" if v.value_s is None else f"{v.value_s:.2f} s ({v.note})"
+        out.append(PaperLine(s, "free hinges", v, verdict(s, v, st.approx_tol_s), words))
+    return tuple(out)
 
 
 def _compare(out: dict[str, ModelValue], runs: dict, lib: MaterialLibrary) -> None:

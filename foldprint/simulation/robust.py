@@ -53,6 +53,11 @@ Z95 = 1.959963984540054
 #: Samples per task: drawn, given their curves in one array pass and folded together.
 #: Fixed (not tied to the number of workers), though the answer does not depend on it.
 CHUNK = 16
+#: Bytes of sampled recovery curves made at once (ratio and mean temperature, 8 B each per
+#: time point, twice while a batch's parts are joined): a chunk of 16 samples of a
+#: 1000-hinge strip held 1.3 GB in one pass; its samples are now given their curves a few
+#: at a time (one at a time there), the same curves, so memory stays bounded.
+CURVE_BATCH_BYTES = 128 * 2 ** 20
 
 
 def n_chunks(samples: int) -> int:
@@ -191,11 +196,26 @@ def _run_samples(args) -> list[Outcome]:
     mech = parse(Mechanics, rest[2] if len(rest) > 2 else DEFAULT_MECHANICS, "mechanics")
     if rest and rest[0]:
         return [run_sample((design, library, s, hinge_model, dt, method, mech)) for s in samples]
-    drives = sample_drives(design, library, samples, until_s=run_end(design, dt))
-    if mech == Mechanics.RIGID:
-        solve_loops_many(drives, run_times(design, dt))  # a pattern with loops: closure tracked in lockstep
-    return [outcome_of(simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=d, mechanics=mech))
-            for d in drives]
+    samples, until = list(samples), run_end(design, dt)
+    per = curve_batch(design, dt)[0]
+    out = []
+    for a in range(0, len(samples), per):
+        drives = sample_drives(design, library, samples[a:a + per], until_s=until)
+        if mech == Mechanics.RIGID:
+            solve_loops_many(drives, run_times(design, dt))  # a pattern with loops: closure tracked in lockstep
+        out += [outcome_of(simulate(design, dt=dt, method=method, hinge_model=hinge_model, drive=d, mechanics=mech))
+                for d in drives]
+    return out
+
+
+def curve_batch(design: Design, dt: float, samples: int = CHUNK) -> tuple[int, float]:
+    """(samples given their curves at once, the bytes those curves hold while made) of a
+    chunk of ``samples``: ratio and mean temperature, 8 B each per hinge and time point up
+    to the run's end, twice while a batch's parts are joined; at most CURVE_BATCH_BYTES,
+    or one sample when one is larger (what the memory guard adds for a sample's fold)."""
+    one = 32.0 * len(design.hinges) * len(grid_until(run_end(design, dt)))
+    per = max(1, min(int(samples), int(CURVE_BATCH_BYTES // max(1.0, one))))
+    return per, per * one
 
 
 def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:

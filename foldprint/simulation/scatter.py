@@ -35,6 +35,8 @@ import numpy as np
 
 from ..model.design import Design
 from ..core.errors import DesignError
+from ..core.inputs import read_toml, shown
+from ..core.schema import MAX_TEXT, Where, number, string
 from ..core.modes import ScatterScope, SpreadBasis
 
 #: Normal draws are truncated to mean +/- this many standard deviations (a printed
@@ -66,6 +68,17 @@ COMPONENTS: tuple[Component, ...] = (
     Component("h_local", ScatterScope.HINGE, "heat_transfer", "sigma_ln", "h_local_sigma_ln",
               "heat transfer: local", "ln"),
 )
+#: The largest spread a scatter file may give each component (its unit), and why: beyond
+#: these the model is not describing a print but another process, and the samples leave the
+#: recovery model's range (a Tg drawn 3 sd x MAX_SCALE away stays above 0 K from the
+#: lowest Tg the schema accepts).
+SPREAD_MAX = {"bath": (10.0, "ten times an open bath's +/- 1-2 C"),
+              "h_shared": (1.0, "a factor e^3 = 20 at 3 sd, beyond any convection correlation's error"),
+              "tg": (10.0, "ten times DMA repeatability, twice the 5.5 C between grades"),
+              "thickness": (1.0, "more than the 0.8 mm hinge itself (samples are floored at 5 % of nominal)"),
+              "h_local": (1.0, "a factor e^3 = 20 at 3 sd")}
+#: The largest sigma scale of a sweep (--scales): 5x every spread at its maximum.
+MAX_SCALE = 5.0
 KEYS = tuple(c.key for c in COMPONENTS)
 _BY_KEY = {c.key: c for c in COMPONENTS}
 _BY_TABLE = {(c.scope.value, c.table): c for c in COMPONENTS}
@@ -114,8 +127,8 @@ class Scatter:
 
     def scaled(self, k: float) -> "Scatter":
         """Every spread times ``k`` (the sigma-scale sweep)."""
-        if isinstance(k, bool) or not isinstance(k, (int, float)) or not math.isfinite(k) or k < 0:
-            raise DesignError(f"scatter scale must be a finite number >= 0, got {k!r}")
+        if isinstance(k, bool) or not isinstance(k, (int, float)) or not (0 <= k <= MAX_SCALE):
+            raise DesignError(f"scatter scale must be a number in [0, {MAX_SCALE:g}], got {k!r}")
         return replace(self, **{c.attr: getattr(self, c.attr) * k for c in COMPONENTS})
 
     def only(self, keys: Iterable[str]) -> "Scatter":
@@ -189,8 +202,9 @@ def _read_table(comp: Component, table: Mapping, src: str, name: str, values: di
     measured), and without a source gets one saying where it was set."""
     basis, where = None, f"{src}: {name}"
     for k, v in table.items():
+        at = Where(src, f"{name}.{k}")
         if k == "source":
-            sources[comp.key] = str(v)
+            sources[comp.key] = string(v, at, MAX_TEXT)
         elif k == "basis":
             try:
                 basis = SpreadBasis(v) if isinstance(v, str) else None
@@ -202,10 +216,11 @@ def _read_table(comp: Component, table: Mapping, src: str, name: str, values: di
             bases[comp.key] = basis
         elif k != comp.field:
             raise DesignError(f"{where}.{k}: unknown key; expected {comp.field}, basis or source")
-        elif isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-            raise DesignError(f"{where}.{k}: must be a finite number >= 0, got {v!r}")
         else:
-            values[comp.attr] = float(v)
+            hi, why = SPREAD_MAX[comp.key]
+            values[comp.attr] = number(v, at, unit=comp.unit)
+            if not 0.0 <= values[comp.attr] <= hi:
+                raise at.fail(f"must be in [0, {hi:g}] {comp.unit} ({why}), got {values[comp.attr]:g}")
     if user and comp.field in table and basis is None:
         bases[comp.key] = SpreadBasis.CHOICE
         if "source" not in table:
@@ -223,18 +238,8 @@ def load_scatter(path: str | Path | None = None) -> Scatter:
     base = default_scatter()
     if path is None:
         return base
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise DesignError(f"{p}: scatter file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DesignError(f"{p}: cannot read the scatter file: {exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DesignError(f"{p}: not valid TOML: {exc}") from None
-    return scatter_from(data, str(p), base)
+    data = read_toml(path, "a scatter model (TOML: [shared.*] and [hinge.*] tables)")
+    return scatter_from(data, shown(path), base)
 
 
 @dataclass(frozen=True)

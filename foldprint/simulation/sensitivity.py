@@ -26,7 +26,7 @@ from ..core.constants import DEFAULT_DT_S, SWEEP_SCALES
 from ..core.errors import DesignError
 from ..model.materials import MaterialLibrary
 from .robust import RobustResult, jam_probability, outcome_of
-from .scatter import COMPONENTS, Component, Scatter
+from .scatter import COMPONENTS, MAX_SCALE, Component, Scatter
 
 
 
@@ -103,14 +103,22 @@ def contributions(design: Design, full: RobustResult, *, library: MaterialLibrar
     return Contributions(full, tuple(items))
 
 
+#: Sigma scales one sweep may ask for (the defaults sweep 2 or 3).
+MAX_SCALES = 16
+
+
 def parse_scales(text: str, option: str = "--scales") -> tuple[float, ...]:
-    """``"0.5,1,2"`` -> (0.5, 1.0, 2.0): finite, >= 0, sorted, no repeats."""
+    """``"0.5,1,2"`` -> (0.5, 1.0, 2.0): in [0, MAX_SCALE], sorted, no repeats."""
     try:
         vals = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
         raise DesignError(f"{option}: expected numbers separated by commas (e.g. 0.5,1,2), got {text!r}") from None
-    if not vals or any(not (v >= 0 and v < float("inf")) for v in vals):
-        raise DesignError(f"{option}: scales must be finite numbers >= 0 (e.g. 0.5,1,2), got {text!r}")
+    if not vals or any(not (0 <= v <= MAX_SCALE) for v in vals):
+        raise DesignError(f"{option}: scales must be numbers in [0, {MAX_SCALE:g}] (e.g. 0.5,1,2: multiples of "
+                          f"the scatter model's spreads), got {text[:60]!r}")
+    if len(set(vals)) > MAX_SCALES:
+        raise DesignError(f"{option}: {len(set(vals))} scales; at most {MAX_SCALES} (each is one more "
+                          "Monte-Carlo run of every sample)")
     return tuple(sorted(set(vals)))
 
 

@@ -45,6 +45,13 @@ class SimulationResult:
         return self.contacts[0] if self.contacts else None
 
     @property
+    def nbytes(self) -> int:
+        """Bytes of the arrays this result holds (trajectory, 2D index): what keeping it
+        costs while another run allocates (:func:`foldprint.core.guards.holding`)."""
+        parts = (self.trajectory, self.index2d)
+        return sum(v.nbytes for p in parts if p is not None for v in vars(p).values() if isinstance(v, np.ndarray))
+
+    @property
     def hinge_done(self) -> list[bool]:
         return [bool(r >= FOLD_LEVEL) for r in self.trajectory.ratios[-1]]
 

@@ -1,0 +1,130 @@
+"""Closure tracking of a Monte-Carlo chunk: the array tracker against the tracker it
+replaced, in the same run.
+
+    python benchmarks/bench_loops.py [--repeat N] [--json PATH]
+
+For each template, the first 16 of ``check``'s samples (its seed, 1x scatter, its time
+step: one chunk of :func:`foldprint.simulation.robust.run_samples`) are folded as the
+Monte-Carlo folds them, with the array tracker (:mod:`foldprint.physics.loop_tracking`)
+and with the baseline: the replaced tracker (``tests/loop_reference.py``: one generator
+per drive in lockstep, an SVD per Gauss-Newton step, a solve at every grid step) on the
+replaced loop grid (each simulation time held twice), with the poses of every time (held
+configurations included). Printed: CPU ms per sample of the
+chunk (``run_samples``, after one warm-up chunk) and of its phases (recovery curves, loop
+closure, the folds with their swept collision checks), the ratios old / new, and whether
+the outcomes are the same. ``helix_graded`` (a strip: no loops) shows the strip path is
+untouched (ratio ~1). Each measurement is repeated (default 3; the two alternate, each
+first in turn) and the median kept; CPU time (this process) because other processes on a loaded machine slow
+wall time down; the load average is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from itertools import islice
+from pathlib import Path
+from statistics import median
+from unittest import mock
+
+from foldprint.core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
+from foldprint.core.modes import VERDICT_METHOD, HingeModel
+from foldprint.io.load import load_design
+from foldprint.io.templates import templates_dir
+from foldprint.model import derived
+from foldprint.model.materials import default_library
+from foldprint.physics import kinematics
+from foldprint.physics.kinematics import run_times, solve_loops_many
+from foldprint.physics.loops import LoopSolver
+from foldprint.simulation import robust
+from foldprint.simulation.scatter import default_scatter, iter_samples
+from foldprint.simulation.simulate import simulate
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from loop_reference import OldSolver, old_loop_grid, old_simulate_kinematics  # noqa: E402
+
+TEMPLATES = ("miura_3x3", "cross_lock_uniform", "helix_graded")
+CHUNK = 16
+
+
+def _baseline():
+    """The replaced tracker, loop grid and poses of every time, patched in."""
+    from foldprint.simulation import simulate as simulate_module
+
+    return (mock.patch.object(kinematics, "LoopSolver", OldSolver),
+            mock.patch.object(kinematics.HingeDrive, "_loop_grid", old_loop_grid),
+            mock.patch.object(simulate_module, "simulate_kinematics", old_simulate_kinematics))
+
+
+def _chunk(design, samples) -> dict:
+    """CPU ms per sample of one chunk and of its phases, and its outcomes."""
+    lib, pt = default_library(), time.process_time
+    args = (design, lib, samples, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD)
+    c0 = pt()
+    outcomes = robust.run_samples(args)
+    c1 = pt()
+    with derived.design_scope(design) as dd:
+        drives = robust.sample_drives(dd, lib, samples, until_s=robust.run_end(dd, CHECK_DT_S))
+        c2 = pt()
+        solve_loops_many(drives, run_times(dd, CHECK_DT_S))
+        c3 = pt()
+        solver = drives[0].loops
+        for x in drives:
+            simulate(dd, dt=CHECK_DT_S, method=VERDICT_METHOD, hinge_model=HingeModel.ARC, drive=x)
+        c4 = pt()
+    ms = lambda a, b: (b - a) / len(samples) * 1e3  # noqa: E731
+    counts = {"evaluations": solver.evaluations, "rounds": solver.rounds} if type(solver) is LoopSolver else {}
+    return {"chunk": ms(c0, c1), "curves": ms(c1, c2), "loops": ms(c2, c3), "folds": ms(c3, c4), "outcomes": outcomes,
+            **counts}
+
+
+def measure(name: str, repeat: int) -> dict:
+    d = load_design(templates_dir() / f"{name}.toml")
+    samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), CHUNK))
+    runs: dict[str, list[dict]] = {"new": [], "old": []}
+    for r in range(repeat + 1):  # the first round warms the caches and is dropped
+        for key in (("new", "old") if r % 2 else ("old", "new")):  # alternate which runs first
+            if key == "old":
+                p, q, u = _baseline()
+                with p, q, u:
+                    got = _chunk(d, samples)
+            else:
+                got = _chunk(d, samples)
+            if r:
+                runs[key].append(got)
+    out = {"design": name, "same_outcomes": all(a["outcomes"] == b["outcomes"] for a, b in zip(runs["new"], runs["old"])),
+           "jams": sum(o.jammed for o in runs["new"][0]["outcomes"])}
+    if "rounds" in runs["new"][0]:  # the array tracker's work for the chunk: C and J evaluations, rounds
+        out["evaluations"], out["rounds"] = runs["new"][0]["evaluations"], runs["new"][0]["rounds"]
+    for phase in ("chunk", "curves", "loops", "folds"):
+        new, old = median(x[phase] for x in runs["new"]), median(x[phase] for x in runs["old"])
+        out[phase] = {"new_ms": round(new, 1), "old_ms": round(old, 1), "ratio": round(old / new, 2) if new > 0 else None}
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--json", type=Path, help="also write the results here")
+    a = ap.parse_args(argv)
+    load = os.getloadavg()[0]
+    rows = [measure(n, a.repeat) for n in TEMPLATES]
+    print(f"CPU ms per sample, chunk of {CHUNK} check samples (median of {a.repeat}); load average {load:.1f}")
+    print(f"{'template':20s} {'phase':7s} {'new':>8s} {'old':>8s} {'old/new':>8s}")
+    for row in rows:
+        for phase in ("chunk", "curves", "loops", "folds"):
+            v = row[phase]
+            print(f"{row['design']:20s} {phase:7s} {v['new_ms']:8.1f} {v['old_ms']:8.1f} {v['ratio'] or 0:8.2f}")
+        work = f", {row['evaluations']} evaluations in {row['rounds']} rounds" if "rounds" in row else ""
+        print(f"{row['design']:20s} same outcomes: {row['same_outcomes']} ({row['jams']} of {CHUNK} jam{work})")
+    if a.json:
+        a.json.write_text(json.dumps({"load_average": round(load, 2), "chunk": CHUNK, "repeat": a.repeat, "rows": rows},
+                                     indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,231 @@
+"""One Gauss-Newton step of many closure solves at once: the corrector of the loop tracker
+(:mod:`foldprint.physics.loop_tracking`, ``docs/loops.md``).
+
+A pool holds the solves in progress, one row per *point* (a configuration x and the drive
+it is solved toward). :meth:`Pool.round` evaluates C and J at every live point in one array
+pass and takes one step ``dx = J^+ (-C) + (I - J^+ J)(rho - x)`` for each, the pseudo-inverse
+from the stacked eigen-decomposition of ``J^T J``, the SVD of J near the flat sheet, or one
+linear solve where the tangent space is a known line; a point stops when closed and still.
+The closure equations come in as ``evaluate(xs (P, n)) -> C (P, k), J (P, k, n)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: closure residual accepted as closed (rad for rotation, mm for translation)
+CLOSURE_TOL = 1e-9
+#: tracking stops when a Gauss-Newton step moves no angle more than this (rad)
+OPT_TOL = 1e-5
+#: largest change of any driven angle per continuation sub-step (rad)
+MAX_STEP = 0.1
+#: Gauss-Newton steps of one solve; after them it only restores closure, in at most NEWTON_STEPS
+GN_STEPS = 8
+NEWTON_STEPS = 20
+#: singular values of J below RANK_TOL times the largest (at least 1) count as zero (round-off)
+RANK_TOL = 1e-7
+#: away from the flat sheet, singular values below RANK_RES times the residual count as
+#: zero too: a direction only the distance from the manifold makes stiff (our choice:
+#: Newton then converges quadratically where the constraints are dependent on the manifold,
+#: as Miura-ori's 12 vertex equations in 12 angles; no decision at a closed point changes,
+#: |C| < 1e-9). Not near the flat sheet, where genuine singular values are as small as the
+#: angles, hence as the residual, and the restart's path decides the branch.
+RANK_RES = 1.0
+#: within this of the flat sheet (largest angle, rad) every step takes the SVD of J: the
+#: genuine singular values are as small as the angles there, and the eigen-decomposition of
+#: J^T J resolves a singular value only to ~1e-8 of the largest (the SVD to ~1e-16), which
+#: decides the branch at a bifurcation (our choice: 10 times the largest angle at which it
+#: changed an answer of tests/test_loop_tracking.py, 1e-3 rad on cross_lock_uniform's
+#: nominal drive)
+SVD_BELOW = 1e-2
+
+
+@dataclass(frozen=True)
+class Solves:
+    """The answers of a batch of solves, one row per point: ``x`` (P, n), ``res`` |C|
+    (P,), ``null`` the null-space dimension of J, ``done`` the solve converged (a step
+    below OPT_TOL at a closed point), ``basis`` (P, n, n) eigenvectors of J^T J and
+    ``free`` (P, n) which of them span J's null space (the tangent space at ``x``)."""
+
+    x: np.ndarray
+    res: np.ndarray
+    null: np.ndarray
+    done: np.ndarray
+    basis: np.ndarray
+    free: np.ndarray
+
+
+def _mv(a, v):
+    """Stacked matrix-vector products a (P, i, j) @ v (P, j)."""
+    return (a @ v[..., None])[..., 0]
+
+
+def predict(x, target, basis, free):
+    """The predictor: from closed configurations x (P, n) along their tangent spaces toward
+    ``target``, ``N N^T (target - x)``, no angle moved more than MAX_STEP."""
+    step = _mv(basis, free * _mv(basis.transpose(0, 2, 1), target - x))
+    big = np.abs(step).max(axis=1, initial=0.0)
+    return x + step * np.minimum(1.0, MAX_STEP / np.maximum(big, 1e-300))[:, None]
+
+
+class Pool:
+    """Solves in progress and their answers, one row per point; rows are reused."""
+
+    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "line", "guide")
+
+    def __init__(self, n: int, size: int = 64):
+        self.n, self.size = n, 0
+        self.unused = np.zeros(0, int)
+        self._grow(size)
+
+    def _grow(self, size):
+        n, old = self.n, self.size
+        shapes = {"x": (n,), "target": (n,), "basis": (n, n), "free": (n,), "guide": (n,)}
+        kinds = {"it": int, "null": int, "spec": bool, "done": bool, "alive": bool, "free": bool, "line": bool}
+        for f in self._fields:
+            a = np.zeros((size,) + shapes.get(f, ()), kinds.get(f, float))
+            if old:
+                a[:old] = getattr(self, f)
+            setattr(self, f, a)
+        self.unused = np.concatenate([self.unused, np.arange(old, size)])
+        self.size = size
+
+    def add(self, x, target, speculative=False, far=False, guide=None):
+        """New points from ``x`` (m, n) toward ``target``; returns their rows.
+        ``speculative``: dropped (not done) when not converged within GN_STEPS steps;
+        ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide`` (m, n):
+        the tangent direction of the answer they start from, where that tangent space is a
+        line (the points then solve with it instead of the eigen-decomposition, :func:`_gn_line`)."""
+        m = len(x)
+        if m > len(self.unused):
+            self._grow(max(2 * self.size, self.size + m))
+        ids, self.unused = self.unused[:m], self.unused[m:]
+        self.x[ids], self.target[ids] = x, target
+        self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = 0, speculative, far, True
+        self.res[ids], self.done[ids], self.null[ids] = np.inf, False, 0
+        self.line[ids] = guide is not None
+        if guide is not None:
+            self.guide[ids] = guide
+        return ids
+
+    def release(self, ids):
+        self.alive[ids] = False
+        self.unused = np.concatenate([self.unused, ids])
+
+    def view(self, ids) -> Solves:
+        return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids])
+
+    def round(self, evaluate):
+        """One Gauss-Newton step of every live point: the step toward the nearest closed
+        configuration for GN_STEPS steps, then only the closure correction; a point stops
+        when closed and its step is below OPT_TOL (converged) or past GN_STEPS, and after
+        GN_STEPS + NEWTON_STEPS steps with the residual as it is and no tangent space."""
+        act = np.nonzero(self.alive)[0]
+        xa, it = self.x[act], self.it[act]
+        c, jac = evaluate(xa)
+        r = np.abs(c).max(axis=1, initial=0.0)
+        jt = jac.transpose(0, 2, 1)
+        gram, g = jt @ jac, _mv(jt, c)
+        d = (self.target[act] - xa) * (it < GN_STEPS)[:, None]
+        line = self.line[act]
+        step, vec = np.empty_like(xa), np.empty(gram.shape)
+        free, null = np.zeros(xa.shape, bool), np.ones(len(act), int)
+        if line.any():
+            step[line], vec[line] = _gn_line(gram[line], g[line], d[line], self.guide[act[line]])
+            free[line, 0] = True
+            self.guide[act[line]] = vec[line, :, 0]
+        v = ~line & (self.far[act] == 0) & (np.abs(xa).max(axis=1, initial=0.0) < SVD_BELOW)
+        e = ~line & ~v
+        if e.any():
+            step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e] * self.far[act[e]])
+        if v.any():
+            step[v], vec[v], free[v] = _gn_svd(jac[v], c[v], d[v])
+        null[~line] = free[~line].sum(axis=1)
+        big = np.abs(step).max(axis=1, initial=0.0)
+        final = it >= GN_STEPS + NEWTON_STEPS
+        stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | (it >= GN_STEPS))) | final
+        check = stop & line & ~final
+        unsure = np.zeros_like(stop)
+        unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
+        self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
+        stop &= ~unsure
+        drop = ~stop & ~unsure & self.spec[act] & (it + 1 >= GN_STEPS)
+        s = act[stop]
+        self.res[s], self.done[s] = r[stop], (big[stop] < OPT_TOL) & ~final[stop]
+        self.basis[s], self.free[s] = vec[stop], free[stop] & ~final[stop, None]
+        self.null[act[~final]] = null[~final]
+        go = ~stop & ~drop & ~unsure
+        self.x[act[go]] = xa[go] + step[go] * np.minimum(1.0, MAX_STEP / np.maximum(big[go], 1e-300))[:, None]
+        self.it[act[go]] += 1
+        self.alive[act[stop | drop]] = False
+
+
+def _gn_eigh(gram, g, d, stiff):
+    """Gauss-Newton steps from the eigen-decomposition of J^T J (P, n, n): the closure
+    correction -J^+ C (g = J^T C) on the singular values above RANK_TOL (relative) and
+    ``stiff``, the part of ``d`` in the null space of the rest. Returns the step, the
+    eigenvectors and which of them span the null space."""
+    lam, vec = np.linalg.eigh(gram)
+    keep = lam > np.maximum(RANK_TOL ** 2 * np.maximum(1.0, lam[:, -1]), stiff ** 2)[:, None]
+    vt = vec.transpose(0, 2, 1)
+    coef = np.where(keep, -_mv(vt, g) / np.where(keep, lam, 1.0), _mv(vt, d))
+    return _mv(vec, coef), vec, ~keep
+
+
+def _gn_svd(jac, c, d):
+    """Gauss-Newton steps from the SVD of J (P, k, n), the rank rule alone (SVD_BELOW).
+    Returns what :func:`_gn_eigh` does."""
+    p, k, n = jac.shape
+    u, sv, vt = np.linalg.svd(jac, full_matrices=k < n)
+    s = np.zeros((p, n))
+    s[:, :min(k, n)] = sv
+    keep = s > (RANK_TOL * np.maximum(1.0, s[:, :1]))
+    uc = np.zeros((p, n))
+    uc[:, :min(k, n)] = _mv(u.transpose(0, 2, 1), c)[:, :min(k, n)]
+    vec = vt.transpose(0, 2, 1)
+    coef = np.where(keep, -uc / np.where(keep, s, 1.0), _mv(vt, d))
+    return _mv(vec, coef), vec, ~keep
+
+
+def _gn_line(gram, g, d, guide):
+    """Gauss-Newton steps where the null space of J is a line near ``guide`` (P, n): one
+    linear solve with J^T J + guide guide^T gives that line exactly (inverse iteration: a
+    null vector v of J solves it with right-hand side guide (guide . v)) and the closure
+    correction -J^+ C orthogonal to it. Returns the step and a basis (P, n, n) whose first
+    column spans the line (the other columns are not used)."""
+    a = gram + guide[:, :, None] * guide[:, None, :]
+    sol = np.linalg.solve(a, np.stack([guide, g], axis=2))
+    w = sol[..., 0] / np.linalg.norm(sol[..., 0], axis=1)[:, None]
+    dx = sol[..., 1]
+    step = w * ((w * d).sum(axis=1) + (w * dx).sum(axis=1))[:, None] - dx
+    vec = np.zeros(gram.shape)
+    vec[:, :, 0] = w
+    return step, vec
+
+
+def _certified(jac, gram, w):
+    """Whether J's null space is exactly the line ``w`` (P, n) by the rank rule: J w below
+    RANK_TOL times the largest singular value (at least 1), every other singular value above
+    it (J^T J + w w^T less that threshold squared positive definite). The largest singular
+    value is bounded by the Frobenius norm, so the test errs toward "no"."""
+    thr = RANK_TOL * np.maximum(1.0, np.sqrt(np.trace(gram, axis1=1, axis2=2)))
+    ok = np.linalg.norm(_mv(jac, w), axis=1) <= thr
+    a = gram + w[:, :, None] * w[:, None, :] - (thr ** 2)[:, None, None] * np.eye(gram.shape[1])
+    try:
+        np.linalg.cholesky(a)
+    except np.linalg.LinAlgError:
+        ok &= np.linalg.eigvalsh(a)[:, 0] > 0
+    return ok
+
+
+def solve(evaluate, x, target) -> Solves:
+    """Gauss-Newton from ``x`` (P, n) toward ``target`` (P, n), all points at once
+    (:meth:`Pool.round` until every point stopped)."""
+    x = np.atleast_2d(np.asarray(x, float))
+    pool = Pool(x.shape[1], len(x))
+    ids = pool.add(x, np.atleast_2d(np.asarray(target, float)))
+    while pool.alive.any():
+        pool.round(evaluate)
+    return pool.view(ids)

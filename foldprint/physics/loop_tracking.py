@@ -1,0 +1,389 @@
+"""Closure tracking of many drives at once: the predictor-corrector on the constraint
+manifold as array code (``docs/loops.md``).
+
+Every drive (n_t, n) rad is followed from the flat sheet on the closure manifold
+``C(x) = 0``: at each grid time the closed configuration nearest the drive, continued from
+the previous answer, found by Gauss-Newton steps ``dx = J^+ (-C) + (I - J^+ J)(rho - x)``.
+This module holds the numbers only; the closure equations come in as a function
+``evaluate(xs (P, n)) -> C (P, k), J (P, k, n)`` (:class:`foldprint.physics.loops.LoopSolver`),
+so it imports nothing of the pipeline.
+
+All drives advance together through a pool of *points*, one per solve in progress: a
+drive's next grid step (sub-step), near the flat sheet also its restart from the drive
+itself, and, away from it, the next grid steps solved ahead of time (a *window*). One
+*round* evaluates C and J at every point of the pool and takes one eigen-decomposition of
+the stacked normal matrices ``J^T J`` (:mod:`foldprint.physics.loop_solve`); a point that
+converged (or ran out of steps) leaves the pool, and a drive whose points have all left ends
+its step and puts its next ones in, while the other drives go on iterating.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .loop_solve import MAX_STEP, OPT_TOL, Pool, Solves, predict
+
+#: a hinge whose closed angle stays this far from its driven angle "cannot follow" (rad)
+FOLLOW_TOL = np.radians(2.0)
+#: how much farther than the continued answer a restart from the drive may land (rad)
+JUMP = 0.05
+#: below this largest angle (rad) the tracker also restarts from the drive
+NEAR_FLAT = 0.2
+#: a drive that moved less than this since the last solve (rad) is not re-solved
+SKIP_TOL = 1e-8
+#: a solve that ends with a residual above this lost the manifold (the configuration is held)
+LOST_TOL = 1e-7
+#: most grid steps of one drive solved ahead in one window (our choice: on miura_3x3's check
+#: chunk 8, 16, 32, 64 took 578, 497, 457, 437 rounds and 36.3k, 37.1k, 38.3k, 39.6k
+#: evaluations, about the same time)
+WINDOW = 32
+#: near the flat sheet, restarts from the drive of this many next grid steps run ahead (our
+#: choice: on miura_3x3's check chunk 1525 rounds without, 463 with)
+PREFETCH = 8
+#: a window's answer is kept when the step-by-step predictor lands within this of it (rad,
+#: our choice: 40 times the largest such distance on the templates' check samples, 2.4e-4
+#: rad on miura_3x3)
+ACCEPT = 0.01
+
+
+@dataclass(frozen=True)
+class Tracks:
+    """What :func:`track` found for S drives on one grid of n_t times: ``angles`` (S, n_t,
+    n) closed angles, ``closure`` (S,) the worst residual of an accepted answer,
+    ``locked_at`` (S,) the first time a drive had no motion left while asking for some
+    (nan: never), ``dof`` (S,) the null-space dimension at the first folded step (-1: never
+    folded), ``evaluations`` the number of configurations C and J were evaluated at and
+    ``rounds`` the number of array evaluations that took."""
+
+    angles: np.ndarray
+    closure: np.ndarray
+    locked_at: np.ndarray
+    dof: np.ndarray
+    evaluations: int
+    rounds: int
+
+
+class _State:
+    """Per drive: the last answer and its tangent space, the grid step to solve next and
+    what was met on the way (the step-by-step tracker's variables, one row per drive)."""
+
+    def __init__(self, times, driven):
+        self.times, self.driven = times, driven
+        s, self.n_t, n = driven.shape
+        self.x = np.zeros((s, n))
+        self.basis = np.zeros((s, n, n))
+        self.free = np.zeros((s, n), bool)
+        self.tangent = np.zeros(s, bool)  # the last answer converged: predict along its tangent
+        self.settled = np.ones(s, bool)
+        self.prev = np.zeros((s, n))  # the drive at the last solved step
+        self.k = np.zeros(s, int)  # the next grid step
+        self.sub = np.zeros(s, int)  # the continuation sub-step within step k (0: none begun)
+        self.nsub = np.ones(s, int)
+        self.locked = np.full(s, np.nan)
+        self.dof = np.full(s, -1)
+        self.worst = np.zeros(s)
+        self.res_x = np.zeros(s)
+        self.width = np.full(s, 2)
+        self.out = np.zeros_like(driven)
+
+    def skip(self, i):
+        """Advance the settled drives ``i`` over steps whose drive moved at most SKIP_TOL
+        since the last solve (their answer is the last one)."""
+        k = np.minimum(self.k[i], self.n_t - 1)
+        idle = (self.k[i] < self.n_t) & (k > 0) & self.settled[i] & (self.sub[i] == 0) & (
+            np.abs(self.driven[i, k] - self.prev[i]).max(axis=1) <= SKIP_TOL)
+        for i in i[idle]:
+            moved = np.abs(self.driven[i, self.k[i]:] - self.prev[i]).max(axis=1) > SKIP_TOL
+            nxt = self.k[i] + (int(moved.argmax()) if moved.any() else len(moved))
+            self.out[i, self.k[i]:nxt] = self.x[i]
+            self.k[i] = nxt
+
+    def begin(self, live):
+        """Targets of the live drives' next solve: their step's (sub-step's) drive."""
+        k = self.k[live]
+        y = self.driven[live, k]
+        fresh = self.sub[live] == 0
+        delta = np.abs(y - self.prev[live]).max(axis=1, initial=0.0)
+        self.nsub[live] = np.where(fresh, np.maximum(1, np.ceil(delta / MAX_STEP)).astype(int), self.nsub[live])
+        self.sub[live] = np.where(fresh, 1, self.sub[live])
+        frac = (self.sub[live] / self.nsub[live])[:, None]
+        return y, self.prev[live] + (y - self.prev[live]) * frac
+
+    def ahead(self, live, far):
+        """Window widths (len(live),): how many grid steps from k each live drive solves now;
+        1 unless ``far`` (away from the flat sheet, with a tangent, no sub-steps): then the
+        next steps whose drive moves (by more than SKIP_TOL, at most MAX_STEP) up to the
+        drive's current width."""
+        w = np.ones(len(live), int)
+        if not far.any():
+            return w
+        i = live[far]
+        idx = np.minimum(self.k[i, None] + np.arange(WINDOW + 1), self.n_t - 1)
+        y = self.driven[i[:, None], idx]
+        d = np.abs(np.diff(y, axis=1)).max(axis=2)
+        ok = (d > SKIP_TOL) & (d <= MAX_STEP) & (self.k[i, None] + np.arange(1, WINDOW + 1) < self.n_t)
+        w[far] = np.minimum(1 + np.cumprod(ok, axis=1).sum(axis=1), self.width[i])
+        return w
+
+    def finish(self, i, y, x, res, null):
+        """End grid step k of drives ``i``: their answer ``x`` (len(i), n) for drive ``y``."""
+        k = self.k[i]
+        stop = np.isnan(self.locked[i]) & (null == 0) & (np.abs(x - y).max(axis=1, initial=0.0) > FOLLOW_TOL)
+        self.locked[i[stop]] = self.times[k[stop]]
+        self.worst[i] = np.maximum(self.worst[i], res)
+        self.prev[i] = y
+        self.out[i, k] = x
+        self.k[i] = k + 1
+        self.sub[i] = 0
+
+    def settle(self, i, sol: Solves, rows):
+        """Take the converged answers ``sol`` rows ``rows`` as the drives' ``i`` configuration."""
+        self.x[i], self.res_x[i] = sol.x[rows], sol.res[rows]
+        self.settled[i] = self.tangent[i] = sol.done[rows]
+        self.basis[i], self.free[i] = sol.basis[rows], sol.free[rows]
+        first = (self.dof[i] < 0) & (np.abs(sol.x[rows]).max(axis=1, initial=0.0) > 1e-3)
+        self.dof[i[first]] = sol.null[rows][first]
+
+
+class _Counted:
+    """``evaluate`` counting its configurations and calls."""
+
+    def __init__(self, evaluate):
+        self.evaluate, self.evaluations, self.rounds = evaluate, 0, 0
+
+    def __call__(self, xs):
+        self.evaluations += len(xs)
+        self.rounds += 1
+        return self.evaluate(xs)
+
+
+def _line(st: _State, d):
+    """The tangent direction of drives ``d`` whose tangent space is a line."""
+    return st.basis[d, :, st.free[d].argmax(axis=1)]
+
+
+def _blocks(w):
+    """Owner (index into w) and offset (1, 2, ...) of the window points beyond each first."""
+    owner = np.repeat(np.arange(len(w)), w - 1)
+    return owner, np.arange(len(owner)) - np.repeat(np.cumsum(w - 1) - (w - 1), w - 1) + 1
+
+
+class _Requests:
+    """Per drive, the points of the step it is solving: its main solve, its restart from
+    the drive (near the flat sheet) and its window points."""
+
+    def __init__(self, s: int, n: int):
+        self.open = np.zeros(s, bool)
+        self.main = np.zeros(s, int)
+        self.restart = np.full(s, -1)
+        self.window = np.zeros((s, WINDOW), int)
+        self.w = np.ones(s, int)
+        self.y, self.ys = np.zeros((s, n)), np.zeros((s, n))
+        self.early = np.full((s, PREFETCH), -1)  # restarts started ahead: their rows ...
+        self.early_k = np.full((s, PREFETCH), -1)  # ... and grid steps
+
+    def busy(self, pool: Pool):
+        """Which drives' current points are not all stopped."""
+        win = (np.arange(WINDOW)[None] < self.w[:, None] - 1) & pool.alive[self.window]
+        return self.open & (pool.alive[self.main] | ((self.restart >= 0) & pool.alive[self.restart]) | win.any(axis=1))
+
+    def forget(self, pool: Pool, i):
+        """Drop the restarts drives ``i`` started ahead."""
+        pool.release(self.early[i][self.early[i] >= 0])
+        self.early[i], self.early_k[i] = -1, -1
+
+    def _restarts(self, st: _State, pool: Pool, live, ys):
+        """Rows of the live drives' restarts from their drive at step k (all near the flat
+        sheet): started ahead when the step is a single one toward exactly this drive,
+        else now; and the restarts of the next PREFETCH grid steps started ahead (a restart
+        depends on its drive alone, so near the flat sheet, where every step restarts, the
+        steps wait only for their solves from the last answer)."""
+        k, n_t = st.k[live], st.n_t
+        ek, ei = self.early_k[live], self.early[live]
+        hit = (ek == k[:, None]) & ((st.nsub[live] == 1) & (st.sub[live] == 1))[:, None]
+        r, c = np.nonzero(hit)
+        good = np.all(pool.target[ei[r, c]] == ys[r], axis=1)
+        rows = np.full(len(live), -1)
+        rows[r[good]] = ei[r[good], c[good]]
+        taken = np.zeros_like(hit)
+        taken[r[good], c[good]] = True
+        stale = (ek >= 0) & (ek <= k[:, None]) & ~taken
+        pool.release(ei[stale])
+        ek, ei = np.where(stale | taken, -1, ek), np.where(stale | taken, -1, ei)
+        new = rows < 0
+        rows[new] = pool.add(ys[new], ys[new])
+        want = k[:, None] + 1 + np.arange(PREFETCH)
+        miss = ~(ek[:, None, :] == want[:, :, None]).any(axis=2) & (want < n_t)
+        slot = np.argsort(ek >= 0, axis=1, kind="stable")  # free slots first
+        rank = np.cumsum(miss, axis=1) - 1
+        mr, mc = np.nonzero(miss)
+        if mr.size:
+            d, kk = live[mr], want[mr, mc]
+            y0 = st.driven[d, kk - 1]
+            ids = pool.add(y0 + (st.driven[d, kk] - y0), y0 + (st.driven[d, kk] - y0))
+            ek[mr, slot[mr, rank[mr, mc]]], ei[mr, slot[mr, rank[mr, mc]]] = kk, ids
+        self.early_k[live], self.early[live] = ek, ei
+        return rows
+
+    def post(self, st: _State, pool: Pool, live):
+        """Put the live drives' next points into the pool."""
+        y, ys = st.begin(live)
+        x = st.x[live]
+        near = np.abs(x).max(axis=1, initial=0.0) < NEAR_FLAT
+        pred = ~near & st.tangent[live]
+        w = st.ahead(live, pred & (st.nsub[live] == 1))
+        start = x.copy()
+        i = live[pred]
+        start[pred] = predict(x[pred], ys[pred], st.basis[i], st.free[i])
+        line = pred & (st.free[live].sum(axis=1) == 1)
+        self.main[live[~line]] = pool.add(start[~line], ys[~line], far=pred[~line])
+        self.main[live[line]] = pool.add(start[line], ys[line], far=True, guide=_line(st, live[line]))
+        self.restart[live] = -1
+        self.restart[live[near]] = self._restarts(st, pool, live[near], ys[near])
+        self.forget(pool, live[~near])
+        owner, offset = _blocks(w)
+        if len(owner):
+            d = live[owner]
+            k = st.k[d] + offset
+            guess = predict(st.x[d], st.driven[d, k], st.basis[d], st.free[d])
+            line = st.free[d].sum(axis=1) == 1
+            self.window[d[~line], offset[~line] - 1] = pool.add(guess[~line], st.driven[d[~line], k[~line]],
+                                                                speculative=True, far=True)
+            self.window[d[line], offset[line] - 1] = pool.add(guess[line], st.driven[d[line], k[line]],
+                                                              speculative=True, far=True, guide=_line(st, d[line]))
+        self.w[live], self.y[live], self.ys[live] = w, y, ys
+        self.open[live] = True
+
+
+def track(evaluate, times, driven) -> Tracks:
+    """Follow S drives ``driven`` (S, n_t, n) rad on the grid ``times`` (n_t,) s on the
+    closure manifold from the flat sheet, all at once (module docstring)."""
+    st = _State(np.asarray(times, float), np.asarray(driven, float))
+    s, _, n = st.driven.shape
+    pool, req, ev = Pool(n, 4 * s), _Requests(s, n), _Counted(evaluate)
+    todo = np.arange(s)
+    while True:
+        if todo.size:
+            st.skip(todo)
+            live = todo[st.k[todo] < st.n_t]
+            req.forget(pool, todo[st.k[todo] >= st.n_t])
+            if live.size:
+                req.post(st, pool, live)
+        if not pool.alive.any():
+            break
+        pool.round(ev)
+        todo = np.nonzero(req.open & ~req.busy(pool))[0]
+        if todo.size:
+            _ended(st, pool, req, todo)
+    return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
+
+
+def _ended(st: _State, pool: Pool, req: _Requests, live):
+    """The live drives' points have all stopped: choose each one's answer (the restart
+    near the flat sheet), end its step, keep what its window allows, free the rows."""
+    w = req.w[live]
+    owner, offset = _blocks(w)
+    again = np.nonzero(req.restart[live] >= 0)[0]
+    rows = np.concatenate([req.main[live], req.window[live[owner], offset - 1], req.restart[live[again]]])
+    sol = pool.view(rows)
+    main = _choose(sol, st.x[live], req.ys[live], again, len(live) + len(owner))
+    ok = _after_main(st, live, req.y[live], sol, main)
+    if len(owner):
+        _window(st, live, w, ok, sol, main, owner, offset)
+    pool.release(rows)
+    req.open[live] = False
+
+
+def _choose(sol: Solves, x, ys, again, base):
+    """Rows of ``sol`` holding each drive's answer: its solve from the last answer ``x``
+    (row j), or, near the flat sheet (drives ``again``, whose restart from the drive is row
+    base + j), the restart where the continued answer missed the drive and the restart
+    closed nearer to it without jumping more than JUMP farther (a drive starting on a
+    branch's tangent does not stall at the bifurcation), and puts no hinge on the other side
+    of flat from its drive (a drive keeps its target's sign at every instant; the other
+    side is another branch, the one a scattered drive would flip to)."""
+    rows = np.arange(len(x))
+    if not len(again):
+        return rows
+    b = base + np.arange(len(again))
+    xn, xb, yb, x0 = sol.x[rows[again]], sol.x[b], ys[again], x[again]
+    take = ((np.abs(xn - yb).max(axis=1) > OPT_TOL) & (sol.res[b] <= LOST_TOL)
+            & (np.linalg.norm(xb - yb, axis=1) < np.linalg.norm(xn - yb, axis=1) - 1e-9)
+            & (np.abs(xb - x0).max(axis=1) <= np.abs(xn - x0).max(axis=1) + JUMP) & ~np.any(xb * yb < 0.0, axis=1))
+    rows[again[take]] = b[take]
+    return rows
+
+
+def _after_main(st: _State, live, y, sol: Solves, rows):
+    """The live drives' solves of their next step (sub-step): a solve that lost the manifold
+    holds the last closed configuration and ends the step (the drive is locked there);
+    otherwise its answer is taken. Returns which drives ended their step converged."""
+    res = sol.res[rows]
+    lost = res > LOST_TOL
+    i = live[lost]
+    st.settled[i] = True
+    st.locked[i] = np.where(np.isnan(st.locked[i]), st.times[st.k[i]], st.locked[i])
+    st.settle(live[~lost], sol, rows[~lost])
+    ended = lost | (st.sub[live] >= st.nsub[live])
+    st.sub[live[~ended]] += 1
+    e = live[ended]
+    st.finish(e, y[ended], st.x[e], st.res_x[e], sol.null[rows][ended])
+    return ~lost & ended & sol.done[rows]
+
+
+def _window(st: _State, live, w, ok, sol: Solves, main, owner, offset):
+    """Keep each window's answers up to the first one the step-by-step tracker might not
+    have given (:func:`_acceptable`, the answer before it being the one kept last)."""
+    row = len(live) + np.arange(len(owner))
+    prev = np.where(offset == 1, main[owner], row - 1)
+    yw = st.driven[live[owner], st.k[live[owner]] + offset - 1]
+    _keep(st, live, w, owner, offset, ok[owner] & _acceptable(sol, prev, row, yw), sol, row, yw)
+
+
+def _acceptable(sol: Solves, prev, row, y):
+    """Whether the answers ``row`` of ``sol`` (toward drives ``y``) are what the step-by-step
+    tracker gives from the answers ``prev``: both converged, the answer closed, the one
+    before away from the flat sheet, the same tangent space dimension, and the answer within
+    ACCEPT of the predictor from the one before (so the corrector from there has this answer
+    to converge to)."""
+    xp, xr = sol.x[prev], sol.x[row]
+    p = predict(xp, y, sol.basis[prev], sol.free[prev])
+    return (sol.done[prev] & sol.done[row] & (sol.res[row] <= LOST_TOL)
+            & (np.abs(xp).max(axis=1, initial=0.0) >= NEAR_FLAT) & (sol.null[row] == sol.null[prev])
+            & (np.abs(p - xr).max(axis=1) <= ACCEPT))
+
+
+def _keep(st: _State, live, w, owner, offset, acc, sol: Solves, row, yw):
+    """Take each window's accepted prefix (``acc`` per point, in order): its steps end with
+    those answers; the drive continues from the last one. Widths double while whole
+    windows are kept and shrink to what was kept otherwise."""
+    fail = np.cumsum(~acc)
+    first = np.cumsum(w - 1) - (w - 1)  # each live drive's first window point
+    kept = fail - np.where(first > 0, fail[np.maximum(first - 1, 0)], 0)[owner] == 0
+    nacc = np.bincount(owner, weights=kept, minlength=len(live)).astype(int)
+    has = w > 1
+    d = live[has]
+    st.width[d] = np.where(nacc[has] == w[has] - 1, np.minimum(2 * st.width[d], WINDOW), np.maximum(2, nacc[has] + 1))
+    q = np.nonzero(kept)[0]
+    if not q.size:
+        return
+    d, k = live[owner[q]], st.k[live[owner[q]]] + offset[q] - 1
+    x, y, r = sol.x[row[q]], yw[q], row[q]
+    st.out[d, k] = x
+    t = np.where((sol.null[r] == 0) & (np.abs(x - y).max(axis=1) > FOLLOW_TOL), st.times[k], np.inf)
+    first_stop = np.full(len(st.k), np.inf)
+    np.minimum.at(first_stop, d, t)
+    st.locked = np.where(np.isnan(st.locked) & np.isfinite(first_stop), first_stop, st.locked)
+    np.maximum.at(st.worst, d, sol.res[r])
+    folded = np.where((st.dof[d] < 0) & (np.abs(x).max(axis=1) > 1e-3), q, len(owner))
+    at = np.full(len(st.k), len(owner))
+    np.minimum.at(at, d, folded)
+    f = np.nonzero(at < len(owner))[0]
+    st.dof[f] = sol.null[row[at[f]]]
+    g = np.nonzero(nacc)[0]
+    last = first[g] + nacc[g] - 1
+    st.settle(live[g], sol, row[last])
+    st.prev[live[g]] = yw[last]
+    st.k[live[g]] += nacc[g]
