@@ -97,6 +97,18 @@ def test_png_round_trip_and_pillow_reads_it():
     assert im.info["dpi"][0] == pytest.approx(600, rel=1e-3) and im.info["dpi"][1] == pytest.approx(300, rel=1e-3)
 
 
+def test_read_png_refuses_a_png_the_voxel_writer_did_not_write():
+    """An 8-bit RGB PNG (Pillow's) is not read as labels: the error says what read_png reads."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.new("RGB", (5, 3), (255, 255, 255)).save(buf, format="PNG")
+    with pytest.raises(ExportError, match="2-bit palette PNGs"):
+        vx.read_png(buf.getvalue())
+    with pytest.raises(ExportError, match="not a PNG"):
+        vx.read_png(b"GIF89a" + bytes(10))
+
+
 def test_blue_noise_is_a_permutation_of_ranks():
     b = vx.blue_noise()
     assert b.shape == (64, 64)
