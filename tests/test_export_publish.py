@@ -10,6 +10,7 @@ alone; refusals are one line and write nothing."""
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import os
@@ -517,3 +518,41 @@ def test_racing_writers_and_readers_see_one_complete_set(tmp_path):
     assert list(running.values()) == [0, 0], running
     final = assert_plain_set(out)
     assert final in (dict(sets["a"]), dict(sets["b"])) and os.listdir(tmp_path) == ["out"]
+
+
+# -- core/files: the file-system steps a set is made of ------------------------------------
+
+def test_write_atomic_writes_text_as_utf8_and_refuses_with_the_path(tmp_path):
+    """Text is written as its UTF-8 bytes; a target it cannot replace (a folder) is one
+    ExportError naming the path, with no temp file left beside it."""
+    text = "Tg = 45 °C, Δt = 3.03 s\n"
+    p = core_files.write_atomic(tmp_path / "note.txt", text)
+    assert p.read_bytes() == text.encode("utf-8")
+    (tmp_path / "taken").mkdir()
+    with pytest.raises(ExportError, match=r"taken: cannot write: Is a directory"):
+        core_files.write_atomic(tmp_path / "taken", b"x")
+    assert sorted(os.listdir(tmp_path)) == ["note.txt", "taken"]
+
+
+def test_rename_errors_name_both_paths(tmp_path):
+    """A rename of a missing source is the OS's error with its number and both paths,
+    whether renameat2 or the fallback rename raised it."""
+    src, dst = tmp_path / "missing", tmp_path / "dst"
+    with pytest.raises(FileNotFoundError) as err:
+        core_files.rename_noreplace(src, dst)
+    assert (err.value.errno, err.value.filename, err.value.filename2) == (errno.ENOENT, str(src), str(dst))
+
+
+def test_rename_noreplace_without_renameat2(tmp_path, monkeypatch):
+    """Where the system has no RENAME_NOREPLACE (renameat2 says it cannot): a check, then a
+    plain rename; an existing target is FileExistsError (EEXIST, its path), both kept."""
+    monkeypatch.setattr(core_files, "renameat2", lambda src, dst, flags: False)
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.write_bytes(b"A")
+    core_files.rename_noreplace(a, b)
+    assert not a.exists() and b.read_bytes() == b"A"
+    a.write_bytes(b"new")
+    with pytest.raises(FileExistsError) as err:
+        core_files.rename_noreplace(a, b)
+    assert (err.value.errno, err.value.filename) == (errno.EEXIST, str(b))
+    assert a.read_bytes() == b"new" and b.read_bytes() == b"A"
