@@ -23,6 +23,7 @@ import pytest
 
 from foldprint.core import files as core_files
 from foldprint.core.errors import ExportError
+from foldprint.exchange import files as files_mod
 from foldprint.exchange.files import StagedSet, recover, sibling_prefix, write_set
 from foldprint.exchange.outfolder import MANIFEST, plan
 
@@ -556,3 +557,67 @@ def test_rename_noreplace_without_renameat2(tmp_path, monkeypatch):
         core_files.rename_noreplace(a, b)
     assert (err.value.errno, err.value.filename) == (errno.EEXIST, str(b))
     assert a.read_bytes() == b"new" and b.read_bytes() == b"A"
+
+
+# -- exchange/files: the edges of a publication --------------------------------------------
+
+def test_recover_removes_only_its_own_stale_temp_files(tmp_path):
+    """recover removes write_atomic's temp files older than STALE_TMP_S, and nothing else:
+    not a fresh one (a writer may be using it), not a user's old file, not a link that
+    merely has a temp file's name."""
+    old = time.time() - 2 * files_mod.STALE_TMP_S
+    stale, fresh = tmp_path / ".foldprint-abcd1234.tmp", tmp_path / ".foldprint-efgh5678.tmp"
+    mine, link = tmp_path / "notes.txt", tmp_path / ".foldprint-link0000.tmp"
+    for p in (stale, fresh, mine):
+        p.write_bytes(b"x")
+    link.symlink_to(mine)
+    for p in (stale, mine):
+        os.utime(p, (old, old))
+    os.utime(link, (old, old), follow_symlinks=False)
+    done = recover(tmp_path)
+    assert done == [f"removed {stale.name}"]
+    assert sorted(os.listdir(tmp_path)) == sorted([fresh.name, mine.name, link.name])
+
+
+def test_write_set_calls_a_callable_for_its_bytes(tmp_path):
+    paths = write_set(tmp_path / "out", [("a.txt", lambda: b"made late"), ("b.txt", b"given")])
+    assert [p.read_bytes() for p in paths] == [b"made late", b"given"]
+
+
+def test_a_folder_name_with_undecodable_bytes_is_published(tmp_path):
+    """A folder whose name is not UTF-8 (a surrogate-escaped byte): its staging folders'
+    prefix is made, and the set lands."""
+    out = tmp_path / os.fsdecode(b"set-\xff")
+    assert sibling_prefix(out).startswith(".set-")
+    write_set(out, [("a.txt", b"A")])
+    assert (out / "a.txt").read_bytes() == b"A" and os.listdir(tmp_path) == [out.name]
+
+
+def test_an_interrupt_while_publishing_stays_an_interrupt(tmp_path, monkeypatch):
+    """Ctrl-C during publication propagates as KeyboardInterrupt (not relabelled as a write
+    error), and nothing of the set is left."""
+    def interrupt(*a, **k):
+        raise KeyboardInterrupt
+
+    def data():
+        monkeypatch.setattr(files_mod, "plan", interrupt)  # the set is staged: publication fails
+        return b"A"
+
+    with pytest.raises(KeyboardInterrupt):
+        write_set(tmp_path / "out", [("a.txt", data)])
+    assert os.listdir(tmp_path) == []
+
+
+def test_an_earlier_set_that_cannot_be_removed_is_a_warning_naming_why(tmp_path, monkeypatch, caplog):
+    out = tmp_path / "out"
+    write_set(out, [("a.txt", b"old")])
+
+    def busy(path):
+        raise OSError(16, "Device or resource busy")
+
+    monkeypatch.setattr(files_mod, "_remove_set", busy)
+    with caplog.at_level("WARNING", logger=files_mod.__name__):
+        write_set(out, [("a.txt", b"new")])
+    assert (out / "a.txt").read_bytes() == b"new"
+    [msg] = [r.getMessage() for r in caplog.records if r.name == files_mod.__name__]
+    assert str(out) in msg and "resource busy" in msg
