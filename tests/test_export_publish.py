@@ -11,6 +11,7 @@ alone; refusals are one line and write nothing."""
 from __future__ import annotations
 
 import errno
+import fcntl
 import hashlib
 import json
 import os
@@ -621,3 +622,25 @@ def test_an_earlier_set_that_cannot_be_removed_is_a_warning_naming_why(tmp_path,
     assert (out / "a.txt").read_bytes() == b"new"
     [msg] = [r.getMessage() for r in caplog.records if r.name == files_mod.__name__]
     assert str(out) in msg and "resource busy" in msg
+
+
+def test_the_lock_falls_back_to_the_folder_when_its_parent_cannot_be_opened(tmp_path, monkeypatch):
+    """Two writers of one folder publish one after the other even where the parent cannot
+    be opened: the lock is then taken on the folder itself (another open of it cannot)."""
+    real = tmp_path / "out"
+    real.mkdir()
+    opener = os.open
+
+    def no_parent(path, flags, *a):
+        if Path(path) == tmp_path:
+            raise PermissionError(13, "Permission denied", str(path))
+        return opener(path, flags, *a)
+
+    monkeypatch.setattr(files_mod.os, "open", no_parent)
+    with files_mod._dir_lock(real):
+        fd = opener(real, os.O_RDONLY | os.O_DIRECTORY)
+        try:
+            with pytest.raises(BlockingIOError):
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        finally:
+            os.close(fd)
