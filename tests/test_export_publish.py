@@ -644,3 +644,16 @@ def test_the_lock_falls_back_to_the_folder_when_its_parent_cannot_be_opened(tmp_
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         finally:
             os.close(fd)
+
+
+def test_files_made_in_the_staging_folder_directly_are_in_the_manifest(tmp_path):
+    """The gallery's workers write into ``st.path`` themselves: such files, and a file
+    written by ``st.write`` then rewritten in place, are listed with their own size and
+    sha256 (checked by assert_plain_set against the bytes on disk)."""
+    out = tmp_path / "out"
+    with StagedSet(out) as st:
+        (st.path / "sub").mkdir()
+        (st.path / "sub" / "direct.png").write_bytes(b"made by a worker")
+        st.write("page.html", b"first")
+        (st.path / "page.html").write_bytes(b"rewritten, longer")
+    assert_plain_set(out, {"sub/direct.png": b"made by a worker", "page.html": b"rewritten, longer"})
