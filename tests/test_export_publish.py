@@ -657,3 +657,37 @@ def test_files_made_in_the_staging_folder_directly_are_in_the_manifest(tmp_path)
         st.write("page.html", b"first")
         (st.path / "page.html").write_bytes(b"rewritten, longer")
     assert_plain_set(out, {"sub/direct.png": b"made by a worker", "page.html": b"rewritten, longer"})
+
+
+def test_a_staging_folder_that_cannot_be_made_is_one_export_error(tmp_path, monkeypatch):
+    """A full disk before anything is staged: ExportError naming the folder, nothing made."""
+    def full(path, *a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(files_mod.os, "mkdir", full)
+    with pytest.raises(ExportError, match=r"out: cannot write: No space left on device"):
+        write_set(tmp_path / "out", NEW)
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_publication_into_a_users_folder_is_marked_incomplete_until_it_ends(tmp_path, monkeypatch):
+    """File by file into a folder of the user's files: the manifest says complete: false
+    (with the files it is replacing) from before the first file moves, so a run stopped
+    half-way is never read as a whole set."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_bytes(b"mine")
+    write_set(out, OLD, force=True)
+    replace = os.replace
+
+    def stop_after_manifest(src, dst):
+        if Path(dst).name != MANIFEST:
+            raise OSError(errno.EIO, "Input/output error", str(dst))
+        replace(src, dst)
+
+    monkeypatch.setattr(files_mod.os, "replace", stop_after_manifest)
+    with pytest.raises(ExportError, match="Input/output error"):
+        write_set(out, NEW, force=True)
+    man = json.loads((out / MANIFEST).read_bytes())
+    assert man["complete"] is False
+    assert {r["name"] for r in man["files"]} >= {n for n, _ in OLD + NEW}
