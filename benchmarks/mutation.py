@@ -501,32 +501,41 @@ def _arguments() -> argparse.Namespace:
     return args
 
 
-def main() -> None:
-    args = _arguments()
+def _save(done: dict, equivalent: list[dict] | None = None) -> dict:
+    """Merge ``done`` (this run's modules) into docs/data/mutation.json as it stands now, so
+    that runs of other modules at the same time keep theirs; rewrite the doc's table.
+    ``equivalent``: rescore every module with it first."""
     data = load_data()
     data.update({"tool": f"mutmut {MUTMUT_VERSION}", "script": "benchmarks/mutation.py"})
     # entries without mutant statuses are of an earlier format of this script: run again
-    modules = data["modules"] = {k: v for k, v in data.get("modules", {}).items() if "status" in v}
-    equivalent = load_equivalent()
+    held = {**{k: v for k, v in data.get("modules", {}).items() if "status" in v}, **done}
+    data["modules"] = {k: (rescore(k, held[k], equivalent) if equivalent is not None and "status" in held[k]
+                           else held[k]) for k in MODULES if k in held}
+    save_data(data)
+    write_docs(data["modules"])
+    return data
+
+
+def main() -> None:
+    args = _arguments()
+    modules = {k: v for k, v in load_data().get("modules", {}).items() if "status" in v}
+    done: dict = {}
     for name in args.names:
         print(f"{'rechecking' if args.recheck else 'mutating'} {name} ...", file=sys.stderr, flush=True)
         if args.recheck:
             if "status" not in modules.get(name, {}):
                 print(f"  {name}: no recorded run to recheck", file=sys.stderr)
                 continue
-            modules[name] = recheck(name, args.workdir / name, modules[name])
+            done[name] = recheck(name, args.workdir / name, modules[name])
         else:
-            modules[name] = evaluate(name, args.workdir / name, args)
-        print(f"  {name}: {_summary(modules[name])}", file=sys.stderr, flush=True)
+            done[name] = evaluate(name, args.workdir / name, args)
+        print(f"  {name}: {_summary(done[name])}", file=sys.stderr, flush=True)
         if not args.no_write:  # after each module: a long campaign keeps what it has done
-            data["modules"] = {k: modules[k] for k in MODULES if k in modules}
-            save_data(data)
-            write_docs(data["modules"])
-    data["modules"] = {k: rescore(k, modules[k], equivalent) if "status" in modules[k] else modules[k]
-                       for k in MODULES if k in modules}
-    if not args.no_write:
-        save_data(data)
-        write_docs(data["modules"])
+            _save(done)
+    if args.no_write:
+        data = {"modules": {k: rescore(k, v, load_equivalent()) for k, v in {**modules, **done}.items()}}
+    else:
+        data = _save(done, load_equivalent())
     print(json.dumps(data, ensure_ascii=False) if args.json else table(data["modules"]))
 
 
