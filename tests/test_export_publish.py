@@ -691,3 +691,15 @@ def test_a_publication_into_a_users_folder_is_marked_incomplete_until_it_ends(tm
     man = json.loads((out / MANIFEST).read_bytes())
     assert man["complete"] is False
     assert {r["name"] for r in man["files"]} >= {n for n, _ in OLD + NEW}
+
+
+def test_a_legacy_export_that_is_the_current_folder_becomes_plain_files(tmp_path, monkeypatch):
+    """File by file (--force: the current folder cannot be replaced whole) over an export
+    of the earlier layout: its links, its switch and its sets go; plain files remain."""
+    out = tmp_path / "out"
+    out.mkdir()
+    _legacy(out, OLD)
+    monkeypatch.chdir(out)
+    write_set(out, NEW, force=True)
+    assert sorted(os.listdir(out)) == sorted([MANIFEST, *(n for n, _ in NEW)])
+    assert_plain_set(out, dict(NEW))
