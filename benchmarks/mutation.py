@@ -96,7 +96,7 @@ MODULES: dict[str, tuple[str, tuple[str, ...]]] = {
     "sequential": ("foldprint/simulation/sequential.py",
                    ("tests/test_batch.py", "tests/test_verdict.py", "tests/test_evaluation.py",
                     "tests/test_flip_drivers.py", "tests/test_progress.py")),
-    "threemf": ("foldprint/exchange/threemf.py", ("tests/test_export.py", "tests/test_printfiles.py")),
+    "threemf": ("foldprint/exchange/threemf.py", ("tests/test_export.py", "tests/test_printfiles.py", "tests/test_voxels.py")),
     "voxels": ("foldprint/exchange/voxels.py", ("tests/test_voxels.py",)),
     "voxel_pixels": ("foldprint/exchange/voxel_pixels.py", ("tests/test_voxels.py",)),
     "files": ("foldprint/exchange/files.py",
