@@ -530,12 +530,12 @@ def main() -> None:
         else:
             done[name] = evaluate(name, args.workdir / name, args)
         print(f"  {name}: {_summary(done[name])}", file=sys.stderr, flush=True)
-        if not args.no_write:  # after each module: a long campaign keeps what it has done
-            _save(done)
+        if not args.no_write:  # after each module, that module only: a long campaign keeps what it has
+            _save({name: done[name]})  # done, and never writes back a module another run changed since
     if args.no_write:
         data = {"modules": {k: rescore(k, v, load_equivalent()) for k, v in {**modules, **done}.items()}}
     else:
-        data = _save(done, load_equivalent())
+        data = _save({}, load_equivalent())
     print(json.dumps(data, ensure_ascii=False) if args.json else table(data["modules"]))
 
 
