@@ -1,19 +1,32 @@
 """Mutation score of the core modules: each module mutated (mutmut 3) against the test
 files that cover it, the score and the surviving mutants written for docs/testing.md.
 
-    python benchmarks/mutation.py [--modules recovery,kinematics ...] [--all] [--json]
-                                  [--workdir DIR] [--max-children 1] [--no-write]
+    python benchmarks/mutation.py [--modules recovery,kinematics ...] [--sample N --seed S]
+                                  [--recheck] [--report-only] [--json] [--workdir DIR]
 
 ``MODULES`` below is the one map module -> tests. A run copies the package and the tests
-to ``--workdir/<module>`` (the work tree is never touched), lets mutmut mutate that one
-module and run, for each mutant, the mapped tests that called the mutated function (its
-per-function selection, one forked process per mutant under a CPU limit of
+to ``--workdir/<module>`` (the work tree is never touched), lets mutmut write the module's
+mutants there and run, for each mutant, the mapped tests that called the mutated function
+(its per-function selection, one forked process per mutant under a CPU limit of
 ``timeout_multiplier`` x the tests' clean time), then re-runs every mutant that survived
 that selection against *all* the module's mapped tests in a fresh interpreter
 (``MUTANT_UNDER_TEST`` set, a wall-clock timeout): mutmut's selection comes from one
 traced run in which a cached result (``lru_cache``, a module-scoped fixture) is computed
 by the first test only, so a survivor of the selection is not yet a survivor. Only what
 survives the whole map is listed.
+
+Which mutants run:
+
+* every mutant of the module (the default): the score is a census, exact for the module;
+* ``--sample N --seed S``: a uniform random sample of N of the module's mutants, drawn
+  without replacement by ``random.Random(f"{S}:{module}")`` from the sorted mutant names
+  (listed in the JSON with their statuses); the score is an estimate with a 95 %
+  Clopper-Pearson interval (``mutation_report.py`` says why that one);
+* ``--recheck``: only the recorded survivors of the modules' last runs, against the
+  current tests (after a test was written to kill one); the source must be the one the
+  mutants were made from (its sha256 is recorded). The first run's statuses are kept, so
+  the report tells the estimate for mutants no test was written for ("as sampled") from
+  the score after the new tests.
 
 Two things mutmut 3.8 does not do are done here, in the scratch copy only:
 
@@ -25,15 +38,17 @@ Two things mutmut 3.8 does not do are done here, in the scratch copy only:
   diffing each mutant's function against mutmut's copy of the original.
 
 Scores: ``killed`` counts mutants a test failed on (a timeout counts as killed: the
-mutant hung the tests); ``score = killed / (mutants - equivalent)``, where the equivalent
-mutants are those listed with their reasons in ``docs/data/mutation_equivalent.toml``
-(matched by module, function and the mutated line). Results go to
-``docs/data/mutation.json`` (merged: a run of some modules replaces only their entries)
-and the table between the ``mutation-table`` markers of ``docs/testing.md``.
+mutant hung the tests); ``score = killed / (mutants run - equivalent)``, where the
+equivalent mutants are those listed with their reasons in
+``docs/data/mutation_equivalent.toml`` (matched by module, function and the mutated line).
+Results go to ``docs/data/mutation.json`` (merged: a run of some modules replaces only
+their entries) and the table between the ``mutation-table`` markers of
+``docs/testing.md``; ``--report-only`` rebuilds that table from the JSON and the
+equivalent list without running anything.
 
 Cost: CPU seconds (user + sys of every child process, ``RUSAGE_CHILDREN``) of mutmut's
-run and of the confirmation pass, per module. Run it in the background, one module at a
-time (``nice -n 10``); the default modules take about an hour of CPU.
+run, of the confirmation pass and of rechecks, per module. Every child runs under
+``nice -n 19``; run the script in the background, one module at a time.
 """
 
 from __future__ import annotations
@@ -41,69 +56,88 @@ from __future__ import annotations
 import argparse
 import ast
 import difflib
+import hashlib
 import json
 import os
+import random
 import re
 import resource
 import shutil
 import subprocess
 import sys
 import time
-import tomllib
 from pathlib import Path
 
+from mutation_report import (KILLED_STATUSES, SURVIVOR_STATUSES, load_data, load_equivalent, rescore,
+                             save_data, table, write_docs)
+
 ROOT = Path(__file__).resolve().parent.parent
-DATA_JSON = ROOT / "docs" / "data" / "mutation.json"
-EQUIVALENT_TOML = ROOT / "docs" / "data" / "mutation_equivalent.toml"
-TESTING_MD = ROOT / "docs" / "testing.md"
-TABLE_BEGIN, TABLE_END = "<!-- mutation-table:begin -->", "<!-- mutation-table:end -->"
 MUTMUT_VERSION = "3.8.1"
 
-# module -> (source candidates: the first that exists, the test files that cover it)
-MODULES: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "recovery": (("foldprint/physics/recovery.py",),
+# module -> (source, the test files that cover it)
+MODULES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "recovery": ("foldprint/physics/recovery.py",
                  ("tests/test_recovery.py", "tests/test_recovery_batch.py", "tests/test_materials.py",
                   "tests/test_grading.py")),
-    "recovery_batch": (("foldprint/physics/recovery_batch.py",),
+    "recovery_batch": ("foldprint/physics/recovery_batch.py",
                        ("tests/test_recovery_batch.py", "tests/test_grading.py")),
-    "kinematics": (("foldprint/physics/kinematics.py",),
+    "kinematics": ("foldprint/physics/kinematics.py",
                    ("tests/test_simulation.py", "tests/test_loops.py", "tests/test_collision_scale.py")),
-    "swept3d": (("foldprint/collision/swept3d.py",),
-                ("tests/test_collision_scale.py", "tests/test_clearance_reference.py",
-                 "tests/test_simulation.py")),
-    "broadphase": (("foldprint/collision/broadphase.py",),
+    "swept3d": ("foldprint/collision/swept3d.py",
+                ("tests/test_collision_scale.py", "tests/test_clearance_reference.py", "tests/test_simulation.py")),
+    "broadphase": ("foldprint/collision/broadphase.py",
                    ("tests/test_collision_scale.py", "tests/test_clearance_reference.py",
                     "tests/test_simulation.py")),
-    "clearance": (("foldprint/collision/clearance.py",),
+    "clearance": ("foldprint/collision/clearance.py",
                   ("tests/test_clearance_reference.py", "tests/test_simulation.py")),
-    "threemf": (("foldprint/exchange/threemf.py",), ("tests/test_export.py", "tests/test_printfiles.py")),
-    "voxels": (("foldprint/exchange/voxels.py",), ("tests/test_voxels.py",)),
-    "voxel_pixels": (("foldprint/exchange/voxel_pixels.py",), ("tests/test_voxels.py",)),
-    # rewritten on other branches: configured, run with --all or --modules
-    "robust": (("foldprint/simulation/robust.py",),
+    "robust": ("foldprint/simulation/robust.py",
                ("tests/test_jam_reference.py", "tests/test_robust.py", "tests/test_scatter.py")),
-    "verdict": (("foldprint/simulation/verdict.py",),
-                ("tests/test_jam_reference.py", "tests/test_robust.py")),
-    "files": (("foldprint/core/files.py", "foldprint/exchange/files.py"),
+    "verdict": ("foldprint/simulation/verdict.py", ("tests/test_jam_reference.py", "tests/test_verdict.py")),
+    "sequential": ("foldprint/simulation/sequential.py",
+                   ("tests/test_batch.py", "tests/test_verdict.py", "tests/test_evaluation.py",
+                    "tests/test_flip_drivers.py", "tests/test_progress.py")),
+    "threemf": ("foldprint/exchange/threemf.py", ("tests/test_export.py", "tests/test_printfiles.py", "tests/test_voxels.py")),
+    "voxels": ("foldprint/exchange/voxels.py", ("tests/test_voxels.py",)),
+    "voxel_pixels": ("foldprint/exchange/voxel_pixels.py", ("tests/test_voxels.py",)),
+    "files": ("foldprint/exchange/files.py",
               ("tests/test_export_publish.py", "tests/test_export_kill.py", "tests/test_export.py")),
+    "core_files": ("foldprint/core/files.py", ("tests/test_export_publish.py", "tests/test_export_kill.py")),
 }
-DEFAULT_MODULES = ("recovery", "recovery_batch", "kinematics", "swept3d", "broadphase", "clearance",
-                   "threemf", "voxels", "voxel_pixels")
 
+NICE = 19  # our choice: the machine is shared; mutation runs yield to everything else
 # mutmut's per-mutant CPU limit is (selected tests' clean time + constant) x multiplier x 2
 TIMEOUT_MULTIPLIER = 10.0  # our choice: a mutant 10x slower than the clean tests has hung
 TIMEOUT_CONSTANT_S = 5.0  # our choice: pytest start-up under load
 CONFIRM_TIMEOUT_FACTOR = 5.0  # our choice: a confirmation run 5x the clean map's wall time has hung
 KILLED = {1: "killed", 3: "killed"}
+TIMEOUT_CODES = (24, -24, 36, 152, 255)  # mutmut's codes for a mutant stopped by its CPU limit
 ALSO_COPY = ("templates", "examples", "docs")  # what the tests read beside the package
 MUTANT_NAME = re.compile(r"^(x.*)__mutmut_(orig|\d+)$")
+# mutmut 3.8's mutant generation alone, run in the scratch copy (the sample is drawn from
+# its names before any test runs)
+GENERATE = """
+import os
+from mutmut.__main__ import (copy_also_copy_files, copy_src_dir, create_mutants, set_mutant_under_test,
+                             setup_source_paths, store_lines_covered_by_tests)
+os.makedirs("mutants", exist_ok=True)
+set_mutant_under_test("mutant_generation")
+copy_src_dir(); copy_also_copy_files(); setup_source_paths(); store_lines_covered_by_tests(); create_mutants(1)
+"""
 
 
-def source_of(name: str) -> Path | None:
-    for rel in MODULES[name][0]:
-        if (ROOT / rel).is_file():
-            return Path(rel)
-    return None
+def source_of(name: str) -> Path:
+    return Path(MODULES[name][0])
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def draw_sample(name: str, keys, n: int, seed: int) -> list[str]:
+    """A uniform random sample of ``n`` of ``keys`` without replacement, the same for the
+    same seed, module and mutants (all of them when ``n`` is at least their number)."""
+    keys = sorted(keys)
+    return sorted(random.Random(f"{seed}:{name}").sample(keys, min(n, len(keys))))
 
 
 # ---- the scratch copy ------------------------------------------------------------------
@@ -190,10 +224,21 @@ def prepare(name: str, work: Path, resume: bool = False) -> dict:
         f"timeout_multiplier = {TIMEOUT_MULTIPLIER}\ntimeout_constant = {TIMEOUT_CONSTANT_S}\n"
         f"also_copy = {json.dumps(list(ALSO_COPY))}\n"
         "use_git_change_detection = false\nuse_setproctitle = false\n")
-    entry = {"source": str(src), "tests": list(tests), "decorators_lifted": lifted,
-             "decorated_not_mutated": kept}
+    entry = {"source": str(src), "source_sha256": sha256(ROOT / src), "tests": list(tests),
+             "decorators_lifted": lifted, "decorated_not_mutated": kept}
     (work / "prepared.json").write_text(json.dumps(entry))
     return entry
+
+
+def generate(work: Path) -> None:
+    """mutmut's mutants of the module in ``work/mutants`` (once), no test run."""
+    if (work / "generated").is_file():
+        return
+    proc = subprocess.run(["nice", "-n", str(NICE), sys.executable, "-c", GENERATE], cwd=work, env=_env(work),
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"mutmut could not make the mutants in {work}:\n{proc.stderr[-2000:]}")
+    (work / "generated").write_text("")
 
 
 # ---- running ---------------------------------------------------------------------------
@@ -211,15 +256,16 @@ def _env(work: Path, **extra: str) -> dict:
             **extra}
 
 
-def run_mutmut(work: Path, max_children: int) -> tuple[float, float]:
-    """mutmut run in ``work`` (once: a resumed run reads what it cost); returns (CPU s, wall s)."""
+def run_mutmut(work: Path, max_children: int, names: list[str] | None) -> tuple[float, float]:
+    """mutmut run in ``work`` on ``names`` (None: every mutant), once: a resumed run reads
+    what it cost; returns (CPU s, wall s)."""
     done = work / "mutmut.done"
     if done.is_file():
         return tuple(json.loads(done.read_text()))
     cpu0, t0 = _children_cpu(), time.monotonic()
-    exe = [sys.executable, "-m", "mutmut", "run", "--max-children", str(max_children)]
+    exe = [sys.executable, "-m", "mutmut", "run", "--max-children", str(max_children), *(names or [])]
     with open(work / "mutmut.log", "w") as log:
-        proc = subprocess.run(["nice", "-n", "10", *exe], cwd=work, stdout=log, stderr=subprocess.STDOUT,
+        proc = subprocess.run(["nice", "-n", str(NICE), *exe], cwd=work, stdout=log, stderr=subprocess.STDOUT,
                               env=_env(work))
     if proc.returncode != 0:
         tail = (work / "mutmut.log").read_text(errors="replace")[-2000:]
@@ -233,7 +279,7 @@ def _pytest_map(work: Path, tests, mutant: str, timeout: float | None) -> tuple[
     """All of ``tests`` against one mutant (``""``: none) in a fresh interpreter in
     mutants/; returns (exit code or None on timeout, wall s)."""
     env = _env(work, MUTANT_UNDER_TEST=mutant)
-    cmd = ["nice", "-n", "10", sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
+    cmd = ["nice", "-n", str(NICE), sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
            "-p", "no:randomly", *tests]
     t0 = time.monotonic()
     try:
@@ -244,16 +290,17 @@ def _pytest_map(work: Path, tests, mutant: str, timeout: float | None) -> tuple[
     return proc.returncode, time.monotonic() - t0
 
 
-def exit_codes(work: Path, src: str) -> dict[str, int | None]:
+def exit_codes(work: Path, src: Path) -> dict[str, int | None]:
     meta = json.loads((work / "mutants" / f"{src}.meta").read_text())
     return meta["exit_code_by_key"]
 
 
-def confirm(work: Path, tests, candidates: list[str]) -> tuple[dict[str, str], float, float]:
-    """Re-run each of ``candidates`` against the whole map; returns ({mutant: status},
-    CPU s, the clean map's wall s). Progress is kept in ``confirm.json``: a resumed run
-    goes on where the last one stopped."""
-    log = work / "confirm.json"
+def confirm(work: Path, tests, candidates: list[str], log_name: str = "confirm.json"
+            ) -> tuple[dict[str, str], float, float]:
+    """Re-run each of ``candidates`` (mutmut's full names) against the whole map; returns
+    ({mutant: status}, CPU s, the clean map's wall s). Progress is kept in ``log_name``:
+    a resumed run goes on where the last one stopped."""
+    log = work / log_name
     state = json.loads(log.read_text()) if log.is_file() else {"status": {}, "cpu_s": 0.0}
     cpu0 = _children_cpu()
     if "clean_wall_s" not in state:
@@ -316,154 +363,180 @@ def locate(work: Path, src: str, key: str, texts: dict[str, str], defs: dict[str
 
 # ---- one module ---------------------------------------------------------------------------
 
-def load_equivalent() -> list[dict]:
-    """The mutants explained as equivalent: [[equivalent]] module, function, to (the
-    mutated line as listed), reason."""
-    if not EQUIVALENT_TOML.is_file():
-        return []
-    return tomllib.loads(EQUIVALENT_TOML.read_text()).get("equivalent", [])
+def _classify(codes: dict[str, int | None]) -> dict[str, str]:
+    """mutmut's exit code of each mutant -> killed | timeout | unconfirmed | not run."""
+    return {k: ("not run" if c is None else "killed" if c in KILLED else "timeout" if c in TIMEOUT_CODES
+                else "unconfirmed") for k, c in codes.items()}
 
 
-def _equivalent_reason(name: str, m: dict, equivalent: list[dict]) -> str | None:
-    for e in equivalent:
-        if e["module"] == name and e["function"] == m["function"] and e["to"] == m["to"]:
-            return e["reason"]
-    return None
+def _short(key: str) -> str:
+    """'foldprint.physics.recovery.x_f__mutmut_3' -> 'x_f__mutmut_3'."""
+    return key.rpartition(".")[2]
 
 
-def _statuses(work: Path, src: Path, tests, max_children: int, report_only: bool) -> tuple[dict, dict]:
-    """{mutant: killed | timeout | survived | unconfirmed | not run} and the run's costs;
-    ``report_only`` runs nothing and reads what the scratch copy holds."""
-    done = work / "mutmut.done"
-    if report_only:
-        mutmut_cost = tuple(json.loads(done.read_text())) if done.is_file() else (None, None)
-    else:
-        mutmut_cost = run_mutmut(work, max_children)
-    codes = exit_codes(work, str(src))
-    status = {k: ("not run" if c is None else "killed" if c in KILLED
-                  else "timeout" if c in (24, -24, 36, 152, 255) else "unconfirmed")
-              for k, c in codes.items()}
-    candidates = [k for k, s in status.items() if s == "unconfirmed"]
-    if report_only:
-        log = work / "confirm.json"
-        state = json.loads(log.read_text()) if log.is_file() else {"status": {}, "cpu_s": None}
-        confirmed = {k: v for k, v in state["status"].items() if k in status}
-        confirm_cost = (state["cpu_s"], state.get("clean_wall_s"))
-    else:
-        confirmed, *confirm_cost = confirm(work, tests, candidates)
-    status.update(confirmed)
-    costs = {"cpu_s": {"mutmut": mutmut_cost[0], "confirmation": confirm_cost[0]},
-             "wall_s": {"mutmut": mutmut_cost[1], "clean_map": confirm_cost[1]},
-             "killed_by_selection": sum(c in KILLED for c in codes.values()),
-             "killed_on_confirmation": sum(s in ("killed", "timeout") for s in confirmed.values())}
-    return status, costs
+def _full(src: Path, short: str) -> str:
+    return f"{str(src.with_suffix('')).replace('/', '.')}.{short}"
 
 
-def evaluate(name: str, workdir: Path, max_children: int, resume: bool = False,
-             report_only: bool = False) -> dict:
-    src = source_of(name)
-    work = workdir / name
-    if src is None or (report_only and not (work / "prepared.json").is_file()):
-        return {"skipped": f"none of {', '.join(MODULES[name][0])} exists" if src is None else "not run"}
-    entry = prepare(name, work, resume or report_only)
-    status, costs = _statuses(work, src, entry["tests"], max_children, report_only)
+def _survivors(work: Path, src: Path, status: dict[str, str]) -> list[dict]:
     texts = _function_texts(work / "mutants" / src)
     defs = _def_lines(ROOT / src)
-    equivalent = load_equivalent()
-    survivors = []
-    for key in sorted(k for k, s in status.items() if s in ("survived", "unconfirmed")):
-        m = locate(work, str(src), key, texts, defs)
-        m["equivalent"] = _equivalent_reason(name, m, equivalent)
-        m["confirmed"] = status[key] == "survived"
-        survivors.append(m)
-    survivors.sort(key=lambda m: (m["line"], m["id"]))
-    n = sum(s != "not run" for s in status.values())
-    killed = sum(s in ("killed", "timeout") for s in status.values())
-    n_eq = sum(m["equivalent"] is not None for m in survivors)
+    out = [locate(work, str(src), key, texts, defs) for key, s in status.items() if s in SURVIVOR_STATUSES]
+    return sorted(out, key=lambda m: (m["line"], m["id"]))
+
+
+def _run_key(work: Path, args) -> dict:
+    """Which mutants the scratch copy runs ({"sample": N or None, "seed": S}); a resumed
+    copy must be resumed with the same."""
+    marker = work / "run.json"
+    key = {"sample": args.sample, "seed": args.seed if args.sample else None}
+    if marker.is_file():
+        held = json.loads(marker.read_text())
+        if args.collect:
+            return held
+        if held != key:
+            raise SystemExit(f"{work} holds a run of {held}, not {key}: run without --resume to start afresh")
+    marker.write_text(json.dumps(key))
+    return key
+
+
+def evaluate(name: str, work: Path, args) -> dict:
+    """Run module ``name``'s mutants (all, or a sample) and confirm its survivors against
+    the whole map; ``args.collect``: run nothing, read what the scratch copy holds."""
+    src = source_of(name)
+    if args.collect and not (work / "generated").is_file():
+        return {"skipped": "not run"}
+    entry = prepare(name, work, args.resume or args.collect)
+    generate(work)
+    run = _run_key(work, args)
+    keys = list(exit_codes(work, src))
+    sample = draw_sample(name, keys, run["sample"], run["seed"]) if run["sample"] else None
+    done, log = work / "mutmut.done", work / "confirm.json"
+    if args.collect:
+        mutmut_cost = tuple(json.loads(done.read_text())) if done.is_file() else (None, None)
+    else:
+        mutmut_cost = run_mutmut(work, args.max_children, sample)
+    codes = exit_codes(work, src)
+    status = _classify({k: codes[k] for k in (sample or keys)})
+    candidates = [k for k, s in status.items() if s == "unconfirmed"]
+    if args.collect:
+        state = json.loads(log.read_text()) if log.is_file() else {"status": {}, "cpu_s": None}
+        confirmed = {k: v for k, v in state["status"].items() if k in status}
+        cpu, clean = state["cpu_s"], state.get("clean_wall_s")
+    else:
+        confirmed, cpu, clean = confirm(work, entry["tests"], candidates)
+    status.update(confirmed)
+    short = {_short(k): s for k, s in status.items()}
     entry.update({
-        "mutants": n, "not_run": len(status) - n, "killed": killed,
-        "timeouts": sum(s == "timeout" for s in status.values()),
-        "survived": n - killed, "unconfirmed": sum(s == "unconfirmed" for s in status.values()),
-        "equivalent": n_eq,
-        "score": round(killed / max(n - n_eq, 1), 4), "raw_score": round(killed / max(n, 1), 4),
-        **costs, "survivors": survivors,
+        "mode": "sample" if sample else "all", "population": len(keys),
+        "sample": {"n": run["sample"], "seed": run["seed"], "draw": f"random.Random('{run['seed']}:{name}')"}
+        if sample else None,
+        "status": short,
+        "cpu_s": {"mutmut": mutmut_cost[0], "confirmation": cpu},
+        "wall_s": {"mutmut": mutmut_cost[1], "clean_map": clean},
+        "killed_by_selection": sum(codes[k] in KILLED for k in status),
+        "killed_on_confirmation": sum(s in KILLED_STATUSES for s in confirmed.values()),
+        "survivors": _survivors(work, src, short),
     })
-    return entry
+    return rescore(name, entry, load_equivalent())
+
+
+def recheck(name: str, work: Path, entry: dict) -> dict:
+    """``entry``'s survivors (not the equivalent ones) run again against the current map, in
+    a fresh scratch copy of the current package and tests; the first statuses are kept."""
+    src = source_of(name)
+    if entry.get("source_sha256") != sha256(ROOT / src):
+        raise SystemExit(f"{src} changed since its mutants were made: draw them again (--sample N --seed S)")
+    entry = rescore(name, entry, load_equivalent())  # a mutant explained since is not run again
+    fresh = prepare(name, work)
+    generate(work)
+    todo = {m["id"]: _full(src, m["id"]) for m in entry["survivors"] if m["equivalent"] is None}
+    confirmed, cpu, clean = confirm(work, fresh["tests"], list(todo.values()), "recheck.json")
+    entry.setdefault("first_status", dict(entry["status"]))
+    for short, full in todo.items():
+        entry["status"][short] = confirmed[full]
+    entry["survivors"] = [m for m in entry["survivors"] if entry["status"][m["id"]] in SURVIVOR_STATUSES]
+    entry["tests"] = fresh["tests"]
+    entry["cpu_s"]["recheck"] = (entry["cpu_s"].get("recheck") or 0.0) + cpu
+    entry["wall_s"]["clean_map"] = clean
+    return rescore(name, entry, load_equivalent())
 
 
 # ---- output -------------------------------------------------------------------------------
 
-def table(modules: dict) -> str:
-    rows = ["| module | tests | mutants | killed | survived | equivalent | score | CPU-s |",
-            "|---|---|---:|---:|---:|---:|---:|---:|"]
-    for name, e in modules.items():
-        if "mutants" not in e:
-            continue
-        tests = ", ".join(Path(t).stem.removeprefix("test_") for t in e["tests"])
-        cpu = sum(v or 0.0 for v in e["cpu_s"].values())
-        partial = " (partial)" if e["not_run"] or e["unconfirmed"] else ""
-        rows.append(f"| `{e['source']}` | {tests} | {e['mutants']} | {e['killed']} | {e['survived']} "
-                    f"| {e['equivalent']} | {100 * e['score']:.1f} %{partial} | {cpu:.0f} |")
-    return "\n".join(rows)
+def _summary(e: dict) -> str:
+    if "skipped" in e:
+        return e["skipped"]
+    cpu = sum(v or 0.0 for v in e["cpu_s"].values())
+    ci = f" [{100 * e['interval']['low']:.1f}, {100 * e['interval']['high']:.1f}] %" if e.get("interval") else ""
+    return (f"{e['killed']}/{e['mutants'] - e['equivalent']} killed, score {100 * e['score']:.1f} %{ci}, "
+            f"{cpu:.0f} CPU-s")
 
 
-def survivors_md(modules: dict) -> str:
-    out = []
-    for name, e in modules.items():
-        for m in e.get("survivors", []):
-            why = (f"equivalent: {m['equivalent']}" if m["equivalent"]
-                   else "**not yet killed**" if m["confirmed"] else "survived mutmut's selection, not yet confirmed")
-            out.append(f"- `{m['where']}` `{m['function']}`: `{m['from']}` -> `{m['to']}` ({why})")
-    return "\n".join(out) or "- none"
-
-
-def write_docs(modules: dict) -> None:
-    if not TESTING_MD.is_file():
-        return
-    text = TESTING_MD.read_text()
-    if TABLE_BEGIN not in text or TABLE_END not in text:
-        return
-    head, rest = text.split(TABLE_BEGIN, 1)
-    tail = rest.split(TABLE_END, 1)[1]
-    block = f"{TABLE_BEGIN}\n{table(modules)}\n\nSurviving mutants:\n\n{survivors_md(modules)}\n{TABLE_END}"
-    TESTING_MD.write_text(head + block + tail)
-
-
-def main() -> None:
+def _arguments() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--modules", help=f"comma-separated, of {', '.join(MODULES)}")
-    ap.add_argument("--all", action="store_true", help="every configured module")
+    ap.add_argument("--modules", help=f"comma-separated, of {', '.join(MODULES)} (default: all)")
+    ap.add_argument("--sample", type=int, metavar="N", help="run a uniform random sample of N mutants per module")
+    ap.add_argument("--seed", type=int, default=1, metavar="S", help="the sample's seed (default 1)")
+    ap.add_argument("--recheck", action="store_true",
+                    help="run only the recorded survivors again, against the current tests")
+    ap.add_argument("--report-only", action="store_true",
+                    help="run nothing: rebuild docs/testing.md's table from the JSON and the equivalent list")
+    ap.add_argument("--collect", action="store_true",
+                    help="run nothing: record what the scratch copies in --workdir hold (a campaign under way)")
+    ap.add_argument("--resume", action="store_true",
+                    help="go on from the scratch copies an interrupted run left in --workdir")
     ap.add_argument("--json", action="store_true", help="print the results as one JSON object")
     ap.add_argument("--workdir", type=Path, default=Path(os.environ.get("TMPDIR", "/tmp")) / "foldprint-mutation")
     ap.add_argument("--max-children", type=int, default=1, help="mutants run at once (default 1)")
     ap.add_argument("--no-write", action="store_true", help="leave docs/ as it is")
-    ap.add_argument("--report-only", action="store_true",
-                    help="run nothing: report what the scratch copies in --workdir hold (a campaign under way)")
-    ap.add_argument("--resume", action="store_true",
-                    help="go on from the scratch copies an interrupted run left in --workdir")
     args = ap.parse_args()
-    names = list(MODULES) if args.all else (args.modules.split(",") if args.modules else list(DEFAULT_MODULES))
+    if args.sample is not None and args.sample < 1:
+        ap.error("--sample N needs N >= 1")
+    names = args.modules.split(",") if args.modules else list(MODULES)
     unknown = [n for n in names if n not in MODULES]
     if unknown:
         ap.error(f"unknown module(s) {', '.join(unknown)}; choose from {', '.join(MODULES)}")
-    data = json.loads(DATA_JSON.read_text()) if DATA_JSON.is_file() else {}
+    args.names = [] if args.report_only else names
+    return args
+
+
+def _save(done: dict, equivalent: list[dict] | None = None) -> dict:
+    """Merge ``done`` (this run's modules) into docs/data/mutation.json as it stands now, so
+    that runs of other modules at the same time keep theirs; rewrite the doc's table.
+    ``equivalent``: rescore every module with it first."""
+    data = load_data()
     data.update({"tool": f"mutmut {MUTMUT_VERSION}", "script": "benchmarks/mutation.py"})
-    modules = data.setdefault("modules", {})
-    for name in names:
-        print(f"mutating {name} ...", file=sys.stderr, flush=True)
-        modules[name] = evaluate(name, args.workdir, args.max_children, args.resume, args.report_only)
-        e = modules[name]
-        print(f"  {name}: " + (e.get("skipped") or f"{e['killed']}/{e['mutants']} killed, score "
-                                f"{100 * e['score']:.1f} %, {sum(v or 0.0 for v in e['cpu_s'].values()):.0f} CPU-s"),
-              file=sys.stderr, flush=True)
-        if not args.no_write:  # after each module: a long campaign keeps what it has done
-            data["modules"] = {k: modules[k] for k in MODULES if k in modules}
-            DATA_JSON.write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n")
-            write_docs(data["modules"])
-    if args.json:
-        print(json.dumps(data, ensure_ascii=False))
+    # entries without mutant statuses are of an earlier format of this script: run again
+    held = {**{k: v for k, v in data.get("modules", {}).items() if "status" in v}, **done}
+    data["modules"] = {k: (rescore(k, held[k], equivalent) if equivalent is not None and "status" in held[k]
+                           else held[k]) for k in MODULES if k in held}
+    save_data(data)
+    write_docs(data["modules"])
+    return data
+
+
+def main() -> None:
+    args = _arguments()
+    modules = {k: v for k, v in load_data().get("modules", {}).items() if "status" in v}
+    done: dict = {}
+    for name in args.names:
+        print(f"{'rechecking' if args.recheck else 'mutating'} {name} ...", file=sys.stderr, flush=True)
+        if args.recheck:
+            if "status" not in modules.get(name, {}):
+                print(f"  {name}: no recorded run to recheck", file=sys.stderr)
+                continue
+            done[name] = recheck(name, args.workdir / name, modules[name])
+        else:
+            done[name] = evaluate(name, args.workdir / name, args)
+        print(f"  {name}: {_summary(done[name])}", file=sys.stderr, flush=True)
+        if not args.no_write:  # after each module, that module only: a long campaign keeps what it has
+            _save({name: done[name]})  # done, and never writes back a module another run changed since
+    if args.no_write:
+        data = {"modules": {k: rescore(k, v, load_equivalent()) for k, v in {**modules, **done}.items()}}
     else:
-        print(table(data["modules"]))
+        data = _save({}, load_equivalent())
+    print(json.dumps(data, ensure_ascii=False) if args.json else table(data["modules"]))
 
 
 if __name__ == "__main__":

@@ -10,6 +10,8 @@ alone; refusals are one line and write nothing."""
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import hashlib
 import json
 import os
@@ -22,6 +24,7 @@ import pytest
 
 from foldprint.core import files as core_files
 from foldprint.core.errors import ExportError
+from foldprint.exchange import files as files_mod
 from foldprint.exchange.files import StagedSet, recover, sibling_prefix, write_set
 from foldprint.exchange.outfolder import MANIFEST, plan
 
@@ -517,3 +520,186 @@ def test_racing_writers_and_readers_see_one_complete_set(tmp_path):
     assert list(running.values()) == [0, 0], running
     final = assert_plain_set(out)
     assert final in (dict(sets["a"]), dict(sets["b"])) and os.listdir(tmp_path) == ["out"]
+
+
+# -- core/files: the file-system steps a set is made of ------------------------------------
+
+def test_write_atomic_writes_text_as_utf8_and_refuses_with_the_path(tmp_path):
+    """Text is written as its UTF-8 bytes; a target it cannot replace (a folder) is one
+    ExportError naming the path, with no temp file left beside it."""
+    text = "Tg = 45 °C, Δt = 3.03 s\n"
+    p = core_files.write_atomic(tmp_path / "note.txt", text)
+    assert p.read_bytes() == text.encode("utf-8")
+    (tmp_path / "taken").mkdir()
+    with pytest.raises(ExportError, match=r"taken: cannot write: Is a directory"):
+        core_files.write_atomic(tmp_path / "taken", b"x")
+    assert sorted(os.listdir(tmp_path)) == ["note.txt", "taken"]
+
+
+def test_rename_errors_name_both_paths(tmp_path):
+    """A rename of a missing source is the OS's error with its number and both paths,
+    whether renameat2 or the fallback rename raised it."""
+    src, dst = tmp_path / "missing", tmp_path / "dst"
+    with pytest.raises(FileNotFoundError) as err:
+        core_files.rename_noreplace(src, dst)
+    assert (err.value.errno, err.value.filename, err.value.filename2) == (errno.ENOENT, str(src), str(dst))
+
+
+def test_rename_noreplace_without_renameat2(tmp_path, monkeypatch):
+    """Where the system has no RENAME_NOREPLACE (renameat2 says it cannot): a check, then a
+    plain rename; an existing target is FileExistsError (EEXIST, its path), both kept."""
+    monkeypatch.setattr(core_files, "renameat2", lambda src, dst, flags: False)
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.write_bytes(b"A")
+    core_files.rename_noreplace(a, b)
+    assert not a.exists() and b.read_bytes() == b"A"
+    a.write_bytes(b"new")
+    with pytest.raises(FileExistsError) as err:
+        core_files.rename_noreplace(a, b)
+    assert (err.value.errno, err.value.filename) == (errno.EEXIST, str(b))
+    assert a.read_bytes() == b"new" and b.read_bytes() == b"A"
+
+
+# -- exchange/files: the edges of a publication --------------------------------------------
+
+def test_recover_removes_only_its_own_stale_temp_files(tmp_path):
+    """recover removes write_atomic's temp files older than STALE_TMP_S, and nothing else:
+    not a fresh one (a writer may be using it), not a user's old file, not a link that
+    merely has a temp file's name."""
+    old = time.time() - 2 * files_mod.STALE_TMP_S
+    stale, fresh = tmp_path / ".foldprint-abcd1234.tmp", tmp_path / ".foldprint-efgh5678.tmp"
+    mine, link = tmp_path / "notes.txt", tmp_path / ".foldprint-link0000.tmp"
+    for p in (stale, fresh, mine):
+        p.write_bytes(b"x")
+    link.symlink_to(mine)
+    for p in (stale, mine):
+        os.utime(p, (old, old))
+    os.utime(link, (old, old), follow_symlinks=False)
+    done = recover(tmp_path)
+    assert done == [f"removed {stale.name}"]
+    assert sorted(os.listdir(tmp_path)) == sorted([fresh.name, mine.name, link.name])
+
+
+def test_write_set_calls_a_callable_for_its_bytes(tmp_path):
+    paths = write_set(tmp_path / "out", [("a.txt", lambda: b"made late"), ("b.txt", b"given")])
+    assert [p.read_bytes() for p in paths] == [b"made late", b"given"]
+
+
+def test_a_folder_name_with_undecodable_bytes_is_published(tmp_path):
+    """A folder whose name is not UTF-8 (a surrogate-escaped byte): its staging folders'
+    prefix is made, and the set lands."""
+    out = tmp_path / os.fsdecode(b"set-\xff")
+    assert sibling_prefix(out).startswith(".set-")
+    write_set(out, [("a.txt", b"A")])
+    assert (out / "a.txt").read_bytes() == b"A" and os.listdir(tmp_path) == [out.name]
+
+
+def test_an_interrupt_while_publishing_stays_an_interrupt(tmp_path, monkeypatch):
+    """Ctrl-C during publication propagates as KeyboardInterrupt (not relabelled as a write
+    error), and nothing of the set is left."""
+    def interrupt(*a, **k):
+        raise KeyboardInterrupt
+
+    def data():
+        monkeypatch.setattr(files_mod, "plan", interrupt)  # the set is staged: publication fails
+        return b"A"
+
+    with pytest.raises(KeyboardInterrupt):
+        write_set(tmp_path / "out", [("a.txt", data)])
+    assert os.listdir(tmp_path) == []
+
+
+def test_an_earlier_set_that_cannot_be_removed_is_a_warning_naming_why(tmp_path, monkeypatch, caplog):
+    out = tmp_path / "out"
+    write_set(out, [("a.txt", b"old")])
+
+    def busy(path):
+        raise OSError(16, "Device or resource busy")
+
+    monkeypatch.setattr(files_mod, "_remove_set", busy)
+    with caplog.at_level("WARNING", logger=files_mod.__name__):
+        write_set(out, [("a.txt", b"new")])
+    assert (out / "a.txt").read_bytes() == b"new"
+    [msg] = [r.getMessage() for r in caplog.records if r.name == files_mod.__name__]
+    assert str(out) in msg and "resource busy" in msg
+
+
+def test_the_lock_falls_back_to_the_folder_when_its_parent_cannot_be_opened(tmp_path, monkeypatch):
+    """Two writers of one folder publish one after the other even where the parent cannot
+    be opened: the lock is then taken on the folder itself (another open of it cannot)."""
+    real = tmp_path / "out"
+    real.mkdir()
+    opener = os.open
+
+    def no_parent(path, flags, *a):
+        if Path(path) == tmp_path:
+            raise PermissionError(13, "Permission denied", str(path))
+        return opener(path, flags, *a)
+
+    monkeypatch.setattr(files_mod.os, "open", no_parent)
+    with files_mod._dir_lock(real):
+        fd = opener(real, os.O_RDONLY | os.O_DIRECTORY)
+        try:
+            with pytest.raises(BlockingIOError):
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        finally:
+            os.close(fd)
+
+
+def test_files_made_in_the_staging_folder_directly_are_in_the_manifest(tmp_path):
+    """The gallery's workers write into ``st.path`` themselves: such files, and a file
+    written by ``st.write`` then rewritten in place, are listed with their own size and
+    sha256 (checked by assert_plain_set against the bytes on disk)."""
+    out = tmp_path / "out"
+    with StagedSet(out) as st:
+        (st.path / "sub").mkdir()
+        (st.path / "sub" / "direct.png").write_bytes(b"made by a worker")
+        st.write("page.html", b"first")
+        (st.path / "page.html").write_bytes(b"rewritten, longer")
+    assert_plain_set(out, {"sub/direct.png": b"made by a worker", "page.html": b"rewritten, longer"})
+
+
+def test_a_staging_folder_that_cannot_be_made_is_one_export_error(tmp_path, monkeypatch):
+    """A full disk before anything is staged: ExportError naming the folder, nothing made."""
+    def full(path, *a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(files_mod.os, "mkdir", full)
+    with pytest.raises(ExportError, match=r"out: cannot write: No space left on device"):
+        write_set(tmp_path / "out", NEW)
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_publication_into_a_users_folder_is_marked_incomplete_until_it_ends(tmp_path, monkeypatch):
+    """File by file into a folder of the user's files: the manifest says complete: false
+    (with the files it is replacing) from before the first file moves, so a run stopped
+    half-way is never read as a whole set."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_bytes(b"mine")
+    write_set(out, OLD, force=True)
+    replace = os.replace
+
+    def stop_after_manifest(src, dst):
+        if Path(dst).name != MANIFEST:
+            raise OSError(errno.EIO, "Input/output error", str(dst))
+        replace(src, dst)
+
+    monkeypatch.setattr(files_mod.os, "replace", stop_after_manifest)
+    with pytest.raises(ExportError, match="Input/output error"):
+        write_set(out, NEW, force=True)
+    man = json.loads((out / MANIFEST).read_bytes())
+    assert man["complete"] is False
+    assert {r["name"] for r in man["files"]} >= {n for n, _ in OLD + NEW}
+
+
+def test_a_legacy_export_that_is_the_current_folder_becomes_plain_files(tmp_path, monkeypatch):
+    """File by file (--force: the current folder cannot be replaced whole) over an export
+    of the earlier layout: its links, its switch and its sets go; plain files remain."""
+    out = tmp_path / "out"
+    out.mkdir()
+    _legacy(out, OLD)
+    monkeypatch.chdir(out)
+    write_set(out, NEW, force=True)
+    assert sorted(os.listdir(out)) == sorted([MANIFEST, *(n for n, _ in NEW)])
+    assert_plain_set(out, dict(NEW))

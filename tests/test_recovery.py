@@ -87,28 +87,56 @@ def test_spectrum_has_16_branches_with_unit_weight(lib):
     assert g.sum() == pytest.approx(1.0)
 
 
+def _fd_step(temp, p, bath, dz, dt):
+    """One explicit step of the heat equation through the thickness; Robin faces by ghost
+    nodes (-k dT/dz = h (T - Tb))."""
+    r = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk) * dt / dz**2
+    new = temp.copy()
+    new[1:-1] = temp[1:-1] + r * (temp[2:] - 2 * temp[1:-1] + temp[:-2])
+    for i, nb in ((0, 1), (len(temp) - 1, len(temp) - 2)):
+        ghost = temp[nb] - 2 * dz * p.h_w_m2k / p.k_w_mk * (temp[i] - bath)
+        new[i] = temp[i] + r * (ghost - 2 * temp[i] + temp[nb])
+    return new
+
+
+def _slab_by_finite_differences(p, thick_m, bath, t0, times, n=81):
+    """Explicit finite differences of the same 1-D problem; the temperatures at ``times``
+    (ascending), (len(times), n)."""
+    dz = thick_m / (n - 1)
+    alpha = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk)
+    dt = 0.2 * dz**2 / alpha / (1.0 + p.h_w_m2k * dz / p.k_w_mk)  # stable with the Robin faces
+    temp, t, out = np.full(n, t0), 0.0, []
+    for t_end in times:
+        steps = max(int(np.ceil((t_end - t) / dt)), 1)
+        step = (t_end - t) / steps
+        for _ in range(steps):
+            temp = _fd_step(temp, p, bath, dz, step)
+        t = t_end
+        out.append(temp)
+    return np.array(out)
+
+
 def test_slab_temperature_against_finite_differences(lib):
     """Independent reference: explicit finite differences of the same 1-D problem."""
     p = lib["H-1"].recovery
-    thick_m, bath, t0 = 0.8e-3, 90.0, 10.0
-    n = 81
-    dz = thick_m / (n - 1)
-    alpha = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk)
-    dt = 0.2 * dz**2 / alpha
-    temp = np.full(n, t0)
-    t_end = 2.0
-    steps = int(t_end / dt)
-    for _ in range(steps):
-        new = temp.copy()
-        new[1:-1] = temp[1:-1] + alpha * dt / dz**2 * (temp[2:] - 2 * temp[1:-1] + temp[:-2])
-        # Robin boundary with a ghost node: -k dT/dz = h (T - Tb)
-        for i, nb in ((0, 1), (n - 1, n - 2)):
-            ghost = temp[nb] - 2 * dz * p.h_w_m2k / p.k_w_mk * (temp[i] - bath)
-            new[i] = temp[i] + alpha * dt / dz**2 * (ghost - 2 * temp[i] + temp[nb])
-        temp = new
-    z_frac = np.linspace(-1, 1, n)
-    series = slab_temperature(np.array([steps * dt]), z_frac, bath, t0, 0.8, p)[0]
-    assert np.max(np.abs(series - temp)) < 0.3  # deg C
+    fd = _slab_by_finite_differences(p, 0.8e-3, 90.0, 10.0, [2.0])[0]
+    series = slab_temperature(np.array([2.0]), np.linspace(-1, 1, 81), 90.0, 10.0, 0.8, p)[0]
+    assert np.max(np.abs(series - fd)) < 0.3  # deg C
+
+
+@pytest.mark.parametrize("h_w_m2k", [361.8, 5000.0])
+def test_slab_temperature_early_and_at_high_biot_against_finite_differences(lib, h_w_m2k):
+    """The series at early times (Fourier number 0.014 to 0.07), where many of its terms
+    count, and at the fitted Biot number (0.72) and a high one (10, a thick hinge or a
+    stirred bath: the eigenvalues crowd the top of each bracket (k pi, k pi + pi/2)); a
+    root taken from the wrong bracket moves the profile by degrees."""
+    from dataclasses import replace
+
+    p = replace(lib["H-1"].recovery, h_w_m2k=h_w_m2k)
+    times = [0.02, 0.1]
+    fd = _slab_by_finite_differences(p, 0.8e-3, 90.0, 10.0, times)
+    series = slab_temperature(np.array(times), np.linspace(-1, 1, 81), 90.0, 10.0, 0.8, p)
+    assert np.max(np.abs(series - fd)) < 0.25  # deg C, of an 80 deg C step
 
 
 def test_panel_material_has_no_recovery(lib):
@@ -148,12 +176,7 @@ def _recovery_by_finite_differences(material, bath_c, t_end, thickness_mm=0.8, i
     tau, g = spectrum(p)
     times, ratios = [0.0], [0.0]
     for k in range(steps):
-        new = temp.copy()
-        new[1:-1] = temp[1:-1] + alpha * dt / dz**2 * (temp[2:] - 2 * temp[1:-1] + temp[:-2])
-        for i, nb in ((0, 1), (n - 1, n - 2)):
-            ghost = temp[nb] - 2 * dz * p.h_w_m2k / p.k_w_mk * (temp[i] - bath_c)
-            new[i] = temp[i] + alpha * dt / dz**2 * (ghost - 2 * temp[i] + temp[nb])
-        temp = new
+        temp = _fd_step(temp, p, bath_c, dz, dt)
         new_rate = 10.0 ** (-log10_shift(temp, material.tg_c, p))
         xi += 0.5 * (rate + new_rate) * dt
         rate = new_rate
@@ -270,3 +293,31 @@ def test_curve_records_its_inputs_and_is_read_only(lib, name):
         assert not arr.flags.writeable
         with pytest.raises(ValueError):
             arr[0] = 0.5
+
+
+def test_a_horizon_that_is_not_positive_is_refused(lib):
+    from foldprint.core.errors import MaterialError
+
+    for horizon in (0.0, -1.0):
+        with pytest.raises(MaterialError, match="horizon must be > 0 s"):
+            recovery_curve(lib["H-3"], 90.0, horizon_s=horizon)
+
+
+@settings(max_examples=300, derandomize=True, database=None)
+@given(steps=st.lists(st.tuples(st.floats(0.01, 5.0), st.floats(0.0, 0.3)), min_size=1, max_size=25),
+       level=st.floats(0.01, 1.0))
+def test_time_to_is_the_first_crossing_of_the_tabulated_curve(steps, level):
+    """Reference: the piecewise-linear curve the model tabulates, read by np.interp: the
+    time returned reaches ``level`` exactly, and no earlier grid point does; None exactly
+    when the curve never gets there."""
+    from foldprint.physics.recovery import RecoveryCurve
+
+    t = np.concatenate([[0.0], np.cumsum([dt for dt, _ in steps])])
+    ratio = np.minimum(np.concatenate([[0.0], np.cumsum([dr for _, dr in steps])]), 1.0)
+    curve = RecoveryCurve("m", 50.0, 90.0, 0.8, 10.0, t, ratio, np.zeros_like(t))
+    got = curve.time_to(level)
+    if ratio[-1] < level:
+        assert got is None
+        return
+    assert np.interp(got, t, ratio) == pytest.approx(level, abs=1e-9)
+    assert np.all(ratio[t < got - 1e-9] < level)

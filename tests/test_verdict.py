@@ -186,3 +186,25 @@ def test_confidence_sequence_covers_at_every_time_at_once(p):
                 missed += 1
                 break
     assert missed / streams <= 0.05 + 3 * math.sqrt(0.05 * 0.95 / streams)
+
+
+def test_unequal_error_rates_reach_every_boundary():
+    """alpha != beta (the defaults are equal, which hides a midpoint or a rate dropped):
+    the boundaries follow the rates given to jam_test, and the truncation point lies
+    halfway between them."""
+    t = jam_test(alpha=0.01, beta=0.3)
+    for sprt in (t.warning, t.error):
+        assert (sprt.upper, sprt.lower) == pytest.approx((math.log(100.0), math.log(0.3)), abs=1e-12)
+        assert sprt.upper - sprt.midpoint == pytest.approx(sprt.midpoint - sprt.lower, abs=1e-12)
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 40])
+def test_llr_is_the_binomial_likelihood_ratio(n):
+    """L after n samples with k jams is log(P(k | hi) / P(k | lo)) of the binomial (scipy),
+    down to a single sample either way."""
+    from scipy.stats import binom
+
+    sprt = T.warning
+    k = np.arange(n + 1)
+    want = binom.logpmf(k, n, sprt.hi) - binom.logpmf(k, n, sprt.lo)
+    assert np.allclose(sprt.llr(k, np.full(n + 1, n)), want, rtol=0, atol=1e-9)

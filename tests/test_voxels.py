@@ -97,6 +97,18 @@ def test_png_round_trip_and_pillow_reads_it():
     assert im.info["dpi"][0] == pytest.approx(600, rel=1e-3) and im.info["dpi"][1] == pytest.approx(300, rel=1e-3)
 
 
+def test_read_png_refuses_a_png_the_voxel_writer_did_not_write():
+    """An 8-bit RGB PNG (Pillow's) is not read as labels: the error says what read_png reads."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.new("RGB", (5, 3), (255, 255, 255)).save(buf, format="PNG")
+    with pytest.raises(ExportError, match="2-bit palette PNGs"):
+        vx.read_png(buf.getvalue())
+    with pytest.raises(ExportError, match="not a PNG"):
+        vx.read_png(b"GIF89a" + bytes(10))
+
+
 def test_blue_noise_is_a_permutation_of_ranks():
     b = vx.blue_noise()
     assert b.shape == (64, 64)
@@ -252,6 +264,50 @@ def test_width_table_cells_are_width_u_of_their_centres():
     whole = r.axes.width_u(t.origin + A.reshape(-1, 1) * t.basis[0] + B.reshape(-1, 1) * t.basis[1])
     assert np.array_equal(got, whole.reshape(t.n[0], t.n[1])[ia, ib])
     assert t.known.sum() == len(np.unique(ia.ravel()[:, None] * t.n[1] + ib.ravel()[None, :]))
+
+
+@pytest.mark.parametrize("tilt_deg", [30.0, 90.0])
+def test_width_fractions_of_a_fold_line_out_of_the_bed(tilt_deg):
+    """A folded state's hinge: its fold line tilted out of the bed's plane (90 deg: vertical,
+    as between two walls of a folded box). Its mid-line runs along x from 0 to W, so the
+    width coordinate of any point is x / W (analytic); the writer's fraction at a window of
+    pixel centres is the profile there, within its table's cell (h / 2 in the width)."""
+    import math as _m
+    w, length, t = 3.0, 2.0, 0.4
+    a = _m.radians(tilt_deg)
+    d = np.array([0.0, _m.cos(a), _m.sin(a)])
+    mid = np.stack([np.linspace(0.0, w, 65), np.zeros(65), np.zeros(65)], axis=1)
+    solid = _box(0.0, 0.0, -t / 2, w, length, t / 2).rotate([tilt_deg, 0.0, 0.0])
+    profile = Profile((0.3, 0.8), Along.WIDTH)
+    r = vx.VoxelRegion("hinge", "h", "X", solid, profile, HingeAxes("h", mid[0].copy(), d, length, mid))
+    table = vx._WidthTable(r, J750)
+    xs = np.linspace(0.05, w - 0.05, 41)
+    ys = length / 2 * _m.cos(a) + np.linspace(-0.1, 0.1, 7)
+    got = np.broadcast_to(vx._fraction_window(r, table, xs, ys, length / 2 * _m.sin(a)), (len(ys), len(xs)))
+    want = np.clip(np.asarray(profile.at(xs / w), float), 0.0, 1.0)
+    slope = abs(profile.at(1.0) - profile.at(0.0))
+    assert np.abs(got - want[None, :]).max() <= slope * table.h / (2 * w) + 1e-12
+
+
+def test_manifest_colour_map_and_dpi_are_what_the_slices_hold(tmp_path):
+    """Read by Pillow: each pixel's RGBA is the colour-map entry of its index, the panel's
+    pixels are the entry naming the panel's resin, empty pixels the 'empty' one, and the
+    PNG's pHYs is the manifest's dpi."""
+    from PIL import Image
+
+    part = _part(Profile((0.5,)))
+    slices, manifest = _stack(part, tmp_path)
+    entry = {c["index"]: c for c in manifest["colour_map"]}
+    data = slices[len(slices) // 2]
+    im = Image.open(io.BytesIO(data))
+    lab, rgba = vx.read_png(data), np.array(im.convert("RGBA"))
+    for idx in np.unique(lab):
+        assert (rgba[lab == idx] == entry[int(idx)]["rgba"]).all()
+    p = part.pitch
+    panel = lab[1:int(3.0 / p.y) - 1, 1:int(2.0 / p.x) - 1]
+    assert {entry[int(i)]["material"] for i in np.unique(panel)} == {part.regions[0].material}
+    assert entry[int(lab[-1, -1])]["material"] == "empty"  # beyond the 3 mm part
+    assert (manifest["dpi"]["x"], manifest["dpi"]["y"]) == pytest.approx(im.info["dpi"], rel=1e-3)
 
 
 @settings(max_examples=60, deadline=None)

@@ -171,7 +171,8 @@ def _walk(out: Path):
 
 def legacy_names(out: Path) -> list[str] | None:
     """The link names of an export in the earlier layout (every name a link
-    ``NAME -> .foldprint-current/NAME``, the switch, the sets folder, temp files), None
+    ``NAME -> .foldprint-current/NAME``, the switch, the sets folder, temp files, a set
+    being staged inside it), None
     when ``out`` holds anything else."""
     links, layout = [], False
     for e in os.scandir(out):
@@ -186,6 +187,8 @@ def legacy_names(out: Path) -> list[str] | None:
             layout = True
         elif e.is_symlink() and os.readlink(e.path) == f"{LEGACY_CURRENT}/{e.name}":
             links.append(e.name)
+        elif STAGE_INSIDE.match(e.name) and e.is_dir(follow_symlinks=False):
+            continue  # a set being staged inside it, file by file (its own writer's)
         elif not (TMP_NAME.match(e.name) and e.is_file(follow_symlinks=False)):
             return None
     return sorted(links) if layout else None
