@@ -128,11 +128,12 @@ CLEARANCE_SAMPLES = 200
 MARGIN_SAMPLES = 16
 #: Most non-adjacent panel pairs the margin screen searches (our choice, to keep ``simulate``
 #: a matter of seconds): each sample's closest approach is an exact search over 200 poses of
-#: every such pair, measured ~0.1 CPU-us a pair and pose (19 CPU-s a sample for a 1,500-panel
-#: strip, 1.1 M pairs); at 50,000 pairs (about 320 panels in a strip) the 16 samples cost about
-#: 15 CPU-s. Above it the screen is left out and ``simulate`` says so; ``check`` still runs
-#: the jam test.
-MARGIN_MAX_PAIRS = 50_000
+#: every such pair, measured ~0.25 CPU-us a pair and pose (benchmarks/guard_peaks.py:
+#: ``simulate`` on a 250-panel strip, 30,876 pairs, 30 CPU-s screened, against 13 CPU-s for a
+#: 1000-panel strip not screened); at 20,000 pairs (about 200 panels in a strip) the 16
+#: samples cost about 16 CPU-s. Above it the screen is left out and ``simulate`` says so;
+#: ``check`` still runs the jam test.
+MARGIN_MAX_PAIRS = 20_000
 #: Time step (s) of the trajectory the time-series formats (xdmf, glb) are written from: 10
 #: frames a second (viewers interpolate between them); a 20 s mailbox run gives 201 steps,
 #: an XDMF/HDF5 pair of 7 MB and a 6 MB GLB (the simulation's default 0.01 s: ~10x both).
