@@ -139,3 +139,60 @@ def test_override_keeps_other_fields(tmp_path):
     assert s.tg_sd_c == 2.5 and s.sources["tg"] == "our DMA"
     assert math.isclose(s.bath_sd_c, default_scatter().bath_sd_c)
     assert s.sources["bath"] == default_scatter().sources["bath"]
+
+
+# -- the batch path's guarantees, the precomputed path, progress ---------------------------------
+
+def test_sample_drives_are_read_only_and_refuse_a_non_finite_draw():
+    """A sample's curves are frozen like every model array; a NaN draw is refused by name."""
+    from foldprint.core.errors import MaterialError
+    from foldprint.simulation.robust import sample_drives
+
+    d = strip("f", [20, 20, 20], [90, 90], ["H-1", "H-7"])
+    lib = default_library()
+    (s,) = draw_samples(d, default_scatter(), 1, 2)
+    for c in sample_drives(d, lib, [s])[0].curves:
+        for a in (c.ratio, c.mean_temperature_c):
+            with pytest.raises(ValueError, match="read-only"):
+                a[0] = 0.5
+    bad = type(s)(s.tg_shift_c, s.thickness_mm, s.h_scale, float("nan"))
+    with pytest.raises(MaterialError, match=r"^f: a drawn bath temperature is not finite$"):
+        sample_drives(d, lib, [bad])
+
+
+def test_precomputed_outcomes_are_returned_without_folding(monkeypatch):
+    """A mapper holding this design's outcomes (simulation.batch.Precomputed): the same
+    result, no sample folded, progress told the whole count at once."""
+    from foldprint.simulation import robust
+    from foldprint.core.constants import DEFAULT_DT_S
+    from foldprint.simulation.batch import Precomputed
+
+    d = strip("p", [20, 20, 25], [90, 90], ["H-3", "H-5"])
+    ref = jam_probability(d, 5, 4, workers=1)
+    pre = Precomputed(d.name, 5, 4, ref.hinge_model, DEFAULT_DT_S, ((ref.scatter, ref.outcomes),), ref.method)
+
+    def no_fold(*_a, **_k):
+        raise AssertionError("a precomputed sample was folded again")
+
+    monkeypatch.setattr(robust, "run_samples", no_fold)
+    calls = []
+    got = jam_probability(d, 5, 4, nominal=ref.nominal, mapper=pre, progress=lambda a, b: calls.append((a, b)))
+    assert got.outcomes == ref.outcomes and got.jams == ref.jams and calls == [(5, 5)]
+
+
+def test_progress_counts_every_chunk_and_one_worker_stays_in_process(monkeypatch):
+    """Three chunks on one worker: no process pool is started, and progress climbs chunk by
+    chunk to the whole count (the last chunk short)."""
+    from foldprint.core import parallel
+    from foldprint.simulation.robust import CHUNK
+
+    def no_pool(*_a, **_k):
+        raise AssertionError("workers=1 started a process pool")
+
+    monkeypatch.setattr(parallel, "ProcessPoolExecutor", no_pool)
+    d = strip("c", [15, 15], [90], ["H-7"])
+    n = 2 * CHUNK + 3
+    calls = []
+    r = jam_probability(d, n, 1, workers=1, progress=lambda a, b: calls.append((a, b)))
+    assert len(r.outcomes) == n
+    assert calls == [(CHUNK, n), (2 * CHUNK, n), (n, n)]
