@@ -4,11 +4,13 @@ Real clients: lib3mf (the reference reader) and PrusaSlicer (``--info``, ``--exp
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
 import re
 import shutil
+import stat
 import subprocess
 import tomllib
 import xml.etree.ElementTree as ET
@@ -194,6 +196,9 @@ def test_3mf_slicer_metadata(exported, stem):
     config = _zip_xml(path, "Metadata/model_settings.config")
     (obj,) = config.findall("object")
     assert obj.get("id") == assembly.get("id")
+    # the object's own settings (OrcaSlicer reads lower-case keys): its name, extruder 1 by default
+    own = {m.get("key"): m.get("value") for m in obj.findall("metadata")}
+    assert own == {"name": design.name, "extruder": "1", "interface_shells": "1"}
     parts = obj.findall("part")
     assert [p.get("id") for p in parts] == [c.get("objectid") for c in
                                              assembly.findall("m:components/m:component", NS)]
@@ -226,6 +231,113 @@ def test_package_content_types_and_relationships(exported, stem):
             assert [r.get("Target") for r in start.iter(rel_ns + "Relationship")] == ["/3D/3dmodel.model"]
 
 
+def test_unzip_extracts_every_entry_as_a_plain_rw_r_r_file(exported, tmp_path):
+    """Info-ZIP's unzip (a real client) applies the Unix mode stored with each entry: every
+    part of both packages comes out a regular file, rw-r--r--."""
+    unzip = shutil.which("unzip")
+    if unzip is None:
+        pytest.skip("unzip is not on PATH")
+    design, asm, d, records = exported["mailbox"]
+    for path in _files(records, "3mf") + _files(records, "prusa3mf"):
+        out = tmp_path / path.stem
+        subprocess.run([unzip, "-q", str(path), "-d", str(out)], check=True, timeout=60)
+        files = [p for p in out.rglob("*") if not p.is_dir()]
+        assert len(files) == len(zipfile.ZipFile(path).namelist())
+        assert all(stat.S_ISREG(p.lstat().st_mode) and stat.S_IMODE(p.lstat().st_mode) == 0o644 for p in files)
+
+
+def _small_design(**kw):
+    d = strip("s", [10.0, 10.0, 10.0], [90.0, 90.0], ["H-1", "H-3"], **kw)
+    return d, build_assembly(d, "permanent")
+
+
+def test_writers_default_to_the_generic_fdm_bed_and_the_default_library():
+    """Without a layout or a library, every writer places the part as the generic FDM
+    printer's bed layout does and colours it from the default library."""
+    from foldprint.exchange.slicer_config import bed_layout
+    from foldprint.exchange.threemf import model_xml, prusa3mf_bytes, prusa_model_xml, threemf_bytes
+    from foldprint.model.printers import fdm_setup
+
+    design, asm = _small_design()
+    lay, lib = bed_layout(asm, fdm_setup(None)), default_library()
+    assert threemf_bytes(design, asm) == threemf_bytes(design, asm, lib, lay)
+    assert prusa3mf_bytes(design, asm) == prusa3mf_bytes(design, asm, lib, lay)
+    assert model_xml(design, asm) == model_xml(design, asm, lib, lay)
+    assert prusa_model_xml(design, asm) == prusa_model_xml(design, asm, lay)
+
+
+def test_a_librarys_colours_reach_both_flavours():
+    """A library whose hinge resin has another colour: the core 3MF's base material (read by
+    lib3mf) and the PrusaSlicer flavour's extruder colours carry it."""
+    from foldprint.exchange.threemf import prusa3mf_bytes, threemf_bytes
+    from foldprint.model.materials import MaterialLibrary
+
+    design, asm = _small_design()
+    base = default_library()
+    lib = MaterialLibrary(tuple(replace(m, color="#123456") if m.name == "H-3" else m for m in base.materials))
+    mats = [b.material for b in asm.bodies]
+    assert "H-3" in mats and base["H-3"].color.lower()[:7] != "#123456"
+    want = [("#123456" if m == "H-3" else base[m].color.lower()[:7]) for m in mats]
+    model = lib3mf.get_wrapper().CreateModel()
+    model.QueryReader("3mf").ReadFromBuffer(list(threemf_bytes(design, asm, lib)))
+    groups = model.GetBaseMaterialGroups()
+    assert groups.MoveNext()
+    bm = groups.GetCurrentBaseMaterialGroup()
+    got = ["#{:02x}{:02x}{:02x}".format(c.Red, c.Green, c.Blue)
+           for c in (bm.GetDisplayColor(i) for i in bm.GetAllPropertyIDs())]
+    assert got == want
+    with zipfile.ZipFile(io.BytesIO(prusa3mf_bytes(design, asm, lib))) as zf:
+        config = zf.read("Metadata/Slic3r_PE.config").decode()
+    (line,) = [x for x in config.splitlines() if x.startswith("; extruder_colour = ")]
+    assert [c.strip('"').lower() for c in line.split(" = ", 1)[1].split(";")] == want
+
+
+def test_xml_special_characters_in_names_survive_a_strict_reader():
+    """A name and a description with ``&``, ``<``, ``>`` and the CDATA end ``]]>`` (which
+    XML forbids raw in text): both flavours parse (expat, lib3mf strict) and give them back."""
+    from foldprint.exchange.threemf import prusa3mf_bytes, threemf_bytes
+
+    name, text = "s <&> ]]> x", "a ]]> b <c> & 'd' \"e\""
+    design, asm = _small_design(description=text)
+    design = replace(design, name=name)
+    for data in (threemf_bytes(design, asm), prusa3mf_bytes(design, asm)):
+        with zipfile.ZipFile(io.BytesIO(data)) as zf:
+            root = ET.fromstring(zf.read("3D/3dmodel.model"))
+        meta = {m.get("name"): m.text for m in root.iter(f"{{{NS['m']}}}metadata")}
+        assert meta["Title"] == name and meta["Description"] == text
+        model = lib3mf.get_wrapper().CreateModel()
+        reader = model.QueryReader("3mf")
+        reader.SetStrictModeActive(True)
+        reader.ReadFromBuffer(list(data))
+        mg = model.GetMetaDataGroup()
+        got = {mg.GetMetaData(i).GetName(): mg.GetMetaData(i).GetValue() for i in range(mg.GetMetaDataCount())}
+        assert got["Title"] == name and got["Description"] == text
+
+
+def test_an_assembly_without_bodies_is_refused_by_name():
+    from foldprint.exchange.slicer_config import bed_layout
+    from foldprint.exchange.threemf import model_xml, prusa_model_xml
+    from foldprint.model.printers import fdm_setup
+
+    design, asm = _small_design()
+    lay = bed_layout(asm, fdm_setup(None))
+    empty = replace(asm, bodies=())
+    for write in (lambda: model_xml(design, empty, layout=lay), lambda: prusa_model_xml(design, empty, lay)):
+        with pytest.raises(ExportError, match=r"design 's': nothing to export \(no bodies\)"):
+            write()
+
+
+@pytest.mark.parametrize("stem", IDS)
+def test_slicer_configs_hold_their_data_in_attributes(exported, stem):
+    """PrusaSlicer's and Bambu/Orca's per-object configs are elements with attributes only:
+    no character data between them."""
+    design, asm, d, records = exported[stem]
+    for path, name in [(_files(records, "prusa3mf")[0], "Metadata/Slic3r_PE_model.config"),
+                       (_files(records, "3mf")[0], "Metadata/model_settings.config")]:
+        root = _zip_xml(path, name)
+        assert all(not (e.text or "").strip() and not (e.tail or "").strip() for e in root.iter()), name
+
+
 # -- PrusaSlicer flavour -------------------------------------------------------------------
 
 @pytest.mark.parametrize("stem", IDS)
@@ -250,6 +362,12 @@ def test_prusa3mf_volumes_cover_the_one_mesh(exported, stem):
         assert meta["name"] == b.material and meta["extruder"] == str(k + 1)
         assert meta["volume_type"] == "ModelPart"
     assert first == obj.GetTriangleCount()
+    # both flavours put the part at the same place on the same bed (the core one: on the plate)
+    (core,) = _files(records, "3mf")
+    items = [m.GetBuildItems() for m in (model, _read3mf(core)[0])]
+    assert all(it.Count() == 1 and it.MoveNext() for it in items)
+    prusa_t, core_t = (np.array(it.GetCurrent().GetObjectTransform().Fields) for it in items)
+    assert np.array_equal(prusa_t, core_t)
 
 
 def _prusa_info(path: Path) -> list[dict]:

@@ -477,6 +477,26 @@ def test_composite_3mf_reads_in_lib3mf_strict_mode(tmp_path):
         assert meshes.GetCurrentMeshObject().IsManifoldAndOriented()
         n += 1
     assert n == len(part.regions)
+    # the base resins are shown in the colours of the library the part is written with
+    import dataclasses
+
+    from foldprint.exchange.threemf import composite3mf_bytes
+    from foldprint.model.materials import MaterialLibrary, default_library
+
+    base = default_library()
+    assert base["VeroWhite"].color.lower()[:7] != "#123456"
+    lib = MaterialLibrary(tuple(dataclasses.replace(m, color="#123456") if m.name == "VeroWhite" else m
+                                for m in base.materials))
+    other = w.CreateModel()
+    other.QueryReader("3mf").ReadFromBuffer(list(composite3mf_bytes(d, asm, part, lib)))
+    groups = other.GetBaseMaterialGroups()
+    assert groups.MoveNext()
+    bm = groups.GetCurrentBaseMaterialGroup()
+    shown = {}
+    for i in bm.GetAllPropertyIDs():
+        c = bm.GetDisplayColor(i)
+        shown[bm.GetName(i)] = f"#{c.Red:02x}{c.Green:02x}{c.Blue:02x}"
+    assert shown == {"VeroWhite": "#123456", "TangoBlack": base["TangoBlack"].color.lower()[:7]}
 
 
 @pytest.mark.skipif(shutil.which("prusa-slicer") is None, reason="prusa-slicer not on PATH")
