@@ -325,8 +325,15 @@ def confirm(work: Path, tests, candidates: list[str], log_name: str = "confirm.j
 def _function_texts(path: Path) -> dict[str, str]:
     """mutmut's copies in the mutants file: {'x_f__mutmut_3': source, ...}."""
     text = path.read_text()
-    return {n.name: ast.get_source_segment(text, n) for n in ast.walk(ast.parse(text))
-            if isinstance(n, ast.FunctionDef) and MUTANT_NAME.match(n.name)}
+    lines = text.splitlines(keepends=True)  # once: ast.get_source_segment splits the file per call
+    out = {}
+    for n in ast.walk(ast.parse(text)):
+        if isinstance(n, ast.FunctionDef) and MUTANT_NAME.match(n.name):
+            seg = lines[n.lineno - 1:n.end_lineno]
+            seg[-1] = seg[-1].encode()[:n.end_col_offset].decode()  # offsets count UTF-8 bytes
+            seg[0] = seg[0].encode()[n.col_offset:].decode()
+            out[n.name] = "".join(seg)
+    return out
 
 
 def _def_lines(path: Path) -> dict[str, int]:

@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from foldprint.apps.pipeline import EvalOptions, Evaluation
-from foldprint.collision.clearance import earliest_within, min_clearance
+from foldprint.collision.clearance import Gap, earliest_within, gaps_in_pose, min_clearance, permanent_crossings
 from foldprint.core.constants import tol
 from foldprint.collision.swept3d import SweptChecker, non_adjacent_pairs
 from foldprint.collision.swept3d import min_clearance as swept_min_clearance
@@ -68,12 +68,54 @@ def test_every_pose_sampled_gives_the_brute_force_minimum(folded):
     assert gap.time == pytest.approx(t_best, abs=1e-12), name
     k = int(np.argmin(np.abs(times - gap.time)))
     assert d[k, pairs.index(gap.pair)] == pytest.approx(best, abs=TIE_MM), name  # the pair named is that gap
+    assert gap.point is not None and len(gap.point) == 3 and np.all(np.isfinite(gap.point)), name
+    # up to a time: the minimum over the poses up to it alone
+    m = len(times) // 2
+    early = min_clearance(checker, times, poses, n_samples=len(times), t_end=float(times[m]))
+    assert early.distance == pytest.approx(float(d[:m + 1].min()), abs=TIE_MM) and early.time <= times[m], name
     # the earliest pose within a distance, its bounds made a few poses at a time or all at once
     within = best + TIE_MM
     first = int(np.argwhere(d <= within)[0][0])
     for chunk in (1, 3 * len(pairs), 1 << 19):
         k, (i, j) = earliest_within(checker, poses, within, chunk=chunk)
         assert k == first and d[k, pairs.index((i, j))] <= within, (name, chunk)
+
+
+def test_gaps_in_a_pose_are_every_pair_brute_force_finds_within_the_distance(folded):
+    """In the pose of the smallest gap and in the last pose: the box prefilter drops no
+    pair FCL puts within the distance, nearest first, each named by its indices and ids."""
+    name, _, times, poses, checker, pairs = folded
+    design = checker.design
+    k_min = int(np.argmin([min(checker.distance(i, j, poses[k, i], poses[k, j])[0] for i, j in pairs)
+                           for k in range(0, len(times), max(1, len(times) // 40))])) * max(1, len(times) // 40)
+    for k in (k_min, len(times) - 1):
+        d = {(i, j): max(float(checker.distance(i, j, poses[k, i], poses[k, j])[0]), 0.0) for i, j in pairs}
+        for within in (min(d.values()) + 0.5, 3.0, 20.0):
+            got = gaps_in_pose(checker, poses[k], within, time=float(times[k]))
+            assert [g.pair for g in got] == sorted((p for p in d if d[p] < within), key=d.get), (name, k, within)
+            assert [g.distance for g in got] == pytest.approx([d[g.pair] for g in got], abs=1e-9)
+            for g in got:
+                assert g.panels == (design.panels[g.pair[0]].id, design.panels[g.pair[1]].id)
+                assert g.time == float(times[k]) and g.point is not None and np.all(np.isfinite(g.point))
+            some = [p for p in pairs if d[p] < 20.0][:2]  # given pairs: those only
+            assert {g.pair for g in gaps_in_pose(checker, poses[k], 20.0, some)} == set(some)
+
+
+def test_gap_json_rounds_to_a_tenth_of_a_micron_and_gives_a_time_only_when_there_is_one():
+    assert Gap(1.234567, (0, 2), ("a", "c"), 2.345678, (0.0, 0.0, 0.0)).to_json() == \
+        {"distance_mm": 1.2346, "panels": ["a", "c"], "time_s": 2.3457}
+    assert Gap(0.5, (0, 2), ("a", "c"), None, None).to_json() == {"distance_mm": 0.5, "panels": ["a", "c"]}
+
+
+def test_permanent_crossings_name_panels_that_overlap_as_printed():
+    """The strip whose two 120 deg folds put p3 through p1 as printed, and the templates,
+    which all print: exactly the overlapping pair, nothing else."""
+    from pathlib import Path
+
+    crossing = load_design(Path(__file__).parent / "data" / "crossing.toml")
+    assert permanent_crossings(crossing) == [("p1", "p3")]
+    for name in TEMPLATES:
+        assert permanent_crossings(load_design(resolve_design_path(name))) == [], name
 
 
 def test_the_reported_clearance_is_the_dense_minimum_within_sampling_error(folded):

@@ -65,6 +65,25 @@ def test_a_curve_does_not_depend_on_its_batch(lib):
         assert np.array_equal(alone[0], together[k])
 
 
+def test_a_batch_split_for_memory_gives_every_hinge_its_exact_curve(lib, monkeypatch):
+    """Over the element bound, a batch is computed in parts (here 2 hinges a part, 5
+    hinges): each hinge's ratio and mean temperature are still the exact model's."""
+    from foldprint.physics import recovery_batch
+    from foldprint.physics.recovery import N_LAYERS
+
+    t = grid_until(20.0)
+    monkeypatch.setattr(recovery_batch, "MAX_BATCH_ELEMENTS", 2 * len(t) * N_LAYERS // 2)
+    p = lib["H-3"].recovery
+    tg, hw = [38.0, 40.5, 43.0, 41.0, 39.5], [p.h_w_m2k * f for f in (0.7, 1.0, 1.3, 0.9, 1.6)]
+    th, bath = [0.6, 0.8, 1.0, 1.2, 0.7], [70.0, 75.0, 80.0, 85.0, 90.0]
+    r, mean_t = batch_ratios(p, tg, hw, th, bath, 10.0, t)
+    assert r.shape == mean_t.shape == (5, len(t))
+    for k in range(5):
+        ref = _exact(lib, "H-3", tg[k], hw[k], th[k], bath[k])
+        assert np.max(np.abs(r[k] - ref.ratio[:len(t)])) < ROUND_OFF
+        assert np.max(np.abs(mean_t[k] - ref.mean_temperature_c[:len(t)])) < 1e-9
+
+
 def test_vectorised_roots_match_the_scalar_bisection():
     biot = np.array([1e-4, 0.3, 0.72, 5.0, 80.0])
     ref = np.array([_slab_roots(b) for b in biot])
