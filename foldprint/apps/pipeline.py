@@ -30,7 +30,6 @@ from ..core.constants import (ANIMATION_DT_S, CHECK_DT_S, CHECK_SAMPLES, CHECK_S
                               CLEARANCE_SAMPLES, MARGIN_SAMPLES)
 from ..model.derived import DerivedCache
 from ..model.design import Design
-from ..model.hinge_graph import has_loops
 from ..core.errors import ExportError, FoldprintError, GeometryError
 from ..exchange.voxels import Pitch, VoxelPart
 from ..exchange.export import DEFAULT_FORMATS, TRAJECTORY_FORMATS, check_formats, export_assembly
@@ -47,7 +46,7 @@ from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_ME
                           VERDICT_METHOD, AfterContact, HingeModel, Mechanics, Method, SampleRule, State, parse)
 from ..simulation.flip_drivers import FlipDrivers, flip_drivers
 from ..simulation.margin import ScatterMargin, margin_batch_bytes, scatter_margin
-from ..simulation.margin import left_out as margin_left_out
+from ..simulation.margin import left_out as margin_left_out, screened_poses
 from ..simulation.paper_beside import PaperLine, paper_lines
 from ..simulation.robust import (RobustResult, Scatter, curve_batch, curves_at_once, default_scatter, jam_probability,
                                  run_end)
@@ -169,9 +168,9 @@ class Evaluation:
         """Samples of the margin screen given their curves at once: in the memory left (guards.check_margin),
         at most CURVE_BATCH_BYTES of curves (robust.curves_at_once)."""
         o = self.options
-        poses = None if has_loops(self.design) or o.mechanics != Mechanics.RIGID else CLEARANCE_SAMPLES
         per = guards.check_margin(self.design, o.dt, o.duration, o.method, lambda k: margin_batch_bytes(
-            self.design, run_end(self.design, o.dt, o.duration), k), MARGIN_SAMPLES, upfront, poses)
+            self.design, run_end(self.design, o.dt, o.duration), k), MARGIN_SAMPLES, upfront,
+            screened_poses(self.design) if o.mechanics == Mechanics.RIGID else None)
         return per if per == 1 else min(per, curves_at_once(self.design, run_end(self.design, o.dt, o.duration), per)[0])
 
     def has(self, stage: str) -> bool:

@@ -24,18 +24,33 @@ def _adjacent_codes(design: Design) -> np.ndarray:
     return np.array(sorted(codes), dtype=np.int64)
 
 
-def non_adjacent_pairs(design: Design) -> list[tuple[int, int]]:
+def _adjacent(design: Design) -> set[tuple[int, int]]:
+    """Panel index pairs (i < j) that share a hinge."""
     idx = design.panel_index()
-    adj = {tuple(sorted((idx[h.panels[0]], idx[h.panels[1]]))) for h in design.hinges}
+    return {tuple(sorted((idx[h.panels[0]], idx[h.panels[1]]))) for h in design.hinges}
+
+
+def non_adjacent_pairs(design: Design) -> list[tuple[int, int]]:
+    adj = _adjacent(design)
     n = len(design.panels)
     return [(i, j) for i in range(n) for j in range(i + 1, n) if (i, j) not in adj]
 
 
 def count_non_adjacent_pairs(design: Design) -> int:
     """``len(non_adjacent_pairs(design))`` without listing them."""
-    idx = design.panel_index()
     n = len(design.panels)
-    return n * (n - 1) // 2 - len({tuple(sorted((idx[h.panels[0]], idx[h.panels[1]]))) for h in design.hinges})
+    return n * (n - 1) // 2 - len(_adjacent(design))
+
+
+def pair_bounds(checker, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """What a sphere lower bound |c_i - c_j| - r_i - r_j of every non-adjacent pair needs
+    over ``poses`` (n_t, n, 4, 4): the pairs (m, 2), the panels' world centres (n_t, n, 3)
+    and each pair's summed bounding radius (m,); None for a design with no such pair."""
+    pairs = np.array(non_adjacent_pairs(checker.design), dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return None
+    rc = checker.tree.rc
+    return pairs, panel_centres(checker, poses), rc[pairs[:, 0]] + rc[pairs[:, 1]]
 
 
 def panel_centres(checker: SweptChecker, poses: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..core.constants import CLEARANCE_SAMPLES, tol
 from ..model.derived import scoped
-from .broadphase import panel_centres
+from .broadphase import pair_bounds
 from .swept3d import SweptChecker, non_adjacent_pairs
 from .swept3d import min_clearance as swept_min_clearance
 from .rigid import rigid_polygon
@@ -132,12 +132,10 @@ def earliest_within(checker: SweptChecker, poses: np.ndarray, within_mm: float, 
     of the plateau holds its last bits of round-off. The bounds are made about ``chunk``
     (pose, pair) bounds at a time, in time order, as the clearance search makes them
     (all at once they held 24 B per pose and pair: 810 MiB for a 1000-panel strip)."""
-    pairs = np.array(non_adjacent_pairs(checker.design), dtype=np.int64).reshape(-1, 2)
-    if len(pairs) == 0:
+    bounds = pair_bounds(checker, poses)
+    if bounds is None:
         return None
-    C = panel_centres(checker, poses)
-    rc = checker.tree.rc
-    r_pair = rc[pairs[:, 0]] + rc[pairs[:, 1]]
+    pairs, C, r_pair = bounds
     step = max(1, chunk // len(pairs))
     for k0 in range(0, len(poses), step):
         lb = np.linalg.norm(C[k0:k0 + step, pairs[:, 0]] - C[k0:k0 + step, pairs[:, 1]], axis=-1) - r_pair

@@ -58,6 +58,7 @@ from .broadphase import (  # noqa: F401  (the broad phase's names, importable fr
     REFINE_SUB,
     candidate_runs,
     non_adjacent_pairs,
+    pair_bounds,
     panel_centres,
 )
 from .rigid import convex_pieces, prism, rigid_polygon
@@ -391,12 +392,10 @@ def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 19
     (all bounds at once held 24 B per pose and pair, 6.5 GB for a 1000-panel strip at 200
     poses). Any candidate below the final answer is below the running best when its chunk
     is searched, so the result is the same minimum."""
-    pairs = np.array(non_adjacent_pairs(checker.design), dtype=np.int64).reshape(-1, 2)
-    if len(pairs) == 0:
+    bounds = pair_bounds(checker, poses)
+    if bounds is None:
         return None
-    C = panel_centres(checker, poses)
-    rc = checker.tree.rc
-    r_pair = rc[pairs[:, 0]] + rc[pairs[:, 1]]
+    pairs, C, r_pair = bounds
     n_t, n_p = len(poses), len(pairs)
     best = (np.inf, None, None)
     step = max(1, chunk // n_p)

@@ -34,6 +34,7 @@ from ..collision.clearance import Gap, min_clearance, sampled_poses
 from ..collision.swept3d import SweptChecker
 from ..collision.broadphase import count_non_adjacent_pairs
 from ..core.constants import CHECK_SEED, CLEARANCE_SAMPLES, MARGIN_MAX_PAIRS, MARGIN_SAMPLES, tol
+from ..model.hinge_graph import has_loops
 from ..model.materials import MaterialLibrary
 from ..physics.kinematics import simulate_kinematics, solve_loops_many
 from ..physics.recovery_batch import MAX_BATCH_ELEMENTS, N_LAYERS, grid_until
@@ -94,6 +95,14 @@ def margin_batch_bytes(design, until_s: float, k: int) -> float:
     return curves_at_once(design, until_s, k)[1] + BATCH_BYTES_PER_ELEMENT * elements
 
 
+def screened_poses(design) -> int | None:
+    """How many poses a scattered fold of the screen is made at: the clearance search's
+    :data:`~foldprint.core.constants.CLEARANCE_SAMPLES` for a fold without loops (the same
+    poses, a 10th of a 2001-step trajectory), None (every step) for one with loops, whose
+    closure is tracked step by step."""
+    return None if has_loops(design) else CLEARANCE_SAMPLES
+
+
 def left_out(design) -> str | None:
     """Why the screen is not run on ``design``: more non-adjacent panel pairs than
     :data:`~foldprint.core.constants.MARGIN_MAX_PAIRS` (its exact searches would take
@@ -119,12 +128,12 @@ def scatter_margin(result: SimulationResult, clearance: Gap, checker: SweptCheck
     shift = float(traj.bath_c) - float(design.process.bath_temperature_c)  # a bath given for this run
     drawn = [replace(s, bath_c=s.bath_c + shift) for s in draw_samples(design, scatter, samples, seed)]
     per = batch or curves_at_once(design, float(traj.times[-1]), samples)[0]
+    times = traj.times if screened_poses(design) is None else traj.times[sampled_poses(len(traj.times))]
     gaps = []
     for a in range(0, len(drawn), per):  # the curves of a few samples at a time, as check's chunks
         drives = sample_drives(design, library, drawn[a:a + per], until_s=float(traj.times[-1]))
         solve_loops_many(drives, traj.times)  # a pattern with loops: closure tracked in lockstep
-        for d in drives:  # a drive without loops is made at the searched poses only (the same poses, 10x less memory)
-            times = traj.times if d.loops is not None or d.compliant else traj.times[sampled_poses(len(traj.times))]
+        for d in drives:
             k = simulate_kinematics(design, times, model=traj.model, drive=d)
             gaps.append(min_clearance(checker, k.times, k.poses, n_samples=CLEARANCE_SAMPLES))
         del drives, k
