@@ -119,7 +119,8 @@ def sequential():
 def test_jam_test_stops_where_its_outcomes_say(sequential):
     """The samples kept are the stream's first n, n the test's stop on them: the uniform
     helix fails after 6 (every sample jams), the graded one reaches the maximum."""
-    from foldprint.simulation.verdict import decide
+    from foldprint.simulation.sequential import on_check_stream
+    from foldprint.simulation.verdict import decide, jam_test
 
     designs, ref = sequential
     for d in designs:
@@ -128,6 +129,10 @@ def test_jam_test_stops_where_its_outcomes_say(sequential):
             fixed = jam_probability(d, MAX, SEED, scatter=sc, workers=1)  # the same stream, all of it
             assert r.outcomes == fixed.outcomes[:r.samples]
             assert r.decision == decide([o.jammed for o in fixed.outcomes], r.decision.test)
+            # what check's test makes of the fixed-size estimate on its stream: the same stop
+            assert on_check_stream(fixed, SEED, r.decision.test) == r.decision
+            assert on_check_stream(fixed, SEED) == decide([o.jammed for o in fixed.outcomes], jam_test())
+            assert on_check_stream(fixed, SEED + 1) is None and on_check_stream(r, SEED) is None
     assert [ref["helix_uniform"][k].samples for k in (1.0, 2.0)] == [6, 6]
     assert str(ref["helix_uniform"][1.0].decision.verdict) == "error"
     assert ref["helix_graded"][1.0].samples == MAX and ref["helix_graded"][1.0].decision.truncated
@@ -150,7 +155,31 @@ def test_jam_test_through_a_plain_mapper_in_rounds(sequential):
     designs, ref = sequential
     plain = lambda fn, items, progress=None: [fn(x) for x in items]  # noqa: E731 - e.g. a cluster
     for d in designs:
-        _same(_tested(d, workers=2, mapper=plain), ref[d.name])
+        calls = []
+        _same(_tested(d, workers=2, mapper=plain, progress=lambda *a: calls.append(a)), ref[d.name])
+        for k in (1.0, 2.0):  # each stage's samples climb to its stop, told as (n, n) once decided
+            mine = [c[1:] for c in calls if c[0] == f"jam test at {k:g}x"]
+            n = ref[d.name][k].samples
+            assert mine[-1] == (n, n) and all(a[0] <= b[0] for a, b in zip(mine, mine[1:])), (d.name, k, mine)
+            assert all(m[1] == MAX for m in mine[:-1])
+
+
+def test_a_plain_mapper_guards_time_only_past_the_first_chunk(monkeypatch):
+    """Through a plain mapper the first chunk is folded here and times the rest: a test whose
+    every sample is in that chunk has nothing left to guard; one sample more is estimated
+    from that chunk's time per sample."""
+    from foldprint.simulation.robust import CHUNK
+    from foldprint.simulation.sequential import jam_tests
+    from foldprint.simulation.verdict import jam_test
+
+    calls = []
+    monkeypatch.setattr(guards, "check_samples", lambda n, per, w, name="": calls.append((n, w, name)) or 0.0)
+    d = load_design(templates_dir() / "helix_graded.toml")
+    plain = lambda fn, items, progress=None: [fn(x) for x in items]  # noqa: E731
+    (r,) = jam_tests(d, jam_test(max_samples=CHUNK), (1.0,), SEED, workers=1, mapper=plain).values()
+    assert r.samples == CHUNK and r.decision.truncated and calls == []
+    jam_tests(d, jam_test(max_samples=CHUNK + 1), (1.0,), SEED, workers=1, mapper=plain)
+    assert calls == [(CHUNK + 1, 1, d.name)]
 
 
 def test_shared_pool_answers_the_jam_test_as_check_alone(sequential):
@@ -163,9 +192,20 @@ def test_shared_pool_answers_the_jam_test_as_check_alone(sequential):
     jobs = [MonteCarloJob(d, MAX, SEED, (1.0, 2.0), test=jam_test(max_samples=MAX)) for d in designs]
     pre, after, _ = run_batch(jobs, workers=2, after=_size)
     assert after == [2, 2]
-    for d, p in zip(designs, pre):
-        _same(_tested(d, workers=1, mapper=p), ref[d.name])
-        assert [len(o) for _, o in p.outcomes] == [ref[d.name][k].samples for k in (1.0, 2.0)]
+    from foldprint.simulation import sequential as seq
+
+    def no_fold(*_a, **_k):
+        raise AssertionError("a precomputed stream was folded again")
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(seq, "run_batch", no_fold)
+        mp.setattr(seq, "run_samples", no_fold)
+        for d, p in zip(designs, pre):
+            calls = []
+            _same(_tested(d, workers=1, mapper=p, progress=lambda *a: calls.append(a)), ref[d.name])
+            assert [len(o) for _, o in p.outcomes] == [ref[d.name][k].samples for k in (1.0, 2.0)]
+            n = [ref[d.name][k].samples for k in (1.0, 2.0)]
+            assert calls == [("jam test at 1x", n[0], n[0]), ("jam test at 2x", n[1], n[1])]
 
 
 def test_no_chunk_is_folded_past_a_decided_stop(monkeypatch):
@@ -221,3 +261,34 @@ def test_a_batch_run_inside_a_worker_keeps_the_workers_jobs():
     finally:
         batch._STATE.clear()
     assert len(after) == 4 and after == before
+
+
+def test_jam_tests_fold_the_nominal_with_the_options_given():
+    """Without scatter every sample is the nominal fold: made at the step, collision check
+    and mechanics the jam test was given, and the result says so."""
+    from foldprint.model.design import strip
+    from foldprint.simulation.scatter import Scatter
+    from foldprint.simulation.sequential import jam_tests
+    from foldprint.simulation.verdict import jam_test
+
+    d = strip("n", [15, 15], [90], ["H-7"])
+    (r,) = jam_tests(d, jam_test(max_samples=MAX), (1.0,), SEED, scatter=Scatter.zero(), dt=0.02,
+                     method=Method.INDEX2D, workers=1).values()
+    assert r.method == Method.INDEX2D and r.nominal.method == Method.INDEX2D
+    assert r.nominal.trajectory.times[1] == pytest.approx(0.02) and r.jams == 0
+    (b,) = jam_tests(d, jam_test(max_samples=MAX), (1.0,), SEED, scatter=Scatter.zero(), dt=0.05,
+                     mechanics="bar-hinge", workers=1).values()
+    assert b.mechanics == "bar-hinge" and b.nominal.compliant is not None
+
+
+def test_jam_tests_refuse_a_bad_seed_or_mechanics_by_name():
+    from foldprint.core.errors import DesignError
+    from foldprint.model.design import strip
+    from foldprint.simulation.sequential import jam_tests
+    from foldprint.simulation.verdict import jam_test
+
+    d = strip("n", [15, 15], [90], ["H-7"])
+    with pytest.raises(DesignError, match=r"^seed must be a whole number >= 0, got -1$"):
+        jam_tests(d, jam_test(max_samples=MAX), (1.0,), -1)
+    with pytest.raises(DesignError, match=r"^mechanics: 'wobbly' is not one of"):
+        jam_tests(d, jam_test(max_samples=MAX), (1.0,), SEED, mechanics="wobbly")
