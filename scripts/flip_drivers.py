@@ -6,8 +6,8 @@ Runs ``python -m foldprint check NAME --json`` for every template (or those name
 user runs it (a fresh interpreter each, the default seed, samples and scales), and
 prints, for each design whose jam verdict flips inside the sweep (FP183), the verdicts at
 1x and at the flipping scale, and for each scatter component probed there (removed, for a
-worse flip; kept at its 1x spread, for a better one) its basis, the test's verdict and
-jams in the probe, and whether it drives the flip. Also the cost: the samples the jam
+worse flip; kept at its 1x spread, for a better one) its basis, the probe's answer (its
+verdict, or the side of the one threshold it asks) and jams, and whether it drives the flip. Also the cost: the samples the jam
 tests at 1x and the sweep used beside those the probes used, and the
 command's CPU seconds (it and its worker processes). ``--json`` writes
 ``docs/data/flip_drivers.json``; ``--write-doc`` replaces the table in
@@ -51,8 +51,16 @@ def check(name: str) -> dict:
             "sensitivity": out["sensitivity"], "flip_drivers": out["flip_drivers"]}
 
 
+def _answer(w: dict) -> str:
+    """A probe's answer: its verdict, or the side of the one threshold it asked when that
+    leaves two verdicts open."""
+    if w["verdict"] is not None:
+        return w["verdict"]
+    return {"warning": "above the warning threshold", "error": "below the error threshold"}[w["question"]]
+
+
 def table(rows: list[dict]) -> str:
-    lines = ["| design | flip | component probed (basis) | in the probe: verdict, jams/samples | drives it |",
+    lines = ["| design | flip | component probed (basis) | in the probe: answer, jams/samples | drives it |",
              "|---|---|---|---|---|"]
     for r in rows:
         for fd in r["flip_drivers"] or ():
@@ -62,7 +70,7 @@ def table(rows: list[dict]) -> str:
             for k, w in enumerate(fd["probes"]):
                 drives = "**yes**" if w["restores"] else ("strongest" if fd["strongest"] == w["component"] else "no")
                 lines.append(f"| {'`' + r['design'] + '`' if k == 0 else ''} | {flip if k == 0 else ''} | "
-                             f"{w['component']} ({w['basis']}) | {w['verdict']}, {w['jams']}/{w['samples']} | {drives} |")
+                             f"{w['component']} ({w['basis']}) | {_answer(w)}, {w['jams']}/{w['samples']} | {drives} |")
     cost = "; ".join(f"`{r['design']}` {r['probe_samples']} samples for the probes beside {r['test_samples']} "
                      f"for the tests at 1x and the sweep, {r['cpu_s']:g} CPU-s in all"
                      for r in rows if r["flip_drivers"])

@@ -15,7 +15,7 @@ from hypothesis import strategies as hs
 
 from foldprint.core.constants import CHECK_SAMPLES, JAM_TEST_ALPHA, JAM_TEST_BETA
 from foldprint.core.errors import DesignError
-from foldprint.core.modes import JamVerdict, Side
+from foldprint.core.modes import JamQuestion, JamVerdict, Side
 from foldprint.simulation.verdict import (confidence_sequence, decide, decide_many, indifference, jam_test,
                                           operating_point)
 
@@ -208,3 +208,62 @@ def test_llr_is_the_binomial_likelihood_ratio(n):
     k = np.arange(n + 1)
     want = binom.logpmf(k, n, sprt.hi) - binom.logpmf(k, n, sprt.lo)
     assert np.allclose(sprt.llr(k, np.full(n + 1, n)), want, rtol=0, atol=1e-9)
+
+
+def _first_crossing_by_hand(row, sprt, max_samples):
+    """One threshold's test on one stream, a plain loop: (side, samples) at its first
+    crossing, the sign at the maximum when it never crosses (None, n: not yet)."""
+    llr = 0.0
+    for n, jam in enumerate(row[:max_samples], start=1):
+        llr += sprt.jam_step if jam else sprt.clean_step
+        if llr >= sprt.upper or llr <= sprt.lower:
+            return (Side.ABOVE if llr >= sprt.upper else Side.BELOW), n
+    if len(row) >= max_samples:
+        return (Side.ABOVE if llr >= sprt.midpoint else Side.BELOW), max_samples
+    return None, len(row)
+
+
+@pytest.mark.parametrize("question", [JamQuestion.WARNING, JamQuestion.ERROR])
+def test_a_one_threshold_question_stops_at_that_tests_crossing(question):
+    """A probe asks one threshold: it stops where a plain loop over that threshold's SPRT
+    says, whatever the other test does; below 5 % pins a pass, above 20 % an error, the
+    other side leaves two verdicts open."""
+    t = jam_test(max_samples=120).asking(question)
+    sprt = t.warning if question == JamQuestion.WARNING else t.error
+    rng = np.random.default_rng(11)
+    for p in (0.0, 0.03, 0.06, 0.12, 0.2, 0.3, 0.9):
+        for row in rng.random((40, 130)) < p:
+            for cut in (130, 37):  # the whole stream, or a prefix that may not have decided yet
+                d = decide(row[:cut], t)
+                side, n = _first_crossing_by_hand(row[:cut], sprt, t.max_samples)
+                assert d.decided == (side is not None) and d.samples == n and d.jams == int(row[:n].sum())
+                if side is None:
+                    assert d.verdicts == () and d.verdict is None
+                    continue
+                assert d.asked.side == side
+                open_ = {(JamQuestion.WARNING, Side.BELOW): (JamVerdict.PASS,),
+                         (JamQuestion.WARNING, Side.ABOVE): (JamVerdict.WARNING, JamVerdict.ERROR),
+                         (JamQuestion.ERROR, Side.BELOW): (JamVerdict.PASS, JamVerdict.WARNING),
+                         (JamQuestion.ERROR, Side.ABOVE): (JamVerdict.ERROR,)}[question, side]
+                assert d.verdicts == open_ and d.verdict == (open_[0] if len(open_) == 1 else None)
+
+
+@pytest.mark.parametrize("question,p,wrong", [(JamQuestion.WARNING, 0.025, Side.ABOVE),
+                                              (JamQuestion.WARNING, 0.075, Side.BELOW),
+                                              (JamQuestion.ERROR, 0.15, Side.ABOVE),
+                                              (JamQuestion.ERROR, 0.25, Side.BELOW)])
+def test_a_one_threshold_question_keeps_its_error_rates(question, p, wrong):
+    """20 000 Bernoulli streams at the edges of the asked threshold's region: the wrong side
+    at most 5 % (plus three standard errors of the simulation), as the full test states."""
+    n = 20_000
+    t = T.asking(question)
+    r = decide_many(np.random.default_rng(int(p * 1000) + 5).random((n, t.max_samples)) < p, t)
+    side = r["warning_side"] if question == JamQuestion.WARNING else r["error_side"]
+    assert r["decided"].all()
+    rate = float(np.mean(side == (1 if wrong == Side.ABOVE else 0)))
+    assert rate <= 0.05 + 3 * math.sqrt(0.05 * 0.95 / n), (question, p, rate)
+
+
+def test_operating_point_refuses_a_one_threshold_question():
+    with pytest.raises(ValueError, match="verdict"):
+        operating_point(0.1, T.asking(JamQuestion.WARNING), 10, seed=0)

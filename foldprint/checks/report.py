@@ -25,6 +25,18 @@ def threshold(p: float) -> str:
 VERDICT_SEVERITY = {JamVerdict.ERROR: "error", JamVerdict.WARNING: "warning", JamVerdict.PASS: "info"}
 
 
+def answer_text(d) -> str:
+    """What a jam test's decision (:class:`foldprint.simulation.verdict.JamDecision`) says,
+    as a verb phrase: "passes", "warns", "fails", or a one-threshold answer that leaves two
+    verdicts open: "does not pass (above 5 %)", "does not fail (below 20 %)"."""
+    vs = d.verdicts
+    if len(vs) == 1:
+        return {JamVerdict.PASS: "passes", JamVerdict.WARNING: "warns", JamVerdict.ERROR: "fails"}[vs[0]]
+    if vs == (JamVerdict.WARNING, JamVerdict.ERROR):
+        return f"does not pass (above {threshold(d.test.warning.threshold)})"
+    return f"does not fail (below {threshold(d.test.error.threshold)})"
+
+
 #: What a scatter spread rests on, as messages say it.
 BASIS_TEXT = {SpreadBasis.MEASURED: "measured", SpreadBasis.DATASHEET: "from a datasheet",
               SpreadBasis.LITERATURE: "from the literature", SpreadBasis.CHOICE: "our choice, not measured"}
@@ -181,12 +193,14 @@ def robust_json(r) -> dict:
 
 def estimate_json(r) -> dict:
     """The short form of a jam-probability estimate: jams, samples, p and its interval
-    (and the verdict and whether it was truncated, for a jam test)."""
+    (and, for a jam test, what it asked, the verdict or null when its one-threshold answer
+    leaves two open, the ``verdicts`` left open, and whether it was truncated)."""
     lo, hi = r.ci95
     out = {"jams": r.jams, "samples": r.samples, "jam_probability": _r(r.jam_probability), "ci95": [_r(lo), _r(hi)]}
     d = getattr(r, "decision", None)
     if d is not None:
-        out.update(verdict=str(d.verdict), truncated=d.truncated)
+        out.update(question=d.test.question.value, verdict=None if d.verdict is None else str(d.verdict),
+                   verdicts=[str(v) for v in d.verdicts], truncated=d.truncated)
     return out
 
 

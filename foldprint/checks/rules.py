@@ -19,7 +19,7 @@ from ..model.materials import MaterialLibrary
 from ..model.printers import (Printer, default_printer_key, default_voxel_printer_key,  # noqa: F401
                               load_printers, tool_fit)
 from ..core.modes import HingeModel, SpreadBasis
-from .report import VERDICT_SEVERITY, basis_text, jam_estimate_text, jam_test_text, seconds, threshold
+from .report import VERDICT_SEVERITY, answer_text, basis_text, jam_estimate_text, jam_test_text, seconds, threshold
 
 SEVERITIES = ("error", "warning", "info")
 
@@ -389,12 +389,11 @@ def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
 def _drivers_text(fd) -> str:
     """What drives one flip (:class:`~foldprint.simulation.flip_drivers.FlipDrivers`): each
     named component, what its spread rests on, and the test's verdict in its probe."""
-    word = {"error": "fails", "warning": "warns", "info": "passes"}
     change = "without it" if fd.worse else "with it at its 1x spread"
 
     def probe(pr) -> str:
         return (f"{pr.component.label} ({pr.component.key}, {basis_text(pr.basis)}; {change} the test "
-                f"{word[VERDICT_SEVERITY[pr.verdict]]}: {jam_estimate_text(pr.result)})")
+                f"{answer_text(pr.result.decision)}: {jam_estimate_text(pr.result)})")
 
     how = ("each scatter component removed in turn" if fd.worse else
            f"each scatter component in turn at its 1x spread, the others at {fd.scale:g}x") + ", the same draws"

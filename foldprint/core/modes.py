@@ -121,6 +121,17 @@ class JamVerdict(Mode):
     ERROR = "error"
 
 
+class JamQuestion(Mode):
+    """What a jam test asks (:mod:`foldprint.simulation.verdict`): ``VERDICT`` which of
+    pass, warning or error (both thresholds' tests; ``check``'s verdict and its sweep);
+    ``WARNING`` or ``ERROR`` only which side of that one threshold p is on (that threshold's
+    test alone: a probe of what drives a flip asks no more, :mod:`foldprint.simulation.flip_drivers`)."""
+
+    VERDICT = "verdict"
+    WARNING = "warning"
+    ERROR = "error"
+
+
 class Side(Mode):
     """Which hypothesis one threshold's sequential test accepted: the jam probability is
     ``BELOW`` the lower end of its indifference region or ``ABOVE`` the upper end."""

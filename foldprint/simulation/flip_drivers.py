@@ -15,6 +15,14 @@ numbers):
   component **kept at its 1x spread** (the others at k). The component drives the flip
   when that brings the 1x verdict back: its smaller spread is what makes the part pass.
 
+A probe asks only what decides that (:meth:`~foldprint.simulation.verdict.JamTest.asking`):
+which side of the one threshold between the 1x verdict and the flipped one the probe's p is
+on (a pass at 1x: the warning threshold; a failure at 1x: the error threshold; a warning at
+1x: the threshold the flip crossed), that threshold's test alone, with its error rates. A
+probe far from that threshold stops early (a probe that stays a clear failure when a pass
+was flipped stops once it is known to be above 5 %, not when it is known to be above 20 %);
+its answer may leave two verdicts open ("above 5 %").
+
 When no component does that alone, the flip needs several together; the probe that moves
 the estimate furthest toward the 1x verdict is reported as the **strongest**, and said to
 be so. Each component carries its basis (:class:`~foldprint.core.modes.SpreadBasis`:
@@ -28,7 +36,7 @@ from dataclasses import dataclass, replace
 from typing import Sequence
 
 from ..core.constants import CHECK_DT_S
-from ..core.modes import JamVerdict, SpreadBasis
+from ..core.modes import JamQuestion, JamVerdict, SpreadBasis
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
 from .robust import RobustResult
@@ -61,12 +69,40 @@ def undoes(base: JamVerdict, flipped: JamVerdict, probed: JamVerdict) -> bool:
     return not worse(probed, base) if worse(flipped, base) else not worse(base, probed)
 
 
+def probe_question(base: JamVerdict, flipped: JamVerdict) -> JamQuestion:
+    """The one threshold whose side decides whether a probe undoes a flip from ``base`` (1x)
+    to ``flipped``: the one next to ``base`` on the flip's side.
+
+    >>> P, W, E = JamVerdict.PASS, JamVerdict.WARNING, JamVerdict.ERROR
+    >>> [probe_question(b, f).value for b, f in ((P, W), (P, E), (W, E), (W, P), (E, W), (E, P))]
+    ['warning', 'warning', 'error', 'warning', 'error', 'error']
+    """
+    if base == flipped:
+        raise ValueError(f"not a flip: {base} at 1x and at the scale")
+    if base == JamVerdict.WARNING:
+        return JamQuestion.ERROR if flipped == JamVerdict.ERROR else JamQuestion.WARNING
+    return JamQuestion.WARNING if base == JamVerdict.PASS else JamQuestion.ERROR
+
+
+def undoes_all(base: JamVerdict, flipped: JamVerdict, probed) -> bool:
+    """Whether a probe undoes a flip whatever its verdict among ``probed`` (the verdicts its
+    answer leaves open, :attr:`~foldprint.simulation.verdict.JamDecision.verdicts`).
+
+    >>> P, W, E = JamVerdict.PASS, JamVerdict.WARNING, JamVerdict.ERROR
+    >>> undoes_all(P, E, (W, E)), undoes_all(W, E, (P, W)), undoes_all(E, W, (P, W)), undoes_all(P, W, (P,))
+    (False, True, False, True)
+    """
+    if not probed:
+        raise ValueError("a probe without an answer")
+    return all(undoes(base, flipped, v) for v in probed)
+
+
 @dataclass(frozen=True)
 class Probe:
     """The jam test at the flipping scale with one component changed: the component, its
     spread at that scale and in the probe (0: removed, for a worse flip; its 1x spread,
-    for a better one), what that spread rests on, the test's result, and whether the
-    probe undoes the flip (:func:`undoes`)."""
+    for a better one), what that spread rests on, the test's result (a one-threshold
+    question, :func:`probe_question`), and whether the probe undoes the flip (:func:`undoes_all`)."""
 
     component: Component
     spread: float
@@ -77,8 +113,9 @@ class Probe:
     restores: bool
 
     @property
-    def verdict(self) -> JamVerdict:
-        return self.result.decision.verdict
+    def verdicts(self) -> tuple[JamVerdict, ...]:
+        """The verdicts the probe's answer leaves open (one, or two: "above 5 %")."""
+        return self.result.decision.verdicts
 
 
 @dataclass(frozen=True)
@@ -126,23 +163,24 @@ def flip_drivers(design: Design, base: RobustResult, flips: Sequence, *, library
     jam test at that scale, whose verdict differs from ``base``'s, the test at 1x): the
     same test (``base``'s seed, hinge model, collision method, mechanics and test; time step ``dt``)
     with each component of non-zero spread removed (a worse flip) or kept at its 1x spread
-    (a better one), every run in one pool (``workers``, ``mapper`` and ``progress`` as
+    (a better one), asking only the flip's threshold (:func:`probe_question`), every run in one pool (``workers``, ``mapper`` and ``progress`` as
     :func:`~foldprint.simulation.sequential.jam_tests`)."""
     if base.decision is None or any(p.result.decision is None for p in flips):
         raise ValueError("flip drivers take check's sequential jam tests (results with a decision)")
     if any(p.result.decision.verdict == base.decision.verdict for p in flips):
         raise ValueError("a flip's verdict must differ from the verdict at 1x")
-    runs = {}
+    runs, tests = {}, {}
     for p in flips:
         sc, up = p.result.scatter, worse(p.result.decision.verdict, base.decision.verdict)
+        test = base.decision.test.asking(probe_question(base.decision.verdict, p.result.decision.verdict))
         for c in COMPONENTS:
             if sc.spread(c.key) > 0:
                 to = 0.0 if up else base.scatter.spread(c.key)
-                what = f"without {c.key}" if up else f"{c.key} at 1x"
-                runs[f"flip at {p.scale:g}x, {what}"] = (p, c, to, replace(sc, **{c.attr: to}))
+                name = f"flip at {p.scale:g}x, " + (f"without {c.key}" if up else f"{c.key} at 1x")
+                runs[name], tests[name] = (p, c, to, replace(sc, **{c.attr: to})), test
     if not runs:
         return ()
-    got = jam_tests_of(design, base.decision.test, {name: run[3] for name, run in runs.items()}, base.seed,
+    got = jam_tests_of(design, tests, {name: run[3] for name, run in runs.items()}, base.seed,
                        library=library, hinge_model=base.hinge_model, dt=dt, method=base.method,
                        nominal=base.nominal, workers=workers, mapper=mapper, progress=progress,
                        mechanics=base.mechanics)
@@ -150,7 +188,7 @@ def flip_drivers(design: Design, base: RobustResult, flips: Sequence, *, library
     for p in flips:
         was, flipped, sc = base.decision.verdict, p.result.decision.verdict, p.result.scatter
         probes = tuple(Probe(c, sc.spread(c.key), to, sc.basis(c.key), sc.sources.get(c.key, ""), got[name],
-                             undoes(was, flipped, got[name].decision.verdict))
+                             undoes_all(was, flipped, got[name].decision.verdicts))
                        for name, (q, c, to, _) in runs.items() if q is p)
         out.append(FlipDrivers(float(p.scale), base, p.result, probes))
     return tuple(out)

@@ -69,7 +69,8 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     return dict(zip(ks, got.values()))
 
 
-def jam_tests_of(design: Design, test: JamTest, models: Mapping[str, Scatter], seed: int = CHECK_SEED, *,
+def jam_tests_of(design: Design, test: JamTest | Mapping[str, JamTest], models: Mapping[str, Scatter],
+                 seed: int = CHECK_SEED, *,
                  library: MaterialLibrary | None = None, hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL,
                  dt: float = CHECK_DT_S, method: Method | str = VERDICT_METHOD,
                  nominal: SimulationResult | None = None, workers: int | None = None, mapper=None,
@@ -78,23 +79,27 @@ def jam_tests_of(design: Design, test: JamTest, models: Mapping[str, Scatter], s
     """The jam test of ``design`` under each scatter model of ``models`` (by the name its
     progress reports, e.g. ``"jam test at 2x"``), all on the draws of ``seed`` (common
     random numbers) and, folded here, in one pool: :func:`jam_tests` with the models
-    given (the sweep's scales, or a flip's components removed, :mod:`.flip_drivers`)."""
+    given (the sweep's scales, or a flip's components removed, :mod:`.flip_drivers`).
+    ``test``: one test for every model, or one per model's name (a probe asks only its
+    flip's threshold: :meth:`~foldprint.simulation.verdict.JamTest.asking`)."""
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise DesignError(f"seed must be a whole number >= 0, got {seed!r}")
     from ..core.parallel import default_workers
 
     labels = tuple(models)
+    tests = {name: test[name] if isinstance(test, Mapping) else test for name in labels}
     lib, report = library or default_library(), _stage(progress, labels)
     model, method = parse(HingeModel, hinge_model, "hinge_model"), parse(Method, method, "method")
     mech = parse(Mechanics, mechanics, "mechanics")
     n_workers = default_workers() if workers is None else max(1, int(workers))
-    guards.check_sample_memory(design, test.max_samples)  # refuse before any fold
+    guards.check_sample_memory(design, max(t.max_samples for t in tests.values()))  # refuse before any fold
     if nominal is None:
         nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib, mechanics=mech)
     found: dict[str, tuple[Outcome, ...]] = {}
     # simulation.batch.Precomputed (folded in a shared pool) holds rigid folds only
     lookup = getattr(mapper, "lookup", None) if mech == Mechanics.RIGID else None
     for name, sc in models.items():
+        test = tests[name]
         if all(sc.spread(c.key) == 0 for c in COMPONENTS):  # no scatter: every sample is the nominal part
             found[name] = (outcome_of(nominal),) * test.max_samples
         elif lookup is not None:
@@ -103,18 +108,19 @@ def jam_tests_of(design: Design, test: JamTest, models: Mapping[str, Scatter], s
                 found[name] = tuple(got)
     missing = [name for name in labels if name not in found]
     if missing and (mapper is None or lookup is not None):
-        jobs = [MonteCarloJob(design, test.max_samples, seed, (1.0,), models[name], model, dt, method, test, mech)
-                for name in missing]
+        jobs = [MonteCarloJob(design, tests[name].max_samples, seed, (1.0,), models[name], model, dt, method,
+                              tests[name], mech) for name in missing]
         order = [labels.index(name) for name in missing]
         pre, _, _ = run_batch(jobs, library=lib, workers=n_workers,
                               progress=(lambda kind, st, _out: report(replace(st, job=order[st.job]))) if report else None)
         found.update((name, p.outcomes[0][1]) for name, p in zip(missing, pre))
     for name in missing if mapper is not None and lookup is None else ():
         j = labels.index(name)
-        found[name] = _rounds(design, lib, models[name], seed, test, (model, dt, method, mech), mapper, n_workers,
+        found[name] = _rounds(design, lib, models[name], seed, tests[name], (model, dt, method, mech), mapper, n_workers,
                               (lambda st, j=j: report(StreamStatus(j, 1.0, *st))) if report else None)
     out = {}
     for j, name in enumerate(labels):
+        test = tests[name]
         d = decide([o.jammed for o in found[name]], test)
         if not d.decided:
             raise RuntimeError(f"{design.name}: the {name} did not decide on its {len(found[name])} samples")

@@ -19,6 +19,13 @@ PASS as soon as the warning test accepts H0; WARNING once the warning test has a
 H1 and the error test H0. At the maximum N a test that has not crossed decides by the
 sign of L - (A + B) / 2 (a truncated SPRT; the result says "truncated").
 
+A test can ask less (:class:`~foldprint.core.modes.JamQuestion`): only which side of one
+threshold p is on. Then that threshold's test alone runs and the stream stops at its first
+crossing, with the same error rates; the answer pins a verdict on one side (below the
+warning threshold: pass; above the error threshold: error) and leaves two open on the other
+("above 5 %": a warning or an error). The probes of what drives a flip of the verdict ask
+no more than that (:mod:`foldprint.simulation.flip_drivers`).
+
 Samples are consumed one at a time, in stream order: the stopping index is a function of
 the outcomes alone (so of the seed), never of how many were folded at once or where.
 :func:`decide_many` judges many streams at once (the same code judges one, :func:`decide`),
@@ -33,7 +40,7 @@ interval looked at after a sequential stop does not (:func:`confidence_sequence`
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -42,7 +49,7 @@ from ..core.constants import (CHECK_SAMPLES, JAM_ERROR_ABOVE, JAM_INTERVAL_LEVEL
                               JAM_TEST_MAX_HALF_WIDTH, JAM_TEST_MIN_HALF_WIDTH, JAM_TEST_RELATIVE_HALF_WIDTH,
                               JAM_WARN_ABOVE)
 from ..core.errors import DesignError
-from ..core.modes import JamVerdict, Side
+from ..core.modes import JamQuestion, JamVerdict, Side
 
 #: The test's name in reports.
 TEST_NAME = "truncated Wald SPRT per threshold"
@@ -131,10 +138,20 @@ class JamTest:
     error: Sprt
     max_samples: int
     level: float = JAM_INTERVAL_LEVEL
+    question: JamQuestion = JamQuestion.VERDICT
 
     @property
     def name(self) -> str:
         return TEST_NAME
+
+    def asking(self, question: JamQuestion) -> "JamTest":
+        """The same test asking ``question`` (the same thresholds, error rates and maximum)."""
+        return replace(self, question=JamQuestion(question))
+
+    @property
+    def asked(self) -> Sprt | None:
+        """The one threshold's test a one-threshold question runs (None: the verdict, both)."""
+        return {JamQuestion.WARNING: self.warning, JamQuestion.ERROR: self.error}.get(self.question)
 
     def __post_init__(self):
         if isinstance(self.max_samples, bool) or not isinstance(self.max_samples, int) or self.max_samples < 1:
@@ -162,7 +179,8 @@ class SprtOutcome:
 @dataclass(frozen=True)
 class JamDecision:
     """The test on a stream of outcomes: the verdict (None: not decided yet, more samples
-    needed), the samples it used (``samples``, the stopping index) and their jams."""
+    needed, or a one-threshold answer that leaves two verdicts open: :attr:`verdicts`), the
+    samples it used (``samples``, the stopping index) and their jams."""
 
     test: JamTest
     verdict: JamVerdict | None
@@ -173,8 +191,26 @@ class JamDecision:
     truncated: bool = False  # the verdict needed a test decided by the truncation at the maximum
 
     @property
+    def asked(self) -> SprtOutcome | None:
+        """A one-threshold question's outcome (None when the test asks for the verdict)."""
+        return {JamQuestion.WARNING: self.warning, JamQuestion.ERROR: self.error}.get(self.test.question)
+
+    @property
     def decided(self) -> bool:
-        return self.verdict is not None
+        asked = self.asked
+        return self.verdict is not None if asked is None else asked.side is not None
+
+    @property
+    def verdicts(self) -> tuple[JamVerdict, ...]:
+        """The verdicts the answer leaves possible, best first: one for a verdict (or a
+        one-threshold answer that pins it), two for "above the warning threshold" (warning
+        or error) or "below the error threshold" (pass or warning), none before a decision."""
+        if self.verdict is not None:
+            return (self.verdict,)
+        if not self.decided:
+            return ()
+        return (JamVerdict.WARNING, JamVerdict.ERROR) if self.test.question == JamQuestion.WARNING else \
+            (JamVerdict.PASS, JamVerdict.WARNING)
 
     @property
     def estimate(self) -> float:
@@ -216,9 +252,11 @@ def _first_crossings(sprt: Sprt, cumk: np.ndarray, full: np.ndarray):
 def decide_many(jammed, test: JamTest) -> dict[str, np.ndarray]:
     """The test on many streams at once: ``jammed`` (streams x samples, bool; the samples
     beyond the maximum are ignored) -> arrays ``verdict`` (-1 undecided, 0 pass, 1 warning,
-    2 error), ``samples`` (the stopping index, or all samples when undecided), ``jams``,
-    ``truncated`` (the verdict needed a test decided by the truncation), and per test ``warning_side``/``error_side`` (-1, 0 below, 1 above), ``..._at``,
-    ``..._truncated``."""
+    2 error), ``decided``, ``samples`` (the stopping index, or all samples when undecided),
+    ``jams``, ``truncated`` (the verdict needed a test decided by the truncation), and per test
+    ``warning_side``/``error_side`` (-1, 0 below, 1 above), ``..._at``, ``..._truncated``.
+    A one-threshold question (``test.question``) stops at that test's crossing; its
+    ``verdict`` is -1 where the side leaves two verdicts open (``decided`` says it answered)."""
     x = np.asarray(jammed, dtype=bool)
     if x.ndim != 2:
         raise ValueError("jammed must be a 2D array: streams x samples")
@@ -228,14 +266,24 @@ def decide_many(jammed, test: JamTest) -> dict[str, np.ndarray]:
     full = np.full(s, m >= test.max_samples)
     ws, wat, wtr = _first_crossings(test.warning, cumk, full)
     es, eat, etr = _first_crossings(test.error, cumk, full)
-    error = (es == 1) & ~((ws == 0) & (wat < eat))  # an error unless the pass came strictly first
-    passed = (ws == 0) & ~((es == 1) & (eat <= wat))
-    warning = (ws == 1) & (es == 0)
-    verdict = np.select([error, passed, warning], [2, 0, 1], -1)
-    n = np.select([error, passed, warning], [eat, wat, np.maximum(wat, eat)], m)
+    if test.question == JamQuestion.VERDICT:
+        error = (es == 1) & ~((ws == 0) & (wat < eat))  # an error unless the pass came strictly first
+        passed = (ws == 0) & ~((es == 1) & (eat <= wat))
+        warning = (ws == 1) & (es == 0)
+        verdict = np.select([error, passed, warning], [2, 0, 1], -1)
+        n = np.select([error, passed, warning], [eat, wat, np.maximum(wat, eat)], m)
+        truncated = np.select([error, passed, warning], [etr, wtr, wtr | etr], False)  # the tests the verdict used
+        decided = verdict >= 0
+    else:  # one threshold's test alone: below the warning threshold pins a pass, above the error one an error
+        side, at, trunc = (ws, wat, wtr) if test.question == JamQuestion.WARNING else (es, eat, etr)
+        decided = side >= 0
+        pinned = side == 0 if test.question == JamQuestion.WARNING else side == 1
+        verdict = np.where(pinned, 0 if test.question == JamQuestion.WARNING else 2, -1)
+        n = np.where(decided, at, m)
+        truncated = trunc & decided
     k = np.where(n > 0, cumk[np.arange(s), np.maximum(n, 1) - 1] if m else 0, 0)
-    truncated = np.select([error, passed, warning], [etr, wtr, wtr | etr], False)  # the tests the verdict used
-    return {"verdict": verdict, "samples": n, "jams": k, "truncated": truncated, "warning_side": ws,
+    return {"verdict": verdict, "decided": decided, "samples": n, "jams": k, "truncated": truncated,
+            "warning_side": ws,
             "warning_at": wat, "warning_truncated": wtr, "error_side": es, "error_at": eat, "error_truncated": etr}
 
 
@@ -303,7 +351,10 @@ class OperatingPoint:
 
 def operating_point(p: float, test: JamTest, streams: int, seed: int, block: int = 4096) -> OperatingPoint:
     """Simulate the test on ``streams`` independent streams of outcomes that jam with
-    probability ``p`` (one seeded generator; pure numpy, in blocks of ``block`` streams)."""
+    probability ``p`` (one seeded generator; pure numpy, in blocks of ``block`` streams).
+    The verdict's test only (a one-threshold question's rates are its :class:`Sprt`'s)."""
+    if test.question != JamQuestion.VERDICT:
+        raise ValueError("operating_point simulates the verdict's test; ask JamQuestion.VERDICT")
     rng = np.random.default_rng(seed)
     counts = np.zeros(3)
     total_n = truncated = 0
