@@ -188,10 +188,14 @@ def test_shared_pool_answers_the_jam_test_as_check_alone(sequential):
     to the test run alone."""
     from foldprint.simulation.verdict import jam_test
 
+    from foldprint.simulation.check_stages import check_follow
+
     designs, ref = sequential
-    jobs = [MonteCarloJob(d, MAX, SEED, (1.0, 2.0), test=jam_test(max_samples=MAX)) for d in designs]
-    pre, after, _ = run_batch(jobs, workers=2, after=_size)
-    assert after == [2, 2]
+    jobs = [MonteCarloJob(d, MAX, SEED, (1.0,), test=jam_test(max_samples=MAX)) for d in designs]
+    pre, after, _ = run_batch(jobs, workers=2, after=_size, follow=check_follow(jobs, (2.0,)))
+    # the test at 1x, then the sweep asking whether it flips; helix_graded's pass flips at 2x:
+    # its five probes (one per scatter component) join the pool too
+    assert after == [2, 7]
     from foldprint.simulation import sequential as seq
 
     def no_fold(*_a, **_k):
@@ -203,9 +207,23 @@ def test_shared_pool_answers_the_jam_test_as_check_alone(sequential):
         for d, p in zip(designs, pre):
             calls = []
             _same(_tested(d, workers=1, mapper=p, progress=lambda *a: calls.append(a)), ref[d.name])
-            assert [len(o) for _, o in p.outcomes] == [ref[d.name][k].samples for k in (1.0, 2.0)]
+            assert [len(e[1]) for e in p.outcomes[:2]] == [ref[d.name][k].samples for k in (1.0, 2.0)]
+            assert [e[2] for e in p.outcomes[:2]] == [ref[d.name][k].decision.test for k in (1.0, 2.0)]
             n = [ref[d.name][k].samples for k in (1.0, 2.0)]
             assert calls == [("jam test at 1x", n[0], n[0]), ("jam test at 2x", n[1], n[1])]
+        # the flip's probes: answered from the pool's streams, as flip_drivers folds them alone
+        from foldprint.simulation.flip_drivers import flip_drivers, flips_of
+        from foldprint.simulation.sensitivity import SweepPoint
+
+        d, p = designs[1], pre[1]
+        r = ref[d.name]
+        flips = flips_of(r[1.0], [SweepPoint(k, r[k]) for k in (1.0, 2.0)])
+        assert [f.scale for f in flips] == [2.0]
+        got = flip_drivers(d, r[1.0], flips, mapper=p)
+    alone = flip_drivers(d, r[1.0], flips, workers=1)
+    assert [(pr.component.key, pr.result.outcomes, pr.result.decision) for pr in got[0].probes] == [
+        (pr.component.key, pr.result.outcomes, pr.result.decision) for pr in alone[0].probes]
+    assert len(got[0].probes) == 5 and [len(e[1]) for e in p.outcomes[2:]] == [pr.result.samples for pr in alone[0].probes]
 
 
 def test_no_chunk_is_folded_past_a_decided_stop(monkeypatch):
@@ -216,10 +234,11 @@ def test_no_chunk_is_folded_past_a_decided_stop(monkeypatch):
 
     folded = []
     real = batch._chunk_task
-    monkeypatch.setattr(batch, "_chunk_task", lambda j, k, c: folded.append((j, k, c)) or real(j, k, c))
+    scale = {default_scatter(): 1.0, default_scatter().scaled(2.0): 2.0}
+    monkeypatch.setattr(batch, "_chunk_task", lambda j, sc, c: folded.append((j, scale[sc], c)) or real(j, sc, c))
     d = _designs()[0]
     (p,), _, _ = run_batch([MonteCarloJob(d, MAX, SEED, (1.0, 2.0), test=jam_test(max_samples=MAX))], workers=1)
-    assert sorted(folded) == [(0, 1.0, 0), (0, 2.0, 0)] and [len(o) for _, o in p.outcomes] == [6, 6]
+    assert sorted(folded) == [(0, 1.0, 0), (0, 2.0, 0)] and [len(e[1]) for e in p.outcomes] == [6, 6]
 
 
 def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
@@ -236,7 +255,7 @@ def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
     test = jam_test(max_samples=20)
     want = decide([o.jammed for o in stream], test)
     for order in ([0, 1, 2, 3, 4], [4, 3, 2, 1, 0], [2, 0, 4, 1, 3]):
-        s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED, test=test))
+        s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED, test=test), default_scatter(), test)
         for c in range(s.total):
             s.take()
         for c in order:
@@ -255,9 +274,9 @@ def test_a_batch_run_inside_a_worker_keeps_the_workers_jobs():
     d, lib = _designs()[1], default_library()
     batch._init([MonteCarloJob(d, 4, SEED)], lib)  # what the pool's initializer gives a worker
     try:
-        before, _ = batch._chunk_task(0, 1.0, 0)
+        before, _ = batch._chunk_task(0, default_scatter(), 0)
         run_batch([MonteCarloJob(d, 2, SEED + 1)], library=lib, workers=1)  # folded here, in the worker
-        after, _ = batch._chunk_task(0, 1.0, 0)
+        after, _ = batch._chunk_task(0, default_scatter(), 0)
     finally:
         batch._STATE.clear()
     assert len(after) == 4 and after == before

@@ -632,14 +632,15 @@ def test_gallery_gives_the_verdict_of_foldprint_check(gallery, capsys):
 
 def test_gallery_reports_its_jam_tests_as_they_run(gallery):
     """From its first jam-test samples the gallery says how many of its tests have decided
-    (three per design: 1x, 0.5x, 2x) and how many samples they used; at the end all have,
-    and the samples are those the designs' samples.json files hold."""
+    (per design 1x, 0.5x and 2x, and a flip's probes) and how many samples they used; at the
+    end all have, and the tests and samples are those the designs' check.json files hold."""
     _, out, _, _ = gallery
     assert ACTIVITY and all(a.startswith("jam tests: ") for a in ACTIVITY)
-    used = sum(json.loads((out / n / "check.json").read_text())["robust"]["samples"] +
-               sum(p["samples"] for p in json.loads((out / n / "check.json").read_text())["sensitivity"]
-                   if p["scale"] != 1.0) for n in DESIGNS)
-    assert ACTIVITY[-1] == f"jam tests: {3 * len(DESIGNS)} of {3 * len(DESIGNS)} decided, {used} samples used"
+    checks = [json.loads((out / n / "check.json").read_text()) for n in DESIGNS]
+    tests = [c["robust"]["samples"] for c in checks] + [
+        p["samples"] for c in checks for p in c["sensitivity"] if p["scale"] != 1.0] + [
+        w["samples"] for c in checks for fd in c["flip_drivers"] for w in fd["probes"]]
+    assert ACTIVITY[-1] == f"jam tests: {len(tests)} of {len(tests)} decided, {sum(tests)} samples used"
     assert any(" 0 of " in a for a in ACTIVITY[:3])  # it speaks before the first test decides
 
 

@@ -241,6 +241,7 @@ def test_a_one_threshold_question_stops_at_that_tests_crossing(question):
                     assert d.verdicts == () and d.verdict is None
                     continue
                 assert d.asked.side == side
+                assert decide(row[:d.samples], t) == d  # nothing past the stop shows, the other test neither
                 open_ = {(JamQuestion.WARNING, Side.BELOW): (JamVerdict.PASS,),
                          (JamQuestion.WARNING, Side.ABOVE): (JamVerdict.WARNING, JamVerdict.ERROR),
                          (JamQuestion.ERROR, Side.BELOW): (JamVerdict.PASS, JamVerdict.WARNING),

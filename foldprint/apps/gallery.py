@@ -159,17 +159,18 @@ class _Steps:
 
 
 class _Tests:
-    """The jam tests of the gallery's pool as one status line for ``activity``."""
+    """The jam tests of the gallery's pool as one status line for ``activity`` (a design's
+    sweep and probes join once the test before them decided)."""
 
-    def __init__(self, streams: int, activity: Callable[[str], None] | None):
-        self.streams, self.activity, self.at = streams, activity, {}
+    def __init__(self, activity: Callable[[str], None] | None):
+        self.activity, self.at = activity, {}
 
     def __call__(self, st) -> None:
         self.at[(st.job, st.scale)] = st
         if self.activity is not None:
             decided = sum(s.done for s in self.at.values())
             used = sum(s.samples for s in self.at.values())
-            self.activity(f"jam tests: {decided} of {self.streams} decided, {used} samples used")
+            self.activity(f"jam tests: {decided} of {len(self.at)} decided, {used} samples used")
 
 
 def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: MaterialLibrary, dt: float,
@@ -177,6 +178,7 @@ def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: M
     """The material chart and every design's entry, built in one process pool with every
     design's Monte-Carlo (:func:`foldprint.simulation.batch.run_batch`)."""
     from ..simulation.batch import MonteCarloJob, run_batch
+    from ..simulation.check_stages import check_follow
     from ..simulation.verdict import jam_test
 
     # the workers fork from here: import what they all need once, before the fork
@@ -185,17 +187,17 @@ def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: M
     from ..render import figures as render, anim as render_anim, viewer  # noqa: F401
     from ..simulation import simulate  # noqa: F401
 
-    # one pool for everything: every design's jam test at 1x and each sweep scale (chunks
-    # submitted as workers free up, costliest first, none after a test decides), each
-    # design's build once its tests are decided, and the material chart
-    # (foldprint.simulation.batch)
+    # one pool for everything: every design's jam test at 1x, then its sweep, then the probes
+    # of a flip (check's stages: foldprint.simulation.check_stages; chunks submitted as
+    # workers free up, costliest first, none after a test decides), each design's build once
+    # its tests are decided, and the material chart (foldprint.simulation.batch)
     test = jam_test(max_samples=samples) if samples else None  # check's test, default thresholds
-    mc = [MonteCarloJob(d, samples, seed, (1.0, *CHECK_SCALES), dt=dt, test=test) for d in designs]
+    mc = [MonteCarloJob(d, samples, seed, (1.0,), dt=dt, test=test) for d in designs]
 
     def after(i, pre):
         return build_design, (designs[i], out, dirnames[i], lib, dt, gif_frames, samples, seed, pre)
 
-    tests = _Tests(sum(len(job.scales) for job in mc if job.samples), activity)
+    tests = _Tests(activity)
 
     def report(kind, what, out=None):
         if kind == "samples":
@@ -205,5 +207,5 @@ def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: M
 
     _, entries, (materials_img,) = run_batch(
         mc, library=lib, workers=max(1, jobs or os.cpu_count() or 1), after=after,
-        tasks=[(chart_task, (out, lib))], progress=report)
+        tasks=[(chart_task, (out, lib))], progress=report, follow=check_follow(mc, CHECK_SCALES))
     return materials_img, entries

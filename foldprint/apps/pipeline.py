@@ -21,8 +21,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from ..core import guards
-from ..checks.rules import (CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks,
-                            sweep_flips)
+from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
 from ..collision.swept3d import SweptChecker
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
@@ -44,7 +43,7 @@ from ..model.materials import MaterialLibrary, default_library
 from ..model.printers import find_printer, tool_fit
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, DEFAULT_STATE,
                           VERDICT_METHOD, AfterContact, HingeModel, Mechanics, Method, SampleRule, State, parse)
-from ..simulation.flip_drivers import FlipDrivers, flip_drivers
+from ..simulation.flip_drivers import FlipDrivers, flip_drivers, flips_of
 from ..simulation.margin import ScatterMargin, margin_batch_bytes, scatter_margin
 from ..simulation.margin import left_out as margin_left_out, screened_poses
 from ..simulation.paper_beside import PaperLine, paper_lines
@@ -379,7 +378,7 @@ class Evaluation:
             r, o = self.robust, self.options
             if r is None or r.decision is None or not self.sweep:
                 return ()
-            points = [p for p, _ in sweep_flips(r, self.sweep, o.thresholds)[0]]
+            points = flips_of(r, self.sweep)
             return flip_drivers(self.design, r, points, library=self.library, dt=o.dt, workers=o.workers,
                                 mapper=self.mapper, progress=self.progress) if points else ()
 

@@ -250,7 +250,8 @@ def flip_drivers_json(flips) -> list[dict]:
         strongest = fd.strongest
         out.append({
             "scale": fd.scale, "verdict_at_1x": str(fd.base.decision.verdict),
-            "verdict": str(fd.flipped.decision.verdict), "worse": fd.worse,
+            "verdict": None if fd.flipped.decision.verdict is None else str(fd.flipped.decision.verdict),
+            "verdicts": [str(v) for v in fd.flipped.decision.verdicts], "worse": fd.worse,
             "probe": "removed" if fd.worse else "kept at its 1x spread",
             "drivers": [pr.component.key for pr in fd.drivers],
             "strongest": None if strongest is None else strongest.component.key,

@@ -306,9 +306,21 @@ def jam_verdict(r, th: Thresholds) -> str:
     :mod:`foldprint.simulation.verdict`: error, warning or pass = info); for a fixed-size
     estimate, error when the 95 % interval's lower end is above ``th.error``, warning when
     the estimate is above ``th.warning``, else info."""
+    return jam_verdicts(r, th)[0]
+
+
+def jam_verdicts(r, th: Thresholds) -> tuple[str, ...]:
+    """The severities a jam probability may earn (:func:`jam_verdict`): one, or two when its
+    test asked only whether a threshold is crossed (a sweep point: "above 5 %" leaves a
+    warning and an error open), worst first."""
     d = getattr(r, "decision", None)
     if d is not None:
-        return VERDICT_SEVERITY[d.verdict]
+        return tuple(VERDICT_SEVERITY[v] for v in reversed(d.verdicts))
+    return (_fixed_verdict(r, th),)
+
+
+def _fixed_verdict(r, th: Thresholds) -> str:
+    """A fixed-size estimate's severity (:func:`jam_verdict`)."""
     if r.ci95[0] > th.error:
         return "error"
     return "warning" if r.jam_probability > th.warning else "info"
@@ -322,9 +334,23 @@ def _thresholds(ctx: CheckContext) -> Thresholds:
 
 def _scaled(points, th: Thresholds) -> str:
     """The sweep's other scales: each one's verdict and estimate."""
-    word = {"error": "fails", "warning": "warns", "info": "passes"}
-    return "; ".join(f"{p.scale:g}x: {word[jam_verdict(p.result, th)]}, {jam_estimate_text(p.result)}"
+    return "; ".join(f"{p.scale:g}x: {_answer(p.result, th)}, {jam_estimate_text(p.result)}"
                      for p in points if p.scale != 1.0)
+
+
+def _answer(r, th: Thresholds, codes: bool = False) -> str:
+    """What a jam estimate says as a verb phrase ("fails", "does not pass (above 5 %)"),
+    with the finding's code after a verdict when ``codes``."""
+    d = getattr(r, "decision", None)
+    if d is not None and len(d.verdicts) > 1:
+        return answer_text(d)
+    v = jam_verdict(r, th)
+    word = {"error": "fails", "warning": f"jams above {threshold(th.warning)}", "info": "passes"} if codes else \
+        {"error": "fails", "warning": "warns", "info": "passes"}
+    return word[v] + (f" ({_CODE[v]})" if codes else "")
+
+
+_CODE = {"error": "FP180", "warning": "FP181", "info": "FP182"}
 
 
 def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
@@ -358,9 +384,10 @@ def sweep_flips(r, sweep, th: Thresholds = Thresholds()) -> tuple[list, bool]:
     than ``r``'s verdict (the points where it is worse; when none is, those where it is
     better; none when no scale's verdict differs)."""
     base = jam_verdict(r, th)
-    flips = [(p, jam_verdict(p.result, th)) for p in sweep if p.scale != 1.0]
-    worse = [(p, v) for p, v in flips if _RANK[v] < _RANK[base]]
-    return (worse, True) if worse else ([(p, v) for p, v in flips if _RANK[v] > _RANK[base]], False)
+    flips = [(p, jam_verdicts(p.result, th)) for p in sweep if p.scale != 1.0]
+    worse = [(p, vs[0]) for p, vs in flips if all(_RANK[v] < _RANK[base] for v in vs)]
+    return (worse, True) if worse else ([(p, vs[-1]) for p, vs in flips if all(_RANK[v] > _RANK[base] for v in vs)],
+                                        False)
 
 
 def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
@@ -372,13 +399,13 @@ def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
     if r is None or not ctx.sweep:
         return []
     th, d = _thresholds(ctx), getattr(r, "decision", None)
-    word = {"error": "fails (FP180)", "warning": f"jams above {threshold(th.warning)} (FP181)", "info": "passes (FP182)"}
     shown, worse = sweep_flips(r, ctx.sweep, th)
     if not shown:
         return []
-    at = "; ".join(f"{word[v]} at {p.scale:g}x: {jam_estimate_text(p.result)}" for p, v in shown)
-    same = "the same draws" if d is None else "the same draws, each scale its own sequential test"
-    text = (f"the jam verdict depends on the scatter model: it {word[jam_verdict(r, th)]} at the model's spreads "
+    at = "; ".join(f"{_answer(p.result, th, True)} at {p.scale:g}x: {jam_estimate_text(p.result)}" for p, _ in shown)
+    same = "the same draws" if d is None else \
+        "the same draws, each scale its own sequential test asking whether the verdict at 1x flips"
+    text = (f"the jam verdict depends on the scatter model: it {_answer(r, th, True)} at the model's spreads "
             f"({jam_estimate_text(r)}) but {at} ({same})")
     text += "".join(f"; {_drivers_text(fd)}" for fd in ctx.flip_drivers)
     if worse:

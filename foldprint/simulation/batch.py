@@ -28,7 +28,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from itertools import islice
-from typing import Callable, Sequence
+from typing import Callable, Mapping, Sequence
 
 from ..core import guards
 from ..core.constants import DEFAULT_DT_S
@@ -82,16 +82,17 @@ class Precomputed:
     seed: int
     hinge_model: HingeModel
     dt: float
-    outcomes: tuple[tuple[Scatter, tuple[Outcome, ...]], ...]
+    outcomes: tuple[tuple, ...]  # (scatter, outcomes) or (scatter, outcomes, test): a stream's own test
     method: Method = VERDICT_METHOD
-    test: JamTest | None = None
+    test: JamTest | None = None  # the test of a stream that names none
 
     def lookup(self, design: Design, scatter: Scatter, samples: int, seed: int, hinge_model: HingeModel,
                dt: float, method: Method = VERDICT_METHOD, test: JamTest | None = None) -> tuple[Outcome, ...] | None:
-        if (design.name, samples, seed, hinge_model, dt, method, test) != (
-                self.design, self.samples, self.seed, self.hinge_model, self.dt, self.method, self.test):
+        if (design.name, samples, seed, hinge_model, dt, method) != (
+                self.design, self.samples, self.seed, self.hinge_model, self.dt, self.method):
             return None
-        return next((o for sc, o in self.outcomes if sc == scatter), None)
+        return next((e[1] for e in self.outcomes if e[0] == scatter and (e[2] if len(e) > 2 else self.test) == test),
+                    None)
 
     def __call__(self, fn, items, progress=None):  # a plain mapper for whatever was not precomputed
         out = []
@@ -124,11 +125,11 @@ def _init(jobs, library) -> None:
     _STATE["jobs"], _STATE["library"] = jobs, library
 
 
-def _chunk_task(j: int, k: float, c: int) -> tuple[list[Outcome], float]:
-    """Fold chunk ``c`` of job ``j`` at scale ``k`` (in a worker); its outcomes and the
-    seconds per sample it took."""
+def _chunk_task(j: int, scatter: Scatter, c: int) -> tuple[list[Outcome], float]:
+    """Fold chunk ``c`` of job ``j``'s stream under ``scatter`` (in a worker); its outcomes
+    and the seconds per sample it took."""
     job: MonteCarloJob = _STATE["jobs"][j]
-    stream = iter_samples(job.design, job.scatter_at(k), job.samples, job.seed)
+    stream = iter_samples(job.design, scatter, job.samples, job.seed)
     samples = list(islice(stream, c * CHUNK, (c + 1) * CHUNK))
     t0 = time.perf_counter()  # wall, as jam_probability times its first chunk
     out = run_samples((job.design, _STATE["library"], samples, job.hinge_model, job.dt, False, job.method,
@@ -144,11 +145,12 @@ def _cost(design: Design) -> float:
 
 
 class _Stream:
-    """One (job, scale) stream: the chunks submitted, in flight and back, and the outcomes
+    """One stream of a job: a scale of it (``k``), or a follow-up (``k`` its name), with its
+    scatter model and test; the chunks submitted, in flight and back, and the outcomes
     consumed in stream order (cut at the test's stop)."""
 
-    def __init__(self, j: int, k: float, job: MonteCarloJob):
-        self.j, self.k, self.job = j, k, job
+    def __init__(self, j: int, k, job: MonteCarloJob, scatter: Scatter, test: JamTest | None):
+        self.j, self.k, self.job, self.scatter, self.test = j, k, job, scatter, test
         self.total = n_chunks(job.samples)
         self.next = 0  # the next chunk to submit
         self.flying = 0
@@ -165,7 +167,7 @@ class _Stream:
     @property
     def sure(self) -> bool:
         """Its next chunk will be used: a fixed job, or nothing of it in flight."""
-        return self.job.test is None or self.flying == 0
+        return self.test is None or self.flying == 0
 
     def take(self) -> int:
         self.next += 1
@@ -181,9 +183,8 @@ class _Stream:
         while self.used in self.back:
             self.outcomes.extend(self.back.pop(self.used))
             self.used += 1
-        test = self.job.test
-        if test is not None:
-            d = decide([o.jammed for o in self.outcomes], test)
+        if self.test is not None:
+            d = decide([o.jammed for o in self.outcomes], self.test)
             if d.decided:
                 del self.outcomes[d.samples:]
                 self.done = True
@@ -197,9 +198,15 @@ class _Stream:
 
 def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None = None, workers: int = 1,
               after: Callable[[int, Precomputed], tuple] | None = None, tasks: Sequence[tuple] = (),
-              progress: Callable[..., None] | None = None) -> tuple[list[Precomputed], list, list]:
+              progress: Callable[..., None] | None = None,
+              follow: Callable[[int, Precomputed], Mapping] | None = None) -> tuple[list[Precomputed], list, list]:
     """Fold every job's streams (one per scale) in one pool of ``workers`` processes.
 
+    ``follow(i, pre)`` -> ``{name: (scatter, test)}``: more streams of job ``i`` (the same
+    design, samples and seed; their own scatter model and test), asked each time its
+    streams are all finished (``pre`` its :class:`Precomputed` so far) until it returns
+    none: work that depends on what the first streams decided (check's sweep after the
+    test at 1x, the probes of a flip after the sweep) folds in the same pool.
     ``after(i, pre)`` -> ``(fn, args)``: a task run in the same pool once job ``i``'s
     streams are all finished (``pre`` its :class:`Precomputed`); ``tasks``: ``(fn, args)``
     run in the pool beside them. ``progress(kind, what, out)`` is called as a follow-up
@@ -207,7 +214,7 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
     result) finishes, and as a stream consumes samples (``"samples"``, a
     :class:`StreamStatus`, None). Returns the Precomputed per job, the follow-ups' results
     and the tasks' results (in input order)."""
-    batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress)
+    batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress, follow)
     for s in batch.streams:  # every stream, at 0 of its maximum, before the first chunk
         batch.report("samples", s.status())
     if workers <= 1 or sum(s.total for s in batch.streams if not s.done) + len(batch.tasks) <= 1:  # no pool for one task
@@ -221,25 +228,44 @@ class _Batch:
     """The state of one :func:`run_batch`: the streams, the follow-ups' and tasks' results."""
 
     def __init__(self, jobs: list[MonteCarloJob], lib: MaterialLibrary, workers: int, after, tasks: list,
-                 progress):
+                 progress, follow=None):
         for job in jobs:
             guards.check_sample_memory(job.design, job.samples)
         self.jobs, self.lib, self.workers, self.after, self.tasks = jobs, lib, workers, after, tasks
-        self.progress = progress
-        streams = [_Stream(j, float(k), job) for j, job in enumerate(jobs) for k in job.scales]
-        streams.sort(key=lambda s: -_cost(jobs[s.j].design))  # stable: job and scale order kept
-        self.streams = streams
+        self.progress, self.follow = progress, follow
+        self.streams = []
+        self.add_streams([_Stream(j, float(k), job, job.scatter_at(float(k)), job.test)
+                          for j, job in enumerate(jobs) for k in job.scales])
         self.ready: list[int] = []  # jobs whose streams are all finished, follow-up not yet run
         self.pre: list[Precomputed | None] = [None] * len(jobs)
         self.after_out: list = [None] * len(jobs)
         self.task_out: list = [None] * len(tasks)
 
+    def add_streams(self, new: list[_Stream]) -> None:
+        """Streams to fold, kept in order of cost (costliest design first; stable: job,
+        scale and follow-up order kept)."""
+        self.streams = sorted(self.streams + new, key=lambda s: -_cost(self.jobs[s.j].design))
+
     def precomputed(self, j: int) -> Precomputed:
         job = self.jobs[j]
-        mine = {s.k: s for s in self.streams if s.j == j}
-        outs = tuple((job.scatter_at(float(k)), tuple(mine[float(k)].outcomes)) for k in job.scales)
+        outs = tuple((s.scatter, tuple(s.outcomes), s.test) for s in self.streams if s.j == j)
         return Precomputed(job.design.name, job.samples, job.seed, job.hinge_model, job.dt, outs, job.method,
                            job.test)
+
+    def finished(self, j: int) -> None:
+        """Job ``j``'s streams are all finished: its follow-up streams if it has more, else
+        it is ready (its Precomputed made, its ``after`` task due)."""
+        more = self.follow(j, self.precomputed(j)) if self.follow is not None else None
+        if not more:
+            self.pre[j] = self.precomputed(j)
+            self.ready.append(j)
+            return
+        new = [_Stream(j, name, self.jobs[j], sc, test) for name, (sc, test) in more.items()]
+        self.add_streams(new)
+        for s in new:
+            self.report("samples", s.status())
+        if all(s.done for s in new):  # nothing to fold (no samples)
+            self.finished(j)
 
     def report(self, kind: str, what) -> None:
         if self.progress:
@@ -258,8 +284,7 @@ class _Batch:
         if not was:
             self.report("samples", s.status())
         if s.done and not was and all(t.done for t in self.streams if t.j == s.j):
-            self.pre[s.j] = self.precomputed(s.j)
-            self.ready.append(s.j)
+            self.finished(s.j)
 
     def run_here(self) -> None:
         outer = dict(_STATE)  # a worker of an enclosing batch (the gallery's) keeps its jobs
@@ -267,12 +292,10 @@ class _Batch:
         try:
             for j in range(len(self.jobs)):
                 if all(s.done for s in self.streams if s.j == j):  # no samples
-                    self.pre[j] = self.precomputed(j)
-                    self.ready.append(j)
-            for s in self.streams:
-                while s.wants:
-                    c = s.take()
-                    self.chunk_done(s, c, *_chunk_task(s.j, s.k, c))
+                    self.finished(j)
+            while (s := next((t for t in self.streams if t.wants), None)) is not None:
+                c = s.take()
+                self.chunk_done(s, c, *_chunk_task(s.j, s.scatter, c))
         finally:
             _STATE.clear()
             _STATE.update(outer)
@@ -317,8 +340,7 @@ class _Batch:
                 pending[pool.submit(fn, *args)] = ("task", i)
             for j in range(len(self.jobs)):
                 if all(s.done for s in self.streams if s.j == j):  # no samples
-                    self.pre[j] = self.precomputed(j)
-                    self.ready.append(j)
+                    self.finished(j)
             self.drain(pool, pending)
         except BaseException:
             _stop(pool)
@@ -333,7 +355,7 @@ class _Batch:
                 return
             if work[0] == "chunk":
                 _, s, c = work
-                pending[pool.submit(_chunk_task, s.j, s.k, c)] = ("chunk", s, c)
+                pending[pool.submit(_chunk_task, s.j, s.scatter, c)] = ("chunk", s, c)
             else:
                 _, j, fn, args = work
                 pending[pool.submit(fn, *args)] = ("after", j)

@@ -40,7 +40,7 @@ from ..core.modes import JamQuestion, JamVerdict, SpreadBasis
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
 from .robust import RobustResult
-from .scatter import COMPONENTS, Component
+from .scatter import COMPONENTS, Component, Scatter
 from .sequential import StageProgress, jam_tests_of
 
 #: The verdicts from best to worst.
@@ -132,7 +132,7 @@ class FlipDrivers:
     def worse(self) -> bool:
         """The verdict at the scale is worse than at 1x (FP183's warning), else better:
         the probes remove a component (worse) or keep it at its 1x spread (better)."""
-        return worse(self.flipped.decision.verdict, self.base.decision.verdict)
+        return worse(self.flipped.decision.verdicts[0], self.base.decision.verdict)
 
     def toward_base(self, probe: Probe) -> float:
         """How far ``probe`` moves the jam estimate toward the 1x verdict (down from the
@@ -156,6 +156,49 @@ class FlipDrivers:
         return best if self.toward_base(best) > 0 else None
 
 
+def flips_of(base: RobustResult, points: Sequence) -> list:
+    """The sweep points whose flip is taken apart (:func:`flipping` of their decisions)."""
+    keep = set(flipping(base.decision.verdict, [(p.scale, p.result.decision) for p in points]))
+    return [p for p in points if p.scale in keep]
+
+
+def flipping(base: JamVerdict, points: Sequence[tuple]) -> list[float]:
+    """The scales of the sweep points (``(scale, decision)``) whose flip is taken apart:
+    those whose verdict is worse than ``base`` (the verdict at 1x), else those whose verdict
+    is better (a sweep point's answer may leave two verdicts open, both on the same side of
+    ``base``: :func:`~foldprint.simulation.verdict.sweep_question`), in their order.
+
+    >>> from types import SimpleNamespace as D
+    >>> P, W, E = JamVerdict.PASS, JamVerdict.WARNING, JamVerdict.ERROR
+    >>> flipping(W, [(0.5, D(verdicts=(P,))), (2.0, D(verdicts=(E,)))]), flipping(P, [(2.0, D(verdicts=(W, E)))])
+    ([2.0], [2.0])
+    """
+    others = [(k, d) for k, d in points if k != 1.0]
+    up = [k for k, d in others if all(worse(v, base) for v in d.verdicts)]
+    return up or [k for k, d in others if all(worse(base, v) for v in d.verdicts)]
+
+
+def probe_runs(base, base_scatter: Scatter, flips: Sequence[tuple]) -> dict[str, tuple]:
+    """The probes of each flip, by the name progress gives them ("flip at 2x, without
+    bath"): ``(scale, component, probe spread, scatter model, test)``. ``base``: the
+    decision at 1x (:class:`~foldprint.simulation.verdict.JamDecision`) under
+    ``base_scatter``; ``flips``: ``(scale, decision, scatter)`` of each flipped sweep point.
+    One probe per component of non-zero spread: removed (a worse flip) or kept at its 1x
+    spread (a better one), asking only the flip's threshold (:func:`probe_question`)."""
+    if any(base.verdict in d.verdicts for _, d, _ in flips):
+        raise ValueError("a flip's verdict must differ from the verdict at 1x")
+    runs = {}
+    for k, d, sc in flips:
+        up = worse(d.verdicts[0], base.verdict)
+        test = base.test.asking(probe_question(base.verdict, d.verdicts[0]))
+        for c in COMPONENTS:
+            if sc.spread(c.key) > 0:
+                to = 0.0 if up else base_scatter.spread(c.key)
+                name = f"flip at {k:g}x, " + (f"without {c.key}" if up else f"{c.key} at 1x")
+                runs[name] = (float(k), c, to, replace(sc, **{c.attr: to}), test)
+    return runs
+
+
 def flip_drivers(design: Design, base: RobustResult, flips: Sequence, *, library: MaterialLibrary | None = None,
                  dt: float = CHECK_DT_S, workers: int | None = None, mapper=None,
                  progress: StageProgress | None = None) -> tuple[FlipDrivers, ...]:
@@ -163,21 +206,12 @@ def flip_drivers(design: Design, base: RobustResult, flips: Sequence, *, library
     jam test at that scale, whose verdict differs from ``base``'s, the test at 1x): the
     same test (``base``'s seed, hinge model, collision method, mechanics and test; time step ``dt``)
     with each component of non-zero spread removed (a worse flip) or kept at its 1x spread
-    (a better one), asking only the flip's threshold (:func:`probe_question`), every run in one pool (``workers``, ``mapper`` and ``progress`` as
-    :func:`~foldprint.simulation.sequential.jam_tests`)."""
+    (a better one), asking only the flip's threshold (:func:`probe_runs`), every run in one
+    pool (``workers``, ``mapper`` and ``progress`` as :func:`~foldprint.simulation.sequential.jam_tests`)."""
     if base.decision is None or any(p.result.decision is None for p in flips):
         raise ValueError("flip drivers take check's sequential jam tests (results with a decision)")
-    if any(p.result.decision.verdict == base.decision.verdict for p in flips):
-        raise ValueError("a flip's verdict must differ from the verdict at 1x")
-    runs, tests = {}, {}
-    for p in flips:
-        sc, up = p.result.scatter, worse(p.result.decision.verdict, base.decision.verdict)
-        test = base.decision.test.asking(probe_question(base.decision.verdict, p.result.decision.verdict))
-        for c in COMPONENTS:
-            if sc.spread(c.key) > 0:
-                to = 0.0 if up else base.scatter.spread(c.key)
-                name = f"flip at {p.scale:g}x, " + (f"without {c.key}" if up else f"{c.key} at 1x")
-                runs[name], tests[name] = (p, c, to, replace(sc, **{c.attr: to})), test
+    runs = probe_runs(base.decision, base.scatter, [(p.scale, p.result.decision, p.result.scatter) for p in flips])
+    tests = {name: run[4] for name, run in runs.items()}
     if not runs:
         return ()
     got = jam_tests_of(design, tests, {name: run[3] for name, run in runs.items()}, base.seed,
@@ -186,9 +220,9 @@ def flip_drivers(design: Design, base: RobustResult, flips: Sequence, *, library
                        mechanics=base.mechanics)
     out = []
     for p in flips:
-        was, flipped, sc = base.decision.verdict, p.result.decision.verdict, p.result.scatter
+        was, flipped, sc = base.decision.verdict, p.result.decision.verdicts[0], p.result.scatter
         probes = tuple(Probe(c, sc.spread(c.key), to, sc.basis(c.key), sc.sources.get(c.key, ""), got[name],
                              undoes_all(was, flipped, got[name].decision.verdicts))
-                       for name, (q, c, to, _) in runs.items() if q is p)
+                       for name, (k, c, to, *_) in runs.items() if k == p.scale)
         out.append(FlipDrivers(float(p.scale), base, p.result, probes))
     return tuple(out)

@@ -29,7 +29,7 @@ from .batch import MonteCarloJob, StreamStatus, run_batch
 from .robust import CHUNK, Outcome, RobustResult, outcome_of, run_samples
 from .scatter import COMPONENTS, Scatter, default_scatter, iter_samples
 from .simulate import SimulationResult, simulate
-from .verdict import JamDecision, JamTest, decide, jam_test  # noqa: F401 (jam_test re-exported for the pipeline)
+from .verdict import JamDecision, JamTest, decide, jam_test, sweep_question  # noqa: F401 (jam_test re-exported for the pipeline)
 
 StageProgress = Callable[[str, int, int], None]
 """``progress(stage, done, total)``: stage ``"jam test at 1x"`` (each scale), its samples so
@@ -53,6 +53,9 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     """The jam test of ``design`` with every spread of ``scatter`` times each of ``scales``
     (1 is the model's own): per scale a :class:`~foldprint.simulation.robust.RobustResult`
     whose outcomes are the samples its test used and whose ``decision`` is the verdict.
+    With 1 among ``scales`` its test runs first and the other scales then ask only whether
+    its verdict flips (:func:`~foldprint.simulation.verdict.sweep_question`: after a pass,
+    whether p is above the warning threshold; after an error, below the error one).
 
     ``nominal``: the nominal simulation if the caller has it (a scale at which every
     spread is zero folds nothing: each sample is the nominal part). ``workers``: the
@@ -63,10 +66,22 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     ``Precomputed`` mapper holds rigid folds only."""
     scatter = scatter or default_scatter()
     ks = tuple(dict.fromkeys(float(k) for k in scales))
-    models = {f"jam test at {k:g}x": scatter if k == 1.0 else scatter.scaled(k) for k in ks}
-    got = jam_tests_of(design, test, models, seed, library=library, hinge_model=hinge_model, dt=dt, method=method,
-                       nominal=nominal, workers=workers, mapper=mapper, progress=progress, mechanics=mechanics)
-    return dict(zip(ks, got.values()))
+    kw = dict(library=library, hinge_model=hinge_model, dt=dt, method=method, workers=workers, mapper=mapper,
+              progress=progress, mechanics=mechanics)
+    first = (1.0,) if 1.0 in ks else ks
+    got = jam_tests_of(design, test, {_label(k): scatter if k == 1.0 else scatter.scaled(k) for k in first}, seed,
+                       nominal=nominal, **kw)
+    rest = [k for k in ks if k not in first]
+    if rest:  # the sweep asks only whether the verdict at 1x flips
+        base = got[_label(1.0)]
+        got.update(jam_tests_of(design, test.asking(sweep_question(base.decision.verdict)),
+                                {_label(k): scatter.scaled(k) for k in rest}, seed, nominal=base.nominal, **kw))
+    return {k: got[_label(k)] for k in ks}
+
+
+def _label(scale: float) -> str:
+    """A sweep scale's test as progress names it."""
+    return f"jam test at {scale:g}x"
 
 
 def jam_tests_of(design: Design, test: JamTest | Mapping[str, JamTest], models: Mapping[str, Scatter],

@@ -23,8 +23,10 @@ A test can ask less (:class:`~foldprint.core.modes.JamQuestion`): only which sid
 threshold p is on. Then that threshold's test alone runs and the stream stops at its first
 crossing, with the same error rates; the answer pins a verdict on one side (below the
 warning threshold: pass; above the error threshold: error) and leaves two open on the other
-("above 5 %": a warning or an error). The probes of what drives a flip of the verdict ask
-no more than that (:mod:`foldprint.simulation.flip_drivers`).
+("above 5 %": a warning or an error). The points of the sigma-scale sweep ask no more
+than whether the verdict at 1x flips (:func:`sweep_question`), the probes of what drives a
+flip no more than which side of the flip's threshold they are on
+(:mod:`foldprint.simulation.flip_drivers`).
 
 Samples are consumed one at a time, in stream order: the stopping index is a function of
 the outcomes alone (so of the seed), never of how many were folded at once or where.
@@ -166,6 +168,18 @@ def jam_test(warn_above: float = JAM_WARN_ABOVE, error_above: float = JAM_ERROR_
                    Sprt(float(error_above), *indifference(error_above), alpha, beta), int(max_samples))
 
 
+def sweep_question(base: JamVerdict) -> JamQuestion:
+    """What a point of the sigma-scale sweep asks once the verdict at 1x is ``base``: only
+    whether the verdict flips. After a pass, whether p is above the warning threshold (a
+    worse verdict, warning or error, is a flip); after an error, whether it is below the
+    error threshold; after a warning, the verdict (a flip either way).
+
+    >>> [sweep_question(v).value for v in (JamVerdict.PASS, JamVerdict.WARNING, JamVerdict.ERROR)]
+    ['warning', 'verdict', 'error']
+    """
+    return {JamVerdict.PASS: JamQuestion.WARNING, JamVerdict.ERROR: JamQuestion.ERROR}.get(base, JamQuestion.VERDICT)
+
+
 @dataclass(frozen=True)
 class SprtOutcome:
     """One threshold's test on a stream: the side it accepted (None: not yet), after how
@@ -249,6 +263,12 @@ def _first_crossings(sprt: Sprt, cumk: np.ndarray, full: np.ndarray):
     return side, at, trunc
 
 
+def _seen(side, at, trunc, n, m):
+    """A threshold's test cut at each stream's stop ``n``: undecided where it crossed later."""
+    seen = (side >= 0) & (at <= n)
+    return np.where(seen, side, -1), np.where(seen, at, m + 1), trunc & seen
+
+
 def decide_many(jammed, test: JamTest) -> dict[str, np.ndarray]:
     """The test on many streams at once: ``jammed`` (streams x samples, bool; the samples
     beyond the maximum are ignored) -> arrays ``verdict`` (-1 undecided, 0 pass, 1 warning,
@@ -281,6 +301,12 @@ def decide_many(jammed, test: JamTest) -> dict[str, np.ndarray]:
         verdict = np.where(pinned, 0 if test.question == JamQuestion.WARNING else 2, -1)
         n = np.where(decided, at, m)
         truncated = trunc & decided
+        # the other test as far as the stream goes (its first n samples): the same answer
+        # however many samples past the stop were folded
+        if test.question == JamQuestion.WARNING:
+            es, eat, etr = _seen(es, eat, etr, n, m)
+        else:
+            ws, wat, wtr = _seen(ws, wat, wtr, n, m)
     k = np.where(n > 0, cumk[np.arange(s), np.maximum(n, 1) - 1] if m else 0, 0)
     return {"verdict": verdict, "decided": decided, "samples": n, "jams": k, "truncated": truncated,
             "warning_side": ws,
