@@ -52,8 +52,8 @@ def check(name: str) -> dict:
 
 
 def _answer(w: dict) -> str:
-    """A probe's answer: its verdict, or the side of the one threshold it asked when that
-    leaves two verdicts open."""
+    """A test's answer (a probe's, a sweep point's): its verdict, or the side of the one
+    threshold it asked when that leaves two verdicts open."""
     if w["verdict"] is not None:
         return w["verdict"]
     return {"warning": "above the warning threshold", "error": "below the error threshold"}[w["question"]]
@@ -65,7 +65,7 @@ def table(rows: list[dict]) -> str:
     for r in rows:
         for fd in r["flip_drivers"] or ():
             at = {p["scale"]: p for p in r["sensitivity"]}[fd["scale"]]
-            flip = (f"{fd['verdict_at_1x']} at 1x, {fd['verdict']} at {fd['scale']:g}x "
+            flip = (f"{fd['verdict_at_1x']} at 1x, {_answer(at)} at {fd['scale']:g}x "
                     f"({at['jams']}/{at['samples']}); probe: {fd['probe']}")
             for k, w in enumerate(fd["probes"]):
                 drives = "**yes**" if w["restores"] else ("strongest" if fd["strongest"] == w["component"] else "no")
