@@ -202,6 +202,20 @@ def test_vertex_clustering_matches_all_pairs(n, seed, tol, shape, kd):
     np.testing.assert_allclose(got, _brute_clusters(pts, tol), atol=1e-9)
 
 
+@pytest.mark.parametrize("kd", [True, False])
+def test_points_exactly_tol_apart_stay_apart(kd):
+    """'Closer than tol' is strict on both paths: grid points exactly tol apart are not
+    merged (the k-d tree's query keeps pairs at tol: they are dropped)."""
+    pts = np.array([[0.0, 0.0], [5.0, 0.0], [5.0, 5.0], [5.0, 5.5]])
+    old = svg_creases.KDTREE_POINTS
+    svg_creases.KDTREE_POINTS = 10 ** 9 if kd else 0
+    try:
+        got = svg_creases.cluster_points(pts, 5.0)
+    finally:
+        svg_creases.KDTREE_POINTS = old
+    np.testing.assert_allclose(got, [[0, 0], [5, 0], [5, 5.25], [5, 5.25]])
+
+
 def test_svg_whose_noding_does_not_converge_exits_2(capsys):
     """Found by benchmarks/fuzz_inputs.py: GEOS 'Iterated noding failed to converge' was an
     internal error (exit 3); the noding is retried on a fine grid, else refused."""

@@ -57,8 +57,9 @@ def close_pairs(uniq: np.ndarray, tol: float) -> np.ndarray:
     n = len(uniq)
     if n < 2 or tol <= 0:
         return np.zeros((0, 2), int)
-    if n <= KDTREE_POINTS:
-        return cKDTree(uniq).query_pairs(tol, output_type="ndarray").reshape(-1, 2)
+    if n <= KDTREE_POINTS:  # query_pairs keeps pairs at exactly tol too: "closer than" is strict
+        pairs = cKDTree(uniq).query_pairs(tol, output_type="ndarray").reshape(-1, 2)
+        return pairs[np.linalg.norm(uniq[pairs[:, 0]] - uniq[pairs[:, 1]], axis=1) < tol]
     centred = uniq - uniq.mean(axis=0)
     try:
         tri = Delaunay(centred)
