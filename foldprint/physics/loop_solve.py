@@ -126,17 +126,20 @@ class Pool:
         xa, it = self.x[act], self.it[act]
         c, jac = evaluate(xa)
         r = np.abs(c).max(axis=1, initial=0.0)
-        jt = jac.transpose(0, 2, 1)
-        gram, g = jt @ jac, _mv(jt, c)
         d = (self.target[act] - xa) * (it < GN_STEPS)[:, None]
         line = self.line[act]
+        v = ~line & (self.far[act] == 0) & (np.abs(xa).max(axis=1, initial=0.0) < SVD_BELOW)
+        # J^T J and J^T C for the points that do not take the SVD
+        gram, g = np.empty((len(act), self.n, self.n)), np.empty(xa.shape)
+        jn = jac[~v]
+        jt = jn.transpose(0, 2, 1)
+        gram[~v], g[~v] = jt @ jn, _mv(jt, c[~v])
         step, vec = np.empty_like(xa), np.empty(gram.shape)
         free, null = np.zeros(xa.shape, bool), np.ones(len(act), int)
         if line.any():
             step[line], vec[line] = _gn_line(gram[line], g[line], d[line], self.guide[act[line]])
             free[line, 0] = True
             self.guide[act[line]] = vec[line, :, 0]
-        v = ~line & (self.far[act] == 0) & (np.abs(xa).max(axis=1, initial=0.0) < SVD_BELOW)
         e = ~line & ~v
         if e.any():
             step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e] * self.far[act[e]])

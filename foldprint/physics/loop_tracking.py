@@ -33,6 +33,12 @@ JUMP = 0.05
 NEAR_FLAT = 0.2
 #: a drive that moved less than this since the last solve (rad) is not re-solved
 SKIP_TOL = 1e-8
+#: away from the flat sheet (largest closed angle >= NEAR_FLAT), the same for a drive that moved
+#: less than this (rad; our choice: OPT_TOL, the corrector's own step tolerance, so a held answer
+#: is about as near the drive's closed configuration as a solve's answer is; measured on the
+#: templates' check chunks: within 5.3e-6 rad of the answers solved at every step, 7 % fewer
+#: evaluations)
+SKIP_FAR = OPT_TOL
 #: a solve that ends with a residual above this lost the manifold (the configuration is held)
 LOST_TOL = 1e-7
 #: most grid steps of one drive solved ahead in one window (our choice: on miura_3x3's check
@@ -92,13 +98,21 @@ class _State:
         """Advance the settled drives ``i`` over steps whose drive moved at most SKIP_TOL
         since the last solve (their answer is the last one)."""
         k = np.minimum(self.k[i], self.n_t - 1)
+        tol = self.skip_tol(i)
         idle = (self.k[i] < self.n_t) & (k > 0) & self.settled[i] & (self.sub[i] == 0) & (
-            np.abs(self.driven[i, k] - self.prev[i]).max(axis=1) <= SKIP_TOL)
-        for i in i[idle]:
-            moved = np.abs(self.driven[i, self.k[i]:] - self.prev[i]).max(axis=1) > SKIP_TOL
+            np.abs(self.driven[i, k] - self.prev[i]).max(axis=1) <= tol)
+        for i, t in zip(i[idle], tol[idle]):
+            moved = np.abs(self.driven[i, self.k[i]:] - self.prev[i]).max(axis=1) > t
             nxt = self.k[i] + (int(moved.argmax()) if moved.any() else len(moved))
             self.out[i, self.k[i]:nxt] = self.x[i]
             self.k[i] = nxt
+
+    def skip_tol(self, i):
+        """The drive motion (rad) below which drives ``i`` keep their answer: SKIP_FAR away
+        from the flat sheet (a converged answer), SKIP_TOL near it, where the restarts from
+        the drive choose the branch."""
+        far = self.tangent[i] & (np.abs(self.x[i]).max(axis=1, initial=0.0) >= NEAR_FLAT)
+        return np.where(far, SKIP_FAR, SKIP_TOL)
 
     def begin(self, live):
         """Targets of the live drives' next solve: their step's (sub-step's) drive."""
@@ -123,7 +137,7 @@ class _State:
         idx = np.minimum(self.k[i, None] + np.arange(WINDOW + 1), self.n_t - 1)
         y = self.driven[i[:, None], idx]
         d = np.abs(np.diff(y, axis=1)).max(axis=2)
-        ok = (d > SKIP_TOL) & (d <= MAX_STEP) & (self.k[i, None] + np.arange(1, WINDOW + 1) < self.n_t)
+        ok = (d > self.skip_tol(i)[:, None]) & (d <= MAX_STEP) & (self.k[i, None] + np.arange(1, WINDOW + 1) < self.n_t)
         w[far] = np.minimum(1 + np.cumprod(ok, axis=1).sum(axis=1), self.width[i])
         return w
 
