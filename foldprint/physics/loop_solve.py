@@ -92,8 +92,9 @@ class Pool:
         self.unused = np.concatenate([self.unused, np.arange(old, size)])
         self.size = size
 
-    def add(self, x, target, speculative=False, far=False, guide=None):
-        """New points from ``x`` (m, n) toward ``target``; returns their rows.
+    def add(self, x, target, speculative=False, far=False, guide=None, taken=0):
+        """New points from ``x`` (m, n) toward ``target``; returns their rows. ``taken``: the
+        Gauss-Newton steps already taken to reach ``x`` (a predictor's step).
         ``speculative``: dropped (not done) when not converged within GN_STEPS steps;
         ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide`` (m, n):
         the tangent direction of the answer they start from, where that tangent space is a
@@ -103,7 +104,7 @@ class Pool:
             self._grow(max(2 * self.size, self.size + m))
         ids, self.unused = self.unused[:m], self.unused[m:]
         self.x[ids], self.target[ids] = x, target
-        self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = 0, speculative, far, True
+        self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = taken, speculative, far, True
         self.res[ids], self.done[ids], self.null[ids] = np.inf, False, 0
         self.line[ids] = guide is not None
         if guide is not None:

@@ -251,8 +251,9 @@ class _Requests:
         start = x.copy()
         i = live[pred]
         start[pred] = predict(x[pred], ys[pred], st.basis[i], st.free[i])
+        taken = _first_step(st, live, near, x, ys, start)
         line = pred & (st.free[live].sum(axis=1) == 1)
-        self.main[live[~line]] = pool.add(start[~line], ys[~line], far=pred[~line])
+        self.main[live[~line]] = pool.add(start[~line], ys[~line], far=pred[~line], taken=taken[~line])
         self.main[live[line]] = pool.add(start[line], ys[line], far=True, guide=_line(st, live[line]))
         self.restart[live] = -1
         self.restart[live[near]] = self._restarts(st, pool, live[near], ys[near])
@@ -269,6 +270,23 @@ class _Requests:
                                                               speculative=True, far=True, guide=_line(st, d[line]))
         self.w[live], self.y[live], self.ys[live] = w, y, ys
         self.open[live] = True
+
+
+def _first_step(st: _State, live, near, x, ys, start):
+    """Near the flat sheet, the first Gauss-Newton step from a converged answer x (closed:
+    the step is its tangent space's part of the drive, :func:`predict`) taken without
+    evaluating C and J at x again (its basis is that of the evaluation x converged at):
+    ``start`` gets the step where it moves an angle by OPT_TOL or more (below, the solve stops
+    at x in one evaluation). Returns the steps taken (0 or 1) per live drive."""
+    taken = np.zeros(len(live), int)
+    k = np.nonzero(near & st.tangent[live])[0]
+    if k.size:
+        i = live[k]
+        p = predict(x[k], ys[k], st.basis[i], st.free[i])
+        moved = np.abs(p - x[k]).max(axis=1, initial=0.0) >= OPT_TOL
+        start[k[moved]] = p[moved]
+        taken[k[moved]] = 1
+    return taken
 
 
 def track(evaluate, times, driven) -> Tracks:
