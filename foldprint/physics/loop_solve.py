@@ -152,7 +152,8 @@ class Pool:
         stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | (it >= GN_STEPS))) | final
         check = stop & line & ~final
         unsure = np.zeros_like(stop)
-        unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
+        if check.any():
+            unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
         self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
         stop &= ~unsure
         drop = ~stop & ~unsure & self.spec[act] & (it + 1 >= GN_STEPS)

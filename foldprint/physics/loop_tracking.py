@@ -102,10 +102,20 @@ class _State:
         idle = (self.k[i] < self.n_t) & (k > 0) & self.settled[i] & (self.sub[i] == 0) & (
             np.abs(self.driven[i, k] - self.prev[i]).max(axis=1) <= tol)
         for i, t in zip(i[idle], tol[idle]):
-            moved = np.abs(self.driven[i, self.k[i]:] - self.prev[i]).max(axis=1) > t
-            nxt = self.k[i] + (int(moved.argmax()) if moved.any() else len(moved))
+            nxt = self._moving(i, t)
             self.out[i, self.k[i]:nxt] = self.x[i]
             self.k[i] = nxt
+
+    def _moving(self, i, tol):
+        """The first grid step from k whose drive ``i`` is more than ``tol`` from the drive
+        of the last solve (n_t: none), looked for in blocks growing fourfold."""
+        k, size = self.k[i], 16
+        while k < self.n_t:
+            moved = np.abs(self.driven[i, k:k + size] - self.prev[i]).max(axis=1) > tol
+            if moved.any():
+                return k + int(moved.argmax())
+            k, size = k + size, 4 * size
+        return self.n_t
 
     def skip_tol(self, i):
         """The drive motion (rad) below which drives ``i`` keep their answer: SKIP_FAR away
