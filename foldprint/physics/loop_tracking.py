@@ -147,7 +147,7 @@ class _State:
         idx = np.minimum(self.k[i, None] + np.arange(WINDOW + 1), self.n_t - 1)
         y = self.driven[i[:, None], idx]
         d = np.abs(np.diff(y, axis=1)).max(axis=2)
-        ok = (d > self.skip_tol(i)[:, None]) & (d <= MAX_STEP) & (self.k[i, None] + np.arange(1, WINDOW + 1) < self.n_t)
+        ok = (d > SKIP_TOL) & (d <= MAX_STEP) & (self.k[i, None] + np.arange(1, WINDOW + 1) < self.n_t)
         w[far] = np.minimum(1 + np.cumprod(ok, axis=1).sum(axis=1), self.width[i])
         return w
 
