@@ -439,3 +439,21 @@ def test_the_first_step_from_the_tangent_space_saves_rounds_not_answers(monkeypa
     assert np.abs(fast.angles - slow.angles).max() < ANGLE_TOL
     assert np.array_equal(fast.dof, slow.dof) and np.array_equal(fast.locked_at, slow.locked_at, equal_nan=True)
     assert fast.rounds < 0.8 * slow.rounds
+
+
+def test_the_drive_is_restarted_from_only_while_it_too_is_near_the_flat_sheet():
+    """Near the flat sheet a step also restarts from its drive, and the restarts of the next
+    steps start ahead; not where the drive itself is NEAR_FLAT or more from flat (the answer
+    may lag there: a lock, a lagging crease), nor ahead for such steps."""
+    flat = loop_tracking.NEAR_FLAT
+    ramp = np.linspace(0.0, 2.0 * flat, 21)  # crosses NEAR_FLAT at step 10
+    driven = np.stack([np.stack([ramp, 0.5 * ramp], axis=1)] * 2)
+    state = loop_tracking._State(np.arange(21.0), driven)
+    state.k[:] = [5, 12]  # drive 0.1 (near), 0.24 (beyond); both answers at flat
+    state.prev[:] = driven[0, [4, 11]]  # the drives of the steps before: one sub-step each
+    pool, req = loop_solve.Pool(2, 8), loop_tracking._Requests(2, 2)
+    req.post(state, pool, np.arange(2))
+    assert req.restart[0] >= 0 and np.array_equal(pool.target[req.restart[0]], driven[0, 5])
+    assert req.restart[1] == -1
+    ahead = req.early_k[0][req.early_k[0] >= 0]
+    assert sorted(ahead.tolist()) == list(range(6, 10)) and (req.early_k[1] < 0).all()
