@@ -400,9 +400,10 @@ def test_away_from_the_flat_sheet_a_drive_that_barely_moved_keeps_its_answer(mon
 
 
 def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
-    """From a converged answer near the flat sheet, _first_step starts the solve where one
-    Gauss-Newton step from that answer (evaluating C and J there) goes, and counts that step;
-    a step below OPT_TOL is not taken (the solve then stops at the answer in one evaluation).
+    """From a converged answer near the flat sheet whose tangent space is by the plain rank
+    rule, _first_step starts the solve where one Gauss-Newton step from that answer
+    (evaluating C and J there) goes, and counts that step; a step below OPT_TOL is not taken
+    (the solve then stops at the answer in one evaluation).
     On the parabola x1 = x0^2 (closed points exact, tangent (1, 2 x0))."""
     toy = _Toy(lambda x: (x[:, 1] - x[:, 0] ** 2)[:, None],
                lambda x: np.stack([-2 * x[:, 0], np.ones(len(x))], axis=1)[:, None, :])
@@ -413,7 +414,7 @@ def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
     pool.round(toy.residuals)  # one step from x: C and J evaluated at x
     assert pool.alive[ids].tolist() == [True, False] and pool.it[ids[0]] == 1
     state = loop_tracking._State(np.arange(2.0), np.zeros((2, 2, 2)))
-    state.x[:], state.tangent[:] = x, True
+    state.x[:], state.tangent[:], state.plain[:] = x, True, True
     state.basis[:], state.free[:] = pool.basis[ids[1]], pool.free[ids[1]]  # the tangent at x
     start = x.copy()
     taken = loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start)
@@ -422,9 +423,13 @@ def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
     again = loop_solve.Pool(2, 2)
     row = again.add(start[:1], ys[:1], taken=taken[:1])
     assert again.it[row].tolist() == [1]
-    state.tangent[:] = False  # an unconverged answer: no step from its tangent space
+    state.plain[:] = False  # a tangent space by the far rank rule (RANK_RES, a line solve): evaluated again
     start = x.copy()
     assert loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start).tolist() == [0, 0]
+    state.plain[:], state.tangent[:] = True, False  # an unconverged answer: no step from its tangent space
+    assert loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start).tolist() == [0, 0]
+    assert np.array_equal(start, x)
+    assert pool.view(ids).plain.tolist() == [True, True]  # the pool's points near flat (not far)
 
 
 def test_the_first_step_from_the_tangent_space_saves_rounds_not_answers(monkeypatch):

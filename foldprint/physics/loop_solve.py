@@ -47,7 +47,9 @@ class Solves:
     """The answers of a batch of solves, one row per point: ``x`` (P, n), ``res`` |C|
     (P,), ``null`` the null-space dimension of J, ``done`` the solve converged (a step
     below OPT_TOL at a closed point), ``basis`` (P, n, n) eigenvectors of J^T J and
-    ``free`` (P, n) which of them span J's null space (the tangent space at ``x``)."""
+    ``free`` (P, n) which of them span J's null space (the tangent space at ``x``);
+    ``plain`` (P,) that space is by the rank rule alone (a point near the flat sheet: no
+    RANK_RES, no line solve; None: all)."""
 
     x: np.ndarray
     res: np.ndarray
@@ -55,6 +57,7 @@ class Solves:
     done: np.ndarray
     basis: np.ndarray
     free: np.ndarray
+    plain: np.ndarray | None = None
 
 
 def _mv(a, v):
@@ -116,7 +119,8 @@ class Pool:
         self.unused = np.concatenate([self.unused, ids])
 
     def view(self, ids) -> Solves:
-        return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids])
+        return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids],
+                      self.far[ids] == 0)
 
     def round(self, evaluate):
         """One Gauss-Newton step of every live point: the step toward the nearest closed

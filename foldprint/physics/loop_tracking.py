@@ -85,6 +85,7 @@ class _State:
         self.basis = np.zeros((s, n, n))
         self.free = np.zeros((s, n), bool)
         self.tangent = np.zeros(s, bool)  # the last answer converged: predict along its tangent
+        self.plain = np.zeros(s, bool)  # ... its tangent space by the rank rule alone (near flat)
         self.settled = np.ones(s, bool)
         self.prev = np.zeros((s, n))  # the drive at the last solved step
         self.k = np.zeros(s, int)  # the next grid step
@@ -170,6 +171,7 @@ class _State:
         self.x[i], self.res_x[i] = sol.x[rows], sol.res[rows]
         self.settled[i] = self.tangent[i] = sol.done[rows]
         self.basis[i], self.free[i] = sol.basis[rows], sol.free[rows]
+        self.plain[i] = True if sol.plain is None else sol.plain[rows]
         first = (self.dof[i] < 0) & (np.abs(sol.x[rows]).max(axis=1, initial=0.0) > 1e-3)
         self.dof[i[first]] = sol.null[rows][first]
 
@@ -291,11 +293,12 @@ class _Requests:
 def _first_step(st: _State, live, near, x, ys, start):
     """Near the flat sheet, the first Gauss-Newton step from a converged answer x (closed:
     the step is its tangent space's part of the drive, :func:`predict`) taken without
-    evaluating C and J at x again (its basis is that of the evaluation x converged at):
+    evaluating C and J at x again (its basis is that of the evaluation x converged at, when
+    that evaluation took the rank rule a point near the flat sheet takes):
     ``start`` gets the step where it moves an angle by OPT_TOL or more (below, the solve stops
     at x in one evaluation). Returns the steps taken (0 or 1) per live drive."""
     taken = np.zeros(len(live), int)
-    k = np.nonzero(near & st.tangent[live])[0]
+    k = np.nonzero(near & st.tangent[live] & st.plain[live])[0]
     if k.size:
         i = live[k]
         p = predict(x[k], ys[k], st.basis[i], st.free[i])
