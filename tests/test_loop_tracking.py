@@ -370,3 +370,95 @@ def test_the_line_solve_takes_the_eigen_decompositions_step():
     eig, _, free = loop_solve._gn_eigh(gram, g, d, np.zeros(1))
     assert free.sum() == 1 and np.allclose(line, eig, atol=1e-12)
     assert abs(abs(vec[0, :, 0] @ w) - 1.0) < 1e-12
+
+
+def test_away_from_the_flat_sheet_a_drive_that_barely_moved_keeps_its_answer(monkeypatch):
+    """SKIP_FAR: a converged answer away from the flat sheet is kept while its drive moves
+    less than SKIP_FAR (OPT_TOL); near the flat sheet (and after an unconverged answer) only
+    SKIP_TOL holds it. Against solving every moving step (SKIP_FAR = SKIP_TOL): answers within
+    ANGLE_TOL, the same events, fewer evaluations."""
+    times, drive = np.arange(3.0), np.zeros((1, 3, 2))
+    state = loop_tracking._State(times, np.repeat(drive, 3, axis=0))
+    state.x[:] = [[0.5, 0.1], [0.05, 0.1], [0.5, 0.1]]
+    state.tangent[:] = [True, True, False]
+    assert state.skip_tol(np.arange(3)).tolist() == [loop_tracking.SKIP_FAR, loop_tracking.SKIP_TOL,
+                                                     loop_tracking.SKIP_TOL]
+    assert loop_tracking.SKIP_TOL < loop_tracking.SKIP_FAR <= OPT_TOL
+
+    d, grid, drivens = _check_drives("miura_3x3", 4)
+    evaluate = _solvers(d)[0].residuals
+    held = loop_tracking.track(evaluate, grid, np.stack(drivens))
+    monkeypatch.setattr(loop_tracking, "SKIP_FAR", loop_tracking.SKIP_TOL)
+    every = loop_tracking.track(evaluate, grid, np.stack(drivens))
+    assert np.abs(held.angles - every.angles).max() < ANGLE_TOL
+    assert np.array_equal(held.dof, every.dof) and np.array_equal(held.locked_at, every.locked_at, equal_nan=True)
+    assert held.evaluations < 0.97 * every.evaluations
+    # the held steps: far from the flat sheet, drive moved less than SKIP_FAR, answer unchanged
+    a, v = held.angles, np.stack(drivens)
+    same = (np.abs(np.diff(a, axis=1)).max(axis=2) == 0) & (np.abs(a[:, :-1]).max(axis=2) >= loop_tracking.NEAR_FLAT)
+    assert (same & (np.abs(np.diff(v, axis=1)).max(axis=2) > loop_tracking.SKIP_TOL)).any()
+
+
+def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
+    """From a converged answer near the flat sheet whose tangent space is by the plain rank
+    rule, _first_step starts the solve where one Gauss-Newton step from that answer
+    (evaluating C and J there) goes, and counts that step; a step below OPT_TOL is not taken
+    (the solve then stops at the answer in one evaluation).
+    On the parabola x1 = x0^2 (closed points exact, tangent (1, 2 x0))."""
+    toy = _Toy(lambda x: (x[:, 1] - x[:, 0] ** 2)[:, None],
+               lambda x: np.stack([-2 * x[:, 0], np.ones(len(x))], axis=1)[:, None, :])
+    x = np.array([[0.1, 0.01], [0.1, 0.01]])
+    ys = np.array([[0.15, 0.0], [0.1 + 1e-7, 0.01]])
+    pool = loop_solve.Pool(2, 4)
+    ids = pool.add(x, ys)
+    pool.round(toy.residuals)  # one step from x: C and J evaluated at x
+    assert pool.alive[ids].tolist() == [True, False] and pool.it[ids[0]] == 1
+    state = loop_tracking._State(np.arange(2.0), np.zeros((2, 2, 2)))
+    state.x[:], state.tangent[:], state.plain[:] = x, True, True
+    state.basis[:], state.free[:] = pool.basis[ids[1]], pool.free[ids[1]]  # the tangent at x
+    start = x.copy()
+    taken = loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start)
+    assert taken.tolist() == [1, 0] and np.array_equal(start[1], x[1])
+    assert np.abs(start[0] - pool.x[ids[0]]).max() < 1e-12
+    again = loop_solve.Pool(2, 2)
+    row = again.add(start[:1], ys[:1], taken=taken[:1])
+    assert again.it[row].tolist() == [1]
+    state.plain[:] = False  # a tangent space by the far rank rule (RANK_RES, a line solve): evaluated again
+    start = x.copy()
+    assert loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start).tolist() == [0, 0]
+    state.plain[:], state.tangent[:] = True, False  # an unconverged answer: no step from its tangent space
+    assert loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start).tolist() == [0, 0]
+    assert np.array_equal(start, x)
+    assert pool.view(ids).plain.tolist() == [True, True]  # the pool's points near flat (not far)
+
+
+def test_the_first_step_from_the_tangent_space_saves_rounds_not_answers(monkeypatch):
+    """Tracking with the near-flat first step from the stored tangent space against evaluating
+    C and J at the answer again: the same answers (the step differs by its |C| < 1e-9
+    correction), the same events, in fewer rounds."""
+    d, grid, drivens = _check_drives("cross_lock_uniform", 4)
+    evaluate = _solvers(d)[0].residuals
+    fast = loop_tracking.track(evaluate, grid[:300], np.stack(drivens)[:, :300])
+    monkeypatch.setattr(loop_tracking, "_first_step", lambda st, live, *a: np.zeros(len(live), int))
+    slow = loop_tracking.track(evaluate, grid[:300], np.stack(drivens)[:, :300])
+    assert np.abs(fast.angles - slow.angles).max() < ANGLE_TOL
+    assert np.array_equal(fast.dof, slow.dof) and np.array_equal(fast.locked_at, slow.locked_at, equal_nan=True)
+    assert fast.rounds < 0.8 * slow.rounds
+
+
+def test_the_drive_is_restarted_from_only_while_it_too_is_near_the_flat_sheet():
+    """Near the flat sheet a step also restarts from its drive, and the restarts of the next
+    steps start ahead; not where the drive itself is NEAR_FLAT or more from flat (the answer
+    may lag there: a lock, a lagging crease), nor ahead for such steps."""
+    flat = loop_tracking.NEAR_FLAT
+    ramp = np.linspace(0.0, 2.0 * flat, 21)  # crosses NEAR_FLAT at step 10
+    driven = np.stack([np.stack([ramp, 0.5 * ramp], axis=1)] * 2)
+    state = loop_tracking._State(np.arange(21.0), driven)
+    state.k[:] = [5, 12]  # drive 0.1 (near), 0.24 (beyond); both answers at flat
+    state.prev[:] = driven[0, [4, 11]]  # the drives of the steps before: one sub-step each
+    pool, req = loop_solve.Pool(2, 8), loop_tracking._Requests(2, 2)
+    req.post(state, pool, np.arange(2))
+    assert req.restart[0] >= 0 and np.array_equal(pool.target[req.restart[0]], driven[0, 5])
+    assert req.restart[1] == -1
+    ahead = req.early_k[0][req.early_k[0] >= 0]
+    assert sorted(ahead.tolist()) == list(range(6, 10)) and (req.early_k[1] < 0).all()

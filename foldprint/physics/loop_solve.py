@@ -47,7 +47,9 @@ class Solves:
     """The answers of a batch of solves, one row per point: ``x`` (P, n), ``res`` |C|
     (P,), ``null`` the null-space dimension of J, ``done`` the solve converged (a step
     below OPT_TOL at a closed point), ``basis`` (P, n, n) eigenvectors of J^T J and
-    ``free`` (P, n) which of them span J's null space (the tangent space at ``x``)."""
+    ``free`` (P, n) which of them span J's null space (the tangent space at ``x``);
+    ``plain`` (P,) that space is by the rank rule alone (a point near the flat sheet: no
+    RANK_RES, no line solve; None: all)."""
 
     x: np.ndarray
     res: np.ndarray
@@ -55,6 +57,7 @@ class Solves:
     done: np.ndarray
     basis: np.ndarray
     free: np.ndarray
+    plain: np.ndarray | None = None
 
 
 def _mv(a, v):
@@ -92,8 +95,9 @@ class Pool:
         self.unused = np.concatenate([self.unused, np.arange(old, size)])
         self.size = size
 
-    def add(self, x, target, speculative=False, far=False, guide=None):
-        """New points from ``x`` (m, n) toward ``target``; returns their rows.
+    def add(self, x, target, speculative=False, far=False, guide=None, taken=0):
+        """New points from ``x`` (m, n) toward ``target``; returns their rows. ``taken``: the
+        Gauss-Newton steps already taken to reach ``x`` (a predictor's step).
         ``speculative``: dropped (not done) when not converged within GN_STEPS steps;
         ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide`` (m, n):
         the tangent direction of the answer they start from, where that tangent space is a
@@ -103,7 +107,7 @@ class Pool:
             self._grow(max(2 * self.size, self.size + m))
         ids, self.unused = self.unused[:m], self.unused[m:]
         self.x[ids], self.target[ids] = x, target
-        self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = 0, speculative, far, True
+        self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = taken, speculative, far, True
         self.res[ids], self.done[ids], self.null[ids] = np.inf, False, 0
         self.line[ids] = guide is not None
         if guide is not None:
@@ -115,7 +119,8 @@ class Pool:
         self.unused = np.concatenate([self.unused, ids])
 
     def view(self, ids) -> Solves:
-        return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids])
+        return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids],
+                      self.far[ids] == 0)
 
     def round(self, evaluate):
         """One Gauss-Newton step of every live point: the step toward the nearest closed
@@ -126,17 +131,20 @@ class Pool:
         xa, it = self.x[act], self.it[act]
         c, jac = evaluate(xa)
         r = np.abs(c).max(axis=1, initial=0.0)
-        jt = jac.transpose(0, 2, 1)
-        gram, g = jt @ jac, _mv(jt, c)
         d = (self.target[act] - xa) * (it < GN_STEPS)[:, None]
         line = self.line[act]
+        v = ~line & (self.far[act] == 0) & (np.abs(xa).max(axis=1, initial=0.0) < SVD_BELOW)
+        # J^T J and J^T C for the points that do not take the SVD
+        gram, g = np.empty((len(act), self.n, self.n)), np.empty(xa.shape)
+        jn = jac[~v]
+        jt = jn.transpose(0, 2, 1)
+        gram[~v], g[~v] = jt @ jn, _mv(jt, c[~v])
         step, vec = np.empty_like(xa), np.empty(gram.shape)
         free, null = np.zeros(xa.shape, bool), np.ones(len(act), int)
         if line.any():
             step[line], vec[line] = _gn_line(gram[line], g[line], d[line], self.guide[act[line]])
             free[line, 0] = True
             self.guide[act[line]] = vec[line, :, 0]
-        v = ~line & (self.far[act] == 0) & (np.abs(xa).max(axis=1, initial=0.0) < SVD_BELOW)
         e = ~line & ~v
         if e.any():
             step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e] * self.far[act[e]])
@@ -148,7 +156,8 @@ class Pool:
         stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | (it >= GN_STEPS))) | final
         check = stop & line & ~final
         unsure = np.zeros_like(stop)
-        unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
+        if check.any():
+            unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
         self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
         stop &= ~unsure
         drop = ~stop & ~unsure & self.spec[act] & (it + 1 >= GN_STEPS)
