@@ -110,7 +110,9 @@ NICE = 19  # our choice: the machine is shared; mutation runs yield to everythin
 TIMEOUT_MULTIPLIER = 10.0  # our choice: a mutant 10x slower than the clean tests has hung
 TIMEOUT_CONSTANT_S = 5.0  # our choice: pytest start-up under load
 CONFIRM_TIMEOUT_FACTOR = 5.0  # our choice: a confirmation run 5x the clean map's wall time has hung
-KILLED = {1: "killed", 3: "killed"}
+# pytest's "tests failed" and "internal error", and a test process killed by SIGSEGV, SIGABRT or
+# SIGBUS: the mutant crashed the interpreter (e.g. a wrong face count handed to FCL)
+KILLED = {1: "killed", 3: "killed", -11: "killed", -6: "killed", -7: "killed"}
 TIMEOUT_CODES = (24, -24, 36, 152, 255)  # mutmut's codes for a mutant stopped by its CPU limit
 ALSO_COPY = ("templates", "examples", "docs")  # what the tests read beside the package
 MUTANT_NAME = re.compile(r"^(x.*)__mutmut_(orig|\d+)$")

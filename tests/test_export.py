@@ -314,17 +314,44 @@ def test_xml_special_characters_in_names_survive_a_strict_reader():
         assert got["Title"] == name and got["Description"] == text
 
 
-def test_an_assembly_without_bodies_is_refused_by_name():
+def test_an_assembly_without_bodies_is_refused_by_name(tmp_path):
+    """Every writer refuses a part without bodies with the one ExportError naming the
+    design, before anything reads the bodies' bounds (the bed layout did, an IndexError):
+    with or without a given layout, and the whole export, which writes nothing."""
     from foldprint.exchange.slicer_config import bed_layout
-    from foldprint.exchange.threemf import model_xml, prusa_model_xml
+    from foldprint.exchange.threemf import model_xml, prusa3mf_bytes, prusa_model_xml, threemf_bytes
     from foldprint.model.printers import fdm_setup
 
     design, asm = _small_design()
     lay = bed_layout(asm, fdm_setup(None))
     empty = replace(asm, bodies=())
-    for write in (lambda: model_xml(design, empty, layout=lay), lambda: prusa_model_xml(design, empty, lay)):
-        with pytest.raises(ExportError, match=r"design 's': nothing to export \(no bodies\)"):
+    writes = [lambda: model_xml(design, empty, layout=lay), lambda: prusa_model_xml(design, empty, lay),
+              lambda: threemf_bytes(design, empty), lambda: prusa3mf_bytes(design, empty),
+              lambda: threemf_bytes(design, empty, layout=lay), lambda: prusa3mf_bytes(design, empty, layout=lay),
+              lambda: bed_layout(empty, fdm_setup(None)),
+              lambda: export_assembly(design, empty, tmp_path / "out", ["3mf", "prusa3mf"])]
+    for write in writes:
+        with pytest.raises(ExportError, match=r"^design 's': nothing to export \(no bodies\)$"):
             write()
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_export_without_bodies_exits_2_with_one_line(tmp_path, monkeypatch, capsys):
+    """At the command line the refusal is exit 2 and one line on stderr, nothing written
+    (a part without bodies, as a geometry bug would hand over, reaches the writers)."""
+    from foldprint.apps import pipeline
+    from foldprint.cli.commands import main
+    from foldprint.io.design_io import design_to_toml
+
+    design, asm = _small_design()
+    f = tmp_path / "s.toml"
+    f.write_text(design_to_toml(design))
+    monkeypatch.setattr(pipeline, "build_assembly", lambda *a, **k: replace(asm, bodies=()))
+    out = tmp_path / "out"
+    assert main(["export", str(f), "--out", str(out), "--format", "3mf,prusa3mf", "--json"]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == "" and cap.err.splitlines() == ["foldprint: error: design 's': nothing to export (no bodies)"]
+    assert not out.exists() or not any(out.iterdir())
 
 
 @pytest.mark.parametrize("stem", IDS)

@@ -125,6 +125,52 @@ def test_variation_bounds_every_angle_change(trajectories):
     assert np.all(var[j] - var[i] >= np.abs(ang[j] - ang[i]) - 1e-12)
 
 
+
+@pytest.mark.parametrize("name", sorted(PATTERNS))
+def test_a_hinge_held_back_by_its_loops_reports_what_it_reached(trajectories, name):
+    """The ratio a crease reached, 1 - (1 - rho/rho_t)/f from its closed angle: never above
+    what its material asks for, never below 0 (a crease the closure keeps below its
+    programmed residual, or on the wrong side, has reached nothing), at most 1."""
+    _, d, traj = trajectories[name]
+    drive = HingeDrive(d)
+    asked = drive.ratios(traj.times)
+    reached = 1.0 - (1.0 - traj.angles / drive.target[None]) / drive.fixity[None]
+    assert reached.min() < 0  # the closure holds some crease below its residual: the floor acts
+    np.testing.assert_allclose(traj.ratios, np.clip(np.minimum(reached, asked), 0.0, 1.0), rtol=0, atol=1e-12)
+    assert traj.ratios.min() >= 0.0 and traj.ratios.max() <= 1.0
+
+
+@pytest.mark.parametrize("name", sorted(PATTERNS))
+def test_prefix_products_turn_loop_hinges_about_their_fold_lines(trajectories, name):
+    """TreeTransforms (every hinge at once, the swept check's poses) = forward (one hinge
+    at a time) on patterns with loops, where the arc hinges are centred (their child
+    turns about the fold line): both hinge models, at folded times."""
+    from foldprint.physics.kinematics import TreeTransforms, forward
+
+    _, d, traj = trajectories[name]
+    ang = traj.angles[::50]
+    assert np.abs(ang).max() > math.radians(30)
+    for model in ("point", "arc"):
+        np.testing.assert_allclose(TreeTransforms(d, model).poses(ang), forward(d, ang, model), rtol=0, atol=1e-9)
+
+
+def test_a_loop_solution_extended_past_the_duration_keeps_its_grid():
+    """Asked for a time past the solved span, the drive solves again on a grid that holds
+    the earlier grid's times and the new time, and agrees with a fresh drive there."""
+    from dataclasses import replace
+
+    d = design_from_fold(cp.degree4())
+    d = replace(d, process=replace(d.process, duration_s=1.5))
+    drive = HingeDrive(d)
+    first = drive.solve_loops(np.array([0.5]), dt=0.05)
+    assert first.times[-1] == pytest.approx(1.5)
+    later = drive.solve_loops(np.array([3.03]), dt=0.05)
+    assert later.times[-1] == pytest.approx(3.03, abs=1e-12)
+    assert np.isin(first.times, later.times).all()
+    fresh = HingeDrive(d).solve_loops(np.array([3.03]), dt=0.05)
+    np.testing.assert_allclose(later.at([1.0, 2.0, 3.03]), fresh.at([1.0, 2.0, 3.03]), rtol=0, atol=1e-6)
+
+
 def test_tree_keeps_exact_forward_kinematics():
     d = strip("s", [10, 10, 10], [90, -60], ["H-1", "H-3"])
     traj = simulate_kinematics(d, model="point", duration=2.0)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString
 
@@ -96,6 +96,64 @@ def test_recovery_drives_angles_and_fixity():
     d2 = replace(d, hinges=(replace(d.hinges[0], fixity=0.8),))
     tr2 = simulate_kinematics(d2, duration=10, dt=0.05)
     assert tr2.angles[0, 0] == pytest.approx(0.2 * math.pi / 2)  # rho = rho_t (1 - (1 - R) f)
+
+
+
+def test_a_simulation_runs_for_the_duration_it_is_given():
+    """The time grid: 0, dt, ... up to the first time at or past the given duration (the
+    design's own duration when none is given), whatever the design's process says."""
+    from dataclasses import replace
+
+    d = strip("f", [10, 10], [90], ["H-3"])
+    d = replace(d, process=replace(d.process, duration_s=1.0))
+    tr = simulate_kinematics(d, dt=0.1, duration=2.35)
+    np.testing.assert_allclose(tr.times, 0.1 * np.arange(25), rtol=0, atol=1e-12)
+    assert tr.angles.shape == (25, 1) and tr.poses.shape == (25, 2, 4, 4)
+    np.testing.assert_allclose(simulate_kinematics(d, dt=0.25).times, [0.0, 0.25, 0.5, 0.75, 1.0], atol=1e-12)
+
+
+def test_curves_on_their_own_time_grids_are_each_read_on_theirs():
+    """Recovery curves handed over on different time grids (no shared stack): each hinge's
+    ratio is its own curve at that time (0 before t = 0, held past the horizon), an
+    arrested hinge holds its value, and the angles follow rho_t (1 - (1 - R) f)."""
+    from dataclasses import replace
+
+    from foldprint.model.materials import default_library
+    from foldprint.physics.recovery import recovery_curve
+
+    d = strip("g", [10, 10, 10], [90, -60], ["H-1", "H-3"])
+    lib = default_library()
+    c1, c2 = (recovery_curve(lib[h.material], d.process.bath_temperature_c, h.thickness,
+                             d.process.fix_temperature_c) for h in d.hinges)
+    c2 = replace(c2, t=c2.t[::3], ratio=c2.ratio[::3], mean_temperature_c=c2.mean_temperature_c[::3])
+    drive = HingeDrive(d, curves=[c1, c2])
+    ts = np.array([-1.0, 0.0, 0.7, 2.5, 9.0, 1e6])
+    ref = np.column_stack([np.interp(ts, c.t, c.ratio, left=0.0) for c in (c1, c2)])
+    np.testing.assert_allclose(drive.ratios(ts), ref, rtol=0, atol=1e-15)
+    assert ref[2:5, 1].min() > 0 and not np.allclose(ref[:, 0], ref[:, 1])  # two different curves
+    drive.frozen_at[1] = 0.7
+    held = np.interp(np.minimum(ts, 0.7), c2.t, c2.ratio, left=0.0)
+    np.testing.assert_allclose(drive.ratios(ts), np.column_stack([ref[:, 0], held]), rtol=0, atol=1e-15)
+    target, fix = np.radians([90.0, -60.0]), drive.fixity
+    np.testing.assert_allclose(drive.angles(ts), target * (1 - (1 - np.column_stack([ref[:, 0], held])) * fix),
+                               rtol=0, atol=1e-15)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, database=None)
+@given(rows=st.lists(st.integers(0, 2), min_size=1, max_size=10))
+@example(rows=[0, 1, 0])
+@example(rows=[2, 2, 0, 1, 1, 2])
+def test_held_configurations_get_the_poses_forward_gives(rows):
+    """The poses of a pattern with loops are computed once per distinct configuration in
+    a row of held ones: every row, also one that returns to an earlier configuration,
+    gets exactly forward's poses (derandomised: the poses feed the collision check)."""
+    from foldprint.physics.kinematics import _held_forward
+
+    d = strip("h", [10, 12, 9], [90, -60], ["H-1", "H-3"])
+    palette = np.radians([[0.0, 0.0], [30.0, -20.0], [90.0, -60.0]])
+    angles = palette[rows]
+    for model in ("point", "arc"):
+        np.testing.assert_array_equal(_held_forward(d, angles, model), forward(d, angles, model))
 
 
 # -- the paper's 2D index ----------------------------------------------------------------

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.errors import ExportError
 from ..core.version import __version__
 from ..geometry import Assembly
 from ..model.materials import MaterialLibrary
@@ -57,8 +58,17 @@ class BedLayout:
     setup: FdmSetup
 
 
+def require_bodies(assembly: Assembly) -> None:
+    """ExportError naming the design when ``assembly`` has no body: a part with nothing to
+    print has no bounds, no bed layout and no tools."""
+    if not assembly.bodies:
+        raise ExportError(f"design {assembly.design_name!r}: nothing to export (no bodies)")
+
+
 def bed_layout(assembly: Assembly, setup: FdmSetup) -> BedLayout:
-    """The part and its wipe tower on ``setup``'s bed (see :class:`BedLayout`)."""
+    """The part and its wipe tower on ``setup``'s bed (see :class:`BedLayout`); ExportError
+    for an assembly without bodies."""
+    require_bodies(assembly)
     lo, hi = assembly.bounds
     w, d = float(setup.build_mm[0]), float(setup.build_mm[1])
     m, tw = setup.margin_mm, setup.tower_width_mm

@@ -36,12 +36,11 @@ import numpy as np
 from ..core.version import __version__
 from ..model.design import Design
 from ..io.design_io import design_to_toml
-from ..core.errors import ExportError
 from ..geometry import Assembly, Body
 from ..model.materials import MaterialLibrary, default_library
 from ..model.printers import fdm_setup
 from .slicer_config import (ORCA_PROJECT_CONFIG_PATH, PRUSA_PRINT_CONFIG_PATH, BedLayout, bed_layout,
-                            orca_project_settings, prusa_print_config)
+                            orca_project_settings, prusa_print_config, require_bodies)
 
 APPLICATION = f"foldprint {__version__}"
 CORE_NS = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
@@ -156,17 +155,12 @@ def _text(value: str) -> str:
     return value.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
 
 
-def _check(assembly: Assembly) -> None:
-    if not assembly.bodies:
-        raise ExportError(f"design {assembly.design_name!r}: nothing to export (no bodies)")
-
-
 def model_xml(design: Design, assembly: Assembly, library: MaterialLibrary | None = None,
               layout: BedLayout | None = None) -> str:
     """The core ``3D/3dmodel.model`` (one mesh object per material + an assembly), placed on
     the bed of ``layout`` (default: the generic FDM printer's)."""
     lib = library or default_library()
-    _check(assembly)
+    require_bodies(assembly)
     layout = _layout(assembly, layout)
     out = [_model_header(design, assembly, f' xmlns:cura="{CURA_NS}"'), " <resources>\n"]
     out.append('  <basematerials id="1">\n')
@@ -243,7 +237,7 @@ def merged_mesh(bodies: tuple[Body, ...]) -> tuple[np.ndarray, np.ndarray, list[
 
 
 def prusa_model_xml(design: Design, assembly: Assembly, layout: BedLayout | None = None) -> str:
-    _check(assembly)
+    require_bodies(assembly)
     layout = _layout(assembly, layout)
     v, f, _ = merged_mesh(assembly.bodies)
     out = [_model_header(design, assembly, f' xmlns:slic3rpe="{SLIC3RPE_NS}"'),
@@ -301,7 +295,7 @@ def composite_model_xml(design: Design, assembly: Assembly, part, library: Mater
     (``part.regions``, :class:`~foldprint.exchange.voxels.VoxelPart`), each a build item
     lifted onto the plate."""
     lib = library or default_library()
-    _check(assembly)
+    require_bodies(assembly)
     out = [_model_header(design, assembly, f' xmlns:m="{MATERIAL_NS}"'), " <resources>\n",
            '  <basematerials id="1">\n',
            f'   <base name="VeroWhite" displaycolor="{_color(lib, "VeroWhite")}"/>\n',
