@@ -84,6 +84,10 @@ def _run(code_dir: Path, args: list[str]) -> tuple[float, float, int, str]:
     return wall, cpu, p.returncode, p.stdout
 
 
+#: A sweep point's one-threshold answer that leaves two verdicts open, by the threshold it asked.
+OPEN = {"warning": "above 5 %", "error": "below 20 %"}
+
+
 def _verdict(js: dict) -> dict:
     """What a check's JSON says of the jam probability at 1x and at the other scales."""
     r = js["robust"]
@@ -91,6 +95,8 @@ def _verdict(js: dict) -> dict:
     sweep = {p["scale"]: p for p in js.get("sensitivity") or []}
 
     def at(p):
+        if p.get("verdict") is None and p.get("question") in OPEN:  # a one-threshold answer: two verdicts open
+            return OPEN[p["question"]]
         if "verdict" in p:
             return p["verdict"]
         return "error" if p["ci95"][0] > 0.2 else "warning" if p["jam_probability"] > 0.05 else "pass"
