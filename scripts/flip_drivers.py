@@ -54,6 +54,8 @@ def check(name: str) -> dict:
 def _answer(w: dict) -> str:
     """A test's answer (a probe's, a sweep point's): its verdict, or the side of the one
     threshold it asked when that leaves two verdicts open."""
+    if w.get("undecided"):
+        return "undecided at the maximum (on the threshold)"
     if w["verdict"] is not None:
         return w["verdict"]
     return {"warning": "above the warning threshold", "error": "below the error threshold"}[w["question"]]
@@ -68,7 +70,8 @@ def table(rows: list[dict]) -> str:
             flip = (f"{fd['verdict_at_1x']} at 1x, {_answer(at)} at {fd['scale']:g}x "
                     f"({at['jams']}/{at['samples']}); probe: {fd['probe']}")
             for k, w in enumerate(fd["probes"]):
-                drives = "**yes**" if w["restores"] else ("strongest" if fd["strongest"] == w["component"] else "no")
+                drives = "**yes**" if w["restores"] else "not known" if w.get("undecided") else \
+                    "strongest" if fd["strongest"] == w["component"] else "no"
                 lines.append(f"| {'`' + r['design'] + '`' if k == 0 else ''} | {flip if k == 0 else ''} | "
                              f"{w['component']} ({w['basis']}) | {_answer(w)}, {w['jams']}/{w['samples']} | {drives} |")
     cost = "; ".join(f"`{r['design']}` {r['probe_samples']} samples for the probes beside {r['test_samples']} "

@@ -28,7 +28,7 @@ from foldprint.io.design_io import design_to_toml
 from foldprint.model.design import strip
 from foldprint.model.materials import default_library
 from foldprint.physics.recovery import recovery_curve
-from foldprint.simulation.flip_drivers import FlipDrivers, Probe, undoes
+from foldprint.simulation.flip_drivers import FlipDrivers, Probe, undoes, undoes_all
 from foldprint.simulation.scatter import KEYS, Scatter, component, default_scatter, draw_samples, scatter_from
 from foldprint.simulation.verdict import decide, jam_test
 
@@ -287,3 +287,41 @@ def test_a_user_basis_alone_retags_the_shipped_spread(tmp_path):
     sc = load_scatter(f)
     assert sc == default_scatter() and sc.basis("h_local") == SpreadBasis.MEASURED
     assert sc.sources["h_local"] == "our PIV study" and sc.basis("bath") == SpreadBasis.CHOICE
+
+
+class _Probed(_Tested):
+    """A probe's one-threshold test (undecided at its maximum) on k jams spread evenly over n samples."""
+
+    def __init__(self, k, n, question, max_samples):
+        test = jam_test(max_samples=max_samples).probing(question)
+        stream = [i * k // n != (i + 1) * k // n for i in range(n)]
+        self.decision = decide(stream, test)
+        self.samples, self.jams = self.decision.samples, self.decision.jams
+        self.jam_probability, self.ci95 = self.decision.estimate, self.decision.interval
+
+
+def test_a_probe_on_its_threshold_is_undecided_not_a_driver():
+    """A probe whose p sits on the 5 % threshold (1 jam in 20, evenly, for 400 samples)
+    crosses neither boundary of its test: it ends undecided at the maximum, claims nothing
+    (not a driver, all three verdicts open), and FP183 names it as undecided, its hint
+    saying the flip may rest on its unmeasured spread; a clear probe still decides early."""
+    base, flipped = _Tested(0, 400), _Tested(6, 400)
+    on = _Probed(20, 400, JamQuestion.WARNING, 400)
+    d = on.decision
+    assert d.decided and d.undecided_at_max and d.samples == 400 and d.verdict is None
+    assert d.verdicts == (P, W, E) and d.warning.side is None and d.truncated
+    clear = _Probed(40, 160, JamQuestion.WARNING, 400)  # one jam in four: above 5 % after a few jams
+    assert clear.decision.verdicts == (W, E) and clear.samples < 30 and not clear.decision.undecided_at_max
+    back = _Probed(0, 400, JamQuestion.WARNING, 400)  # no jam: below 5 % after 57
+    assert back.decision.verdicts == (P,) and back.samples == 57
+    rms = (Probe(component("h_local"), 1.0, 0.0, SpreadBasis.CHOICE, "", on, undoes_all(P, E, d.verdicts)),
+           Probe(component("bath"), 1.0, 0.0, SpreadBasis.MEASURED, "", back, undoes_all(P, E, back.decision.verdicts)))
+    fd = FlipDrivers(2.0, base, flipped, rms)
+    assert fd.drivers == (rms[1],)  # the undecided probe is no driver; the measured bath is
+    pts = tuple(type("P", (), {"scale": k, "result": r})() for k, r in ((1.0, base), (2.0, flipped)))
+    ctx = CheckContext(strip("x", [20, 20], [90], ["H-3"]), default_library(), load_printers()["connex260"],
+                       robust=base, thresholds=Thresholds(), sweep=pts, flip_drivers=(fd,))
+    (f,) = rule_jam_sensitivity(ctx)
+    assert ("undecided: the heat transfer: local (h_local, our choice, not measured; without it the test is "
+            "undecided at its maximum of 400 samples (p on the 5 % threshold): 5.0 %") in f.message
+    assert f.hint.startswith("the flip may rest on spreads nobody measured (h_local")

@@ -223,19 +223,29 @@ def _first_crossing_by_hand(row, sprt, max_samples):
     return None, len(row)
 
 
+@pytest.mark.parametrize("probing", [False, True])
 @pytest.mark.parametrize("question", [JamQuestion.WARNING, JamQuestion.ERROR])
-def test_a_one_threshold_question_stops_at_that_tests_crossing(question):
-    """A probe asks one threshold: it stops where a plain loop over that threshold's SPRT
-    says, whatever the other test does; below 5 % pins a pass, above 20 % an error, the
-    other side leaves two verdicts open."""
-    t = jam_test(max_samples=120).asking(question)
+def test_a_one_threshold_question_stops_at_that_tests_crossing(question, probing):
+    """A sweep point or probe asks one threshold: it stops where a plain loop over that
+    threshold's SPRT says, whatever the other test does; below 5 % pins a pass, above 20 %
+    an error, the other side leaves two verdicts open. A probe (not truncating) that
+    reaches the maximum without a crossing is undecided there, every verdict open."""
+    t = jam_test(max_samples=120).probing(question) if probing else jam_test(max_samples=120).asking(question)
     sprt = t.warning if question == JamQuestion.WARNING else t.error
     rng = np.random.default_rng(11)
-    for p in (0.0, 0.03, 0.06, 0.12, 0.2, 0.3, 0.9):
+    for p in (0.0, 0.03, 0.05, 0.06, 0.12, 0.2, 0.3, 0.9):
         for row in rng.random((40, 130)) < p:
             for cut in (130, 37):  # the whole stream, or a prefix that may not have decided yet
                 d = decide(row[:cut], t)
                 side, n = _first_crossing_by_hand(row[:cut], sprt, t.max_samples)
+                if probing and side is not None and n == t.max_samples and len(row[:cut]) >= t.max_samples \
+                        and abs(float(sprt.llr(row[:n].sum(), n))) < max(sprt.upper, -sprt.lower):
+                    side = "undecided"  # reached the maximum without crossing: no side
+                if side == "undecided":
+                    assert d.decided and d.undecided_at_max and d.samples == t.max_samples and d.asked.side is None
+                    assert d.verdicts == (JamVerdict.PASS, JamVerdict.WARNING, JamVerdict.ERROR)
+                    continue
+                assert not d.undecided_at_max
                 assert d.decided == (side is not None) and d.samples == n and d.jams == int(row[:n].sum())
                 if side is None:
                     assert d.verdicts == () and d.verdict is None

@@ -28,8 +28,12 @@ VERDICT_SEVERITY = {JamVerdict.ERROR: "error", JamVerdict.WARNING: "warning", Ja
 def answer_text(d) -> str:
     """What a jam test's decision (:class:`foldprint.simulation.verdict.JamDecision`) says,
     as a verb phrase: "passes", "warns", "fails", or a one-threshold answer that leaves two
-    verdicts open: "does not pass (above 5 %)", "does not fail (below 20 %)"."""
+    verdicts open: "does not pass (above 5 %)", "does not fail (below 20 %)", or none: "is
+    undecided at its maximum of 400 samples (p on the 5 % threshold)"."""
     vs = d.verdicts
+    if d.undecided_at_max:
+        return (f"is undecided at its maximum of {d.samples} samples (p on the "
+                f"{threshold(d.test.asked.threshold)} threshold)")
     if len(vs) == 1:
         return {JamVerdict.PASS: "passes", JamVerdict.WARNING: "warns", JamVerdict.ERROR: "fails"}[vs[0]]
     if vs == (JamVerdict.WARNING, JamVerdict.ERROR):
@@ -200,7 +204,7 @@ def estimate_json(r) -> dict:
     d = getattr(r, "decision", None)
     if d is not None:
         out.update(question=d.test.question.value, verdict=None if d.verdict is None else str(d.verdict),
-                   verdicts=[str(v) for v in d.verdicts], truncated=d.truncated)
+                   verdicts=[str(v) for v in d.verdicts], undecided=d.undecided_at_max, truncated=d.truncated)
     return out
 
 

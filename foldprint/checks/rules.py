@@ -424,25 +424,30 @@ def _drivers_text(fd) -> str:
 
     how = ("each scatter component removed in turn" if fd.worse else
            f"each scatter component in turn at its 1x spread, the others at {fd.scale:g}x") + ", the same draws"
+    open_ = [pr for pr in fd.probes if pr.result.decision.undecided_at_max]
+    unsure = "; undecided: the " + " and the ".join(map(probe, open_)) if open_ else ""
     if fd.drivers:
         return f"at {fd.scale:g}x the flip is driven by the " + " and by the ".join(map(probe, fd.drivers)) + \
-            f" ({how})"
-    what = f"at {fd.scale:g}x no one component undoes the flip alone: it needs several together ({how})"
+            f"{unsure} ({how})"
+    what = f"at {fd.scale:g}x no one component undoes the flip alone: it needs several together{unsure} ({how})"
     if fd.strongest is None:
         return f"{what}, and none of them moves the estimate back toward the verdict at 1x"
     return f"{what}; the one that moves the estimate most toward the verdict at 1x is the {probe(fd.strongest)}"
 
 
 def _flip_hint(flip_drivers) -> str:
-    """FP183's hint: measure the unmeasured spreads that drive the flip, else more margin."""
-    named = [pr for fd in flip_drivers for pr in (fd.drivers or ((fd.strongest,) if fd.strongest else ()))]
-    unmeasured = {pr.component.key: basis_text(pr.basis) for pr in named
+    """FP183's hint: measure the unmeasured spreads that drive the flip (or may: a probe
+    undecided on its threshold), else more margin."""
+    drive = [pr for fd in flip_drivers for pr in (fd.drivers or ((fd.strongest,) if fd.strongest else ()))]
+    maybe = [pr for fd in flip_drivers for pr in fd.probes if pr.result.decision.undecided_at_max]
+    unmeasured = {pr.component.key: basis_text(pr.basis) for pr in drive + maybe
                   if pr.basis in (None, SpreadBasis.CHOICE)}
     if unmeasured:
-        return (f"the flip rests on spreads nobody measured ({', '.join(f'{k}: {b}' for k, b in unmeasured.items())}): "
+        rests = "rests" if {pr.component.key for pr in drive} & set(unmeasured) else "may rest"
+        return (f"the flip {rests} on spreads nobody measured ({', '.join(f'{k}: {b}' for k, b in unmeasured.items())}): "
                 "measure them and give them with their basis (--scatter FILE, basis = \"measured\"; "
                 "docs/robustness-model.md), or give the design more margin")
-    if named:
+    if drive or maybe:
         return "the spreads that drive the flip are not our choices: give the design more margin"
     return ("most spreads are our choices, not measurements (docs/robustness-model.md): measure your bath, hinges "
             "and heat transfer (--scatter FILE) or give the design more margin")

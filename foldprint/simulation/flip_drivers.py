@@ -21,7 +21,10 @@ on (a pass at 1x: the warning threshold; a failure at 1x: the error threshold; a
 1x: the threshold the flip crossed), that threshold's test alone, with its error rates. A
 probe far from that threshold stops early (a probe that stays a clear failure when a pass
 was flipped stops once it is known to be above 5 %, not when it is known to be above 20 %);
-its answer may leave two verdicts open ("above 5 %").
+its answer may leave two verdicts open ("above 5 %"). A probe that reaches the maximum
+without crossing either boundary of its test says so (its p is on the threshold) and claims
+nothing: it is not counted as undoing the flip (a truncated test would decide by the sign
+there, which inside the indifference region is either answer).
 
 When no component does that alone, the flip needs several together; the probe that moves
 the estimate furthest toward the 1x verdict is reported as the **strongest**, and said to
@@ -190,7 +193,7 @@ def probe_runs(base, base_scatter: Scatter, flips: Sequence[tuple]) -> dict[str,
     runs = {}
     for k, d, sc in flips:
         up = worse(d.verdicts[0], base.verdict)
-        test = base.test.asking(probe_question(base.verdict, d.verdicts[0]))
+        test = base.test.probing(probe_question(base.verdict, d.verdicts[0]))
         for c in COMPONENTS:
             if sc.spread(c.key) > 0:
                 to = 0.0 if up else base_scatter.spread(c.key)

@@ -141,6 +141,10 @@ class JamTest:
     max_samples: int
     level: float = JAM_INTERVAL_LEVEL
     question: JamQuestion = JamQuestion.VERDICT
+    #: At the maximum a threshold's test that has not crossed decides by the sign of
+    #: L - (A + B) / 2 (a truncated SPRT: a verdict is always given). False (a probe's
+    #: one-threshold question): it stays undecided there and the answer claims nothing.
+    truncate: bool = True
 
     @property
     def name(self) -> str:
@@ -149,6 +153,13 @@ class JamTest:
     def asking(self, question: JamQuestion) -> "JamTest":
         """The same test asking ``question`` (the same thresholds, error rates and maximum)."""
         return replace(self, question=JamQuestion(question))
+
+    def probing(self, question: JamQuestion) -> "JamTest":
+        """:meth:`asking` ``question``, undecided at the maximum when no boundary was
+        crossed (``truncate`` False): a probe of what drives a flip says "on the threshold"
+        there instead of deciding by the sign, which inside the indifference region is
+        either answer."""
+        return replace(self, question=JamQuestion(question), truncate=False)
 
     @property
     def asked(self) -> Sprt | None:
@@ -210,19 +221,31 @@ class JamDecision:
         return {JamQuestion.WARNING: self.warning, JamQuestion.ERROR: self.error}.get(self.test.question)
 
     @property
+    def undecided_at_max(self) -> bool:
+        """A one-threshold question that reached the maximum without crossing a boundary,
+        its test not truncating (:meth:`JamTest.probing`): p is near the threshold."""
+        asked = self.asked
+        return asked is not None and asked.side is None and self.truncated
+
+    @property
     def decided(self) -> bool:
         asked = self.asked
-        return self.verdict is not None if asked is None else asked.side is not None
+        if asked is None:
+            return self.verdict is not None
+        return asked.side is not None or self.undecided_at_max
 
     @property
     def verdicts(self) -> tuple[JamVerdict, ...]:
         """The verdicts the answer leaves possible, best first: one for a verdict (or a
         one-threshold answer that pins it), two for "above the warning threshold" (warning
-        or error) or "below the error threshold" (pass or warning), none before a decision."""
+        or error) or "below the error threshold" (pass or warning), all three when a probe
+        reached its maximum undecided, none before a decision."""
         if self.verdict is not None:
             return (self.verdict,)
         if not self.decided:
             return ()
+        if self.undecided_at_max:
+            return _VERDICTS
         return (JamVerdict.WARNING, JamVerdict.ERROR) if self.test.question == JamQuestion.WARNING else \
             (JamVerdict.PASS, JamVerdict.WARNING)
 
@@ -296,7 +319,13 @@ def decide_many(jammed, test: JamTest) -> dict[str, np.ndarray]:
         decided = verdict >= 0
     else:  # one threshold's test alone: below the warning threshold pins a pass, above the error one an error
         side, at, trunc = (ws, wat, wtr) if test.question == JamQuestion.WARNING else (es, eat, etr)
-        decided = side >= 0
+        if not test.truncate:  # undecided at the maximum: no side, the stream ends there
+            side, at = np.where(trunc, -1, side), np.where(trunc, m, at)
+            if test.question == JamQuestion.WARNING:
+                ws, wat = side, at
+            else:
+                es, eat = side, at
+        decided = (side >= 0) | trunc
         pinned = side == 0 if test.question == JamQuestion.WARNING else side == 1
         verdict = np.where(pinned, 0 if test.question == JamQuestion.WARNING else 2, -1)
         n = np.where(decided, at, m)
