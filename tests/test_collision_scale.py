@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from foldprint.collision.index2d import collision_index, index_memory_bytes
 from foldprint.collision.swept3d import (
+    FCL_REL,
     SweptChecker,
     candidate_runs,
     min_clearance,
@@ -488,3 +489,25 @@ def test_index_chunks_and_memory_estimate():
     big = index_memory_bytes(20001, n * (n - 1) // 2)
     assert big >= 20001 * n * (n - 1) // 2 * 9
     assert index_memory_bytes(20001, 10) < 100 * 2**20
+
+
+@pytest.mark.parametrize("motion,split", [(2 * (1 - FCL_REL) - 0.05, False), (2 - FCL_REL, True),
+                                          (2 * (1 + FCL_REL) + 0.05, True)])
+def test_a_step_is_certified_only_with_fcl_distances_shrunk(monkeypatch, motion, split):
+    """The narrow phase's step rule on a fixed case: distances of 1 mm at both ends of a
+    step and a motion bound F over it. The step is safe without splitting only when the
+    distances shrunk by FCL_REL (GJK may overestimate them) still exceed the motion:
+    F between 2 (1 - FCL_REL) and 2 mm must be split (unshrunk, the 2 mm would pass it),
+    F below needs no split, F above 2 (1 + FCL_REL) is split either way."""
+    d = strip("s", [20.0, 20.0, 20.0], [90.0, 90.0], ["H-3", "H-3"])
+    ch = SweptChecker(d, "arc", HingeDrive(d))
+    split_at = []
+    monkeypatch.setattr(ch, "distance", lambda i, j, a, b: (1.0, np.zeros(3)))
+    monkeypatch.setattr(ch, "_bound", lambda pair, ang0, ang: np.array([0.0, motion])[:len(ang)])
+    monkeypatch.setattr(ch, "_split", lambda pair, ang0, ta, da, fa, tb, db, fb: split_at.append((ta, tb)) or "hit")
+    times, angles = np.array([0.0, 1.0]), np.zeros((2, 2))
+    gen = ch._steps((0, 2), times, angles, np.zeros((2, 3, 4, 4)), 0, 1, False)
+    with pytest.raises(StopIteration) as stop:
+        while True:
+            next(gen)
+    assert (stop.value.value == "hit") is split and split_at == ([(0.0, 1.0)] if split else [])
