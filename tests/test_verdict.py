@@ -16,7 +16,7 @@ from hypothesis import strategies as hs
 from foldprint.core.constants import CHECK_SAMPLES, JAM_TEST_ALPHA, JAM_TEST_BETA
 from foldprint.core.errors import DesignError
 from foldprint.core.modes import JamQuestion, JamVerdict, Side
-from foldprint.simulation.verdict import (confidence_sequence, decide, decide_many, indifference, jam_test,
+from foldprint.simulation.verdict import (Sprt, confidence_sequence, decide, decide_many, indifference, jam_test,
                                           operating_point)
 
 T = jam_test()  # check's defaults: warning 5 % (2.5-7.5 %), error 20 % (15-25 %), 5 % error rates, 400 samples
@@ -231,6 +231,7 @@ def test_a_one_threshold_question_stops_at_that_tests_crossing(question, probing
     an error, the other side leaves two verdicts open. A probe (not truncating) that
     reaches the maximum without a crossing is undecided there, every verdict open."""
     t = jam_test(max_samples=120).probing(question) if probing else jam_test(max_samples=120).asking(question)
+    assert t.question == question and t.truncate is (not probing)  # a bool, as the field says
     sprt = t.warning if question == JamQuestion.WARNING else t.error
     rng = np.random.default_rng(11)
     for p in (0.0, 0.03, 0.05, 0.06, 0.12, 0.2, 0.3, 0.9):
@@ -247,6 +248,8 @@ def test_a_one_threshold_question_stops_at_that_tests_crossing(question, probing
                     continue
                 assert not d.undecided_at_max
                 assert d.decided == (side is not None) and d.samples == n and d.jams == int(row[:n].sum())
+                crossed = side is not None and abs(float(sprt.llr(row[:n].sum(), n))) >= min(sprt.upper, -sprt.lower)
+                assert d.truncated == (side is not None and not crossed)  # decided by the sign at the maximum
                 if side is None:
                     assert d.verdicts == () and d.verdict is None
                     continue
@@ -278,3 +281,40 @@ def test_a_one_threshold_question_keeps_its_error_rates(question, p, wrong):
 def test_operating_point_refuses_a_one_threshold_question():
     with pytest.raises(ValueError, match="verdict"):
         operating_point(0.1, T.asking(JamQuestion.WARNING), 10, seed=0)
+
+
+def test_bad_error_rates_and_thresholds_are_refused_by_name():
+    with pytest.raises(DesignError, match="error rates need 0 < alpha, beta and alpha \\+ beta < 1, got 0.6, 0.5"):
+        Sprt(0.05, 0.025, 0.075, 0.6, 0.5)
+    with pytest.raises(DesignError, match=r"warning threshold \(0.3, --warn-above\) must be below its error "
+                                          r"threshold \(0.1, --error-above\)"):
+        jam_test(0.3, 0.1)
+    with pytest.raises(DesignError, match="must be below"):
+        jam_test(0.2, 0.2)
+
+
+def test_a_region_up_to_certainty_proves_p_below_one_with_one_clean_sample():
+    """hi = 1 (a threshold of 1): a clean sample adds -inf, so one clean sample accepts
+    "below"; a jam adds log(1 / 0.95) and "above" needs many."""
+    sprt = Sprt(1.0, *indifference(1.0))
+    assert (sprt.lo, sprt.hi) == (0.95, 1.0) and sprt.clean_step == -math.inf
+    assert float(sprt.llr(0, 1)) == -math.inf and float(sprt.llr(3, 3)) == pytest.approx(3 * math.log(1 / 0.95))
+
+
+def test_operating_point_does_not_depend_on_its_blocks():
+    """The same streams judged in blocks of 64 or all at once: the same shares and the
+    same average sample number (every block's samples counted)."""
+    a = operating_point(0.1, T, 300, seed=3, block=64)
+    b = operating_point(0.1, T, 300, seed=3, block=300)
+    assert a == b and a.average_samples > 20
+
+
+def test_check_refuses_a_warning_threshold_above_the_error_threshold(capsys, tmp_path, monkeypatch):
+    """At the command line: exit 2, one line naming both options, nothing on stdout."""
+    from foldprint.cli.commands import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["check", "self_lock", "--warn-above", "0.3", "--error-above", "0.1", "--json"]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and len(err.strip().splitlines()) == 1 and "--warn-above" in err and "--error-above" in err
+    assert list(tmp_path.iterdir()) == []

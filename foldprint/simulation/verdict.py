@@ -169,6 +169,9 @@ class JamTest:
     def __post_init__(self):
         if isinstance(self.max_samples, bool) or not isinstance(self.max_samples, int) or self.max_samples < 1:
             raise DesignError(f"the jam test's maximum samples must be a whole number >= 1, got {self.max_samples!r}")
+        if not self.warning.threshold < self.error.threshold:
+            raise DesignError(f"the jam test's warning threshold ({self.warning.threshold:g}, --warn-above) must be "
+                              f"below its error threshold ({self.error.threshold:g}, --error-above)")
 
 
 def jam_test(warn_above: float = JAM_WARN_ABOVE, error_above: float = JAM_ERROR_ABOVE,
