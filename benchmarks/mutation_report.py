@@ -106,6 +106,14 @@ def _pct(x: float) -> str:
     return f"{100 * x:.1f} %"
 
 
+def _changed(entry: dict) -> bool:
+    """The module's source is no longer the one its mutants were made from."""
+    import hashlib
+
+    src = ROOT / entry["source"]
+    return src.is_file() and entry.get("source_sha256") != hashlib.sha256(src.read_bytes()).hexdigest()
+
+
 def table(modules: dict) -> str:
     rows = ["| module | tests | mutants | sampled | killed | equivalent | score | 95 % interval | CPU-s |",
             "|---|---|---:|---:|---:|---:|---:|---|---:|"]
@@ -124,6 +132,8 @@ def table(modules: dict) -> str:
             sampled, ci = "all", "none: every mutant run"
         partial = " (partial)" if e["not_run"] or e["unconfirmed"] else ""
         below = " **below target**" if e["score"] < TARGET else ""
+        if _changed(e):  # the score is the older code's: draw its mutants again (--sample N --seed S)
+            sampled += ", source changed since"
         rows.append(f"| `{e['source']}` | {tests} | {e['population']} | {sampled} | {e['killed']} "
                     f"| {e['equivalent']} | {_pct(e['score'])}{partial}{below} | {ci} | {cpu:.0f} |")
     return "\n".join(rows)
