@@ -39,6 +39,14 @@ RECOVERY_HORIZON_S = 600.0
 #: ``benchmarks/bench_verdict.py``, ``docs/verdict.md``), and a marginal design gets up to
 #: 5x the 80 samples of a fixed-size check whose 95 % intervals at 5 % and 20 % just part.
 CHECK_SAMPLES = 400
+#: The most samples a probe of what drives a flip folds (FP183; at most the test's own
+#: maximum). Our choice: a probe that crosses neither boundary of its threshold's test by
+#: then is reported undecided (its p is on the threshold) and claims nothing, so the cap
+#: changes no error rate of a probe's answer (those of the untruncated SPRT, at most 5 %);
+#: it only makes more probes undecided: at the edges of the warning test's indifference
+#: region 11 % (p = 2.5 %) and 8 % (p = 7.5 %) of probes end undecided at 200, against under
+#: 1 % at 400 (tests/test_verdict.py). Measured effect on the templates: docs/robustness-model.md.
+PROBE_MAX_SAMPLES = 200
 #: The sequential test of each jam threshold theta (warning :data:`JAM_WARN_ABOVE`, error
 #: :data:`JAM_ERROR_ABOVE`): Wald's SPRT of p <= theta - delta against p >= theta + delta,
 #: with delta = min(JAM_TEST_RELATIVE_HALF_WIDTH x theta, JAM_TEST_MAX_HALF_WIDTH): at the

@@ -88,11 +88,14 @@ class Precomputed:
 
     def lookup(self, design: Design, scatter: Scatter, samples: int, seed: int, hinge_model: HingeModel,
                dt: float, method: Method = VERDICT_METHOD, test: JamTest | None = None) -> tuple[Outcome, ...] | None:
-        if (design.name, samples, seed, hinge_model, dt, method) != (
-                self.design, self.samples, self.seed, self.hinge_model, self.dt, self.method):
+        if (design.name, seed, hinge_model, dt, method) != (self.design, self.seed, self.hinge_model, self.dt,
+                                                           self.method):
             return None
-        return next((e[1] for e in self.outcomes if e[0] == scatter and (e[2] if len(e) > 2 else self.test) == test),
-                    None)
+        for sc, outs, *own in self.outcomes:
+            t = own[0] if own else self.test  # a stream's test, its maximum its sample count
+            if sc == scatter and t == test and (self.samples if t is None else t.max_samples) == samples:
+                return outs
+        return None
 
     def __call__(self, fn, items, progress=None):  # a plain mapper for whatever was not precomputed
         out = []
@@ -151,13 +154,14 @@ class _Stream:
 
     def __init__(self, j: int, k, job: MonteCarloJob, scatter: Scatter, test: JamTest | None):
         self.j, self.k, self.job, self.scatter, self.test = j, k, job, scatter, test
-        self.total = n_chunks(job.samples)
+        self.max_samples = job.samples if test is None else test.max_samples  # a probe's may be lower
+        self.total = n_chunks(self.max_samples)
         self.next = 0  # the next chunk to submit
         self.flying = 0
         self.back: dict[int, list[Outcome]] = {}
         self.used = 0  # chunks consumed
         self.outcomes: list[Outcome] = []
-        self.done = job.samples == 0
+        self.done = self.total == 0
         self.timed = False
 
     @property
@@ -193,7 +197,7 @@ class _Stream:
         return self.done
 
     def status(self) -> StreamStatus:
-        return StreamStatus(self.j, self.k, len(self.outcomes), self.job.samples, self.done)
+        return StreamStatus(self.j, self.k, len(self.outcomes), self.max_samples, self.done)
 
 
 def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None = None, workers: int = 1,
@@ -278,7 +282,7 @@ class _Batch:
         if not s.timed:
             s.timed = True
             if s.total > 1:
-                guards.check_samples(s.job.samples, per_sample, self.workers, s.job.design.name)
+                guards.check_samples(s.max_samples, per_sample, self.workers, s.job.design.name)
         was = s.done
         s.add(c, out)
         if not was:

@@ -21,7 +21,8 @@ on (a pass at 1x: the warning threshold; a failure at 1x: the error threshold; a
 1x: the threshold the flip crossed), that threshold's test alone, with its error rates. A
 probe far from that threshold stops early (a probe that stays a clear failure when a pass
 was flipped stops once it is known to be above 5 %, not when it is known to be above 20 %);
-its answer may leave two verdicts open ("above 5 %"). A probe that reaches the maximum
+its answer may leave two verdicts open ("above 5 %"). A probe folds at most
+:data:`~foldprint.core.constants.PROBE_MAX_SAMPLES` samples; one that reaches them
 without crossing either boundary of its test says so (its p is on the threshold) and claims
 nothing: it is not counted as undoing the flip (a truncated test would decide by the sign
 there, which inside the indifference region is either answer).
@@ -38,7 +39,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Sequence
 
-from ..core.constants import CHECK_DT_S
+from ..core.constants import CHECK_DT_S, PROBE_MAX_SAMPLES
 from ..core.modes import JamQuestion, JamVerdict, SpreadBasis
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
@@ -193,7 +194,7 @@ def probe_runs(base, base_scatter: Scatter, flips: Sequence[tuple]) -> dict[str,
     runs = {}
     for k, d, sc in flips:
         up = worse(d.verdicts[0], base.verdict)
-        test = base.test.probing(probe_question(base.verdict, d.verdicts[0]))
+        test = base.test.probing(probe_question(base.verdict, d.verdicts[0]), PROBE_MAX_SAMPLES)
         for c in COMPONENTS:
             if sc.spread(c.key) > 0:
                 to = 0.0 if up else base_scatter.spread(c.key)

@@ -154,12 +154,13 @@ class JamTest:
         """The same test asking ``question`` (the same thresholds, error rates and maximum)."""
         return replace(self, question=JamQuestion(question))
 
-    def probing(self, question: JamQuestion) -> "JamTest":
+    def probing(self, question: JamQuestion, max_samples: int | None = None) -> "JamTest":
         """:meth:`asking` ``question``, undecided at the maximum when no boundary was
         crossed (``truncate`` False): a probe of what drives a flip says "on the threshold"
         there instead of deciding by the sign, which inside the indifference region is
-        either answer."""
-        return replace(self, question=JamQuestion(question), truncate=False)
+        either answer. ``max_samples``: a lower maximum (never above this test's)."""
+        most = self.max_samples if max_samples is None else min(self.max_samples, int(max_samples))
+        return replace(self, question=JamQuestion(question), truncate=False, max_samples=most)
 
     @property
     def asked(self) -> Sprt | None:
