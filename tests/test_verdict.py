@@ -318,3 +318,21 @@ def test_check_refuses_a_warning_threshold_above_the_error_threshold(capsys, tmp
     out, err = capsys.readouterr()
     assert out == "" and len(err.strip().splitlines()) == 1 and "--warn-above" in err and "--error-above" in err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("p,wrong", [(0.025, 1), (0.075, 0)])
+def test_a_probe_capped_at_its_maximum_keeps_its_error_rates(p, wrong):
+    """A probe (the warning threshold alone, undecided at PROBE_MAX_SAMPLES): on 20 000
+    Bernoulli streams at each edge of the region it names the wrong side at most 5 % of
+    the time (plus three standard errors), however many end undecided (the share the
+    constant's comment states, 11 % and 8 %, within 2 points)."""
+    from foldprint.core.constants import PROBE_MAX_SAMPLES
+
+    n = 20_000
+    t = T.probing(JamQuestion.WARNING, PROBE_MAX_SAMPLES)
+    assert t.max_samples == PROBE_MAX_SAMPLES < T.max_samples and not t.truncate
+    r = decide_many(np.random.default_rng(17 + wrong).random((n, t.max_samples)) < p, t)
+    assert r["decided"].all()
+    undecided = (r["warning_side"] < 0).mean()
+    assert float(np.mean(r["warning_side"] == wrong)) <= 0.05 + 3 * math.sqrt(0.05 * 0.95 / n)
+    assert abs(undecided - {0.025: 0.11, 0.075: 0.08}[p]) < 0.02
