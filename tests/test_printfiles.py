@@ -393,3 +393,26 @@ def test_export_refusal_is_an_export_error(tmp_path):
     with pytest.raises(ExportError, match="needs 8 tools"):
         Evaluation(_design("helix_graded")).export(tmp_path / "x", printer="bambu_x1c")
     assert not (tmp_path / "x").exists()
+
+
+def test_core_model_is_placed_where_its_layout_says_with_no_stray_text():
+    """model_xml read as XML: the build item's translation is the given layout's offset
+    (a layout moved 10 mm in x moves the item 10 mm), and no element carries stray text."""
+    from foldprint.exchange.threemf import model_xml
+
+    design = strip("s", [20.0, 20.0], [90.0], ["H-3"])
+    asm = build_assembly(design, "permanent")
+    lay = bed_layout(asm, fdm_setup(None))
+    moved = replace(lay, offset=np.asarray(lay.offset, float) + [10.0, 0.0, 0.0])
+
+    def item_xyz(xml):
+        root = ET.fromstring(xml.encode("utf-8"))
+        for el in root.iter():
+            if not el.tag.endswith("metadata"):
+                assert not (el.text or "").strip() and not (el.tail or "").strip(), el.tag
+        (item,) = [e for e in root.iter() if e.tag.endswith("}item")]
+        return np.array([float(x) for x in item.get("transform").split()][-3:])
+
+    a, b = item_xyz(model_xml(design, asm, layout=lay)), item_xyz(model_xml(design, asm, layout=moved))
+    assert np.allclose(b - a, [10.0, 0.0, 0.0], atol=1e-6)
+    assert np.allclose(item_xyz(model_xml(design, asm)), a, atol=1e-6)  # default: the generic FDM layout

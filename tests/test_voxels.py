@@ -632,3 +632,46 @@ def test_composite_3mf_mixes_each_hinge_as_its_profile_says(tmp_path):
                     assert got == pytest.approx(expected[tri.Indices[corner]], abs=1e-3)
         seen += 1
     assert seen == len(d.hinges)
+
+
+class _TwoLevels:
+    """A hinge profile with exactly two VeroWhite fractions: 0.4 on one half of the width, 0.6 on the other."""
+
+    along = None
+    knots = (0.4, 0.6)
+
+    def at(self, u):
+        return np.where(np.asarray(u) < 0.5, 0.4, 0.6)
+
+
+def _model_tree(xml: str):
+    import xml.etree.ElementTree as ET
+
+    return ET.fromstring(xml.encode("utf-8"))
+
+
+def test_composite_model_gives_each_region_its_materials():
+    """The voxel variant's model, read as XML: the all-VeroWhite panel takes base material 0
+    (VeroWhite), a hinge with exactly two fractions gets two composites and per-vertex
+    properties (so its two halves differ), and no element carries stray text (the 3MF
+    schema's mesh elements have no mixed content)."""
+    from foldprint.exchange.threemf import composite_model_xml
+    from foldprint.geometry import build_assembly
+    from foldprint.model.design import strip
+
+    d = strip("s", [20.0, 20.0], [90.0], ["H-3"])
+    root = _model_tree(composite_model_xml(d, build_assembly(d, "permanent"), _part(_TwoLevels())))
+    ns = {"c": "http://schemas.microsoft.com/3dmanufacturing/core/2015/02",
+          "m": "http://schemas.microsoft.com/3dmanufacturing/material/2015/02"}
+    objs = {o.get("name"): o for o in root.iter(f"{{{ns['c']}}}object")}
+    panel = next(o for n, o in objs.items() if n.startswith("panel"))
+    hinge = next(o for n, o in objs.items() if n.startswith("hinge"))
+    assert (panel.get("pid"), panel.get("pindex")) == ("1", "0")  # base material 0: VeroWhite
+    (group,) = [g for g in root.iter(f"{{{ns['m']}}}compositematerials") if g.get("id") == hinge.get("pid")]
+    assert [c.get("values") for c in group] == ["0.4 0.6", "0.6 0.4"]
+    tris = list(hinge.iter(f"{{{ns['c']}}}triangle"))
+    assert tris and all(t.get("p1") is not None for t in tris)
+    assert {t.get(k) for t in tris for k in ("p1", "p2", "p3")} == {"0", "1"}  # both halves
+    for el in root.iter():
+        if not el.tag.endswith("metadata"):
+            assert not (el.text or "").strip() and not (el.tail or "").strip(), el.tag
