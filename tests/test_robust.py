@@ -173,7 +173,7 @@ def test_precomputed_outcomes_are_returned_without_folding(monkeypatch):
 
     d = strip("p", [20, 20, 25], [90, 90], ["H-3", "H-5"])
     ref = jam_probability(d, 5, 4, workers=1)
-    pre = Precomputed(d.name, 5, 4, ref.hinge_model, DEFAULT_DT_S, ((ref.scatter, ref.outcomes),), ref.method)
+    pre = Precomputed(d.name, 5, 4, ref.hinge_model, DEFAULT_DT_S, ((ref.scatter, ref.outcomes, None),), ref.method)
 
     def no_fold(*_a, **_k):
         raise AssertionError("a precomputed sample was folded again")

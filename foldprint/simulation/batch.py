@@ -82,17 +82,15 @@ class Precomputed:
     seed: int
     hinge_model: HingeModel
     dt: float
-    outcomes: tuple[tuple, ...]  # (scatter, outcomes) or (scatter, outcomes, test): a stream's own test
+    outcomes: tuple[tuple[Scatter, tuple[Outcome, ...], JamTest | None], ...]  # per stream: its test (None: fixed)
     method: Method = VERDICT_METHOD
-    test: JamTest | None = None  # the test of a stream that names none
 
     def lookup(self, design: Design, scatter: Scatter, samples: int, seed: int, hinge_model: HingeModel,
                dt: float, method: Method = VERDICT_METHOD, test: JamTest | None = None) -> tuple[Outcome, ...] | None:
         if (design.name, seed, hinge_model, dt, method) != (self.design, self.seed, self.hinge_model, self.dt,
                                                            self.method):
             return None
-        for sc, outs, *own in self.outcomes:
-            t = own[0] if own else self.test  # a stream's test, its maximum its sample count
+        for sc, outs, t in self.outcomes:  # a stream's test's maximum is its sample count
             if sc == scatter and t == test and (self.samples if t is None else t.max_samples) == samples:
                 return outs
         return None
@@ -253,15 +251,15 @@ class _Batch:
     def precomputed(self, j: int) -> Precomputed:
         job = self.jobs[j]
         outs = tuple((s.scatter, tuple(s.outcomes), s.test) for s in self.streams if s.j == j)
-        return Precomputed(job.design.name, job.samples, job.seed, job.hinge_model, job.dt, outs, job.method,
-                           job.test)
+        return Precomputed(job.design.name, job.samples, job.seed, job.hinge_model, job.dt, outs, job.method)
 
     def finished(self, j: int) -> None:
         """Job ``j``'s streams are all finished: its follow-up streams if it has more, else
         it is ready (its Precomputed made, its ``after`` task due)."""
-        more = self.follow(j, self.precomputed(j)) if self.follow is not None else None
+        pre = self.precomputed(j)
+        more = self.follow(j, pre) if self.follow is not None else None
         if not more:
-            self.pre[j] = self.precomputed(j)
+            self.pre[j] = pre
             self.ready.append(j)
             return
         new = [_Stream(j, name, self.jobs[j], sc, test) for name, (sc, test) in more.items()]

@@ -18,13 +18,8 @@ from typing import Callable, Sequence
 
 from .batch import MonteCarloJob, Precomputed
 from .flip_drivers import flipping, probe_runs
-from .scatter import COMPONENTS, Scatter
+from .sequential import scale_label
 from .verdict import decide, sweep_question
-
-
-def _folds(sc: Scatter) -> bool:
-    """A model with some spread (one without folds nothing: every sample is the nominal part)."""
-    return any(sc.spread(c.key) > 0 for c in COMPONENTS)
 
 
 def check_follow(jobs: Sequence[MonteCarloJob], scales: Sequence[float]) -> Callable[[int, Precomputed], dict]:
@@ -44,14 +39,14 @@ def check_follow(jobs: Sequence[MonteCarloJob], scales: Sequence[float]) -> Call
         base = decide([o.jammed for o in out1], t1)
         if stage[j] == 1:
             test = job.test.asking(sweep_question(base.verdict))
-            return {f"jam test at {k:g}x": (sc1.scaled(k), test) for k in ks if _folds(sc1.scaled(k))}
+            return {scale_label(k): (sc1.scaled(k), test) for k in ks if not sc1.scaled(k).is_zero}
         if stage[j] == 2:  # a scale without spread folds nothing and has nothing to probe
             folded = {sc: (out, t) for sc, out, t in rest}
             points = {k: (decide([o.jammed for o in folded[sc][0]], folded[sc][1]), sc)
                       for k in ks if (sc := sc1.scaled(k)) in folded}
             flips = flipping(base.verdict, [(k, d) for k, (d, _) in points.items()])
             runs = probe_runs(base, sc1, [(k, *points[k]) for k in flips])
-            return {name: (run[3], run[4]) for name, run in runs.items() if _folds(run[3])}
+            return {name: (run.scatter, run.test) for name, run in runs.items() if not run.scatter.is_zero}
         return {}
 
     return follow

@@ -37,7 +37,7 @@ rests on a measured spread or on a chosen one (``docs/robustness-model.md``).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 from ..core.constants import CHECK_DT_S, PROBE_MAX_SAMPLES
 from ..core.modes import JamQuestion, JamVerdict, SpreadBasis
@@ -46,6 +46,7 @@ from ..model.materials import MaterialLibrary
 from .robust import RobustResult
 from .scatter import COMPONENTS, Component, Scatter
 from .sequential import StageProgress, jam_tests_of
+from .verdict import JamTest
 
 #: The verdicts from best to worst.
 _ORDER = (JamVerdict.PASS, JamVerdict.WARNING, JamVerdict.ERROR)
@@ -182,9 +183,20 @@ def flipping(base: JamVerdict, points: Sequence[tuple]) -> list[float]:
     return up or [k for k, d in others if all(worse(base, v) for v in d.verdicts)]
 
 
-def probe_runs(base, base_scatter: Scatter, flips: Sequence[tuple]) -> dict[str, tuple]:
-    """The probes of each flip, by the name progress gives them ("flip at 2x, without
-    bath"): ``(scale, component, probe spread, scatter model, test)``. ``base``: the
+class ProbeRun(NamedTuple):
+    """One probe to run: the flip's scale, the component changed, its spread in the probe,
+    the scatter model and the one-threshold test it is folded under."""
+
+    scale: float
+    component: Component
+    spread: float
+    scatter: Scatter
+    test: JamTest
+
+
+def probe_runs(base, base_scatter: Scatter, flips: Sequence[tuple]) -> dict[str, ProbeRun]:
+    """The probes of each flip (:class:`ProbeRun`), by the name progress gives them ("flip at
+    2x, without bath"). ``base``: the
     decision at 1x (:class:`~foldprint.simulation.verdict.JamDecision`) under
     ``base_scatter``; ``flips``: ``(scale, decision, scatter)`` of each flipped sweep point.
     One probe per component of non-zero spread: removed (a worse flip) or kept at its 1x
@@ -199,7 +211,7 @@ def probe_runs(base, base_scatter: Scatter, flips: Sequence[tuple]) -> dict[str,
             if sc.spread(c.key) > 0:
                 to = 0.0 if up else base_scatter.spread(c.key)
                 name = f"flip at {k:g}x, " + (f"without {c.key}" if up else f"{c.key} at 1x")
-                runs[name] = (float(k), c, to, replace(sc, **{c.attr: to}), test)
+                runs[name] = ProbeRun(float(k), c, to, replace(sc, **{c.attr: to}), test)
     return runs
 
 
@@ -215,18 +227,19 @@ def flip_drivers(design: Design, base: RobustResult, flips: Sequence, *, library
     if base.decision is None or any(p.result.decision is None for p in flips):
         raise ValueError("flip drivers take check's sequential jam tests (results with a decision)")
     runs = probe_runs(base.decision, base.scatter, [(p.scale, p.result.decision, p.result.scatter) for p in flips])
-    tests = {name: run[4] for name, run in runs.items()}
     if not runs:
         return ()
-    got = jam_tests_of(design, tests, {name: run[3] for name, run in runs.items()}, base.seed,
+    got = jam_tests_of(design, {name: run.test for name, run in runs.items()},
+                       {name: run.scatter for name, run in runs.items()}, base.seed,
                        library=library, hinge_model=base.hinge_model, dt=dt, method=base.method,
                        nominal=base.nominal, workers=workers, mapper=mapper, progress=progress,
                        mechanics=base.mechanics)
     out = []
     for p in flips:
         was, flipped, sc = base.decision.verdict, p.result.decision.verdicts[0], p.result.scatter
-        probes = tuple(Probe(c, sc.spread(c.key), to, sc.basis(c.key), sc.sources.get(c.key, ""), got[name],
+        probes = tuple(Probe(r.component, sc.spread(r.component.key), r.spread, sc.basis(r.component.key),
+                             sc.sources.get(r.component.key, ""), got[name],
                              undoes_all(was, flipped, got[name].decision.verdicts))
-                       for name, (k, c, to, *_) in runs.items() if k == p.scale)
+                       for name, r in runs.items() if r.scale == p.scale)
         out.append(FlipDrivers(float(p.scale), base, p.result, probes))
     return tuple(out)

@@ -121,6 +121,11 @@ class Scatter:
     def spread(self, key: str) -> float:
         return float(getattr(self, component(key).attr))
 
+    @property
+    def is_zero(self) -> bool:
+        """Every spread is zero: every sample is the nominal part (nothing to fold)."""
+        return all(getattr(self, c.attr) == 0 for c in COMPONENTS)
+
     def basis(self, key: str) -> SpreadBasis | None:
         """What the spread of ``key`` rests on (None: not stated, a model built in code)."""
         return self.bases.get(component(key).key)

@@ -70,7 +70,7 @@ class _Runner:
         self.total, self.done = runs * base.samples, 0
 
     def __call__(self, scatter: Scatter) -> RobustResult:
-        if all(scatter.spread(c.key) == 0 for c in COMPONENTS):
+        if scatter.is_zero:
             r = _nominal_only(self.base, scatter)
         else:
             cb = None

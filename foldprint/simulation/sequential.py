@@ -27,7 +27,7 @@ from ..model.design import Design
 from ..model.materials import MaterialLibrary, default_library
 from .batch import MonteCarloJob, StreamStatus, run_batch
 from .robust import CHUNK, Outcome, RobustResult, outcome_of, run_samples
-from .scatter import COMPONENTS, Scatter, default_scatter, iter_samples
+from .scatter import Scatter, default_scatter, iter_samples
 from .simulate import SimulationResult, simulate
 from .verdict import JamDecision, JamTest, decide, jam_test, sweep_question  # noqa: F401 (jam_test re-exported for the pipeline)
 
@@ -69,18 +69,18 @@ def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), s
     kw = dict(library=library, hinge_model=hinge_model, dt=dt, method=method, workers=workers, mapper=mapper,
               progress=progress, mechanics=mechanics)
     first = (1.0,) if 1.0 in ks else ks
-    got = jam_tests_of(design, test, {_label(k): scatter if k == 1.0 else scatter.scaled(k) for k in first}, seed,
+    got = jam_tests_of(design, test, {scale_label(k): scatter if k == 1.0 else scatter.scaled(k) for k in first}, seed,
                        nominal=nominal, **kw)
     rest = [k for k in ks if k not in first]
     if rest:  # the sweep asks only whether the verdict at 1x flips
-        base = got[_label(1.0)]
+        base = got[scale_label(1.0)]
         got.update(jam_tests_of(design, test.asking(sweep_question(base.decision.verdict)),
-                                {_label(k): scatter.scaled(k) for k in rest}, seed, nominal=base.nominal, **kw))
-    return {k: got[_label(k)] for k in ks}
+                                {scale_label(k): scatter.scaled(k) for k in rest}, seed, nominal=base.nominal, **kw))
+    return {k: got[scale_label(k)] for k in ks}
 
 
-def _label(scale: float) -> str:
-    """A sweep scale's test as progress names it."""
+def scale_label(scale: float) -> str:
+    """A sweep scale's test as progress names it (and the gallery's pool its stream)."""
     return f"jam test at {scale:g}x"
 
 
@@ -115,7 +115,7 @@ def jam_tests_of(design: Design, test: JamTest | Mapping[str, JamTest], models: 
     lookup = getattr(mapper, "lookup", None) if mech == Mechanics.RIGID else None
     for name, sc in models.items():
         test = tests[name]
-        if all(sc.spread(c.key) == 0 for c in COMPONENTS):  # no scatter: every sample is the nominal part
+        if sc.is_zero:  # no scatter: every sample is the nominal part
             found[name] = (outcome_of(nominal),) * test.max_samples
         elif lookup is not None:
             got = lookup(design, sc, test.max_samples, seed, model, dt, method, test)
