@@ -58,8 +58,7 @@ def close_pairs(uniq: np.ndarray, tol: float) -> np.ndarray:
     if n < 2 or tol <= 0:
         return np.zeros((0, 2), int)
     if n <= KDTREE_POINTS:  # query_pairs keeps pairs at exactly tol too: "closer than" is strict
-        pairs = cKDTree(uniq).query_pairs(tol, output_type="ndarray").reshape(-1, 2)
-        return pairs[np.linalg.norm(uniq[pairs[:, 0]] - uniq[pairs[:, 1]], axis=1) < tol]
+        return _closer(uniq, cKDTree(uniq).query_pairs(tol, output_type="ndarray").reshape(-1, 2), tol)
     centred = uniq - uniq.mean(axis=0)
     try:
         tri = Delaunay(centred)
@@ -72,8 +71,12 @@ def close_pairs(uniq: np.ndarray, tol: float) -> np.ndarray:
                                + ([tri.coplanar[:, [0, 2]]] if len(tri.coplanar) else []))
         # (qhull leaves a point almost on a vertex out of the triangulation, "coplanar";
         # it is joined to that nearest vertex)
-    d = np.linalg.norm(uniq[edges[:, 0]] - uniq[edges[:, 1]], axis=1)
-    return edges[d < tol]
+    return _closer(uniq, edges, tol)
+
+
+def _closer(uniq: np.ndarray, pairs: np.ndarray, tol: float) -> np.ndarray:
+    """The index pairs of ``pairs`` whose points are closer than ``tol`` (strictly)."""
+    return pairs[np.linalg.norm(uniq[pairs[:, 0]] - uniq[pairs[:, 1]], axis=1) < tol]
 
 
 def _close_undershoots(segs, snap: float, eps: float) -> list:
