@@ -137,8 +137,6 @@ def _item_transform(assembly: Assembly, offset: np.ndarray | None = None) -> str
 
 
 def _layout(assembly: Assembly, layout: BedLayout | None) -> BedLayout:
-    """``layout``, or the generic FDM printer's; ExportError for a part without bodies either way."""
-    require_bodies(assembly)
     return bed_layout(assembly, fdm_setup(None)) if layout is None else layout
 
 
@@ -162,6 +160,7 @@ def model_xml(design: Design, assembly: Assembly, library: MaterialLibrary | Non
     """The core ``3D/3dmodel.model`` (one mesh object per material + an assembly), placed on
     the bed of ``layout`` (default: the generic FDM printer's)."""
     lib = library or default_library()
+    require_bodies(assembly)
     layout = _layout(assembly, layout)
     out = [_model_header(design, assembly, f' xmlns:cura="{CURA_NS}"'), " <resources>\n"]
     out.append('  <basematerials id="1">\n')
@@ -238,6 +237,7 @@ def merged_mesh(bodies: tuple[Body, ...]) -> tuple[np.ndarray, np.ndarray, list[
 
 
 def prusa_model_xml(design: Design, assembly: Assembly, layout: BedLayout | None = None) -> str:
+    require_bodies(assembly)
     layout = _layout(assembly, layout)
     v, f, _ = merged_mesh(assembly.bodies)
     out = [_model_header(design, assembly, f' xmlns:slic3rpe="{SLIC3RPE_NS}"'),
