@@ -227,39 +227,73 @@ def test_shared_pool_answers_the_jam_test_as_check_alone(sequential):
 
 
 def test_no_chunk_is_folded_past_a_decided_stop(monkeypatch):
-    """In one process the pool folds exactly the chunks a stream needs: the uniform helix
-    decides after 6 samples at each scale, so one chunk each."""
+    """In one process the pool folds exactly the samples a stream needs: the uniform helix
+    jams at every sample and its test can stop after 6 jams, so each scale's stream is one
+    chunk of 6 samples (not a whole chunk of 16, 10 of them past the stop)."""
     from foldprint.simulation import batch
     from foldprint.simulation.verdict import jam_test
 
     folded = []
     real = batch._chunk_task
     scale = {default_scatter(): 1.0, default_scatter().scaled(2.0): 2.0}
-    monkeypatch.setattr(batch, "_chunk_task", lambda j, sc, c: folded.append((j, scale[sc], c)) or real(j, sc, c))
+    monkeypatch.setattr(batch, "_chunk_task",
+                        lambda j, sc, a, n: folded.append((j, scale[sc], a, n)) or real(j, sc, a, n))
     d = _designs()[0]
     (p,), _, _ = run_batch([MonteCarloJob(d, MAX, SEED, (1.0, 2.0), test=jam_test(max_samples=MAX))], workers=1)
-    assert sorted(folded) == [(0, 1.0, 0), (0, 2.0, 0)] and [len(e[1]) for e in p.outcomes] == [6, 6]
+    assert sorted(folded) == [(0, 1.0, 0, 6), (0, 2.0, 0, 6)] and [len(e[1]) for e in p.outcomes] == [6, 6]
+
+
+def test_a_chunk_is_sized_to_the_earliest_stop():
+    """A stream's next chunk holds the samples after which an unbroken run could stop its
+    test (the fewest of all-clean and all-jammed), at least MIN_CHUNK, at most CHUNK; with a
+    chunk in flight, or without a test, a whole CHUNK."""
+    from foldprint.simulation import batch
+    from foldprint.simulation.robust import CHUNK, MIN_CHUNK, Outcome
+    from foldprint.simulation.verdict import decide, jam_test
+
+    clean, jam = Outcome(False, None, None, None, 1.0), Outcome(True, None, None, None, None)
+    test = jam_test(max_samples=200)
+
+    def first_stop(prefix, more):
+        n = len(prefix)
+        while not decide(prefix + [more] * (n - len(prefix)), test).decided:
+            n += 1
+        return n - len(prefix)
+
+    for prefix in ([], [False] * 3, [True] * 2, [False, True] * 5, [True] * 4 + [False] * 30):
+        need = min(first_stop(prefix, False), first_stop(prefix, True))
+        assert batch.to_decision(prefix, test, 1000) == need
+        assert batch.to_decision(prefix, test, need - 1) == need - 1
+        s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 200, SEED, test=test), default_scatter(), test)
+        s.outcomes = [jam if x else clean for x in prefix]
+        s.next = len(prefix)
+        assert s.size() == min(CHUNK, max(MIN_CHUNK, need)), prefix
+        assert s.take() == (len(prefix), s.next - len(prefix)) and s.size() == CHUNK  # one in flight
+    # a loop pattern keeps whole chunks (its closure tracking is cheaper a sample in them)
+    miura = load_design(templates_dir() / "miura_3x3.toml")
+    s = batch._Stream(0, 1.0, MonteCarloJob(miura, 200, SEED, test=test), default_scatter(), test)
+    assert batch.to_decision([], test, CHUNK) < CHUNK and s.size() == CHUNK
+    fixed = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED), default_scatter(), None)
+    assert [fixed.take() for _ in range(2)] == [(0, CHUNK), (CHUNK, 20 - CHUNK)] and not fixed.wants
 
 
 def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
     """Chunks that come back out of order wait for their predecessors: the outcomes are
     the stream's in order and the stop is counted over them, whatever the arrival order
     (chunks of 4 here: jams only from sample 8 on, so a pass-or-not hinges on the order)."""
-    from foldprint.simulation import batch, robust
+    from foldprint.simulation import batch
     from foldprint.simulation.robust import Outcome
     from foldprint.simulation.verdict import decide, jam_test
 
-    monkeypatch.setattr(robust, "CHUNK", 4)
     clean, jam = Outcome(False, None, None, None, 1.0), Outcome(True, None, None, None, None)
     stream = [clean] * 8 + [jam] * 12
     test = jam_test(max_samples=20)
     want = decide([o.jammed for o in stream], test)
     for order in ([0, 1, 2, 3, 4], [4, 3, 2, 1, 0], [2, 0, 4, 1, 3]):
         s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED, test=test), default_scatter(), test)
-        for c in range(s.total):
-            s.take()
+        assert [s.take(4) for _ in range(5)] == [(4 * c, 4) for c in range(5)] and not s.wants
         for c in order:
-            s.add(c, stream[4 * c:4 * c + 4])
+            s.add(4 * c, stream[4 * c:4 * c + 4])
         assert s.done and s.outcomes == stream[:want.samples], order
         assert decide([o.jammed for o in s.outcomes], test) == want
 
@@ -274,9 +308,9 @@ def test_a_batch_run_inside_a_worker_keeps_the_workers_jobs():
     d, lib = _designs()[1], default_library()
     batch._init([MonteCarloJob(d, 4, SEED)], lib)  # what the pool's initializer gives a worker
     try:
-        before, _ = batch._chunk_task(0, default_scatter(), 0)
+        before, _ = batch._chunk_task(0, default_scatter(), 0, 4)
         run_batch([MonteCarloJob(d, 2, SEED + 1)], library=lib, workers=1)  # folded here, in the worker
-        after, _ = batch._chunk_task(0, default_scatter(), 0)
+        after, _ = batch._chunk_task(0, default_scatter(), 0, 4)
     finally:
         batch._STATE.clear()
     assert len(after) == 4 and after == before

@@ -147,7 +147,7 @@ def test_shared_scatter_keeps_identical_hinges_identical():
 
 def test_streamed_samples_are_the_drawn_samples():
     """Streaming in blocks gives the very numbers of one draw (bounded memory, same answer)."""
-    from foldprint.simulation.scatter import iter_samples
+    from foldprint.simulation.scatter import iter_samples, samples_between
 
     from foldprint.io.load import load_design
     from foldprint.io.templates import resolve_design_path
@@ -160,6 +160,13 @@ def test_streamed_samples_are_the_drawn_samples():
     for a, b in zip(whole, streamed):
         assert np.array_equal(a.tg_shift_c, b.tg_shift_c) and np.array_equal(a.h_scale, b.h_scale)
         assert np.array_equal(a.thickness_mm, b.thickness_mm) and a.bath_c == b.bath_c
+    # a chunk's own samples (the pool's tasks draw only theirs): the very ones of the stream
+    for start, stop in ((0, 5), (60, 70), (63, 65), (290, 300), (299, 300), (10, 10)):
+        part = samples_between(d, sc, 7, start, stop)
+        assert len(part) == stop - start
+        for a, b in zip(whole[start:stop], part):
+            assert np.array_equal(a.tg_shift_c, b.tg_shift_c) and np.array_equal(a.h_scale, b.h_scale)
+            assert np.array_equal(a.thickness_mm, b.thickness_mm) and a.bath_c == b.bath_c
 
 
 def test_robust_leaves_contributions_to_an_opt_in(tmp_path, capsys):

@@ -297,6 +297,14 @@ def realise(design: Design, scatter: Scatter, normals: Normals) -> list[Sample]:
     return out
 
 
+def samples_between(design: Design, scatter: Scatter, seed: int, start: int, stop: int) -> list[Sample]:
+    """Samples ``start`` .. ``stop - 1`` of the stream seeded with ``seed`` (the very ones
+    :func:`iter_samples` yields there), realising only those: a chunk far into a stream
+    does not realise every sample before it."""
+    z = draw_normals(len(design.hinges), max(int(stop), 0), seed)
+    return realise(design, scatter, Normals(z.hinge[start:stop], z.shared[start:stop]))
+
+
 def iter_samples(design: Design, scatter: Scatter, n: int, seed: int, block: int = 1024):
     """The samples of :func:`draw_samples`, streamed: the generator fills ``block`` rows at a
     time, which gives the very numbers of one ``(n, k)`` draw (numpy fills row-major from
