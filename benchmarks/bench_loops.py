@@ -2,6 +2,8 @@
 replaced, in the same run.
 
     python benchmarks/bench_loops.py [--repeat N] [--json PATH]
+    python benchmarks/bench_loops.py --sizes 4,16,64
+
 
 For each template, the first 16 of ``check``'s samples (its seed, 1x scatter, its time
 step: one chunk of :func:`foldprint.simulation.robust.run_samples`) are folded as the
@@ -13,7 +15,11 @@ configurations included). Printed: CPU ms per sample of the
 chunk (``run_samples``, after one warm-up chunk) and of its phases (recovery curves, loop
 closure, the folds with their swept collision checks), the ratios old / new, and whether
 the outcomes are the same. ``helix_graded`` (a strip: no loops) shows the strip path is
-untouched (ratio ~1). Each measurement is repeated (default 3; the two alternate, each
+untouched (ratio ~1). ``--sizes`` instead times the closure tracking alone on chunks of
+those sizes and splits it into a cost per evaluation of C and J (the point's share of the
+evaluation, its Gauss-Newton kernel and bookkeeping) and a cost per round (the array code
+of a round whatever its size), by least squares over the sizes: what a chunk of 16 pays for
+its rounds. Each measurement is repeated (default 3; the two alternate, each
 first in turn) and the median kept; CPU time (this process) because other processes on a loaded machine slow
 wall time down; the load average is printed.
 """
@@ -105,12 +111,48 @@ def measure(name: str, repeat: int) -> dict:
     return out
 
 
+def scaling(name: str, sizes: list[int], repeat: int) -> dict:
+    """CPU time of the closure tracking alone on chunks of ``sizes`` samples (median of
+    ``repeat``, after a warm-up) and its least-squares split into ms = a * evaluations +
+    b * rounds: ``a`` in us per evaluation, ``b`` in ms per round."""
+    import numpy as np
+
+    d, lib = load_design(templates_dir() / f"{name}.toml"), default_library()
+    rows = []
+    for n in sizes:
+        samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), n))
+        cpu = []
+        for _ in range(repeat + 1):
+            with derived.design_scope(d) as dd:
+                drives = robust.sample_drives(dd, lib, samples, until_s=robust.run_end(dd, CHECK_DT_S))
+                c0 = time.process_time()
+                solve_loops_many(drives, run_times(dd, CHECK_DT_S))
+                cpu.append((time.process_time() - c0) * 1e3)
+        s = drives[0].loops
+        rows.append({"samples": n, "ms": round(median(cpu[1:]), 1), "evaluations": s.evaluations, "rounds": s.rounds})
+    a = np.array([[r["evaluations"], r["rounds"]] for r in rows], float)
+    (per_eval, per_round), *_ = np.linalg.lstsq(a, np.array([r["ms"] for r in rows]), rcond=None)
+    return {"design": name, "sizes": rows, "us_per_evaluation": round(per_eval * 1e3, 1),
+            "ms_per_round": round(per_round, 2)}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--json", type=Path, help="also write the results here")
+    ap.add_argument("--sizes", help="instead: the tracking's cost per evaluation and per round, chunks of these sizes")
     a = ap.parse_args(argv)
     load = os.getloadavg()[0]
+    if a.sizes:
+        sizes = [int(v) for v in a.sizes.split(",")]
+        print(f"closure tracking alone, CPU ms per chunk (median of {a.repeat}); load average {load:.1f}")
+        for name in TEMPLATES[:2]:
+            got = scaling(name, sizes, a.repeat)
+            for r in got["sizes"]:
+                print(f"{name:20s} {r['samples']:4d} samples {r['ms']:8.1f} ms {r['evaluations']:7d} evaluations "
+                      f"{r['rounds']:4d} rounds")
+            print(f"{name:20s} {got['us_per_evaluation']} us per evaluation, {got['ms_per_round']} ms per round")
+        return 0
     rows = [measure(n, a.repeat) for n in TEMPLATES]
     print(f"CPU ms per sample, chunk of {CHUNK} check samples (median of {a.repeat}); load average {load:.1f}")
     print(f"{'template':20s} {'phase':7s} {'new':>8s} {'old':>8s} {'old/new':>8s}")

@@ -32,7 +32,8 @@ JUMP = 0.05
 #: below this largest angle (rad) of the last answer and of the drive the tracker also restarts
 #: from the drive (a drive farther from the flat sheet is not at its bifurcation: measured on
 #: 48 check samples of miura_3x3 and cross_lock_uniform and 48 of miura_3x3 programmed flat,
-#: the restarts taken had drives of at most 0.0052, 0.061 and 0.12 rad)
+#: the restarts taken had drives of at most 0.0052, 0.061 and 0.12 rad; 0.05 sends one of 64
+#: cross_lock_uniform check samples down the other branch)
 NEAR_FLAT = 0.2
 #: a drive that moved less than this since the last solve (rad) is not re-solved
 SKIP_TOL = 1e-8
