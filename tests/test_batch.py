@@ -248,7 +248,7 @@ def test_a_chunk_is_sized_to_the_earliest_stop():
     test (the fewest of all-clean and all-jammed), at least MIN_CHUNK, at most CHUNK; with a
     chunk in flight, or without a test, a whole CHUNK."""
     from foldprint.simulation import batch
-    from foldprint.simulation.robust import CHUNK, MIN_CHUNK, Outcome
+    from foldprint.simulation.robust import CHUNK, Outcome
     from foldprint.simulation.verdict import decide, jam_test
 
     clean, jam = Outcome(False, None, None, None, 1.0), Outcome(True, None, None, None, None)
@@ -267,7 +267,7 @@ def test_a_chunk_is_sized_to_the_earliest_stop():
         s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 200, SEED, test=test), default_scatter(), test)
         s.outcomes = [jam if x else clean for x in prefix]
         s.next = len(prefix)
-        assert s.size() == min(CHUNK, max(MIN_CHUNK, need)), prefix
+        assert s.size() == min(CHUNK, max(batch.MIN_CHUNK, need)), prefix
         assert s.take() == (len(prefix), s.next - len(prefix)) and s.size() == CHUNK  # one in flight
     # a loop pattern keeps whole chunks (its closure tracking is cheaper a sample in them)
     miura = load_design(templates_dir() / "miura_3x3.toml")

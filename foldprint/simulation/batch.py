@@ -12,7 +12,7 @@ with a sequential test (:class:`~foldprint.simulation.verdict.JamTest`) stops be
 once its test decides; the chunks folded beyond the stop are discarded. Its chunks are
 sized to the test: never more than the samples after which an unbroken run of clean (or
 of jammed) samples would stop it (:func:`to_decision`; at least
-:data:`~foldprint.simulation.robust.MIN_CHUNK`, at most
+:data:`MIN_CHUNK`, at most
 :data:`~foldprint.simulation.robust.CHUNK`), so a clear strip's stream folds the samples
 its test uses and no more (a loop pattern keeps whole chunks: its closure tracking is
 cheaper a sample in bigger ones).
@@ -41,7 +41,7 @@ from ..core.constants import DEFAULT_DT_S
 from ..core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
 from ..model.design import Design, has_loops
 from ..model.materials import MaterialLibrary, default_library
-from .robust import CHUNK, MIN_CHUNK, Outcome, run_samples
+from .robust import CHUNK, Outcome, run_samples
 from .scatter import Scatter, default_scatter, samples_between
 from .verdict import JamTest, decide
 
@@ -121,6 +121,12 @@ class StreamStatus:
     max_samples: int
     done: bool
 
+
+#: The smallest chunk a sequential test's strip stream is given when its test could stop
+#: sooner than :data:`~foldprint.simulation.robust.CHUNK` samples on. Our choice: a strip's
+#: sample costs about the same in chunks of 4 as of 16 (measured on helix_graded: 26.9
+#: against 26.6 CPU-ms), one of 1 about 1.5x.
+MIN_CHUNK = 4
 
 _STATE: dict = {}
 

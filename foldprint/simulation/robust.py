@@ -53,11 +53,6 @@ Z95 = 1.959963984540054
 #: Samples per task: drawn, given their curves in one array pass and folded together.
 #: Fixed (not tied to the number of workers), though the answer does not depend on it.
 CHUNK = 16
-#: The smallest chunk a sequential test's stream is given when its test could stop sooner
-#: than :data:`CHUNK` samples on (``simulation.batch``). Our choice: a strip's sample costs
-#: about the same in chunks of 4 as of 16 (measured on helix_graded: 26.9 against 26.6
-#: CPU-ms), one of 1 about 1.5x.
-MIN_CHUNK = 4
 #: Bytes of sampled recovery curves made at once (ratio and mean temperature, 8 B each per
 #: time point, twice while a batch's parts are joined): a chunk of 16 samples of a
 #: 1000-hinge strip held 1.3 GB in one pass; its samples are now given their curves a few
