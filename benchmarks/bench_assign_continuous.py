@@ -1,5 +1,5 @@
 """Benchmark: `assign --continuous` against the seven-grade `assign --objective robust`
-(issue 22 item 4), on helix_uniform's geometry, under one seed.
+on helix_uniform's geometry, under one seed.
 
     python benchmarks/bench_assign_continuous.py [--json] [--seed 1] [--samples 60]
         [--range 75 90] [--compare 400] [--no-fair]

@@ -10,7 +10,7 @@ size: nodes, solved steps, Newton iterations, CPU-s (user + sys of this process,
 ``time.process_time``) of building the model and solving the path, CPU-s per Newton
 iteration, and the rigid tracker's CPU-s (``HingeDrive.solve_loops`` on the same 0.01 s
 grid) up to ``--rigid-up-to``. ``scaling_exponent``: the slope of log CPU-s over log nodes.
-Target (issue 32): the 20 x 20 sheet (441 nodes, 10 x 10 unit cells) through its whole fold
+Target: the 20 x 20 sheet (441 nodes, 10 x 10 unit cells) through its whole fold
 in < 30 s.
 """
 

@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "docs" / "data" / "bench_check.json"
 DOC = ROOT / "docs" / "verdict.md"
 BEGIN, END = "<!-- bench_check:begin -->", "<!-- bench_check:end -->"
-#: Targets (issue 29), wall seconds on two idle cores.
+#: Targets, wall seconds on two idle cores.
 TARGETS = {"helix_uniform": 3.0, "helix_graded": 10.0, "miura_3x3": 15.0, "gallery": 30.0}
 CODES = {"FP180": "error", "FP181": "warning", "FP182": "pass"}
 

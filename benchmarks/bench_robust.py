@@ -1,4 +1,4 @@
-"""Benchmark: the Monte-Carlo of `foldprint robust` (issue 19), old exact path vs new.
+"""Benchmark: the Monte-Carlo of `foldprint robust`, the exact per-curve path vs the batched one.
 
     python benchmarks/bench_robust.py [--json] [--samples 1000] [--compare 32] [--no-assign]
 
@@ -56,7 +56,7 @@ def _cpu() -> float:
 
 
 def _old_mapper(fn, items, progress=None):
-    """The pool as it was before issue 19: every task submitted at once, no BLAS limit."""
+    """The pool a competent user writes first: every task submitted at once, no BLAS limit."""
     items = list(items)
     with ProcessPoolExecutor(max_workers=min(default_workers(), max(1, len(items)))) as pool:
         return list(pool.map(fn, items))

@@ -1,4 +1,4 @@
-"""Benchmark (issue 19): dense folds at 1000 panels, guards that bound what they claim, big
+"""Benchmark: dense folds at 1000 panels, guards that bound what they claim, big
 exports; every figure beside the baseline measured in the same run.
 
     python benchmarks/bench_scale.py [--json] [--quick]
@@ -95,8 +95,8 @@ def _staircase(n):
 
 
 def prefix_vs_per_pair(n=1000, pairs=200, repeat=3):
-    """Old: compose the hinge transforms along each pair's tree path (the narrow phase's
-    ``pair_poses`` before issue 19). New: every panel's world pose once (prefix products)."""
+    """Baseline: compose the hinge transforms along each pair's tree path (per pair, what a
+    straightforward narrow phase does). New: every panel's world pose once (prefix products)."""
     from foldprint.collision.swept3d import non_adjacent_pairs
     from foldprint.physics.kinematics import HingeDrive, TreeTransforms, hinge_frames, local_transforms
     from foldprint.physics.motion import tree_bounds

@@ -7,7 +7,7 @@ would write, measured in the same run.
   point: the paper's ROM) and dt (10 ms, 1 ms): the swept check (build + broad + narrow
   phase) against trimesh ``CollisionManager.in_collision_internal`` at every time step
   (same trajectory, same rigid panel solids, stopping at its first contact), and the
-  contacts each found. Target (issue 9): >= 20x at dt 1 ms, >= 1x at dt 10 ms, every
+  contacts each found. Target: >= 20x at dt 1 ms, >= 1x at dt 10 ms, every
   contact the baseline finds found at a time no later.
 * ``ratio_2d_vs_loop``: the paper's index for every pair and step against a plain-Python
   loop over pairs and steps on Python floats (Eq. 5-6 written literally), with a check that

@@ -1,4 +1,4 @@
-"""SVG reading at scale (issue 20 item 2): the vertex clustering against the all-pairs
+"""SVG reading at scale: the vertex clustering against the all-pairs
 version it replaced, measured in the same run, and the whole reader on large patterns.
 
     PYTHONPATH=$PWD python benchmarks/bench_svg.py [--json]
@@ -23,7 +23,7 @@ import numpy as np
 
 
 def old_cluster(pts: np.ndarray, tol: float) -> np.ndarray:
-    """The clustering before issue 20: every close pair from a k-d tree, a Python
+    """The straightforward clustering: every close pair from a k-d tree, a Python
     union-find, and one mask per cluster (O(pairs) memory, O(n x clusters) time)."""
     from scipy.spatial import cKDTree
 

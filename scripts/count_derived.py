@@ -1,5 +1,5 @@
 """Count how often the hinge frames and the spanning tree are computed in one CLI
-command, in this process (issue 21):
+command, in this process:
 
     python scripts/count_derived.py check helix_graded --samples 8 --seed 3 --json
 

@@ -1,5 +1,5 @@
 """Regenerate templates/octagon_stack.toml and templates/octagon_stack_seven.toml
-(issue 22 item 3, docs/composition.md).
+(docs/composition.md).
 
     PYTHONPATH=. python scripts/make_octagon_template.py
 

@@ -1,4 +1,4 @@
-"""Move foldprint's flat modules into subpackages that are its layers (issue 21).
+"""Move foldprint's flat modules into subpackages that are its layers.
 
 One-off, kept for the record and for branches that still use the flat layout: run it on a
 checkout in the flat layout (``python scripts/relayout.py``) and it
