@@ -31,6 +31,8 @@ agree sample by sample (``benchmarks/bench_robust.py``).
 from __future__ import annotations
 
 import math
+import threading
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -44,6 +46,11 @@ CUT = 50.0
 #: Elements (hinges x grid times x layers) of one batch's arrays: bounds the memory of a
 #: batch to a few x 8 x this bytes (about 100 MB), whatever the number of hinges.
 MAX_BATCH_ELEMENTS = 2_000_000
+#: Elements (hinges x layer pairs x times) of one block of the time axis, whose working
+#: arrays stay in the cache.
+BLOCK_ELEMENTS = 1 << 16
+#: Times summed as one group in the running sum of the reduced time.
+SUM_GROUP = 8
 
 _LN10 = math.log(10.0)
 
@@ -63,19 +70,19 @@ def grid_until(until_s: float, horizon_s: float = RECOVERY_HORIZON_S) -> np.ndar
     return g[: min(len(g), k + 2)]
 
 
-def _rate(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams) -> np.ndarray:
+def _rate(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams, out: np.ndarray | None = None,
+          work: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """1 / a_T = exp(-ln 10 log10 a_T) of :func:`foldprint.physics.recovery.log10_shift`,
-    the same operations on the same values (bitwise equal) in place, and Arrhenius only
-    where it is taken (below Tg): the batch's largest arrays are not allocated again for
-    each term."""
-    d = temp - tg
-    out = np.maximum(d, 0.0)
+    the same operations on the same values (bitwise equal), into ``out`` (with ``work``, two
+    arrays of ``temp``'s shape, as scratch), and Arrhenius only where it is taken (below Tg)."""
+    d = np.subtract(temp, tg, out=None if work is None else work[0])
+    out = np.maximum(d, 0.0, out=out)
     out += p.c2
-    np.divide(d * (-p.c1), out, out=out)  # WLF: -c1 d / (c2 + max(d, 0))
+    np.divide(np.multiply(d, -p.c1, out=None if work is None else work[1]), out, out=out)  # WLF: -c1 d / (c2 + max(d, 0))
     below = d < 0.0
     if below.any():
         tgk = tg + 273.15
-        arr = temp + 273.15
+        arr = np.add(temp, 273.15, out=d)
         np.divide(1.0, arr, out=arr)
         arr -= 1.0 / tgk
         arr *= (p.c1 / p.c2) * tgk**2  # Arrhenius: (c1 / c2) Tg^2 (1 / T - 1 / Tg), in K
@@ -85,21 +92,199 @@ def _rate(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams) -> np.ndarray:
 
 
 def slab_roots(biot: np.ndarray, n: int = N_TERMS) -> np.ndarray:
-    """Positive roots of zeta tan zeta = Bi for every Bi of ``biot`` (m,), shape (m, n):
-    the bisection of :func:`foldprint.physics.recovery._slab_roots` on arrays, stopped when every
-    bracket has shrunk to neighbouring floats (from there on it no longer changes)."""
+    """Positive roots of zeta tan zeta = Bi for every Bi of ``biot`` (m,), shape (m, n): the
+    roots of :func:`foldprint.physics.recovery._slab_roots` (to round-off), as the roots of
+    h(z) = z - k pi - atan(Bi / z) in (k pi, k pi + pi / 2) by Newton's method. h rises and
+    is concave for z > 0, so from the lower bound k pi + atan(Bi / (k pi + pi / 2))
+    (atan(sqrt(Bi)) for k = 0) the steps rise to the root without overshooting it; they
+    stop at round-off (a few steps, where the bisection takes ~50)."""
     biot = np.asarray(biot, float)[:, None]
-    k = np.arange(n, dtype=float)[None, :]
-    lo = np.broadcast_to(k * math.pi + 1e-12, (biot.shape[0], n)).copy()
-    hi = np.broadcast_to(k * math.pi + math.pi / 2 - 1e-12, (biot.shape[0], n)).copy()
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if np.all((mid == lo) | (mid == hi)):
+    k = np.arange(n, dtype=float)[None, :] * math.pi
+    z = np.where(k > 0, k + np.arctan(biot / (k + math.pi / 2)), np.arctan(np.sqrt(biot)))
+    for _ in range(60):
+        q = biot / z
+        step = (z - k - np.arctan(q)) / (1.0 + q / (z * (1.0 + q * q)))  # h / h'
+        z -= step
+        if np.all(np.abs(step) <= 4e-16 * z):
             break
-        up = mid * np.tan(mid) - biot > 0
-        hi = np.where(up, mid, hi)
-        lo = np.where(up, lo, mid)
-    return 0.5 * (lo + hi)
+    return z
+
+
+@lru_cache(maxsize=1)
+def _layers() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The 4 Gauss points z > 0 of the 8 through the thickness (the slab is heated from both
+    faces alike, so -z has the temperature of z) and each pair's weights: bending (z^2, of
+    the ratio) and plain (of the mean temperature)."""
+    zg8, wg8 = np.polynomial.legendre.leggauss(N_LAYERS)
+    half_n = N_LAYERS // 2  # symmetric points: zg8[half_n + i] == -zg8[half_n - 1 - i]
+    w8 = wg8 * zg8**2  # bending (second-moment) weight of each layer
+    w8 = w8 / w8.sum()
+    m8 = wg8 / wg8.sum()
+    out = zg8[half_n:], w8[half_n:] + w8[:half_n][::-1], m8[half_n:] + m8[:half_n][::-1]
+    for a in out:
+        a.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class _Slab:
+    """The slab series of ``n`` hinges: diffusivity, half-thickness squared (n,), minus the
+    squared roots -zeta^2 (n, terms) and each term's coef cos(zeta z) at the layers
+    (terms, n, n_z)."""
+
+    alpha: float
+    half2: np.ndarray
+    nsq: np.ndarray
+    shape: np.ndarray
+    t_cut: np.ndarray  # each term's last time (s) with Fo zeta^2 <= CUT in any hinge
+
+
+class _Block:
+    """The working arrays of a block of ``m`` times, each C-contiguous: (n, n_z, m) and
+    (n, m) views of the flat buffers of :class:`_Buffers`."""
+
+    def __init__(self, flat: dict[str, np.ndarray], n: int, n_z: int, m: int):
+        for name, a in flat.items():
+            shape = (n, m) if name in ("fo", "arg", "cut", "r") else (n, n_z, m)
+            setattr(self, name, a[:math.prod(shape)].reshape(shape))
+
+
+_SCRATCH = threading.local()  # each thread's flat working arrays, kept between batches
+
+
+def _scratch(size: int) -> dict[str, np.ndarray]:
+    """Flat working arrays of at least ``size`` elements, reused from batch to batch (a
+    fresh array's first writes cost page faults: ~0.5 ms a batch): at most a few x
+    :data:`BLOCK_ELEMENTS` x 8 bytes held per thread."""
+    flat = getattr(_SCRATCH, "flat", None)
+    if flat is None or flat["x"].size < size:
+        flat = {name: np.empty(size) for name in ("theta", "x", "e", "xi", "u", "rate", "fo", "arg", "r")}
+        flat.update((name, np.empty(size, dtype=bool)) for name in ("keep", "cut"))
+        _SCRATCH.flat = flat
+    return flat
+
+
+class _Buffers:
+    """The working arrays of a batch's blocks and their views for each block length."""
+
+    def __init__(self, n: int, n_z: int, m: int):
+        self.n, self.n_z = n, n_z
+        self.flat = _scratch(n * n_z * m)
+        self.views: dict[int, _Block] = {}
+
+    def block(self, m: int) -> _Block:
+        if m not in self.views:
+            self.views[m] = _Block(self.flat, self.n, self.n_z, m)
+        return self.views[m]
+
+
+def _slab_block(slab: _Slab, tb: np.ndarray, v: _Block, terms: int) -> int:
+    """Excess temperature theta (into ``v.theta``) at the block's times ``tb``: the
+    series' first ``terms`` terms, each exactly 0 where Fo zeta^2 > CUT. Returns how many
+    terms are alive at the block's first time (Fo rises in t and zeta^2 in the term: a term
+    cut for every hinge there stays cut, and so does every later term)."""
+    fo = np.divide((slab.alpha * tb)[None, :], slab.half2[:, None], out=v.fo)  # (n, m), rising in t
+    terms = int(np.count_nonzero(np.max(fo[:, :1] * slab.nsq[:, :terms], axis=0) >= -CUT))
+    whole = np.min(fo[:, -1:] * slab.nsq[:, :terms], axis=0) >= -CUT  # no element of the block cut
+    # each term on the block's times up to its last time alive in any hinge (a bound with a
+    # margin far above round-off: the element-wise test below makes the cut exact)
+    alive = np.searchsorted(tb, slab.t_cut[:terms] * (1.0 + 1e-9), side="right")
+    theta, prod, arg = v.theta, v.x, v.arg
+    if terms == 0 or alive[0] < len(tb):
+        theta.fill(0.0)
+    for j in range(terms):
+        k = int(alive[j])
+        a = arg[:, :k]
+        np.multiply(fo[:, :k], slab.nsq[:, j:j + 1], out=a)  # -Fo zeta^2
+        if not whole[j]:
+            np.less(a, -CUT, out=v.cut[:, :k])
+            np.maximum(a, -CUT, out=a)  # no slow underflow path in exp
+        np.exp(a, out=a)
+        if not whole[j]:
+            np.copyto(a, 0.0, where=v.cut[:, :k])  # exactly 0 past the cut, element by element
+        if j == 0:
+            np.multiply(slab.shape[j][:, :, None], a[:, None, :], out=theta[..., :k])
+        else:
+            p = np.multiply(slab.shape[j][:, :, None], a[:, None, :], out=prod[..., :k])
+            theta[..., :k] += p
+    return terms
+
+
+def _reduced_time_block(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams, dt: np.ndarray, v: _Block,
+                        carry: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Reduced time xi (into ``v.xi``) at the block's times: the running trapezoid sum of
+    1 / a_T, continued from ``carry`` = (xi, rate) at the previous block's last time (zero
+    before the first; updated for the next block). ``dt`` (m,): each time's step from the
+    previous time (0 at t = 0)."""
+    xi_end, rate_end = carry
+    rate, inc = v.rate, v.e
+    _rate(temp, tg[:, None, None], p, out=rate, work=(v.e, v.x))
+    flat = rate.reshape(-1)
+    np.add(flat[1:], flat[:-1], out=inc.reshape(-1)[1:])  # r_i + r_(i-1); each row's first:
+    np.add(rate[..., 0], rate_end, out=inc[..., 0])  # with the previous block's last rate
+    inc *= 0.5
+    inc *= dt
+    xi = _running_sum(inc, xi_end, v.xi)
+    rate_end[...] = rate[..., -1]
+    return xi
+
+
+def _running_sum(inc: np.ndarray, start: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """``start`` + the running sum of ``inc`` (..., m) along its last axis, into ``out``;
+    ``start`` becomes the last sum. Summed in groups of :data:`SUM_GROUP` (the prefix sums
+    inside each group, then the groups' totals one after the other): the same sums
+    whatever the block, as long as blocks start at a multiple of the group (``inc`` is
+    overwritten)."""
+    m = inc.shape[-1]
+    q = m // SUM_GROUP
+    full = inc[..., :q * SUM_GROUP].reshape(inc.shape[:-1] + (q, SUM_GROUP))
+    tail = inc[..., q * SUM_GROUP:]
+    for part in (full, tail[..., None, :]):
+        for i in range(1, part.shape[-1]):  # prefix sums inside each group, all groups at once
+            part[..., i] += part[..., i - 1]
+    res = out.reshape(-1)[:inc.size].reshape(inc.shape)
+    if q:
+        totals = np.concatenate([start[..., None], full[..., -1]], axis=-1)  # (..., q + 1)
+        np.cumsum(totals, axis=-1, out=totals)  # the sum up to each group's end
+        np.add(full, totals[..., :-1, None], out=res[..., :q * SUM_GROUP].reshape(full.shape))
+        start[...] = totals[..., -1]
+    if tail.shape[-1]:
+        np.add(tail, start[..., None], out=res[..., q * SUM_GROUP:])
+        start[...] = res[..., -1]
+    return res
+
+
+def _unrecovered_block(xi: np.ndarray, tau: np.ndarray, g: np.ndarray, v: _Block, first: int) -> int:
+    """sum_b g_b exp(-xi / tau_b) (into ``v.u``) over the branches from ``first`` on, each
+    exactly 0 where xi / tau_b > CUT. Returns the first branch alive at the block's first
+    time (xi rises in t: a branch cut everywhere there stays cut, and so does every
+    shorter one)."""
+    u, x, e, keep = v.u, v.x, v.e, v.keep
+    lo, hi = float(np.min(xi[..., 0])), float(np.max(xi[..., -1]))
+    written = zeroed = False
+    for b in range(first, len(tau)):
+        s = -1.0 / tau[b]
+        if lo * s < -CUT:
+            first = b + 1
+            continue
+        np.multiply(xi, s, out=x)
+        if hi * s < -CUT:  # exp only where kept (never below -CUT: no slow underflow path)
+            np.greater_equal(x, -CUT, out=keep)
+            if not zeroed:  # each later (longer) branch is cut on a subset of this one's cut
+                e.fill(0.0)
+                zeroed = True
+            np.exp(x, out=e, where=keep)
+        else:
+            np.exp(x, out=e)
+        if written:
+            e *= g[b]
+            u += e
+        else:
+            np.multiply(e, g[b], out=u)
+            written = True
+    if not written:
+        u.fill(0.0)
+    return first
 
 
 def material_batch_ratios(material, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c: float,
@@ -141,61 +326,45 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
         parts = [batch_ratios(p, tg[a:a + per], hw[a:a + per], th[a:a + per], bath[a:a + per], initial_c, t)
                  for a in range(0, n, per)]
         return np.concatenate([r for r, _ in parts]), np.concatenate([m for _, m in parts])
-    zg8, wg8 = np.polynomial.legendre.leggauss(N_LAYERS)
-    half_n = N_LAYERS // 2  # symmetric points: zg8[half_n + i] == -zg8[half_n - 1 - i]
-    zg = zg8[half_n:]
-    w8 = wg8 * zg8**2  # bending (second-moment) weight of each layer
-    w8 = w8 / w8.sum()
-    w = w8[half_n:] + w8[:half_n][::-1]
-    m8 = wg8 / wg8.sum()
-    wm = m8[half_n:] + m8[:half_n][::-1]
-
-    # 1. slab temperature: theta = sum_j coef_j exp(-Fo zeta_j^2) cos(zeta_j z)
+    zg = _layers()[0]
     half = th * 1e-3 / 2.0
     alpha = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk)
     zeta = slab_roots(hw * half / p.k_w_mk)  # (n, terms)
     coef = 4.0 * np.sin(zeta) / (2.0 * zeta + np.sin(2.0 * zeta))
-    fo = alpha * t[None, :] / (half**2)[:, None]  # (n, n_t), rising in t
-    theta = np.zeros((n, len(t), half_n))
-    for j in range(zeta.shape[1]):
-        z2 = zeta[:, j] ** 2
-        # the term is negligible from the first time Fo zeta^2 > CUT on: compute the prefix
-        k = int(np.max(np.searchsorted(t, CUT * half**2 / (alpha * z2), side="right")))
-        if k == 0:
-            break
-        arg = fo[:, :k] * z2[:, None]
-        mode = np.exp(-np.minimum(arg, CUT))
-        mode *= arg <= CUT  # exactly 0 past the cut, element by element
-        shape = np.cos(zg[None, :] * zeta[:, j:j + 1]) * coef[:, j:j + 1]  # (n, n_z)
-        theta[:, :k, :] += mode[:, :, None] * shape[:, None, :]
-    theta[:, t <= 0, :] = 1.0
-    temp = bath[:, None, None] - (bath - initial_c)[:, None, None] * np.clip(theta, 0.0, 1.0)
+    shape = np.cos(zg[None, :, None] * zeta[:, None, :]) * coef[:, None, :]  # (n, n_z, terms)
+    t_cut = np.max(CUT * (half**2)[:, None] / (alpha * zeta**2), axis=0)
+    slab = _Slab(alpha, half**2, -zeta**2, np.ascontiguousarray(shape.transpose(2, 0, 1)), t_cut)
+    return _curves(p, slab, tg, bath, initial_c, t)
 
-    # 2. reduced time: xi = int dt / a_T(T)
-    rate = _rate(temp, tg[:, None, None], p)
-    xi = np.zeros_like(rate)
-    np.cumsum(0.5 * (rate[:, 1:] + rate[:, :-1]) * np.diff(t)[None, :, None], axis=1, out=xi[:, 1:])
 
-    # 3. relaxation: 1 - sum_b g_b exp(-xi / tau_b), bending-weighted over the layers
+def _curves(p: RecoveryParams, slab: _Slab, tg: np.ndarray, bath: np.ndarray, initial_c: float,
+            t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ratio and mean temperature (n, len(t)) of the hinges of ``slab``, a block of the time
+    axis at a time (:data:`BLOCK_ELEMENTS`)."""
+    n = len(tg)
+    _, w, wm = _layers()
     tau, g = spectrum(p)
-    xmin = xi.min(axis=(0, 2))  # rising in t: branch b is negligible everywhere past CUT tau_b
-    unrecovered = np.zeros_like(xi)
-    x, e = np.empty_like(xi), np.empty_like(xi)
-    keep = np.empty(xi.shape, dtype=bool)
-    for tb, gb in zip(tau, g):
-        k = int(np.searchsorted(xmin, CUT * tb, side="right"))
-        if k == 0:
-            continue
-        xk, ek, kk = x[:, :k], e[:, :k], keep[:, :k]
-        np.multiply(xi[:, :k], -1.0 / tb, out=xk)
-        np.greater_equal(xk, -CUT, out=kk)
-        # exp only where kept; exactly 0 past the cut, element by element (the exponent
-        # is never below -CUT there: no slow underflow path)
-        ek[...] = 0.0
-        np.exp(xk, out=ek, where=kk)
-        ek *= gb
-        unrecovered[:, :k] += ek
-    ratio = np.clip(1.0 - np.einsum("ntz,z->nt", unrecovered, w), 0.0, 1.0)
-    ratio = np.maximum.accumulate(ratio, axis=1)
-    mean_t = np.einsum("ntz,z->nt", temp, wm)
+    ratio, mean_t = np.empty((n, len(t))), np.empty((n, len(t)))
+    dt = np.diff(t, prepend=t[:1])  # each time's step from the previous one (0 at the first)
+    bt = max(1, BLOCK_ELEMENTS // (n * len(w) * SUM_GROUP)) * SUM_GROUP
+    buf = _Buffers(n, len(w), min(bt, len(t)))
+    carry = np.zeros((n, len(w))), np.zeros((n, len(w)))  # xi and rate at the previous block's end
+    terms, first = slab.nsq.shape[1], 0  # slab terms alive, first relaxation branch alive
+    for a in range(0, len(t), bt):
+        tb = t[a:a + bt]
+        v = buf.block(len(tb))
+        terms = _slab_block(slab, tb, v, terms)
+        theta = v.theta
+        if tb[0] <= 0:
+            theta[:, :, tb <= 0] = 1.0  # the series converges slowly at t = 0 exactly
+        # temperature, in place: bath - (bath - T0) clip(theta, 0, 1)
+        np.clip(theta, 0.0, 1.0, out=theta)
+        theta *= (bath - initial_c)[:, None, None]
+        temp = np.subtract(bath[:, None, None], theta, out=theta)
+        mean_t[:, a:a + len(tb)] = np.einsum("nzt,z->nt", temp, wm, out=v.r)
+        xi = _reduced_time_block(temp, tg, p, dt[a:a + len(tb)], v, carry)
+        first = _unrecovered_block(xi, tau, g, v, first)
+        np.subtract(1.0, np.einsum("nzt,z->nt", v.u, w, out=v.r), out=ratio[:, a:a + len(tb)])
+    np.clip(ratio, 0.0, 1.0, out=ratio)
+    np.maximum.accumulate(ratio, axis=1, out=ratio)
     return ratio, mean_t
