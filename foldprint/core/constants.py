@@ -28,6 +28,10 @@ FOLD_LEVEL = 0.98
 ONSET_LEVEL = 0.05
 #: How long the recovery model looks ahead before it calls a hinge "does not fold" (s).
 RECOVERY_HORIZON_S = 600.0
+#: Step in ln(reduced time) between the nodes of the table the batch recovery curves (the
+#: Monte-Carlo's) read the relaxation sum from (``physics.recovery_batch.relaxation_table``).
+#: Our choice: MEASURE.
+RELAXATION_TABLE_STEP = 1e-3
 
 #: The most Monte-Carlo samples ``foldprint check`` (and the gallery, which runs the same
 #: check) draws for its jam verdict, a sequential test that stops as soon as the answer is

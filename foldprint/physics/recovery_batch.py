@@ -37,7 +37,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..core.constants import RECOVERY_HORIZON_S
+from ..core.constants import RECOVERY_HORIZON_S, RELAXATION_TABLE_STEP
 from ..model.materials import RecoveryParams
 from .recovery import N_LAYERS, N_TERMS, curve_time_grid, combine_strips, is_graded, spectrum, strip_tgs
 
@@ -140,27 +140,33 @@ class _Slab:
 
 
 class _Block:
-    """The working arrays of a block of ``m`` times, each C-contiguous: (n, n_z, m) and
-    (n, m) views of the flat buffers of :class:`_Buffers`."""
+    """The working arrays of a block of ``m`` times, each C-contiguous: (n, n_z, m),
+    (n, m) and (n, n_z, m, 2) views of the flat buffers of :class:`_Buffers`."""
 
     def __init__(self, flat: dict[str, np.ndarray], n: int, n_z: int, m: int):
         for name, a in flat.items():
-            shape = (n, m) if name in ("fo", "arg", "cut", "r") else (n, n_z, m)
+            shape = {"fo": (n, m), "arg": (n, m), "cut": (n, m), "r": (n, m), "c": (n, n_z, m, 2)}.get(name, (n, n_z, m))
             setattr(self, name, a[:math.prod(shape)].reshape(shape))
 
 
 _SCRATCH = threading.local()  # each thread's flat working arrays, kept between batches
 
 
+def _fresh(size: int) -> dict[str, np.ndarray]:
+    """Flat working arrays of ``size`` elements (``c`` of 2 x size)."""
+    flat = {name: np.empty(size) for name in ("theta", "x", "e", "xi", "u", "rate", "fo", "arg", "r")}
+    flat.update((name, np.empty(size, dtype=bool)) for name in ("keep", "cut"))
+    flat["idx"], flat["c"] = np.empty(size, dtype=np.intp), np.empty(2 * size)
+    return flat
+
+
 def _scratch(size: int) -> dict[str, np.ndarray]:
-    """Flat working arrays of at least ``size`` elements, reused from batch to batch (a
+    """:func:`_fresh` arrays of at least ``size`` elements, reused from batch to batch (a
     fresh array's first writes cost page faults: ~0.5 ms a batch): at most a few x
     :data:`BLOCK_ELEMENTS` x 8 bytes held per thread."""
     flat = getattr(_SCRATCH, "flat", None)
     if flat is None or flat["x"].size < size:
-        flat = {name: np.empty(size) for name in ("theta", "x", "e", "xi", "u", "rate", "fo", "arg", "r")}
-        flat.update((name, np.empty(size, dtype=bool)) for name in ("keep", "cut"))
-        _SCRATCH.flat = flat
+        flat = _SCRATCH.flat = _fresh(size)
     return flat
 
 
@@ -254,6 +260,69 @@ def _running_sum(inc: np.ndarray, start: np.ndarray, out: np.ndarray) -> np.ndar
     return res
 
 
+@dataclass(frozen=True, eq=False)
+class RelaxationTable:
+    """The relaxation sum U(xi) = sum_b g_b exp(-xi / tau_b) of one spectrum (each branch
+    exactly 0 past xi / tau_b = CUT, as in the exact sum) at the nodes ln xi = y0 + i h,
+    read by linear interpolation in ln xi. Below the first node (xi < 1e-13 tau_1) it
+    holds U there (the exact U differs by less than 1e-13); every node from ``zero_from``
+    on (the last node before CUT tau_n, where U < 1e-22) is exactly 0, so U is exactly 0
+    past CUT tau_n, where every branch is cut, as in the exact sum."""
+
+    y0: float
+    step: float
+    zero_from: int
+    nodes: np.ndarray  # (N, 2): U at each node and its change to the next node
+
+    def __call__(self, xi: np.ndarray) -> np.ndarray:
+        """U at ``xi`` (any shape, >= 0)."""
+        xi = np.asarray(xi, float)
+        v = _Block(_fresh(xi.size), 1, 1, xi.size)
+        _table_block(xi.reshape(1, 1, -1), self, v)
+        return v.u.reshape(xi.shape).copy()
+
+
+@lru_cache(maxsize=32)
+def _table(tau: tuple[float, ...], g: tuple[float, ...], step: float) -> RelaxationTable:
+    tau_a, g_a = np.array(tau), np.array(g)
+    y0 = math.log(1e-13 * tau_a[0])
+    y = y0 + step * np.arange(int(math.ceil((math.log(CUT * tau_a[-1]) - y0) / step)) + 3)
+    x = np.exp(y)[:, None] * (1.0 / tau_a)[None, :]
+    u = np.sum(np.where(x <= CUT, g_a * np.exp(-np.minimum(x, CUT)), 0.0), axis=1)
+    # 0 from the last node before CUT tau_n on (U < 1e-22 there): exactly 0 from CUT tau_n on
+    zero_from = max(0, int(np.argmax(x[:, -1] > CUT)) - 1)
+    u[zero_from:] = 0.0
+    nodes = np.stack([u, np.diff(u, append=0.0)], axis=1)
+    nodes.setflags(write=False)
+    return RelaxationTable(y0, step, zero_from, nodes)
+
+
+def relaxation_table(p: RecoveryParams, step: float = RELAXATION_TABLE_STEP) -> RelaxationTable:
+    """The (cached) :class:`RelaxationTable` of ``p``'s spectrum, nodes ``step`` apart in ln xi."""
+    tau, g = spectrum(p)
+    return _table(tuple(map(float, tau)), tuple(map(float, g)), float(step))
+
+
+def _table_block(xi: np.ndarray, table: RelaxationTable, v: _Block) -> None:
+    """U(xi) (into ``v.u``) read from ``table``: element by element, one log and one
+    interpolation instead of a sum of exponentials."""
+    u, w, f = v.u, v.x, v.e
+    if np.min(xi[..., 0]) > math.exp(table.y0 + (table.zero_from + 1) * table.step) * (1.0 + 1e-9):
+        u.fill(0.0)  # xi rises in t: every element at or past the nodes that are all 0
+        return
+    with np.errstate(divide="ignore"):
+        np.log(xi, out=w)  # -inf at xi = 0: held at the first node
+    w -= table.y0
+    w *= 1.0 / table.step
+    np.clip(w, 0.0, len(table.nodes) - 2, out=w)
+    np.floor(w, out=f)
+    np.copyto(v.idx, f, casting="unsafe")
+    w -= f
+    c = np.take(table.nodes, v.idx, axis=0, out=v.c)
+    np.multiply(c[..., 1], w, out=u)
+    u += c[..., 0]
+
+
 def _unrecovered_block(xi: np.ndarray, tau: np.ndarray, g: np.ndarray, v: _Block, first: int) -> int:
     """sum_b g_b exp(-xi / tau_b) (into ``v.u``) over the branches from ``first`` on, each
     exactly 0 where xi / tau_b > CUT. Returns the first branch alive at the block's first
@@ -288,20 +357,20 @@ def _unrecovered_block(xi: np.ndarray, tau: np.ndarray, g: np.ndarray, v: _Block
 
 
 def material_batch_ratios(material, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c: float,
-                          t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                          t: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """:func:`batch_ratios` for ``n`` hinges of ``material`` (Tg ``tg_c`` per hinge, at the
     mean fraction for a graded material): a graded hinge is its strips
     (:func:`foldprint.physics.recovery.strip_tgs`) in one batch, combined by
     :func:`foldprint.physics.recovery.combine_strips`."""
     p = material.recovery
     if not is_graded(material):
-        return batch_ratios(p, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c, t)
+        return batch_ratios(p, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c, t, exact)
     tg = np.asarray(tg_c, float)
     n = tg.shape[0]
     tgs, w = strip_tgs(material, tg)  # (n, S)
     s = tgs.shape[1]
     rep = [np.repeat(np.broadcast_to(np.asarray(a, float), (n,)), s) for a in (h_w_m2k, thickness_mm, bath_c)]
-    ratio, mean_t = batch_ratios(p, tgs.ravel(), rep[0], rep[1], rep[2], initial_c, t)
+    ratio, mean_t = batch_ratios(p, tgs.ravel(), rep[0], rep[1], rep[2], initial_c, t, exact)
     ratio = ratio.reshape(n, s, -1).transpose(1, 0, 2)  # (S, n, n_t)
     eff = combine_strips(ratio, w, material.profile.along)
     eff = np.maximum.accumulate(np.clip(eff, 0.0, 1.0), axis=-1)
@@ -309,7 +378,7 @@ def material_batch_ratios(material, tg_c, h_w_m2k, thickness_mm, bath_c, initial
 
 
 def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c: float,
-                 t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                 t: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Recovery ratio and mean temperature, each (n, len(t)), of ``n`` hinges of the
     recovery model ``p`` (its ``h_w_m2k`` replaced by the given one per hinge), with Tg
     ``tg_c``, thickness ``thickness_mm`` (mm) and bath ``bath_c`` (deg C) per hinge, all
@@ -323,7 +392,7 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
     t = np.asarray(t, float)
     per = max(1, MAX_BATCH_ELEMENTS // max(1, len(t) * N_LAYERS // 2))
     if n > per:  # bounded memory: batches of at most MAX_BATCH_ELEMENTS elements
-        parts = [batch_ratios(p, tg[a:a + per], hw[a:a + per], th[a:a + per], bath[a:a + per], initial_c, t)
+        parts = [batch_ratios(p, tg[a:a + per], hw[a:a + per], th[a:a + per], bath[a:a + per], initial_c, t, exact)
                  for a in range(0, n, per)]
         return np.concatenate([r for r, _ in parts]), np.concatenate([m for _, m in parts])
     zg = _layers()[0]
@@ -334,11 +403,11 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
     shape = np.cos(zg[None, :, None] * zeta[:, None, :]) * coef[:, None, :]  # (n, n_z, terms)
     t_cut = np.max(CUT * (half**2)[:, None] / (alpha * zeta**2), axis=0)
     slab = _Slab(alpha, half**2, -zeta**2, np.ascontiguousarray(shape.transpose(2, 0, 1)), t_cut)
-    return _curves(p, slab, tg, bath, initial_c, t)
+    return _curves(p, slab, tg, bath, initial_c, t, None if exact else relaxation_table(p))
 
 
 def _curves(p: RecoveryParams, slab: _Slab, tg: np.ndarray, bath: np.ndarray, initial_c: float,
-            t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            t: np.ndarray, table: RelaxationTable | None) -> tuple[np.ndarray, np.ndarray]:
     """Ratio and mean temperature (n, len(t)) of the hinges of ``slab``, a block of the time
     axis at a time (:data:`BLOCK_ELEMENTS`)."""
     n = len(tg)
@@ -363,7 +432,10 @@ def _curves(p: RecoveryParams, slab: _Slab, tg: np.ndarray, bath: np.ndarray, in
         temp = np.subtract(bath[:, None, None], theta, out=theta)
         mean_t[:, a:a + len(tb)] = np.einsum("nzt,z->nt", temp, wm, out=v.r)
         xi = _reduced_time_block(temp, tg, p, dt[a:a + len(tb)], v, carry)
-        first = _unrecovered_block(xi, tau, g, v, first)
+        if table is None:
+            first = _unrecovered_block(xi, tau, g, v, first)
+        else:
+            _table_block(xi, table, v)
         np.subtract(1.0, np.einsum("nzt,z->nt", v.u, w, out=v.r), out=ratio[:, a:a + len(tb)])
     np.clip(ratio, 0.0, 1.0, out=ratio)
     np.maximum.accumulate(ratio, axis=1, out=ratio)
