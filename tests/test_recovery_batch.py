@@ -87,7 +87,7 @@ def test_relaxation_table_ends(lib):
     p = lib["H-3"].recovery
     tau, _ = spectrum(p)
     table = relaxation_table(p)
-    low = table(np.array([0.0, 1e-30, 1e-13 * tau[0]]))
+    low = table(np.array([1e9, 0.0, 1e-30, 1e-13 * tau[0]]))[1:]  # any order
     assert np.all(np.abs(low - 1.0) < 1e-12)
     high = np.array([CUT * tau[-1] * (1 + 1e-9), 1e9, 1e300])
     assert np.array_equal(table(high), np.zeros(3)) and np.array_equal(_exact_sum(p, high), np.zeros(3))

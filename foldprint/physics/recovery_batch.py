@@ -3,29 +3,42 @@
 :func:`batch_ratios` returns, for ``n`` hinges that share a material's recovery model
 but each have their own Tg, heat-transfer coefficient, thickness and bath temperature,
 the recovery ratio on the internal grid of :func:`foldprint.physics.recovery.recovery_curve`,
-up to a given time. It computes the same model as :func:`foldprint.physics.recovery._curve`,
-in the same order (up to the order of floating-point sums), and is cheaper four ways:
+up to a given time. It computes the model of :func:`foldprint.physics.recovery._curve`
+(slab temperature, reduced time, relaxation) with one approximation, the relaxation
+table, and is cheaper these ways:
 
 * **causal truncation**: everything in the model is causal (the slab solution at time
   t, the reduced time as a running trapezoid sum, the running maximum), so the curve on
   the grid points up to ``until_s`` does not depend on the later ones. A fold of 20 s
   needs 5 000 of the 15 400 points of the 600 s horizon;
-* **negligible terms skipped, element by element**: a slab series term with
-  Fo zeta^2 > :data:`CUT` or a relaxation branch with xi / tau > :data:`CUT` is
-  below exp(-50) = 2e-22 and is set to exactly 0 (its exponent clamped first, which
-  avoids the slow underflow path of ``exp``); it is not computed at all past the time
-  every hinge of the batch has left it behind. The test is per element, so a curve does
-  not depend on the other curves of its batch (nor on how samples are chunked);
 * **half the layers**: the slab is heated from both faces alike, so the temperature of
   the Gauss point at -z equals that at +z; the 8 points are 4 pairs, each computed once
   and weighted twice;
-* **one array pass for all hinges**: the roots of the slab's eigen-equation are a
-  vectorised bisection, the shift, reduced time and relaxation sum one array expression
-  over ``(n, n_t, n_z)``; no BLAS call (no thread pools to fight worker processes).
+* **block by block of the time axis**: (hinge, layer pair, time) arrays of
+  :data:`BLOCK_ELEMENTS` elements, time contiguous, in working arrays reused from block
+  to block and batch to batch (they stay in the cache and cost no page faults); the
+  reduced time and the rate are carried from one block to the next, and the running sum
+  is taken in groups of :data:`SUM_GROUP` times aligned on the grid, so a value does not
+  depend on where blocks end;
+* **negligible terms skipped, element by element**: a slab series term with
+  Fo zeta^2 > :data:`CUT` or a relaxation branch with xi / tau > :data:`CUT` is
+  below exp(-50) = 2e-22 and is set to exactly 0 (its exponent clamped first, which
+  avoids the slow underflow path of ``exp``); a block skips the terms and branches cut
+  in all of it. The test is per element, so a curve does not depend on the other curves
+  of its batch (nor on how samples are chunked);
+* **the relaxation sum from a table**: U(xi) = sum_b g_b exp(-xi / tau_b) depends only
+  on the spectrum and the scalar xi, so it is tabulated once per spectrum at steps of
+  :data:`~foldprint.core.constants.RELAXATION_TABLE_STEP` in ln xi
+  (:func:`relaxation_table`) and read by linear interpolation: one log and one
+  interpolation per element instead of up to 16 exponentials (``exact=True`` sums them);
+* the roots of the slab's eigen-equation for all hinges at once (Newton's method); no
+  BLAS call (no thread pools to fight worker processes).
 
-The difference to the exact per-curve path is round-off: measured max |dR| = 3.3e-16,
-asserted < 1e-12 (``tests/test_recovery_batch.py``); the fold verdicts of the two paths
-agree sample by sample (``benchmarks/bench_robust.py``).
+Error: the table's, max |dR| = 5.5e-9 measured over the templates' spectrum and reduced
+times 1e-20..1e12, asserted < 2e-8 (``tests/test_recovery_batch.py``); every template's
+Monte-Carlo outcomes (jammed, reason, pair) are those of the exact sum sample by sample
+(``benchmarks/bench_relaxation_table.py``). With ``exact=True`` the difference to the
+per-curve path is round-off: measured max |dR| = 2e-15, asserted < 1e-12.
 """
 
 from __future__ import annotations
@@ -43,13 +56,16 @@ from .recovery import N_LAYERS, N_TERMS, curve_time_grid, combine_strips, is_gra
 
 #: Exponent beyond which a series term or relaxation branch is dropped (exp(-50) = 2e-22).
 CUT = 50.0
-#: Elements (hinges x grid times x layers) of one batch's arrays: bounds the memory of a
-#: batch to a few x 8 x this bytes (about 100 MB), whatever the number of hinges.
+#: Elements (hinges x grid times x layer pairs) of one batch: a larger batch is computed
+#: in parts of at most this many (bounds its per-hinge arrays, whatever the number of hinges).
 MAX_BATCH_ELEMENTS = 2_000_000
-#: Elements (hinges x layer pairs x times) of one block of the time axis, whose working
-#: arrays stay in the cache.
+#: Elements (hinges x layer pairs x times) of one block of the time axis: our choice, the
+#: fastest of 16 Ki..128 Ki elements in one measurement (32 Ki and 128 Ki within 10 % of
+#: it); much larger blocks' ten working arrays no longer stay in the cache.
 BLOCK_ELEMENTS = 1 << 16
-#: Times summed as one group in the running sum of the reduced time.
+#: Times summed as one group in the running sum of the reduced time (the prefix sums inside
+#: the groups run for all groups at once): our choice, 2.6 ns an element against 3.8 for
+#: one running sum (4 and 16 no faster, 32 and 64 slower).
 SUM_GROUP = 8
 
 _LN10 = math.log(10.0)
@@ -75,10 +91,11 @@ def _rate(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams, out: np.ndarray |
     """1 / a_T = exp(-ln 10 log10 a_T) of :func:`foldprint.physics.recovery.log10_shift`,
     the same operations on the same values (bitwise equal), into ``out`` (with ``work``, two
     arrays of ``temp``'s shape, as scratch), and Arrhenius only where it is taken (below Tg)."""
-    d = np.subtract(temp, tg, out=None if work is None else work[0])
+    d, d_c1 = (None, None) if work is None else work
+    d = np.subtract(temp, tg, out=d)
     out = np.maximum(d, 0.0, out=out)
     out += p.c2
-    np.divide(np.multiply(d, -p.c1, out=None if work is None else work[1]), out, out=out)  # WLF: -c1 d / (c2 + max(d, 0))
+    np.divide(np.multiply(d, -p.c1, out=d_c1), out, out=out)  # WLF: -c1 d / (c2 + max(d, 0))
     below = d < 0.0
     if below.any():
         tgk = tg + 273.15
@@ -144,8 +161,9 @@ class _Block:
     (n, m) and (n, n_z, m, 2) views of the flat buffers of :class:`_Buffers`."""
 
     def __init__(self, flat: dict[str, np.ndarray], n: int, n_z: int, m: int):
+        shapes = {"fo": (n, m), "arg": (n, m), "cut": (n, m), "r": (n, m), "c": (n, n_z, m, 2)}
         for name, a in flat.items():
-            shape = {"fo": (n, m), "arg": (n, m), "cut": (n, m), "r": (n, m), "c": (n, n_z, m, 2)}.get(name, (n, n_z, m))
+            shape = shapes.get(name, (n, n_z, m))
             setattr(self, name, a[:math.prod(shape)].reshape(shape))
 
 
@@ -278,7 +296,7 @@ class RelaxationTable:
         """U at ``xi`` (any shape, >= 0)."""
         xi = np.asarray(xi, float)
         v = _Block(_fresh(xi.size), 1, 1, xi.size)
-        _table_block(xi.reshape(1, 1, -1), self, v)
+        _table_values(xi.reshape(1, 1, -1), self, v)
         return v.u.reshape(xi.shape).copy()
 
 
@@ -304,12 +322,18 @@ def relaxation_table(p: RecoveryParams, step: float = RELAXATION_TABLE_STEP) -> 
 
 
 def _table_block(xi: np.ndarray, table: RelaxationTable, v: _Block) -> None:
-    """U(xi) (into ``v.u``) read from ``table``: element by element, one log and one
+    """U(xi) (into ``v.u``) of a block (xi rising along its last axis) read from ``table``:
+    nothing to read where every element is past the nodes that are all 0."""
+    if np.min(xi[..., 0]) > math.exp(table.y0 + (table.zero_from + 1) * table.step) * (1.0 + 1e-9):
+        v.u.fill(0.0)
+    else:
+        _table_values(xi, table, v)
+
+
+def _table_values(xi: np.ndarray, table: RelaxationTable, v: _Block) -> None:
+    """U(xi) (into ``v.u``) read from ``table``, element by element: one log and one
     interpolation instead of a sum of exponentials."""
     u, w, f = v.u, v.x, v.e
-    if np.min(xi[..., 0]) > math.exp(table.y0 + (table.zero_from + 1) * table.step) * (1.0 + 1e-9):
-        u.fill(0.0)  # xi rises in t: every element at or past the nodes that are all 0
-        return
     with np.errstate(divide="ignore"):
         np.log(xi, out=w)  # -inf at xi = 0: held at the first node
     w -= table.y0
