@@ -124,6 +124,73 @@ def test_blocks_of_any_length_give_the_same_curves(lib, monkeypatch, exact):
     assert np.all(big[0][:, -1] >= 0.98) and np.ptp(folded) > 1.0
 
 
+@settings(max_examples=30, deadline=None)
+@given(m=st.integers(0, 40), rows=st.integers(1, 3), seed=st.integers(0, 2**16))
+def test_running_sum_is_the_cumsum_from_its_start(m, rows, seed):
+    """The reduced time's running sum, in groups of SUM_GROUP and a tail: start + the
+    cumulative sum, and start becomes the last sum (what the next block starts from)."""
+    from foldprint.physics.recovery_batch import _running_sum
+
+    rng = np.random.default_rng(seed)
+    inc, start = rng.random((rows, 2, m)), rng.random((rows, 2))
+    want = start[..., None] + np.cumsum(inc, axis=-1)
+    out = np.full(rows * 2 * m + 3, np.nan)
+    got = _running_sum(inc.copy(), start, out)
+    assert got.shape == inc.shape and np.allclose(got, want, rtol=1e-14, atol=0)
+    if m:
+        assert np.array_equal(start, got[..., -1])
+
+
+def test_the_monte_carlo_reads_the_relaxation_table(lib, monkeypatch):
+    """The default (the Monte-Carlo's) path reads U from the table, exact=True sums the
+    exponentials: a coarse table moves the first's curve, not the second's."""
+    from foldprint.physics import recovery_batch
+
+    p, t = lib["H-5"].recovery, grid_until(15.0)
+    args = ([48.5, 50.0], [227.0, 300.0], [0.8, 0.9], [90.0, 85.0])
+    table, exact = batch_ratios(p, *args, 10.0, t)[0], batch_ratios(p, *args, 10.0, t, True)[0]
+    assert 0 < np.max(np.abs(table - exact)) < TABLE_BOUND
+    coarse = relaxation_table(p, 0.5)
+    monkeypatch.setattr(recovery_batch, "relaxation_table", lambda q: coarse)
+    assert np.max(np.abs(batch_ratios(p, *args, 10.0, t)[0] - exact)) > 1e-4
+    assert np.array_equal(batch_ratios(p, *args, 10.0, t, True)[0], exact)
+
+
+@pytest.mark.parametrize("biot_scale", [1.0, 100.0])
+def test_slab_terms_past_their_cut_are_exactly_zero(lib, biot_scale):
+    """A thin hinge (0.2 mm) heats through: past its first term's cut (Fo zeta^2 > CUT,
+    every term cut) its excess temperature is exactly 0, before it positive, also where a
+    thicker hinge of its batch (0.25 mm) is still computed; at the shipped h (40 s) and at
+    100x it (Bi ~ 45, zeta_0^2 > 1: 1.9 s)."""
+    from foldprint.physics.recovery_batch import _Block, _fresh, _slab, _slab_block
+
+    p = lib["H-2"].recovery
+    hw = np.full(2, p.h_w_m2k * biot_scale)
+    slab, thin = _slab(p, hw, np.array([0.2, 0.25])), _slab(p, hw[:1], np.array([0.2]))
+    tb = np.linspace(0.75, 1.5, 61) * slab.t_cut[0]
+    v = _Block(_fresh(8 * len(tb)), 2, 4, len(tb))
+    _slab_block(slab, tb, v, slab.nsq.shape[1])
+    past = tb > thin.t_cut[0]
+    assert np.sum(past & (tb < slab.t_cut[0])) > 10
+    assert np.all(v.theta[0][:, past] == 0.0) and np.all(v.theta[0][:, ~past] > 0.0)
+    assert np.all(v.theta[1][:, tb < slab.t_cut[0]] > 0.0)
+
+
+def test_relaxation_branches_past_their_cut_are_exactly_zero(lib):
+    """The exact sum, element by element: where every branch is past its cut (xi > CUT
+    tau_16) U is exactly 0, also in a block whose other elements are not cut; elsewhere
+    the sum of the exponentials."""
+    from foldprint.physics.recovery_batch import _Block, _fresh, _unrecovered_block
+
+    p = lib["H-2"].recovery
+    tau, g = spectrum(p)
+    xi = np.array([0.0, 1e-3, 1.0, 1e3, 1e5, 60.0 * tau[-1], 1e9])[None, None, :]
+    v = _Block(_fresh(xi.size), 1, 1, xi.shape[-1])
+    _unrecovered_block(xi, tau, g, v, 0)
+    assert np.array_equal(v.u[0, 0, -2:], np.zeros(2))
+    assert np.allclose(v.u[0, 0, :-2], _exact_sum(p, xi[0, 0, :-2]), rtol=1e-14, atol=0)
+
+
 def test_a_batch_split_for_memory_gives_every_hinge_its_exact_curve(lib, monkeypatch):
     """Over the element bound, a batch is computed in parts (here 2 hinges a part, 5
     hinges): each hinge's ratio and mean temperature are still the exact model's."""

@@ -419,6 +419,12 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
         parts = [batch_ratios(p, tg[a:a + per], hw[a:a + per], th[a:a + per], bath[a:a + per], initial_c, t, exact)
                  for a in range(0, n, per)]
         return np.concatenate([r for r, _ in parts]), np.concatenate([m for _, m in parts])
+    return _curves(p, _slab(p, hw, th), tg, bath, initial_c, t, None if exact else relaxation_table(p))
+
+
+def _slab(p: RecoveryParams, hw: np.ndarray, th: np.ndarray) -> _Slab:
+    """The slab series of hinges with heat-transfer coefficients ``hw`` and thicknesses
+    ``th`` (mm)."""
     zg = _layers()[0]
     half = th * 1e-3 / 2.0
     alpha = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk)
@@ -426,8 +432,7 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
     coef = 4.0 * np.sin(zeta) / (2.0 * zeta + np.sin(2.0 * zeta))
     shape = np.cos(zg[None, :, None] * zeta[:, None, :]) * coef[:, None, :]  # (n, n_z, terms)
     t_cut = np.max(CUT * (half**2)[:, None] / (alpha * zeta**2), axis=0)
-    slab = _Slab(alpha, half**2, -zeta**2, np.ascontiguousarray(shape.transpose(2, 0, 1)), t_cut)
-    return _curves(p, slab, tg, bath, initial_c, t, None if exact else relaxation_table(p))
+    return _Slab(alpha, half**2, -zeta**2, np.ascontiguousarray(shape.transpose(2, 0, 1)), t_cut)
 
 
 def _curves(p: RecoveryParams, slab: _Slab, tg: np.ndarray, bath: np.ndarray, initial_c: float,
