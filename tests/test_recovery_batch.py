@@ -44,18 +44,18 @@ def test_batch_curve_equals_the_exact_model_up_to_the_run_end(lib, name, dtg, hs
     assert t[-1] >= until and t[-2] < until + 0.01
     ref = _exact(lib, name, lib[name].tg_c + dtg, p.h_w_m2k * hs, th, bath)
     assert np.array_equal(ref.t[:len(t)], t)
-    for exact, bound in ((True, ROUND_OFF), (False, TABLE_BOUND)):
-        r, mean_t = batch_ratios(p, [lib[name].tg_c + dtg], [p.h_w_m2k * hs], [th], [bath], 10.0, t, exact)
+    for table, bound in ((False, ROUND_OFF), (True, TABLE_BOUND)):
+        r, mean_t = batch_ratios(p, [lib[name].tg_c + dtg], [p.h_w_m2k * hs], [th], [bath], 10.0, t, table)
         assert np.max(np.abs(r[0] - ref.ratio[:len(t)])) < bound
         assert np.max(np.abs(mean_t[0] - ref.mean_temperature_c[:len(t)])) < 1e-9
 
 
-@pytest.mark.parametrize("exact, bound", [(True, ROUND_OFF), (False, TABLE_BOUND)])
-def test_batch_over_the_whole_horizon_keeps_fold_times(lib, exact, bound):
+@pytest.mark.parametrize("table, bound", [(False, ROUND_OFF), (True, TABLE_BOUND)])
+def test_batch_over_the_whole_horizon_keeps_fold_times(lib, table, bound):
     """Past 60 s the grid turns geometric: the full horizon is the exact curve too."""
     t = grid_until(float("inf"))
     p = lib["H-7"].recovery
-    r, _ = batch_ratios(p, [65.0, 66.0], [p.h_w_m2k, 0.6 * p.h_w_m2k], [0.8, 1.2], [70.0, 90.0], 10.0, t, exact)
+    r, _ = batch_ratios(p, [65.0, 66.0], [p.h_w_m2k, 0.6 * p.h_w_m2k], [0.8, 1.2], [70.0, 90.0], 10.0, t, table)
     for k, args in enumerate([(65.0, p.h_w_m2k, 0.8, 70.0), (66.0, 0.6 * p.h_w_m2k, 1.2, 90.0)]):
         ref = _exact(lib, "H-7", *args)
         assert len(t) == len(ref.t) and np.max(np.abs(r[k] - ref.ratio)) < bound
@@ -95,20 +95,20 @@ def test_relaxation_table_ends(lib):
     assert np.all(np.diff(table(mid)) < 0)  # U falls as xi rises
 
 
-@pytest.mark.parametrize("exact", [True, False])
-def test_a_curve_does_not_depend_on_its_batch(lib, exact):
+@pytest.mark.parametrize("table", [False, True])
+def test_a_curve_does_not_depend_on_its_batch(lib, table):
     """Negligible terms are cut element by element: alone or among others, bit for bit
     the same curve (so the answer cannot depend on how samples are chunked)."""
     p, t = lib["H-1"].recovery, grid_until(20.0)
     args = ([32.3, 64.5, 40.0], [300.0, 420.0, 361.8], [0.78, 0.85, 0.6], [89.5, 90.7, 75.0])
-    together, _ = batch_ratios(p, *args, 10.0, t, exact)
+    together, _ = batch_ratios(p, *args, 10.0, t, table)
     for k in range(3):
-        alone, _ = batch_ratios(p, *([a[k]] for a in args), 10.0, t, exact)
+        alone, _ = batch_ratios(p, *([a[k]] for a in args), 10.0, t, table)
         assert np.array_equal(alone[0], together[k])
 
 
-@pytest.mark.parametrize("exact", [True, False])
-def test_blocks_of_any_length_give_the_same_curves(lib, monkeypatch, exact):
+@pytest.mark.parametrize("table", [False, True])
+def test_blocks_of_any_length_give_the_same_curves(lib, monkeypatch, table):
     """The time axis is computed block by block, the reduced time and the rate carried from
     one block to the next: blocks of 8 times (every block boundary a carry) give bit for
     bit the curves of the default blocks, at every grid time."""
@@ -116,9 +116,9 @@ def test_blocks_of_any_length_give_the_same_curves(lib, monkeypatch, exact):
 
     p, t = lib["H-4"].recovery, grid_until(25.0)
     args = ([40.0, 45.5, 51.0, 43.0], [200.0, 260.0, 320.0, 150.0], [0.7, 0.8, 1.1, 0.9], [70.0, 80.0, 90.0, 85.0])
-    big = batch_ratios(p, *args, 10.0, t, exact)
+    big = batch_ratios(p, *args, 10.0, t, table)
     monkeypatch.setattr(recovery_batch, "BLOCK_ELEMENTS", 1)
-    small = batch_ratios(p, *args, 10.0, t, exact)
+    small = batch_ratios(p, *args, 10.0, t, table)
     assert np.array_equal(big[0], small[0]) and np.array_equal(big[1], small[1])
     folded = t[np.argmax(big[0] >= 0.98, axis=1)]  # hinges apart: blocks where some are cut, some not
     assert np.all(big[0][:, -1] >= 0.98) and np.ptp(folded) > 1.0
@@ -141,19 +141,24 @@ def test_running_sum_is_the_cumsum_from_its_start(m, rows, seed):
         assert np.array_equal(start, got[..., -1])
 
 
-def test_the_monte_carlo_reads_the_relaxation_table(lib, monkeypatch):
-    """The default (the Monte-Carlo's) path reads U from the table, exact=True sums the
-    exponentials: a coarse table moves the first's curve, not the second's."""
+def test_the_monte_carlo_reads_the_relaxation_table(lib, monkeypatch, graded):
+    """table=True (what sample_drives asks for) reads U from the table, the default sums
+    the exponentials: a coarse table moves the first's curve, not the second's, and the
+    Monte-Carlo's drives follow the coarse table."""
     from foldprint.physics import recovery_batch
 
     p, t = lib["H-5"].recovery, grid_until(15.0)
     args = ([48.5, 50.0], [227.0, 300.0], [0.8, 0.9], [90.0, 85.0])
-    table, exact = batch_ratios(p, *args, 10.0, t)[0], batch_ratios(p, *args, 10.0, t, True)[0]
+    table, exact = batch_ratios(p, *args, 10.0, t, True)[0], batch_ratios(p, *args, 10.0, t)[0]
     assert 0 < np.max(np.abs(table - exact)) < TABLE_BOUND
-    coarse = relaxation_table(p, 0.5)
-    monkeypatch.setattr(recovery_batch, "relaxation_table", lambda q: coarse)
-    assert np.max(np.abs(batch_ratios(p, *args, 10.0, t)[0] - exact)) > 1e-4
-    assert np.array_equal(batch_ratios(p, *args, 10.0, t, True)[0], exact)
+    coarse = {}
+    monkeypatch.setattr(recovery_batch, "relaxation_table", lambda q: coarse.setdefault(q, relaxation_table(q, 0.5)))
+    assert np.max(np.abs(batch_ratios(p, *args, 10.0, t, True)[0] - exact)) > 1e-4
+    assert np.array_equal(batch_ratios(p, *args, 10.0, t)[0], exact)
+    drawn = draw_samples(graded, default_scatter(), 1, 3)
+    times = np.linspace(0.0, 10.0, 101)
+    fast = sample_drives(graded, lib, drawn, until_s=10.0)[0].ratios(times)
+    assert np.max(np.abs(fast - sample_drive(graded, lib, drawn[0], exact=True).ratios(times))) > 1e-4
 
 
 @pytest.mark.parametrize("biot_scale", [1.0, 100.0])
@@ -202,7 +207,7 @@ def test_a_batch_split_for_memory_gives_every_hinge_its_exact_curve(lib, monkeyp
     p = lib["H-3"].recovery
     tg, hw = [38.0, 40.5, 43.0, 41.0, 39.5], [p.h_w_m2k * f for f in (0.7, 1.0, 1.3, 0.9, 1.6)]
     th, bath = [0.6, 0.8, 1.0, 1.2, 0.7], [70.0, 75.0, 80.0, 85.0, 90.0]
-    r, mean_t = batch_ratios(p, tg, hw, th, bath, 10.0, t, True)
+    r, mean_t = batch_ratios(p, tg, hw, th, bath, 10.0, t)
     assert r.shape == mean_t.shape == (5, len(t))
     for k in range(5):
         ref = _exact(lib, "H-3", tg[k], hw[k], th[k], bath[k])

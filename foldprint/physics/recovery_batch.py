@@ -30,14 +30,16 @@ table, and is cheaper these ways:
   on the spectrum and the scalar xi, so it is tabulated once per spectrum at steps of
   :data:`~foldprint.core.constants.RELAXATION_TABLE_STEP` in ln xi
   (:func:`relaxation_table`) and read by linear interpolation: one log and one
-  interpolation per element instead of up to 16 exponentials (``exact=True`` sums them);
+  interpolation per element instead of up to 16 exponentials. Only where asked for
+  (``table=True``: the Monte-Carlo's :func:`foldprint.simulation.robust.sample_drives`);
+  by default the exponentials are summed (calibration, assignment);
 * the roots of the slab's eigen-equation for all hinges at once (Newton's method); no
   BLAS call (no thread pools to fight worker processes).
 
 Error: the table's, max |dR| = 5.5e-9 measured over the templates' spectrum and reduced
 times 1e-20..1e12, asserted < 2e-8 (``tests/test_recovery_batch.py``); every template's
 Monte-Carlo outcomes (jammed, reason, pair) are those of the exact sum sample by sample
-(``benchmarks/bench_relaxation_table.py``). With ``exact=True`` the difference to the
+(``benchmarks/bench_relaxation_table.py``). Without the table the difference to the
 per-curve path is round-off: measured max |dR| = 2e-15, asserted < 1e-12.
 """
 
@@ -381,20 +383,20 @@ def _unrecovered_block(xi: np.ndarray, tau: np.ndarray, g: np.ndarray, v: _Block
 
 
 def material_batch_ratios(material, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c: float,
-                          t: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                          t: np.ndarray, table: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """:func:`batch_ratios` for ``n`` hinges of ``material`` (Tg ``tg_c`` per hinge, at the
     mean fraction for a graded material): a graded hinge is its strips
     (:func:`foldprint.physics.recovery.strip_tgs`) in one batch, combined by
     :func:`foldprint.physics.recovery.combine_strips`."""
     p = material.recovery
     if not is_graded(material):
-        return batch_ratios(p, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c, t, exact)
+        return batch_ratios(p, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c, t, table)
     tg = np.asarray(tg_c, float)
     n = tg.shape[0]
     tgs, w = strip_tgs(material, tg)  # (n, S)
     s = tgs.shape[1]
     rep = [np.repeat(np.broadcast_to(np.asarray(a, float), (n,)), s) for a in (h_w_m2k, thickness_mm, bath_c)]
-    ratio, mean_t = batch_ratios(p, tgs.ravel(), rep[0], rep[1], rep[2], initial_c, t, exact)
+    ratio, mean_t = batch_ratios(p, tgs.ravel(), rep[0], rep[1], rep[2], initial_c, t, table)
     ratio = ratio.reshape(n, s, -1).transpose(1, 0, 2)  # (S, n, n_t)
     eff = combine_strips(ratio, w, material.profile.along)
     eff = np.maximum.accumulate(np.clip(eff, 0.0, 1.0), axis=-1)
@@ -402,12 +404,14 @@ def material_batch_ratios(material, tg_c, h_w_m2k, thickness_mm, bath_c, initial
 
 
 def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c: float,
-                 t: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                 t: np.ndarray, table: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Recovery ratio and mean temperature, each (n, len(t)), of ``n`` hinges of the
     recovery model ``p`` (its ``h_w_m2k`` replaced by the given one per hinge), with Tg
     ``tg_c``, thickness ``thickness_mm`` (mm) and bath ``bath_c`` (deg C) per hinge, all
     starting at ``initial_c``, at the times ``t`` (a prefix of the model's grid,
-    :func:`grid_until`). Inputs are validated by the caller (finite, thickness > 0)."""
+    :func:`grid_until`). Inputs are validated by the caller (finite, thickness > 0).
+    ``table``: read the relaxation sum from :func:`relaxation_table` (|dR| < 2e-8) instead
+    of summing the exponentials (round-off from the per-curve model)."""
     tg = np.asarray(tg_c, float)
     n = tg.shape[0]
     hw = np.broadcast_to(np.asarray(h_w_m2k, float), (n,))
@@ -416,10 +420,10 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
     t = np.asarray(t, float)
     per = max(1, MAX_BATCH_ELEMENTS // max(1, len(t) * N_LAYERS // 2))
     if n > per:  # bounded memory: batches of at most MAX_BATCH_ELEMENTS elements
-        parts = [batch_ratios(p, tg[a:a + per], hw[a:a + per], th[a:a + per], bath[a:a + per], initial_c, t, exact)
+        parts = [batch_ratios(p, tg[a:a + per], hw[a:a + per], th[a:a + per], bath[a:a + per], initial_c, t, table)
                  for a in range(0, n, per)]
         return np.concatenate([r for r, _ in parts]), np.concatenate([m for _, m in parts])
-    return _curves(p, _slab(p, hw, th), tg, bath, initial_c, t, None if exact else relaxation_table(p))
+    return _curves(p, _slab(p, hw, th), tg, bath, initial_c, t, relaxation_table(p) if table else None)
 
 
 def _slab(p: RecoveryParams, hw: np.ndarray, th: np.ndarray) -> _Slab:
