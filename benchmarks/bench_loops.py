@@ -136,13 +136,83 @@ def scaling(name: str, sizes: list[int], repeat: int) -> dict:
             "ms_per_round": round(per_round, 2)}
 
 
+def _tracked(d, lib, samples, size: int, order) -> dict:
+    """The closure tracker's answers for ``samples`` tracked in chunks of ``size`` taken in
+    ``order`` (indices into samples): per sample its angles and events, per chunk its
+    evaluations and rounds."""
+    import numpy as np
+
+    times, out = run_times(d, CHECK_DT_S), {}
+    counts = []
+    with derived.design_scope(d) as dd:
+        for a in range(0, len(order), size):
+            idx = order[a:a + size]
+            drives = robust.sample_drives(dd, lib, [samples[i] for i in idx], until_s=robust.run_end(dd, CHECK_DT_S))
+            s = drives[0].loops
+            e0, r0 = s.evaluations, s.rounds
+            solve_loops_many(drives, run_times(dd, CHECK_DT_S))
+            counts.append((s.evaluations - e0, s.rounds - r0))
+            for i, x in zip(idx, drives):
+                sol = x._solution
+                out[int(i)] = (np.array(sol.angles), sol.closure, sol.stuck, sol.locked_at, sol.dof)
+    del times
+    return {"answers": [out[i] for i in range(len(samples))], "counts": counts}
+
+
+def answers(name: str, n: int = 4 * CHUNK) -> dict:
+    """Everything the tracker decides for ``check``'s first ``n`` samples of ``name``:
+    ``run_samples``'s outcomes chunk by chunk, the tracker's answers in chunks of CHUNK, and
+    the same in chunks of CHUNK // 2 taken in reverse order (another chunk composition)."""
+    import numpy as np
+
+    d, lib = load_design(templates_dir() / f"{name}.toml"), default_library()
+    samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), n))
+    args = lambda s: (d, lib, s, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD)  # noqa: E731
+    outcomes = [robust.run_samples(args(samples[a:a + CHUNK])) for a in range(0, n, CHUNK)]
+    return {"outcomes": outcomes, "chunks": _tracked(d, lib, samples, CHUNK, np.arange(n)),
+            "other": _tracked(d, lib, samples, CHUNK // 2, np.arange(n)[::-1])}
+
+
+def differences(got: dict, want: dict) -> list[str]:
+    """What differs between two :func:`answers` (bit for bit: angles, closures, events,
+    counters, outcomes)."""
+    import numpy as np
+
+    out = []
+    if got["outcomes"] != want["outcomes"]:
+        out.append("run_samples outcomes differ")
+    for key in ("chunks", "other"):
+        g, w = got[key], want[key]
+        if g["counts"] != w["counts"]:
+            out.append(f"{key}: evaluations/rounds {g['counts']} != {w['counts']}")
+        for i, (a, b) in enumerate(zip(g["answers"], w["answers"])):
+            if not np.array_equal(a[0], b[0]) or a[1:] != b[1:]:
+                out.append(f"{key}: sample {i} differs (largest angle difference "
+                           f"{np.abs(a[0] - b[0]).max():.3g} rad)")
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--json", type=Path, help="also write the results here")
     ap.add_argument("--sizes", help="instead: the tracking's cost per evaluation and per round, chunks of these sizes")
+    ap.add_argument("--record", type=Path, help="instead: save the tracker's answers on 4 chunks of check samples")
+    ap.add_argument("--against", type=Path, help="instead: compare them bit for bit with those --record saved")
     a = ap.parse_args(argv)
     load = os.getloadavg()[0]
+    if a.record or a.against:
+        import pickle
+
+        got = {name: answers(name) for name in TEMPLATES[:2]}
+        if a.record:
+            a.record.write_bytes(pickle.dumps(got))
+        bad = [] if not a.against else [f"{n}: {m}" for n, v in got.items()
+                                         for m in differences(v, pickle.loads(a.against.read_bytes())[n])]
+        for name, v in got.items():
+            print(f"{name:20s} evaluations, rounds per chunk: {v['chunks']['counts']}")
+        print("\n".join(bad) or ("the same answers, bit for bit" if a.against else f"saved to {a.record}"))
+        return 1 if bad else 0
     if a.sizes:
         sizes = [int(v) for v in a.sizes.split(",")]
         print(f"closure tracking alone, CPU ms per chunk (median of {a.repeat}); load average {load:.1f}")
