@@ -80,7 +80,7 @@ class Pool:
 
     def __init__(self, n: int, size: int = 64):
         self.n, self.size = n, 0
-        self.unused = np.zeros(0, int)
+        self.stack, self.nfree = np.zeros(0, int), 0  # the unused rows: stack[:nfree]
         self._grow(size)
 
     def _grow(self, size):
@@ -92,31 +92,40 @@ class Pool:
             if old:
                 a[:old] = getattr(self, f)
             setattr(self, f, a)
-        self.unused = np.concatenate([self.unused, np.arange(old, size)])
-        self.size = size
+        stack = np.zeros(size, int)
+        stack[:self.nfree] = self.stack[:self.nfree]
+        stack[self.nfree:self.nfree + size - old] = np.arange(old, size)
+        self.stack, self.nfree, self.size = stack, self.nfree + size - old, size
 
-    def add(self, x, target, speculative=False, far=False, guide=None, taken=0):
+    def add(self, x, target, speculative=False, far=False, guide=None, taken=0, line=None):
         """New points from ``x`` (m, n) toward ``target``; returns their rows. ``taken``: the
         Gauss-Newton steps already taken to reach ``x`` (a predictor's step).
         ``speculative``: dropped (not done) when not converged within GN_STEPS steps;
-        ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide`` (m, n):
-        the tangent direction of the answer they start from, where that tangent space is a
-        line (the points then solve with it instead of the eigen-decomposition, :func:`_gn_line`)."""
+        ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide``: the
+        tangent direction of the answer they start from, where that tangent space is a
+        line (the points then solve with it instead of the eigen-decomposition,
+        :func:`_gn_line`), one row per point, or per point of ``line`` (m,) where given."""
         m = len(x)
-        if m > len(self.unused):
+        if m > self.nfree:
             self._grow(max(2 * self.size, self.size + m))
-        ids, self.unused = self.unused[:m], self.unused[m:]
+        self.nfree -= m
+        ids = self.stack[self.nfree:self.nfree + m].copy()
         self.x[ids], self.target[ids] = x, target
         self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = taken, speculative, far, True
         self.res[ids], self.done[ids], self.null[ids] = np.inf, False, 0
-        self.line[ids] = guide is not None
-        if guide is not None:
-            self.guide[ids] = guide
+        if line is None:
+            self.line[ids] = guide is not None
+            if guide is not None:
+                self.guide[ids] = guide
+        else:
+            self.line[ids] = line
+            self.guide[ids[line]] = guide
         return ids
 
     def release(self, ids):
         self.alive[ids] = False
-        self.unused = np.concatenate([self.unused, ids])
+        self.stack[self.nfree:self.nfree + len(ids)] = ids
+        self.nfree += len(ids)
 
     def view(self, ids) -> Solves:
         return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids],
@@ -126,40 +135,47 @@ class Pool:
         """One Gauss-Newton step of every live point: the step toward the nearest closed
         configuration for GN_STEPS steps, then only the closure correction; a point stops
         when closed and its step is below OPT_TOL (converged) or past GN_STEPS, and after
-        GN_STEPS + NEWTON_STEPS steps with the residual as it is and no tangent space."""
+        GN_STEPS + NEWTON_STEPS steps with the residual as it is and no tangent space.
+        The live points are taken in the order line solves, eigen-decompositions, SVDs (near
+        the flat sheet), so each kernel works on a slice."""
         act = np.nonzero(self.alive)[0]
-        xa, it = self.x[act], self.it[act]
+        x0 = self.x[act]
+        line0 = self.line[act]
+        v0 = ~line0 & (self.far[act] == 0) & (np.abs(x0).max(axis=1, initial=0.0) < SVD_BELOW)
+        kind = ~line0 + v0.astype(int)  # 0 line solve, 1 eigen-decomposition, 2 SVD
+        order = np.argsort(kind, kind="stable")
+        act, xa = act[order], x0[order]
+        nl, nv = np.count_nonzero(line0), np.count_nonzero(v0)
+        a = len(act) - nv  # points [0, nl) take the line solve, [nl, a) the eigen-decomposition, [a, P) the SVD
+        it = self.it[act]
         c, jac = evaluate(xa)
         r = np.abs(c).max(axis=1, initial=0.0)
         d = (self.target[act] - xa) * (it < GN_STEPS)[:, None]
-        line = self.line[act]
-        v = ~line & (self.far[act] == 0) & (np.abs(xa).max(axis=1, initial=0.0) < SVD_BELOW)
         # J^T J and J^T C for the points that do not take the SVD
-        gram, g = np.empty((len(act), self.n, self.n)), np.empty(xa.shape)
-        jn = jac[~v]
+        jn = jac[:a]
         jt = jn.transpose(0, 2, 1)
-        gram[~v], g[~v] = jt @ jn, _mv(jt, c[~v])
-        step, vec = np.empty_like(xa), np.empty(gram.shape)
+        gram, g = jt @ jn, _mv(jt, c[:a])
+        step, vec = np.empty_like(xa), np.empty((len(act), self.n, self.n))
         free, null = np.zeros(xa.shape, bool), np.ones(len(act), int)
-        if line.any():
-            step[line], vec[line] = _gn_line(gram[line], g[line], d[line], self.guide[act[line]])
-            free[line, 0] = True
-            self.guide[act[line]] = vec[line, :, 0]
-        e = ~line & ~v
-        if e.any():
-            step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e] * self.far[act[e]])
-        if v.any():
-            step[v], vec[v], free[v] = _gn_svd(jac[v], c[v], d[v])
-        null[~line] = free[~line].sum(axis=1)
+        if nl:
+            step[:nl], vec[:nl] = _gn_line(gram[:nl], g[:nl], d[:nl], self.guide[act[:nl]])
+            free[:nl, 0] = True
+            self.guide[act[:nl]] = vec[:nl, :, 0]
+        if a > nl:
+            step[nl:a], vec[nl:a], free[nl:a] = _gn_eigh(gram[nl:], g[nl:], d[nl:a],
+                                                         RANK_RES * r[nl:a] * self.far[act[nl:a]])
+        if nv:
+            step[a:], vec[a:], free[a:] = _gn_svd(jac[a:], c[a:], d[a:])
+        null[nl:] = free[nl:].sum(axis=1)
         big = np.abs(step).max(axis=1, initial=0.0)
         final = it >= GN_STEPS + NEWTON_STEPS
         stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | (it >= GN_STEPS))) | final
-        check = stop & line & ~final
         unsure = np.zeros_like(stop)
-        if check.any():
+        check = np.nonzero(stop[:nl] & ~final[:nl])[0]
+        if check.size:
             unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
-        self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
-        stop &= ~unsure
+            self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
+            stop &= ~unsure
         drop = ~stop & ~unsure & self.spec[act] & (it + 1 >= GN_STEPS)
         s = act[stop]
         self.res[s], self.done[s] = r[stop], (big[stop] < OPT_TOL) & ~final[stop]

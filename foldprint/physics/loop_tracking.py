@@ -98,6 +98,14 @@ class _State:
         self.res_x = np.zeros(s)
         self.width = np.full(s, 2)
         self.out = np.zeros_like(driven)
+        # per drive and grid step, fixed for the track: the drive near the flat sheet, and how
+        # many steps from there on in a row move it by more than SKIP_TOL and at most MAX_STEP
+        self.flat = np.abs(driven).max(axis=2, initial=0.0) < NEAR_FLAT
+        move = np.abs(np.diff(driven, axis=1)).max(axis=2, initial=0.0)
+        ok = np.concatenate([(move > SKIP_TOL) & (move <= MAX_STEP), np.zeros((s, 1), bool)], axis=1)
+        at = np.arange(self.n_t)
+        stop = np.minimum.accumulate(np.where(ok, self.n_t, at)[:, ::-1], axis=1)[:, ::-1]
+        self.run = stop - at
 
     def skip(self, i):
         """Advance the settled drives ``i`` over steps whose drive moved at most SKIP_TOL
@@ -146,14 +154,8 @@ class _State:
         next steps whose drive moves (by more than SKIP_TOL, at most MAX_STEP) up to the
         drive's current width."""
         w = np.ones(len(live), int)
-        if not far.any():
-            return w
         i = live[far]
-        idx = np.minimum(self.k[i, None] + np.arange(WINDOW + 1), self.n_t - 1)
-        y = self.driven[i[:, None], idx]
-        d = np.abs(np.diff(y, axis=1)).max(axis=2)
-        ok = (d > SKIP_TOL) & (d <= MAX_STEP) & (self.k[i, None] + np.arange(1, WINDOW + 1) < self.n_t)
-        w[far] = np.minimum(1 + np.cumprod(ok, axis=1).sum(axis=1), self.width[i])
+        w[far] = np.minimum(1 + np.minimum(self.run[i, self.k[i]], WINDOW), self.width[i])
         return w
 
     def finish(self, i, y, x, res, null):
@@ -247,7 +249,7 @@ class _Requests:
         rows[new] = pool.add(ys[new], ys[new])
         want = k[:, None] + 1 + np.arange(PREFETCH)
         miss = ~(ek[:, None, :] == want[:, :, None]).any(axis=2) & (want < n_t)
-        miss &= np.abs(st.driven[live[:, None], np.minimum(want, n_t - 1)]).max(axis=2) < NEAR_FLAT
+        miss &= st.flat[live[:, None], np.minimum(want, n_t - 1)]
         slot = np.argsort(ek >= 0, axis=1, kind="stable")  # free slots first
         rank = np.cumsum(miss, axis=1) - 1
         mr, mc = np.nonzero(miss)
@@ -271,8 +273,7 @@ class _Requests:
         start[pred] = predict(x[pred], ys[pred], st.basis[i], st.free[i])
         taken = _first_step(st, live, near, x, ys, start)
         line = pred & (st.free[live].sum(axis=1) == 1)
-        self.main[live[~line]] = pool.add(start[~line], ys[~line], far=pred[~line], taken=taken[~line])
-        self.main[live[line]] = pool.add(start[line], ys[line], far=True, guide=_line(st, live[line]))
+        self.main[live] = pool.add(start, ys, far=pred, taken=taken, line=line, guide=_line(st, live[line]))
         self.restart[live] = -1
         again = near & (np.abs(ys).max(axis=1, initial=0.0) < NEAR_FLAT)  # the drive too
         self.restart[live[again]] = self._restarts(st, pool, live[again], ys[again])
@@ -283,10 +284,8 @@ class _Requests:
             k = st.k[d] + offset
             guess = predict(st.x[d], st.driven[d, k], st.basis[d], st.free[d])
             line = st.free[d].sum(axis=1) == 1
-            self.window[d[~line], offset[~line] - 1] = pool.add(guess[~line], st.driven[d[~line], k[~line]],
-                                                                speculative=True, far=True)
-            self.window[d[line], offset[line] - 1] = pool.add(guess[line], st.driven[d[line], k[line]],
-                                                              speculative=True, far=True, guide=_line(st, d[line]))
+            self.window[d, offset - 1] = pool.add(guess, st.driven[d, k], speculative=True, far=True, line=line,
+                                                  guide=_line(st, d[line]))
         self.w[live], self.y[live], self.ys[live] = w, y, ys
         self.open[live] = True
 
