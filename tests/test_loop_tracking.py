@@ -335,7 +335,7 @@ def test_near_the_flat_sheet_the_restart_is_taken_only_when_it_closed_nearer_wit
     sol = _solves(main + restart, res=[1e-12] * 8 + [1e-6] + [1e-12] * 3)
     ys = np.array([[0.1, 0.0]] * 5 + [[0.1, 0.002]])
     ys[1] = [0.1, -0.02 - 2 * j]  # a drive the restart reaches nearer, but far off the continued answer
-    rows = loop_tracking._choose(sol, np.zeros((6, 2)), ys, np.arange(6), 6)
+    rows = loop_tracking._choose(sol, np.arange(6), np.zeros((6, 2)), ys, np.arange(6), 6 + np.arange(6))
     assert rows.tolist() == [6, 1, 2, 3, 4, 5]
 
 
@@ -401,7 +401,7 @@ def test_away_from_the_flat_sheet_a_drive_that_barely_moved_keeps_its_answer(mon
 
 def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
     """From a converged answer near the flat sheet whose tangent space is by the plain rank
-    rule, _first_step starts the solve where one Gauss-Newton step from that answer
+    rule, _starts starts the solve where one Gauss-Newton step from that answer
     (evaluating C and J there) goes, and counts that step; a step below OPT_TOL is not taken
     (the solve then stops at the answer in one evaluation).
     On the parabola x1 = x0^2 (closed points exact, tangent (1, 2 x0))."""
@@ -416,19 +416,22 @@ def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
     state = loop_tracking._State(np.arange(2.0), np.zeros((2, 2, 2)))
     state.x[:], state.tangent[:], state.plain[:] = x, True, True
     state.basis[:], state.free[:] = pool.basis[ids[1]], pool.free[ids[1]]  # the tangent at x
-    start = x.copy()
-    taken = loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start)
-    assert taken.tolist() == [1, 0] and np.array_equal(start[1], x[1])
+    near = np.array([True, True])
+    start, taken, pred = loop_tracking._starts(state, np.arange(2), near, x, ys)
+    assert taken.tolist() == [1, 0] and np.array_equal(start[1], x[1]) and not pred.any()
+    p0 = start[0].copy()
     assert np.abs(start[0] - pool.x[ids[0]]).max() < 1e-12
     again = loop_solve.Pool(2, 2)
     row = again.add(start[:1], ys[:1], taken=taken[:1])
     assert again.it[row].tolist() == [1]
     state.plain[:] = False  # a tangent space by the far rank rule (RANK_RES, a line solve): evaluated again
-    start = x.copy()
-    assert loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start).tolist() == [0, 0]
+    assert loop_tracking._starts(state, np.arange(2), near, x, ys)[1].tolist() == [0, 0]
     state.plain[:], state.tangent[:] = True, False  # an unconverged answer: no step from its tangent space
-    assert loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start).tolist() == [0, 0]
-    assert np.array_equal(start, x)
+    start, taken, _ = loop_tracking._starts(state, np.arange(2), near, x, ys)
+    assert taken.tolist() == [0, 0] and np.array_equal(start, x)
+    state.plain[:], state.tangent[:] = False, True  # away from the flat sheet: the predictor, no step counted
+    start, taken, pred = loop_tracking._starts(state, np.arange(2), ~near, x, ys)
+    assert taken.tolist() == [0, 0] and pred.all() and np.abs(start[0] - p0).max() < 1e-12
     assert pool.view(ids).plain.tolist() == [True, True]  # the pool's points near flat (not far)
 
 
@@ -439,7 +442,14 @@ def test_the_first_step_from_the_tangent_space_saves_rounds_not_answers(monkeypa
     d, grid, drivens = _check_drives("cross_lock_uniform", 4)
     evaluate = _solvers(d)[0].residuals
     fast = loop_tracking.track(evaluate, grid[:300], np.stack(drivens)[:, :300])
-    monkeypatch.setattr(loop_tracking, "_first_step", lambda st, live, *a: np.zeros(len(live), int))
+    starts = loop_tracking._starts
+
+    def without(st, live, near, x, ys):  # near the flat sheet every solve starts at the answer
+        start, taken, pred = starts(st, live, near, x, ys)
+        start[near] = x[near]
+        return start, np.zeros_like(taken), pred
+
+    monkeypatch.setattr(loop_tracking, "_starts", without)
     slow = loop_tracking.track(evaluate, grid[:300], np.stack(drivens)[:, :300])
     assert np.abs(fast.angles - slow.angles).max() < ANGLE_TOL
     assert np.array_equal(fast.dof, slow.dof) and np.array_equal(fast.locked_at, slow.locked_at, equal_nan=True)

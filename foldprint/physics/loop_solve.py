@@ -76,7 +76,7 @@ def predict(x, target, basis, free):
 class Pool:
     """Solves in progress and their answers, one row per point; rows are reused."""
 
-    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "line", "guide")
+    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "line", "guide", "tag")
 
     def __init__(self, n: int, size: int = 64):
         self.n, self.size = n, 0
@@ -86,7 +86,7 @@ class Pool:
     def _grow(self, size):
         n, old = self.n, self.size
         shapes = {"x": (n,), "target": (n,), "basis": (n, n), "free": (n,), "guide": (n,)}
-        kinds = {"it": int, "null": int, "spec": bool, "done": bool, "alive": bool, "free": bool, "line": bool}
+        kinds = {"it": int, "null": int, "tag": int, "spec": bool, "done": bool, "alive": bool, "free": bool, "line": bool}
         for f in self._fields:
             a = np.zeros((size,) + shapes.get(f, ()), kinds.get(f, float))
             if old:
@@ -97,14 +97,15 @@ class Pool:
         stack[self.nfree:self.nfree + size - old] = np.arange(old, size)
         self.stack, self.nfree, self.size = stack, self.nfree + size - old, size
 
-    def add(self, x, target, speculative=False, far=False, guide=None, taken=0, line=None):
+    def add(self, x, target, speculative=False, far=False, guide=None, taken=0, line=None, tag=-1):
         """New points from ``x`` (m, n) toward ``target``; returns their rows. ``taken``: the
         Gauss-Newton steps already taken to reach ``x`` (a predictor's step).
         ``speculative``: dropped (not done) when not converged within GN_STEPS steps;
         ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide``: the
         tangent direction of the answer they start from, where that tangent space is a
         line (the points then solve with it instead of the eigen-decomposition,
-        :func:`_gn_line`), one row per point, or per point of ``line`` (m,) where given."""
+        :func:`_gn_line`), one row per point, or per point of ``line`` (m,) where given;
+        ``tag``: an int kept with each point for the caller (the tracker: its drive)."""
         m = len(x)
         if m > self.nfree:
             self._grow(max(2 * self.size, self.size + m))
@@ -112,7 +113,7 @@ class Pool:
         ids = self.stack[self.nfree:self.nfree + m].copy()
         self.x[ids], self.target[ids] = x, target
         self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = taken, speculative, far, True
-        self.res[ids], self.done[ids], self.null[ids] = np.inf, False, 0
+        self.res[ids], self.done[ids], self.null[ids], self.tag[ids] = np.inf, False, 0, tag
         if line is None:
             self.line[ids] = guide is not None
             if guide is not None:
@@ -126,6 +127,11 @@ class Pool:
         self.alive[ids] = False
         self.stack[self.nfree:self.nfree + len(ids)] = ids
         self.nfree += len(ids)
+
+    def solves(self) -> Solves:
+        """The answers of every row (the pool's own arrays, not copies: read them before
+        the rows are reused)."""
+        return Solves(self.x, self.res, self.null, self.done, self.basis, self.free, self.far == 0)
 
     def view(self, ids) -> Solves:
         return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids],

@@ -88,6 +88,8 @@ class _State:
         self.tangent = np.zeros(s, bool)  # the last answer converged: predict along its tangent
         self.plain = np.zeros(s, bool)  # ... its tangent space by the rank rule alone (near flat)
         self.settled = np.ones(s, bool)
+        self.xmax = np.zeros(s)  # the largest angle of x
+        self.line = np.zeros(s, bool)  # the tangent space is a line
         self.prev = np.zeros((s, n))  # the drive at the last solved step
         self.k = np.zeros(s, int)  # the next grid step
         self.sub = np.zeros(s, int)  # the continuation sub-step within step k (0: none begun)
@@ -171,11 +173,14 @@ class _State:
 
     def settle(self, i, sol: Solves, rows):
         """Take the converged answers ``sol`` rows ``rows`` as the drives' ``i`` configuration."""
-        self.x[i], self.res_x[i] = sol.x[rows], sol.res[rows]
+        x, free = sol.x[rows], sol.free[rows]
+        self.x[i], self.res_x[i] = x, sol.res[rows]
         self.settled[i] = self.tangent[i] = sol.done[rows]
-        self.basis[i], self.free[i] = sol.basis[rows], sol.free[rows]
+        self.basis[i], self.free[i] = sol.basis[rows], free
+        self.line[i] = free.sum(axis=1) == 1
         self.plain[i] = True if sol.plain is None else sol.plain[rows]
-        first = (self.dof[i] < 0) & (np.abs(sol.x[rows]).max(axis=1, initial=0.0) > 1e-3)
+        self.xmax[i] = big = np.abs(x).max(axis=1, initial=0.0)
+        first = (self.dof[i] < 0) & (big > 1e-3)
         self.dof[i[first]] = sol.null[rows][first]
 
 
@@ -204,7 +209,8 @@ def _blocks(w):
 
 class _Requests:
     """Per drive, the points of the step it is solving: its main solve, its restart from
-    the drive (near the flat sheet) and its window points."""
+    the drive (near the flat sheet) and its window points. The pool tags each with its
+    drive (restarts started ahead: -1 until their step takes them)."""
 
     def __init__(self, s: int, n: int):
         self.open = np.zeros(s, bool)
@@ -216,15 +222,19 @@ class _Requests:
         self.early = np.full((s, PREFETCH), -1)  # restarts started ahead: their rows ...
         self.early_k = np.full((s, PREFETCH), -1)  # ... and grid steps
 
-    def busy(self, pool: Pool):
-        """Which drives' current points are not all stopped."""
-        win = (np.arange(WINDOW)[None] < self.w[:, None] - 1) & pool.alive[self.window]
-        return self.open & (pool.alive[self.main] | ((self.restart >= 0) & pool.alive[self.restart]) | win.any(axis=1))
+    def stopped(self, pool: Pool):
+        """Which open drives' current points have all stopped."""
+        busy = np.zeros(len(self.open) + 1, bool)  # the last place: untagged points
+        busy[pool.tag[pool.alive]] = True
+        return np.nonzero(self.open & ~busy[:-1])[0]
 
     def forget(self, pool: Pool, i):
         """Drop the restarts drives ``i`` started ahead."""
-        pool.release(self.early[i][self.early[i] >= 0])
-        self.early[i], self.early_k[i] = -1, -1
+        e = self.early[i]
+        some = e >= 0
+        if some.any():
+            pool.release(e[some])
+            self.early[i], self.early_k[i] = -1, -1
 
     def _restarts(self, st: _State, pool: Pool, live, ys):
         """Rows of the live drives' restarts from their drive at step k (answer and drive
@@ -235,25 +245,24 @@ class _Requests:
         steps wait only for their solves from the last answer)."""
         k, n_t = st.k[live], st.n_t
         ek, ei = self.early_k[live], self.early[live]
-        hit = (ek == k[:, None]) & ((st.nsub[live] == 1) & (st.sub[live] == 1))[:, None]
-        r, c = np.nonzero(hit)
+        r, c = np.nonzero((ek == k[:, None]) & ((st.nsub[live] == 1) & (st.sub[live] == 1))[:, None])
         good = np.all(pool.target[ei[r, c]] == ys[r], axis=1)
         rows = np.full(len(live), -1)
         rows[r[good]] = ei[r[good], c[good]]
-        taken = np.zeros_like(hit)
-        taken[r[good], c[good]] = True
-        stale = (ek >= 0) & (ek <= k[:, None]) & ~taken
-        pool.release(ei[stale])
-        ek, ei = np.where(stale | taken, -1, ek), np.where(stale | taken, -1, ei)
+        gone = (ek >= 0) & (ek <= k[:, None])  # each step's own restart (taken or not) and older ones
+        ei[r[good], c[good]] = -1  # taken
+        pool.release(ei[gone & (ei >= 0)])
+        ek[gone], ei[gone] = -1, -1
         new = rows < 0
         rows[new] = pool.add(ys[new], ys[new])
+        pool.tag[rows] = live
         want = k[:, None] + 1 + np.arange(PREFETCH)
         miss = ~(ek[:, None, :] == want[:, :, None]).any(axis=2) & (want < n_t)
         miss &= st.flat[live[:, None], np.minimum(want, n_t - 1)]
-        slot = np.argsort(ek >= 0, axis=1, kind="stable")  # free slots first
-        rank = np.cumsum(miss, axis=1) - 1
         mr, mc = np.nonzero(miss)
         if mr.size:
+            slot = np.argsort(ek >= 0, axis=1, kind="stable")  # free slots first
+            rank = np.cumsum(miss, axis=1) - 1
             d, kk = live[mr], want[mr, mc]
             y0 = st.driven[d, kk - 1]
             ids = pool.add(y0 + (st.driven[d, kk] - y0), y0 + (st.driven[d, kk] - y0))
@@ -265,47 +274,49 @@ class _Requests:
         """Put the live drives' next points into the pool."""
         y, ys = st.begin(live)
         x = st.x[live]
-        near = np.abs(x).max(axis=1, initial=0.0) < NEAR_FLAT
-        pred = ~near & st.tangent[live]
+        near = st.xmax[live] < NEAR_FLAT
+        start, taken, pred = _starts(st, live, near, x, ys)
         w = st.ahead(live, pred & (st.nsub[live] == 1))
-        start = x.copy()
-        i = live[pred]
-        start[pred] = predict(x[pred], ys[pred], st.basis[i], st.free[i])
-        taken = _first_step(st, live, near, x, ys, start)
-        line = pred & (st.free[live].sum(axis=1) == 1)
-        self.main[live] = pool.add(start, ys, far=pred, taken=taken, line=line, guide=_line(st, live[line]))
+        line = pred & st.line[live]
+        self.main[live] = pool.add(start, ys, far=pred, taken=taken, line=line, guide=_line(st, live[line]), tag=live)
         self.restart[live] = -1
         again = near & (np.abs(ys).max(axis=1, initial=0.0) < NEAR_FLAT)  # the drive too
-        self.restart[live[again]] = self._restarts(st, pool, live[again], ys[again])
+        if again.any():
+            self.restart[live[again]] = self._restarts(st, pool, live[again], ys[again])
         self.forget(pool, live[~again])
-        owner, offset = _blocks(w)
-        if len(owner):
+        if w.max() > 1:
+            owner, offset = _blocks(w)
             d = live[owner]
             k = st.k[d] + offset
             guess = predict(st.x[d], st.driven[d, k], st.basis[d], st.free[d])
-            line = st.free[d].sum(axis=1) == 1
+            line = st.line[d]
             self.window[d, offset - 1] = pool.add(guess, st.driven[d, k], speculative=True, far=True, line=line,
-                                                  guide=_line(st, d[line]))
+                                                  guide=_line(st, d[line]), tag=d)
         self.w[live], self.y[live], self.ys[live] = w, y, ys
         self.open[live] = True
 
 
-def _first_step(st: _State, live, near, x, ys, start):
-    """Near the flat sheet, the first Gauss-Newton step from a converged answer x (closed:
-    the step is its tangent space's part of the drive, :func:`predict`) taken without
-    evaluating C and J at x again (its basis is that of the evaluation x converged at, when
-    that evaluation took the rank rule a point near the flat sheet takes):
-    ``start`` gets the step where it moves an angle by OPT_TOL or more (below, the solve stops
-    at x in one evaluation). Returns the steps taken (0 or 1) per live drive."""
-    taken = np.zeros(len(live), int)
-    k = np.nonzero(near & st.tangent[live] & st.plain[live])[0]
-    if k.size:
-        i = live[k]
-        p = predict(x[k], ys[k], st.basis[i], st.free[i])
-        moved = np.abs(p - x[k]).max(axis=1, initial=0.0) >= OPT_TOL
-        start[k[moved]] = p[moved]
-        taken[k[moved]] = 1
-    return taken
+def _starts(st: _State, live, near, x, ys):
+    """Where the live drives' solves from their converged answers x start, and the
+    Gauss-Newton steps that took (0 or 1): away from the flat sheet the predictor along the
+    tangent space (:func:`predict`); near it, the first Gauss-Newton step from an answer
+    whose basis is that of the evaluation it converged at (the rank rule a point near the
+    flat sheet takes), taken without evaluating C and J at x again (closed: the step is its
+    tangent space's part of the drive), where it moves an angle by OPT_TOL or more (below,
+    the solve stops at x in one evaluation). Returns the starts, the steps taken and which
+    drives predicted (away from the flat sheet, with a tangent)."""
+    tangent = st.tangent[live]
+    pred = ~near & tangent
+    first = near & tangent & st.plain[live]
+    start, taken = x.copy(), np.zeros(len(live), int)
+    u = np.nonzero(pred | first)[0]
+    if u.size:
+        i = live[u]
+        p = predict(x[u], ys[u], st.basis[i], st.free[i])
+        moved = pred[u] | (np.abs(p - x[u]).max(axis=1, initial=0.0) >= OPT_TOL)
+        start[u[moved]] = p[moved]
+        taken[u[moved & first[u]]] = 1
+    return start, taken, pred
 
 
 def track(evaluate, times, driven) -> Tracks:
@@ -318,14 +329,15 @@ def track(evaluate, times, driven) -> Tracks:
     while True:
         if todo.size:
             st.skip(todo)
-            live = todo[st.k[todo] < st.n_t]
-            req.forget(pool, todo[st.k[todo] >= st.n_t])
+            over = st.k[todo] >= st.n_t
+            req.forget(pool, todo[over])
+            live = todo[~over]
             if live.size:
                 req.post(st, pool, live)
         if not pool.alive.any():
             break
         pool.round(ev)
-        todo = np.nonzero(req.open & ~req.busy(pool))[0]
+        todo = req.stopped(pool)
         if todo.size:
             _ended(st, pool, req, todo)
     return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
@@ -334,31 +346,32 @@ def track(evaluate, times, driven) -> Tracks:
 def _ended(st: _State, pool: Pool, req: _Requests, live):
     """The live drives' points have all stopped: choose each one's answer (the restart
     near the flat sheet), end its step, keep what its window allows, free the rows."""
-    w = req.w[live]
-    owner, offset = _blocks(w)
+    w, main = req.w[live], req.main[live]
     again = np.nonzero(req.restart[live] >= 0)[0]
-    rows = np.concatenate([req.main[live], req.window[live[owner], offset - 1], req.restart[live[again]]])
-    sol = pool.view(rows)
-    main = _choose(sol, st.x[live], req.ys[live], again, len(live) + len(owner))
-    ok = _after_main(st, live, req.y[live], sol, main)
-    if len(owner):
-        _window(st, live, w, ok, sol, main, owner, offset)
-    pool.release(rows)
+    restart = req.restart[live[again]]
+    sol = pool.solves()
+    chosen = _choose(sol, main, st.x[live], req.ys[live], again, restart)
+    ok = _after_main(st, live, req.y[live], sol, chosen)
+    rows = [main, restart]
+    if w.max() > 1:
+        owner, offset = _blocks(w)
+        rows.append(req.window[live[owner], offset - 1])
+        _window(st, live, w, ok, sol, chosen, owner, offset, rows[-1])
+    pool.release(np.concatenate(rows))
     req.open[live] = False
 
 
-def _choose(sol: Solves, x, ys, again, base):
+def _choose(sol: Solves, rows, x, ys, again, restart):
     """Rows of ``sol`` holding each drive's answer: its solve from the last answer ``x``
-    (row j), or, near the flat sheet (drives ``again``, whose restart from the drive is row
-    base + j), the restart where the continued answer missed the drive and the restart
+    (``rows``), or, near the flat sheet (drives ``again``, whose restart from the drive is
+    row ``restart``), the restart where the continued answer missed the drive and the restart
     closed nearer to it without jumping more than JUMP farther (a drive starting on a
     branch's tangent does not stall at the bifurcation), and puts no hinge on the other side
     of flat from its drive (a drive keeps its target's sign at every instant; the other
     side is another branch, the one a scattered drive would flip to)."""
-    rows = np.arange(len(x))
     if not len(again):
         return rows
-    b = base + np.arange(len(again))
+    rows, b = rows.copy(), restart
     xn, xb, yb, x0 = sol.x[rows[again]], sol.x[b], ys[again], x[again]
     take = ((np.abs(xn - yb).max(axis=1) > OPT_TOL) & (sol.res[b] <= LOST_TOL)
             & (np.linalg.norm(xb - yb, axis=1) < np.linalg.norm(xn - yb, axis=1) - 1e-9)
@@ -384,11 +397,11 @@ def _after_main(st: _State, live, y, sol: Solves, rows):
     return ~lost & ended & sol.done[rows]
 
 
-def _window(st: _State, live, w, ok, sol: Solves, main, owner, offset):
-    """Keep each window's answers up to the first one the step-by-step tracker might not
-    have given (:func:`_acceptable`, the answer before it being the one kept last)."""
-    row = len(live) + np.arange(len(owner))
-    prev = np.where(offset == 1, main[owner], row - 1)
+def _window(st: _State, live, w, ok, sol: Solves, main, owner, offset, row):
+    """Keep each window's answers (rows ``row`` of ``sol``, drive ``live[owner]``'s
+    ``offset``-th) up to the first one the step-by-step tracker might not have given
+    (:func:`_acceptable`, the answer before it being the one kept last)."""
+    prev = np.where(offset == 1, main[owner], np.roll(row, 1))
     yw = st.driven[live[owner], st.k[live[owner]] + offset - 1]
     _keep(st, live, w, owner, offset, ok[owner] & _acceptable(sol, prev, row, yw), sol, row, yw)
 
