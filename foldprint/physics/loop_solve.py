@@ -65,6 +65,12 @@ def _mv(a, v):
     return (a @ v[..., None])[..., 0]
 
 
+def norms(v):
+    """Euclidean norms of the rows of v (P, n): np.linalg.norm(v, axis=1), the same sums,
+    without its argument handling."""
+    return np.sqrt(np.add.reduce(v * v, axis=1))
+
+
 def predict(x, target, basis, free):
     """The predictor: from closed configurations x (P, n) along their tangent spaces toward
     ``target``, ``N N^T (target - x)``, no angle moved more than MAX_STEP."""
@@ -228,7 +234,7 @@ def _gn_line(gram, g, d, guide):
     column spans the line (the other columns are not used)."""
     a = gram + guide[:, :, None] * guide[:, None, :]
     sol = np.linalg.solve(a, np.stack([guide, g], axis=2))
-    w = sol[..., 0] / np.linalg.norm(sol[..., 0], axis=1)[:, None]
+    w = sol[..., 0] / norms(sol[..., 0])[:, None]
     dx = sol[..., 1]
     step = w * ((w * d).sum(axis=1) + (w * dx).sum(axis=1))[:, None] - dx
     vec = np.zeros(gram.shape)
@@ -242,7 +248,7 @@ def _certified(jac, gram, w):
     it (J^T J + w w^T less that threshold squared positive definite). The largest singular
     value is bounded by the Frobenius norm, so the test errs toward "no"."""
     thr = RANK_TOL * np.maximum(1.0, np.sqrt(np.trace(gram, axis1=1, axis2=2)))
-    ok = np.linalg.norm(_mv(jac, w), axis=1) <= thr
+    ok = norms(_mv(jac, w)) <= thr
     a = gram + w[:, :, None] * w[:, None, :] - (thr ** 2)[:, None, None] * np.eye(gram.shape[1])
     try:
         np.linalg.cholesky(a)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .loop_solve import MAX_STEP, OPT_TOL, Pool, Solves, predict
+from .loop_solve import MAX_STEP, OPT_TOL, Pool, Solves, norms, predict
 
 #: a hinge whose closed angle stays this far from its driven angle "cannot follow" (rad)
 FOLLOW_TOL = np.radians(2.0)
@@ -374,7 +374,7 @@ def _choose(sol: Solves, rows, x, ys, again, restart):
     rows, b = rows.copy(), restart
     xn, xb, yb, x0 = sol.x[rows[again]], sol.x[b], ys[again], x[again]
     take = ((np.abs(xn - yb).max(axis=1) > OPT_TOL) & (sol.res[b] <= LOST_TOL)
-            & (np.linalg.norm(xb - yb, axis=1) < np.linalg.norm(xn - yb, axis=1) - 1e-9)
+            & (norms(xb - yb) < norms(xn - yb) - 1e-9)
             & (np.abs(xb - x0).max(axis=1) <= np.abs(xn - x0).max(axis=1) + JUMP) & ~np.any(xb * yb < 0.0, axis=1))
     rows[again[take]] = b[take]
     return rows
