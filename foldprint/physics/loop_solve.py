@@ -154,10 +154,12 @@ class Pool:
         x0 = self.x[act]
         line0 = self.line[act]
         v0 = ~line0 & (self.far[act] == 0) & (np.abs(x0).max(axis=1, initial=0.0) < SVD_BELOW)
-        kind = ~line0 + v0.astype(int)  # 0 line solve, 1 eigen-decomposition, 2 SVD
-        order = np.argsort(kind, kind="stable")
-        act, xa = act[order], x0[order]
         nl, nv = np.count_nonzero(line0), np.count_nonzero(v0)
+        if max(nl, nv, len(act) - nl - nv) < len(act):  # more than one kind: line, eigh, SVD in turn
+            order = np.argsort(~line0 + v0.astype(int), kind="stable")
+            act, xa = act[order], x0[order]
+        else:
+            xa = x0
         a = len(act) - nv  # points [0, nl) take the line solve, [nl, a) the eigen-decomposition, [a, P) the SVD
         it = self.it[act]
         c, jac = evaluate(xa)
@@ -190,12 +192,17 @@ class Pool:
             stop &= ~unsure
         drop = ~stop & ~unsure & self.spec[act] & (it + 1 >= GN_STEPS)
         s = act[stop]
-        self.res[s], self.done[s] = r[stop], (big[stop] < OPT_TOL) & ~final[stop]
-        self.basis[s], self.free[s] = vec[stop], free[stop] & ~final[stop, None]
-        self.null[act[~final]] = null[~final]
+        if final.any():  # out of steps: no tangent space, not converged; null as of the step before
+            self.res[s], self.done[s] = r[stop], (big[stop] < OPT_TOL) & ~final[stop]
+            self.basis[s], self.free[s] = vec[stop], free[stop] & ~final[stop, None]
+            self.null[act[~final]] = null[~final]
+        else:
+            self.res[s], self.done[s] = r[stop], big[stop] < OPT_TOL
+            self.basis[s], self.free[s] = vec[stop], free[stop]
+            self.null[act] = null
         go = ~stop & ~drop & ~unsure
         self.x[act[go]] = xa[go] + step[go] * np.minimum(1.0, MAX_STEP / np.maximum(big[go], 1e-300))[:, None]
-        self.it[act[go]] += 1
+        self.it[act] = it + go
         self.alive[act[stop | drop]] = False
 
 
@@ -216,11 +223,12 @@ def _gn_svd(jac, c, d):
     Returns what :func:`_gn_eigh` does."""
     p, k, n = jac.shape
     u, sv, vt = np.linalg.svd(jac, full_matrices=k < n)
-    s = np.zeros((p, n))
-    s[:, :min(k, n)] = sv
+    if k >= n:  # n singular values, U^T C has n rows
+        s, uc = sv, _mv(u.transpose(0, 2, 1), c)
+    else:
+        s, uc = np.zeros((p, n)), np.zeros((p, n))
+        s[:, :k], uc[:, :k] = sv, _mv(u.transpose(0, 2, 1), c)
     keep = s > (RANK_TOL * np.maximum(1.0, s[:, :1]))
-    uc = np.zeros((p, n))
-    uc[:, :min(k, n)] = _mv(u.transpose(0, 2, 1), c)[:, :min(k, n)]
     vec = vt.transpose(0, 2, 1)
     coef = np.where(keep, -uc / np.where(keep, s, 1.0), _mv(vt, d))
     return _mv(vec, coef), vec, ~keep
@@ -233,7 +241,9 @@ def _gn_line(gram, g, d, guide):
     correction -J^+ C orthogonal to it. Returns the step and a basis (P, n, n) whose first
     column spans the line (the other columns are not used)."""
     a = gram + guide[:, :, None] * guide[:, None, :]
-    sol = np.linalg.solve(a, np.stack([guide, g], axis=2))
+    rhs = np.empty(guide.shape + (2,))
+    rhs[..., 0], rhs[..., 1] = guide, g
+    sol = np.linalg.solve(a, rhs)
     w = sol[..., 0] / norms(sol[..., 0])[:, None]
     dx = sol[..., 1]
     step = w * ((w * d).sum(axis=1) + (w * dx).sum(axis=1))[:, None] - dx

@@ -141,14 +141,13 @@ class _State:
 
     def begin(self, live):
         """Targets of the live drives' next solve: their step's (sub-step's) drive."""
-        k = self.k[live]
-        y = self.driven[live, k]
-        fresh = self.sub[live] == 0
-        delta = np.abs(y - self.prev[live]).max(axis=1, initial=0.0)
-        self.nsub[live] = np.where(fresh, np.maximum(1, np.ceil(delta / MAX_STEP)).astype(int), self.nsub[live])
-        self.sub[live] = np.where(fresh, 1, self.sub[live])
-        frac = (self.sub[live] / self.nsub[live])[:, None]
-        return y, self.prev[live] + (y - self.prev[live]) * frac
+        y, prev, sub = self.driven[live, self.k[live]], self.prev[live], self.sub[live]
+        fresh = sub == 0
+        if fresh.any():
+            delta = np.abs(y - prev).max(axis=1, initial=0.0)
+            self.nsub[live] = np.where(fresh, np.maximum(1, np.ceil(delta / MAX_STEP)).astype(int), self.nsub[live])
+            self.sub[live] = sub = np.where(fresh, 1, sub)
+        return y, prev + (y - prev) * (sub / self.nsub[live])[:, None]
 
     def ahead(self, live, far):
         """Window widths (len(live),): how many grid steps from k each live drive solves now;
@@ -163,8 +162,10 @@ class _State:
     def finish(self, i, y, x, res, null):
         """End grid step k of drives ``i``: their answer ``x`` (len(i), n) for drive ``y``."""
         k = self.k[i]
-        stop = np.isnan(self.locked[i]) & (null == 0) & (np.abs(x - y).max(axis=1, initial=0.0) > FOLLOW_TOL)
-        self.locked[i[stop]] = self.times[k[stop]]
+        stop = null == 0  # no motion left: locked where the answer is more than FOLLOW_TOL from the drive
+        if stop.any():
+            stop &= np.isnan(self.locked[i]) & (np.abs(x - y).max(axis=1, initial=0.0) > FOLLOW_TOL)
+            self.locked[i[stop]] = self.times[k[stop]]
         self.worst[i] = np.maximum(self.worst[i], res)
         self.prev[i] = y
         self.out[i, k] = x
@@ -180,8 +181,10 @@ class _State:
         self.line[i] = free.sum(axis=1) == 1
         self.plain[i] = True if sol.plain is None else sol.plain[rows]
         self.xmax[i] = big = np.abs(x).max(axis=1, initial=0.0)
-        first = (self.dof[i] < 0) & (big > 1e-3)
-        self.dof[i[first]] = sol.null[rows][first]
+        first = self.dof[i] < 0
+        if first.any():
+            first &= big > 1e-3
+            self.dof[i[first]] = sol.null[rows][first]
 
 
 class _Counted:
@@ -384,12 +387,14 @@ def _after_main(st: _State, live, y, sol: Solves, rows):
     """The live drives' solves of their next step (sub-step): a solve that lost the manifold
     holds the last closed configuration and ends the step (the drive is locked there);
     otherwise its answer is taken. Returns which drives ended their step converged."""
-    res = sol.res[rows]
-    lost = res > LOST_TOL
-    i = live[lost]
-    st.settled[i] = True
-    st.locked[i] = np.where(np.isnan(st.locked[i]), st.times[st.k[i]], st.locked[i])
-    st.settle(live[~lost], sol, rows[~lost])
+    lost = sol.res[rows] > LOST_TOL
+    if lost.any():
+        i = live[lost]
+        st.settled[i] = True
+        st.locked[i] = np.where(np.isnan(st.locked[i]), st.times[st.k[i]], st.locked[i])
+        st.settle(live[~lost], sol, rows[~lost])
+    else:
+        st.settle(live, sol, rows)
     ended = lost | (st.sub[live] >= st.nsub[live])
     st.sub[live[~ended]] += 1
     e = live[ended]
@@ -436,16 +441,20 @@ def _keep(st: _State, live, w, owner, offset, acc, sol: Solves, row, yw):
     d, k = live[owner[q]], st.k[live[owner[q]]] + offset[q] - 1
     x, y, r = sol.x[row[q]], yw[q], row[q]
     st.out[d, k] = x
-    t = np.where((sol.null[r] == 0) & (np.abs(x - y).max(axis=1) > FOLLOW_TOL), st.times[k], np.inf)
-    first_stop = np.full(len(st.k), np.inf)
-    np.minimum.at(first_stop, d, t)
-    st.locked = np.where(np.isnan(st.locked) & np.isfinite(first_stop), first_stop, st.locked)
+    rigid = sol.null[r] == 0
+    if rigid.any():
+        t = np.where(rigid & (np.abs(x - y).max(axis=1) > FOLLOW_TOL), st.times[k], np.inf)
+        first_stop = np.full(len(st.k), np.inf)
+        np.minimum.at(first_stop, d, t)
+        st.locked = np.where(np.isnan(st.locked) & np.isfinite(first_stop), first_stop, st.locked)
     np.maximum.at(st.worst, d, sol.res[r])
-    folded = np.where((st.dof[d] < 0) & (np.abs(x).max(axis=1) > 1e-3), q, len(owner))
-    at = np.full(len(st.k), len(owner))
-    np.minimum.at(at, d, folded)
-    f = np.nonzero(at < len(owner))[0]
-    st.dof[f] = sol.null[row[at[f]]]
+    unfolded = st.dof[d] < 0
+    if unfolded.any():
+        folded = np.where(unfolded & (np.abs(x).max(axis=1) > 1e-3), q, len(owner))
+        at = np.full(len(st.k), len(owner))
+        np.minimum.at(at, d, folded)
+        f = np.nonzero(at < len(owner))[0]
+        st.dof[f] = sol.null[row[at[f]]]
     g = np.nonzero(nacc)[0]
     last = first[g] + nacc[g] - 1
     st.settle(live[g], sol, row[last])
