@@ -406,7 +406,7 @@ def _window(st: _State, live, w, ok, sol: Solves, main, owner, offset, row):
     """Keep each window's answers (rows ``row`` of ``sol``, drive ``live[owner]``'s
     ``offset``-th) up to the first one the step-by-step tracker might not have given
     (:func:`_acceptable`, the answer before it being the one kept last)."""
-    prev = np.where(offset == 1, main[owner], np.roll(row, 1))
+    prev = np.where(offset == 1, main[owner], np.concatenate([row[-1:], row[:-1]]))  # the point before
     yw = st.driven[live[owner], st.k[live[owner]] + offset - 1]
     _keep(st, live, w, owner, offset, ok[owner] & _acceptable(sol, prev, row, yw), sol, row, yw)
 
