@@ -190,14 +190,42 @@ def test_array_tracker_gives_the_replaced_trackers_answers_and_events(case):
 
 def test_lockstep_tracking_of_many_drives_gives_each_drives_own_answer():
     """track_many (the Monte-Carlo's chunk: one pool, one array evaluation per round) against
-    track of each drive alone: the same answers to round-off."""
+    track of each drive alone and of the drives in another order: the same answers bit for
+    bit (every array operation of a round is row by row, so which drives share a chunk, and
+    where in the pool their points sit, changes no number)."""
     d, grid, drivens = _check_drives("miura_3x3", 5)
     solver = _solvers(d)[0]
     many = solver.track_many(grid[:400], [v[:400] for v in drivens])
-    for v, got in zip(drivens, many):
+    back = solver.track_many(grid[:400], [v[:400] for v in drivens[::-1]])[::-1]
+    for v, got, other in zip(drivens, many, back):
         alone = solver.track(grid[:400], v[:400])
-        assert np.abs(got.angles - alone.angles).max() < 1e-12
-        assert (got.stuck, got.locked_at, got.dof) == (alone.stuck, alone.locked_at, alone.dof)
+        for x in (alone, other):
+            assert np.array_equal(got.angles, x.angles) and got.closure == x.closure
+            assert (got.stuck, got.locked_at, got.dof) == (x.stuck, x.locked_at, x.dof)
+
+
+def test_window_widths_are_the_next_steps_that_move_by_a_step_at_most():
+    """_State.ahead (from per-drive tables made once) against the definition, step by step:
+    1 plus the number of next grid steps in a row whose drive moves by more than SKIP_TOL and
+    at most MAX_STEP, at most WINDOW of them, capped by the drive's width."""
+    rng = np.random.default_rng(7)
+    n_t = 90
+    move = rng.choice([0.0, 1e-9, 0.05, loop_solve.MAX_STEP, 0.3], size=(3, n_t - 1, 2),
+                      p=[0.1, 0.05, 0.7, 0.05, 0.1])
+    driven = np.concatenate([np.zeros((3, 1, 2)), np.cumsum(move, axis=1)], axis=1)
+    state = loop_tracking._State(np.arange(float(n_t)), driven)
+    for k in range(n_t):
+        state.k[:], state.width[:] = k, [2, 16, loop_tracking.WINDOW]
+        got = state.ahead(np.arange(3), np.array([True, True, True]))
+        for d in range(3):
+            run = 0
+            while run < loop_tracking.WINDOW and k + run + 1 < n_t:
+                step = np.abs(driven[d, k + run + 1] - driven[d, k + run]).max()
+                if not loop_tracking.SKIP_TOL < step <= loop_solve.MAX_STEP:
+                    break
+                run += 1
+            assert got[d] == min(1 + run, state.width[d]), (d, k)
+        assert state.ahead(np.arange(3), np.zeros(3, bool)).tolist() == [1, 1, 1]
 
 
 def test_windows_solve_ahead_without_changing_the_answers(monkeypatch):

@@ -82,7 +82,8 @@ def predict(x, target, basis, free):
 class Pool:
     """Solves in progress and their answers, one row per point; rows are reused."""
 
-    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "line", "guide", "tag")
+    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "line", "guide",
+               "tag")
 
     def __init__(self, n: int, size: int = 64):
         self.n, self.size = n, 0
@@ -92,7 +93,8 @@ class Pool:
     def _grow(self, size):
         n, old = self.n, self.size
         shapes = {"x": (n,), "target": (n,), "basis": (n, n), "free": (n,), "guide": (n,)}
-        kinds = {"it": int, "null": int, "tag": int, "spec": bool, "done": bool, "alive": bool, "free": bool, "line": bool}
+        kinds = {"it": int, "null": int, "tag": int, "spec": bool, "done": bool, "alive": bool, "free": bool,
+                 "line": bool}
         for f in self._fields:
             a = np.zeros((size,) + shapes.get(f, ()), kinds.get(f, float))
             if old:
