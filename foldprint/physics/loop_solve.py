@@ -186,13 +186,15 @@ class Pool:
         big = np.abs(step).max(axis=1, initial=0.0)
         final = it >= GN_STEPS + NEWTON_STEPS
         stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | (it >= GN_STEPS))) | final
-        unsure = np.zeros_like(stop)
+        moving = ~stop
         check = np.nonzero(stop[:nl] & ~final[:nl])[0]
-        if check.size:
+        if check.size:  # a line solve that stopped: is the line the whole null space?
+            unsure = np.zeros_like(stop)
             unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
             self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
             stop &= ~unsure
-        drop = ~stop & ~unsure & self.spec[act] & (it + 1 >= GN_STEPS)
+            moving &= ~unsure
+        drop = moving & self.spec[act] & (it + 1 >= GN_STEPS)
         s = act[stop]
         if final.any():  # out of steps: no tangent space, not converged; null as of the step before
             self.res[s], self.done[s] = r[stop], (big[stop] < OPT_TOL) & ~final[stop]
@@ -202,11 +204,10 @@ class Pool:
             self.res[s], self.done[s] = r[stop], big[stop] < OPT_TOL
             self.basis[s], self.free[s] = vec[stop], free[stop]
             self.null[act] = null
-        go = ~stop & ~drop & ~unsure
+        go = moving & ~drop
         self.x[act[go]] = xa[go] + step[go] * np.minimum(1.0, MAX_STEP / np.maximum(big[go], 1e-300))[:, None]
         self.it[act] = it + go
-        self.alive[act[stop | drop]] = False
-
+        self.alive[act] = ~stop & ~drop
 
 def _gn_eigh(gram, g, d, stiff):
     """Gauss-Newton steps from the eigen-decomposition of J^T J (P, n, n): the closure

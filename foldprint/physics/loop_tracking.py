@@ -246,30 +246,35 @@ class _Requests:
         the flat sheet started ahead (a restart
         depends on its drive alone, so near the flat sheet, where every step restarts, the
         steps wait only for their solves from the last answer)."""
-        k, n_t = st.k[live], st.n_t
-        ek, ei = self.early_k[live], self.early[live]
-        r, c = np.nonzero((ek == k[:, None]) & ((st.nsub[live] == 1) & (st.sub[live] == 1))[:, None])
-        good = np.all(pool.target[ei[r, c]] == ys[r], axis=1)
+        k, n_t, j = st.k[live], st.n_t, np.arange(len(live))
+        ek, ei = self.early_k[live], self.early[live]  # a step's restart ahead sits in slot step % PREFETCH
         rows = np.full(len(live), -1)
-        rows[r[good]] = ei[r[good], c[good]]
-        gone = (ek >= 0) & (ek <= k[:, None])  # each step's own restart (taken or not) and older ones
-        ei[r[good], c[good]] = -1  # taken
-        pool.release(ei[gone & (ei >= 0)])
-        ek[gone], ei[gone] = -1, -1
+        if PREFETCH:
+            own = k % PREFETCH
+            h = np.nonzero((ek[j, own] == k) & (st.nsub[live] == 1) & (st.sub[live] == 1))[0]
+            h = h[np.all(pool.target[ei[h, own[h]]] == ys[h], axis=1)]
+            rows[h] = ei[h, own[h]]
+            ei[h, own[h]] = -1  # taken
+        gone = (ek >= 0) & (ek <= k[:, None])  # each step's own restart (unless taken) and older ones
+        if gone.any():
+            old = ei[gone]
+            pool.release(old[old >= 0])
+            ek[gone], ei[gone] = -1, -1
         new = rows < 0
-        rows[new] = pool.add(ys[new], ys[new])
+        if new.any():
+            rows[new] = pool.add(ys[new], ys[new])
         pool.tag[rows] = live
-        want = k[:, None] + 1 + np.arange(PREFETCH)
-        miss = ~(ek[:, None, :] == want[:, :, None]).any(axis=2) & (want < n_t)
-        miss &= st.flat[live[:, None], np.minimum(want, n_t - 1)]
-        mr, mc = np.nonzero(miss)
-        if mr.size:
-            slot = np.argsort(ek >= 0, axis=1, kind="stable")  # free slots first
-            rank = np.cumsum(miss, axis=1) - 1
-            d, kk = live[mr], want[mr, mc]
-            y0 = st.driven[d, kk - 1]
-            ids = pool.add(y0 + (st.driven[d, kk] - y0), y0 + (st.driven[d, kk] - y0))
-            ek[mr, slot[mr, rank[mr, mc]]], ei[mr, slot[mr, rank[mr, mc]]] = kk, ids
+        if PREFETCH:  # the steps ahead whose drive is near the flat sheet and that have no restart yet
+            want = k[:, None] + np.arange(1, PREFETCH + 1)
+            slot = want % PREFETCH
+            miss = (ek[j[:, None], slot] != want) & (want < n_t)
+            miss &= st.flat[live[:, None], np.minimum(want, n_t - 1)]
+            mr, mc = np.nonzero(miss)
+            if mr.size:
+                d, kk = live[mr], want[mr, mc]
+                y0 = st.driven[d, kk - 1]
+                ids = pool.add(y0 + (st.driven[d, kk] - y0), y0 + (st.driven[d, kk] - y0))
+                ek[mr, slot[mr, mc]], ei[mr, slot[mr, mc]] = kk, ids
         self.early_k[live], self.early[live] = ek, ei
         return rows
 
@@ -376,9 +381,9 @@ def _choose(sol: Solves, rows, x, ys, again, restart):
         return rows
     rows, b = rows.copy(), restart
     xn, xb, yb, x0 = sol.x[rows[again]], sol.x[b], ys[again], x[again]
-    take = ((np.abs(xn - yb).max(axis=1) > OPT_TOL) & (sol.res[b] <= LOST_TOL)
-            & (norms(xb - yb) < norms(xn - yb) - 1e-9)
-            & (np.abs(xb - x0).max(axis=1) <= np.abs(xn - x0).max(axis=1) + JUMP) & ~np.any(xb * yb < 0.0, axis=1))
+    miss = xn - yb
+    take = ((np.abs(miss).max(axis=1) > OPT_TOL) & (sol.res[b] <= LOST_TOL) & (norms(xb - yb) < norms(miss) - 1e-9)
+            & (np.abs(xb - x0).max(axis=1) <= np.abs(xn - x0).max(axis=1) + JUMP) & ~(xb * yb < 0.0).any(axis=1))
     rows[again[take]] = b[take]
     return rows
 

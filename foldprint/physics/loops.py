@@ -190,7 +190,8 @@ class LoopSolver:
         sn, c1 = np.sin(th), 1.0 - np.cos(th)
         r = sn[..., None, None] * self._p_k + c1[..., None, None] * self._p_k2  # (S, m, L, 3, 3), minus I
         r += self._eye
-        cols = np.broadcast_to(self._p_cols, r.shape).copy()
+        cols = np.empty(r.shape)
+        cols[...] = self._p_cols
         cols[..., 0] = -(sn[..., None] * self._p_kq + c1[..., None] * self._p_k2q)
         L = th.shape[2]
         cols6 = np.empty((S, m, L, 6))  # d C / d x at each place, its rotation part w first
