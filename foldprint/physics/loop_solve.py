@@ -152,7 +152,7 @@ class Pool:
         GN_STEPS + NEWTON_STEPS steps with the residual as it is and no tangent space.
         The live points are taken in the order line solves, eigen-decompositions, SVDs (near
         the flat sheet), so each kernel works on a slice."""
-        act = np.nonzero(self.alive)[0]
+        act = self.alive.nonzero()[0]
         x0 = self.x[act]
         line0 = self.line[act]
         v0 = ~line0 & (self.far[act] == 0) & (np.abs(x0).max(axis=1, initial=0.0) < SVD_BELOW)
@@ -187,9 +187,9 @@ class Pool:
         final = it >= GN_STEPS + NEWTON_STEPS
         stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | (it >= GN_STEPS))) | final
         moving = ~stop
-        check = np.nonzero(stop[:nl] & ~final[:nl])[0]
+        check = (stop[:nl] & ~final[:nl]).nonzero()[0]
         if check.size:  # a line solve that stopped: is the line the whole null space?
-            unsure = np.zeros_like(stop)
+            unsure = np.zeros(len(stop), bool)
             unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
             self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
             stop &= ~unsure

@@ -229,7 +229,7 @@ class _Requests:
         """Which open drives' current points have all stopped."""
         busy = np.zeros(len(self.open) + 1, bool)  # the last place: untagged points
         busy[pool.tag[pool.alive]] = True
-        return np.nonzero(self.open & ~busy[:-1])[0]
+        return (self.open & ~busy[:-1]).nonzero()[0]
 
     def forget(self, pool: Pool, i):
         """Drop the restarts drives ``i`` started ahead."""
@@ -251,8 +251,8 @@ class _Requests:
         rows = np.full(len(live), -1)
         if PREFETCH:
             own = k % PREFETCH
-            h = np.nonzero((ek[j, own] == k) & (st.nsub[live] == 1) & (st.sub[live] == 1))[0]
-            h = h[np.all(pool.target[ei[h, own[h]]] == ys[h], axis=1)]
+            h = ((ek[j, own] == k) & (st.nsub[live] == 1) & (st.sub[live] == 1)).nonzero()[0]
+            h = h[(pool.target[ei[h, own[h]]] == ys[h]).all(axis=1)]
             rows[h] = ei[h, own[h]]
             ei[h, own[h]] = -1  # taken
         gone = (ek >= 0) & (ek <= k[:, None])  # each step's own restart (unless taken) and older ones
@@ -269,7 +269,7 @@ class _Requests:
             slot = want % PREFETCH
             miss = (ek[j[:, None], slot] != want) & (want < n_t)
             miss &= st.flat[live[:, None], np.minimum(want, n_t - 1)]
-            mr, mc = np.nonzero(miss)
+            mr, mc = miss.nonzero()
             if mr.size:
                 d, kk = live[mr], want[mr, mc]
                 y0 = st.driven[d, kk - 1]
@@ -317,7 +317,7 @@ def _starts(st: _State, live, near, x, ys):
     pred = ~near & tangent
     first = near & tangent & st.plain[live]
     start, taken = x.copy(), np.zeros(len(live), int)
-    u = np.nonzero(pred | first)[0]
+    u = (pred | first).nonzero()[0]
     if u.size:
         i = live[u]
         p = predict(x[u], ys[u], st.basis[i], st.free[i])
@@ -355,7 +355,7 @@ def _ended(st: _State, pool: Pool, req: _Requests, live):
     """The live drives' points have all stopped: choose each one's answer (the restart
     near the flat sheet), end its step, keep what its window allows, free the rows."""
     w, main = req.w[live], req.main[live]
-    again = np.nonzero(req.restart[live] >= 0)[0]
+    again = (req.restart[live] >= 0).nonzero()[0]
     restart = req.restart[live[again]]
     sol = pool.solves()
     chosen = _choose(sol, main, st.x[live], req.ys[live], again, restart)
@@ -440,7 +440,7 @@ def _keep(st: _State, live, w, owner, offset, acc, sol: Solves, row, yw):
     has = w > 1
     d = live[has]
     st.width[d] = np.where(nacc[has] == w[has] - 1, np.minimum(2 * st.width[d], WINDOW), np.maximum(2, nacc[has] + 1))
-    q = np.nonzero(kept)[0]
+    q = kept.nonzero()[0]
     if not q.size:
         return
     d, k = live[owner[q]], st.k[live[owner[q]]] + offset[q] - 1
@@ -458,9 +458,9 @@ def _keep(st: _State, live, w, owner, offset, acc, sol: Solves, row, yw):
         folded = np.where(unfolded & (np.abs(x).max(axis=1) > 1e-3), q, len(owner))
         at = np.full(len(st.k), len(owner))
         np.minimum.at(at, d, folded)
-        f = np.nonzero(at < len(owner))[0]
+        f = (at < len(owner)).nonzero()[0]
         st.dof[f] = sol.null[row[at[f]]]
-    g = np.nonzero(nacc)[0]
+    g = nacc.nonzero()[0]
     last = first[g] + nacc[g] - 1
     st.settle(live[g], sol, row[last])
     st.prev[live[g]] = yw[last]

@@ -38,7 +38,8 @@ def _hat(w: np.ndarray) -> np.ndarray:
     return np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
 
 
-_NEXT, _PREV = [1, 2, 0], [2, 0, 1]
+_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
+_ROT_PLUS, _ROT_MINUS = np.array([7, 2, 3]), np.array([5, 6, 1])  # r21, r02, r10 and r12, r20, r01 of a flat 3 x 3
 
 
 def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -67,10 +68,10 @@ def _rotvecs(r: np.ndarray) -> np.ndarray:
     """:func:`_rotvec` of stacked rotations r (..., 3, 3)."""
     a = np.arccos(np.minimum(np.maximum((r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2] - 1) / 2, -1.0), 1.0))  # clip
     flat = r.reshape(r.shape[:-2] + (9,))
-    w = flat[..., [7, 2, 3]] - flat[..., [5, 6, 1]]  # r21 - r12, r02 - r20, r10 - r01
+    w = flat[..., _ROT_PLUS] - flat[..., _ROT_MINUS]
     small = a < 1e-6
     w *= np.where(small, 0.5, a / (2 * np.sin(np.where(small, 1.0, a))))[..., None]
-    if np.any(np.pi - a < 1e-6):  # pragma: no cover - half-turn residuals never occur near closure
+    if (np.pi - a < 1e-6).any():  # pragma: no cover - half-turn residuals never occur near closure
         for i in zip(*np.nonzero(np.pi - a < 1e-6)):
             w[i] = _rotvec(r[i])
     return w
