@@ -82,8 +82,8 @@ def predict(x, target, basis, free):
 class Pool:
     """Solves in progress and their answers, one row per point; rows are reused."""
 
-    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "line", "guide",
-               "tag")
+    _fields = ("x", "target", "it", "spec", "far", "plain", "res", "null", "done", "basis", "free", "alive", "line",
+               "guide", "tag")
 
     def __init__(self, n: int, size: int = 64):
         self.n, self.size = n, 0
@@ -94,7 +94,7 @@ class Pool:
         n, old = self.n, self.size
         shapes = {"x": (n,), "target": (n,), "basis": (n, n), "free": (n,), "guide": (n,)}
         kinds = {"it": int, "null": int, "tag": int, "spec": bool, "done": bool, "alive": bool, "free": bool,
-                 "line": bool}
+                 "line": bool, "plain": bool}
         for f in self._fields:
             a = np.zeros((size,) + shapes.get(f, ()), kinds.get(f, float))
             if old:
@@ -104,6 +104,7 @@ class Pool:
         stack[:self.nfree] = self.stack[:self.nfree]
         stack[self.nfree:self.nfree + size - old] = np.arange(old, size)
         self.stack, self.nfree, self.size = stack, self.nfree + size - old, size
+        self._all = Solves(self.x, self.res, self.null, self.done, self.basis, self.free, self.plain)
 
     def add(self, x, target, speculative=False, far=False, guide=None, taken=0, line=None, tag=-1):
         """New points from ``x`` (m, n) toward ``target``; returns their rows. ``taken``: the
@@ -121,6 +122,7 @@ class Pool:
         ids = self.stack[self.nfree:self.nfree + m].copy()
         self.x[ids], self.target[ids] = x, target
         self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = taken, speculative, far, True
+        self.plain[ids] = np.logical_not(far)
         self.res[ids], self.done[ids], self.null[ids], self.tag[ids] = np.inf, False, 0, tag
         if line is None:
             self.line[ids] = guide is not None
@@ -139,11 +141,11 @@ class Pool:
     def solves(self) -> Solves:
         """The answers of every row (the pool's own arrays, not copies: read them before
         the rows are reused)."""
-        return Solves(self.x, self.res, self.null, self.done, self.basis, self.free, self.far == 0)
+        return self._all
 
     def view(self, ids) -> Solves:
         return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids],
-                      self.far[ids] == 0)
+                      self.plain[ids])
 
     def round(self, evaluate):
         """One Gauss-Newton step of every live point: the step toward the nearest closed
@@ -155,7 +157,7 @@ class Pool:
         act = self.alive.nonzero()[0]
         x0 = self.x[act]
         line0 = self.line[act]
-        v0 = ~line0 & (self.far[act] == 0) & (np.abs(x0).max(axis=1, initial=0.0) < SVD_BELOW)
+        v0 = ~line0 & self.plain[act] & (np.abs(x0).max(axis=1, initial=0.0) < SVD_BELOW)
         nl, nv = np.count_nonzero(line0), np.count_nonzero(v0)
         if max(nl, nv, len(act) - nl - nv) < len(act):  # more than one kind: line, eigh, SVD in turn
             order = np.argsort(~line0 + v0.astype(int), kind="stable")
