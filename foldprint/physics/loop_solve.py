@@ -130,7 +130,8 @@ class Pool:
                 self.guide[ids] = guide
         else:
             self.line[ids] = line
-            self.guide[ids[line]] = guide
+            if len(guide):
+                self.guide[ids[line]] = guide
         return ids
 
     def release(self, ids):

@@ -112,10 +112,11 @@ class _State:
     def skip(self, i):
         """Advance the settled drives ``i`` over steps whose drive moved at most SKIP_TOL
         since the last solve (their answer is the last one)."""
-        k = np.minimum(self.k[i], self.n_t - 1)
+        k = self.k[i]
+        ready = (k > 0) & (k < self.n_t) & self.settled[i] & (self.sub[i] == 0)
+        i, k = i[ready], k[ready]
         tol = self.skip_tol(i)
-        idle = (self.k[i] < self.n_t) & (k > 0) & self.settled[i] & (self.sub[i] == 0) & (
-            np.abs(self.driven[i, k] - self.prev[i]).max(axis=1) <= tol)
+        idle = np.abs(self.driven[i, k] - self.prev[i]).max(axis=1, initial=0.0) <= tol
         for i, t in zip(i[idle], tol[idle]):
             nxt = self._moving(i, t)
             self.out[i, self.k[i]:nxt] = self.x[i]
@@ -136,7 +137,7 @@ class _State:
         """The drive motion (rad) below which drives ``i`` keep their answer: SKIP_FAR away
         from the flat sheet (a converged answer), SKIP_TOL near it, where the restarts from
         the drive choose the branch."""
-        far = self.tangent[i] & (np.abs(self.x[i]).max(axis=1, initial=0.0) >= NEAR_FLAT)
+        far = self.tangent[i] & (self.xmax[i] >= NEAR_FLAT)
         return np.where(far, SKIP_FAR, SKIP_TOL)
 
     def begin(self, live):
@@ -155,8 +156,9 @@ class _State:
         next steps whose drive moves (by more than SKIP_TOL, at most MAX_STEP) up to the
         drive's current width."""
         w = np.ones(len(live), int)
-        i = live[far]
-        w[far] = np.minimum(1 + np.minimum(self.run[i, self.k[i]], WINDOW), self.width[i])
+        if far.any():
+            i = live[far]
+            w[far] = np.minimum(1 + np.minimum(self.run[i, self.k[i]], WINDOW), self.width[i])
         return w
 
     def finish(self, i, y, x, res, null):
@@ -201,6 +203,8 @@ class _Counted:
 
 def _line(st: _State, d):
     """The tangent direction of drives ``d`` whose tangent space is a line."""
+    if not len(d):
+        return st.x[:0]
     return st.basis[d, :, st.free[d].argmax(axis=1)]
 
 
