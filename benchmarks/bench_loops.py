@@ -3,6 +3,8 @@ replaced, in the same run.
 
     python benchmarks/bench_loops.py [--repeat N] [--json PATH]
     python benchmarks/bench_loops.py --sizes 4,16,64
+    python benchmarks/bench_loops.py --record before.pkl   # then, after a change:
+    python benchmarks/bench_loops.py --against before.pkl
 
 
 For each template, the first 16 of ``check``'s samples (its seed, 1x scatter, its time
@@ -19,9 +21,14 @@ untouched (ratio ~1). ``--sizes`` instead times the closure tracking alone on ch
 those sizes and splits it into a cost per evaluation of C and J (the point's share of the
 evaluation, its Gauss-Newton kernel and bookkeeping) and a cost per round (the array code
 of a round whatever its size), by least squares over the sizes: what a chunk of 16 pays for
-its rounds. Each measurement is repeated (default 3; the two alternate, each
-first in turn) and the median kept; CPU time (this process) because other processes on a loaded machine slow
-wall time down; the load average is printed.
+its rounds. ``--record`` / ``--against`` instead save and compare, bit for bit, what the
+tracker decides for ``check``'s first 64 samples of both loop templates (closed angles,
+closures, events, evaluations and rounds per chunk, ``run_samples``' outcomes), tracked in
+chunks of 16 and in reversed chunks of 8 (which must agree too): a change that should only
+make the tracker cheaper must leave all of it unchanged. Each measurement is repeated
+(default 3; the two alternate, each first in turn) and the median kept; CPU time (this
+process) because other processes on a loaded machine slow wall time down; the load average
+is printed.
 """
 
 from __future__ import annotations
@@ -43,7 +50,7 @@ from foldprint.io.templates import templates_dir
 from foldprint.model import derived
 from foldprint.model.materials import default_library
 from foldprint.physics import kinematics
-from foldprint.physics.kinematics import run_times, solve_loops_many
+from foldprint.physics.kinematics import loop_dt, run_times, solve_loops_many
 from foldprint.physics.loops import LoopSolver
 from foldprint.simulation import robust
 from foldprint.simulation.scatter import default_scatter, iter_samples
@@ -136,13 +143,91 @@ def scaling(name: str, sizes: list[int], repeat: int) -> dict:
             "ms_per_round": round(per_round, 2)}
 
 
+def _tracked(d, lib, samples, size: int, order) -> dict:
+    """The closure tracker's answers for ``samples`` tracked in chunks of ``size`` taken in
+    ``order`` (indices into samples): per sample its angles and events, per chunk its
+    evaluations and rounds."""
+    import numpy as np
+
+    out, counts = {}, []
+    with derived.design_scope(d) as dd:
+        for a in range(0, len(order), size):
+            idx = order[a:a + size]
+            drives = robust.sample_drives(dd, lib, [samples[i] for i in idx], until_s=robust.run_end(dd, CHECK_DT_S))
+            s = drives[0].loops
+            e0, r0 = s.evaluations, s.rounds
+            times = run_times(dd, CHECK_DT_S)
+            solve_loops_many(drives, times)
+            counts.append((s.evaluations - e0, s.rounds - r0))
+            for i, x in zip(idx, drives):
+                sol = x.solve_loops(times, loop_dt(times))  # the lockstep's answer, not solved again
+                out[int(i)] = (np.array(sol.angles), sol.closure, sol.stuck, sol.locked_at, sol.dof)
+    return {"answers": [out[i] for i in range(len(samples))], "counts": counts}
+
+
+def answers(name: str, n: int = 4 * CHUNK) -> dict:
+    """Everything the tracker decides for ``check``'s first ``n`` samples of ``name``:
+    ``run_samples``'s outcomes chunk by chunk, the tracker's answers in chunks of CHUNK, and
+    the same in chunks of CHUNK // 2 taken in reverse order (another chunk composition)."""
+    import numpy as np
+
+    d, lib = load_design(templates_dir() / f"{name}.toml"), default_library()
+    samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), n))
+    args = lambda s: (d, lib, s, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD)  # noqa: E731
+    outcomes = [robust.run_samples(args(samples[a:a + CHUNK])) for a in range(0, n, CHUNK)]
+    return {"outcomes": outcomes, "chunks": _tracked(d, lib, samples, CHUNK, np.arange(n)),
+            "other": _tracked(d, lib, samples, CHUNK // 2, np.arange(n)[::-1])}
+
+
+def _apart(key: str, got: list, want: list) -> list[str]:
+    """The samples whose tracked answers differ bit for bit (angles, closure, events)."""
+    import numpy as np
+
+    return [f"{key}: sample {i} differs (largest angle difference {np.abs(a[0] - b[0]).max():.3g} rad)"
+            for i, (a, b) in enumerate(zip(got, want)) if not np.array_equal(a[0], b[0]) or a[1:] != b[1:]]
+
+
+def differences(got: dict, want: dict | None = None) -> list[str]:
+    """What differs bit for bit between the two chunk compositions of one :func:`answers`
+    and, given ``want`` (another run's, e.g. of the code before a change), between the two:
+    angles, closures, events, evaluations and rounds per chunk, outcomes."""
+    out = _apart("chunks of 16 / reversed chunks of 8", got["chunks"]["answers"], got["other"]["answers"])
+    if want is None:
+        return out
+    if got["outcomes"] != want["outcomes"]:
+        out.append("run_samples outcomes differ")
+    for key in ("chunks", "other"):
+        g, w = got[key], want[key]
+        if g["counts"] != w["counts"]:
+            out.append(f"{key}: evaluations/rounds {g['counts']} != {w['counts']}")
+        out += _apart(key, g["answers"], w["answers"])
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--json", type=Path, help="also write the results here")
     ap.add_argument("--sizes", help="instead: the tracking's cost per evaluation and per round, chunks of these sizes")
+    ap.add_argument("--record", type=Path, help="instead: save the tracker's answers on 4 chunks of check samples")
+    ap.add_argument("--against", type=Path, help="instead: compare them bit for bit with those --record saved")
     a = ap.parse_args(argv)
     load = os.getloadavg()[0]
+    if a.record or a.against:
+        import pickle
+
+        got = {name: answers(name) for name in TEMPLATES[:2]}
+        if a.record:
+            a.record.write_bytes(pickle.dumps(got))
+        want = pickle.loads(a.against.read_bytes()) if a.against else {}
+        bad = [f"{n}: {m}" for n, v in got.items() for m in differences(v, want.get(n))]
+        for name, v in got.items():
+            print(f"{name:20s} evaluations, rounds per chunk: {v['chunks']['counts']}")
+        print("\n".join(bad) or "the same answers, bit for bit, in both chunk compositions"
+              + (f" and as in {a.against}" if a.against else ""))
+        if a.record:
+            print(f"saved to {a.record}")
+        return 1 if bad else 0
     if a.sizes:
         sizes = [int(v) for v in a.sizes.split(",")]
         print(f"closure tracking alone, CPU ms per chunk (median of {a.repeat}); load average {load:.1f}")

@@ -190,14 +190,42 @@ def test_array_tracker_gives_the_replaced_trackers_answers_and_events(case):
 
 def test_lockstep_tracking_of_many_drives_gives_each_drives_own_answer():
     """track_many (the Monte-Carlo's chunk: one pool, one array evaluation per round) against
-    track of each drive alone: the same answers to round-off."""
+    track of each drive alone and of the drives in another order: the same answers bit for
+    bit (every array operation of a round is row by row, so which drives share a chunk, and
+    where in the pool their points sit, changes no number)."""
     d, grid, drivens = _check_drives("miura_3x3", 5)
     solver = _solvers(d)[0]
     many = solver.track_many(grid[:400], [v[:400] for v in drivens])
-    for v, got in zip(drivens, many):
+    back = solver.track_many(grid[:400], [v[:400] for v in drivens[::-1]])[::-1]
+    for v, got, other in zip(drivens, many, back):
         alone = solver.track(grid[:400], v[:400])
-        assert np.abs(got.angles - alone.angles).max() < 1e-12
-        assert (got.stuck, got.locked_at, got.dof) == (alone.stuck, alone.locked_at, alone.dof)
+        for x in (alone, other):
+            assert np.array_equal(got.angles, x.angles) and got.closure == x.closure
+            assert (got.stuck, got.locked_at, got.dof) == (x.stuck, x.locked_at, x.dof)
+
+
+def test_window_widths_are_the_next_steps_that_move_by_a_step_at_most():
+    """_State.ahead (from per-drive tables made once) against the definition, step by step:
+    1 plus the number of next grid steps in a row whose drive moves by more than SKIP_TOL and
+    at most MAX_STEP, at most WINDOW of them, capped by the drive's width."""
+    rng = np.random.default_rng(7)
+    n_t = 90
+    move = rng.choice([0.0, 1e-9, 0.05, loop_solve.MAX_STEP, 0.3], size=(3, n_t - 1, 2),
+                      p=[0.1, 0.05, 0.7, 0.05, 0.1])
+    driven = np.concatenate([np.zeros((3, 1, 2)), np.cumsum(move, axis=1)], axis=1)
+    state = loop_tracking._State(np.arange(float(n_t)), driven)
+    for k in range(n_t):
+        state.k[:], state.width[:] = k, [2, 16, loop_tracking.WINDOW]
+        got = state.ahead(np.arange(3), np.array([True, True, True]))
+        for d in range(3):
+            run = 0
+            while run < loop_tracking.WINDOW and k + run + 1 < n_t:
+                step = np.abs(driven[d, k + run + 1] - driven[d, k + run]).max()
+                if not loop_tracking.SKIP_TOL < step <= loop_solve.MAX_STEP:
+                    break
+                run += 1
+            assert got[d] == min(1 + run, state.width[d]), (d, k)
+        assert state.ahead(np.arange(3), np.zeros(3, bool)).tolist() == [1, 1, 1]
 
 
 def test_windows_solve_ahead_without_changing_the_answers(monkeypatch):
@@ -335,7 +363,7 @@ def test_near_the_flat_sheet_the_restart_is_taken_only_when_it_closed_nearer_wit
     sol = _solves(main + restart, res=[1e-12] * 8 + [1e-6] + [1e-12] * 3)
     ys = np.array([[0.1, 0.0]] * 5 + [[0.1, 0.002]])
     ys[1] = [0.1, -0.02 - 2 * j]  # a drive the restart reaches nearer, but far off the continued answer
-    rows = loop_tracking._choose(sol, np.zeros((6, 2)), ys, np.arange(6), 6)
+    rows = loop_tracking._choose(sol, np.arange(6), np.zeros((6, 2)), ys, np.arange(6), 6 + np.arange(6))
     assert rows.tolist() == [6, 1, 2, 3, 4, 5]
 
 
@@ -380,6 +408,7 @@ def test_away_from_the_flat_sheet_a_drive_that_barely_moved_keeps_its_answer(mon
     times, drive = np.arange(3.0), np.zeros((1, 3, 2))
     state = loop_tracking._State(times, np.repeat(drive, 3, axis=0))
     state.x[:] = [[0.5, 0.1], [0.05, 0.1], [0.5, 0.1]]
+    state.xmax[:] = np.abs(state.x).max(axis=1)  # as settle keeps it
     state.tangent[:] = [True, True, False]
     assert state.skip_tol(np.arange(3)).tolist() == [loop_tracking.SKIP_FAR, loop_tracking.SKIP_TOL,
                                                      loop_tracking.SKIP_TOL]
@@ -401,7 +430,7 @@ def test_away_from_the_flat_sheet_a_drive_that_barely_moved_keeps_its_answer(mon
 
 def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
     """From a converged answer near the flat sheet whose tangent space is by the plain rank
-    rule, _first_step starts the solve where one Gauss-Newton step from that answer
+    rule, _starts starts the solve where one Gauss-Newton step from that answer
     (evaluating C and J there) goes, and counts that step; a step below OPT_TOL is not taken
     (the solve then stops at the answer in one evaluation).
     On the parabola x1 = x0^2 (closed points exact, tangent (1, 2 x0))."""
@@ -416,19 +445,22 @@ def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
     state = loop_tracking._State(np.arange(2.0), np.zeros((2, 2, 2)))
     state.x[:], state.tangent[:], state.plain[:] = x, True, True
     state.basis[:], state.free[:] = pool.basis[ids[1]], pool.free[ids[1]]  # the tangent at x
-    start = x.copy()
-    taken = loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start)
-    assert taken.tolist() == [1, 0] and np.array_equal(start[1], x[1])
+    near = np.array([True, True])
+    start, taken, pred = loop_tracking._starts(state, np.arange(2), near, x, ys)
+    assert taken.tolist() == [1, 0] and np.array_equal(start[1], x[1]) and not pred.any()
+    p0 = start[0].copy()
     assert np.abs(start[0] - pool.x[ids[0]]).max() < 1e-12
     again = loop_solve.Pool(2, 2)
     row = again.add(start[:1], ys[:1], taken=taken[:1])
     assert again.it[row].tolist() == [1]
     state.plain[:] = False  # a tangent space by the far rank rule (RANK_RES, a line solve): evaluated again
-    start = x.copy()
-    assert loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start).tolist() == [0, 0]
+    assert loop_tracking._starts(state, np.arange(2), near, x, ys)[1].tolist() == [0, 0]
     state.plain[:], state.tangent[:] = True, False  # an unconverged answer: no step from its tangent space
-    assert loop_tracking._first_step(state, np.arange(2), np.array([True, True]), x, ys, start).tolist() == [0, 0]
-    assert np.array_equal(start, x)
+    start, taken, _ = loop_tracking._starts(state, np.arange(2), near, x, ys)
+    assert taken.tolist() == [0, 0] and np.array_equal(start, x)
+    state.plain[:], state.tangent[:] = False, True  # away from the flat sheet: the predictor, no step counted
+    start, taken, pred = loop_tracking._starts(state, np.arange(2), ~near, x, ys)
+    assert taken.tolist() == [0, 0] and pred.all() and np.abs(start[0] - p0).max() < 1e-12
     assert pool.view(ids).plain.tolist() == [True, True]  # the pool's points near flat (not far)
 
 
@@ -439,7 +471,14 @@ def test_the_first_step_from_the_tangent_space_saves_rounds_not_answers(monkeypa
     d, grid, drivens = _check_drives("cross_lock_uniform", 4)
     evaluate = _solvers(d)[0].residuals
     fast = loop_tracking.track(evaluate, grid[:300], np.stack(drivens)[:, :300])
-    monkeypatch.setattr(loop_tracking, "_first_step", lambda st, live, *a: np.zeros(len(live), int))
+    starts = loop_tracking._starts
+
+    def without(st, live, near, x, ys):  # near the flat sheet every solve starts at the answer
+        start, taken, pred = starts(st, live, near, x, ys)
+        start[near] = x[near]
+        return start, np.zeros_like(taken), pred
+
+    monkeypatch.setattr(loop_tracking, "_starts", without)
     slow = loop_tracking.track(evaluate, grid[:300], np.stack(drivens)[:, :300])
     assert np.abs(fast.angles - slow.angles).max() < ANGLE_TOL
     assert np.array_equal(fast.dof, slow.dof) and np.array_equal(fast.locked_at, slow.locked_at, equal_nan=True)

@@ -65,6 +65,12 @@ def _mv(a, v):
     return (a @ v[..., None])[..., 0]
 
 
+def norms(v):
+    """Euclidean norms of the rows of v (P, n): np.linalg.norm(v, axis=1), the same sums,
+    without its argument handling."""
+    return np.sqrt(np.add.reduce(v * v, axis=1))
+
+
 def predict(x, target, basis, free):
     """The predictor: from closed configurations x (P, n) along their tangent spaces toward
     ``target``, ``N N^T (target - x)``, no angle moved more than MAX_STEP."""
@@ -76,100 +82,135 @@ def predict(x, target, basis, free):
 class Pool:
     """Solves in progress and their answers, one row per point; rows are reused."""
 
-    _fields = ("x", "target", "it", "spec", "far", "res", "null", "done", "basis", "free", "alive", "line", "guide")
+    _fields = ("x", "target", "it", "spec", "far", "plain", "res", "null", "done", "basis", "free", "alive", "line",
+               "guide", "tag")
 
     def __init__(self, n: int, size: int = 64):
         self.n, self.size = n, 0
-        self.unused = np.zeros(0, int)
+        self.stack, self.nfree = np.zeros(0, int), 0  # the unused rows: stack[:nfree]
         self._grow(size)
 
     def _grow(self, size):
         n, old = self.n, self.size
         shapes = {"x": (n,), "target": (n,), "basis": (n, n), "free": (n,), "guide": (n,)}
-        kinds = {"it": int, "null": int, "spec": bool, "done": bool, "alive": bool, "free": bool, "line": bool}
+        kinds = {"it": int, "null": int, "tag": int, "spec": bool, "done": bool, "alive": bool, "free": bool,
+                 "line": bool, "plain": bool}
         for f in self._fields:
             a = np.zeros((size,) + shapes.get(f, ()), kinds.get(f, float))
             if old:
                 a[:old] = getattr(self, f)
             setattr(self, f, a)
-        self.unused = np.concatenate([self.unused, np.arange(old, size)])
-        self.size = size
+        stack = np.zeros(size, int)
+        stack[:self.nfree] = self.stack[:self.nfree]
+        stack[self.nfree:self.nfree + size - old] = np.arange(old, size)
+        self.stack, self.nfree, self.size = stack, self.nfree + size - old, size
+        self._all = Solves(self.x, self.res, self.null, self.done, self.basis, self.free, self.plain)
 
-    def add(self, x, target, speculative=False, far=False, guide=None, taken=0):
+    def add(self, x, target, speculative=False, far=False, guide=None, taken=0, line=None, tag=-1):
         """New points from ``x`` (m, n) toward ``target``; returns their rows. ``taken``: the
         Gauss-Newton steps already taken to reach ``x`` (a predictor's step).
         ``speculative``: dropped (not done) when not converged within GN_STEPS steps;
-        ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide`` (m, n):
-        the tangent direction of the answer they start from, where that tangent space is a
-        line (the points then solve with it instead of the eigen-decomposition, :func:`_gn_line`)."""
+        ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide``: the
+        tangent direction of the answer they start from, where that tangent space is a
+        line (the points then solve with it instead of the eigen-decomposition,
+        :func:`_gn_line`), one row per point, or per point of ``line`` (m,) where given;
+        ``tag``: an int kept with each point for the caller (the tracker: its drive)."""
         m = len(x)
-        if m > len(self.unused):
+        if m > self.nfree:
             self._grow(max(2 * self.size, self.size + m))
-        ids, self.unused = self.unused[:m], self.unused[m:]
+        self.nfree -= m
+        ids = self.stack[self.nfree:self.nfree + m].copy()
         self.x[ids], self.target[ids] = x, target
         self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = taken, speculative, far, True
-        self.res[ids], self.done[ids], self.null[ids] = np.inf, False, 0
-        self.line[ids] = guide is not None
-        if guide is not None:
-            self.guide[ids] = guide
+        self.plain[ids] = np.logical_not(far)
+        self.res[ids], self.done[ids], self.null[ids], self.tag[ids] = np.inf, False, 0, tag
+        if line is None:
+            self.line[ids] = guide is not None
+            if guide is not None:
+                self.guide[ids] = guide
+        else:
+            self.line[ids] = line
+            if len(guide):
+                self.guide[ids[line]] = guide
         return ids
 
     def release(self, ids):
         self.alive[ids] = False
-        self.unused = np.concatenate([self.unused, ids])
+        self.stack[self.nfree:self.nfree + len(ids)] = ids
+        self.nfree += len(ids)
+
+    def solves(self) -> Solves:
+        """The answers of every row (the pool's own arrays, not copies: read them before
+        the rows are reused)."""
+        return self._all
 
     def view(self, ids) -> Solves:
         return Solves(self.x[ids], self.res[ids], self.null[ids], self.done[ids], self.basis[ids], self.free[ids],
-                      self.far[ids] == 0)
+                      self.plain[ids])
 
     def round(self, evaluate):
         """One Gauss-Newton step of every live point: the step toward the nearest closed
         configuration for GN_STEPS steps, then only the closure correction; a point stops
         when closed and its step is below OPT_TOL (converged) or past GN_STEPS, and after
-        GN_STEPS + NEWTON_STEPS steps with the residual as it is and no tangent space."""
-        act = np.nonzero(self.alive)[0]
-        xa, it = self.x[act], self.it[act]
+        GN_STEPS + NEWTON_STEPS steps with the residual as it is and no tangent space.
+        The live points are taken in the order line solves, eigen-decompositions, SVDs (near
+        the flat sheet), so each kernel works on a slice."""
+        act = self.alive.nonzero()[0]
+        x0 = self.x[act]
+        line0 = self.line[act]
+        v0 = ~line0 & self.plain[act] & (np.abs(x0).max(axis=1, initial=0.0) < SVD_BELOW)
+        nl, nv = np.count_nonzero(line0), np.count_nonzero(v0)
+        if max(nl, nv, len(act) - nl - nv) < len(act):  # more than one kind: line, eigh, SVD in turn
+            order = np.argsort(~line0 + v0.astype(int), kind="stable")
+            act, xa = act[order], x0[order]
+        else:
+            xa = x0
+        a = len(act) - nv  # points [0, nl) take the line solve, [nl, a) the eigen-decomposition, [a, P) the SVD
+        it = self.it[act]
         c, jac = evaluate(xa)
         r = np.abs(c).max(axis=1, initial=0.0)
         d = (self.target[act] - xa) * (it < GN_STEPS)[:, None]
-        line = self.line[act]
-        v = ~line & (self.far[act] == 0) & (np.abs(xa).max(axis=1, initial=0.0) < SVD_BELOW)
         # J^T J and J^T C for the points that do not take the SVD
-        gram, g = np.empty((len(act), self.n, self.n)), np.empty(xa.shape)
-        jn = jac[~v]
+        jn = jac[:a]
         jt = jn.transpose(0, 2, 1)
-        gram[~v], g[~v] = jt @ jn, _mv(jt, c[~v])
-        step, vec = np.empty_like(xa), np.empty(gram.shape)
+        gram, g = jt @ jn, _mv(jt, c[:a])
+        step, vec = np.empty_like(xa), np.empty((len(act), self.n, self.n))
         free, null = np.zeros(xa.shape, bool), np.ones(len(act), int)
-        if line.any():
-            step[line], vec[line] = _gn_line(gram[line], g[line], d[line], self.guide[act[line]])
-            free[line, 0] = True
-            self.guide[act[line]] = vec[line, :, 0]
-        e = ~line & ~v
-        if e.any():
-            step[e], vec[e], free[e] = _gn_eigh(gram[e], g[e], d[e], RANK_RES * r[e] * self.far[act[e]])
-        if v.any():
-            step[v], vec[v], free[v] = _gn_svd(jac[v], c[v], d[v])
-        null[~line] = free[~line].sum(axis=1)
+        if nl:
+            step[:nl], vec[:nl] = _gn_line(gram[:nl], g[:nl], d[:nl], self.guide[act[:nl]])
+            free[:nl, 0] = True
+            self.guide[act[:nl]] = vec[:nl, :, 0]
+        if a > nl:
+            step[nl:a], vec[nl:a], free[nl:a] = _gn_eigh(gram[nl:], g[nl:], d[nl:a],
+                                                         RANK_RES * r[nl:a] * self.far[act[nl:a]])
+        if nv:
+            step[a:], vec[a:], free[a:] = _gn_svd(jac[a:], c[a:], d[a:])
+        null[nl:] = free[nl:].sum(axis=1)
         big = np.abs(step).max(axis=1, initial=0.0)
         final = it >= GN_STEPS + NEWTON_STEPS
         stop = ((r < CLOSURE_TOL) & ((big < OPT_TOL) | (it >= GN_STEPS))) | final
-        check = stop & line & ~final
-        unsure = np.zeros_like(stop)
-        if check.any():
+        moving = ~stop
+        check = (stop[:nl] & ~final[:nl]).nonzero()[0]
+        if check.size:  # a line solve that stopped: is the line the whole null space?
+            unsure = np.zeros(len(stop), bool)
             unsure[check] = ~_certified(jac[check], gram[check], vec[check, :, 0])
-        self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
-        stop &= ~unsure
-        drop = ~stop & ~unsure & self.spec[act] & (it + 1 >= GN_STEPS)
+            self.line[act[unsure]] = False  # evaluated again, with the eigen-decomposition
+            stop &= ~unsure
+            moving &= ~unsure
+        drop = moving & self.spec[act] & (it + 1 >= GN_STEPS)
         s = act[stop]
-        self.res[s], self.done[s] = r[stop], (big[stop] < OPT_TOL) & ~final[stop]
-        self.basis[s], self.free[s] = vec[stop], free[stop] & ~final[stop, None]
-        self.null[act[~final]] = null[~final]
-        go = ~stop & ~drop & ~unsure
+        if final.any():  # out of steps: no tangent space, not converged; null as of the step before
+            self.res[s], self.done[s] = r[stop], (big[stop] < OPT_TOL) & ~final[stop]
+            self.basis[s], self.free[s] = vec[stop], free[stop] & ~final[stop, None]
+            self.null[act[~final]] = null[~final]
+        else:
+            self.res[s], self.done[s] = r[stop], big[stop] < OPT_TOL
+            self.basis[s], self.free[s] = vec[stop], free[stop]
+            self.null[act] = null
+        go = moving & ~drop
         self.x[act[go]] = xa[go] + step[go] * np.minimum(1.0, MAX_STEP / np.maximum(big[go], 1e-300))[:, None]
-        self.it[act[go]] += 1
-        self.alive[act[stop | drop]] = False
-
+        self.it[act] = it + go
+        self.alive[act] = ~stop & ~drop
 
 def _gn_eigh(gram, g, d, stiff):
     """Gauss-Newton steps from the eigen-decomposition of J^T J (P, n, n): the closure
@@ -188,11 +229,12 @@ def _gn_svd(jac, c, d):
     Returns what :func:`_gn_eigh` does."""
     p, k, n = jac.shape
     u, sv, vt = np.linalg.svd(jac, full_matrices=k < n)
-    s = np.zeros((p, n))
-    s[:, :min(k, n)] = sv
+    if k >= n:  # n singular values, U^T C has n rows
+        s, uc = sv, _mv(u.transpose(0, 2, 1), c)
+    else:
+        s, uc = np.zeros((p, n)), np.zeros((p, n))
+        s[:, :k], uc[:, :k] = sv, _mv(u.transpose(0, 2, 1), c)
     keep = s > (RANK_TOL * np.maximum(1.0, s[:, :1]))
-    uc = np.zeros((p, n))
-    uc[:, :min(k, n)] = _mv(u.transpose(0, 2, 1), c)[:, :min(k, n)]
     vec = vt.transpose(0, 2, 1)
     coef = np.where(keep, -uc / np.where(keep, s, 1.0), _mv(vt, d))
     return _mv(vec, coef), vec, ~keep
@@ -205,8 +247,10 @@ def _gn_line(gram, g, d, guide):
     correction -J^+ C orthogonal to it. Returns the step and a basis (P, n, n) whose first
     column spans the line (the other columns are not used)."""
     a = gram + guide[:, :, None] * guide[:, None, :]
-    sol = np.linalg.solve(a, np.stack([guide, g], axis=2))
-    w = sol[..., 0] / np.linalg.norm(sol[..., 0], axis=1)[:, None]
+    rhs = np.empty(guide.shape + (2,))
+    rhs[..., 0], rhs[..., 1] = guide, g
+    sol = np.linalg.solve(a, rhs)
+    w = sol[..., 0] / norms(sol[..., 0])[:, None]
     dx = sol[..., 1]
     step = w * ((w * d).sum(axis=1) + (w * dx).sum(axis=1))[:, None] - dx
     vec = np.zeros(gram.shape)
@@ -220,7 +264,7 @@ def _certified(jac, gram, w):
     it (J^T J + w w^T less that threshold squared positive definite). The largest singular
     value is bounded by the Frobenius norm, so the test errs toward "no"."""
     thr = RANK_TOL * np.maximum(1.0, np.sqrt(np.trace(gram, axis1=1, axis2=2)))
-    ok = np.linalg.norm(_mv(jac, w), axis=1) <= thr
+    ok = norms(_mv(jac, w)) <= thr
     a = gram + w[:, :, None] * w[:, None, :] - (thr ** 2)[:, None, None] * np.eye(gram.shape[1])
     try:
         np.linalg.cholesky(a)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .loop_solve import MAX_STEP, OPT_TOL, Pool, Solves, predict
+from .loop_solve import MAX_STEP, OPT_TOL, Pool, Solves, norms, predict
 
 #: a hinge whose closed angle stays this far from its driven angle "cannot follow" (rad)
 FOLLOW_TOL = np.radians(2.0)
@@ -88,6 +88,8 @@ class _State:
         self.tangent = np.zeros(s, bool)  # the last answer converged: predict along its tangent
         self.plain = np.zeros(s, bool)  # ... its tangent space by the rank rule alone (near flat)
         self.settled = np.ones(s, bool)
+        self.xmax = np.zeros(s)  # the largest angle of x
+        self.line = np.zeros(s, bool)  # the tangent space is a line
         self.prev = np.zeros((s, n))  # the drive at the last solved step
         self.k = np.zeros(s, int)  # the next grid step
         self.sub = np.zeros(s, int)  # the continuation sub-step within step k (0: none begun)
@@ -98,14 +100,23 @@ class _State:
         self.res_x = np.zeros(s)
         self.width = np.full(s, 2)
         self.out = np.zeros_like(driven)
+        # per drive and grid step, fixed for the track: the drive near the flat sheet, and how
+        # many steps from there on in a row move it by more than SKIP_TOL and at most MAX_STEP
+        self.flat = np.abs(driven).max(axis=2, initial=0.0) < NEAR_FLAT
+        move = np.abs(np.diff(driven, axis=1)).max(axis=2, initial=0.0)
+        ok = np.concatenate([(move > SKIP_TOL) & (move <= MAX_STEP), np.zeros((s, 1), bool)], axis=1)
+        at = np.arange(self.n_t)
+        stop = np.minimum.accumulate(np.where(ok, self.n_t, at)[:, ::-1], axis=1)[:, ::-1]
+        self.run = stop - at
 
     def skip(self, i):
         """Advance the settled drives ``i`` over steps whose drive moved at most SKIP_TOL
         since the last solve (their answer is the last one)."""
-        k = np.minimum(self.k[i], self.n_t - 1)
+        k = self.k[i]
+        ready = (k > 0) & (k < self.n_t) & self.settled[i] & (self.sub[i] == 0)
+        i, k = i[ready], k[ready]
         tol = self.skip_tol(i)
-        idle = (self.k[i] < self.n_t) & (k > 0) & self.settled[i] & (self.sub[i] == 0) & (
-            np.abs(self.driven[i, k] - self.prev[i]).max(axis=1) <= tol)
+        idle = np.abs(self.driven[i, k] - self.prev[i]).max(axis=1, initial=0.0) <= tol
         for i, t in zip(i[idle], tol[idle]):
             nxt = self._moving(i, t)
             self.out[i, self.k[i]:nxt] = self.x[i]
@@ -126,19 +137,18 @@ class _State:
         """The drive motion (rad) below which drives ``i`` keep their answer: SKIP_FAR away
         from the flat sheet (a converged answer), SKIP_TOL near it, where the restarts from
         the drive choose the branch."""
-        far = self.tangent[i] & (np.abs(self.x[i]).max(axis=1, initial=0.0) >= NEAR_FLAT)
+        far = self.tangent[i] & (self.xmax[i] >= NEAR_FLAT)
         return np.where(far, SKIP_FAR, SKIP_TOL)
 
     def begin(self, live):
         """Targets of the live drives' next solve: their step's (sub-step's) drive."""
-        k = self.k[live]
-        y = self.driven[live, k]
-        fresh = self.sub[live] == 0
-        delta = np.abs(y - self.prev[live]).max(axis=1, initial=0.0)
-        self.nsub[live] = np.where(fresh, np.maximum(1, np.ceil(delta / MAX_STEP)).astype(int), self.nsub[live])
-        self.sub[live] = np.where(fresh, 1, self.sub[live])
-        frac = (self.sub[live] / self.nsub[live])[:, None]
-        return y, self.prev[live] + (y - self.prev[live]) * frac
+        y, prev, sub = self.driven[live, self.k[live]], self.prev[live], self.sub[live]
+        fresh = sub == 0
+        if fresh.any():
+            delta = np.abs(y - prev).max(axis=1, initial=0.0)
+            self.nsub[live] = np.where(fresh, np.maximum(1, np.ceil(delta / MAX_STEP)).astype(int), self.nsub[live])
+            self.sub[live] = sub = np.where(fresh, 1, sub)
+        return y, prev + (y - prev) * (sub / self.nsub[live])[:, None]
 
     def ahead(self, live, far):
         """Window widths (len(live),): how many grid steps from k each live drive solves now;
@@ -146,21 +156,18 @@ class _State:
         next steps whose drive moves (by more than SKIP_TOL, at most MAX_STEP) up to the
         drive's current width."""
         w = np.ones(len(live), int)
-        if not far.any():
-            return w
-        i = live[far]
-        idx = np.minimum(self.k[i, None] + np.arange(WINDOW + 1), self.n_t - 1)
-        y = self.driven[i[:, None], idx]
-        d = np.abs(np.diff(y, axis=1)).max(axis=2)
-        ok = (d > SKIP_TOL) & (d <= MAX_STEP) & (self.k[i, None] + np.arange(1, WINDOW + 1) < self.n_t)
-        w[far] = np.minimum(1 + np.cumprod(ok, axis=1).sum(axis=1), self.width[i])
+        if far.any():
+            i = live[far]
+            w[far] = np.minimum(1 + np.minimum(self.run[i, self.k[i]], WINDOW), self.width[i])
         return w
 
     def finish(self, i, y, x, res, null):
         """End grid step k of drives ``i``: their answer ``x`` (len(i), n) for drive ``y``."""
         k = self.k[i]
-        stop = np.isnan(self.locked[i]) & (null == 0) & (np.abs(x - y).max(axis=1, initial=0.0) > FOLLOW_TOL)
-        self.locked[i[stop]] = self.times[k[stop]]
+        stop = null == 0  # no motion left: locked where the answer is more than FOLLOW_TOL from the drive
+        if stop.any():
+            stop &= np.isnan(self.locked[i]) & (np.abs(x - y).max(axis=1, initial=0.0) > FOLLOW_TOL)
+            self.locked[i[stop]] = self.times[k[stop]]
         self.worst[i] = np.maximum(self.worst[i], res)
         self.prev[i] = y
         self.out[i, k] = x
@@ -169,12 +176,17 @@ class _State:
 
     def settle(self, i, sol: Solves, rows):
         """Take the converged answers ``sol`` rows ``rows`` as the drives' ``i`` configuration."""
-        self.x[i], self.res_x[i] = sol.x[rows], sol.res[rows]
+        x, free = sol.x[rows], sol.free[rows]
+        self.x[i], self.res_x[i] = x, sol.res[rows]
         self.settled[i] = self.tangent[i] = sol.done[rows]
-        self.basis[i], self.free[i] = sol.basis[rows], sol.free[rows]
+        self.basis[i], self.free[i] = sol.basis[rows], free
+        self.line[i] = free.sum(axis=1) == 1
         self.plain[i] = True if sol.plain is None else sol.plain[rows]
-        first = (self.dof[i] < 0) & (np.abs(sol.x[rows]).max(axis=1, initial=0.0) > 1e-3)
-        self.dof[i[first]] = sol.null[rows][first]
+        self.xmax[i] = big = np.abs(x).max(axis=1, initial=0.0)
+        first = self.dof[i] < 0
+        if first.any():
+            first &= big > 1e-3
+            self.dof[i[first]] = sol.null[rows][first]
 
 
 class _Counted:
@@ -191,6 +203,8 @@ class _Counted:
 
 def _line(st: _State, d):
     """The tangent direction of drives ``d`` whose tangent space is a line."""
+    if not len(d):
+        return st.x[:0]
     return st.basis[d, :, st.free[d].argmax(axis=1)]
 
 
@@ -202,7 +216,8 @@ def _blocks(w):
 
 class _Requests:
     """Per drive, the points of the step it is solving: its main solve, its restart from
-    the drive (near the flat sheet) and its window points."""
+    the drive (near the flat sheet) and its window points. The pool tags each with its
+    drive (restarts started ahead: -1 until their step takes them)."""
 
     def __init__(self, s: int, n: int):
         self.open = np.zeros(s, bool)
@@ -214,15 +229,19 @@ class _Requests:
         self.early = np.full((s, PREFETCH), -1)  # restarts started ahead: their rows ...
         self.early_k = np.full((s, PREFETCH), -1)  # ... and grid steps
 
-    def busy(self, pool: Pool):
-        """Which drives' current points are not all stopped."""
-        win = (np.arange(WINDOW)[None] < self.w[:, None] - 1) & pool.alive[self.window]
-        return self.open & (pool.alive[self.main] | ((self.restart >= 0) & pool.alive[self.restart]) | win.any(axis=1))
+    def stopped(self, pool: Pool):
+        """Which open drives' current points have all stopped."""
+        busy = np.zeros(len(self.open) + 1, bool)  # the last place: untagged points
+        busy[pool.tag[pool.alive]] = True
+        return (self.open & ~busy[:-1]).nonzero()[0]
 
     def forget(self, pool: Pool, i):
         """Drop the restarts drives ``i`` started ahead."""
-        pool.release(self.early[i][self.early[i] >= 0])
-        self.early[i], self.early_k[i] = -1, -1
+        e = self.early[i]
+        some = e >= 0
+        if some.any():
+            pool.release(e[some])
+            self.early[i], self.early_k[i] = -1, -1
 
     def _restarts(self, st: _State, pool: Pool, live, ys):
         """Rows of the live drives' restarts from their drive at step k (answer and drive
@@ -231,31 +250,35 @@ class _Requests:
         the flat sheet started ahead (a restart
         depends on its drive alone, so near the flat sheet, where every step restarts, the
         steps wait only for their solves from the last answer)."""
-        k, n_t = st.k[live], st.n_t
-        ek, ei = self.early_k[live], self.early[live]
-        hit = (ek == k[:, None]) & ((st.nsub[live] == 1) & (st.sub[live] == 1))[:, None]
-        r, c = np.nonzero(hit)
-        good = np.all(pool.target[ei[r, c]] == ys[r], axis=1)
+        k, n_t, j = st.k[live], st.n_t, np.arange(len(live))
+        ek, ei = self.early_k[live], self.early[live]  # a step's restart ahead sits in slot step % PREFETCH
         rows = np.full(len(live), -1)
-        rows[r[good]] = ei[r[good], c[good]]
-        taken = np.zeros_like(hit)
-        taken[r[good], c[good]] = True
-        stale = (ek >= 0) & (ek <= k[:, None]) & ~taken
-        pool.release(ei[stale])
-        ek, ei = np.where(stale | taken, -1, ek), np.where(stale | taken, -1, ei)
+        if PREFETCH:
+            own = k % PREFETCH
+            h = ((ek[j, own] == k) & (st.nsub[live] == 1) & (st.sub[live] == 1)).nonzero()[0]
+            h = h[(pool.target[ei[h, own[h]]] == ys[h]).all(axis=1)]
+            rows[h] = ei[h, own[h]]
+            ei[h, own[h]] = -1  # taken
+        gone = (ek >= 0) & (ek <= k[:, None])  # each step's own restart (unless taken) and older ones
+        if gone.any():
+            old = ei[gone]
+            pool.release(old[old >= 0])
+            ek[gone], ei[gone] = -1, -1
         new = rows < 0
-        rows[new] = pool.add(ys[new], ys[new])
-        want = k[:, None] + 1 + np.arange(PREFETCH)
-        miss = ~(ek[:, None, :] == want[:, :, None]).any(axis=2) & (want < n_t)
-        miss &= np.abs(st.driven[live[:, None], np.minimum(want, n_t - 1)]).max(axis=2) < NEAR_FLAT
-        slot = np.argsort(ek >= 0, axis=1, kind="stable")  # free slots first
-        rank = np.cumsum(miss, axis=1) - 1
-        mr, mc = np.nonzero(miss)
-        if mr.size:
-            d, kk = live[mr], want[mr, mc]
-            y0 = st.driven[d, kk - 1]
-            ids = pool.add(y0 + (st.driven[d, kk] - y0), y0 + (st.driven[d, kk] - y0))
-            ek[mr, slot[mr, rank[mr, mc]]], ei[mr, slot[mr, rank[mr, mc]]] = kk, ids
+        if new.any():
+            rows[new] = pool.add(ys[new], ys[new])
+        pool.tag[rows] = live
+        if PREFETCH:  # the steps ahead whose drive is near the flat sheet and that have no restart yet
+            want = k[:, None] + np.arange(1, PREFETCH + 1)
+            slot = want % PREFETCH
+            miss = (ek[j[:, None], slot] != want) & (want < n_t)
+            miss &= st.flat[live[:, None], np.minimum(want, n_t - 1)]
+            mr, mc = miss.nonzero()
+            if mr.size:
+                d, kk = live[mr], want[mr, mc]
+                y0 = st.driven[d, kk - 1]
+                ids = pool.add(y0 + (st.driven[d, kk] - y0), y0 + (st.driven[d, kk] - y0))
+                ek[mr, slot[mr, mc]], ei[mr, slot[mr, mc]] = kk, ids
         self.early_k[live], self.early[live] = ek, ei
         return rows
 
@@ -263,50 +286,49 @@ class _Requests:
         """Put the live drives' next points into the pool."""
         y, ys = st.begin(live)
         x = st.x[live]
-        near = np.abs(x).max(axis=1, initial=0.0) < NEAR_FLAT
-        pred = ~near & st.tangent[live]
+        near = st.xmax[live] < NEAR_FLAT
+        start, taken, pred = _starts(st, live, near, x, ys)
         w = st.ahead(live, pred & (st.nsub[live] == 1))
-        start = x.copy()
-        i = live[pred]
-        start[pred] = predict(x[pred], ys[pred], st.basis[i], st.free[i])
-        taken = _first_step(st, live, near, x, ys, start)
-        line = pred & (st.free[live].sum(axis=1) == 1)
-        self.main[live[~line]] = pool.add(start[~line], ys[~line], far=pred[~line], taken=taken[~line])
-        self.main[live[line]] = pool.add(start[line], ys[line], far=True, guide=_line(st, live[line]))
+        line = pred & st.line[live]
+        self.main[live] = pool.add(start, ys, far=pred, taken=taken, line=line, guide=_line(st, live[line]), tag=live)
         self.restart[live] = -1
         again = near & (np.abs(ys).max(axis=1, initial=0.0) < NEAR_FLAT)  # the drive too
-        self.restart[live[again]] = self._restarts(st, pool, live[again], ys[again])
+        if again.any():
+            self.restart[live[again]] = self._restarts(st, pool, live[again], ys[again])
         self.forget(pool, live[~again])
-        owner, offset = _blocks(w)
-        if len(owner):
+        if w.max() > 1:
+            owner, offset = _blocks(w)
             d = live[owner]
             k = st.k[d] + offset
             guess = predict(st.x[d], st.driven[d, k], st.basis[d], st.free[d])
-            line = st.free[d].sum(axis=1) == 1
-            self.window[d[~line], offset[~line] - 1] = pool.add(guess[~line], st.driven[d[~line], k[~line]],
-                                                                speculative=True, far=True)
-            self.window[d[line], offset[line] - 1] = pool.add(guess[line], st.driven[d[line], k[line]],
-                                                              speculative=True, far=True, guide=_line(st, d[line]))
+            line = st.line[d]
+            self.window[d, offset - 1] = pool.add(guess, st.driven[d, k], speculative=True, far=True, line=line,
+                                                  guide=_line(st, d[line]), tag=d)
         self.w[live], self.y[live], self.ys[live] = w, y, ys
         self.open[live] = True
 
 
-def _first_step(st: _State, live, near, x, ys, start):
-    """Near the flat sheet, the first Gauss-Newton step from a converged answer x (closed:
-    the step is its tangent space's part of the drive, :func:`predict`) taken without
-    evaluating C and J at x again (its basis is that of the evaluation x converged at, when
-    that evaluation took the rank rule a point near the flat sheet takes):
-    ``start`` gets the step where it moves an angle by OPT_TOL or more (below, the solve stops
-    at x in one evaluation). Returns the steps taken (0 or 1) per live drive."""
-    taken = np.zeros(len(live), int)
-    k = np.nonzero(near & st.tangent[live] & st.plain[live])[0]
-    if k.size:
-        i = live[k]
-        p = predict(x[k], ys[k], st.basis[i], st.free[i])
-        moved = np.abs(p - x[k]).max(axis=1, initial=0.0) >= OPT_TOL
-        start[k[moved]] = p[moved]
-        taken[k[moved]] = 1
-    return taken
+def _starts(st: _State, live, near, x, ys):
+    """Where the live drives' solves from their converged answers x start, and the
+    Gauss-Newton steps that took (0 or 1): away from the flat sheet the predictor along the
+    tangent space (:func:`predict`); near it, the first Gauss-Newton step from an answer
+    whose basis is that of the evaluation it converged at (the rank rule a point near the
+    flat sheet takes), taken without evaluating C and J at x again (closed: the step is its
+    tangent space's part of the drive), where it moves an angle by OPT_TOL or more (below,
+    the solve stops at x in one evaluation). Returns the starts, the steps taken and which
+    drives predicted (away from the flat sheet, with a tangent)."""
+    tangent = st.tangent[live]
+    pred = ~near & tangent
+    first = near & tangent & st.plain[live]
+    start, taken = x.copy(), np.zeros(len(live), int)
+    u = (pred | first).nonzero()[0]
+    if u.size:
+        i = live[u]
+        p = predict(x[u], ys[u], st.basis[i], st.free[i])
+        moved = pred[u] | (np.abs(p - x[u]).max(axis=1, initial=0.0) >= OPT_TOL)
+        start[u[moved]] = p[moved]
+        taken[u[moved & first[u]]] = 1
+    return start, taken, pred
 
 
 def track(evaluate, times, driven) -> Tracks:
@@ -319,14 +341,15 @@ def track(evaluate, times, driven) -> Tracks:
     while True:
         if todo.size:
             st.skip(todo)
-            live = todo[st.k[todo] < st.n_t]
-            req.forget(pool, todo[st.k[todo] >= st.n_t])
+            over = st.k[todo] >= st.n_t
+            req.forget(pool, todo[over])
+            live = todo[~over]
             if live.size:
                 req.post(st, pool, live)
         if not pool.alive.any():
             break
         pool.round(ev)
-        todo = np.nonzero(req.open & ~req.busy(pool))[0]
+        todo = req.stopped(pool)
         if todo.size:
             _ended(st, pool, req, todo)
     return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
@@ -335,35 +358,36 @@ def track(evaluate, times, driven) -> Tracks:
 def _ended(st: _State, pool: Pool, req: _Requests, live):
     """The live drives' points have all stopped: choose each one's answer (the restart
     near the flat sheet), end its step, keep what its window allows, free the rows."""
-    w = req.w[live]
-    owner, offset = _blocks(w)
-    again = np.nonzero(req.restart[live] >= 0)[0]
-    rows = np.concatenate([req.main[live], req.window[live[owner], offset - 1], req.restart[live[again]]])
-    sol = pool.view(rows)
-    main = _choose(sol, st.x[live], req.ys[live], again, len(live) + len(owner))
-    ok = _after_main(st, live, req.y[live], sol, main)
-    if len(owner):
-        _window(st, live, w, ok, sol, main, owner, offset)
-    pool.release(rows)
+    w, main = req.w[live], req.main[live]
+    again = (req.restart[live] >= 0).nonzero()[0]
+    restart = req.restart[live[again]]
+    sol = pool.solves()
+    chosen = _choose(sol, main, st.x[live], req.ys[live], again, restart)
+    ok = _after_main(st, live, req.y[live], sol, chosen)
+    rows = [main, restart]
+    if w.max() > 1:
+        owner, offset = _blocks(w)
+        rows.append(req.window[live[owner], offset - 1])
+        _window(st, live, w, ok, sol, chosen, owner, offset, rows[-1])
+    pool.release(np.concatenate(rows))
     req.open[live] = False
 
 
-def _choose(sol: Solves, x, ys, again, base):
+def _choose(sol: Solves, rows, x, ys, again, restart):
     """Rows of ``sol`` holding each drive's answer: its solve from the last answer ``x``
-    (row j), or, near the flat sheet (drives ``again``, whose restart from the drive is row
-    base + j), the restart where the continued answer missed the drive and the restart
+    (``rows``), or, near the flat sheet (drives ``again``, whose restart from the drive is
+    row ``restart``), the restart where the continued answer missed the drive and the restart
     closed nearer to it without jumping more than JUMP farther (a drive starting on a
     branch's tangent does not stall at the bifurcation), and puts no hinge on the other side
     of flat from its drive (a drive keeps its target's sign at every instant; the other
     side is another branch, the one a scattered drive would flip to)."""
-    rows = np.arange(len(x))
     if not len(again):
         return rows
-    b = base + np.arange(len(again))
+    rows, b = rows.copy(), restart
     xn, xb, yb, x0 = sol.x[rows[again]], sol.x[b], ys[again], x[again]
-    take = ((np.abs(xn - yb).max(axis=1) > OPT_TOL) & (sol.res[b] <= LOST_TOL)
-            & (np.linalg.norm(xb - yb, axis=1) < np.linalg.norm(xn - yb, axis=1) - 1e-9)
-            & (np.abs(xb - x0).max(axis=1) <= np.abs(xn - x0).max(axis=1) + JUMP) & ~np.any(xb * yb < 0.0, axis=1))
+    miss = xn - yb
+    take = ((np.abs(miss).max(axis=1) > OPT_TOL) & (sol.res[b] <= LOST_TOL) & (norms(xb - yb) < norms(miss) - 1e-9)
+            & (np.abs(xb - x0).max(axis=1) <= np.abs(xn - x0).max(axis=1) + JUMP) & ~(xb * yb < 0.0).any(axis=1))
     rows[again[take]] = b[take]
     return rows
 
@@ -372,12 +396,14 @@ def _after_main(st: _State, live, y, sol: Solves, rows):
     """The live drives' solves of their next step (sub-step): a solve that lost the manifold
     holds the last closed configuration and ends the step (the drive is locked there);
     otherwise its answer is taken. Returns which drives ended their step converged."""
-    res = sol.res[rows]
-    lost = res > LOST_TOL
-    i = live[lost]
-    st.settled[i] = True
-    st.locked[i] = np.where(np.isnan(st.locked[i]), st.times[st.k[i]], st.locked[i])
-    st.settle(live[~lost], sol, rows[~lost])
+    lost = sol.res[rows] > LOST_TOL
+    if lost.any():
+        i = live[lost]
+        st.settled[i] = True
+        st.locked[i] = np.where(np.isnan(st.locked[i]), st.times[st.k[i]], st.locked[i])
+        st.settle(live[~lost], sol, rows[~lost])
+    else:
+        st.settle(live, sol, rows)
     ended = lost | (st.sub[live] >= st.nsub[live])
     st.sub[live[~ended]] += 1
     e = live[ended]
@@ -385,11 +411,11 @@ def _after_main(st: _State, live, y, sol: Solves, rows):
     return ~lost & ended & sol.done[rows]
 
 
-def _window(st: _State, live, w, ok, sol: Solves, main, owner, offset):
-    """Keep each window's answers up to the first one the step-by-step tracker might not
-    have given (:func:`_acceptable`, the answer before it being the one kept last)."""
-    row = len(live) + np.arange(len(owner))
-    prev = np.where(offset == 1, main[owner], row - 1)
+def _window(st: _State, live, w, ok, sol: Solves, main, owner, offset, row):
+    """Keep each window's answers (rows ``row`` of ``sol``, drive ``live[owner]``'s
+    ``offset``-th) up to the first one the step-by-step tracker might not have given
+    (:func:`_acceptable`, the answer before it being the one kept last)."""
+    prev = np.where(offset == 1, main[owner], np.concatenate([row[-1:], row[:-1]]))  # the point before
     yw = st.driven[live[owner], st.k[live[owner]] + offset - 1]
     _keep(st, live, w, owner, offset, ok[owner] & _acceptable(sol, prev, row, yw), sol, row, yw)
 
@@ -418,23 +444,27 @@ def _keep(st: _State, live, w, owner, offset, acc, sol: Solves, row, yw):
     has = w > 1
     d = live[has]
     st.width[d] = np.where(nacc[has] == w[has] - 1, np.minimum(2 * st.width[d], WINDOW), np.maximum(2, nacc[has] + 1))
-    q = np.nonzero(kept)[0]
+    q = kept.nonzero()[0]
     if not q.size:
         return
     d, k = live[owner[q]], st.k[live[owner[q]]] + offset[q] - 1
     x, y, r = sol.x[row[q]], yw[q], row[q]
     st.out[d, k] = x
-    t = np.where((sol.null[r] == 0) & (np.abs(x - y).max(axis=1) > FOLLOW_TOL), st.times[k], np.inf)
-    first_stop = np.full(len(st.k), np.inf)
-    np.minimum.at(first_stop, d, t)
-    st.locked = np.where(np.isnan(st.locked) & np.isfinite(first_stop), first_stop, st.locked)
+    rigid = sol.null[r] == 0
+    if rigid.any():
+        t = np.where(rigid & (np.abs(x - y).max(axis=1) > FOLLOW_TOL), st.times[k], np.inf)
+        first_stop = np.full(len(st.k), np.inf)
+        np.minimum.at(first_stop, d, t)
+        st.locked = np.where(np.isnan(st.locked) & np.isfinite(first_stop), first_stop, st.locked)
     np.maximum.at(st.worst, d, sol.res[r])
-    folded = np.where((st.dof[d] < 0) & (np.abs(x).max(axis=1) > 1e-3), q, len(owner))
-    at = np.full(len(st.k), len(owner))
-    np.minimum.at(at, d, folded)
-    f = np.nonzero(at < len(owner))[0]
-    st.dof[f] = sol.null[row[at[f]]]
-    g = np.nonzero(nacc)[0]
+    unfolded = st.dof[d] < 0
+    if unfolded.any():
+        folded = np.where(unfolded & (np.abs(x).max(axis=1) > 1e-3), q, len(owner))
+        at = np.full(len(st.k), len(owner))
+        np.minimum.at(at, d, folded)
+        f = (at < len(owner)).nonzero()[0]
+        st.dof[f] = sol.null[row[at[f]]]
+    g = nacc.nonzero()[0]
     last = first[g] + nacc[g] - 1
     st.settle(live[g], sol, row[last])
     st.prev[live[g]] = yw[last]

@@ -38,13 +38,14 @@ def _hat(w: np.ndarray) -> np.ndarray:
     return np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
 
 
+_NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])
+_ROT_PLUS, _ROT_MINUS = np.array([7, 2, 3]), np.array([5, 6, 1])  # r21, r02, r10 and r12, r20, r01 of a flat 3 x 3
+
+
 def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross products of (..., 3) arrays (np.cross without its axis bookkeeping)."""
-    out = np.empty(np.broadcast(a, b).shape)
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
+    """Cross products of (..., 3) arrays (np.cross without its axis bookkeeping): component
+    i is a[i+1] b[i+2] - a[i+2] b[i+1]."""
+    return a[..., _NEXT] * b[..., _PREV] - a[..., _PREV] * b[..., _NEXT]
 
 
 def _rotvec(r: np.ndarray) -> np.ndarray:
@@ -65,11 +66,12 @@ def _rotvec(r: np.ndarray) -> np.ndarray:
 
 def _rotvecs(r: np.ndarray) -> np.ndarray:
     """:func:`_rotvec` of stacked rotations r (..., 3, 3)."""
-    a = np.arccos(np.clip((r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2] - 1) / 2, -1.0, 1.0))
-    w = np.stack([r[..., 2, 1] - r[..., 1, 2], r[..., 0, 2] - r[..., 2, 0], r[..., 1, 0] - r[..., 0, 1]], axis=-1)
+    a = np.arccos(np.minimum(np.maximum((r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2] - 1) / 2, -1.0), 1.0))  # clip
+    flat = r.reshape(r.shape[:-2] + (9,))
+    w = flat[..., _ROT_PLUS] - flat[..., _ROT_MINUS]
     small = a < 1e-6
     w *= np.where(small, 0.5, a / (2 * np.sin(np.where(small, 1.0, a))))[..., None]
-    if np.any(np.pi - a < 1e-6):  # pragma: no cover - half-turn residuals never occur near closure
+    if (np.pi - a < 1e-6).any():  # pragma: no cover - half-turn residuals never occur near closure
         for i in zip(*np.nonzero(np.pi - a < 1e-6)):
             w[i] = _rotvec(r[i])
     return w
@@ -150,6 +152,7 @@ class LoopSolver:
         self.twist = np.hstack([self.axis, -np.cross(self.axis, self.point)])
         self._k = np.array([_hat(a) for a in self.axis]).reshape(self.n, 3, 3)
         self._k2 = self._k @ self._k
+        self._eye = np.eye(3)
         # the cycles padded to one length L for the batched residual: a padded place is hinge
         # n (an identity factor) with sign 0, so it adds nothing to C or J
         m, L = len(self.cycles), max((len(c) for c in self.cycles), default=0)
@@ -187,11 +190,13 @@ class LoopSolver:
         th = np.concatenate([xs, np.zeros((S, 1))], axis=1)[:, self._pk] * self._p_sign  # (S, m, L) signed angles
         sn, c1 = np.sin(th), 1.0 - np.cos(th)
         r = sn[..., None, None] * self._p_k + c1[..., None, None] * self._p_k2  # (S, m, L, 3, 3), minus I
-        r += np.eye(3)
-        cols = np.broadcast_to(self._p_cols, r.shape).copy()
+        r += self._eye
+        cols = np.empty(r.shape)
+        cols[...] = self._p_cols
         cols[..., 0] = -(sn[..., None] * self._p_kq + c1[..., None] * self._p_k2q)
         L = th.shape[2]
-        w, q = np.empty((S, m, L, 3)), np.empty((S, m, L, 3))  # each place's axis and point, moved
+        cols6 = np.empty((S, m, L, 6))  # d C / d x at each place, its rotation part w first
+        w, q = cols6[..., :3], np.empty((S, m, L, 3))  # each place's axis and point, moved
         gr, gt = r[:, :, 0], cols[:, :, 0, :, 0]
         w[:, :, 0], q[:, :, 0] = cols[:, :, 0, :, 1], cols[:, :, 0, :, 2]
         for l in range(1, L):
@@ -206,7 +211,7 @@ class LoopSolver:
         if not jacobian:
             return c, None
         # d C / d x_k: the twist of place k moved by its prefix, (w, (q - p) x w), signed
-        cols6 = np.concatenate([w, _cross3(q - gt[:, :, None], w)], axis=3)  # (S, m, L, 6)
+        cols6[..., 3:] = _cross3(q - gt[:, :, None], w)
         return c, (cols6.transpose(0, 1, 3, 2) @ self._p_onto).reshape(S, 6 * m, self.n)
 
     def closure(self, x: np.ndarray) -> float:
