@@ -502,7 +502,7 @@ def test_a_step_is_certified_only_with_fcl_distances_shrunk(monkeypatch, motion,
     d = strip("s", [20.0, 20.0, 20.0], [90.0, 90.0], ["H-3", "H-3"])
     ch = SweptChecker(d, "arc", HingeDrive(d))
     split_at = []
-    monkeypatch.setattr(ch, "distance", lambda i, j, a, b: (1.0, np.zeros(3)))
+    monkeypatch.setattr(ch, "gap", lambda i, j, a, b: 1.0)
     monkeypatch.setattr(ch, "_bound", lambda pair, ang0, ang: np.array([0.0, motion])[:len(ang)])
     monkeypatch.setattr(ch, "_split", lambda pair, ang0, ta, da, fa, tb, db, fb: split_at.append((ta, tb)) or "hit")
     times, angles = np.array([0.0, 1.0]), np.zeros((2, 2))
