@@ -134,6 +134,7 @@ class SweptChecker:
         self.transforms = TreeTransforms(d, self.model, self.frames)
         self._world: dict = {}  # time -> world poses of every panel (bounded cache)
         self._tf_poses, self._tf = None, {}  # FCL transforms at the samples of one trajectory
+        self.pair_tables: dict = {}  # the broad phase's static data of group pairs (shared by with_drive)
 
     def with_drive(self, drive) -> "SweptChecker":
         """This checker's geometry (FCL pieces, tree bounds, hierarchy, transforms, pair

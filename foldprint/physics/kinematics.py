@@ -338,12 +338,20 @@ class HingeDrive:
         n_h = len(self.curves)
         if n_h == 0:  # a single panel: a valid, trivial design
             return np.zeros((len(t), 0))
+        g = self._grid
+        if self._stack is not None and not self.frozen_at:
+            # every hinge at the same times: one lookup for all columns (the same numbers)
+            tc = np.clip(t, g[0], g[-1])
+            k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
+            f = ((tc - g[k]) / (g[k + 1] - g[k]))[:, None]
+            lo = self._stack[k]
+            r = lo + (self._stack[k + 1] - lo) * f  # monotone in t (the bound needs it)
+            return np.where(t[:, None] < 0, 0.0, r)
         tt = np.repeat(t[:, None], n_h, axis=1)
         for i, tf in self.frozen_at.items():
             tt[:, i] = np.minimum(t, tf)
         if self._stack is None:
             return np.stack([c(tt[:, i]) for i, c in enumerate(self.curves)], axis=1)
-        g = self._grid
         tc = np.clip(tt, g[0], g[-1])
         k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
         f = (tc - g[k]) / (g[k + 1] - g[k])
