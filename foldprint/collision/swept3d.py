@@ -88,6 +88,18 @@ def fcl_transform(pose: np.ndarray):
     return fcl.Transform(pose[:3, :3], pose[:3, 3])
 
 
+def _place(objs: list, pose: np.ndarray) -> None:
+    """Put a panel's FCL pieces at ``pose``: one piece takes the rotation and translation
+    directly (no transform object: cheaper, the same numbers), several share one transform."""
+    if len(objs) == 1:
+        objs[0].setRotation(pose[:3, :3])
+        objs[0].setTranslation(pose[:3, 3])
+        return
+    tf = fcl_transform(pose)
+    for o in objs:
+        o.setTransform(tf)
+
+
 @dataclass(frozen=True)
 class Contact:
     """First contact of a panel pair: time (s), panel indices and ids, a point (mm, world)."""
@@ -133,7 +145,6 @@ class SweptChecker:
         self._pairs: dict = {}
         self.transforms = TreeTransforms(d, self.model, self.frames)
         self._world: dict = {}  # time -> world poses of every panel (bounded cache)
-        self._tf_poses, self._tf = None, {}  # FCL transforms at the samples of one trajectory
         self.pair_tables: dict = {}  # the broad phase's static data of group pairs (shared by with_drive)
 
     def with_drive(self, drive) -> "SweptChecker":
@@ -142,7 +153,6 @@ class SweptChecker:
         its own per-run state (pose cache, distance count)."""
         other = copy.copy(self)
         other.drive, other._world, other.n_distance_calls = drive, {}, 0
-        other._tf_poses, other._tf = None, {}
         return other
 
     # -- geometry ---------------------------------------------------------------------
@@ -163,28 +173,26 @@ class SweptChecker:
         return self._at(t)[0]
 
     def _at(self, t: float):
-        """(world poses, bound coordinates (1, n_hinges), FCL transforms by panel) at time
-        ``t``, cached per time with the drive's arrests (they change poses); the angles
-        are evaluated once for both."""
+        """(world poses, bound coordinates (1, n_hinges)) at time ``t``, cached per time
+        with the drive's arrests (they change poses); the angles are evaluated once for both."""
         key = (float(t), tuple(sorted(getattr(self.drive, "frozen_at", {}).items())))
         hit = self._world.get(key)
         if hit is None:
             if len(self._world) >= 64:
                 self._world.pop(next(iter(self._world)))
             ang = self.drive.angles([t])
-            hit = self._world[key] = (self.transforms.poses(ang)[0], self.bound_coords([t], ang), {})
+            hit = self._world[key] = (self.transforms.poses(ang)[0], self.bound_coords([t], ang))
         return hit
 
-    def gap(self, i: int, j: int, tf_i, tf_j) -> float:
-        """:meth:`distance` without the nearest point, for the panels at FCL transforms
-        ``tf_i`` and ``tf_j`` (:func:`fcl_transform`): the same FCL queries and value. The
+    def gap(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray) -> float:
+        """:meth:`distance` without the nearest point: the same FCL queries and value. The
         result object passed to FCL has the smallest distance already (-inf), so python-fcl
         copies nothing back; the point is asked for again when a contact is reported."""
+        _place(self.pieces[i], pose_i)
+        _place(self.pieces[j], pose_j)
         best = np.inf
         for a in self.pieces[i]:
-            a.setTransform(tf_i)
             for b in self.pieces[j]:
-                b.setTransform(tf_j)
                 dist = fcl.distance(a, b, _REQUEST, _NO_RESULT)
                 self.n_distance_calls += 1
                 if dist < best:
@@ -193,29 +201,10 @@ class SweptChecker:
                     return 0.0
         return float(best)
 
-    def _sample_tf(self, poses: np.ndarray):
-        """The FCL transform of panel i at sample k of ``poses`` (n_t, n, 4, 4), made once
-        per sample and panel and shared by the pairs: ``tf(k, i)``."""
-        if self._tf_poses is not poses:  # a new trajectory (held here, so its id stays its own)
-            self._tf_poses, self._tf = poses, {}
-        cache, n = self._tf, self.tree.n
-
-        def tf(k: int, i: int):
-            key = k * n + i
-            hit = cache.get(key)
-            if hit is None:
-                hit = cache[key] = fcl_transform(poses[k, i])
-            return hit
-        return tf
-
     def gap_at(self, pair, t: float) -> float:
-        """:meth:`gap` of ``pair`` at time ``t`` (poses by :meth:`poses_at`, their FCL
-        transforms made once per time and panel)."""
-        w, _, tfs = self._at(t)
-        for i in pair:
-            if i not in tfs:
-                tfs[i] = fcl_transform(w[i])
-        return self.gap(pair[0], pair[1], tfs[pair[0]], tfs[pair[1]])
+        """:meth:`gap` of ``pair`` at time ``t`` (poses by :meth:`poses_at`)."""
+        w = self.poses_at(t)
+        return self.gap(pair[0], pair[1], w[pair[0]], w[pair[1]])
 
     def distance(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
         """Minimum distance (mm; <= 0 when touching) and the nearest point (pose frame)."""
@@ -285,7 +274,6 @@ class SweptChecker:
         i, j = pair
         ang0 = angles[k0]
         n_run = k1 - k0 + 1
-        tf = self._sample_tf(poses)
         # the motion bound over the run (Python floats: bisect below), computed as far as the
         # pair gets (64 samples, then GROW times as many): a pair stopped early (a contact
         # elsewhere first) costs about its steps, not its run
@@ -297,7 +285,7 @@ class SweptChecker:
                 cum.extend(self._bound(pair, ang0, angles[k0 + m:k0 + min(n_run, BOUND_GROW * m)]).tolist())
 
         k = k0
-        d = self.gap(i, j, tf(k, i), tf(k, j))
+        d = self.gap(i, j, poses[k, i], poses[k, j])
         if d <= self.tol:
             if at_start:
                 point = self.distance(i, j, poses[k][i], poses[k][j])[1]
@@ -318,12 +306,12 @@ class SweptChecker:
             if kk > k:
                 dprev, cprev = d, cum[c]
                 k = kk
-                d = self.gap(i, j, tf(k, i), tf(k, j))
+                d = self.gap(i, j, poses[k, i], poses[k, j])
                 d = min(d, dprev + cum[k - k0] - cprev)  # Lipschitz: no GJK overestimate
                 if d <= self.tol:
                     return self._refine(pair, float(times[k]), d)
                 continue
-            d1 = self.gap(i, j, tf(k + 1, i), tf(k + 1, j))
+            d1 = self.gap(i, j, poses[k + 1, i], poses[k + 1, j])
             upto(c + 1)
             d1 = min(d1, d + cum[c + 1] - cum[c])
             if (d + d1) * (1 - FCL_REL) <= cum[c + 1] - cum[c]:
