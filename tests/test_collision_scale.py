@@ -268,6 +268,11 @@ def test_broad_phase_keeps_every_pair_whose_spheres_meet(data, model, tree):
         mp.setattr(broadphase, "REFINE_CHUNK_BYTES", 1)
         chunked = candidate_runs(ch, coarse.angles, coarse.poses, times=coarse.times)
     np.testing.assert_array_equal(chunked, refined)
+    with pytest.MonkeyPatch.context() as mp:  # group pairs' static data computed at every level, no tables
+        mp.setattr(broadphase, "PAIR_TABLE_MAX", 0)
+        fresh = SweptChecker(d, model, HingeDrive(d))
+        np.testing.assert_array_equal(candidate_runs(fresh, coarse.angles, coarse.poses), plain)
+        np.testing.assert_array_equal(candidate_runs(fresh, coarse.angles, coarse.poses, times=coarse.times), refined)
     allowed = set(non_adjacent_pairs(d))
     for runs in (plain, refined):
         assert _covered(runs, need) == []
@@ -278,6 +283,8 @@ def test_broad_phase_keeps_every_pair_whose_spheres_meet(data, model, tree):
         left = candidate_runs(ch, coarse.angles, coarse.poses, skip=skip, times=coarse.times)
         assert not any((int(i), int(j)) in skip for i, j in left[:, :2])
         assert _covered(left, {x for x in need if x[:2] not in skip}) == []
+        # the tables kept per set of exclusions: asked again without skipping, the pair is back
+        np.testing.assert_array_equal(candidate_runs(ch, coarse.angles, coarse.poses, times=coarse.times), refined)
 
 
 
@@ -511,3 +518,53 @@ def test_a_step_is_certified_only_with_fcl_distances_shrunk(monkeypatch, motion,
         while True:
             next(gen)
     assert (stop.value.value == "hit") is split and split_at == ([(0.0, 1.0)] if split else [])
+
+
+# -- the narrow phase's cheaper queries give the same numbers ---------------------------------
+
+@settings(max_examples=30, deadline=None, derandomize=True, database=None)
+@given(data=st.data(), model=st.sampled_from(["point", "arc"]))
+def test_gap_is_the_distance_of_the_same_queries(data, model):
+    """``SweptChecker.gap`` (no nearest points, a panel placed without an FCL transform
+    object when it is one convex piece) returns exactly ``distance``'s value, at random
+    poses of a panel with holes (several convex pieces) and of one-piece panels, apart,
+    touching (0) and overlapping (0, not FCL's negative value), and keeps counting queries."""
+    d = load_design(TEMPLATES / "self_lock.toml")
+    ch = SweptChecker(d, model, None)
+    multi = max(range(len(d.panels)), key=lambda i: len(ch.pieces[i]))
+    assert len(ch.pieces[multi]) > 1 and min(len(p) for p in ch.pieces) == 1
+    i = data.draw(st.sampled_from([multi, 1]))
+    j = data.draw(st.sampled_from([k for k in range(len(d.panels)) if k != i]))
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 16)))
+    for scale in (0.0, 3.0, 30.0):
+        poses = np.tile(np.eye(4), (2, 1, 1))
+        for p in poses:
+            q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+            p[:3, :3] = q * np.sign(np.linalg.det(q))
+            p[:3, 3] = rng.normal(size=3) * scale
+        ref = ch.distance(i, j, poses[0], poses[1])[0]
+        calls = ch.n_distance_calls
+        assert ch.gap(i, j, poses[0], poses[1]) == ref
+        assert ch.n_distance_calls > calls
+        assert ch.gap(j, i, poses[1], poses[0]) == ch.distance(j, i, poses[1], poses[0])[0]
+    onto = np.eye(4)  # p3 moved onto p2 in the flat sheet: overlapping
+    onto[:2, 3] = d.panels[1].outline.mean(axis=0) - d.panels[2].outline.mean(axis=0)
+    assert ch.gap(1, 2, np.eye(4), onto) == ch.distance(1, 2, np.eye(4), onto)[0] == 0.0
+
+
+def test_a_checker_keeps_no_poses_of_another_drive_or_arrest():
+    """Poses between samples are cached per time and per set of arrested hinges: the same
+    time after an arrest, and the same time under another drive (``with_drive``), gets
+    that drive's poses and bound coordinates, not the cached ones."""
+    d = strip("c", [20.0, 10.0, 20.0], [170.0, 170.0], ["H-1", "H-5"], radius=1.0)
+    drive = HingeDrive(d)
+    ch = SweptChecker(d, "point", drive)
+    t = 3.0
+    before = ch.poses_at(t).copy()
+    np.testing.assert_array_equal(before, forward(d, drive.angles([t]), "point")[0])
+    drive.frozen_at[0] = 0.5
+    np.testing.assert_array_equal(ch.poses_at(t), forward(d, drive.angles([t]), "point")[0])
+    np.testing.assert_array_equal(ch._at(t)[1], ch.bound_coords([t]))
+    assert not np.allclose(ch.poses_at(t), before)
+    other = ch.with_drive(HingeDrive(d))
+    np.testing.assert_array_equal(other.poses_at(t), before)

@@ -90,6 +90,7 @@ def _hinge_frames(design: Design) -> list[HingeFrame]:
 
 
 _EYE3 = np.eye(3)
+_EYE4 = np.eye(4)
 _EZ = np.array([0.0, 0.0, 1.0])
 
 
@@ -214,6 +215,7 @@ class TreeTransforms:
         w = np.array([f.width for f in frames])
         self.q, self.nrm, self.w = q, nrm, w
         self.centred = np.array([f.centred for f in frames], dtype=bool)
+        self.any_centred = bool(self.centred.any())
         k = np.zeros((len(frames), 3, 3))
         k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -ax[:, 2], ax[:, 1], -ax[:, 0]
         k -= k.transpose(0, 2, 1)
@@ -232,13 +234,15 @@ class TreeTransforms:
         rot = out[:, :3, :3]
         rot[:] = _EYE3[None, :, :, None] + np.sin(a)[:, None, None] * self.k[..., None]
         rot += (1 - np.cos(a))[:, None, None] * self.kk[..., None]
-        ref = self.q if self.model == HingeModel.POINT else self.line
-        turned = rot[:, :, 0] * ref[:, None, 0, None] + rot[:, :, 1] * ref[:, None, 1, None] \
-            + rot[:, :, 2] * ref[:, None, 2, None]  # (nh, 3, m): rot @ ref
-        if self.model == HingeModel.POINT:
-            out[:, :3, 3] = self.q[..., None] - turned
+        if self.model == HingeModel.POINT:  # q - rot @ q, by matmul as hinge_map takes it
+            turned = np.ascontiguousarray(rot.transpose(0, 3, 1, 2)) @ self.q[:, None, :, None]
+            out[:, :3, 3] = self.q[..., None] - turned[..., 0].transpose(0, 2, 1)
         else:
-            arc = np.where(self.centred[:, None], self.w[:, None] * tangent_factor(a), self.w[:, None])
+            # rot @ line as hinge_map's einsum takes it (the same sums in the same order)
+            turned = rot[:, :, 0] * self.line[:, None, 0, None] + rot[:, :, 1] * self.line[:, None, 1, None] \
+                + rot[:, :, 2] * self.line[:, None, 2, None]  # (nh, 3, m)
+            arc = np.where(self.centred[:, None], self.w[:, None] * tangent_factor(a), self.w[:, None]) \
+                if self.any_centred else self.w[:, None]
             s, c = _sinc_terms(a)
             tip = self.start[..., None] + (arc * s)[:, None] * self.nrm[..., None] + (arc * c)[:, None] * _EZ[:, None]
             out[:, :3, 3] = tip - turned
@@ -249,7 +253,8 @@ class TreeTransforms:
         """World poses (m, n_panels, 4, 4) for hinge angles (m, n_hinges): prefix products
         root outward by pointer doubling (A <- A[ancestor] @ A, log2(depth) rounds)."""
         loc = self.local(angles)
-        A = np.broadcast_to(np.eye(4), (len(loc), self.n, 4, 4)).copy()
+        A = np.empty((len(loc), self.n, 4, 4))
+        A[:] = _EYE4
         A[:, self.child] = loc
         for up in self.up:
             A = A[:, up] @ A
