@@ -268,6 +268,11 @@ def test_broad_phase_keeps_every_pair_whose_spheres_meet(data, model, tree):
         mp.setattr(broadphase, "REFINE_CHUNK_BYTES", 1)
         chunked = candidate_runs(ch, coarse.angles, coarse.poses, times=coarse.times)
     np.testing.assert_array_equal(chunked, refined)
+    with pytest.MonkeyPatch.context() as mp:  # group pairs' static data computed at every level, no tables
+        mp.setattr(broadphase, "PAIR_TABLE_MAX", 0)
+        fresh = SweptChecker(d, model, HingeDrive(d))
+        np.testing.assert_array_equal(candidate_runs(fresh, coarse.angles, coarse.poses), plain)
+        np.testing.assert_array_equal(candidate_runs(fresh, coarse.angles, coarse.poses, times=coarse.times), refined)
     allowed = set(non_adjacent_pairs(d))
     for runs in (plain, refined):
         assert _covered(runs, need) == []
@@ -278,6 +283,8 @@ def test_broad_phase_keeps_every_pair_whose_spheres_meet(data, model, tree):
         left = candidate_runs(ch, coarse.angles, coarse.poses, skip=skip, times=coarse.times)
         assert not any((int(i), int(j)) in skip for i, j in left[:, :2])
         assert _covered(left, {x for x in need if x[:2] not in skip}) == []
+        # the tables kept per set of exclusions: asked again without skipping, the pair is back
+        np.testing.assert_array_equal(candidate_runs(ch, coarse.angles, coarse.poses, times=coarse.times), refined)
 
 
 
@@ -467,6 +474,8 @@ def test_panels_touching_at_the_start_are_reported_apart_from_the_first_contact(
     assert c is None
     assert [(x.pair, x.panels, x.time, x.distance, x.method) for x in initial] == \
         [((1, 2), ("east", "north"), 0.0, 0.0, "initial")]
+    # a point as every contact has one (FCL names none for touching solids: its nearest points)
+    assert len(initial[0].point) == 3 and all(isinstance(x, float) for x in initial[0].point)
 
 
 # -- the 2D index in chunks ------------------------------------------------------------------
@@ -502,7 +511,7 @@ def test_a_step_is_certified_only_with_fcl_distances_shrunk(monkeypatch, motion,
     d = strip("s", [20.0, 20.0, 20.0], [90.0, 90.0], ["H-3", "H-3"])
     ch = SweptChecker(d, "arc", HingeDrive(d))
     split_at = []
-    monkeypatch.setattr(ch, "distance", lambda i, j, a, b: (1.0, np.zeros(3)))
+    monkeypatch.setattr(ch, "gap", lambda i, j, a, b: 1.0)
     monkeypatch.setattr(ch, "_bound", lambda pair, ang0, ang: np.array([0.0, motion])[:len(ang)])
     monkeypatch.setattr(ch, "_split", lambda pair, ang0, ta, da, fa, tb, db, fb: split_at.append((ta, tb)) or "hit")
     times, angles = np.array([0.0, 1.0]), np.zeros((2, 2))
@@ -511,3 +520,117 @@ def test_a_step_is_certified_only_with_fcl_distances_shrunk(monkeypatch, motion,
         while True:
             next(gen)
     assert (stop.value.value == "hit") is split and split_at == ([(0.0, 1.0)] if split else [])
+
+
+# -- the narrow phase's cheaper queries give the same numbers ---------------------------------
+
+@settings(max_examples=30, deadline=None, derandomize=True, database=None)
+@given(data=st.data(), model=st.sampled_from(["point", "arc"]))
+def test_gap_is_the_distance_of_the_same_queries(data, model):
+    """``SweptChecker.gap`` (no nearest points, a panel placed without an FCL transform
+    object when it is one convex piece) returns exactly ``distance``'s value, at random
+    poses of a panel with holes (several convex pieces) and of one-piece panels, apart,
+    touching (0) and overlapping (0, not FCL's negative value), and keeps counting queries."""
+    d = load_design(TEMPLATES / "self_lock.toml")
+    ch = SweptChecker(d, model, None)
+    multi = max(range(len(d.panels)), key=lambda i: len(ch.pieces[i]))
+    assert len(ch.pieces[multi]) > 1 and min(len(p) for p in ch.pieces) == 1
+    i = data.draw(st.sampled_from([multi, 1]))
+    j = data.draw(st.sampled_from([k for k in range(len(d.panels)) if k != i]))
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 16)))
+    for scale in (0.0, 3.0, 30.0):
+        poses = np.tile(np.eye(4), (2, 1, 1))
+        for p in poses:
+            q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+            p[:3, :3] = q * np.sign(np.linalg.det(q))
+            p[:3, 3] = rng.normal(size=3) * scale
+        ref = ch.distance(i, j, poses[0], poses[1])[0]
+        calls = ch.n_distance_calls
+        assert ch.gap(i, j, poses[0], poses[1]) == ref
+        assert ch.n_distance_calls > calls
+        assert ch.gap(j, i, poses[1], poses[0]) == ch.distance(j, i, poses[1], poses[0])[0]
+    onto = np.eye(4)  # p3 moved onto p2 in the flat sheet: overlapping
+    onto[:2, 3] = d.panels[1].outline.mean(axis=0) - d.panels[2].outline.mean(axis=0)
+    assert ch.gap(1, 2, np.eye(4), onto) == ch.distance(1, 2, np.eye(4), onto)[0] == 0.0
+
+
+class _MarkedGap:
+    """A stand-in for ``SweptChecker.gap``: the distance at the sample whose poses are
+    filled with its index (``_steps`` asks at sample poses only), from a table."""
+
+    def __init__(self, table):
+        self.table = table
+
+    def __call__(self, i, j, pose_i, pose_j):
+        return self.table[int(pose_i[0, 0])]
+
+
+def test_a_step_reports_the_sample_where_the_pair_came_within_tolerance(monkeypatch):
+    """A pair within the contact tolerance at a sample it stepped to is refined from that
+    sample's time (not one before); a pair certified to the end of its run by its first
+    distance costs exactly that one query."""
+    d = strip("s", [20.0, 20.0, 20.0], [90.0, 90.0], ["H-3", "H-3"])
+    ch = SweptChecker(d, "arc", HingeDrive(d))
+    times, angles = np.array([0.0, 1.0, 2.0, 3.0]), np.zeros((4, 2))
+    poses = np.arange(4.0)[:, None, None, None] * np.ones((4, 3, 4, 4))
+    refined = []
+    monkeypatch.setattr(ch, "_refine", lambda pair, t, dist: refined.append(t) or "contact")
+    monkeypatch.setattr(ch, "_split", lambda *args: None)  # nothing touches inside the step
+    monkeypatch.setattr(ch, "gap", _MarkedGap([6.0, 0.0, 6.0, 6.0]))
+    for rate in (5.0, 10.0):  # a jump to sample 1 (0.9 d covers its motion), a single step to it
+        refined.clear()
+        monkeypatch.setattr(ch, "_bound", lambda pair, ang0, ang, rate=rate: rate * np.arange(len(ang), dtype=float))
+        assert ch._run((0, 2), times, angles, poses, 0, 3, False) == "contact" and refined == [1.0]
+    queries = []
+    monkeypatch.setattr(ch, "_bound", lambda pair, ang0, ang: np.zeros(len(ang)))  # nothing moves
+    monkeypatch.setattr(ch, "gap", lambda i, j, a, b: queries.append(a[0, 0]) or 6.0)
+    assert ch._run((0, 2), times, angles, poses, 1, 3, False) is None and queries == [1.0]
+
+
+def test_refinement_finds_the_touching_time_ahead():
+    """Handed a time some way before the pair touches (distance within the tolerance but
+    not 0, or uncertified), the refinement looks ahead in growing steps and bisects to the
+    first touching time within time_tol_s, as dense sampling finds it."""
+    d = strip("t", [20, 10, 20], [170, 170], ["H-5", "H-1"], radius=1.0)
+    ch = SweptChecker(d, "point", HingeDrive(d))
+    touch = _dense_first_touch(ch, d, "point", np.arange(0.0, 6.0, 0.001))[(0, 2)]
+    for early in (0.004, 0.05, 0.3):
+        c = ch._refine((0, 2), touch - early, 1e-3)
+        assert c.time == pytest.approx(touch, abs=2e-3) and c.distance == 0.0
+
+
+class _LoopLikeDrive:
+    """A drive with loops' interface: angles and their total variation at times."""
+
+    loops = True
+    frozen_at: dict = {}
+
+    def __init__(self, drive):
+        self.drive = drive
+
+    def angles(self, t):
+        return self.drive.angles(t)
+
+    def variation(self, t):
+        return 2.0 * np.abs(self.drive.angles(t)) + np.asarray(t, float)[:, None]
+
+
+def test_a_checker_keeps_no_poses_of_another_drive_or_arrest():
+    """Poses between samples are cached per time and per set of arrested hinges: the same
+    time after an arrest, and the same time under another drive (``with_drive``), gets
+    that drive's poses and bound coordinates, not the cached ones."""
+    d = strip("c", [20.0, 10.0, 20.0], [170.0, 170.0], ["H-1", "H-5"], radius=1.0)
+    drive = HingeDrive(d)
+    ch = SweptChecker(d, "point", drive)
+    t = 3.0
+    before = ch.poses_at(t).copy()
+    np.testing.assert_array_equal(before, forward(d, drive.angles([t]), "point")[0])
+    drive.frozen_at[0] = 0.5
+    np.testing.assert_array_equal(ch.poses_at(t), forward(d, drive.angles([t]), "point")[0])
+    np.testing.assert_array_equal(ch._at(t)[1], ch.bound_coords([t]))
+    assert not np.allclose(ch.poses_at(t), before)
+    other = ch.with_drive(HingeDrive(d))
+    np.testing.assert_array_equal(other.poses_at(t), before)
+    loop_like = ch.with_drive(_LoopLikeDrive(HingeDrive(d)))  # the bound's coordinate is the variation
+    np.testing.assert_array_equal(loop_like._at(t)[1], loop_like.drive.variation([t]))
+    np.testing.assert_array_equal(loop_like.poses_at(t), before)

@@ -152,15 +152,75 @@ def _refine(checker, ang0, excl, a, b, t0, t1, korig, refine: bool):
     return rows_out, nxt
 
 
+#: Node pairs of the hierarchy whose static data (:func:`_pair_statics`) the broad phase
+#: keeps in tables, filled as the descent meets them (our choice: up to 2**18 pairs, a
+#: 256-panel design, ~5 MB; larger designs compute them at every level as they did).
+PAIR_TABLE_MAX = 2 ** 18
+
+
+def _pair_statics(tb, H, excl, a, b):
+    """What the descent needs of group pairs (a, b) that does not change with time: the
+    reference panels' lca, split panel and side (``TreeBounds.split_panel``), and whether
+    the pair is two leaves that must not be checked (adjacent or skipped)."""
+    ra, rb = H.ref[a], H.ref[b]
+    xc = tb.qp + tb.cen
+    l = tb.lca(ra, rb)
+    sp, on_a = tb.split_panel(ra, rb, l, xc[ra], xc[rb])
+    code = np.minimum(ra, rb) * tb.n + np.maximum(ra, rb)
+    dropped = (H.left[a] < 0) & (H.left[b] < 0) & np.isin(code, excl)
+    return l, sp, on_a, dropped
+
+
+class _PairTable:
+    """:func:`_pair_statics` of every node pair met, kept in (nodes x nodes) tables for
+    one set of exclusions (computed directly, every time, past :data:`PAIR_TABLE_MAX`)."""
+
+    def __init__(self, checker, excl):
+        m = len(checker.hier.ref)
+        self.tree, self.hier, self.excl, self.m = checker.tree, checker.hier, excl, m
+        self.on = m * m <= PAIR_TABLE_MAX
+        if self.on:
+            self.done = np.zeros(m * m, bool)
+            self.l = np.zeros(m * m, np.int64)
+            self.sp = np.zeros(m * m, np.int64)
+            self.on_a = np.zeros(m * m, bool)
+            self.dropped = np.zeros(m * m, bool)
+
+    def get(self, a, b):
+        if not self.on:
+            return _pair_statics(self.tree, self.hier, self.excl, a, b)
+        code = a * self.m + b
+        miss = np.unique(code[~self.done[code]])
+        if len(miss):
+            got = _pair_statics(self.tree, self.hier, self.excl, miss // self.m, miss % self.m)
+            for table, v in zip((self.l, self.sp, self.on_a, self.dropped), got):
+                table[miss] = v
+            self.done[miss] = True
+        return self.l[code], self.sp[code], self.on_a[code], self.dropped[code]
+
+
+def _pair_table(checker, excl) -> _PairTable:
+    """The checker's :class:`_PairTable` for these exclusions, kept with its geometry (the
+    samples of a Monte-Carlo run share it; a few exclusion sets, the latest kept)."""
+    tables = checker.pair_tables
+    key = excl.tobytes()
+    hit = tables.get(key)
+    if hit is None:
+        if len(tables) >= 4:
+            tables.pop(next(iter(tables)))
+        hit = tables[key] = _PairTable(checker, excl)
+    return hit
+
+
 def _descend(checker, P, C, excl, a, b, ka, kb, refine: bool):
     """The hierarchy descent over grid indices of P and C: certified (group pair,
     interval)s are dropped, others split the interval or the bigger group. Returns narrow
     rows (i, j, ka, kb) and, with ``refine``, the pairs (a, b, k) that are far apart but
     uncertified over one grid step (else they are split down to panel pairs)."""
     tb, H = checker.tree, checker.hier
-    n = tb.n
     xc = tb.qp + tb.cen
     margin = 1e-9 * float(H.rad[H.root] + 1.0)
+    table = _pair_table(checker, excl)
     out, pend = [], [[], [], []]
     while len(a):
         selfp = a == b
@@ -174,19 +234,16 @@ def _descend(checker, P, C, excl, a, b, ka, kb, refine: bool):
         a, b, ka, kb = a[~selfp], b[~selfp], ka[~selfp], kb[~selfp]
         if len(a):
             ra, rb = H.ref[a], H.ref[b]
-            l = tb.lca(ra, rb)
-            sp, on_a = tb.split_panel(ra, rb, l, xc[ra], xc[rb])
+            l, sp, on_a, dropped = table.get(a, b)
             rsum = H.rad[a] + H.rad[b]
-            da = np.linalg.norm(C[ka, ra] - C[ka, rb], axis=-1) - rsum
-            db = np.linalg.norm(C[kb, ra] - C[kb, rb], axis=-1) - rsum
-
-            args = (ra, rb, l, xc[ra], xc[rb], sp, on_a)
-            dF = tb.pair_motion(P, kb, *args) - tb.pair_motion(P, ka, *args)
-            keep = ~(da + db > dF * (1 + 1e-9) + margin)
+            both_k = np.stack([ka, kb])  # the two ends at once (elementwise: the same numbers)
+            dab = np.linalg.norm(C[both_k, ra] - C[both_k, rb], axis=-1) - rsum
+            da, db = dab[0], dab[1]
+            F = tb.pair_motion(P, both_k, ra, rb, l, xc[ra], xc[rb], sp, on_a)
+            dF = F[1] - F[0]
+            keep = ~(da + db > dF * (1 + 1e-9) + margin) & ~dropped
             leaf_a, leaf_b = H.left[a] < 0, H.left[b] < 0
             both = leaf_a & leaf_b
-            code = np.minimum(ra, rb) * n + np.maximum(ra, rb)
-            keep &= ~(both & np.isin(code, excl))
             span = kb - ka
             dmin = np.minimum(da, db)
             rmax = np.maximum(np.where(leaf_a, 0.0, H.rad[a]), np.where(leaf_b, 0.0, H.rad[b]))

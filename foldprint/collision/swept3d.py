@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import copy
 
+from bisect import bisect_right
 from dataclasses import dataclass, field
 
 import fcl
@@ -73,6 +74,30 @@ REL_TOL = 1e-9
 #: phase never lets a distance exceed the previous one plus the motion bound between them.
 FCL_REL = 0.02
 _REQUEST = fcl.DistanceRequest(enable_nearest_points=True)
+#: The narrow phase computes a pair's motion bound over its first 64 samples, then over
+#: BOUND_GROW times as many as it has each time the pair steps past them (our choice: 8
+#: needs 3 array passes for a 2000-sample run where doubling needed 6; a pair stopped
+#: early computes at most 8 times the samples it reached).
+BOUND_GROW = 8
+#: a result no distance improves on: python-fcl then copies no nearest points back
+_NO_RESULT = fcl.DistanceResult(-np.inf)
+
+
+def fcl_transform(pose: np.ndarray):
+    """The FCL transform of a (4, 4) pose."""
+    return fcl.Transform(pose[:3, :3], pose[:3, 3])
+
+
+def _place(objs: list, pose: np.ndarray) -> None:
+    """Put a panel's FCL pieces at ``pose``: one piece takes the rotation and translation
+    directly (no transform object: cheaper, the same numbers), several share one transform."""
+    if len(objs) == 1:
+        objs[0].setRotation(pose[:3, :3])
+        objs[0].setTranslation(pose[:3, 3])
+        return
+    tf = fcl_transform(pose)
+    for o in objs:
+        o.setTransform(tf)
 
 
 @dataclass(frozen=True)
@@ -120,6 +145,7 @@ class SweptChecker:
         self._pairs: dict = {}
         self.transforms = TreeTransforms(d, self.model, self.frames)
         self._world: dict = {}  # time -> world poses of every panel (bounded cache)
+        self.pair_tables: dict = {}  # the broad phase's static data of group pairs (shared by with_drive)
 
     def with_drive(self, drive) -> "SweptChecker":
         """This checker's geometry (FCL pieces, tree bounds, hierarchy, transforms, pair
@@ -144,19 +170,46 @@ class SweptChecker:
         prefix products along the tree (:class:`~foldprint.physics.kinematics.TreeTransforms`),
         cached per time, so the pairs bisecting the same sample interval (at the same
         dyadic times) share them."""
-        key = (float(t), tuple(sorted(getattr(self.drive, "frozen_at", {}).items())))  # arrests change poses
+        return self._at(t)[0]
+
+    def _at(self, t: float):
+        """(world poses, bound coordinates (1, n_hinges)) at time ``t``, cached per time
+        with the drive's arrests (they change poses); the angles are evaluated once for both."""
+        key = (float(t), tuple(sorted(getattr(self.drive, "frozen_at", {}).items())))
         hit = self._world.get(key)
         if hit is None:
             if len(self._world) >= 64:
                 self._world.pop(next(iter(self._world)))
-            hit = self._world[key] = self.transforms.poses(self.drive.angles([t]))[0]
+            ang = self.drive.angles([t])
+            hit = self._world[key] = (self.transforms.poses(ang)[0], self.bound_coords([t], ang))
         return hit
+
+    def gap(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray) -> float:
+        """:meth:`distance` without the nearest point: the same FCL queries and value. The
+        result object passed to FCL has the smallest distance already (-inf), so python-fcl
+        copies nothing back; the point is asked for again when a contact is reported."""
+        _place(self.pieces[i], pose_i)
+        _place(self.pieces[j], pose_j)
+        best = np.inf
+        for a in self.pieces[i]:
+            for b in self.pieces[j]:
+                dist = fcl.distance(a, b, _REQUEST, _NO_RESULT)
+                self.n_distance_calls += 1
+                if dist < best:
+                    best = dist
+                if best <= 0:
+                    return 0.0
+        return float(best)
+
+    def gap_at(self, pair, t: float) -> float:
+        """:meth:`gap` of ``pair`` at time ``t`` (poses by :meth:`poses_at`)."""
+        w = self.poses_at(t)
+        return self.gap(pair[0], pair[1], w[pair[0]], w[pair[1]])
 
     def distance(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
         """Minimum distance (mm; <= 0 when touching) and the nearest point (pose frame)."""
         best, point = np.inf, None
-        ti = fcl.Transform(pose_i[:3, :3], pose_i[:3, 3])
-        tj = fcl.Transform(pose_j[:3, :3], pose_j[:3, 3])
+        ti, tj = fcl_transform(pose_i), fcl_transform(pose_j)
         for a in self.pieces[i]:
             a.setTransform(ti)
             for b in self.pieces[j]:
@@ -221,21 +274,21 @@ class SweptChecker:
         i, j = pair
         ang0 = angles[k0]
         n_run = k1 - k0 + 1
-        # the motion bound over the run, computed as far as the pair gets (doubling): a
-        # pair stopped early (a contact elsewhere first) costs its steps, not its run
-        cum = self._bound(pair, ang0, angles[k0:k0 + min(n_run, 64)])
+        # the motion bound over the run (Python floats: bisect below), computed as far as the
+        # pair gets (64 samples, then GROW times as many): a pair stopped early (a contact
+        # elsewhere first) costs about its steps, not its run
+        cum = self._bound(pair, ang0, angles[k0:k0 + min(n_run, 64)]).tolist()
 
         def upto(c):
-            nonlocal cum
             while len(cum) <= c < n_run:
                 m = len(cum)
-                cum = np.concatenate([cum, self._bound(pair, ang0, angles[k0 + m:k0 + min(n_run, 2 * m)])])
-            return cum
+                cum.extend(self._bound(pair, ang0, angles[k0 + m:k0 + min(n_run, BOUND_GROW * m)]).tolist())
 
         k = k0
-        d, point = self.distance(i, j, poses[k][i], poses[k][j])
+        d = self.gap(i, j, poses[k, i], poses[k, j])
         if d <= self.tol:
             if at_start:
+                point = self.distance(i, j, poses[k][i], poses[k][j])[1]
                 return Contact(float(times[k]), pair, self._ids(pair), _pt(point), d, "initial")
             return self._refine(pair, float(times[k]), d)
         while k < k1:
@@ -243,7 +296,7 @@ class SweptChecker:
             c = k - k0
             target = cum[c] + 0.9 * d
             while True:
-                jump = int(np.searchsorted(cum, target, side="right")) - 1
+                jump = bisect_right(cum, target) - 1
                 if jump < len(cum) - 1 or len(cum) >= n_run:
                     break
                 upto(len(cum))
@@ -253,22 +306,22 @@ class SweptChecker:
             if kk > k:
                 dprev, cprev = d, cum[c]
                 k = kk
-                d, point = self.distance(i, j, poses[k][i], poses[k][j])
+                d = self.gap(i, j, poses[k, i], poses[k, j])
                 d = min(d, dprev + cum[k - k0] - cprev)  # Lipschitz: no GJK overestimate
                 if d <= self.tol:
                     return self._refine(pair, float(times[k]), d)
                 continue
-            d1, p1 = self.distance(i, j, poses[k + 1][i], poses[k + 1][j])
+            d1 = self.gap(i, j, poses[k + 1, i], poses[k + 1, j])
             upto(c + 1)
             d1 = min(d1, d + cum[c + 1] - cum[c])
             if (d + d1) * (1 - FCL_REL) <= cum[c + 1] - cum[c]:
-                hit = self._split(pair, ang0, float(times[k]), d, float(cum[c]),
-                                  float(times[k + 1]), d1, float(cum[c + 1]))
+                hit = self._split(pair, ang0, float(times[k]), d, cum[c],
+                                  float(times[k + 1]), d1, cum[c + 1])
                 if hit is not None:
                     return hit
             if d1 <= self.tol:
                 return self._refine(pair, float(times[k + 1]), d1)
-            k, d, point = k + 1, d1, p1
+            k, d = k + 1, d1
         return None
 
     def _split(self, pair, ang0, ta, da, fa, tb, db, fb) -> Contact | None:
@@ -281,16 +334,11 @@ class SweptChecker:
             # not certified at the time resolution: a contact (conservative), bounded work
             return self._refine(pair, ta, da)
         tm = 0.5 * (ta + tb)  # bisect: each level costs one distance
-        w = self.poses_at(tm)
-        dm, _ = self.distance(pair[0], pair[1], w[pair[0]], w[pair[1]])
-        fm = float(self._bound(pair, ang0, self.bound_coords([tm]))[0])
+        dm = self.gap_at(pair, tm)
+        fm = float(self._bound(pair, ang0, self._at(tm)[1])[0])
         dm = min(dm, da + fm - fa, db + fb - fm)  # Lipschitz: no GJK overestimate
         return (self._split(pair, ang0, ta, da, fa, tm, dm, fm)
                 or self._split(pair, ang0, tm, dm, fm, tb, db, fb))
-
-    def _dist_at(self, pair, t: float) -> float:
-        w = self.poses_at(t)
-        return self.distance(pair[0], pair[1], w[pair[0]], w[pair[1]])[0]
 
     def _refine(self, pair, t: float, d: float) -> Contact:
         """``t`` is a time with distance <= tol (or uncertified); find the time of actual
@@ -301,14 +349,14 @@ class SweptChecker:
         if d > 0:
             for _ in range(12):  # look ahead in doubling steps
                 cand = lo + step
-                if self._dist_at(pair, cand) <= 0:
+                if self.gap_at(pair, cand) <= 0:
                     hi = cand
                     break
                 step *= 2
             if hi is not None:
                 while hi - lo > self.time_tol_s:
                     mid = 0.5 * (lo + hi)
-                    if self._dist_at(pair, mid) <= 0:
+                    if self.gap_at(pair, mid) <= 0:
                         hi = mid
                     else:
                         lo = mid

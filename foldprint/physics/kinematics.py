@@ -90,6 +90,7 @@ def _hinge_frames(design: Design) -> list[HingeFrame]:
 
 
 _EYE3 = np.eye(3)
+_EYE4 = np.eye(4)
 _EZ = np.array([0.0, 0.0, 1.0])
 
 
@@ -166,17 +167,21 @@ def local_transforms(frame: HingeFrame, angle: np.ndarray, model: HingeModel) ->
 def forward(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HINGE_MODEL,
             frames: list[HingeFrame] | None = None) -> np.ndarray:
     """Panel poses (n_t, n_panels, 4, 4) for hinge angles (n_t, n_hinges) in
-    ``design.hinges`` order (rad)."""
+    ``design.hinges`` order (rad): every tree hinge's child transform in one array pass
+    (:meth:`TreeTransforms.local`), then one product per hinge root outward (the parent's
+    pose times the child transform, exactly; :meth:`TreeTransforms.poses` takes the
+    products by pointer doubling instead)."""
     angles = np.atleast_2d(np.asarray(angles, float))
-    frames = frames if frames is not None else hinge_frames(design)
-    n_t = angles.shape[0]
-    poses = np.zeros((n_t, len(design.panels), 4, 4))
-    root = design.panel_index()[design.root]
-    poses[:, root] = np.eye(4)
-    for f in frames:
-        if f.tree:
-            poses[:, f.child] = poses[:, f.parent] @ local_transforms(f, angles[:, f.index], model)
-    return poses
+    if frames is None:
+        tt = derived(design, ("tree_transforms", str(model)), lambda: TreeTransforms(design, model))
+    else:
+        tt = TreeTransforms(design, model, frames)
+    poses = np.zeros((len(design.panels), angles.shape[0], 4, 4))  # panel-major while built
+    poses[design.panel_index()[design.root]] = np.eye(4)
+    loc = tt.local(angles, hinge_major=True)
+    for h, (p, c) in enumerate(zip(tt.parent.tolist(), tt.child.tolist())):  # tree order: parents first
+        np.matmul(poses[p], loc[h], out=poses[c])
+    return np.ascontiguousarray(poses.swapaxes(0, 1))
 
 
 class TreeTransforms:
@@ -197,6 +202,7 @@ class TreeTransforms:
         self.child = np.array([f.child for f in frames], dtype=np.int64)
         parent = np.arange(n)
         parent[self.child] = [f.parent for f in frames]
+        self.parent = parent[self.child]  # each tree hinge's parent panel
         depth = np.zeros(n, dtype=np.int64)
         for f in frames:  # tree order: parents first
             depth[f.child] = depth[f.parent] + 1
@@ -209,6 +215,7 @@ class TreeTransforms:
         w = np.array([f.width for f in frames])
         self.q, self.nrm, self.w = q, nrm, w
         self.centred = np.array([f.centred for f in frames], dtype=bool)
+        self.any_centred = bool(self.centred.any())
         k = np.zeros((len(frames), 3, 3))
         k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -ax[:, 2], ax[:, 1], -ax[:, 0]
         k -= k.transpose(0, 2, 1)
@@ -216,28 +223,38 @@ class TreeTransforms:
         self.start = q - 0.5 * w[:, None] * nrm
         self.line = self.start + w[:, None] * nrm
 
-    def local(self, angles: np.ndarray) -> np.ndarray:
-        """(m, n_tree_hinges, 4, 4) child transforms for hinge angles (m, n_hinges)."""
-        a = np.atleast_2d(np.asarray(angles, float))[:, self.hinge]
-        m, nh = a.shape
-        out = np.zeros((m, nh, 4, 4))
-        out[..., 3, 3] = 1.0
-        rot = _EYE3 + np.sin(a)[..., None, None] * self.k + (1 - np.cos(a))[..., None, None] * self.kk
-        out[..., :3, :3] = rot
-        if self.model == HingeModel.POINT:
-            out[..., :3, 3] = self.q - np.einsum("mhij,hj->mhi", rot, self.q)
-            return out
-        arc = np.where(self.centred, self.w * tangent_factor(a), self.w)
-        s, c = _sinc_terms(a)
-        tip = self.start + (arc * s)[..., None] * self.nrm + (arc * c)[..., None] * _EZ
-        out[..., :3, 3] = tip - np.einsum("mhij,hj->mhi", rot, self.line)
-        return out
+    def local(self, angles: np.ndarray, hinge_major: bool = False) -> np.ndarray:
+        """(m, n_tree_hinges, 4, 4) child transforms for hinge angles (m, n_hinges), or
+        (n_tree_hinges, m, 4, 4) with ``hinge_major`` (each hinge's transforms contiguous)."""
+        a = np.atleast_2d(np.asarray(angles, float))[:, self.hinge].T  # (nh, m)
+        nh, m = a.shape
+        # computed as (nh, 4, 4, m): every entry a contiguous row over the times
+        out = np.zeros((nh, 4, 4, m))
+        out[:, 3, 3] = 1.0
+        rot = out[:, :3, :3]
+        rot[:] = _EYE3[None, :, :, None] + np.sin(a)[:, None, None] * self.k[..., None]
+        rot += (1 - np.cos(a))[:, None, None] * self.kk[..., None]
+        if self.model == HingeModel.POINT:  # q - rot @ q, by matmul as hinge_map takes it
+            turned = np.ascontiguousarray(rot.transpose(0, 3, 1, 2)) @ self.q[:, None, :, None]
+            out[:, :3, 3] = self.q[..., None] - turned[..., 0].transpose(0, 2, 1)
+        else:
+            # rot @ line as hinge_map's einsum takes it (the same sums in the same order)
+            turned = rot[:, :, 0] * self.line[:, None, 0, None] + rot[:, :, 1] * self.line[:, None, 1, None] \
+                + rot[:, :, 2] * self.line[:, None, 2, None]  # (nh, 3, m)
+            arc = np.where(self.centred[:, None], self.w[:, None] * tangent_factor(a), self.w[:, None]) \
+                if self.any_centred else self.w[:, None]
+            s, c = _sinc_terms(a)
+            tip = self.start[..., None] + (arc * s)[:, None] * self.nrm[..., None] + (arc * c)[:, None] * _EZ[:, None]
+            out[:, :3, 3] = tip - turned
+        out = np.ascontiguousarray(out.transpose(0, 3, 1, 2))
+        return out if hinge_major else out.swapaxes(0, 1)
 
     def poses(self, angles: np.ndarray) -> np.ndarray:
         """World poses (m, n_panels, 4, 4) for hinge angles (m, n_hinges): prefix products
         root outward by pointer doubling (A <- A[ancestor] @ A, log2(depth) rounds)."""
         loc = self.local(angles)
-        A = np.broadcast_to(np.eye(4), (len(loc), self.n, 4, 4)).copy()
+        A = np.empty((len(loc), self.n, 4, 4))
+        A[:] = _EYE4
         A[:, self.child] = loc
         for up in self.up:
             A = A[:, up] @ A
@@ -326,12 +343,20 @@ class HingeDrive:
         n_h = len(self.curves)
         if n_h == 0:  # a single panel: a valid, trivial design
             return np.zeros((len(t), 0))
+        g = self._grid
+        if self._stack is not None and not self.frozen_at:
+            # every hinge at the same times: one lookup for all columns (the same numbers)
+            tc = np.clip(t, g[0], g[-1])
+            k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
+            f = ((tc - g[k]) / (g[k + 1] - g[k]))[:, None]
+            lo = self._stack[k]
+            r = lo + (self._stack[k + 1] - lo) * f  # monotone in t (the bound needs it)
+            return np.where(t[:, None] < 0, 0.0, r)
         tt = np.repeat(t[:, None], n_h, axis=1)
         for i, tf in self.frozen_at.items():
             tt[:, i] = np.minimum(t, tf)
         if self._stack is None:
             return np.stack([c(tt[:, i]) for i, c in enumerate(self.curves)], axis=1)
-        g = self._grid
         tc = np.clip(tt, g[0], g[-1])
         k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
         f = (tc - g[k]) / (g[k + 1] - g[k])
