@@ -201,7 +201,8 @@ def test_long_strip_broad_phase_drops_far_pairs():
     d = strip("z", [10.0] * n, [30.0 if k % 2 == 0 else -30.0 for k in range(n - 1)], ["H-3"] * (n - 1))
     tr = simulate_kinematics(d, model="arc")
     ch = SweptChecker(d, "arc", HingeDrive(d))
-    assert len(candidate_runs(ch, tr.angles, tr.poses)) == 0
+    runs = candidate_runs(ch, tr.angles, tr.poses)
+    assert runs.shape == (0, 4) and runs.dtype == np.int64  # sample indices, even when there are none
     c, init = swept_first_contact(ch, tr.times, tr.angles, tr.poses)
     assert c is None and init == [] and ch.n_distance_calls == 0
 
