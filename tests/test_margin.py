@@ -47,9 +47,12 @@ def test_without_scatter_every_sample_is_the_nominal_fold():
         ev = _ev("helix_uniform", method="fcl", bath_c=bath)
         gap = ev.clearance
         m = scatter_margin(ev.simulation, gap, ev.clearance_checker, Scatter.zero(), ev.library, samples=3)
-        assert m.closest == pytest.approx((gap.distance,) * 3, abs=1e-9)
+        # the samples' curves read the relaxation table (R within 2e-8 of the exact sum the
+        # nominal uses, measured 5.5e-9): a distance within ~150 mm/rad x that, 1e-6 mm
+        assert m.closest == pytest.approx((gap.distance,) * 3, abs=1e-6)
+        assert m.closest[0] == m.closest[1] == m.closest[2]  # zero spreads: the same fold each
         assert m.worst.panels == gap.panels and m.worst.time == pytest.approx(gap.time)
-        assert not m.marginal and m.motion == pytest.approx(0.0, abs=1e-9)
+        assert not m.marginal and m.motion == pytest.approx(0.0, abs=1e-6)  # the same table error
 
 
 def test_a_graded_design_keeps_its_margin_and_a_collision_has_none():

@@ -91,6 +91,10 @@ def _hinge_frames(design: Design) -> list[HingeFrame]:
 
 _EYE3 = np.eye(3)
 _EYE4 = np.eye(4)
+#: Working memory of :func:`forward` beside its result (bytes; our choice: 8 MiB, the whole
+#: run at once for the templates, a few dozen times at once for a 1,500-panel sheet, so
+#: the memory guard's estimate of a simulation (one pose array) still bounds it).
+FORWARD_BLOCK_BYTES = 8 * 2 ** 20
 _EZ = np.array([0.0, 0.0, 1.0])
 
 
@@ -176,12 +180,22 @@ def forward(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HING
         tt = derived(design, ("tree_transforms", str(model)), lambda: TreeTransforms(design, model))
     else:
         tt = TreeTransforms(design, model, frames)
-    poses = np.zeros((len(design.panels), angles.shape[0], 4, 4))  # panel-major while built
-    poses[design.panel_index()[design.root]] = np.eye(4)
-    loc = tt.local(angles, hinge_major=True)
-    for h, (p, c) in enumerate(zip(tt.parent.tolist(), tt.child.tolist())):  # tree order: parents first
-        np.matmul(poses[p], loc[h], out=poses[c])
-    return np.ascontiguousarray(poses.swapaxes(0, 1))
+    n_t, n_p = angles.shape[0], len(design.panels)
+    root = design.panel_index()[design.root]
+    parent, child = tt.parent.tolist(), tt.child.tolist()
+    poses = np.empty((n_t, n_p, 4, 4))
+    # a block of times at a time: the working arrays (panel-major poses, the hinges'
+    # transforms twice) stay within FORWARD_BLOCK_BYTES beside the result, whatever n_t
+    step = max(1, FORWARD_BLOCK_BYTES // (128 * (n_p + 2 * len(child))))
+    for k0 in range(0, n_t, step):
+        k1 = min(n_t, k0 + step)
+        block = np.zeros((n_p, k1 - k0, 4, 4))  # panel-major while built
+        block[root] = _EYE4
+        loc = tt.local(angles[k0:k1], hinge_major=True)
+        for h, (p, c) in enumerate(zip(parent, child)):  # tree order: parents first
+            np.matmul(block[p], loc[h], out=block[c])
+        poses[k0:k1] = block.swapaxes(0, 1)
+    return poses
 
 
 class TreeTransforms:
