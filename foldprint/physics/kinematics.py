@@ -357,26 +357,28 @@ class HingeDrive:
         n_h = len(self.curves)
         if n_h == 0:  # a single panel: a valid, trivial design
             return np.zeros((len(t), 0))
-        g = self._grid
         if self._stack is not None and not self.frozen_at:
-            # every hinge at the same times: one lookup for all columns (the same numbers)
-            tc = np.clip(t, g[0], g[-1])
-            k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
-            f = ((tc - g[k]) / (g[k + 1] - g[k]))[:, None]
-            lo = self._stack[k]
-            r = lo + (self._stack[k + 1] - lo) * f  # monotone in t (the bound needs it)
-            return np.where(t[:, None] < 0, 0.0, r)
+            return self._stacked(t)  # every hinge at the same times: one lookup for all columns
         tt = np.repeat(t[:, None], n_h, axis=1)
         for i, tf in self.frozen_at.items():
             tt[:, i] = np.minimum(t, tf)
         if self._stack is None:
             return np.stack([c(tt[:, i]) for i, c in enumerate(self.curves)], axis=1)
+        return self._stacked(tt)
+
+    def _stacked(self, tt: np.ndarray) -> np.ndarray:
+        """The stacked curves interpolated at times ``tt``: (n_t,), the same for every hinge,
+        or (n_t, n_hinges), a time per hinge (the same numbers either way); R = 0 before 0."""
+        g = self._grid
         tc = np.clip(tt, g[0], g[-1])
         k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
         f = (tc - g[k]) / (g[k + 1] - g[k])
-        cols = np.arange(n_h)[None, :]
-        lo = self._stack[k, cols]
-        r = lo + (self._stack[k + 1, cols] - lo) * f  # monotone in t (the bound needs it)
+        if tt.ndim == 1:
+            lo, hi, f, tt = self._stack[k], self._stack[k + 1], f[:, None], tt[:, None]
+        else:
+            cols = np.arange(tt.shape[1])[None, :]
+            lo, hi = self._stack[k, cols], self._stack[k + 1, cols]
+        r = lo + (hi - lo) * f  # monotone in t (the bound needs it)
         return np.where(tt < 0, 0.0, r)
 
     def driven(self, t) -> np.ndarray:

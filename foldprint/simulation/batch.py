@@ -41,7 +41,7 @@ from ..core.constants import DEFAULT_DT_S
 from ..core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
 from ..model.design import Design, has_loops
 from ..model.materials import MaterialLibrary, default_library
-from .robust import CHUNK, Outcome, run_samples
+from .robust import CHUNK, Outcome, n_chunks, run_samples
 from .scatter import Scatter, default_scatter, samples_between
 from .verdict import JamTest, decide
 
@@ -257,7 +257,7 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
     batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress, follow)
     for s in batch.streams:  # every stream, at 0 of its maximum, before the first chunk
         batch.report("samples", s.status())
-    if workers <= 1 or sum(-(-s.max_samples // CHUNK) for s in batch.streams if not s.done) + len(batch.tasks) <= 1:  # no pool for one task
+    if workers <= 1 or sum(n_chunks(s.max_samples) for s in batch.streams if not s.done) + len(batch.tasks) <= 1:  # no pool for one task
         batch.run_here()
     else:
         batch.run_pool()
