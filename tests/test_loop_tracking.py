@@ -279,6 +279,27 @@ def test_held_configurations_give_the_poses_and_gap_of_every_time(model):
         assert traj.loops.arc_gap_mm == loop_gap_mm(d, traj.angles, HingeModel.ARC)
 
 
+def test_the_arc_gap_is_computed_when_read_not_for_the_monte_carlo(monkeypatch):
+    """A loop pattern's arc gap is a report's number: the Monte-Carlo's folds (outcomes only)
+    never compute it, a trajectory computes it once, when first read, and then holds it."""
+    from foldprint.core.modes import VERDICT_METHOD, HingeModel
+    from foldprint.physics import kinematics
+    from foldprint.simulation.robust import run_samples
+
+    d = _design("miura_3x3")
+    calls = []
+    real = kinematics.loop_gap_mm
+    monkeypatch.setattr(kinematics, "loop_gap_mm", lambda *a, **k: calls.append(1) or real(*a, **k))
+    samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), 2))
+    assert len(run_samples((d, default_library(), samples, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD))) == 2
+    assert calls == []
+    traj = kinematics.simulate_kinematics(d, model="arc")
+    assert calls == []
+    first = traj.loops.arc_gap_mm
+    assert calls == [1] and traj.loops.arc_gap_mm == first == real(d, traj.angles, HingeModel.ARC)
+    assert calls == [1]  # read again: held
+
+
 class _Toy(OldSolver):
     """A closure of two angles given as functions: the reference tracker runs on it as on a
     crease pattern (and the array tracker on ``residuals``)."""

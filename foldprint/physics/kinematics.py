@@ -538,9 +538,11 @@ def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_
 
 
 def _with_arc_gap(design: Design, loop: LoopSolution, angles: np.ndarray, poses: np.ndarray) -> LoopSolution:
+    """``loop`` with the arc model's gap of ``angles`` and ``poses``, computed when read."""
     from dataclasses import replace
+    from functools import partial
 
-    return replace(loop, arc_gap_mm=loop_gap_mm(design, angles, HingeModel.ARC, poses))
+    return replace(loop, gap=partial(loop_gap_mm, design, angles, HingeModel.ARC, poses))
 
 
 def transform_points(pose: np.ndarray, pts2d: np.ndarray, z: float = 0.0) -> np.ndarray:

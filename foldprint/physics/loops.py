@@ -26,7 +26,9 @@ hinge frames (duck-typed: ``index, parent, child, origin, axis, tree``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Callable
 
 import numpy as np
 
@@ -96,7 +98,15 @@ class LoopSolution:
     dof: int  # dimension of the tangent space at the first folded step
     n_loops: int
     variation: np.ndarray  # (n_t, n_hinges) cumulative total variation of each angle (rad)
-    arc_gap_mm: float = 0.0
+    #: computes :attr:`arc_gap_mm` when it is first read (a report reads it; the Monte-Carlo's
+    #: folds do not, and it costs about a quarter of a loop pattern's fold); None: 0
+    gap: Callable[[], float] | None = field(default=None, repr=False)
+
+    @cached_property
+    def arc_gap_mm(self) -> float:
+        """The arc hinge model's largest positional gap at a loop hinge (mm, over the
+        run; ``foldprint.physics.kinematics.loop_gap_mm``), 0 for the point model."""
+        return 0.0 if self.gap is None else float(self.gap())
 
     def at(self, t) -> np.ndarray:
         """Angles (n, n_hinges) at times ``t``, piecewise linear between grid times."""
