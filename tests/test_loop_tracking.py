@@ -507,18 +507,28 @@ def test_the_first_step_from_the_tangent_space_saves_rounds_not_answers(monkeypa
 
 
 def test_the_drive_is_restarted_from_only_while_it_too_is_near_the_flat_sheet():
-    """Near the flat sheet a step also restarts from its drive, and the restarts of the next
-    steps start ahead; not where the drive itself is NEAR_FLAT or more from flat (the answer
-    may lag there: a lock, a lagging crease), nor ahead for such steps."""
-    flat = loop_tracking.NEAR_FLAT
+    """Near the flat sheet every RESTART_EVERY-th grid step also restarts from its drive, and
+    the restarts of the next such steps start ahead; not where the drive itself is NEAR_FLAT
+    or more from flat (the answer may lag there: a lock, a lagging crease), nor ahead for such
+    steps, nor at the steps between (those start none ahead either: the restarting steps
+    before them did), unless the drive is within RESTART_ALL of flat: then every step."""
+    flat, every = loop_tracking.NEAR_FLAT, loop_tracking.RESTART_EVERY
+    assert every > 1
     ramp = np.linspace(0.0, 2.0 * flat, 21)  # crosses NEAR_FLAT at step 10
-    driven = np.stack([np.stack([ramp, 0.5 * ramp], axis=1)] * 2)
+    tiny = ramp * (0.5 * loop_tracking.RESTART_ALL / ramp.max())  # every step within RESTART_ALL
+    driven = np.stack([np.stack([r, 0.5 * r], axis=1) for r in (ramp, ramp, ramp, tiny)])
     state = loop_tracking._State(np.arange(21.0), driven)
-    state.k[:] = [5, 12]  # drive 0.1 (near), 0.24 (beyond); both answers at flat
-    state.prev[:] = driven[0, [4, 11]]  # the drives of the steps before: one sub-step each
-    pool, req = loop_solve.Pool(2, 8), loop_tracking._Requests(2, 2)
-    req.post(state, pool, np.arange(2))
-    assert req.restart[0] >= 0 and np.array_equal(pool.target[req.restart[0]], driven[0, 5])
-    assert req.restart[1] == -1
-    ahead = req.early_k[0][req.early_k[0] >= 0]
-    assert sorted(ahead.tolist()) == list(range(6, 10)) and (req.early_k[1] < 0).all()
+    k0 = every  # a restarting step near the flat sheet (drive below NEAR_FLAT)
+    state.k[:] = [k0, 12, k0 + 1, k0 + 1]  # near, beyond, near between restarting steps, tiny; answers at flat
+    state.prev[:] = driven[[0, 1, 2, 3], [k0 - 1, 11, k0, k0]]  # the drives of the steps before: one sub-step each
+    pool, req = loop_solve.Pool(2, 8), loop_tracking._Requests(4, 2)
+    req.post(state, pool, np.arange(4))
+    assert req.restart[0] >= 0 and np.array_equal(pool.target[req.restart[0]], driven[0, k0])
+    assert req.restart[1] == -1 and req.restart[2] == -1
+    assert req.restart[3] >= 0 and np.array_equal(pool.target[req.restart[3]], driven[3, k0 + 1])
+    want = [k for k in range(k0 + 1, min(k0 + loop_tracking.PREFETCH, 9) + 1) if k % every == 0]
+    # ahead, with a step's own restart: the restarting steps still near the flat sheet (the
+    # drive is below NEAR_FLAT up to step 9)
+    assert want and sorted(req.early_k[0][req.early_k[0] >= 0].tolist()) == want
+    assert (req.early_k[1:3] < 0).all()
+    assert sorted(req.early_k[3].tolist()) == list(range(k0 + 2, k0 + 2 + loop_tracking.PREFETCH))
