@@ -105,7 +105,7 @@ def test_a_4x4_miura_from_its_closed_form_folds_on_its_branch(lib):
     """A 4 x 4 Miura-ori written from its closed form (the template's geometry and
     materials): from a perfectly flat start (fixity 1) a scattered drive sends some creases
     the wrong way (draw 9 of seed 0); at the materials' fixity none of the draws checked
-    does (robust: 0 of 80 at seeds 0 and 1, 16 of 80 from flat; docs/loops.md)."""
+    does (robust: 0 of 80 at seeds 0 and 1, 15 of 80 from flat; docs/loops.md)."""
     data = cp.miura(4, 4, width=24.0, height=20.0, shift=8.0, zigzag_deg=60.0,
                     materials={"zigzag": "H-2", "straight": "H-4"})
     d = design_from_fold(data, default_radius_mm=5.0)
