@@ -140,6 +140,26 @@ def test_a_hinge_held_back_by_its_loops_reports_what_it_reached(trajectories, na
     assert traj.ratios.min() >= 0.0 and traj.ratios.max() <= 1.0
 
 
+def test_a_crease_without_fixity_has_reached_the_share_of_its_target_it_made():
+    """A crease of fixity 0 (its programmed bend springs back whole: its drive is its
+    target from the start) has reached rho/rho_t, the share of its fold it made, however far
+    its material has recovered: a Miura-ori crease the others' slower recovery holds back is
+    not done."""
+    from dataclasses import replace
+
+    from foldprint.io.load import load_design
+    from foldprint.io.templates import templates_dir
+
+    d = load_design(templates_dir() / "miura_3x3.toml")
+    d = replace(d, hinges=(replace(d.hinges[0], fixity=0.0),) + d.hinges[1:])
+    traj = simulate_kinematics(d, dt=0.05, duration=8.0)
+    drive = HingeDrive(d)
+    share = traj.angles[:, 0] / drive.target[0]
+    asked = drive.ratios(traj.times)[:, 0]
+    assert (asked - share).max() > 0.5  # held back while its material recovers
+    np.testing.assert_allclose(traj.ratios[:, 0], np.clip(np.minimum(share, asked), 0.0, 1.0), rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize("name", sorted(PATTERNS))
 def test_prefix_products_turn_loop_hinges_about_their_fold_lines(trajectories, name):
     """TreeTransforms (every hinge at once, the swept check's poses) = forward (one hinge
