@@ -35,7 +35,7 @@ from foldprint.collision.index2d import collision_index, world_side_segments
 from foldprint.collision.swept3d import SweptChecker, non_adjacent_pairs, swept_first_contact
 from foldprint.physics.kinematics import HingeDrive, simulate_kinematics
 from foldprint.io.load import load_design
-from foldprint.collision.rigid import rigid_polygon
+from foldprint.collision.rigid import rigid_polygons
 
 ROOT = Path(__file__).resolve().parent.parent
 TEMPLATES = ROOT / "templates"
@@ -57,8 +57,8 @@ def discrete_trimesh(design, traj):
     of the trajectory, the same rigid panel solids; stops at the first step where a
     non-adjacent pair touches. Returns (time, sorted pair ids at that step) or None."""
     cm = trimesh.collision.CollisionManager()
-    for i, p in enumerate(design.panels):
-        m = trimesh.creation.extrude_polygon(rigid_polygon(design, i, traj.model), p.thickness)
+    for p, poly in zip(design.panels, rigid_polygons(design, traj.model)):
+        m = trimesh.creation.extrude_polygon(poly, p.thickness)
         m.apply_translation([0, 0, -p.thickness / 2])
         cm.add_object(p.id, m)
     allowed = {frozenset((design.panels[i].id, design.panels[j].id)) for i, j in non_adjacent_pairs(design)}

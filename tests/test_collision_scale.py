@@ -635,3 +635,23 @@ def test_a_checker_keeps_no_poses_of_another_drive_or_arrest():
     loop_like = ch.with_drive(_LoopLikeDrive(HingeDrive(d)))  # the bound's coordinate is the variation
     np.testing.assert_array_equal(loop_like._at(t)[1], loop_like.drive.variation([t]))
     np.testing.assert_array_equal(loop_like.poses_at(t), before)
+
+
+def test_a_checker_built_on_its_own_relieves_the_design_once(monkeypatch):
+    """The panels' rigid polygons come from one relief of the design, made once per
+    checker (and once per side view or render), not once per panel: built outside an
+    evaluation's cache, a 60-panel staircase's checker used to make its relief 60 times."""
+    from foldprint.collision import rigid
+    from foldprint.model import derived, relief
+    from foldprint.render.scene import _rings as panel_rings
+
+    d = strip("stairs", [6.0] * 60, [90.0 if i % 2 == 0 else -90.0 for i in range(59)], ["H-3"] * 59,
+              depth=6.0, radius=3.0, thickness=0.8, hinge_thickness=0.8)
+    calls = []
+    real = relief._relieve
+    monkeypatch.setattr(relief, "_relieve", lambda *a: calls.append(1) or real(*a))
+    assert derived.current() is None
+    checker = SweptChecker(d, "arc", HingeDrive(d))
+    assert len(checker.pieces) == 60 and calls == [1]
+    assert len(rigid.side_segments(d, "arc")) == 60 and calls == [1, 1]
+    assert len(panel_rings(d, "arc")) == 60 and calls == [1, 1, 1]

@@ -23,7 +23,7 @@ from ..model.derived import scoped
 from .broadphase import pair_bounds
 from .swept3d import SweptChecker, non_adjacent_pairs
 from .swept3d import min_clearance as swept_min_clearance
-from .rigid import rigid_polygon
+from .rigid import rigid_polygons
 
 
 @dataclass(frozen=True)
@@ -50,8 +50,7 @@ def _piece_vertices(checker: SweptChecker) -> tuple[np.ndarray, np.ndarray]:
     cached = checker.__dict__.get("_clearance_vertices")
     if cached is None:
         pts, owner = [], []
-        for i, p in enumerate(checker.design.panels):
-            poly = rigid_polygon(checker.design, i, checker.model)
+        for i, (p, poly) in enumerate(zip(checker.design.panels, rigid_polygons(checker.design, checker.model))):
             if poly.is_empty:
                 continue
             ring = np.asarray(poly.exterior.coords)[:-1]

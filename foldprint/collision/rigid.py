@@ -20,12 +20,14 @@ from ..model.relief import relieve
 
 
 def rigid_polygon(design: Design, index: int, model: HingeModel):
-    """Shapely polygon (possibly with holes) of panel ``index``'s rigid part, sheet frame."""
-    return _rigid_polygons(design, model)[index]
+    """Shapely polygon (possibly with holes) of panel ``index``'s rigid part, sheet frame
+    (every panel's is made at once: a loop over the panels takes :func:`rigid_polygons`)."""
+    return rigid_polygons(design, model)[index]
 
 
-def _rigid_polygons(design: Design, model: HingeModel) -> list:
-    """Every panel's rigid polygon, once per active derived-data cache."""
+def rigid_polygons(design: Design, model: HingeModel) -> list:
+    """Every panel's rigid polygon (:func:`rigid_polygon`), once per active derived-data
+    cache (without one, once per call: the design's vertex reliefs are made for all panels)."""
     return derived(design, ("rigid_polygons", str(model)), lambda: _compute_rigid_polygons(design, model))
 
 
@@ -60,8 +62,8 @@ def side_segments(design: Design, model: HingeModel, y: float | None = None) -> 
     xs = np.concatenate([p.outline[:, 0] for p in design.panels])
     probe = LineString([(xs.min() - 1.0, y), (xs.max() + 1.0, y)])
     out = []
-    for i in range(len(design.panels)):
-        cut = rigid_polygon(design, i, model).intersection(probe)
+    for poly in rigid_polygons(design, model):
+        cut = poly.intersection(probe)
         segs = []
         for g in getattr(cut, "geoms", [cut]):
             if g.geom_type == "LineString" and g.length > 1e-9:

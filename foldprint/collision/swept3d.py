@@ -50,6 +50,7 @@ import fcl
 import numpy as np
 
 from ..core.modes import HingeModel, Method
+from ..model.derived import scope
 from ..model.design import Design
 from ..physics.kinematics import HingeDrive, TreeTransforms, hinge_frames
 from ..physics.motion import build_hierarchy, tree_bounds
@@ -62,7 +63,7 @@ from .broadphase import (  # noqa: F401  (the broad phase's names, importable fr
     pair_bounds,
     panel_centres,
 )
-from .rigid import convex_pieces, prism, rigid_polygon
+from .rigid import convex_pieces, prism, rigid_polygon, rigid_polygons  # noqa: F401
 
 #: Relative contact tolerance: a fraction of the sheet's size (coordinates of 1e15 mm
 #: cannot be resolved to 0.01 mm in double precision).
@@ -125,14 +126,18 @@ class SweptChecker:
     n_distance_calls: int = 0
 
     def __post_init__(self):
+        with scope():  # its panels' rigid polygons share one relief of the design, not one each
+            self._build()
+
+    def _build(self):
         d = self.design
         self.model = HingeModel(str(self.model))
         self.frames = hinge_frames(d)
         self._frame_of = {f.index: f for f in self.frames}
         self.pieces = []
-        for i, p in enumerate(d.panels):
+        for i, (p, poly) in enumerate(zip(d.panels, rigid_polygons(d, self.model))):
             objs = []
-            for ring in convex_pieces(rigid_polygon(d, i, self.model)):
+            for ring in convex_pieces(poly):
                 v, f = prism(ring, p.thickness)
                 objs.append(fcl.CollisionObject(fcl.Convex(v, len(f) and _count_faces(f), f)))
             self.pieces.append(objs)

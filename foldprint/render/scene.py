@@ -84,11 +84,10 @@ def _rings(design: Design, model: HingeModel) -> list[tuple[np.ndarray, ...]]:
 def _compute_rings(design: Design, model: str) -> list[tuple[np.ndarray, ...]]:
     import shapely
 
-    from ..collision.rigid import rigid_polygon
+    from ..collision.rigid import rigid_polygons
 
     out = []
-    for i in range(len(design.panels)):
-        poly = rigid_polygon(design, i, model)
+    for poly in rigid_polygons(design, model):
         if poly.is_empty:
             out.append(())
             continue
