@@ -63,7 +63,7 @@ from .broadphase import (  # noqa: F401  (the broad phase's names, importable fr
     pair_bounds,
     panel_centres,
 )
-from .rigid import convex_pieces, prism, rigid_polygon, rigid_polygons  # noqa: F401
+from .rigid import convex_pieces, prism, rigid_polygons
 
 #: Relative contact tolerance: a fraction of the sheet's size (coordinates of 1e15 mm
 #: cannot be resolved to 0.01 mm in double precision).

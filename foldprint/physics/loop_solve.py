@@ -106,15 +106,15 @@ class Pool:
         self.stack, self.nfree, self.size = stack, self.nfree + size - old, size
         self._all = Solves(self.x, self.res, self.null, self.done, self.basis, self.free, self.plain)
 
-    def add(self, x, target, speculative=False, far=False, guide=None, taken=0, line=None, tag=-1):
+    def add(self, x, target, speculative=False, far=False, taken=0, line=None, guide=None, tag=-1):
         """New points from ``x`` (m, n) toward ``target``; returns their rows. ``taken``: the
         Gauss-Newton steps already taken to reach ``x`` (a predictor's step).
         ``speculative``: dropped (not done) when not converged within GN_STEPS steps;
-        ``far``: away from the flat sheet (the RANK_RES rule applies); ``guide``: the
-        tangent direction of the answer they start from, where that tangent space is a
-        line (the points then solve with it instead of the eigen-decomposition,
-        :func:`_gn_line`), one row per point, or per point of ``line`` (m,) where given;
-        ``tag``: an int kept with each point for the caller (the tracker: its drive)."""
+        ``far``: away from the flat sheet (the RANK_RES rule applies); ``line`` (m,): the
+        points whose answer to start from has a tangent space that is a line, ``guide`` its
+        direction, one row per point of ``line`` (they solve with it instead of the
+        eigen-decomposition, :func:`_gn_line`); ``tag``: an int kept with each point for the
+        caller (the tracker: its drive)."""
         m = len(x)
         if m > self.nfree:
             self._grow(max(2 * self.size, self.size + m))
@@ -124,14 +124,9 @@ class Pool:
         self.it[ids], self.spec[ids], self.far[ids], self.alive[ids] = taken, speculative, far, True
         self.plain[ids] = np.logical_not(far)
         self.res[ids], self.done[ids], self.null[ids], self.tag[ids] = np.inf, False, 0, tag
-        if line is None:
-            self.line[ids] = guide is not None
-            if guide is not None:
-                self.guide[ids] = guide
-        else:
-            self.line[ids] = line
-            if len(guide):
-                self.guide[ids[line]] = guide
+        self.line[ids] = False if line is None else line
+        if line is not None and len(guide):
+            self.guide[ids[line]] = guide
         return ids
 
     def release(self, ids):
@@ -211,6 +206,7 @@ class Pool:
         self.x[act[go]] = xa[go] + step[go] * np.minimum(1.0, MAX_STEP / np.maximum(big[go], 1e-300))[:, None]
         self.it[act] = it + go
         self.alive[act] = ~stop & ~drop
+
 
 def _gn_eigh(gram, g, d, stiff):
     """Gauss-Newton steps from the eigen-decomposition of J^T J (P, n, n): the closure

@@ -115,13 +115,12 @@ class _State:
         self.res_x = np.zeros(s)
         self.width = np.full(s, 2)
         self.out = np.zeros_like(driven)
-        # per drive and grid step, fixed for the track: the drive near the flat sheet, and how
-        # many steps from there on in a row move it by more than SKIP_TOL and at most MAX_STEP
+        # per drive and grid step, fixed for the track: whether the step restarts from its drive
+        # (near the flat sheet: every RESTART_EVERY-th step, every step while the drive is
+        # within RESTART_ALL of flat), and how many steps from there on in a row move the
+        # drive by more than SKIP_TOL and at most MAX_STEP
         big = np.abs(driven).max(axis=2, initial=0.0)
-        self.flat = big < NEAR_FLAT
-        # ... and whether that step restarts from its drive (near the flat sheet, every
-        # RESTART_EVERY-th step, every step while the drive is within RESTART_ALL of flat)
-        self.restarts = self.flat & ((np.arange(self.n_t) % RESTART_EVERY == 0)[None] | (big < RESTART_ALL))
+        self.restarts = (big < NEAR_FLAT) & ((np.arange(self.n_t) % RESTART_EVERY == 0)[None] | (big < RESTART_ALL))
         move = np.abs(np.diff(driven, axis=1)).max(axis=2, initial=0.0)
         ok = np.concatenate([(move > SKIP_TOL) & (move <= MAX_STEP), np.zeros((s, 1), bool)], axis=1)
         at = np.arange(self.n_t)
@@ -265,10 +264,9 @@ class _Requests:
     def _restarts(self, st: _State, pool: Pool, live, ys):
         """Rows of the live drives' restarts from their drive at step k (answer and drive
         near the flat sheet): started ahead when the step is a single one toward exactly this
-        drive, else now; and the restarts of the next PREFETCH grid steps whose drive is near
-        the flat sheet started ahead (a restart
-        depends on its drive alone, so near the flat sheet, where every step restarts, the
-        steps wait only for their solves from the last answer)."""
+        drive, else now; and the restarts of the restarting steps among the next PREFETCH
+        (:attr:`_State.restarts`) started ahead (a restart depends on its drive alone, so
+        near the flat sheet the steps wait only for their solves from the last answer)."""
         k, n_t, j = st.k[live], st.n_t, np.arange(len(live))
         ek, ei = self.early_k[live], self.early[live]  # a step's restart ahead sits in slot step % PREFETCH
         rows = np.full(len(live), -1)
@@ -296,7 +294,8 @@ class _Requests:
             if mr.size:
                 d, kk = live[mr], want[mr, mc]
                 y0 = st.driven[d, kk - 1]
-                ids = pool.add(y0 + (st.driven[d, kk] - y0), y0 + (st.driven[d, kk] - y0))
+                y1 = y0 + (st.driven[d, kk] - y0)  # the step's target as begin() computes it
+                ids = pool.add(y1, y1)
                 ek[mr, slot[mr, mc]], ei[mr, slot[mr, mc]] = kk, ids
         self.early_k[live], self.early[live] = ek, ei
         return rows
