@@ -31,8 +31,8 @@ FOLLOW_TOL = np.radians(2.0)
 JUMP = 0.05
 #: below this largest angle (rad) of the last answer and of the drive the tracker also restarts
 #: from the drive (a drive farther from the flat sheet is not at its bifurcation: measured on
-#: 48 check samples of miura_3x3 and cross_lock_uniform and 48 of miura_3x3 programmed flat,
-#: the restarts taken had drives of at most 0.0052, 0.061 and 0.12 rad; 0.05 sends one of 64
+#: 64 check samples of miura_3x3 and cross_lock_uniform and 48 of miura_3x3 programmed flat,
+#: the restarts taken had drives of at most 0.0048, 0.061 and 0.0015 rad; 0.05 sends one of 64
 #: cross_lock_uniform check samples down the other branch)
 NEAR_FLAT = 0.2
 #: near the flat sheet, every this many grid steps (the grid's multiples) restart from the
@@ -55,21 +55,21 @@ SKIP_TOL = 1e-8
 #: away from the flat sheet (largest closed angle >= NEAR_FLAT), the same for a drive that moved
 #: less than this (rad; our choice: OPT_TOL, the corrector's own step tolerance, so a held answer
 #: is about as near the drive's closed configuration as a solve's answer is; measured on the
-#: templates' check chunks: within 5.3e-6 rad of the answers solved at every step, 7 % fewer
-#: evaluations)
+#: first check chunks of miura_3x3 and cross_lock_uniform: within 5.1e-6 rad of the answers
+#: solved at every step, 6.5 % and 8.5 % fewer evaluations)
 SKIP_FAR = OPT_TOL
 #: a solve that ends with a residual above this lost the manifold (the configuration is held)
 LOST_TOL = 1e-7
 #: most grid steps of one drive solved ahead in one window (our choice: on miura_3x3's check
-#: chunk 8, 16, 32, 64 took 578, 497, 457, 437 rounds and 36.3k, 37.1k, 38.3k, 39.6k
-#: evaluations, about the same time)
+#: chunk 8, 16, 32, 64 took 546, 444, 389, 364 rounds and 25.4k, 26.6k, 28.4k, 30.4k
+#: evaluations, 51.5, 38.7, 35.9, 36.6 CPU-ms a sample of tracking)
 WINDOW = 32
 #: near the flat sheet, restarts from the drive of this many next grid steps run ahead (our
-#: choice: on miura_3x3's check chunk 1525 rounds without, 463 with)
+#: choice: on miura_3x3's check chunk 784 rounds without, 389 with)
 PREFETCH = 8
 #: a window's answer is kept when the step-by-step predictor lands within this of it (rad,
-#: our choice: 40 times the largest such distance on the templates' check samples, 2.4e-4
-#: rad on miura_3x3)
+#: our choice: about 40 times the largest such distance on the first 64 check samples of the
+#: loop templates, 2.3e-4 rad on miura_3x3)
 ACCEPT = 0.01
 
 
