@@ -4,6 +4,7 @@ per-design data computed once per evaluation in a cache that never travels, a va
 
 from __future__ import annotations
 
+import importlib
 import pickle
 from pathlib import Path
 
@@ -28,22 +29,31 @@ def helix():
     return load_design(resolve_design_path("helix_graded"))
 
 
+#: the modules an evaluation's stages are computed in (pipeline and its four mixins)
+STAGE_MODULES = tuple(importlib.import_module(f"foldprint.apps.{m}") for m in (
+    "pipeline", "evaluation_nominal", "evaluation_verdict", "evaluation_exports", "evaluation_reports"))
+
+
 def _count(monkeypatch, module, name):
+    """Count the calls of ``name`` (``module`` None: wherever an evaluation's stages call it)."""
     calls = []
-    real = getattr(module, name)
+    modules = [module] if module is not None else [m for m in STAGE_MODULES if hasattr(m, name)]
+    assert modules and all(hasattr(m, name) for m in modules), name
+    real = getattr(modules[0], name)
 
     def counted(*a, **k):
         calls.append(a)
         return real(*a, **k)
 
-    monkeypatch.setattr(module, name, counted)
+    for m in modules:
+        monkeypatch.setattr(m, name, counted)
     return calls
 
 
 def test_a_stage_not_asked_for_is_not_computed(helix, monkeypatch):
-    sims = _count(monkeypatch, pipeline, "simulate")
-    builds = _count(monkeypatch, pipeline, "build_assembly")
-    mc = _count(monkeypatch, pipeline, "jam_tests")
+    sims = _count(monkeypatch, None, "simulate")
+    builds = _count(monkeypatch, None, "build_assembly")
+    mc = _count(monkeypatch, None, "jam_tests")
     ev = Evaluation(helix, EvalOptions(samples=4, seed=1))
     assert (sims, builds, mc) == ([], [], [])  # nothing runs at construction
     first = ev.simulation
@@ -55,9 +65,9 @@ def test_a_stage_not_asked_for_is_not_computed(helix, monkeypatch):
 
 
 def test_findings_compute_each_stage_once(helix, monkeypatch):
-    sims = _count(monkeypatch, pipeline, "simulate")
-    builds = _count(monkeypatch, pipeline, "build_assembly")
-    mc = _count(monkeypatch, pipeline, "jam_tests")
+    sims = _count(monkeypatch, None, "simulate")
+    builds = _count(monkeypatch, None, "build_assembly")
+    mc = _count(monkeypatch, None, "jam_tests")
     ev = Evaluation(helix, EvalOptions(samples=4, seed=1))
     ev.findings
     ev.to_json()
@@ -179,7 +189,7 @@ def test_options_parse_modes_and_refuse_bad_ones():
 def test_export_takes_the_evaluations_assembly(helix, tmp_path, monkeypatch):
     ev = Evaluation(helix, EvalOptions(samples=0))
     ev.findings
-    builds = _count(monkeypatch, pipeline, "build_assembly")
+    builds = _count(monkeypatch, None, "build_assembly")
     recs = ev.export(tmp_path / "a", formats=("stl",))
     assert builds == [] and recs
     fresh = pipeline.export(helix, tmp_path / "b", formats=("stl",))
@@ -255,6 +265,6 @@ def test_shared_nominal_work_gives_each_simulation_unchanged(name):
     other = HingeModel.POINT if ev.options.hinge_model == HingeModel.ARC else HingeModel.ARC
     alt = simulate(d, method=ev.options.method, dt=ev.options.dt, hinge_model=other)
     comp = ev.comparison
-    assert (comp is None) == (pipeline._verdict(alt) == pipeline._verdict(ev.simulation))
+    assert (comp is None) == (pipeline.verdict_of(alt) == pipeline.verdict_of(ev.simulation))
     if comp is not None:
         assert simulation_json(comp.result) == simulation_json(alt)

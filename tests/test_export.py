@@ -339,14 +339,14 @@ def test_an_assembly_without_bodies_is_refused_by_name(tmp_path):
 def test_an_export_without_bodies_exits_2_with_one_line(tmp_path, monkeypatch, capsys):
     """At the command line the refusal is exit 2 and one line on stderr, nothing written
     (a part without bodies, as a geometry bug would hand over, reaches the writers)."""
-    from foldprint.apps import pipeline
+    from foldprint.apps import evaluation_exports
     from foldprint.cli.commands import main
     from foldprint.io.design_io import design_to_toml
 
     design, asm = _small_design()
     f = tmp_path / "s.toml"
     f.write_text(design_to_toml(design))
-    monkeypatch.setattr(pipeline, "build_assembly", lambda *a, **k: replace(asm, bodies=()))
+    monkeypatch.setattr(evaluation_exports, "build_assembly", lambda *a, **k: replace(asm, bodies=()))
     out = tmp_path / "out"
     assert main(["export", str(f), "--out", str(out), "--format", "3mf,prusa3mf", "--json"]) == 2
     cap = capsys.readouterr()

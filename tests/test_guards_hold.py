@@ -193,7 +193,7 @@ def test_an_evaluation_counts_what_it_keeps_in_every_later_run(default_guards, m
 
 def test_simulate_is_refused_up_front_when_its_two_runs_do_not_fit(default_guards, monkeypatch, tmp_path, capsys):
     """One run fits, the fold and its comparison do not: refused before the first fold."""
-    import foldprint.apps.pipeline as pipeline
+    import foldprint.apps.evaluation_nominal as evaluation_nominal
     from foldprint.cli.commands import main
     from foldprint.io.design_io import design_to_toml
 
@@ -211,7 +211,7 @@ def test_simulate_is_refused_up_front_when_its_two_runs_do_not_fit(default_guard
     def boom(*a, **k):
         raise AssertionError("simulated despite the refusal")
 
-    monkeypatch.setattr(pipeline, "simulate", boom)
+    monkeypatch.setattr(evaluation_nominal, "simulate", boom)
     assert main(["simulate", str(f), "--max-memory", str(limit), "--json"]) == 2
     err = capsys.readouterr().err
     assert "2 runs held at once" in err and err.count("\n") == 1

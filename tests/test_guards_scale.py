@@ -88,12 +88,15 @@ def test_check_refuses_samples_over_its_memory_limit_at_once(capsys):
 def test_export_refused_before_building(tmp_path, monkeypatch, capsys):
     """Over the time budget, export refuses from the design alone: no geometry is built
     and no output directory is left."""
+    import foldprint.apps.evaluation_exports as evaluation_exports
+    import foldprint.apps.evaluation_nominal as evaluation_nominal
     import foldprint.apps.pipeline as pipeline
 
     def boom(*a, **k):
         raise AssertionError("built despite the refusal")
 
-    monkeypatch.setattr(pipeline, "build_assembly", boom)
+    for module in (pipeline, evaluation_nominal, evaluation_exports):  # wherever an evaluation builds
+        monkeypatch.setattr(module, "build_assembly", boom)
     monkeypatch.setenv("FOLDPRINT_TIME_BUDGET", "1")
     f = tmp_path / "s.toml"
     n = 300

@@ -137,13 +137,13 @@ def test_absurd_option_exits_2_naming_it(capsys, argv):
 
 
 def test_internal_error_exits_3_with_a_short_report(capsys, monkeypatch):
-    import foldprint.apps.pipeline
+    import foldprint.apps.evaluation_nominal
 
     def boom(*a, **kw):
         raise ZeroDivisionError("a bug")
 
     monkeypatch.delenv("FOLDPRINT_TRACEBACK", raising=False)
-    monkeypatch.setattr(foldprint.apps.pipeline, "simulate", boom)  # the CLI simulates through Evaluation
+    monkeypatch.setattr(foldprint.apps.evaluation_nominal, "simulate", boom)  # the CLI simulates through Evaluation
     code = main(["simulate", "helix_graded"])
     out, err = capsys.readouterr()
     assert code == 3 and out == ""
@@ -152,10 +152,10 @@ def test_internal_error_exits_3_with_a_short_report(capsys, monkeypatch):
 
 
 def test_internal_error_traceback_on_request(capsys, monkeypatch):
-    import foldprint.apps.pipeline
+    import foldprint.apps.evaluation_nominal
 
     monkeypatch.setenv("FOLDPRINT_TRACEBACK", "1")
-    monkeypatch.setattr(foldprint.apps.pipeline, "simulate", lambda *a, **k: 1 / 0)
+    monkeypatch.setattr(foldprint.apps.evaluation_nominal, "simulate", lambda *a, **k: 1 / 0)
     assert main(["simulate", "helix_graded"]) == 3
     assert "Traceback" in capsys.readouterr().err
 
