@@ -193,7 +193,7 @@ def export_bench(strip1000: Path, tmp: Path):
     from foldprint.core import guards
     from foldprint.exchange.export import export_assembly
     from foldprint.geometry import build_assembly
-    from foldprint.geometry import assembly as asm_mod
+    from foldprint.geometry import bed as asm_mod  # bed_report and its probe
     from foldprint.io.load import load_design
     from foldprint.physics.recovery import hinge_fold_times
 

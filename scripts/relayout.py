@@ -79,24 +79,6 @@ PACKAGE_DOCS = {
 }
 
 
-FACADE = '''
-
-#: the flat module names of foldprint 0.1 -> where they live now (docs/architecture.md);
-#: ``from foldprint import robust`` keeps working (checks, render and cli are packages now)
-_MOVED = {{
-{entries}
-}}
-
-
-def __getattr__(name: str):
-    if name in _MOVED:
-        import importlib
-
-        return importlib.import_module(f"{{__name__}}.{{_MOVED[name]}}")
-    raise AttributeError(f"module {{__name__!r}} has no attribute {{name!r}}")
-'''
-
-
 def old_module(path: Path) -> list[str]:
     rel = path.relative_to(PKG).with_suffix("")
     parts = ["foldprint", *rel.parts]
@@ -275,21 +257,7 @@ def main() -> int:
         new = rewrite_text(text)
         if new != text:
             path.write_text(new, encoding="utf-8")
-    # 4. the facade keeps the old names importable (from foldprint import robust)
-    init = PKG / "__init__.py"
-    lines, cur = [], "   "
-    subpackages = {v.split(".")[0] for v in MOVES.values()}
-    for k, v in MOVES.items():
-        if k in subpackages:  # checks, render, cli: the name is the package now
-            continue
-        ent = f' "{k}": "{v}",'
-        if len(cur) + len(ent) > 100:
-            lines.append(cur)
-            cur = "   "
-        cur += ent
-    lines.append(cur)
-    init.write_text(init.read_text(encoding="utf-8") + FACADE.format(entries="\n".join(lines)), encoding="utf-8")
-    # 5. paths relative to a module file
+    # 4. paths relative to a module file
     tpl = PKG / "io" / "templates.py"
     tpl.write_text(tpl.read_text(encoding="utf-8").replace(
         'Path(__file__).resolve().parent.parent / "templates"',

@@ -13,6 +13,8 @@ import ast
 import re
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "foldprint"
 DOC = ROOT / "docs" / "architecture.md"
@@ -59,18 +61,62 @@ def _from_module(pkg: str, node: ast.ImportFrom) -> str:
     return node.module or ""
 
 
+def _is_package(name: str, modules) -> bool:
+    return name in modules and Path(modules[name]).name == "__init__.py"
+
+
+def reexports(pkg: str, modules, _seen: frozenset = frozenset()) -> dict[str, str]:
+    """Each name package ``pkg``'s ``__init__`` imports from a foldprint module -> the module
+    that defines it (followed through further packages' ``__init__``; a submodule imported
+    by name maps to itself). The facade (``foldprint``) is not followed: no module may
+    import it at all."""
+    if pkg in TOP or not _is_package(pkg, modules) or pkg in _seen:
+        return {}
+    out = {}
+    for node in ast.walk(ast.parse(Path(modules[pkg]).read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom):
+            head = _from_module(pkg, node)
+            if not head.startswith("foldprint."):
+                continue
+            for a in node.names:
+                full = f"{head}.{a.name}"
+                out[a.asname or a.name] = full if full in modules else defining_module(
+                    head, a.name, modules, _seen | {pkg})
+    return out
+
+
+def defining_module(head: str, name: str, modules, _seen: frozenset = frozenset()) -> str:
+    """The module ``from head import name`` reaches: the submodule ``head.name``, else the
+    module a package's ``__init__`` re-exports ``name`` from, else ``head`` itself."""
+    if f"{head}.{name}" in modules:
+        return f"{head}.{name}"
+    return reexports(head, modules, _seen).get(name, head) if _is_package(head, modules) else head
+
+
+def _whole_package(target: str, modules) -> list[str]:
+    """A package imported as a whole (``import foldprint.geometry``, ``from .. import
+    geometry``): the package and every module its ``__init__`` re-exports from."""
+    r = _resolve(target, modules)
+    if r is None or r != target or not _is_package(r, modules) or r in TOP:
+        return [target]
+    return [target, *sorted(set(reexports(r, modules).values()))]
+
+
 def edges_of(mod: str, is_package: bool, src: str, modules) -> list[tuple[str, str]]:
-    """(mod, imported foldprint module) for every import in one module's source."""
+    """(mod, imported foldprint module) for every import in one module's source, by
+    resolved module: a name imported from a package's ``__init__`` counts as an import of
+    the module that defines it, a package imported whole as one of each module its
+    ``__init__`` re-exports."""
     pkg = mod if is_package else mod.rpartition(".")[0]
     edges = []
     for node in ast.walk(ast.parse(src)):
         targets: list[str] = []
         if isinstance(node, ast.ImportFrom):
             head = _from_module(pkg, node)
-            targets = [f"{head}.{a.name}" for a in node.names] if head else []
-            targets = [t if t in modules else head for t in targets]
+            targets = [defining_module(head, a.name, modules) for a in node.names] if head else []
+            targets = [x for t in targets for x in _whole_package(t, modules)]
         elif isinstance(node, ast.Import):
-            targets = [a.name for a in node.names]
+            targets = [x for a in node.names for x in _whole_package(a.name, modules)]
         elif isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant) \
                 and isinstance(node.args[0].value, str):
             fn = node.func
@@ -182,14 +228,15 @@ def test_no_module_imports_the_facade():
 def test_the_walker_sees_a_facade_import_in_every_form():
     """``from .. import __version__``, ``import foldprint``, ``from foldprint import X`` and
     ``__import__('foldprint')`` reach the facade; ``from .. import geometry`` reaches the
-    subpackage (a test of the test)."""
+    subpackage and every module its ``__init__`` re-exports (a test of the test)."""
     modules = _modules()
     for src in ("from .. import __version__\n", "import foldprint\n", "from foldprint import load_design\n",
                 "__import__('foldprint')\n", "from ... import strip\n"):
         mod = "foldprint.exchange.sub.fake" if src.startswith("from ...") else "foldprint.exchange.fake"
         assert {b for _, b in edges_of(mod, False, src, modules)} == {"foldprint"}, src
     assert {b for _, b in edges_of("foldprint.apps.fake", False, "from .. import geometry\n", modules)} \
-        == {"foldprint.geometry"}
+        == {"foldprint.geometry", *(f"foldprint.geometry.{m}" for m in ("assembly", "bed", "hinges", "layout",
+                                                                         "solids"))}
 
 
 #: Modules whose leading-underscore names other modules of their own subpackage may still
@@ -343,3 +390,119 @@ def test_no_module_over_600_lines():
     bad = [f"{mod} ({n} lines)" for mod, n in long_modules() if mod not in LONG_MODULE_ALLOWLIST]
     assert not bad, f"modules over {MAX_MODULE_LINES} lines (split them along a seam): " + ", ".join(bad)
     assert long_modules(limit=100), "the walker found no module over 100 lines: it reads nothing"
+
+
+# -- what never imports what (docs/architecture.md's second table) -----------------------
+
+_NEVER_ROW = re.compile(r"^\|\s*`([\w.]+)`\s*\|\s*(only\s+)?((?:`[\w.]+`(?:,\s*)?)+)\s*\|")
+
+
+def never_rules() -> list[tuple[str, bool, tuple[str, ...]]]:
+    """(importer, ``only``, packages or modules) per row of the doc's "What never imports
+    what" table: with ``only`` False the importer never imports these (prefixes); with
+    True it imports nothing of foldprint but these and itself."""
+    text = DOC.read_text(encoding="utf-8")
+    section = text.split("## What never imports what", 1)[1].split("\n## ", 1)[0]
+    rules = []
+    for line in section.splitlines():
+        m = _NEVER_ROW.match(line)
+        if m:
+            rules.append((m.group(1), bool(m.group(2)), tuple(re.findall(r"`([\w.]+)`", m.group(3)))))
+    assert rules, "docs/architecture.md has no 'What never imports what' table"
+    return rules
+
+
+def _within(mod: str, prefix: str) -> bool:
+    full = f"foldprint.{prefix}"
+    return mod == full or mod.startswith(full + ".")
+
+
+def never_violations(edges, rules) -> list[str]:
+    """Every edge a rule refuses, as "rule: importer -> imported"."""
+    bad = []
+    for a, b in edges:
+        for src, only, names in rules:
+            if not _within(a, src):
+                continue
+            if only:
+                refused = not any(_within(b, n) for n in (src, *names))
+            else:
+                refused = any(_within(b, n) for n in names)
+            if refused:
+                kind = f"only {', '.join(names)}" if only else f"never {', '.join(names)}"
+                bad.append(f"{src} {kind}: {a} -> {b}")
+    return bad
+
+
+def test_the_never_table_holds_the_rules():
+    """The table names at least the rules the architecture promises (a row deleted by
+    mistake would silently lift one): the checks compute nothing, the writers only write,
+    the geometry folds nothing, the renderers neither write nor fold, the CLI enters
+    through apps."""
+    rules = never_rules()
+    never = {(src, n) for src, only, names in rules if not only for n in names}
+    only = {src: set(names) for src, o, names in rules if o}
+    for pair in [("geometry", "simulation"), ("geometry", "collision"), ("render", "exchange"),
+                 ("render", "simulation"), ("exchange", "geometry.assembly"), ("checks", "simulation")]:
+        assert pair in never, pair
+    assert only.get("cli") == {"apps", "core"} and only.get("exchange") == set(EXCHANGE_MAY_IMPORT)
+
+
+def test_nothing_imports_what_the_never_table_refuses():
+    bad = never_violations(imports(), never_rules())
+    assert not bad, "imports docs/architecture.md's 'What never imports what' refuses: " + "; ".join(sorted(bad))
+
+
+@pytest.mark.parametrize("mod, src", [
+    ("foldprint.geometry.fake", "from ..simulation.robust import jam_probability\n"),
+    ("foldprint.geometry.fake", "from ..simulation import robust\n"),
+    ("foldprint.geometry.fake", "def f():\n    from ..collision import swept3d\n"),
+    ("foldprint.geometry.fake", "import foldprint.collision.rigid\n"),
+    ("foldprint.render.fake", "from ..exchange.stl import write_stl\n"),
+    ("foldprint.render.fake", "import foldprint.exchange\n"),
+    ("foldprint.render.fake", "def f():\n    from ..simulation.simulate import simulate\n"),
+    ("foldprint.exchange.fake", "from ..geometry import build_assembly\n"),  # through geometry's __init__
+    ("foldprint.exchange.fake", "from .. import geometry\n"),  # the package whole: its builder too
+    ("foldprint.exchange.fake", "from ..physics.recovery import fold_time\n"),
+    ("foldprint.checks.fake", "from ..simulation.simulate import simulate\n"),
+    ("foldprint.cli.fake", "from ..io.load import load_design\n"),
+    ("foldprint.cli.fake", "def f():\n    from ..checks.report import percent\n"),  # a lazy import
+    ("foldprint.cli.fake", "importlib.import_module('foldprint.model.materials')\n"),
+])
+def test_a_planted_import_breaks_a_never_rule(mod, src):
+    """Each rule of the table fails on an import planted in a module's source, directly,
+    through a package's ``__init__`` or inside a function (a test of the test)."""
+    edges = edges_of(mod, False, src, _modules())
+    assert never_violations(edges, never_rules()), (mod, src, edges)
+
+
+@pytest.mark.parametrize("mod, src", [
+    ("foldprint.exchange.fake", "from ..geometry import Assembly, bed_report\n"),  # the built part, its report
+    ("foldprint.cli.fake", "from ..apps.pipeline import Evaluation\nfrom ..core.errors import FoldprintError\n"
+                           "from .printing import echo_json\n"),
+    ("foldprint.render.fake", "from ..geometry.surfaces import Frames\nfrom ..physics.kinematics import forward\n"),
+    ("foldprint.geometry.fake", "from ..physics.kinematics import forward\nfrom ..model.design import Design\n"),
+])
+def test_an_allowed_import_passes_the_never_rules(mod, src):
+    """What the rules allow passes them (the planted failures above are not the walker
+    refusing everything)."""
+    assert never_violations(edges_of(mod, False, src, _modules()), never_rules()) == []
+
+
+def test_names_through_a_package_init_resolve_to_their_module():
+    """``from ..geometry import build_assembly`` is an import of ``geometry.assembly``,
+    ``Assembly`` of ``geometry.solids``; a submodule imported by name is itself."""
+    modules = _modules()
+    got = {b for _, b in edges_of("foldprint.exchange.fake", False,
+                                  "from ..geometry import build_assembly, Assembly, surfaces\n", modules)}
+    assert got == {"foldprint.geometry.assembly", "foldprint.geometry.solids", "foldprint.geometry.surfaces"}
+
+
+def test_the_cli_imports_only_apps_and_core():
+    """The door (docs/architecture.md, "One door"): every module of foldprint/cli, lazy
+    imports inside functions included, imports nothing of foldprint but ``apps``, ``core``
+    and ``cli``; checked by resolved module."""
+    bad = [f"{a} -> {b}" for a, b in imports() if a.startswith("foldprint.cli.")
+           and not any(_within(b, p) for p in ("apps", "core", "cli"))]
+    assert not bad, "the CLI reaches past apps and core: " + ", ".join(sorted(bad))
+    assert any(a.startswith("foldprint.cli.") and _within(b, "apps") for a, b in imports())

@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from foldprint.cli import support
+from foldprint.cli import printing, progress
 from foldprint.cli.commands import main
 
 
@@ -23,7 +23,7 @@ class _TTY(io.StringIO):
 def test_stage_progress_shows_samples_rate_time_left_and_decided(monkeypatch):
     err = _TTY()
     monkeypatch.setattr(sys, "stderr", err)
-    with support.stage_progress("check demo: jam tests") as cb:
+    with progress.stage_progress("check demo: jam tests") as cb:
         cb("jam test at 1x", 16, 400)
         time.sleep(0.25)
         cb("jam test at 1x", 32, 400)
@@ -41,8 +41,8 @@ def test_stage_progress_shows_samples_rate_time_left_and_decided(monkeypatch):
 @pytest.mark.parametrize("silent,quiet,tty", [(True, False, True), (False, True, True), (False, False, False)])
 def test_progress_is_silent_for_json_quiet_or_a_pipe(monkeypatch, silent, quiet, tty):
     monkeypatch.setattr(sys, "stderr", _TTY() if tty else io.StringIO())
-    monkeypatch.setitem(support.OUTPUT_STATE, "quiet", quiet)
-    with support.stage_progress("x", silent) as a, support.samples_progress("y", silent) as b:
+    monkeypatch.setitem(printing.OUTPUT_STATE, "quiet", quiet)
+    with progress.stage_progress("x", silent) as a, progress.samples_progress("y", silent) as b:
         assert a is None and b is None
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from ..model.printers import default_printer_key
 from ..simulation.margin import left_out as margin_left_out
+from ..simulation.sequential import on_check_stream
 
 
 class ReportStages:
@@ -34,9 +35,14 @@ class ReportStages:
             report["notes"] = [*report.get("notes", []), why]
         return report
 
-    def robust_json(self) -> dict:
+    def robust_json(self, check_seed: int | None = None) -> dict:
         """The ``foldprint robust --json`` object: the estimate, and the contributions and
-        the sweep when computed (:func:`foldprint.checks.report.robust_report_json`)."""
-        from ..checks.report import robust_report_json
+        the sweep when computed (:func:`foldprint.checks.report.robust_report_json`);
+        with ``check_seed``, also how the estimate relates to check's figure on that seed
+        (``"check"``: :func:`foldprint.checks.report.check_relation_json`)."""
+        from ..checks.report import check_relation_json, robust_report_json
 
-        return robust_report_json(self.robust, self._stages.get("contributions"), self._stages.get("sweep"))
+        out = robust_report_json(self.robust, self._stages.get("contributions"), self._stages.get("sweep"))
+        if check_seed is not None:
+            out["check"] = check_relation_json(self.robust, check_seed, on_check_stream(self.robust, check_seed))
+        return out

@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 
 from ..core.constants import JSON_DECIMALS
-from ..core.display import percent, seconds  # noqa: F401  (the one formatter; callers import it from here too)
+# the one formatter (callers import it from here too)
+from ..core.display import jam_estimate_text, percent, seconds, threshold  # noqa: F401
 from ..core.modes import JamReason, JamVerdict, SpreadBasis
 
 
@@ -14,11 +15,6 @@ def _r(x, nd=JSON_DECIMALS):
         return None
     x = float(x)
     return None if not math.isfinite(x) else round(x, nd)
-
-
-def threshold(p: float) -> str:
-    """A threshold or error rate as a round percentage ("20 %", "2.5 %")."""
-    return f"{100 * float(p):g} %"
 
 
 #: The verdict of a jam test as a finding's severity (FP180 error, FP181 warning, FP182 info).
@@ -53,14 +49,6 @@ def basis_text(basis: SpreadBasis | None) -> str:
     ('from a datasheet', 'basis not stated')
     """
     return "basis not stated" if basis is None else BASIS_TEXT[basis]
-
-
-def jam_estimate_text(r) -> str:
-    """A jam probability with its interval and counts, as check, robust and the gallery
-    print it: "97.5 % (95 % interval 91.3-99.3 %), 78 of 80 samples jam"."""
-    lo, hi = r.ci95
-    return (f"{percent(r.jam_probability)} (95 % interval {100 * lo:.1f}-{percent(hi)}), "
-            f"{r.jams} of {r.samples} samples jam")
 
 
 def jam_test_text(r) -> str:

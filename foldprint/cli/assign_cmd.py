@@ -11,13 +11,17 @@ from typing import List, Optional, Tuple
 import typer
 from typer import echo
 
-from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_SEED
+from ..apps.resolve import (MAX_BUDGET, MAX_SAMPLES, MAX_TOP, MAX_WORKERS, check_count, check_seed, check_temperature,
+                            load_input, parse_mode)
+from ..core.constants import ASSIGN_BUDGET, ASSIGN_SAMPLES, ASSIGN_TOP, DEFAULT_SEED, JAM_WARN_ABOVE
 from ..core.errors import FoldprintError
 from ..core.modes import DEFAULT_OBJECTIVE, Objective
+from .exits import ExitCode, echo_err
 from .lazy import summary
+from .options import open_mapper
+from .printing import echo_json, echo_note
+from .progress import samples_progress
 from .root import app
-from .support import (ExitCode, MAX_BUDGET, MAX_SAMPLES, MAX_TOP, MAX_WORKERS, check_count, echo_json, echo_err, load_input,
-                      open_mapper, parse_mode, echo_note, samples_progress, check_temperature)
 
 
 @app.command(short_help=summary('assign'))
@@ -66,11 +70,10 @@ def assign(
                    progress=cb)
     out = r.to_json()
     if write is not None and r.best:
-        from ..io.design_io import design_to_toml
-        from ..exchange.files import write_atomic
+        from ..apps.outputs import save_design
 
         b = r.best[0]
-        write_atomic(write, design_to_toml(with_materials(d, b.materials, b.bath_c, lib)))
+        save_design(write, with_materials(d, b.materials, b.bath_c, lib))
         echo_note(f"wrote {write}")
     if json_out:
         echo_json(out)
@@ -90,7 +93,7 @@ def _assign_request(materials, temperature, temperature_range, fixed, objective,
     if temperature is not None and temperature_range is not None:
         raise FoldprintError("give --temperature or --temperature-range, not both")
     if temperature is not None:
-        check_temperature(temperature)
+        check_temperature(temperature, "--temperature")
     if temperature_range is not None:
         lo, hi = (check_temperature(v, "--temperature-range") for v in temperature_range)
         if lo > hi:
@@ -98,8 +101,7 @@ def _assign_request(materials, temperature, temperature_range, fixed, objective,
     for name, v, hi in (("--top", top, MAX_TOP), ("--budget", budget, MAX_BUDGET), ("--samples", samples, MAX_SAMPLES),
                         ("--workers", workers or 1, MAX_WORKERS)):
         check_count(v, name, 1, hi)
-    if seed < 0:
-        raise FoldprintError(f"--seed must be >= 0, got {seed}")
+    check_seed(seed, "--seed")
     fixed_map = {}
     for item in fixed or []:
         hid, sep, mat = item.partition("=")
@@ -119,7 +121,7 @@ def _assign_request(materials, temperature, temperature_range, fixed, objective,
 
 def _print_assign(name: str, r, out: dict, objective: Objective) -> None:
     """``assign``'s human output: the best assignments and what blocks the others."""
-    from ..checks.report import percent, seconds
+    from ..core.display import percent, seconds
 
     space = (f"{r.evaluated / r.search_space:.2e} of {r.search_space}" if math.isfinite(r.search_space)
              else "of a continuous space")
@@ -141,10 +143,9 @@ def _print_assign(name: str, r, out: dict, objective: Objective) -> None:
 
 def _assign_verdict(name: str, r, out: dict, single_bath: bool) -> None:
     """The hint for a cooler bath, and exit 1 naming what blocks when nothing is feasible."""
-    from ..checks.report import percent, threshold
-    from ..checks.rules import Thresholds
+    from ..core.display import percent, threshold
 
-    best_jam, warn = (r.best[0].jam_probability if r.best else None), Thresholds().warning
+    best_jam, warn = (r.best[0].jam_probability if r.best else None), JAM_WARN_ABOVE  # check's default warning
     if best_jam is not None and best_jam > warn and single_bath:
         echo_note(f"the best jam probability {percent(best_jam)} is above {threshold(warn)}: a cooler bath "
               "spreads the materials' fold times, try --temperature-range 75 90 (docs/assign.md)")

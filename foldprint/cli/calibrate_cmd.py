@@ -12,7 +12,8 @@ from typer import echo
 
 from .lazy import summary
 from .root import app
-from .support import echo_json, echo_note, with_progress
+from .printing import echo_json, echo_note
+from .progress import with_progress
 
 
 def _print(out: dict) -> None:
@@ -77,9 +78,9 @@ def calibrate(
     Example: foldprint calibrate foldprint/data/paper_hinge_data.csv --out mine.toml --plot fit.png
     """
     from ..apps import calibrate as cal
-    from ..model.materials import load_library
+    from ..apps.resolve import load_library
 
-    lib = load_library(materials_file or None)
+    lib = load_library(materials_file)
     fixed, fit_names = cal.parse_fixed(fix), cal.parse_fit(fit)
     result = with_progress("fitting the recovery model",
                            lambda: cal.run(data, lib, fixed, per_material or (), not no_profile, fit_names))

@@ -24,7 +24,8 @@ import typer
 from ..core.errors import FoldprintError
 from .lazy import COMMANDS
 from .root import app
-from .support import ExitCode, click_errors, echo_err, expand_multi, internal_error
+from .exits import ExitCode, click_errors, echo_err, internal_error
+from .options import expand_multi
 
 
 def __getattr__(name: str):

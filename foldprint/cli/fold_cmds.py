@@ -10,16 +10,17 @@ from typing import List, Optional
 import typer
 from typer import echo
 
-from ..core import guards
+from ..apps.resolve import (MAX_SAMPLES, check_count, check_seed, check_temperature, load_input, load_printer,
+                            load_scatter, parse_mode, set_memory_limit, sigma_scales, thresholds, time_options)
 from ..core.constants import (CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S, DEFAULT_SEED, JAM_ERROR_ABOVE,
                               JAM_WARN_ABOVE, ROBUST_SAMPLES, SWEEP_SCALES)
 from ..core.modes import DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD
-from ..core.errors import FoldprintError
+from .exits import ExitCode
 from .lazy import summary
+from .options import CREASE_HELP, SCALE_HELP, check_out_dir, open_mapper
+from .printing import echo_json, echo_note, print_paper, print_simulation, verdict_word
+from .progress import samples_progress, stage_progress
 from .root import app
-from .support import (ExitCode, MAX_SAMPLES, CREASE_HELP, SCALE_HELP, check_count, echo_json, check_fraction, load_input, open_mapper, parse_mode,
-                      echo_note, check_out_dir, print_paper, print_simulation, load_printer, samples_progress, check_temperature, time_options,
-                      stage_progress, verdict_word)
 
 
 MECHANICS_HELP = ("rigid (default: rigid panels, exact and fast) | bar-hinge (panels stretch and bend, creases are "
@@ -63,25 +64,22 @@ def simulate(
                        parse_mode(AfterContact, after_contact, "--after-contact"))
     mech = parse_mode(Mechanics, mechanics, "--mechanics")
     if temperature is not None:
-        check_temperature(temperature)
-    time_options(duration, dt)
+        check_temperature(temperature, "--temperature")
+    time_options(duration, dt, "--duration", "--dt")
     plot = check_out_dir(plot, "--plot")
-    guards.set_max_memory(max_memory)  # the resource guard
-    d, lib = load_input(design, materials_file, scale, crease_materials)
+    set_memory_limit(max_memory)  # the resource guard
+    d, lib = load_input(design, materials_file, scale, crease_materials, scale_what="--scale")
     if plot is not None:
-        from ..exchange.files import ensure_dir
+        from ..core.files import ensure_dir
         ensure_dir(plot)
     ev = Evaluation(d, EvalOptions(hinge_model=model, method=m, after_contact=after, dt=dt, bath_c=temperature,
                                    duration=duration, mechanics=mech), library=lib)
     report = ev.simulation_json()  # with the printed crossings and the other hinge model's verdict
     res, crossing = ev.simulation, ev.printed_crossings
     if plot is not None:
-        from ..render.figures import collision_index_figure, hinge_angle_figure, save_figure
+        from ..apps.outputs import simulation_plots
 
-        written = [save_figure(hinge_angle_figure(res), plot / f"{d.name}_hinge_angles.png")]
-        if res.index2d is not None:
-            written.append(save_figure(collision_index_figure(res), plot / f"{d.name}_collision_index.png"))
-        for w in written:
+        for w in simulation_plots(res, plot, d.name):
             echo_note(f"wrote {w}")
     if json_out:
         echo_json(report)
@@ -129,23 +127,19 @@ def check(
 
     Example: foldprint check helix_uniform --json
     """
-    from ..checks.rules import Thresholds
     from ..core.modes import HingeModel, Mechanics
     from ..apps.pipeline import EvalOptions, Evaluation, check_scales
-    from ..simulation.robust import load_scatter
-    from ..simulation.sensitivity import parse_scales
 
     model = parse_mode(HingeModel, hinge_model, "--hinge-model")
     mech = parse_mode(Mechanics, mechanics, "--mechanics")
-    guards.set_max_memory(max_memory)  # the resource guard
+    set_memory_limit(max_memory)  # the resource guard
     check_count(samples, "--samples", 0, MAX_SAMPLES)  # 0 skips the jam probability
-    if seed < 0:
-        raise FoldprintError(f"--seed must be >= 0, got {seed}")
-    th = Thresholds(check_fraction(error_above, "--error-above"), check_fraction(warn_above, "--warn-above"))
-    ks = parse_scales(scales) if sensitivity else ()
+    check_seed(seed, "--seed")
+    th = thresholds(error_above, warn_above, error_what="--error-above", warn_what="--warn-above")
+    ks = sigma_scales(scales, "--scales") if sensitivity else ()
     key, pr = load_printer(printer, printers_file)
     sc = load_scatter(scatter_file)
-    d, lib = load_input(design, materials_file, scale, crease_materials)
+    d, lib = load_input(design, materials_file, scale, crease_materials, scale_what="--scale")
     opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=check_scales(ks), thresholds=th,
                        mechanics=mech)
     with stage_progress(f"check {d.name}", json_out) as cb:
@@ -198,17 +192,12 @@ def robust(
     """
     from ..core.modes import HingeModel, Mechanics, SampleRule
     from ..apps.pipeline import EvalOptions, Evaluation
-    from ..checks.report import check_relation_json
-    from ..simulation.robust import load_scatter
-    from ..simulation.sensitivity import parse_scales
-    from ..simulation.sequential import on_check_stream
 
     model = parse_mode(HingeModel, hinge_model, "--hinge-model")
     mech = parse_mode(Mechanics, mechanics, "--mechanics")
     check_count(samples, "--samples", 1, MAX_SAMPLES)
-    if seed < 0:
-        raise FoldprintError(f"--seed must be >= 0, got {seed}")
-    ks = parse_scales(scales)
+    check_seed(seed, "--seed")
+    ks = sigma_scales(scales, "--scales")
     sc = load_scatter(scatter_file)
     d, lib = load_input(design, materials_file)
     opts = EvalOptions(hinge_model=model, samples=samples, sample_rule=SampleRule.FIXED, seed=seed,
@@ -223,8 +212,7 @@ def robust(
         if sensitivity:
             with samples_progress(f"{d.name}: sigma scales", json_out) as cb:
                 ev.run_sweep(cb)
-    out = ev.robust_json()
-    out["check"] = check_relation_json(ev.robust, CHECK_SEED, on_check_stream(ev.robust, CHECK_SEED))
+    out = ev.robust_json(CHECK_SEED)  # with how it relates to check's figure on check's seed
     if json_out:
         echo_json(out)
         return
@@ -234,7 +222,7 @@ def robust(
 def _print_robust(out: dict, r, seed: int, model: str) -> None:
     """``robust``'s text output: the estimate, its pairs and fold times, check's relation,
     the contributions and the sweep."""
-    from ..checks.report import jam_estimate_text, percent, seconds
+    from ..core.display import jam_estimate_text, percent, seconds
 
     echo(f"{r.design}: jam probability {jam_estimate_text(r)}, seed {seed} ({model} hinges)")
     for c in out["collisions"][:5]:

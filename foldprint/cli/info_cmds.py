@@ -11,11 +11,13 @@ from typing import List, Optional
 import typer
 from typer import echo
 
-from ..core.constants import DEFAULT_THICKNESS_MM, JSON_DECIMALS
+from ..apps.resolve import check_number, check_temperature, check_thickness, load_library
+from ..core.constants import DEFAULT_THICKNESS_MM
 from ..core.display import seconds
 from .lazy import summary
+from .options import check_out_file
+from .printing import echo_json, echo_note, print_paper
 from .root import app
-from .support import check_out_file, echo_json, check_in_range, echo_note, check_number, check_temperature, print_paper
 
 
 @app.command(short_help=summary('materials'))
@@ -31,37 +33,19 @@ def materials(
 
     Example: foldprint materials --temperature 80 90 100 --json
     """
-    from ..model.materials import load_library
-    from ..physics.recovery import fold_time
-    from ..simulation.paper_timings import fig1b_lines
+    from ..apps.catalog import fig1b_paper_lines, fold_time_chart, material_rows
 
     plot = check_out_file(plot, "--plot")
-    lib = load_library(materials_file or None)
+    lib = load_library(materials_file)
     temps_raw = list(temperature) if temperature else ["80", "90", "100"]
-    temps = [(_t, check_temperature(check_number(_t, "--temperature"))) for _t in temps_raw]
-    from ..core.schema import MAX_LENGTH_MM, MIN_LENGTH_MM
-
-    check_in_range(thickness, "--thickness", MIN_LENGTH_MM, MAX_LENGTH_MM, "mm")
-    rows = []
-    for m in lib:
-        ft = {}
-        for key, val in temps:
-            if m.role == "hinge":
-                v = fold_time(m, val, thickness)
-                ft[key] = None if v is None else round(v, JSON_DECIMALS)
-            else:
-                ft[key] = None
-        rows.append({"name": m.name, "role": m.role, "tg_c": m.tg_c, "color": m.color, "fold_time_s": ft,
-                     "fixity": m.shape_fixity if m.role == "hinge" else None,
-                     "fixity_source": (m.fixity_source or "measured") if m.fixity is not None else
-                     ("default: E_g / (E_g + E_r), docs/calibrate.md" if m.role == "hinge" else None)})
+    temps = [(_t, check_temperature(check_number(_t, "--temperature"), "--temperature")) for _t in temps_raw]
+    check_thickness(thickness, "--thickness")
+    rows = material_rows(lib, temps, thickness)
     if plot is not None:
-        from ..render.figures import fold_time_chart, save_figure
-
-        save_figure(fold_time_chart(lib, [v for _, v in temps], thickness), plot)
+        fold_time_chart(lib, [v for _, v in temps], thickness, plot)
         echo_note(f"wrote {plot}")
     # Fig. 1b's statements (free hinges at the paper's 0.8 mm) beside the model's values
-    paper = [] if thickness != DEFAULT_THICKNESS_MM else [ln.to_json() for ln in fig1b_lines(lib)]
+    paper = fig1b_paper_lines(lib, thickness)
     if json_out:
         echo_json({"materials": rows, "paper": paper})
         return
@@ -90,7 +74,7 @@ def templates(json_out: bool = typer.Option(False, "--json", help="Print one JSO
 
     Example: foldprint templates --json
     """
-    from ..io.templates import list_templates, templates_dir
+    from ..apps.catalog import templates as list_templates, templates_dir
 
     items = list_templates()
     if json_out:

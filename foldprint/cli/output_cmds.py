@@ -11,13 +11,16 @@ from typing import List, Optional
 import typer
 from typer import echo
 
+from ..apps.resolve import (MAX_WORKERS, check_count, load_designs, load_input, load_library, load_printer,
+                            template_paths)
 from ..core.constants import EXPORT_FORMATS
 from ..core.modes import DEFAULT_MECHANICS, DEFAULT_STATE, Mechanics, State, parse
 from ..core.errors import FoldprintError
 from .lazy import summary
+from .options import CREASE_HELP, SCALE_HELP, check_out_dir
+from .printing import OUTPUT_STATE, echo_json, echo_note
+from .progress import with_progress
 from .root import app
-from .support import (MAX_WORKERS, CREASE_HELP, SCALE_HELP, OUTPUT_STATE, check_count, echo_json, load_input, echo_note, check_out_dir,
-                      load_printer, with_progress)
 
 FORCE_HELP = ("Write into a folder that holds other files: the output's files are added beside them one by one "
               "(files of other names are left as they are, files of the same names replaced; a kill can leave "
@@ -28,8 +31,8 @@ def _plan_out(out_dir: Path, force: bool, what: str):
     """Refuse ``out_dir`` before anything is built (the library checks again when it
     publishes); say when the output will land file by file. The plan
     (:class:`foldprint.exchange.outfolder.Plan`)."""
+    from ..apps.outputs import plan_out
     from ..core.modes import Publish
-    from ..exchange.files import plan_out
 
     p = plan_out(out_dir, force)
     if p.publish == Publish.FILE_BY_FILE:
@@ -68,7 +71,7 @@ def export(
 
     Example: foldprint export helix_graded --format 3mf,stl --json
     """
-    from ..exchange.export import FORMATS
+    from ..apps.outputs import known_formats
     from ..apps.pipeline import EvalOptions, Evaluation
 
     try:
@@ -76,11 +79,12 @@ def export(
     except FoldprintError:
         raise FoldprintError(f"--state must be permanent or programmed, got {state!r}") from None
     fmts = [f.strip() for f in formats.split(",") if f.strip()]
-    bad = [f for f in fmts if f not in FORMATS]
+    known = known_formats()
+    bad = [f for f in fmts if f not in known]
     if bad or not fmts:
-        raise FoldprintError(f"--format: unknown format(s) {bad or formats!r}; choose from {', '.join(FORMATS)}")
+        raise FoldprintError(f"--format: unknown format(s) {bad or formats!r}; choose from {', '.join(known)}")
     out = check_out_dir(out)
-    d, lib = load_input(design, materials_file, scale, crease_materials)
+    d, lib = load_input(design, materials_file, scale, crease_materials, scale_what="--scale")
     out_dir = out if out is not None else Path("output") / d.name
     published = _plan_out(out_dir, force, "export").publish
     profile = None if printer is None else load_printer(printer, printers_file)[1]
@@ -89,10 +93,10 @@ def export(
                                                                mechanics=parse(Mechanics, mechanics, "--mechanics")),
                                                 library=lib).export(out_dir, printer=profile, force=force))
     if json_out:
-        from ..exchange.outfolder import MANIFEST
+        from ..apps.outputs import manifest_name
 
         echo_json({"design": d.name, "state": state, "out": str(out_dir), "files": records,
-                   "manifest": str(out_dir / MANIFEST), "published": str(published)})
+                   "manifest": str(out_dir / manifest_name()), "published": str(published)})
     else:
         slices = [r for r in records if r["format"] == "png"]
         for r in records:
@@ -125,19 +129,16 @@ def gallery(
 
     Example: foldprint gallery --out output/gallery
     """
-    from ..io.load import load_design
     from ..apps.gallery import build_gallery
-    from ..model.materials import load_library
-    from ..io.templates import list_templates, resolve_design_path
 
     out = check_out_dir(out)
     if jobs is not None:
         check_count(jobs, "--jobs", 1, MAX_WORKERS)
-    lib = load_library(materials_file or None)
-    names = list(designs) if designs else [t["path"] for t in list_templates()]
+    lib = load_library(materials_file)
+    names = list(designs) if designs else template_paths()
     if not names:
         raise FoldprintError("no designs given and no templates found")
-    loaded = [load_design(resolve_design_path(n), lib) for n in names]
+    loaded = load_designs(names, lib)
     _plan_out(out, force, "gallery")
     if OUTPUT_STATE["quiet"]:
         index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force)

@@ -13,7 +13,7 @@ from typer.core import TyperGroup
 
 from ..core.version import __version__
 from .lazy import COMMANDS, LazyCommands, summary
-from .support import OUTPUT_STATE
+from .printing import OUTPUT_STATE
 
 
 class LazyGroup(TyperGroup):

@@ -19,7 +19,8 @@ never merged); bodies of different materials may touch but must not overlap, whi
 target angle) and ``programmed`` (flat sheet).
 """
 
-from .assembly import HingeAxes, bed_report, build_assembly, build_pieces, hinge_axes, panel_solids
+from .assembly import HingeAxes, build_assembly, build_pieces, hinge_axes, panel_solids
+from .bed import bed_report
 from .hinges import arc_transform, hinge_segments, state_angles, strip_profile
 from .layout import layout
 from .solids import (BED_TOL, BEND_VOLUME_RATIO_MIN, BOTTOM_FACE_RAD, CLEAN_EPS, MAX_SLICE_RAD, MIN_AREA,
