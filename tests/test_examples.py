@@ -19,7 +19,7 @@ EXAMPLES = sorted((ROOT / "examples").glob("*.py"))
 def test_there_are_examples():
     names = {p.stem for p in EXAMPLES}
     assert len(EXAMPLES) >= 4
-    assert {"design_strip", "fold_simulate_plot", "check_design", "compare_hinges"} <= names
+    assert {"design_strip", "fold_simulate_plot", "check_design", "compare_hinges", "notebook_check_export"} <= names
 
 
 def _run(script: Path, cwd: Path) -> subprocess.CompletedProcess:
@@ -54,3 +54,28 @@ def test_example_runs(script, tmp_path):
         lines = proc.stdout.splitlines()
         assert sum(line.startswith("self_lock") for line in lines) == 2
         assert proc.stdout.count("completes:") == 2
+    elif script.stem == "notebook_check_export":
+        _same_as_the_command_line(out, tmp_path, proc.stdout)
+
+
+def _same_as_the_command_line(out: Path, tmp_path: Path, stdout: str) -> None:
+    """The notebook's check, through the public API alone, is the command line's: the same
+    JSON as ``foldprint check helix_uniform --json`` and the same STL bytes as ``foldprint
+    export``; its refusal names the input, not an option."""
+    import json
+
+    assert "refused: temperature must be in [-100, 500] deg C, got 600.0" in stdout
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    cli = subprocess.run([sys.executable, "-m", "foldprint", "check", "helix_uniform", "--json"], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=300)
+    assert cli.returncode == 1, cli.stderr[-2000:]  # helix_uniform jams: check fails it
+    assert json.loads((out / "check.json").read_text()) == json.loads(cli.stdout)
+    cli_out = tmp_path / "cli_export"
+    done = subprocess.run([sys.executable, "-m", "foldprint", "export", "helix_uniform", "--format", "stl", "--out",
+                           str(cli_out)], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    stls = sorted(p.name for p in (out / "print").glob("*.stl"))
+    assert stls and stls == sorted(p.name for p in cli_out.glob("*.stl"))
+    assert all((out / "print" / n).read_bytes() == (cli_out / n).read_bytes() for n in stls)
+    with zipfile.ZipFile(out / "print" / "helix_uniform.3mf") as z:
+        assert "3D/3dmodel.model" in z.namelist()

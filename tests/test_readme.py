@@ -75,3 +75,29 @@ def test_the_synopsis_gives_exactly_the_options_of_the_command(command):
     said, has = {toggle.get(o, o) for o in said}, {toggle.get(o, o) for o in has}  # either side of a toggle
     assert said - has == set(), f"README names options {command} does not have"
     assert has - said - SHARED == set(), f"README leaves out options of {command}"
+
+
+def test_the_python_api_example_runs(tmp_path):
+    """The README's Python block runs as a user would run it (a fresh interpreter, an empty
+    current folder): exit 0, the evaluation's answer printed, the files it names written."""
+    import ast
+    import os
+    import subprocess
+    import sys
+
+    (line, code), = _blocks("python")
+    script = tmp_path / "readme_example.py"
+    script.write_text(code, encoding="utf-8")
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    proc = subprocess.run([sys.executable, str(script)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, f"README.md:{line}: the Python example fails:\n{proc.stderr[-3000:]}"
+    lines = proc.stdout.strip().splitlines()
+    ok, codes = lines[-3].split(" ", 1)
+    assert ok in {"True", "False"} and codes.startswith("[")
+    jam, ci95 = lines[-2].split(" ", 1)
+    lo, hi = ast.literal_eval(ci95)
+    assert 0.0 <= lo <= float(jam) <= hi <= 1.0  # the estimate inside its interval
+    written = ast.literal_eval(lines[-1])  # the paths the example printed
+    assert any(w.endswith(".3mf") for w in written) and any(w.endswith(".stl") for w in written)
+    assert all((tmp_path / w).is_file() for w in written), written
