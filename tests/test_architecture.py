@@ -155,7 +155,7 @@ def test_only_the_pipeline_chains_simulation_and_checks():
 
 
 #: What ``exchange/`` may import besides itself: the
-#: writers format what they are given (issue 21, "writers that only write"). ``io`` is
+#: writers format what they are given (writers that only write: no stage runs in them). ``io`` is
 #: needed: the 3MF and FOLD files embed the design (``io.design_io.design_to_dict``), and
 #: the FOLD writer shares the reader's tables and helpers (``io.fold_format``) and
 #: re-exports the reader beside it. Never ``physics`` or ``simulation``, not even for a type.
@@ -269,7 +269,7 @@ def test_the_import_walker_sees_every_form():
 
 
 #: The longest a function may be (lines from ``def`` to its last line, signature and
-#: docstring included): issue 21, "no function over 80 lines".
+#: docstring included): a function that fits on a screen is read whole.
 MAX_FUNCTION_LINES = 80
 #: Functions over the limit, each as (module, qualified name) with the reason it is still
 #: here in a comment. Empty: keep it so, a split is the way out.
@@ -318,7 +318,7 @@ def test_the_length_walker_sees_methods_and_nested_functions():
     assert got == {("long_one", 81), ("C.method", 81), ("outer", 84), ("outer.inner", 81)}  # outer: def, inner, a blank line, return
 
 
-#: The longest a module of foldprint/ may be (lines of the file): issue 21, modules that fit.
+#: The longest a module of foldprint/ may be (lines of the file): a module that fits is read whole.
 MAX_MODULE_LINES = 600
 #: Modules over the limit, each mapped to the reason it is still here (empty: none may be).
 LONG_MODULE_ALLOWLIST: dict[str, str] = {}
