@@ -136,7 +136,7 @@ def test_the_layer_table_is_the_tree():
 
 
 def test_a_wings_modules_count_as_its_layers(tmp_path):
-    """``foldprint.apps.gallery.page`` is the apps layer's ``gallery/page``; the wing's
+    """``foldprint.apps.wing.page`` is the apps layer's ``wing/page``; the wing's
     ``__init__`` with code, a wing inside a wing and a flat module are refused (a test of
     the test)."""
     doc, init, code = tmp_path / "doc.py", tmp_path / "__init__.py", tmp_path / "code" / "__init__.py"
@@ -144,11 +144,11 @@ def test_a_wings_modules_count_as_its_layers(tmp_path):
     doc.write_text("X = 1\n")
     init.write_text('"""A wing."""\n\nfrom __future__ import annotations\n')
     code.write_text('"""A wing."""\nX = 1\n')
-    mods = {"foldprint.apps": init, "foldprint.apps.pipeline": doc, "foldprint.apps.gallery": init,
-            "foldprint.apps.gallery.page": doc, "foldprint.physics.loops.tracker": doc}
-    assert layer_modules(mods) == {"apps": {"pipeline", "gallery/page"}, "physics": {"loops/tracker"}}
-    for bad in ({"foldprint.apps.gallery": code}, {"foldprint.apps.gallery.page.deep": doc},
-                {"foldprint.apps.gallery.page": init}, {"foldprint.flat": doc}):
+    mods = {"foldprint.apps": init, "foldprint.apps.chain": doc, "foldprint.apps.wing": init,
+            "foldprint.apps.wing.page": doc, "foldprint.physics.fam.part": doc}
+    assert layer_modules(mods) == {"apps": {"chain", "wing/page"}, "physics": {"fam/part"}}
+    for bad in ({"foldprint.apps.wing": code}, {"foldprint.apps.wing.page.deep": doc},
+                {"foldprint.apps.wing.page": init}, {"foldprint.flat": doc}):
         with pytest.raises(AssertionError):
             layer_modules({**mods, **bad})
 
