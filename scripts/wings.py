@@ -20,9 +20,10 @@ nothing. It
    ``import_module``, ``mock.patch`` and ``monkeypatch.setattr`` targets; without the
    ``foldprint.`` prefix, e.g. the facade's ``"physics.recovery"``, only in strings and
    comments) and file paths (``foldprint/physics/recovery.py``, ``physics/recovery.py``),
-   also in ``docs/*.md`` and ``README.md``, where a backticked bare file name
-   (```loop_solve.py```) and the layer table's row (its modules cell and the backticked
-   names of its last cell) follow too,
+   also in ``docs/*.md``, ``README.md`` and the data files that name modules
+   (``docs/data/*.json`` and ``*.toml``, ``foldprint/data/*.toml``); in a page, a
+   backticked bare file name (``loop_solve.py``) and the layer table's row (its modules
+   cell and the backticked names of its last cell) follow too,
 3. ``git mv``s each module (through a temporary name, so ``apps/gallery.py`` can become
    the wing ``apps/gallery/``) and writes each new wing's ``__init__.py`` (its docstring).
 
@@ -309,7 +310,17 @@ def rewrite_page(text: str, moves: list[Move], is_architecture: bool) -> str:
             text = re.sub(rf"`{re.escape(leaf)}\.py`", f"`{new}.py`", text)
     if is_architecture:
         text = "".join(_table_row(line, moves) for line in text.splitlines(keepends=True))
+        if "wing" not in text and "\n| layer |" in text:
+            at = text.index("\n| layer |") + 1
+            text = text[:at] + WING_PARAGRAPH + "\n" + text[at:]
     return text
+
+
+#: what docs/architecture.md says of wings, before its layer table, once there are wings
+WING_PARAGRAPH = """A family of a layer's modules may sit in a wing, a subpackage inside the layer's
+(`apps/gallery/`, `physics/loops/`): its modules count as the layer's, the table names
+them `wing/name`, its `__init__.py` holds only its docstring, and a wing holds no wing.
+"""
 
 
 _ROW = re.compile(r"^(\|\s*\d+\s*\|\s*`(\w+)/`\s*\|)([^|]*)(\|.*)$", re.S)
@@ -331,18 +342,22 @@ def _table_row(line: str, moves: list[Move]) -> str:
     return f"{m.group(1)} {cell} {rest}"
 
 
-def files_to_rewrite() -> tuple[list[Path], list[Path]]:
+def files_to_rewrite() -> tuple[list[Path], list[Path], list[Path]]:
+    """The Python files, the pages and the data files (whose comments and records name
+    modules: docs/data/mutation.json is what docs/testing.md's table is made from)."""
     py = [p for r in CODE_ROOTS for p in sorted((ROOT / r).rglob("*.py"))
           if str(p.relative_to(ROOT)) not in SKIP and "__pycache__" not in p.parts]
-    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-    return py, [p for p in pages if p.exists()]
+    pages = [p for p in (ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))) if p.exists()]
+    data = [p for pattern in ("docs/data/*.json", "docs/data/*.toml", "foldprint/data/*.toml")
+            for p in sorted(ROOT.glob(pattern))]
+    return py, pages, data
 
 
 def rewrite_all(moves: list[Move]) -> dict[Path, str]:
     """Every file's new text, for the files that change (read at the old places)."""
     new_name = _renamer(moves)
     modules = {module_of(p)[0] for p in PKG.rglob("*.py")}
-    py, pages = files_to_rewrite()
+    py, pages, data = files_to_rewrite()
     changed = {}
     for p in py:
         src = p.read_text(encoding="utf-8")
@@ -352,6 +367,11 @@ def rewrite_all(moves: list[Move]) -> dict[Path, str]:
     for p in pages:
         src = p.read_text(encoding="utf-8")
         new = rewrite_page(src, moves, str(p.relative_to(ROOT)) == ARCHITECTURE)
+        if new != src:
+            changed[p] = new
+    for p in data:
+        src = p.read_text(encoding="utf-8")
+        new = rewrite_names(src, moves)
         if new != src:
             changed[p] = new
     return changed
