@@ -25,7 +25,9 @@ nothing. It
    backticked bare file name (``loop_solve.py``) and the layer table's row (its modules
    cell and the backticked names of its last cell) follow too,
 3. ``git mv``s each module (through a temporary name, so ``apps/gallery.py`` can become
-   the wing ``apps/gallery/``) and writes each new wing's ``__init__.py`` (its docstring).
+   the wing ``apps/gallery/``) and writes each new wing's ``__init__.py`` (its docstring),
+4. rebuilds docs/testing.md's mutation table (``benchmarks/mutation.py --report-only``):
+   a moved module whose text changed is marked as changed since its mutants were drawn.
 
 Behaviour is unchanged: only names move. ``scripts/relayout.py`` (the flat layout into
 layers) is left as it is: its table describes that older move.
@@ -317,7 +319,7 @@ def rewrite_page(text: str, moves: list[Move], is_architecture: bool) -> str:
 
 
 #: what docs/architecture.md says of wings, before its layer table, once there are wings
-WING_PARAGRAPH = """A family of a layer's modules may sit in a wing, a subpackage inside the layer's
+WING_PARAGRAPH = """A family of a layer's modules may sit in a wing, a subpackage inside the layer's package
 (`apps/gallery/`, `physics/loops/`): its modules count as the layer's, the table names
 them `wing/name`, its `__init__.py` holds only its docstring, and a wing holds no wing.
 """
@@ -419,8 +421,22 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {p.relative_to(ROOT)}")
         return 0
     apply(moves, changed)
-    print("wings: done; run tests/test_architecture.py and tests/test_docs_links.py")
+    report_mutation_table()
+    print("wings: done; run tests/test_architecture.py, tests/test_docs_links.py and tests/test_mutation_tool.py")
     return 0
+
+
+def report_mutation_table() -> None:
+    """Rebuild docs/testing.md's mutation table: a moved module whose imports changed is
+    marked as changed since its mutants were drawn (its sha256 in docs/data/mutation.json
+    is the older text's)."""
+    tool = ROOT / "benchmarks" / "mutation.py"
+    if not tool.exists():
+        return
+    r = subprocess.run([sys.executable, str(tool), "--report-only"], cwd=ROOT, capture_output=True, text=True)
+    if r.returncode:
+        print(f"wings: {tool.relative_to(ROOT)} --report-only failed; run it by hand:\n{r.stderr[-2000:]}",
+              file=sys.stderr)
 
 
 if __name__ == "__main__":
