@@ -1,10 +1,10 @@
-"""Voxel print: wall time, CPU time and peak RSS of the streamed writer on the issue's
-plate, against the pre-change writer and the writer with one thread, measured in the same
+"""Voxel print: wall time, CPU time and peak RSS of the streamed writer on the largest
+plate we target, against the pre-change writer and the writer with one thread, measured in the same
 run, plus small-plate baselines.
 
     python benchmarks/bench_voxels.py [--json] [--size X,Y,Z] [--small X,Y,Z] [--no-reference] [--no-serial]
 
-The part is a plate of --size mm (default 150 x 150 x 20, the issue's target: < 2 min and
+The part is a plate of --size mm (default 150 x 150 x 20, our target for it: < 2 min and
 < 1 GB) cut across x into 10 mm VeroWhite panels and 5 mm hinges (odd hinges graded
 0.2 -> 0.8 across their width, even ones uniform 0.42), so every slice dithers 1/3 of its
 area. It is written at the J750 pitch (600 x 300 dpi, 27 um) through the staged set

@@ -1,4 +1,4 @@
-"""Fresh fuzz campaigns (issues 14, 20): hostile inputs through the command line.
+"""Fresh fuzz campaigns: hostile inputs through the command line (the exit-code contract).
 
     PYTHONPATH=$PWD python benchmarks/fuzz_inputs.py --kind all --cases 10000 --jobs 2 --json out.json
 

@@ -1,4 +1,4 @@
-"""Hypothesis strategies for hostile inputs (issue 20 item 8): SVG documents, FOLD files,
+"""Hypothesis strategies for hostile inputs (the input boundary's fuzz): SVG documents, FOLD files,
 command lines and planted output folders, built from primitives so that hypothesis can
 shrink a failing case to its minimal input. Used by ``tests/test_fuzz_inputs.py`` (a
 small budget in the suite) and ``benchmarks/fuzz_inputs.py`` (10,000 cases)."""

@@ -13,6 +13,8 @@ import ast
 import re
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "foldprint"
 DOC = ROOT / "docs" / "architecture.md"
@@ -144,20 +146,55 @@ def _layer_of(mod: str, table) -> int:
     raise AssertionError(f"{mod}: subpackage foldprint.{sub} is not in docs/architecture.md's layer table")
 
 
+def layer_modules(modules: dict[str, Path]) -> dict[str, set[str]]:
+    """Layer subpackage -> its modules as the layer table names them: ``name`` for
+    ``foldprint.<layer>.<name>``, ``wing/name`` for ``foldprint.<layer>.<wing>.<name>``. A
+    wing is a subpackage inside a layer that groups one family of its modules; they count
+    as the layer's, and the wing's ``__init__`` holds only its docstring (AssertionError
+    for code there, for a module flat in ``foldprint/`` or one a wing deeper)."""
+    tree: dict[str, set[str]] = {}
+    for mod, path in modules.items():
+        parts = mod.split(".")
+        if len(parts) == 2 and mod not in TOP and path.name != "__init__.py":
+            raise AssertionError(f"{mod} sits flat in foldprint/: put it in its layer's subpackage")
+        if len(parts) > 4 or (len(parts) == 4 and path.name == "__init__.py"):
+            raise AssertionError(f"{mod}: a wing inside a wing; a layer's wings are one level deep")
+        if len(parts) == 3 and path.name == "__init__.py":
+            body = [n for n in ast.parse(path.read_text(encoding="utf-8")).body
+                    if not (isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant))
+                    and not (isinstance(n, ast.ImportFrom) and n.module == "__future__")]
+            assert not body, f"{mod}: a wing's __init__ holds its docstring only (its modules hold the code)"
+        elif len(parts) >= 3:
+            tree.setdefault(parts[1], set()).add("/".join(parts[2:]))
+    return tree
+
+
 def test_the_layer_table_is_the_tree():
     table = layer_table()
-    tree: dict[str, set[str]] = {}
-    for mod in _modules():
-        parts = mod.split(".")
-        if len(parts) == 2 and mod not in TOP and (PKG / f"{parts[1]}.py").exists():
-            raise AssertionError(f"{mod} sits flat in foldprint/: put it in its layer's subpackage")
-        if len(parts) >= 3:
-            tree.setdefault(parts[1], set()).add(parts[2])
+    tree = layer_modules(_modules())
     documented = {name: mods for name, mods in table}
     assert set(documented) == set(tree), (sorted(set(documented) ^ set(tree)), "subpackages differ")
     for name, mods in tree.items():
         assert documented[name] == mods, (
             f"docs/architecture.md layer {name}/ lists {sorted(documented[name])}, the tree has {sorted(mods)}")
+
+
+def test_a_wings_modules_count_as_its_layers(tmp_path):
+    """``foldprint.apps.wing.page`` is the apps layer's ``wing/page``; the wing's
+    ``__init__`` with code, a wing inside a wing and a flat module are refused (a test of
+    the test)."""
+    doc, init, code = tmp_path / "doc.py", tmp_path / "__init__.py", tmp_path / "code" / "__init__.py"
+    code.parent.mkdir()
+    doc.write_text("X = 1\n")
+    init.write_text('"""A wing."""\n\nfrom __future__ import annotations\n')
+    code.write_text('"""A wing."""\nX = 1\n')
+    mods = {"foldprint.apps": init, "foldprint.apps.chain": doc, "foldprint.apps.wing": init,
+            "foldprint.apps.wing.page": doc, "foldprint.physics.fam.part": doc}
+    assert layer_modules(mods) == {"apps": {"chain", "wing/page"}, "physics": {"fam/part"}}
+    for bad in ({"foldprint.apps.wing": code}, {"foldprint.apps.wing.page.deep": doc},
+                {"foldprint.apps.wing.page": init}, {"foldprint.flat": doc}):
+        with pytest.raises(AssertionError):
+            layer_modules({**mods, **bad})
 
 
 def test_no_upward_imports():
@@ -199,7 +236,7 @@ def test_only_the_pipeline_chains_simulation_and_checks():
 
 
 #: What ``exchange/`` may import besides itself: the
-#: writers format what they are given (issue 21, "writers that only write"). ``io`` is
+#: writers format what they are given (writers that only write: no stage runs in them). ``io`` is
 #: needed: the 3MF and FOLD files embed the design (``io.design_io.design_to_dict``), and
 #: the FOLD writer shares the reader's tables and helpers (``io.fold_format``) and
 #: re-exports the reader beside it. Never ``physics`` or ``simulation``, not even for a type.
@@ -314,7 +351,7 @@ def test_the_import_walker_sees_every_form():
 
 
 #: The longest a function may be (lines from ``def`` to its last line, signature and
-#: docstring included): issue 21, "no function over 80 lines".
+#: docstring included): a function that fits on a screen is read whole.
 MAX_FUNCTION_LINES = 80
 #: Functions over the limit, each as (module, qualified name) with the reason it is still
 #: here in a comment. Empty: keep it so, a split is the way out.
@@ -363,7 +400,7 @@ def test_the_length_walker_sees_methods_and_nested_functions():
     assert got == {("long_one", 81), ("C.method", 81), ("outer", 84), ("outer.inner", 81)}  # outer: def, inner, a blank line, return
 
 
-#: The longest a module of foldprint/ may be (lines of the file): issue 21, modules that fit.
+#: The longest a module of foldprint/ may be (lines of the file): a module that fits is read whole.
 MAX_MODULE_LINES = 600
 #: Modules over the limit, each mapped to the reason it is still here (empty: none may be).
 LONG_MODULE_ALLOWLIST: dict[str, str] = {}

@@ -87,7 +87,7 @@ def test_helix_failures_are_tallied_most_frequent_first(helix_margin):
 
 
 def test_the_objective_is_an_enum_below_the_boundary_and_a_string_outside(helix_margin, tmp_path, capsys):
-    """Issue 21: ``assign`` parses its objective to an :class:`Objective` (member or text,
+    """Modes are enums below the boundary: ``assign`` parses its objective to an :class:`Objective` (member or text,
     like the other modes); its JSON keeps the plain string and the CLI its message."""
     assert helix_margin.objective is Objective.MARGIN
     out = json.loads(json.dumps(helix_margin.to_json()))
@@ -286,7 +286,7 @@ def test_order_risk_matches_sampled_recovery_times(helix, lib):
 
 @pytest.mark.slow
 def test_robust_best_is_no_worse_than_the_papers_graded_helix(helix, monkeypatch):
-    """Issue 19: with its finalists confirmed under scatter, ``assign --objective robust``
+    """Robust assignment is worth its cost: with its finalists confirmed under scatter, ``assign --objective robust``
     on the uniform helix at the design's 90 C bath finds an assignment that jams no more
     often than the paper's graded helix under the same draws (seed), and the estimate it
     reports is the one ``foldprint robust`` makes of the written design. Small budgets

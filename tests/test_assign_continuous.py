@@ -1,4 +1,4 @@
-"""Continuous assign (``foldprint assign --continuous``, issue 22 item 4): the surrogate
+"""Continuous assign (``foldprint assign --continuous``, VeroWhite fractions and bath): the surrogate
 against the seven-grade proxy and the per-curve recovery model it linearises, the
 optimiser against its starting points, the fold orders against independent simulations,
 and the written design against ``foldprint robust``."""

@@ -122,7 +122,7 @@ def test_output_directory_that_cannot_be_created(capsys):
     assert code == 2 and "/proc/foldprint-cannot-exist" in err and "Traceback" not in err
 
 
-# -- issue 14: every case named in the issue ----------------------------------------------
+# -- hostile design files, each a case a user or fuzzer once hit ---------------------------
 
 import json  # noqa: E402
 

@@ -85,9 +85,9 @@ def test_paper_rom_collision_names_panels_and_time(capsys):
 
 
 def test_jam_probability_decides_the_helices(capsys):
-    """Issue 8's done-when: at the shipped geometry and the default scatter, the graded
-    helix passes the pre-print check and the uniform one fails on its jam probability,
-    each by check's sequential test (at most CHECK_SAMPLES samples, stopped when decided)."""
+    """The paper's two helices, told apart before printing: at the shipped geometry and the
+    default scatter, the graded helix passes the pre-print check and the uniform one fails
+    on its jam probability, each by check's sequential test (at most CHECK_SAMPLES samples, stopped when decided)."""
     assert main(["check", "helix_uniform", "--json", "--no-sensitivity"]) == 1
     out = json.loads(capsys.readouterr().out)
     assert [f["code"] for f in out["findings"] if f["severity"] == "error"] == ["FP180"]

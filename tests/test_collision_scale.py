@@ -344,7 +344,7 @@ def test_prefix_product_poses_equal_forward(data, model, tree):
 def test_huge_coordinates_cannot_hang(offset, scale):
     """A panel 1e6 mm long, or coordinates near 1e15: the check ends with a bounded number
     of FCL calls (relative tolerance, time-resolution floor). The boundary schema refuses
-    such designs (issue 14); this builds them past it, to test the check's own bound."""
+    such designs (a file may not ask for them); this builds them past it, to test the check's own bound."""
     d = strip("big", [10.0] * 4, [170, 170, 170], ["H-1", "H-2", "H-1"], radius=1.0)
     d = replace(d, panels=tuple(Panel(p.id, p.outline * scale + offset, p.thickness, p.material)
                                 for p in d.panels),

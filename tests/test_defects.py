@@ -1,4 +1,4 @@
-"""Defects of issue 18 item 4, each with a test that failed before its fix."""
+"""Defects found in review, each with a test that failed before its fix."""
 
 from __future__ import annotations
 

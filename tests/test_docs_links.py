@@ -104,6 +104,16 @@ def test_no_page_reads_like_a_development_log(page):
     assert _history(page) == []
 
 
+#: The code beside the package: its docstrings and comments give reasons, not the numbers of
+#: the issues that asked for them (this file names some, to test the pattern on).
+CODE = [p for d in ("tests", "benchmarks", "scripts", "examples") for p in sorted((ROOT / d).rglob("*.py"))
+        if p != Path(__file__).resolve()]
+
+
+def test_no_test_benchmark_or_script_reads_like_a_development_log():
+    assert [f"{p.relative_to(ROOT)}: {h}" for p in CODE for h in _history(p)] == []
+
+
 def test_the_docs_index_lists_every_page():
     index = DOCS / "README.md"
     listed = {Path(t.partition("#")[0]).name for t in _links(index)}

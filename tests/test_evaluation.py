@@ -1,4 +1,4 @@
-"""The evaluation object (issue 21): each stage computed on first use and kept, derived
+"""The evaluation object (the one place stages are chained): each stage computed on first use and kept, derived
 per-design data computed once per evaluation in a cache that never travels, a validated
 ``Design.replace``, and ``simulate`` leaving the caller's drive as given."""
 
@@ -117,7 +117,7 @@ def test_a_forked_process_ignores_the_parents_cache(helix, monkeypatch):
 
 def test_monte_carlo_chunks_derive_once_per_design_content(helix, monkeypatch):
     """A worker gets a fresh copy of the design with every chunk (pickled): the second
-    chunk finds the first copy's derived data (issue 23, item 1), a changed design does
+    chunk finds the first copy's derived data (keyed by the design's content, not its identity), a changed design does
     not, and the outcomes equal a chunk folded with nothing kept."""
     from itertools import islice
 
@@ -249,7 +249,7 @@ def test_the_manifest_fold_times_are_the_recovery_models(helix, tmp_path):
 @pytest.mark.parametrize("name", ["cross_lock_uniform", "helix_uniform"])
 def test_shared_nominal_work_gives_each_simulation_unchanged(name):
     """An evaluation's simulations share the nominal drive (a loop pattern's closure
-    tracked once) and, off a planar strip, 'both' is the 3D check's simulation (issue 23):
+    tracked once) and, off a planar strip, 'both' is the 3D check's simulation (no nominal work twice):
     each equals the simulation run on its own, field for field."""
     from foldprint.checks.report import simulation_json
 

@@ -29,7 +29,9 @@ from foldprint.model.design import strip
 from foldprint.io.design_io import design_from_dict
 from foldprint.io.load import load_design
 from foldprint.core.errors import ExportError
-from foldprint.exchange.export import FORMATS, export_assembly
+from foldprint.core.constants import EXPORT_FORMATS
+from foldprint.exchange.export import (DEFAULT_FORMATS, FORMATS, NEEDS, REGISTRY, Rendered, export_assembly,
+                                       render)
 from foldprint.exchange.outfolder import MANIFEST, digest_file, read_manifest
 from foldprint.apps.pipeline import export as export_design
 from foldprint.exchange.stl import read_stl_volume
@@ -594,3 +596,34 @@ def test_format_subset(tmp_path):
     assert [r["format"] for r in recs] == ["prusa3mf", "recipe"]  # every export ends with its recipe
     assert math.isclose(sum(b["volume_mm3"] for b in recs[0]["bodies"]), _build(str(PRINTABLE[0]))[1].volume,
                         rel_tol=1e-9)
+
+
+# -- the format registry -------------------------------------------------------------------
+
+def test_the_default_formats_are_registered_formats():
+    # one source of truth: the names come from the registry, the default from core.constants
+    assert FORMATS == tuple(REGISTRY) and all(REGISTRY[f].name == f for f in FORMATS)
+    assert DEFAULT_FORMATS == EXPORT_FORMATS and EXPORT_FORMATS
+    assert set(EXPORT_FORMATS) <= set(FORMATS)
+    assert {f.needs for f in REGISTRY.values()} - {None} == set(NEEDS)
+
+
+def test_files_come_in_registry_order_whatever_the_request_order():
+    design, asm = _build(str(PRINTABLE[0]))
+    files = render(design, asm, ["fold", "prusa3mf", "3mf", "fold"])
+    assert all(isinstance(f, Rendered) for f in files)
+    assert [f.fmt for f in files] == ["3mf", "prusa3mf", "fold", "recipe"]
+    assert [f.name for f in files] == [f"{design.name}.3mf", f"{design.name}_prusa.3mf", f"{design.name}.fold",
+                                       f"{design.name}_recipe.md"]
+    assert [b["material"] for b in files[0].bodies] == [b.material for b in asm.bodies]
+
+
+@pytest.mark.parametrize("fmt", [f for f in FORMATS if REGISTRY[f].needs])
+def test_a_format_refuses_without_the_input_it_needs(fmt):
+    design, asm = _build(str(PRINTABLE[0]))
+    with pytest.raises(ExportError, match=re.escape(fmt)) as err:
+        render(design, asm, [fmt])
+    assert "export through foldprint.apps.pipeline" in str(err.value)
+    # the formats that need nothing beyond the assembly are written without any of them
+    free = [f for f in FORMATS if REGISTRY[f].needs is None]
+    assert [f.fmt for f in render(design, asm, free)] == free + ["recipe"]

@@ -1,4 +1,4 @@
-"""Fuzz: mutated templates through ``check --json`` and ``export`` (issue 14).
+"""Fuzz: mutated templates through ``check --json`` and ``export`` (the exit-code contract).
 
 Each case runs in a forked child (so a hang can be stopped) and must: exit 0, 1 or 2; never
 print a traceback; print one JSON object on stdout for 0/1 (check); print exactly one line

@@ -1,4 +1,4 @@
-"""Property-based fuzz of the input boundary (issue 20 item 8): SVG, FOLD, command lines and
+"""Property-based fuzz of the input boundary (hostile files and command lines): SVG, FOLD, command lines and
 planted output folders from the strategies of ``tests/fuzz_gen.py``. A failure is shrunk by
 hypothesis to its minimal input. The suite runs a small budget (``FOLDPRINT_FUZZ_CASES``
 scales it); ``benchmarks/fuzz_inputs.py`` runs 10,000 cases with peak memory.
@@ -163,7 +163,7 @@ def test_command_lines_keep_the_contract(cli_dir, args):
             args, res["code"], res["err"][-1500:], after)
 
 
-# -- issue 30: option files, paths that are not regular files, numeric extremes ---------------
+# -- option files, paths that are not regular files, numeric extremes (the one door for files) ---
 
 def _use_options(option: str, path: Path) -> None:
     """Load an option file and use what it holds the way the commands do: every hinge

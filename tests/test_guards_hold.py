@@ -1,4 +1,4 @@
-"""The memory guard holds (issue 30 item 2): representative large designs of every input
+"""The memory guard holds (a large input is refused, never an out-of-memory kill): representative large designs of every input
 kind through every command, each in a fresh interpreter under a 2 GiB address-space limit
 (RLIMIT_AS: an allocation past it is a MemoryError, as on a machine that small). Each run
 keeps the contract of ``fuzz_gen.contract_violations``: exit 0, 1 (the design fails) or 2

@@ -1,4 +1,4 @@
-"""Guards bound what they claim (issue 19): runs that finish are not refused, refusals
+"""Guards bound what they claim (a refusal is a promise): runs that finish are not refused, refusals
 name the estimate and the limit and come before any work, the memory estimate bounds
 the memory a simulation really allocates."""
 

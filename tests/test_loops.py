@@ -484,7 +484,7 @@ def test_a_small_programming_bias_selects_the_miura_branch():
 
 def test_degree4_relation_is_signed(trajectories):
     """On degree4()'s branch (crease 1 mountain, 2 valley) the ratio is negative: the
-    closed form holds with its sign, not only in magnitude (issue 18)."""
+    closed form holds with its sign, not only in magnitude (a magnitude test passes a sign error)."""
     _, _, traj = trajectories["degree4"]
     k = traj.angles
     moving = np.abs(k[:, 0]) > 1e-3

@@ -1,4 +1,4 @@
-"""The one door for files (issue 30 item 1): every path foldprint reads -- design files of
+"""The one door for files (no input is opened twice or unbounded): every path foldprint reads -- design files of
 each kind and the option files ``--materials``, ``--printers``, ``--scatter`` -- is opened
 once by :func:`foldprint.core.inputs.read_input`, refused when it is not a regular file
 (FIFO, device, directory, socket) before a byte is read, read up to its size limit only,

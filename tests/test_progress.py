@@ -1,4 +1,4 @@
-"""Progress on stderr (issue 28 item 4): what runs, done of total, a rate and the time left
+"""Progress on stderr (a long run says it is alive): what runs, done of total, a rate and the time left
 (at most, for a sequential test, with "decided" once it stops); nothing with --json,
 --quiet or when stderr is not a terminal."""
 

@@ -1,4 +1,4 @@
-"""Hostile inputs of issue 20 (items 1-4, 6, 7): each is exit 2 with one line naming the
+"""Hostile inputs (SVG coordinates, output folders, option values): each is exit 2 with one line naming the
 item and what would be right, or the documented behaviour; an unexpected exception is
 exit 3 with a short report, never 1 (the code of a failing design)."""
 

@@ -247,7 +247,7 @@ def test_no_false_contact_for_graded_helix_against_dense_sampling():
     assert worst > 0.0
 
 
-# -- templates (issue 3 done-when) -------------------------------------------------------
+# -- templates: the paper's outcomes reproduced -------------------------------------------
 
 def test_helix_uniform_collides_with_both_methods_in_the_paper_rom():
     """The paper's own ROM (point hinges) reproduces Fig. 3c/4b: a collision."""

@@ -1,4 +1,4 @@
-"""Voxel print (issue 22 item 2): rasterising, dithering to the hinge fractions, PNG,
+"""Voxel print (PolyJet parts with graded hinges): rasterising, dithering to the hinge fractions, PNG,
 streaming through the staged set, the composite 3MF, hinge axes."""
 
 from __future__ import annotations
@@ -394,7 +394,7 @@ def test_guard_refuses_only_what_exceeds_the_limits():
     plate = vx.part_size([vx.VoxelRegion("panel", "p", "VeroWhite", _box(0, 0, 0, 150, 150, 20), vx.Uniform(1.0))],
                          J750)
     assert plate == (3544, 1772, 741)
-    est = guards.check_voxels(plate)  # the issue's plate is accepted under the default limits
+    est = guards.check_voxels(plate)  # a 150 x 150 x 20 mm plate, the largest part we target, is accepted under the default limits
     try:  # refused just below its estimate, accepted just above
         guards.set_max_memory(int(est["bytes"] * 0.99))
         with pytest.raises(guards.ResourceError, match="voxel export refused.*memory limit"):

@@ -189,10 +189,6 @@ class Ledger:
             out.append(self.cache.get(key))
         return out
 
-    @property
-    def exhausted(self) -> bool:
-        return self.evaluated >= self.budget
-
 
 def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_c: float) -> dict[str, float | None]:
     thick = min(h.thickness for h in design.hinges)

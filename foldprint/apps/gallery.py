@@ -44,8 +44,8 @@ from typing import Callable, Sequence
 from ..core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED
 from ..model.design import Design
 from ..model.materials import MaterialLibrary, default_library
-from .gallery_build import GIF_FRAMES, MATERIAL_TEMPERATURES, build_design, chart_task  # noqa: F401 (re-exported)
-from .gallery_page import HINGE_MODEL_TEXT, entry_done, page_html  # noqa: F401 (re-exported)
+from .gallery_build import GIF_FRAMES, build_design, chart_task  # noqa: F401 (re-exported)
+from .gallery_page import entry_done, page_html  # noqa: F401 (re-exported)
 
 log = logging.getLogger(__name__)
 

@@ -381,13 +381,3 @@ def _pair_index(S, dx, dz, length, I, J):
         coll = np.zeros(parallel.shape, dtype=bool)
         coll[sel] = _collinear_overlap(*part)
     return s_i, s_j, coll
-
-
-def segments_intersect_loop(segs_i: np.ndarray, segs_j: np.ndarray) -> bool:
-    """Reference per-pair Python loop (for tests and the benchmark)."""
-    for a in segs_i:
-        for b in segs_j:
-            si, sj, _, coll = index_arrays(a[0], a[1], b[0], b[1])
-            if bool(paper_contact(np.asarray(si), np.asarray(sj))) or bool(coll):
-                return True
-    return False

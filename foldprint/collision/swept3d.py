@@ -55,9 +55,6 @@ from ..model.design import Design
 from ..physics.kinematics import HingeDrive, TreeTransforms, hinge_frames
 from ..physics.motion import build_hierarchy, tree_bounds
 from .broadphase import (  # noqa: F401  (the broad phase's names, importable from here as before)
-    REFINE_CHUNK_BYTES,
-    REFINE_LEVELS,
-    REFINE_SUB,
     candidate_runs,
     non_adjacent_pairs,
     pair_bounds,
@@ -133,7 +130,6 @@ class SweptChecker:
         d = self.design
         self.model = HingeModel(str(self.model))
         self.frames = hinge_frames(d)
-        self._frame_of = {f.index: f for f in self.frames}
         self.pieces = []
         for i, (p, poly) in enumerate(zip(d.panels, rigid_polygons(d, self.model))):
             objs = []

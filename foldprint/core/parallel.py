@@ -53,7 +53,7 @@ def _worker_init() -> None:
 
 
 def map_ordered(fn: Callable[[T], R], items: Sequence[T] | Iterable[T], *, workers: int | None = None,
-                progress: Callable[[int, int], None] | None = None, chunksize: int = 1,
+                progress: Callable[[int, int], None] | None = None,
                 total: int | None = None) -> list[R]:
     """``[fn(x) for x in items]`` on ``workers`` processes (default: all cores; 1 runs in
     this process). ``fn`` and the items must pickle (module-level functions). ``items``

@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Callable
 
 from ..core.errors import ExportError
-from ..core.files import (TMP_NAME, TMP_PREFIX, TMP_SUFFIX, ensure_dir, fsync_dir, rename_exchange,  # noqa: F401
+from ..core.files import (TMP_NAME, ensure_dir, fsync_dir, rename_exchange,  # noqa: F401
                           rename_noreplace, token, write_atomic, write_new)
 from ..core.modes import OutFolder, Publish
 from .outfolder import (LEGACY_CURRENT, LEGACY_SETS, MANIFEST, NAME_MAX, STAGE_INSIDE, FileEntry, Holding,

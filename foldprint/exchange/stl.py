@@ -78,7 +78,7 @@ def _bbox(lo, hi) -> dict:
 
 
 def manifest(design: Design, assembly: Assembly, files: dict[str, str], fold_times: Mapping[str, float | None],
-             library: MaterialLibrary | None = None, frame_offset=(0.0, 0.0, 0.0)) -> str:
+             library: MaterialLibrary | None = None) -> str:
     """``manifest.json`` text: bodies (file, material, volume), materials, bounding box,
     programming protocol with the hinges' ``fold_times`` (s, by hinge id). ``files`` maps
     material -> STL file name."""

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..core.version import __version__
 from ..core.errors import ExportError
-from .voxel_pixels import (EMPTY, GOLDEN, MASK_SIZE, PALETTE, TANGO, VERO, ZLIB_LEVEL, blue_noise,  # noqa: F401
+from .voxel_pixels import (EMPTY, MASK_SIZE, PALETTE, TANGO, VERO, ZLIB_LEVEL, blue_noise,  # noqa: F401
                            fill, layer_mask, paint_runs, padded_width, pixel_runs, png_bytes, png_padded, read_png,
                            tiled)
 
@@ -165,10 +165,6 @@ class Grid:
     def layer_z(self, k: int) -> float:
         return float(self.origin[2] + (k + 0.5) * self.pitch.z)
 
-    @property
-    def voxels(self) -> float:
-        return float(self.shape[0]) * self.shape[1] * self.shape[2]
-
 
 def part_size(regions, pitch: Pitch) -> tuple[int, int, int]:
     """(nx, ny, nz) of the grid the regions need (for the guard, before any slicing)."""
@@ -253,11 +249,6 @@ class _WidthTable:
                 self.u.ravel()[cells] = self.axes.width_u(pts)
                 self.known.ravel()[cells] = True
             return self.u[ia, ib]
-
-    def __call__(self, p: np.ndarray) -> np.ndarray:
-        ab = (p - self.origin) @ self.basis.T
-        idx = np.clip(((ab - self.lo) / self.h).astype(np.int64), 0, self.n - 1)
-        return self.at(idx[:, 0], idx[:, 1])
 
 
 def _window(region: VoxelRegion, grid: Grid) -> tuple[int, int, int, int, int, int]:

@@ -41,7 +41,6 @@ from .fold_format import design_from_fold
 from .svg_creases import (  # noqa: F401  (importable from here as before)
     KDTREE_POINTS,
     check_creases,
-    close_pairs,
     cluster_points,
     build_edge_graph,
     find_faces,
@@ -49,9 +48,8 @@ from .svg_creases import (  # noqa: F401  (importable from here as before)
     snap_segments,
     unique_segments,
     Vertices,
-    crossing_estimate,
 )
-from .svg_paths import MAX_USER_UNITS, svg_root, svg_segments  # noqa: F401  (importable from here)
+from .svg_paths import svg_root, svg_segments  # noqa: F401  (importable from here)
 
 #: Origami Simulator's default vertex merge tolerance (user units, ``globals.vertTol``)
 VERTEX_TOL = 3.0

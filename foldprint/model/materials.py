@@ -9,7 +9,7 @@ overrides fields of shipped ones.
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
 from importlib import resources
 from pathlib import Path
 from typing import Iterable, Mapping
@@ -286,11 +286,3 @@ def load_library(extra: str | Path | Iterable[str | Path] | None = None) -> Mate
         p = Path(p)
         lib = parse_library(_read_toml(p), str(p), base=lib)
     return lib
-
-
-def with_material(lib: MaterialLibrary, material: Material) -> MaterialLibrary:
-    """A new library with ``material`` added or replacing the same-named one."""
-    mats = [material if m.name == material.name else m for m in lib.materials]
-    if material.name not in lib:
-        mats.append(material)
-    return replace(lib, materials=tuple(mats))

@@ -24,7 +24,7 @@ curves the fit saw. Observations:
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from importlib import resources
 
@@ -374,8 +374,3 @@ def fitted_materials(problem: Problem, x) -> dict[str, Material]:
             mat = replace(mat, fixity=fx, fixity_source=problem.data.property_source("fixity", m))
         out[m] = mat
     return out
-
-
-def recovery_fields(p: RecoveryParams) -> dict:
-    """The recovery parameters as a plain dict (every field of :class:`RecoveryParams`)."""
-    return {f.name: getattr(p, f.name) for f in fields(p)}

@@ -43,7 +43,7 @@ from ..physics.recovery import RecoveryCurve, recovery_curve
 from ..physics.recovery_batch import grid_until, material_batch_ratios
 # What is drawn (the model, its data file, the samples) lives in foldprint.simulation.scatter; this
 # module folds what it draws. Re-exported so callers keep importing them from here.
-from .scatter import (TRUNCATE_SD, Sample, Scatter, default_scatter, draw_samples, iter_samples,  # noqa: F401
+from .scatter import (Sample, Scatter, default_scatter, draw_samples, iter_samples,  # noqa: F401
                       load_scatter)
 from .simulate import SimulationResult, simulate
 from .verdict import INTERVAL_NAME, JamDecision
