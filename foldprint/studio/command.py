@@ -75,7 +75,9 @@ def studio(
                             lifespan="on")
     server = uvicorn.Server(config)
     try:
-        server.run(sockets=[sock])
+        server.run(sockets=[sock])  # uvicorn stops on Ctrl-C (its graceful shutdown), then re-raises it
+    except KeyboardInterrupt:
+        pass
     finally:
         sock.close()
     print("foldprint studio: stopped", file=sys.stderr, flush=True)
