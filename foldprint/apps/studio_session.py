@@ -94,7 +94,6 @@ class Session:
         self.history: list[Entry] = [self._entry(design, Setup(printer=printer_key))]
         self.at = 0
         self.revision = 1
-        self.revision_of: dict[int, Entry] = {1: self.history[0]}
 
     # -- the history ----------------------------------------------------------------
     def _entry(self, design: Design, setup: Setup) -> Entry:
@@ -115,9 +114,6 @@ class Session:
     def _move_to(self, at: int) -> tuple[int, Entry]:
         self.at = at
         self.revision += 1
-        self.revision_of[self.revision] = self.entry
-        for old in [r for r in self.revision_of if r < self.revision - MAX_HISTORY]:
-            del self.revision_of[old]
         return self.revision, self.entry
 
     def apply(self, edit: Any) -> tuple[int, Entry]:
@@ -150,6 +146,8 @@ class Session:
             setup = self.entry.setup
             del self.history[self.at + 1:]
             self.history.append(self._entry(design, setup))
+            if len(self.history) > MAX_HISTORY:
+                del self.history[0]
             return self._move_to(len(self.history) - 1)
 
     def state(self) -> dict:
@@ -160,7 +158,7 @@ class Session:
     def design_json(self) -> dict:
         """``GET /api/design``: the current design (panels, holes, hinges, process) and setup."""
         with self.lock:
-            rev, e = self.revision, self.entry
+            e = self.entry
             st = self.state()
         return dict(design_json(e.design, self.library), setup=e.setup.to_json(), **st,
                     choices=choices_json(self.library, self.printers))

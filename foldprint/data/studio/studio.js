@@ -148,21 +148,27 @@
     var b = bounds(all), w = b[2] - b[0], h = b[3] - b[1], pad = 0.05 * Math.max(w, h);
     s.setAttribute("viewBox", [b[0] - pad, -b[3] - pad, w + 2 * pad, h + 2 * pad].join(" "));
     var unit = Math.max(w, h) / 100, hit = {};
+    // labels no larger than the panels they name (a side-view strip is long and thin)
+    var small = Math.min.apply(null, design.panels.map(function (p) {
+      var c = bounds(p.outline); return Math.min(c[2] - c[0], c[3] - c[1]); }));
+    var font = Math.max(Math.min(3 * unit, 0.6 * small), unit);
     if (nominal && nominal.first_collision) nominal.first_collision.panels.forEach(function (p) { hit[p] = true; });
     design.panels.forEach(function (p) {
       var d = ringPath(p.outline) + " " + p.holes.map(ringPath).join(" ");
       svg("path", {d: d, "fill-rule": "evenodd", fill: hit[p.id] ? "#f6c6c6" : "#e8e8e8",
                    stroke: hit[p.id] ? "#d62728" : "#777", "stroke-width": 0.3 * unit, "data-panel": p.id}, s);
       var c = bounds(p.outline);
-      svg("text", {x: (c[0] + c[2]) / 2, y: -(c[1] + c[3]) / 2, "font-size": 3 * unit, "text-anchor": "middle",
-                   fill: "#444", text: p.id}, s);
+      svg("text", {x: (c[0] + c[2]) / 2, y: -(c[1] + c[3]) / 2 + 0.35 * font, "font-size": font,
+                   "text-anchor": "middle", fill: "#444", text: p.id}, s);
     });
-    design.hinges.forEach(function (hg) {
+    design.hinges.forEach(function (hg, k) {
       var a = hg.line[0], z = hg.line[1];
-      svg("line", {x1: a[0], y1: -a[1], x2: z[0], y2: -z[1], stroke: hg.color, "stroke-width": 1.5 * unit,
+      svg("line", {x1: a[0], y1: -a[1], x2: z[0], y2: -z[1], stroke: hg.color, "stroke-width": Math.min(1.5 * unit, 0.4 * small),
                    "stroke-linecap": "round", "data-hinge": hg.id}, s);
-      svg("text", {x: (a[0] + z[0]) / 2 + unit, y: -(a[1] + z[1]) / 2 - unit, "font-size": 2.6 * unit,
-                   fill: "#123", text: hg.id}, s);
+      var below = Math.abs(a[0] - z[0]) < 1e-9 && k % 2;  // parallel fold lines: labels alternate above and below
+      var y = below ? Math.min(-a[1], -z[1]) - font * 0.4 : Math.max(-a[1], -z[1]) + font * 1.1;
+      svg("text", {x: (a[0] + z[0]) / 2, y: Math.abs(a[0] - z[0]) < 1e-9 ? y : -(a[1] + z[1]) / 2 - font * 0.3,
+                   "font-size": font * 0.85, "text-anchor": "middle", fill: "#123", text: hg.id}, s);
     });
   }
 
@@ -243,6 +249,7 @@
     var box = $("verdict"); clear(box);
     box.setAttribute("data-state", v.state); box.setAttribute("data-verdict", v.verdict || "");
     box.setAttribute("data-revision", v.design_revision);
+    box.setAttribute("data-sweep", (v.sweep || {}).state || "");
     var cls = v.state === "decided" ? (v.verdict === "pass" ? "ok" : v.verdict === "warning" ? "warn" : "fail") :
       v.state === "failed" ? "fail" : "run";
     box.className = "verdict " + cls;
