@@ -257,7 +257,9 @@ def test_export_writes_the_print_files_and_refuses_a_foreign_folder(client):
             f.unlink()
     (foreign / "thesis.docx").write_text("mine")
     r = client.post("/api/export", headers=H)
-    assert r.status_code == 400 and "thesis.docx" in r.json()["error"] or "foldprint" in r.json()["error"]
+    assert r.status_code == 400, r.text
+    msg = r.json()["error"]
+    assert "\n" not in msg and "helix_uniform" in msg and "thesis.docx" in msg, msg
     assert (foreign / "thesis.docx").read_text() == "mine"
 
 

@@ -78,6 +78,7 @@ class Entry:
     setup: Setup
     evaluation: Evaluation
     nominal: dict | None = None
+    check: dict | None = None  # the verdict's ``check --json`` once its sweep ran (an undo finds it)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 

@@ -125,9 +125,9 @@ def verdict_job(session, revision: int, entry, notify, previous: Job | None = No
         job.set(state="decided", samples=d.samples, jams=d.jams, estimate=d.estimate, interval=[lo, hi],
                 verdict=str(d.verdict), test=jam_test_json(d), robust=robust_json(r),
                 sweep={"state": "running", "points": None}, decided_after_s=round(time.time() - job.state["started"], 3))
-        check = sweep_evaluation(ev, r, progress)
-        report = check.to_json(entry.setup.printer)
-        job.set(sweep={"state": "done", "points": report["sensitivity"]}, check=report)
+        if entry.check is None:
+            entry.check = sweep_evaluation(ev, r, progress).to_json(entry.setup.printer)
+        job.set(sweep={"state": "done", "points": entry.check["sensitivity"]}, check=entry.check)
 
     return job.start(work)
 
