@@ -27,7 +27,7 @@ from cli_help_snapshot import COLUMNS, render  # noqa: E402
 #: file-format libraries, and pydantic (typer >= 0.29 coerces every option through it;
 #: pyproject.toml bounds typer below 0.29)
 HEAVY = ("numpy", "scipy", "shapely", "trimesh", "manifold3d", "fcl", "matplotlib", "meshio", "h5py", "PIL",
-         "pygltflib", "pydantic")
+         "pygltflib", "pydantic", "starlette", "uvicorn", "anyio")
 
 _PROBE = """
 import contextlib, io, json, sys

@@ -15,8 +15,10 @@ test's and the sweep's) completes the state.
 
 **Cancellation.** A newer edit cancels the stale run: the run's progress callback raises
 :class:`Cancelled` at the pool's next report (a chunk of samples; the pool is stopped
-on the way out, :func:`foldprint.simulation.batch.run_batch`); a new run starts once the
-stale one has stopped, so two runs never share the cores.
+on the way out, :func:`foldprint.simulation.batch.run_batch`; the first report comes
+before the pool starts). A new run waits for a stale one that is folding samples to stop,
+so two runs never share the cores; a stale run still waiting for its nominal fold (the
+edit's own answer computes it) is not waited for: it stops before it folds a sample.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ class Job:
     def __init__(self, kind: str, notify: Callable[[str, dict], None], previous: "Job | None" = None):
         self.kind, self.notify, self.previous = kind, notify, previous
         self.cancelled = threading.Event()
+        self.pooled = threading.Event()  # set when the run starts folding samples (holds the cores)
         self.lock = threading.Lock()
         self.state: dict = {}
         self.thread: threading.Thread | None = None
@@ -68,11 +71,11 @@ class Job:
 
     def start(self, work: Callable[[], None]) -> "Job":
         def run():
-            if self.previous is not None:  # the stale run stops at its next report; wait for it
-                self.previous.cancel()
-                if self.previous.thread is not None:
-                    self.previous.thread.join()
-                self.previous = None
+            prev, self.previous = self.previous, None
+            if prev is not None:  # the stale run stops at its next report: wait for it while it holds the cores
+                prev.cancel()
+                while prev.thread is not None and prev.thread.is_alive() and prev.pooled.is_set():
+                    prev.thread.join(0.05)
             try:
                 self.check()
                 work()
@@ -119,6 +122,7 @@ def verdict_job(session, revision: int, entry, notify, previous: Job | None = No
         ev = entry.evaluation
         job.set(stage="jam test at 1x")
         ev.progress = progress
+        job.pooled.set()
         r = ev.run_jam_tests()[1.0]
         d = r.decision
         lo, hi = d.interval
@@ -164,6 +168,7 @@ def assign_job(design, library, notify, previous: Job | None = None, *, objectiv
         job.set(done=done, total=total)
 
     def work() -> None:
+        job.pooled.set()
         r = assign(design, library=library, objective=objective, top=top, budget=budget or DEFAULT_BUDGET,
                    temperatures=temperatures, progress=progress)
         job.result = r
