@@ -211,6 +211,9 @@ def test_the_verdict_is_checks(client):
     assert v["robust"] == check["robust"]
     assert v["samples"] == check["robust"]["samples"] and v["jams"] == check["robust"]["jams"]
     assert v["check"] == check
+    # the player shows the worst scatter sample the test found
+    page = client.get("/view", params={"worst": "1"}, headers=H).text
+    assert '"worst":{' in page and "#run=worst" in page
 
 
 # -- save, export, assign --------------------------------------------------------------------
@@ -298,6 +301,21 @@ def test_the_studio_imports_only_apps_and_core():
 
 
 # -- a live server -----------------------------------------------------------------------------
+
+def test_bad_inputs_stop_the_command_with_one_line():
+    import socket
+
+    r = subprocess.run([sys.executable, "-m", "foldprint", "studio", "no_such_design", "--no-browser"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stdout == "" and "no_such_design" in r.stderr and len(r.stderr.splitlines()) == 1
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        r = subprocess.run([sys.executable, "-m", "foldprint", "studio", "helix_graded", "--no-browser", "--port",
+                            str(port)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and f"--port {port}: the port is in use" in r.stderr and r.stdout == ""
+
 
 def test_the_command_serves_over_http_and_stops_on_ctrl_c(tmp_path):
     import httpx
