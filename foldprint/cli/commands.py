@@ -31,9 +31,9 @@ from .options import expand_multi
 def __getattr__(name: str):
     """A command function by its name (``commands.check``), its module imported on first use."""
     if name in COMMANDS:
-        import importlib
+        from .root import load_command
 
-        return getattr(importlib.import_module(f"{__package__}.{COMMANDS[name][0]}"), name)
+        return getattr(load_command(name), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

@@ -25,7 +25,16 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "export": ("output_cmds", "Write the printable part: 3MF, STL and a print recipe."),
     "gallery": ("output_cmds", "Simulate, check and export designs into an offline HTML page."),
     "calibrate": ("calibrate_cmd", "Fit the hinge recovery model to measurements: a materials file."),
+    "studio": ("foldprint.studio.command", "Edit a design in the browser: re-fold, clearance, jam verdict."),
 }
+
+
+def module_name(entry: str) -> str:
+    """The module a :data:`COMMANDS` entry names: a module of this package by its short
+    name, or a front end above the command line (``foldprint.studio.command``) by its full
+    name; such a module defines the command's function under the command's name and the
+    command line registers it (it imports nothing of the command line)."""
+    return entry if "." in entry else f"{__package__}.{entry}"
 
 
 def summary(name: str) -> str:

@@ -12,7 +12,7 @@ from typer import echo
 from typer.core import TyperGroup
 
 from ..core.version import __version__
-from .lazy import COMMANDS, LazyCommands, summary
+from .lazy import COMMANDS, LazyCommands, module_name, summary
 from .printing import OUTPUT_STATE
 
 
@@ -41,12 +41,24 @@ def build_command(name: str):
     :data:`app`), then typer builds the group of the commands registered so far."""
     import typer.main
 
-    importlib.import_module(f"{__package__}.{COMMANDS[name][0]}")
+    load_command(name)
     built = typer.main.get_command(app).commands
     built = built.built if isinstance(built, LazyCommands) else built
     if name not in built:
         raise LookupError(f"{__package__}.{COMMANDS[name][0]} registers no command {name!r}")
     return built[name]
+
+
+def load_command(name: str):
+    """Import the module of command ``name``; a front end's function (a dotted entry of
+    :data:`COMMANDS`) is registered on :data:`app` here, once. Returns the module."""
+    entry = COMMANDS[name][0]
+    mod = importlib.import_module(module_name(entry))
+    if "." in entry:
+        fn = getattr(mod, name)
+        if not any(c.callback is fn for c in app.registered_commands):
+            app.command(name, short_help=summary(name))(fn)
+    return mod
 
 
 app = typer.Typer(cls=LazyGroup, add_completion=False, no_args_is_help=True, rich_markup_mode=None,

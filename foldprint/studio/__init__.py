@@ -1,0 +1,1 @@
+"""``foldprint studio``: the designer's loop in the browser (docs/studio.md)."""
