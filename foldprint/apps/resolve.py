@@ -137,6 +137,13 @@ def load_library(materials_files=None) -> "MaterialLibrary":
     return load(materials_files or None)
 
 
+def design_path(design: str | Path) -> Path:
+    """The file a design argument names: a path as given, else the template of that name."""
+    from ..io.templates import resolve_design_path
+
+    return resolve_design_path(str(design))
+
+
 def load_input(design: str | Path, materials_files=None, scale: float | None = None,
                crease_materials: str | dict | None = None, *, scale_what: str = "scale",
                library: "MaterialLibrary | None" = None) -> tuple["Design", "MaterialLibrary"]:
@@ -145,12 +152,11 @@ def load_input(design: str | Path, materials_files=None, scale: float | None = N
     ``scale`` (mm per file unit of a crease pattern) in (0, 1e6], ``crease_materials`` a
     rule such as ``"M=H-2,V=H-5"``."""
     from ..io.load import load_design
-    from ..io.templates import resolve_design_path
 
     lib = library if library is not None else load_library(materials_files)
     if scale is not None:
         check_in_range(scale, scale_what, 0.0, 1e6, "mm per file unit", lo_open=True)
-    return load_design(resolve_design_path(str(design)), lib, scale=scale, crease_materials=crease_materials), lib
+    return load_design(design_path(design), lib, scale=scale, crease_materials=crease_materials), lib
 
 
 def template_paths() -> list[str]:

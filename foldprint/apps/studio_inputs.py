@@ -2,12 +2,10 @@
 file or a template name), the material library (with ``--materials`` files), the printer
 profiles, and the folders it may write into.
 
-These are the same calls the command line makes for ``check`` and ``export`` (a design
-path or template name through :func:`~foldprint.io.templates.resolve_design_path` and
-:func:`~foldprint.io.load.load_design`, the library through
-:func:`~foldprint.model.materials.load_library`, the profiles through
-:func:`~foldprint.model.printers.load_printers`), so a bad input gives the studio the
-command line's one-line error before a server starts.
+These go through the door every front end uses (:mod:`foldprint.apps.resolve`: the design
+by path or template name, the library with ``--materials`` files), the same calls the
+command line makes for ``check`` and ``export``, so a bad input gives the studio the command
+line's one-line error before a server starts.
 """
 
 from __future__ import annotations
@@ -18,10 +16,10 @@ from pathlib import Path
 from typing import Sequence
 
 from ..core.errors import FoldprintError
-from ..io.load import load_design
-from ..io.templates import resolve_design_path, templates_dir
+from . import resolve
+from ..io.templates import templates_dir
 from ..model.design import Design
-from ..model.materials import MaterialLibrary, load_library
+from ..model.materials import MaterialLibrary
 from ..model.printers import Printer, default_printer_key, load_printers
 
 
@@ -43,9 +41,8 @@ class StudioInputs:
 def resolve_inputs(design: str, materials: Sequence[str | Path] | None = None, out: str | Path | None = None,
                    printers_file: str | Path | None = None) -> StudioInputs:
     """The studio's inputs (FoldprintError with the command line's message when one is bad)."""
-    lib = load_library(list(materials) if materials else None)
-    path = resolve_design_path(design)
-    d = load_design(path, lib)
+    path = resolve.design_path(design)
+    d, lib = resolve.load_input(path, list(materials) if materials else None)
     printers = load_printers(printers_file)
     is_template = path.resolve().parent == templates_dir().resolve()
     if out is not None:
