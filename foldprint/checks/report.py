@@ -319,3 +319,33 @@ def robust_report_json(r, contributions=None, sweep=None) -> dict:
     out["contributions"] = None if contributions is None else contributions_json(contributions)
     out["sensitivity"] = None if sweep is None else sweep_json(sweep)
     return out
+
+
+def finding_lines(findings) -> list[str]:
+    """``check``'s text lines of its findings (``code``, ``severity``, ``message``,
+    ``where``, ``hint``), a hint under its finding. A code found more than
+    :data:`~foldprint.core.display.LIST_FIRST` + 1 times (one per hinge of a long
+    strip) shows its first :data:`~foldprint.core.display.LIST_FIRST` and one line
+    counting the rest, naming where they are; ``--json`` lists every one."""
+    from ..core.display import LIST_FIRST, first_few
+
+    total: dict[str, list] = {}
+    for f in findings:
+        total.setdefault(f.code, []).append(f)
+    out, seen = [], {}
+    for f in findings:
+        k = seen[f.code] = seen.get(f.code, 0) + 1
+        many = len(total[f.code]) > LIST_FIRST + 1
+        if many and k > LIST_FIRST:
+            continue
+        where = ", ".join(f"{a} {v}" for a, v in f.where.items())
+        out.append(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
+        if f.hint:
+            out.append(f"        hint: {f.hint}")
+        if many and k == LIST_FIRST:
+            rest = total[f.code][LIST_FIRST:]
+            at = [", ".join(f"{a} {v}" for a, v in g.where.items()) for g in rest]
+            named = f" ({first_few(at)})" if all(at) else ""
+            out.append(f"{f.severity.upper():<7} {f.code} ... and {len(rest)} more like these{named}; "
+                       "--json lists every one")
+    return out

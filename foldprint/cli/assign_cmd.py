@@ -22,7 +22,7 @@ from .support import (ExitCode, MAX_BUDGET, MAX_SAMPLES, MAX_TOP, MAX_WORKERS, c
 
 @app.command(short_help=summary('assign'))
 def assign(
-    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    design: str = typer.Argument(..., help="Design file (.toml, .fold, .svg) or template name."),
     materials: Optional[str] = typer.Option(None, "--materials", metavar="H-1,...,H-7",
                                             help="Hinge materials to choose from (default: every one)."),
     temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); "

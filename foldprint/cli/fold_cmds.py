@@ -29,7 +29,7 @@ MECHANICS_HELP = ("rigid (default: rigid panels, exact and fast) | bar-hinge (pa
 
 @app.command(short_help=summary('simulate'))
 def simulate(
-    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    design: str = typer.Argument(..., help="Design file (.toml, .fold, .svg) or template name."),
     temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); default: the design's."),
     duration: Optional[float] = typer.Option(None, "--duration", help="Simulated time (s); default: the design's."),
     dt: float = typer.Option(DEFAULT_DT_S, "--dt", help="Time step of the trajectory (s)."),
@@ -92,7 +92,7 @@ def simulate(
 
 @app.command(short_help=summary('check'))
 def check(
-    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    design: str = typer.Argument(..., help="Design file (.toml, .fold, .svg) or template name."),
     printer: Optional[str] = typer.Option(None, "--printer", help="Printer profile key (default: connex260)."),
     printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML)."),
     hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
@@ -155,19 +155,19 @@ def check(
     if json_out:
         echo_json(ev.to_json(key))
     else:
-        for f in findings:
-            where = ", ".join(f"{k} {v}" for k, v in f.where.items())
-            echo(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
-            if f.hint:
-                echo(f"        hint: {f.hint}")
+        from ..checks.report import finding_lines
+
+        for line in finding_lines(findings):
+            echo(line)
         print_paper([line.to_json() for line in ev.paper_lines()])
-        echo_note(f"{d.name}: {n_err} error(s) on {pr.name} ({model.value} hinges)")
+        echo_note(f"{d.name}: {n_err} error(s) on {pr.name} ({model.value} hinges); materials: the shipped library"
+                  + "".join(f" + {f}" for f in materials_file or ()))
     raise ExitCode(1 if n_err else 0)
 
 
 @app.command(short_help=summary('robust'))
 def robust(
-    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    design: str = typer.Argument(..., help="Design file (.toml, .fold, .svg) or template name."),
     samples: int = typer.Option(ROBUST_SAMPLES, "--samples", help="Monte-Carlo samples (>= 1)."),
     seed: int = typer.Option(DEFAULT_SEED, "--seed", help="Seed: the same seed gives the same answer."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
