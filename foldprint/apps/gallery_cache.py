@@ -190,10 +190,7 @@ def _sha256(p: Path) -> str:
 
 
 def _copy(src: Path, dst: Path) -> None:
-    """A file of the earlier gallery into the new one: a hard link where the file system
-    allows (files are never changed in place, only replaced), else a copy."""
+    """A file of the earlier gallery into the new one: a copy (plain files, no links: the
+    new set shares nothing with the one it replaces)."""
     dst.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        os.link(src, dst)
-    except OSError:
-        shutil.copyfile(src, dst)
+    shutil.copyfile(src, dst)
