@@ -46,10 +46,20 @@ def first(tmp_path_factory):
 def test_second_run_builds_nothing_and_gives_the_same_files(first, tmp_path):
     site = tmp_path / "site"
     shutil.copytree(first, site)  # the cache is plain files: a copy carries it
-    before = _files(site)
+    before, inode = _files(site), (site / "index.html").stat().st_ino
     built, kept = _build(_designs(), site)
     assert built == [] and kept == ["material chart", "one", "two"]
     assert _files(site) == before  # index.html, manifest and every design's files byte for byte
+    assert (site / "index.html").stat().st_ino == inode  # nothing written: the same files
+
+
+def test_a_design_dropped_from_the_list_republishes_the_rest(first, tmp_path):
+    site = tmp_path / "site"
+    shutil.copytree(first, site)
+    built, kept = _build(_designs()[:1], site)
+    assert built == [] and kept == ["material chart", "one"]
+    assert not (site / "two").exists() and 'id="d-two"' not in (site / "index.html").read_text(encoding="utf-8")
+    assert (site / "one" / CACHE_FILE).is_file()  # the kept design's cache came along
 
 
 def test_a_changed_design_builds_that_design_only(first, tmp_path):

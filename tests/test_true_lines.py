@@ -166,3 +166,14 @@ def test_long_lists_are_counted_not_printed():
     assert f"FP151 ... and {99 - LIST_FIRST} more like these (hinge h{LIST_FIRST + 1}," in "\n".join(text)
     assert text[-1] == "INFO    FP104 2 materials"
     assert clipped(list("abcdefghij"), 3, "letters") == ["a", "b", "c", "... and 7 more letters"]
+
+
+def test_the_gallery_counts_a_code_found_on_many_hinges():
+    ev = Evaluation(strip("two", [20.0, 20.0], [90.0], ["H-3"]), EvalOptions(samples=0))
+    entry = _entry(ev)
+    entry.checks["findings"] = [{"code": "FP151", "severity": "error", "message": f"hinge h{i} never folds",
+                                 "where": {"hinge": f"h{i}"}, "hint": "warm the bath"} for i in range(1, 100)]
+    page = page_html([entry], Image("materials.png", 1, 1, "chart", "chart"), default_library(), 0.01)
+    assert page.count("never folds</li>") + page.count("never folds <span") == LIST_FIRST
+    assert f"FP151 ... and {99 - LIST_FIRST} more like these (hinge h{LIST_FIRST + 1}, " in page
+    assert "(check.json lists every one)" in page

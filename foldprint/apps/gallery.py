@@ -32,7 +32,8 @@ number of processes, gives the same bytes (export files aside, which belong to t
 
 A design whose inputs did not change since the gallery in ``out_dir`` was built keeps its
 folder and its entry (:mod:`foldprint.apps.gallery_cache`: design, materials, code and
-data, options); ``cache=False`` builds everything.
+data, options); a gallery whose every design is kept and whose page is the same is not
+written again; ``cache=False`` builds everything.
 """
 
 
@@ -141,11 +142,13 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     dirnames = _unique_dirnames(designs)
     step = _Steps(len(designs) + 2, progress)
     earlier = Earlier(out_dir, cache)
+    options = {"dt": dt, "gif_frames": gif_frames, "samples": samples, "seed": seed}
+    if _unchanged(earlier, designs, dirnames, lib, options, step):
+        return Path(out_dir) / "index.html"
     with StagedSet(out_dir, force) as staged:
         out = staged.path
         for name in ASSETS:
             staged.write(f"viewer/{name}", asset_bytes(name))
-        options = {"dt": dt, "gif_frames": gif_frames, "samples": samples, "seed": seed}
         materials_img, entries = _build_all(designs, out, dirnames, lib, options, jobs, step, activity, earlier)
         for entry, design in zip(entries, designs):
             entry.design = design  # the worker's copy came back pickled; keep the caller's
@@ -153,6 +156,19 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     step("index.html")
     log.info("gallery: %d design(s) in %s (%.1f s)", len(entries), out_dir, time.perf_counter() - t_start)
     return Path(out_dir) / "index.html"
+
+
+def _unchanged(earlier, designs, dirnames, lib, options: dict, step: "_Steps") -> bool:
+    """Whether the gallery already there is the one these inputs give (nothing to write;
+    :meth:`foldprint.apps.gallery_cache.Earlier.unchanged`); each part reported kept."""
+    dt, samples, seed = options["dt"], options["samples"], options["seed"]
+    if not earlier.unchanged(designs, dirnames, lib, options,
+                             lambda es, img: page_html(es, img, lib, dt, samples, seed).encode("utf-8")):
+        return False
+    for msg in ["material chart"] + [d.name for d in designs]:
+        step(f"{msg}: unchanged, kept")
+    step("index.html: unchanged, nothing written")
+    return True
 
 
 class _Steps:

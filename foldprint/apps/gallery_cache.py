@@ -15,7 +15,9 @@ top, keyed by the whole library and the code).
 
 A design is kept only when its key matches *and* every file its folder held is there as
 the gallery's manifest (``foldprint-set.json``) recorded it (size and sha256): a folder
-edited by hand is built again. ``foldprint gallery --force`` builds everything.
+edited by hand is built again. When every design and the chart are kept and the page
+would be the same bytes, nothing is written at all (:meth:`Earlier.unchanged`).
+``foldprint gallery --force`` builds everything.
 """
 
 from __future__ import annotations
@@ -131,18 +133,42 @@ class Earlier:
             return None
         return data
 
-    def chart(self, key: str, out: Path) -> Image | None:
-        """The material chart, copied into ``out``, when its key matches."""
+    def unchanged(self, designs, dirnames: list[str], lib: MaterialLibrary, options: dict, page) -> bool:
+        """Whether the gallery here is the very one these inputs give, so nothing need be
+        written: every design and the chart kept (:meth:`design`, :meth:`chart`), no other
+        design's folder in it, and ``page(entries, chart)`` (the bytes of ``index.html``)
+        and the viewer's files as the manifest recorded them."""
+        from ..render.viewer import ASSETS, asset_bytes
+
+        chart = self.chart(chart_key(lib))
+        if chart is None:
+            return False
+        entries, expected = [], {"index.html", "materials.png", CACHE_FILE} | {f"viewer/{a}" for a in ASSETS}
+        for d, n in zip(designs, dirnames):
+            e = self.design(d, n, design_key(d, lib, n, options))
+            if e is None:
+                return False
+            entries.append(e)
+            expected |= {f for f in self.files if f.startswith(f"{n}/")}
+        if set(self.files) != expected:
+            return False
+        fresh = {"index.html": page(entries, chart), **{f"viewer/{a}": asset_bytes(a) for a in ASSETS}}
+        return all(hashlib.sha256(b).hexdigest() == self.files[n][1] for n, b in fresh.items()) \
+            and self._intact(list(fresh))
+
+    def chart(self, key: str, out: Path | None = None) -> Image | None:
+        """The material chart, copied into ``out`` (when given), when its key matches."""
         data = self._cache(CACHE_FILE, key)
         if data is None or not self._intact(["materials.png"]):
             return None
-        _copy(self.root / "materials.png", out / "materials.png")
-        (out / CACHE_FILE).write_bytes(chart_bytes(Image(**data["chart"]), key))
+        if out is not None:
+            _copy(self.root / "materials.png", out / "materials.png")
+            (out / CACHE_FILE).write_bytes(chart_bytes(Image(**data["chart"]), key))
         return Image(**data["chart"])
 
-    def design(self, design: Design, dirname: str, key: str, out: Path) -> Entry | None:
-        """The design's entry, its folder copied into ``out``, when its key matches and its
-        files are as the manifest recorded them; else None."""
+    def design(self, design: Design, dirname: str, key: str, out: Path | None = None) -> Entry | None:
+        """The design's entry, its folder copied into ``out`` (when given), when its key
+        matches and its files are as the manifest recorded them; else None."""
         data = self._cache(f"{dirname}/{CACHE_FILE}", key)
         if data is None:
             return None
@@ -153,7 +179,7 @@ class Earlier:
         if set(names) != on_disk or not self._intact(names):
             log.info("gallery: %s: its folder changed since it was built; building it again", design.name)
             return None
-        for n in names:
+        for n in names if out is not None else ():
             _copy(self.root / n, out / n)
         return entry_from(data["entry"], design)
 

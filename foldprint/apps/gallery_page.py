@@ -9,7 +9,8 @@ from ..core.version import __version__
 from ..core.constants import CHECK_SAMPLES, CHECK_SEED
 from ..model import composition
 from ..model.materials import MaterialLibrary
-from ..core.display import hinge_text, seconds
+from ..checks.report import more_findings
+from ..core.display import clip_by, hinge_text, seconds
 from .gallery_entry import Entry, Image, Link, esc, fmt_s
 from .gallery_samples import jam_text, mc_html
 
@@ -290,13 +291,17 @@ def _findings_html(chk: dict) -> list[str]:
         return (f'<li><span class="sev-{esc(f["severity"])}">{esc(f["severity"].upper())} {esc(f["code"])}</span> '
                 f"{esc(f['message'])}{hint}</li>")
 
+    def listed(fs) -> str:  # a code found on many hinges: its first few and a count (check.json has all)
+        return "".join(finding(f) + (f'<li class="muted">{esc(f["code"])} {esc(more_findings(rest))} '
+                                     "(check.json lists every one)</li>" if rest else "")
+                       for f, rest in clip_by(fs, lambda f: f["code"]))
+
     serious = [f for f in chk["findings"] if f["severity"] in ("error", "warning")]
     if serious:
-        parts.append("<ul>" + "".join(finding(f) for f in serious) + "</ul>")
+        parts.append("<ul>" + listed(serious) + "</ul>")
     info = [f for f in chk["findings"] if f["severity"] == "info"]
     if info:
-        parts.append(f"<details><summary>{len(info)} note(s)</summary><ul>"
-                     + "".join(finding(f) for f in info) + "</ul></details>")
+        parts.append(f"<details><summary>{len(info)} note(s)</summary><ul>" + listed(info) + "</ul></details>")
     return parts
 
 

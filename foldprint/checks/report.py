@@ -326,26 +326,24 @@ def finding_lines(findings) -> list[str]:
     ``where``, ``hint``), a hint under its finding. A code found more than
     :data:`~foldprint.core.display.LIST_FIRST` + 1 times (one per hinge of a long
     strip) shows its first :data:`~foldprint.core.display.LIST_FIRST` and one line
-    counting the rest, naming where they are; ``--json`` lists every one."""
-    from ..core.display import LIST_FIRST, first_few
+    counting the rest (:func:`more_findings`); ``--json`` lists every one."""
+    from ..core.display import clip_by
 
-    total: dict[str, list] = {}
-    for f in findings:
-        total.setdefault(f.code, []).append(f)
-    out, seen = [], {}
-    for f in findings:
-        k = seen[f.code] = seen.get(f.code, 0) + 1
-        many = len(total[f.code]) > LIST_FIRST + 1
-        if many and k > LIST_FIRST:
-            continue
-        where = ", ".join(f"{a} {v}" for a, v in f.where.items())
+    out = []
+    for f, rest in clip_by(findings, lambda f: f.code):
+        where = ", ".join(f"{k} {v}" for k, v in f.where.items())
         out.append(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
         if f.hint:
             out.append(f"        hint: {f.hint}")
-        if many and k == LIST_FIRST:
-            rest = total[f.code][LIST_FIRST:]
-            at = [", ".join(f"{a} {v}" for a, v in g.where.items()) for g in rest]
-            named = f" ({first_few(at)})" if all(at) else ""
-            out.append(f"{f.severity.upper():<7} {f.code} ... and {len(rest)} more like these{named}; "
-                       "--json lists every one")
+        if rest:
+            out.append(f"{f.severity.upper():<7} {f.code} {more_findings(rest)}; --json lists every one")
     return out
+
+
+def more_findings(rest) -> str:
+    """"... and 93 more like these (hinge h7, hinge h8, ... and 87 more)": the findings of a
+    code a text leaves out (``where`` as a dict, or ``where`` of a finding's JSON)."""
+    from ..core.display import first_few
+
+    at = [", ".join(f"{k} {v}" for k, v in (f["where"] if isinstance(f, dict) else f.where).items()) for f in rest]
+    return f"... and {len(rest)} more like these" + (f" ({first_few(at)})" if all(at) else "")

@@ -19,6 +19,7 @@ from ..model.materials import MaterialLibrary
 from ..model.printers import (Printer, default_printer_key, default_voxel_printer_key,  # noqa: F401
                               load_printers, tool_fit)
 from ..core.modes import HingeModel, JamReason, SpreadBasis
+from ..core.display import first_few
 from .report import VERDICT_SEVERITY, answer_text, basis_text, jam_estimate_text, jam_test_text, seconds, threshold
 
 SEVERITIES = ("error", "warning", "info")
@@ -359,7 +360,7 @@ def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
     if r is None:
         return []
     th, d = _thresholds(ctx), getattr(r, "decision", None)
-    pairs = ", ".join(f"{a}-{b} in {k}" for (a, b), k in r.collisions()[:3])
+    pairs = first_few([f"{a}-{b} in {k}" for (a, b), k in r.collisions()], 3)
     what = ("the printed geometry (arc hinges)" if r.hinge_model == HingeModel.ARC else
             f"the {r.hinge_model.value}-hinge model (not the printed geometry)")
     text = f"jam probability {jam_estimate_text(r)}, {what} under scatter" + (f"; colliding: {pairs}" if pairs else "")
@@ -508,7 +509,7 @@ def rule_mechanics(ctx: CheckContext) -> list[Finding]:
         at = loops.locked_at if loops.locked_at is not None else loops.stuck[0][0]
         ids = sorted({h for _, hs in loops.stuck for h in hs})
         return [_f("FP190", "warning", f"the rigid model cannot fold this pattern as driven: its loops lock at "
-                   f"{at:.3g} s" + (f" (creases {', '.join(ids)} do not follow their drive)" if ids else ""),
+                   f"{at:.3g} s" + (f" (creases {first_few(ids)} do not follow their drive)" if ids else ""),
                    "panels that bend may let it fold: run foldprint simulate --mechanics bar-hinge "
                    "(docs/mechanics.md)")]
     worst = max(range(len(sim.design.panels)), key=lambda k: float(sol.panel_strain[:, k].max(initial=0.0)))

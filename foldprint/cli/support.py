@@ -306,7 +306,7 @@ def verdict_word(r: dict) -> str:
 def print_simulation(r: dict) -> None:
     crossing = r.get("printed_crossings") or []
     if crossing:  # the printed part itself overlaps: no fold, no contact time to report
-        pairs = ", ".join(f"{a!r} and {b!r}" for a, b in crossing[:5])
+        pairs = first_few([f"{a!r} and {b!r}" for a, b in crossing], 5)
         echo(f"{r['design']}: can never be printed: panels {pairs} cross in the printed (permanent) state "
              "(the target angles put them through each other; no hinge order or material can fold it): "
              "change the target angles, lengths or holes")

@@ -60,6 +60,31 @@ def clipped(lines: list[str], first: int = LIST_FIRST, what: str = "lines", wher
     return lines[:first] + [f"... and {len(lines) - first} more {what}{where}"]
 
 
+def clip_by(items, key, first: int = LIST_FIRST) -> list[tuple[object, list]]:
+    """A list whose items fall in groups (``key(item)``: a finding's code), each group
+    clipped as :func:`clipped` clips a list: ``(item, rest)`` for every item shown, in
+    order; ``rest`` is the group's items not shown, after the last shown item of a group
+    longer than ``first`` + 1, else empty.
+
+    >>> [(i, r) for i, r in clip_by([1, 2, 3, 10, 4], lambda x: x // 10, 2)]
+    [(1, []), (2, [3, 4]), (10, [])]
+    """
+    items = list(items)
+    groups: dict = {}
+    for it in items:
+        groups.setdefault(key(it), []).append(it)
+    out, seen = [], {}
+    for it in items:
+        k = key(it)
+        n = seen[k] = seen.get(k, 0) + 1
+        group = groups[k]
+        if len(group) <= first + 1:
+            out.append((it, []))
+        elif n <= first:
+            out.append((it, group[first:] if n == first else []))
+    return out
+
+
 def hinge_text(h: dict) -> str:
     """A hinge's fold time as every output prints it (``h``: a hinge of the simulation's
     JSON), or why it does not fold: arrested at a contact, or short of 98 % of its target
