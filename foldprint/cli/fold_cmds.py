@@ -235,10 +235,12 @@ def _print_robust(out: dict, r, seed: int, model: str) -> None:
     """``robust``'s text output: the estimate, its pairs and fold times, check's relation,
     the contributions and the sweep."""
     from ..checks.report import jam_estimate_text, percent, seconds
+    from ..core.display import clipped
 
     echo(f"{r.design}: jam probability {jam_estimate_text(r)}, seed {seed} ({model} hinges)")
-    for c in out["collisions"][:5]:
-        echo(f"  {c['pair'][0]}-{c['pair'][1]} collide in {c['count']} samples")
+    for line in clipped([f"  {c['pair'][0]}-{c['pair'][1]} collide in {c['count']} samples" for c in out["collisions"]],
+                        5, "pairs collide (--json lists every one)"):
+        echo(line)
     ft = out["fold_time_s"]
     if ft:
         echo(f"  fold time of the samples that completed: {seconds(ft['p5'])} / {seconds(ft['p50'])} / "

@@ -48,7 +48,7 @@ def first_few(items, first: int = LIST_FIRST) -> str:
 def clipped(lines: list[str], first: int = LIST_FIRST, what: str = "lines", where: str = "") -> list[str]:
     """The lines of a list that grows with the design: every one up to ``first`` + 1 (a
     summary line would not save one), else the first ``first`` and one line counting the
-    rest ("... and 94 more hinges; --json lists every one").
+    rest ("... and 94 more hinges; --json lists every one"), indented as the first line.
 
     >>> clipped(["a", "b"], 1)
     ['a', 'b']
@@ -57,7 +57,8 @@ def clipped(lines: list[str], first: int = LIST_FIRST, what: str = "lines", wher
     """
     if len(lines) <= first + 1:
         return list(lines)
-    return lines[:first] + [f"... and {len(lines) - first} more {what}{where}"]
+    pad = lines[0][:len(lines[0]) - len(lines[0].lstrip())]  # the summary indented as the lines
+    return lines[:first] + [f"{pad}... and {len(lines) - first} more {what}{where}"]
 
 
 def clip_by(items, key, first: int = LIST_FIRST) -> list[tuple[object, list]]:
