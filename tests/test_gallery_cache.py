@@ -116,3 +116,17 @@ def test_no_gallery_no_cache(tmp_path):
     (tmp_path / "x").mkdir()
     (tmp_path / "x" / CACHE_FILE).write_text("not json", encoding="utf-8")
     assert Earlier(tmp_path / "x").files == {}  # no manifest: nothing is trusted
+
+
+def test_the_code_digest_follows_the_libraries(monkeypatch):
+    from foldprint.apps import gallery_cache
+
+    before = code_digest()
+    monkeypatch.setattr(gallery_cache, "_versions", lambda: "numpy==0.0")
+    gallery_cache.code_digest.cache_clear()
+    try:
+        assert gallery_cache.code_digest() != before
+    finally:
+        gallery_cache.code_digest.cache_clear()
+    monkeypatch.undo()
+    assert code_digest() == before

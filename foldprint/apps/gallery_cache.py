@@ -6,7 +6,8 @@ A design's *key* is a digest of everything its folder is made from: the design's
 (:func:`foldprint.model.derived.content_key`), the materials it uses as the library defines
 them (the whole library when a hinge names a VeroWhite fraction, which reads it), the
 code and data of this foldprint (every file of the package: the printer profiles, the
-scatter model and the paper's statements are package data), its folder name and the
+scatter model and the paper's statements are package data) with the versions of Python
+and the libraries that compute and draw (:data:`LIBRARIES`), its folder name and the
 gallery's options (time step, animation frames, samples, seed, sigma scales). The key is
 written beside the design's files (``<design>/gallery-cache.json``, with the page entry it
 gave), so the cache is plain files inside the gallery: ``cp -r`` carries it, deleting a
@@ -28,6 +29,7 @@ import json
 import logging
 import os
 import shutil
+import sys
 from dataclasses import asdict, fields
 from pathlib import Path
 
@@ -48,12 +50,30 @@ FORMAT = 1
 """The cache file's layout (a file of another layout is not read)."""
 
 
+#: The libraries whose numbers and pictures a gallery holds (pyproject's dependencies that
+#: compute or draw): their versions are part of :func:`code_digest`.
+LIBRARIES = ("numpy", "scipy", "trimesh", "manifold3d", "shapely", "python-fcl", "matplotlib", "pillow")
+
+
+def _versions() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = [sys.version]
+    for name in LIBRARIES:
+        try:
+            out.append(f"{name}=={version(name)}")
+        except PackageNotFoundError:
+            out.append(f"{name} absent")
+    return "\n".join(out)
+
+
 @functools.lru_cache(maxsize=1)
 def code_digest() -> str:
-    """A digest of this foldprint: its version and every file of the package (sources and
-    data), by path and content. Any change to the code or its data changes it (a few ms)."""
+    """A digest of this foldprint: its version, Python's and its computing libraries'
+    (:data:`LIBRARIES`) and every file of the package (sources and data), by path and
+    content. Any change to the code, its data or those libraries changes it (a few ms)."""
     root = Path(__file__).resolve().parent.parent
-    h = hashlib.sha256(__version__.encode())
+    h = hashlib.sha256(__version__.encode() + b"\0" + _versions().encode())
     for dirpath, dirnames, filenames in os.walk(root):
         dirnames[:] = sorted(d for d in dirnames if d != "__pycache__")
         for f in sorted(filenames):
