@@ -130,3 +130,20 @@ def test_the_code_digest_follows_the_libraries(monkeypatch):
         gallery_cache.code_digest.cache_clear()
     monkeypatch.undo()
     assert code_digest() == before
+
+
+def test_the_command_line_says_when_nothing_was_written(tmp_path, capsys):
+    from foldprint.cli.commands import main
+    from foldprint.io.design_io import design_to_toml
+
+    design = tmp_path / "tiny.toml"
+    design.write_text(design_to_toml(strip("tiny", [20.0, 20.0], [90.0], ["H-3"])), encoding="utf-8")
+    out = tmp_path / "site"
+    assert main(["gallery", str(design), "--out", str(out), "--jobs", "1"]) == 0
+    capsys.readouterr()
+    assert main(["gallery", str(design), "--out", str(out), "--jobs", "1"]) == 0
+    err = capsys.readouterr().err
+    assert "tiny: unchanged, kept" in err and "index.html: unchanged, nothing written" in err
+    assert "wrote" not in err
+    assert main(["gallery", str(design), "--out", str(out), "--jobs", "1", "--force"]) == 0
+    assert "tiny: simulated, checked, rendered, exported" in capsys.readouterr().err

@@ -158,4 +158,4 @@ def gallery(
                                   progress=lambda done, total, msg: bar.update(task, completed=done, total=total,
                                                                                description=msg),
                                   activity=lambda text: bar.update(tests, description=text))
-    echo_note(f"wrote {index}")
+    echo_note(f"gallery: {index}")  # written, or already current (every design kept, nothing written)
