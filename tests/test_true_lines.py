@@ -55,8 +55,10 @@ def _entry(ev) -> Entry:
 def test_the_gallery_hinge_table_does_not_give_a_stuck_hinge_a_fold_time(cross_lock):
     entry = _entry(cross_lock)
     page = page_html([entry], Image("materials.png", 1, 1, "chart", "chart"), default_library(), 0.01)
-    rows = dict(re.findall(r"<tr><td>(\w+)</td><td>\w+\u2013\w+</td>.*?<td class=\"num\">[^<]*</td>"
-                           r"<td class=\"num\">([^<]*)</td></tr>", page))
+    cells = re.findall(r"<tr><td>(\w+)</td><td>\w+\u2013\w+</td>.*?<td class=\"num\">[^<]*</td>"
+                       r"<td class=\"(num|fail)\">([^<]*)</td></tr>", page)
+    rows = {hid: text for hid, _, text in cells}
+    assert {hid for hid, cls, _ in cells if cls == "fail"} == {"bd", "ca"}  # said in red, not as a time
     assert set(rows) == {"ab", "bd", "dc", "ca"}
     stuck = {h["id"] for h in entry.sim["hinges"] if abs(h["final_angle_deg"]) < 1.0}
     assert stuck == {"bd", "ca"}  # what simulate says: they stay flat

@@ -10,7 +10,7 @@ from ..core.constants import CHECK_SAMPLES, CHECK_SEED
 from ..model import composition
 from ..model.materials import MaterialLibrary
 from ..checks.report import more_findings
-from ..core.display import clip_by, hinge_text, seconds
+from ..core.display import clip_by, hinge_folds, hinge_text, seconds
 from .gallery_entry import Entry, Image, Link, esc, fmt_s
 from .gallery_samples import jam_text, mc_html
 
@@ -257,7 +257,8 @@ def _hinges_and_goals(d, sim: dict, lib: MaterialLibrary) -> list[str]:
         rows.append(f"<tr><td>{esc(h.id)}</td><td>{esc(h.panels[0])}\u2013{esc(h.panels[1])}</td>"
                     f"<td>{_swatch(lib, h.material)}{esc(h.material)}</td>"
                     f"<td class=\"num\">{hd['target_angle_deg']:g}\u00b0</td>"
-                    f"<td class=\"num\">{esc(hinge_text(hd))}</td></tr>")
+                    + (f"<td class=\"num\">{esc(hinge_text(hd))}</td></tr>" if hinge_folds(hd) else  # a time
+                       f"<td class=\"fail\">{esc(hinge_text(hd))}</td></tr>"))  # why not: words that may wrap
     parts.append("<h3>Hinges</h3><table><thead><tr><th>hinge</th><th>panels</th><th>material</th>"
                  "<th>target angle</th><th>fold time (98 %)</th></tr></thead>"
                  f"<tbody>{''.join(rows)}</tbody></table>")
