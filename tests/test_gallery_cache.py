@@ -147,3 +147,27 @@ def test_the_command_line_says_when_nothing_was_written(tmp_path, capsys):
     assert "wrote" not in err
     assert main(["gallery", str(design), "--out", str(out), "--jobs", "1", "--force"]) == 0
     assert "tiny: simulated, checked, rendered, exported" in capsys.readouterr().err
+
+
+def test_a_cache_file_not_of_this_code_is_not_trusted(first, tmp_path):
+    """A cache entry of the right key but another layout (a hand-edited gallery whose
+    manifest was edited to match) is built again, not an internal error."""
+    import hashlib
+    import json
+
+    site = tmp_path / "site"
+    shutil.copytree(first, site)
+    f = site / "one" / CACHE_FILE
+    data = json.loads(f.read_text(encoding="utf-8"))
+    data["entry"] = {"sim": {}}
+    raw = (json.dumps(data) + "\n").encode()
+    f.write_bytes(raw)
+    man = site / "foldprint-set.json"
+    text = man.read_text(encoding="utf-8")
+    row = next(r for r in json.loads(text)["files"] if r["name"] == f"one/{CACHE_FILE}")
+    man.write_text(text.replace(row["sha256"], hashlib.sha256(raw).hexdigest()).replace(
+        f'"bytes": {row["bytes"]}, "sha256": "{hashlib.sha256(raw).hexdigest()}"',
+        f'"bytes": {len(raw)}, "sha256": "{hashlib.sha256(raw).hexdigest()}"'), encoding="utf-8")
+    assert Earlier(site).files[f"one/{CACHE_FILE}"] == (len(raw), hashlib.sha256(raw).hexdigest())
+    built, kept = _build(_designs(), site, force=True)
+    assert built == ["one"] and kept == ["material chart", "two"]

@@ -179,12 +179,16 @@ class Earlier:
     def chart(self, key: str, out: Path | None = None) -> Image | None:
         """The material chart, copied into ``out`` (when given), when its key matches."""
         data = self._cache(CACHE_FILE, key)
-        if data is None or not self._intact(["materials.png"]):
+        if data is None or not self._intact(["materials.png", CACHE_FILE]):
+            return None
+        try:
+            image = Image(**data["chart"])
+        except (KeyError, TypeError):  # not what this code writes: built again
             return None
         if out is not None:
             _copy(self.root / "materials.png", out / "materials.png")
-            (out / CACHE_FILE).write_bytes(chart_bytes(Image(**data["chart"]), key))
-        return Image(**data["chart"])
+            (out / CACHE_FILE).write_bytes(chart_bytes(image, key))
+        return image
 
     def design(self, design: Design, dirname: str, key: str, out: Path | None = None) -> Entry | None:
         """The design's entry, its folder copied into ``out`` (when given), when its key
@@ -199,9 +203,13 @@ class Earlier:
         if set(names) != on_disk or not self._intact(names):
             log.info("gallery: %s: its folder changed since it was built; building it again", design.name)
             return None
+        try:
+            entry = entry_from(data["entry"], design)
+        except (KeyError, TypeError, ValueError, AttributeError):  # not what this code writes: built again
+            return None
         for n in names if out is not None else ():
             _copy(self.root / n, out / n)
-        return entry_from(data["entry"], design)
+        return entry
 
     def _intact(self, names: list[str]) -> bool:
         for n in names:
