@@ -20,6 +20,8 @@ templates). Blocks:
 and the figures of FIGURES (written without --check, not compared):
 
   docs/img/recovery-calibration.png   R(t) of H-1..H-7 at 80/90/100 C and the Fig. 1b spreads
+  docs/img/viewer.png                 the README's screenshot of the viewer (scripts/viewer_screenshot.py;
+                                      tests/test_viewer_screenshot.py holds its text to the tool's)
 
 Usage:  python scripts/regen_docs.py [--check] [--slow] [--only NAME ...]
   (no --check: rewrite the blocks; --check: exit 1 naming every block whose text or numbers
@@ -187,8 +189,20 @@ def recovery_figure(path: Path) -> None:
     plot_recovery_calibration(default_library(), path)
 
 
+def viewer_screenshot(path: Path) -> None:
+    """docs/img/viewer.png and the text it shows (docs/img/viewer.json), by
+    scripts/viewer_screenshot.py (a one-design gallery, headless Chromium)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("viewer_screenshot", ROOT / "scripts" / "viewer_screenshot.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.PNG == path
+    mod.main([])
+
+
 #: doc figure -> builder (written on every run without --check)
-FIGURES = {"docs/img/recovery-calibration.png": recovery_figure}
+FIGURES = {"docs/img/recovery-calibration.png": recovery_figure, "docs/img/viewer.png": viewer_screenshot}
 
 
 def _span(text: str, name: str) -> tuple[int, int]:

@@ -118,6 +118,14 @@ class _Fake:
     def collisions(self):
         return [(("p1", "p2"), self.jams)] if self.jams else []
 
+    @property
+    def outcomes(self):  # each jam a p1-p2 collision, the rest complete
+        from foldprint.core.modes import JamReason
+        from foldprint.simulation.robust import Outcome
+
+        return [Outcome(True, JamReason.COLLISION, ("p1", "p2"), 1.0, None)] * self.jams + \
+            [Outcome(False, None, None, None, 2.0)] * (self.samples - self.jams)
+
 
 @pytest.mark.parametrize("k,n,code", [(0, 20, "FP182"), (1, 20, "FP182"), (2, 20, "FP181"), (3, 20, "FP181"), (12, 20, "FP180"),
                                       (20, 20, "FP180")])

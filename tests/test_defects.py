@@ -121,7 +121,7 @@ def test_fp171_names_the_hole_as_an_index(capsys):
 
 @pytest.mark.parametrize("model", [HingeModel.POINT, HingeModel.ARC])
 def test_fp180_names_the_hinge_model_it_sampled(model):
-    r = SimpleNamespace(ci95=(0.5, 0.9), jam_probability=0.7, jams=14, samples=20, collisions=lambda: [],
+    r = SimpleNamespace(ci95=(0.5, 0.9), jam_probability=0.7, jams=14, samples=20, collisions=lambda: [], outcomes=(),
                         hinge_model=model)
     (f,) = rule_jam_probability(SimpleNamespace(robust=r, thresholds=Thresholds(), sweep=()))
     assert f.code == "FP180"

@@ -207,7 +207,7 @@ def test_index_links_the_printable_files(gallery):
         else:  # the exporter is missing or failed for this design: said on the page
             assert not linked
             section = " ".join(page.text[f"d-{name}"])
-            assert "Export failed" in section or "not available" in section, name
+            assert "No print files" in section or "not available" in section, name
     if (out / "helix_graded" / "files").is_dir():
         assert re.search(r'href="helix_graded/files/[^"]+\.3mf"', text)
         assert re.search(r'href="helix_graded/files/[^"]+\.stl"', text)
@@ -590,7 +590,7 @@ def test_a_design_without_printable_geometry_gets_a_note_not_a_crash(tmp_path):
     d = strip("flat", [10.0, 10.0], [0.0], ["H-1"])
     index = build_gallery([d], tmp_path / "site", gif_frames=3, jobs=1)
     text = index.read_text(encoding="utf-8")
-    assert "No 3D viewer:" in text and "Export failed:" in text
+    assert "No 3D viewer:" in text and "No print files:" in text
     assert not (tmp_path / "site" / "flat" / "viewer.html").exists()
     assert (tmp_path / "site" / "flat" / "simulation.json").is_file()
 
@@ -802,17 +802,19 @@ def test_each_section_quotes_the_paper_beside_the_model(gallery):
                 assert f"{ln['ratio']:.2f}" in text
 
 
-def test_a_failed_export_is_reported_as_failed(tmp_path):
-    """A part that cannot be built: the progress line and the page say the export failed
-    (not 'exported')."""
+def test_a_part_that_cannot_be_built_is_reported_as_a_verdict_not_a_crash(tmp_path):
+    """A part that cannot be built: the progress line and the page say it has no print
+    files because it cannot be built (not 'exported', and not "export FAILED", which reads
+    like a crash of the tool)."""
     d = strip("flat", [10.0, 10.0], [0.0], ["H-1"])
     steps = []
     index = build_gallery([d], tmp_path / "site", gif_frames=3, jobs=1, samples=4,
                           progress=lambda *a: steps.append(a[2]))
     line = next(m for m in steps if m.startswith("flat:"))
-    assert "export FAILED" in line and "exported" not in line and "no 3D viewer" in line
-    assert '<p class="status fail">Export failed:' in index.read_text(encoding="utf-8")
-    assert '<span class="sev-error">export failed</span>' in _summary_row(index, "flat")
+    assert "no print files: the part cannot be built (" in line and "exported" not in line
+    assert "no 3D viewer" in line and "FAILED" not in line
+    assert '<p class="status fail">No print files:' in index.read_text(encoding="utf-8")
+    assert '<span class="sev-error">no print files: cannot be built</span>' in _summary_row(index, "flat")
 
 
 def test_no_empty_samples_chart():

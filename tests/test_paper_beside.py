@@ -158,3 +158,20 @@ def test_materials_prints_fig1b_beside_the_model_and_says_what_it_misses(capsys)
         capsys.readouterr().out
     assert main(["materials", "--json", "--thickness", "1.2"]) == 0
     assert json.loads(capsys.readouterr().out)["paper"] == []
+
+
+def test_hinges_that_never_finish_are_named_not_a_sentence_cut_short():
+    """In a 70 C bath Sample 2's H-7 hinges (h8, h9) never reach 98 % within the run: the
+    line names them and says so; it never ends at "to reach 98 %" with no value."""
+    from foldprint.apps.pipeline import EvalOptions, Evaluation
+
+    ev = Evaluation(load_design(templates_dir() / "helix_graded.toml"), EvalOptions(samples=0, bath_c=70.0))
+    lines = {ln.statement.id: ln for ln in ev.paper_lines()}
+    finish = lines["sample2_outer_finish"]
+    assert finish.value.value_s is None and finish.verdict == "never happens"
+    assert finish.model.startswith("h8, h9 never reach 98 % within the run")
+    start = lines["sample2_outer_start"]  # the first of them to start does: a number
+    assert start.value.value_s is not None and start.model.startswith(seconds(start.value.value_s))
+    for ln in lines.values():
+        assert not ln.summary.rstrip().endswith("%"), ln.summary
+        assert "to reach" not in ln.model or seconds(ln.value.value_s) in ln.model, ln.model

@@ -19,6 +19,12 @@ class ReportStages:
 
         return check_json(self, printer_key or default_printer_key())
 
+    def finding_lines(self) -> list[str]:
+        """``check``'s text lines of its findings, long runs of one code counted."""
+        from ..checks.report import finding_lines
+
+        return finding_lines(self.findings)
+
     def simulation_json(self) -> dict:
         """The ``foldprint simulate --json`` object: the simulation, the printed crossings
         and the other hinge model's verdict (:func:`foldprint.checks.report.simulate_json`)."""

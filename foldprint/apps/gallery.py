@@ -29,6 +29,11 @@ a staging folder beside ``out_dir`` and published by renaming it into place
 (:class:`foldprint.exchange.files.StagedSet`), so ``out_dir`` always holds one complete
 gallery; nothing is printed, progress is logged and reported to an optional callback. The output is deterministic: building twice, with any
 number of processes, gives the same bytes (export files aside, which belong to the exporter).
+
+A design whose inputs did not change since the gallery in ``out_dir`` was built keeps its
+folder and its entry (:mod:`foldprint.apps.gallery_cache`: design, materials, code and
+data, options); a gallery whose every design is kept and whose page is the same is not
+written again; ``cache=False`` builds everything.
 """
 
 
@@ -63,7 +68,7 @@ def _unique_dirnames(designs: Sequence[Design]) -> list[str]:
     out = []
     for d in designs:
         base = _slug(d.name)
-        if base.lower() in ("materials.png", "index.html", "viewer", "foldprint-set.json"):
+        if base.lower() in ("materials.png", "index.html", "viewer", "foldprint-set.json", "gallery-cache.json"):
             base = f"design_{base}"
         k = seen.get(base.lower(), 0) + 1
         seen[base.lower()] = k
@@ -76,7 +81,7 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
                   library: MaterialLibrary | None = None, dt: float = CHECK_DT_S,
                   gif_frames: int = GIF_FRAMES, jobs: int | None = None, samples: int = CHECK_SAMPLES,
                   seed: int = CHECK_SEED, force: bool = False,
-                  activity: Callable[[str], None] | None = None) -> Path:
+                  activity: Callable[[str], None] | None = None, cache: bool = True) -> Path:
     """Simulate, check, render and export ``designs`` into a static HTML gallery.
 
     Parameters
@@ -110,6 +115,9 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     activity : callable, optional
         ``activity(text)``, called as the jam tests consume samples: what the pool is
         doing now ("jam tests: 12 of 30 decided, 1 204 samples"), for a live status line.
+    cache : bool
+        Keep each design whose inputs did not change from the gallery already in
+        ``out_dir`` (:mod:`foldprint.apps.gallery_cache`); False builds every design again.
 
     Returns
     -------
@@ -127,22 +135,40 @@ def build_gallery(designs: Sequence[Design], out_dir: str | Path,
     from ..exchange.files import StagedSet
     from ..render.viewer import ASSETS, asset_bytes
 
+    from .gallery_cache import Earlier
+
     lib = library or default_library()
     t_start = time.perf_counter()
     dirnames = _unique_dirnames(designs)
     step = _Steps(len(designs) + 2, progress)
+    earlier = Earlier(out_dir, cache)
+    options = {"dt": dt, "gif_frames": gif_frames, "samples": samples, "seed": seed}
+    if _unchanged(earlier, designs, dirnames, lib, options, step):
+        return Path(out_dir) / "index.html"
     with StagedSet(out_dir, force) as staged:
         out = staged.path
         for name in ASSETS:
             staged.write(f"viewer/{name}", asset_bytes(name))
-        materials_img, entries = _build_all(designs, out, dirnames, lib, dt, gif_frames, samples, seed, jobs, step,
-                                            activity)
+        materials_img, entries = _build_all(designs, out, dirnames, lib, options, jobs, step, activity, earlier)
         for entry, design in zip(entries, designs):
             entry.design = design  # the worker's copy came back pickled; keep the caller's
         staged.write("index.html", page_html(entries, materials_img, lib, dt, samples, seed).encode("utf-8"))
     step("index.html")
     log.info("gallery: %d design(s) in %s (%.1f s)", len(entries), out_dir, time.perf_counter() - t_start)
     return Path(out_dir) / "index.html"
+
+
+def _unchanged(earlier, designs, dirnames, lib, options: dict, step: "_Steps") -> bool:
+    """Whether the gallery already there is the one these inputs give (nothing to write;
+    :meth:`foldprint.apps.gallery_cache.Earlier.unchanged`); each part reported kept."""
+    dt, samples, seed = options["dt"], options["samples"], options["seed"]
+    if not earlier.unchanged(designs, dirnames, lib, options,
+                             lambda es, img: page_html(es, img, lib, dt, samples, seed).encode("utf-8")):
+        return False
+    for msg in ["material chart"] + [d.name for d in designs]:
+        step(f"{msg}: unchanged, kept")
+    step("index.html: unchanged, nothing written")
+    return True
 
 
 class _Steps:
@@ -173,10 +199,42 @@ class _Tests:
             self.activity(f"jam tests: {decided} of {len(self.at)} decided, {used} samples used")
 
 
-def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: MaterialLibrary, dt: float,
-               gif_frames: int, samples: int, seed: int, jobs: int | None, step: "_Steps", activity=None):
-    """The material chart and every design's entry, built in one process pool with every
-    design's Monte-Carlo (:func:`foldprint.simulation.batch.run_batch`)."""
+def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: MaterialLibrary, options: dict,
+               jobs: int | None, step: "_Steps", activity, earlier):
+    """The material chart and every design's entry: kept from the ``earlier`` gallery
+    where its inputs did not change (:class:`foldprint.apps.gallery_cache.Earlier`), the
+    rest built in one process pool with their Monte-Carlo (:func:`_build_pool`); each
+    built one's cache file written beside its files."""
+    from .gallery_cache import CACHE_FILE, chart_bytes, chart_key, design_key, entry_bytes
+
+    ckey = chart_key(lib)
+    chart = earlier.chart(ckey, out)
+    if chart is not None:
+        step("material chart: unchanged, kept")
+    entries: list = [None] * len(designs)
+    keys = [design_key(d, lib, n, options) for d, n in zip(designs, dirnames)]
+    for i, (d, n) in enumerate(zip(designs, dirnames)):
+        entries[i] = earlier.design(d, n, keys[i], out)
+        if entries[i] is not None:
+            step(f"{d.name}: unchanged, kept")
+    todo = [i for i, e in enumerate(entries) if e is None]
+    if todo or chart is None:
+        built, img = _build_pool([designs[i] for i in todo], out, [dirnames[i] for i in todo], lib, options,
+                                 jobs, step, activity, chart is None)
+        for i, entry in zip(todo, built):
+            entries[i] = entry
+            (out / dirnames[i] / CACHE_FILE).write_bytes(entry_bytes(entry, keys[i]))
+        if chart is None:
+            chart = img
+            (out / CACHE_FILE).write_bytes(chart_bytes(img, ckey))
+    return chart, entries
+
+
+def _build_pool(designs: Sequence[Design], out: Path, dirnames: list[str], lib: MaterialLibrary, options: dict,
+                jobs: int | None, step: "_Steps", activity, chart: bool):
+    """Designs' entries and (``chart``) the material chart, built in one process pool with
+    every design's Monte-Carlo (:func:`foldprint.simulation.batch.run_batch`)."""
+    dt, gif_frames, samples, seed = options["dt"], options["gif_frames"], options["samples"], options["seed"]
     from ..simulation.batch import MonteCarloJob, run_batch
     from ..simulation.check_stages import check_follow
     from ..simulation.verdict import jam_test
@@ -205,7 +263,7 @@ def _build_all(designs: Sequence[Design], out: Path, dirnames: list[str], lib: M
         else:
             step("material chart" if kind == "task" else entry_done(out))
 
-    _, entries, (materials_img,) = run_batch(
+    _, entries, images = run_batch(
         mc, library=lib, workers=max(1, jobs or os.cpu_count() or 1), after=after,
-        tasks=[(chart_task, (out, lib))], progress=report, follow=check_follow(mc, CHECK_SCALES))
-    return materials_img, entries
+        tasks=[(chart_task, (out, lib))] if chart else [], progress=report, follow=check_follow(mc, CHECK_SCALES))
+    return entries, (images[0] if chart else None)

@@ -16,7 +16,7 @@ from ..core.modes import State
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
 from .gallery_entry import Entry, Image, Link, json_bytes, url, write_image
-from .gallery_page import check_verdict, nominal_status
+from .gallery_page import NO_FILES, check_verdict, nominal_status
 from .gallery_samples import mc_summary, worst_json
 
 log = logging.getLogger("foldprint.apps.gallery")
@@ -203,8 +203,8 @@ def _printable_files(entry: Entry, ev, base: Path, dirname: str) -> None:
     try:
         records = ev.export(base / "files", State.PERMANENT, ("3mf", "prusa3mf", "stl"))
     except FoldprintError as exc:  # a part that cannot be built is shown, not raised
-        log.warning("gallery: %s: export failed: %s", name, exc)
-        entry.export_note = f"Export failed: {exc}"
+        log.warning("gallery: %s: no print files: %s", name, exc)
+        entry.export_note = f"{NO_FILES}{exc}"
         return
     for rec in records:
         fname = Path(rec["path"]).name
@@ -215,9 +215,10 @@ def _format_label(rec: dict, fname: str) -> str:
     fmt = rec.get("format", "")
     mats = ", ".join(b.get("material", "?") for b in rec.get("bodies", []))
     if fmt == "3mf":
-        return f"3MF, every material as its own body ({fname})"
+        return (f"3MF for OrcaSlicer / Bambu Studio, every material its own part and filament ({fname}; "
+                "PrusaSlicer would print it with one tool: use the PrusaSlicer 3MF there)")
     if fmt == "prusa3mf":
-        return f"3MF for PrusaSlicer ({fname})"
+        return f"3MF for PrusaSlicer, one extruder per material ({fname})"
     if fmt == "stl":
         return f"STL, {mats} ({fname})"
     if fmt == "manifest":

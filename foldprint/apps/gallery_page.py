@@ -9,7 +9,8 @@ from ..core.version import __version__
 from ..core.constants import CHECK_SAMPLES, CHECK_SEED
 from ..model import composition
 from ..model.materials import MaterialLibrary
-from ..checks.report import seconds
+from ..checks.report import more_findings
+from ..core.display import clip_by, hinge_folds, hinge_text, seconds
 from .gallery_entry import Entry, Image, Link, esc, fmt_s
 from .gallery_samples import jam_text, mc_html
 
@@ -72,6 +73,10 @@ def nominal_status(entry: Entry) -> tuple[bool, str]:
     return False, "Does not complete \u2014 " + "; ".join(reasons) + "."
 
 
+NO_FILES = "No print files: "
+"""How a design's note begins when its printed part cannot be built (the reason follows)."""
+
+
 #: The check findings that say printed parts jam under scatter (docs/checks.md).
 JAM_CODES = ("FP180", "FP181")
 
@@ -97,19 +102,23 @@ def nominal_cell(entry: Entry) -> tuple[str, str]:
 
 def paper_label(entry: Entry) -> str:
     """How the page names a structure of the paper: "the paper's Sample 1 (Fig. 2b)", or a
-    variant "after the paper's Fig. 5"; "" for a design not from the paper."""
+    variant "after the paper's Fig. 5"; "" for a design not from the paper. A name the
+    paper gives with its article ("the self-locking structure") drops it after "the paper's"."""
     ref = entry.design.paper
     if ref is None:
         return ""
-    return f"the paper's {ref.label}" if ref.statements else f"{ref.name}, after the paper's {ref.figure}"
+    if not ref.statements:
+        return f"{ref.name}, after the paper's {ref.figure}"
+    label = ref.label
+    return f"the paper's {label[4:] if label.startswith('the ') else label}"  # not "the paper's the box"
 
 
 def entry_done(entry: Entry) -> str:
     """The progress line of a finished design: what was made, and what was not."""
     done, failed = ["simulated", "checked", "rendered"], []
-    if entry.export_note:
-        reason = textwrap.shorten(entry.export_note.removeprefix("Export failed: "), 100, placeholder=" ...")
-        failed.append(f"export FAILED ({reason})")
+    if entry.export_note:  # a verdict on the design (its part cannot be built), not a crash
+        reason = textwrap.shorten(entry.export_note.removeprefix(NO_FILES), 100, placeholder=" ...")
+        failed.append(f"no print files: the part cannot be built ({reason})")
     else:
         done.append("exported")
     if entry.viewer is None:
@@ -248,7 +257,8 @@ def _hinges_and_goals(d, sim: dict, lib: MaterialLibrary) -> list[str]:
         rows.append(f"<tr><td>{esc(h.id)}</td><td>{esc(h.panels[0])}\u2013{esc(h.panels[1])}</td>"
                     f"<td>{_swatch(lib, h.material)}{esc(h.material)}</td>"
                     f"<td class=\"num\">{hd['target_angle_deg']:g}\u00b0</td>"
-                    f"<td class=\"num\">{esc(fmt_s(hd['fold_time_s']))}</td></tr>")
+                    + (f"<td class=\"num\">{esc(hinge_text(hd))}</td></tr>" if hinge_folds(hd) else  # a time
+                       f"<td class=\"fail\">{esc(hinge_text(hd))}</td></tr>"))  # why not: words that may wrap
     parts.append("<h3>Hinges</h3><table><thead><tr><th>hinge</th><th>panels</th><th>material</th>"
                  "<th>target angle</th><th>fold time (98 %)</th></tr></thead>"
                  f"<tbody>{''.join(rows)}</tbody></table>")
@@ -282,13 +292,17 @@ def _findings_html(chk: dict) -> list[str]:
         return (f'<li><span class="sev-{esc(f["severity"])}">{esc(f["severity"].upper())} {esc(f["code"])}</span> '
                 f"{esc(f['message'])}{hint}</li>")
 
+    def listed(fs) -> str:  # a code found on many hinges: its first few and a count (check.json has all)
+        return "".join(finding(f) + (f'<li class="muted">{esc(f["code"])} {esc(more_findings(rest))} '
+                                     "(check.json lists every one)</li>" if rest else "")
+                       for f, rest in clip_by(fs, lambda f: f["code"]))
+
     serious = [f for f in chk["findings"] if f["severity"] in ("error", "warning")]
     if serious:
-        parts.append("<ul>" + "".join(finding(f) for f in serious) + "</ul>")
+        parts.append("<ul>" + listed(serious) + "</ul>")
     info = [f for f in chk["findings"] if f["severity"] == "info"]
     if info:
-        parts.append(f"<details><summary>{len(info)} note(s)</summary><ul>"
-                     + "".join(finding(f) for f in info) + "</ul></details>")
+        parts.append(f"<details><summary>{len(info)} note(s)</summary><ul>" + listed(info) + "</ul></details>")
     return parts
 
 
@@ -322,7 +336,7 @@ def page_html(entries: list[Entry], materials_img: Image, lib: MaterialLibrary, 
         cls, nominal = nominal_cell(en)
         label = paper_label(en)
         named = f'<br><span class="muted">{esc(label)}</span>' if label else ""
-        failed = '<br><span class="sev-error">export failed</span>' if en.export_note else ""
+        failed = '<br><span class="sev-error">no print files: cannot be built</span>' if en.export_note else ""
         rows.append(f'<tr><td><a href="#{esc("d-" + en.dirname)}">{esc(en.design.name)}</a>{view}{named}{failed}</td>'
                     f'<td class="{"ok" if passes else "fail"}">'
                     + (f"passes (exit 0)" if passes else f"fails (exit 1): {esc(codes)}") + "</td>"

@@ -307,3 +307,31 @@ def robust_report_json(r, contributions=None, sweep=None) -> dict:
     out["contributions"] = None if contributions is None else contributions_json(contributions)
     out["sensitivity"] = None if sweep is None else sweep_json(sweep)
     return out
+
+
+def finding_lines(findings) -> list[str]:
+    """``check``'s text lines of its findings (``code``, ``severity``, ``message``,
+    ``where``, ``hint``), a hint under its finding. A code found more than
+    :data:`~foldprint.core.display.LIST_FIRST` + 1 times (one per hinge of a long
+    strip) shows its first :data:`~foldprint.core.display.LIST_FIRST` and one line
+    counting the rest (:func:`more_findings`); ``--json`` lists every one."""
+    from ..core.display import clip_by
+
+    out = []
+    for f, rest in clip_by(findings, lambda f: f.code):
+        where = ", ".join(f"{k} {v}" for k, v in f.where.items())
+        out.append(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
+        if f.hint:
+            out.append(f"        hint: {f.hint}")
+        if rest:
+            out.append(f"{f.severity.upper():<7} {f.code} {more_findings(rest)}; --json lists every one")
+    return out
+
+
+def more_findings(rest) -> str:
+    """"... and 93 more like these (hinge h7, hinge h8, ... and 87 more)": the findings of a
+    code a text leaves out (``where`` as a dict, or ``where`` of a finding's JSON)."""
+    from ..core.display import first_few
+
+    at = [", ".join(f"{k} {v}" for k, v in (f["where"] if isinstance(f, dict) else f.where).items()) for f in rest]
+    return f"... and {len(rest)} more like these" + (f" ({first_few(at)})" if all(at) else "")

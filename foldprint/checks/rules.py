@@ -18,7 +18,8 @@ from ..model.materials import MaterialLibrary
 # the printer profiles live in model.printers; importable from here as before
 from ..model.printers import (Printer, default_printer_key, default_voxel_printer_key,  # noqa: F401
                               load_printers, tool_fit)
-from ..core.modes import HingeModel, SpreadBasis
+from ..core.modes import HingeModel, JamReason, SpreadBasis
+from ..core.display import first_few
 from .report import VERDICT_SEVERITY, answer_text, basis_text, jam_estimate_text, jam_test_text, seconds, threshold
 
 SEVERITIES = ("error", "warning", "info")
@@ -359,14 +360,14 @@ def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
     if r is None:
         return []
     th, d = _thresholds(ctx), getattr(r, "decision", None)
-    pairs = ", ".join(f"{a}-{b} in {k}" for (a, b), k in r.collisions()[:3])
+    pairs = first_few([f"{a}-{b} in {k}" for (a, b), k in r.collisions()], 3)
     what = ("the printed geometry (arc hinges)" if r.hinge_model == HingeModel.ARC else
             f"the {r.hinge_model.value}-hinge model (not the printed geometry)")
     text = f"jam probability {jam_estimate_text(r)}, {what} under scatter" + (f"; colliding: {pairs}" if pairs else "")
     how = f" ({jam_test_text(r)})"
     scaled = _scaled(ctx.sweep, th)
     tail = f"; with the spreads scaled {scaled}" if scaled else ""
-    hint = "give neighbouring hinges materials further apart in Tg, so scatter cannot swap their order"
+    hint = jam_hint(r.outcomes)
     verdict = jam_verdict(r, th)
     if verdict == "error":
         above = "" if d is not None else " even at the interval's lower end"
@@ -374,6 +375,20 @@ def rule_jam_probability(ctx: CheckContext) -> list[Finding]:
     if verdict == "warning":
         return [_f("FP181", "warning", text + f": above the {threshold(th.warning)} warning threshold{how}{tail}", hint)]
     return [_f("FP182", "info", text + f": below the {threshold(th.warning)} warning threshold{how}{tail}")]
+
+
+def jam_hint(outcomes) -> str:
+    """FP180/FP181's hint, by why the samples jam (each outcome's ``jammed`` and
+    ``reason``): a collision or a pass-through out of order is an order scatter swapped,
+    which hinges further apart in Tg prevent; samples that only stop short of their
+    targets (a loop whose targets cannot close, a bath too cool, a run too short) jam
+    whatever the scatter, and no Tg spacing helps."""
+    reasons = [o.reason for o in outcomes if o.jammed]
+    if not reasons or any(x in (JamReason.COLLISION, JamReason.GOAL) for x in reasons):
+        return "give neighbouring hinges materials further apart in Tg, so scatter cannot swap their order"
+    return (f"no sample collides or misses a goal: the {len(reasons)} jammed sample(s) stop short of their targets "
+            "(a hinge below 98 % at the end of the run), which is not an order scatter swaps; `foldprint simulate` "
+            "says which hinges and why (a loop whose targets cannot close, a bath too cool, a run too short)")
 
 
 _RANK = {"error": 0, "warning": 1, "info": 2}
@@ -494,7 +509,7 @@ def rule_mechanics(ctx: CheckContext) -> list[Finding]:
         at = loops.locked_at if loops.locked_at is not None else loops.stuck[0][0]
         ids = sorted({h for _, hs in loops.stuck for h in hs})
         return [_f("FP190", "warning", f"the rigid model cannot fold this pattern as driven: its loops lock at "
-                   f"{at:.3g} s" + (f" (creases {', '.join(ids)} do not follow their drive)" if ids else ""),
+                   f"{at:.3g} s" + (f" (creases {first_few(ids)} do not follow their drive)" if ids else ""),
                    "panels that bend may let it fold: run foldprint simulate --mechanics bar-hinge "
                    "(docs/mechanics.md)")]
     worst = max(range(len(sim.design.panels)), key=lambda k: float(sol.panel_strain[:, k].max(initial=0.0)))

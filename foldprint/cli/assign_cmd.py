@@ -26,7 +26,7 @@ from .root import app
 
 @app.command(short_help=summary('assign'))
 def assign(
-    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    design: str = typer.Argument(..., help="Design file (.toml, .fold, .svg) or template name."),
     materials: Optional[str] = typer.Option(None, "--materials", metavar="H-1,...,H-7",
                                             help="Hinge materials to choose from (default: every one)."),
     temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); "

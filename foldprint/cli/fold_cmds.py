@@ -30,7 +30,7 @@ MECHANICS_HELP = ("rigid (default: rigid panels, exact and fast) | bar-hinge (pa
 
 @app.command(short_help=summary('simulate'))
 def simulate(
-    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    design: str = typer.Argument(..., help="Design file (.toml, .fold, .svg) or template name."),
     temperature: Optional[float] = typer.Option(None, "--temperature", help="Bath temperature (deg C); default: the design's."),
     duration: Optional[float] = typer.Option(None, "--duration", help="Simulated time (s); default: the design's."),
     dt: float = typer.Option(DEFAULT_DT_S, "--dt", help="Time step of the trajectory (s)."),
@@ -90,7 +90,7 @@ def simulate(
 
 @app.command(short_help=summary('check'))
 def check(
-    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    design: str = typer.Argument(..., help="Design file (.toml, .fold, .svg) or template name."),
     printer: Optional[str] = typer.Option(None, "--printer", help="Printer profile key (default: connex260)."),
     printers_file: Optional[Path] = typer.Option(None, "--printers", help="Extra printer profiles (TOML)."),
     hinge_model: str = typer.Option(DEFAULT_HINGE_MODEL.value, "--hinge-model",
@@ -149,19 +149,17 @@ def check(
     if json_out:
         echo_json(ev.to_json(key))
     else:
-        for f in findings:
-            where = ", ".join(f"{k} {v}" for k, v in f.where.items())
-            echo(f"{f.severity.upper():<7} {f.code} {f.message}" + (f" [{where}]" if where else ""))
-            if f.hint:
-                echo(f"        hint: {f.hint}")
+        for line in ev.finding_lines():
+            echo(line)
         print_paper([line.to_json() for line in ev.paper_lines()])
-        echo_note(f"{d.name}: {n_err} error(s) on {pr.name} ({model.value} hinges)")
+        echo_note(f"{d.name}: {n_err} error(s) on {pr.name} ({model.value} hinges); materials: the shipped library"
+                  + "".join(f" + {f}" for f in materials_file or ()))
     raise ExitCode(1 if n_err else 0)
 
 
 @app.command(short_help=summary('robust'))
 def robust(
-    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    design: str = typer.Argument(..., help="Design file (.toml, .fold, .svg) or template name."),
     samples: int = typer.Option(ROBUST_SAMPLES, "--samples", help="Monte-Carlo samples (>= 1)."),
     seed: int = typer.Option(DEFAULT_SEED, "--seed", help="Seed: the same seed gives the same answer."),
     scatter_file: Optional[Path] = typer.Option(None, "--scatter", help="Scatter model TOML (default: shipped)."),
@@ -222,11 +220,12 @@ def robust(
 def _print_robust(out: dict, r, seed: int, model: str) -> None:
     """``robust``'s text output: the estimate, its pairs and fold times, check's relation,
     the contributions and the sweep."""
-    from ..core.display import jam_estimate_text, percent, seconds
+    from ..core.display import clipped, jam_estimate_text, percent, seconds
 
     echo(f"{r.design}: jam probability {jam_estimate_text(r)}, seed {seed} ({model} hinges)")
-    for c in out["collisions"][:5]:
-        echo(f"  {c['pair'][0]}-{c['pair'][1]} collide in {c['count']} samples")
+    for line in clipped([f"  {c['pair'][0]}-{c['pair'][1]} collide in {c['count']} samples" for c in out["collisions"]],
+                        5, "pairs collide (--json lists every one)"):
+        echo(line)
     ft = out["fold_time_s"]
     if ft:
         echo(f"  fold time of the samples that completed: {seconds(ft['p5'])} / {seconds(ft['p50'])} / "

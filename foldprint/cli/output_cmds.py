@@ -42,7 +42,7 @@ def _plan_out(out_dir: Path, force: bool, what: str):
 
 @app.command(short_help=summary('export'))
 def export(
-    design: str = typer.Argument(..., help="Design file (.toml, .fold) or template name."),
+    design: str = typer.Argument(..., help="Design file (.toml, .fold, .svg) or template name."),
     out: Optional[str] = typer.Option(None, "--out", help="Output directory (default: output/<design>/)."),
     state: str = typer.Option(DEFAULT_STATE.value, "--state", help="permanent (folded, printed) | programmed (flat)"),
     formats: str = typer.Option(",".join(EXPORT_FORMATS), "--format",
@@ -119,7 +119,8 @@ def gallery(
     out: str = typer.Option(str(Path("output") / "gallery"), "--out", help="Output directory."),
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     jobs: Optional[int] = typer.Option(None, "--jobs", min=1, help="Worker processes (default: one per CPU)."),
-    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+    force: bool = typer.Option(False, "--force", help="Build every design again (a design whose design, materials "
+                               "and foldprint did not change is otherwise kept from the gallery in --out). " + FORCE_HELP),
 ):
     """Simulate, check, render and export designs into an offline HTML gallery
     (index.html with an interactive 3D viewer per design, renders, fold animations, plots,
@@ -141,9 +142,9 @@ def gallery(
     loaded = load_designs(names, lib)
     _plan_out(out, force, "gallery")
     if OUTPUT_STATE["quiet"]:
-        index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force)
+        index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force, cache=not force)
     elif not sys.stderr.isatty():  # a log: one line per finished part
-        index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force,
+        index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force, cache=not force,
                               progress=lambda done, total, msg: print(f"[{done}/{total}] {msg}", file=sys.stderr))
     else:
         from rich.console import Console
@@ -154,8 +155,8 @@ def gallery(
             task = bar.add_task(f"building {len(loaded)} design(s): nominal folds, then the jam tests",
                                 total=len(loaded) + 2)
             tests = bar.add_task("jam tests: starting", total=None)  # the Monte-Carlo, live
-            index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force,
+            index = build_gallery(loaded, out, library=lib, jobs=jobs, force=force, cache=not force,
                                   progress=lambda done, total, msg: bar.update(task, completed=done, total=total,
                                                                                description=msg),
                                   activity=lambda text: bar.update(tests, description=text))
-    echo_note(f"wrote {index}")
+    echo_note(f"gallery: {index}")  # written, or already current (every design kept, nothing written)

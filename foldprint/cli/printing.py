@@ -9,7 +9,7 @@ import json
 
 from typer import echo
 
-from ..core.display import seconds
+from ..core.display import clipped, first_few, hinge_lines, seconds
 
 #: --quiet and --verbose of this run (set by the root's callback).
 OUTPUT_STATE = {"quiet": False, "verbose": False}
@@ -35,7 +35,7 @@ def verdict_word(r: dict) -> str:
 def print_simulation(r: dict) -> None:
     crossing = r.get("printed_crossings") or []
     if crossing:  # the printed part itself overlaps: no fold, no contact time to report
-        pairs = ", ".join(f"{a!r} and {b!r}" for a, b in crossing[:5])
+        pairs = first_few([f"{a!r} and {b!r}" for a, b in crossing], 5)
         echo(f"{r['design']}: can never be printed: panels {pairs} cross in the printed (permanent) state "
              "(the target angles put them through each other; no hinge order or material can fold it): "
              "change the target angles, lengths or holes")
@@ -48,10 +48,9 @@ def print_simulation(r: dict) -> None:
     if r["fold_time_s"] is not None:
         echo(f"  folded in {seconds(r['fold_time_s'])}")
     print_clearance(r.get("clearance"), margin, r["first_collision"] is None)
-    for c in r["contacts"]:
-        echo(f"  contact {c['panels'][0]}-{c['panels'][1]} at {seconds(c['time_s'])} ({c['method']})")
-    for h in r["hinges"]:
-        echo(f"  {h['id']:<6} {h['material']:<6} {hinge_text(h)}")
+    for line in clipped([f"  contact {c['panels'][0]}-{c['panels'][1]} at {seconds(c['time_s'])} ({c['method']})"
+                         for c in r["contacts"]], what="contacts (--json lists every one)") + hinge_lines(r["hinges"]):
+        echo(line)
     for g in r["goals"]:
         state = f"met at {seconds(g['time_s'])}" if g["met"] else "NOT met"
         echo(f"  goal {g['id']}: {g['panel']} through holes[{g['hole']}] of {g['target']}: {state}")
@@ -69,23 +68,9 @@ def print_simulation(r: dict) -> None:
     loops = r.get("loops") or {}
     for stuck in loops.get("not_followed") or []:
         echo(f"  note: from {seconds(stuck['time_s'])} the loops' closure does not follow the drive of "
-             f"{', '.join(stuck['hinges'])}: they stay where the closure holds them (docs/loops.md)")
+             f"{first_few(stuck['hinges'])}: they stay where the closure holds them (docs/loops.md)")
     print_paper(r.get("paper") or [])
 
-
-def hinge_text(h: dict) -> str:
-    """A hinge's row: its fold time, or why it does not fold (arrested at a contact, or
-    short of 98 % of its target at the end: e.g. held by a loop's closure)."""
-    from ..core.constants import FOLD_LEVEL
-
-    ft = "does not fold" if h["fold_time_s"] is None else seconds(h["fold_time_s"])
-    if h["arrested_at_s"] is not None:
-        return f"{ft}, arrested at {seconds(h['arrested_at_s'])}, {h['angle_error_deg']:.1f} deg short"
-    if abs(h["angle_error_deg"]) > (1 - FOLD_LEVEL) * abs(h["target_angle_deg"]) + 1e-9:
-        alone = "" if h["fold_time_s"] is None else f" (its material alone folds in {ft})"
-        return (f"does not fold: {h['final_angle_deg'] + 0.0:.1f} of {h['target_angle_deg']:g} deg at the end, "
-                f"short of 98 %{alone}")
-    return ft
 
 
 def print_clearance(gap: dict | None, margin: dict | None, no_contact: bool) -> None:

@@ -54,15 +54,46 @@ def _md(text: object) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
 
 
+def _shared(assembly: Assembly, files: Mapping[str, Sequence[str]]) -> list[str]:
+    """The files that hold every body (projects, hand-offs), in the export's order; an STL
+    is one body's file even when the part has one body."""
+    mats = [b.material for b in assembly.bodies]
+    first = list(files.get(mats[0], ())) if mats else []
+    return [f for f in first if not f.endswith(".stl") and all(f in files.get(m, ()) for m in mats)]
+
+
 def _bodies(assembly: Assembly, library: MaterialLibrary, files: Mapping[str, Sequence[str]]) -> list[str]:
-    rows = ["| body | material | role | Tg (°C) | slicer tool | volume (mm³) | files |",
+    shared = set(_shared(assembly, files))
+    rows = ["| body | material | role | Tg (°C) | slicer tool | volume (mm³) | its own file |",
             "|---|---|---|---|---|---|---|"]
     for k, b in enumerate(assembly.bodies):
         m = library[b.material] if b.material in library else None
         role, tg = (m.role, f"{m.tg_c:g}") if m else ("?", "?")
-        held = ", ".join(f"`{f}`" for f in files.get(b.material, ())) or "-"
+        held = ", ".join(f"`{f}`" for f in files.get(b.material, ()) if f not in shared) or "-"
         rows.append(f"| {k + 1} | {_md(b.material)} | {role} | {tg} | extruder {k + 1} (T{k}) | {b.volume:.1f} | {held} |")
     return rows
+
+
+def _projects(assembly: Assembly, files: Mapping[str, Sequence[str]]) -> list[str]:
+    """What each file holding every body is for: which slicer reads it with the tools of
+    the table (PrusaSlicer opens the spec 3MF with one extruder and prints every body with
+    T0, checked with ``prusa-slicer --export-gcode``), which are not for slicing."""
+    shared = _shared(assembly, files)
+    prusa = next((f for f in shared if f.endswith("_prusa.3mf")), None)
+    out = []
+    for f in shared:
+        if f.endswith("_prusa.3mf"):
+            use = "PrusaSlicer project: one extruder per body, the tools of the table."
+        elif f.endswith("_voxels.3mf"):
+            use = "PolyJet voxel print (composite 3MF beside the PNG slices), not for an FDM slicer."
+        elif f.endswith(".3mf"):
+            use = ("OrcaSlicer / Bambu Studio project: each body its own part and filament, the tools of the table. "
+                   "PrusaSlicer opens it with one extruder and prints every body with T0: "
+                   + (f"use `{prusa}` there." if prusa else "export `--format prusa3mf` for it."))
+        else:
+            use = "a hand-off to another program (crease pattern, FE mesh or animation), not for slicing."
+        out.append(f"- `{f}`: {use}")
+    return ["Files that hold every body:", "", *out] if out else []
 
 
 def _printer(fit: ToolFit | None, n: int) -> list[str]:
@@ -123,7 +154,9 @@ def recipe_markdown(design: Design, assembly: Assembly, library: MaterialLibrary
     shown = [] if check is None else [f"- {s.upper()} {c}: {_md(msg)}" for s, c, msg in check.findings if s != "info"]
     if shown:
         out += ["", *shown]
+    projects = _projects(assembly, files)
     out += ["", "## Printer and tools", "", *_printer(fit, n), "", *_bodies(assembly, library, files), "",
+            *projects, *([""] if projects else []),
             "## Print, program, fold", "",
             "1. Print the part as exported: the permanent state, folded, as the paper prints it."
             if assembly.state == "permanent" else

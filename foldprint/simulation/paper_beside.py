@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.display import percent, seconds
+from ..core.display import first_few, percent, seconds
 from ..core.constants import FOLD_LEVEL, ONSET_LEVEL
 from ..model.design import Design
 from ..model.paper_statements import Statement, load_statements
@@ -60,8 +60,14 @@ def _hinge_times(s: Statement, result: SimulationResult) -> ModelValue:
     at = crossing_times(result, level) if level != FOLD_LEVEL else \
         np.array([np.nan if t is None else t for t in result.hinge_fold_times])
     t = at[[ids.index(h) for h in s.hinges]]
-    pick = np.min if s.measure == "onset_first" else np.max
-    v = None if np.all(np.isnan(t)) else float(pick(t))
+    never = [h for h, x in zip(s.hinges, t) if np.isnan(x)]
+    if s.measure == "onset_first":  # the first that gets there; none: never
+        v = None if len(never) == len(t) else float(np.nanmin(t))
+    else:  # the last: never, once one of them never gets there
+        v = None if never else float(np.max(t))
+    if v is None:
+        return ModelValue(None, f"{first_few(never)} never {'reaches' if len(never) == 1 else 'reach'} "
+                                f"{100 * level:g} % within the run")
     which = "first" if s.measure == "onset_first" else "last"
     return ModelValue(v, f"the {which} of {', '.join(s.hinges)} to reach {100 * level:g} %")
 
