@@ -21,6 +21,9 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from ..core import guards
+from ..exchange import voxel_cost
+from ..geometry import build_cost
+from ..simulation import costs
 from ..checks.rules import CheckContext, Finding, Printer, Thresholds, default_printer_key, load_printers, run_checks
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
 from ..collision.swept3d import SweptChecker
@@ -158,16 +161,16 @@ class Evaluation:
         return sum(r.nbytes for r in runs if isinstance(r, SimulationResult))
 
     def guard(self, runs: int, clearance: bool = False, samples: bool = False) -> None:
-        """Refuse up front what ``runs`` runs held at once (a sample's, ``samples``) would need (guards.check_runs)."""
+        """Refuse up front what ``runs`` runs held at once (a sample's, ``samples``) would need (costs.check_runs)."""
         o = self.options
-        guards.check_runs(self.design, o.dt, o.duration, o.method, runs, clearance,
-                          (lambda: curve_batch(self.design, o.dt, o.samples)[1]) if samples else None)
+        costs.check_runs(self.design, o.dt, o.duration, o.method, runs, clearance,
+                         (lambda: curve_batch(self.design, o.dt, o.samples)[1]) if samples else None)
 
     def margin_batch(self, upfront: bool = False) -> int:
-        """Samples of the margin screen given their curves at once: in the memory left (guards.check_margin),
+        """Samples of the margin screen given their curves at once: in the memory left (costs.check_margin),
         at most CURVE_BATCH_BYTES of curves (robust.curves_at_once)."""
         o = self.options
-        per = guards.check_margin(self.design, o.dt, o.duration, o.method, lambda k: margin_batch_bytes(
+        per = costs.check_margin(self.design, o.dt, o.duration, o.method, lambda k: margin_batch_bytes(
             self.design, run_end(self.design, o.dt, o.duration), k), MARGIN_SAMPLES, upfront,
             screened_poses(self.design) if o.mechanics == Mechanics.RIGID else None)
         return per if per == 1 else min(per, curves_at_once(self.design, run_end(self.design, o.dt, o.duration), per)[0])
@@ -213,13 +216,13 @@ class Evaluation:
         if self._nominal_drive is None:
             o = self.options
             if o.mechanics == Mechanics.BAR_HINGE:  # its own equilibrium path, solved on first use
-                guards.check_mechanics(self.design)
+                costs.check_mechanics(self.design)
                 d = CompliantDrive(self.design, o.bath_c, self.library)
             else:
                 d = HingeDrive(self.design, o.bath_c, self.library)
             if d.loops is not None:
                 try:
-                    guards.check_simulation(self.design, o.dt, o.duration, Method.FCL)
+                    costs.check_simulation(self.design, o.dt, o.duration, Method.FCL)
                 except FoldprintError:
                     pass
                 else:
@@ -492,7 +495,7 @@ class Evaluation:
             if assembly is None:
                 raise GeometryError(self.assembly_error)
         if assembly is None:
-            guards.check_export(self.design)  # time and memory of the build, estimated from the design
+            build_cost.check_export(self.design)  # time and memory of the build, estimated from the design
         frames = self.frames if any(f in TRAJECTORY_FORMATS for f in fmts) else None
         check = check_summary(self.printer.name, self.findings) if self.has("findings") else None
         with self.cache.active():
@@ -507,8 +510,7 @@ class Evaluation:
         """The part's voxel regions at ``pitch``, after the voxel grid's guard."""
         d = self.design
         voxels = voxel_part(d, assembly, self.library, pitch)
-        graded = sum(1 for r in voxels.regions if r.constant is None and not r.along_length)
-        guards.check_voxels(voxels.grid().shape, f"{d.source}: " if d.source else f"{d.name}: ", graded)
+        voxel_cost.check_part(voxels, f"{d.source}: " if d.source else f"{d.name}: ")
         return voxels
 
     def to_json(self, printer_key: str | None = None) -> dict:
