@@ -20,9 +20,10 @@ from ..core.guards import BASE_BYTES, enforce, fmt_bytes, held_elsewhere, lift_h
 
 #: bytes an open run holds whatever its path (generator frame and closure, the heap entry,
 #: the motion bound's 64 Python floats, the pair cache's tuple, lists and arrays headers):
-#: measured with tracemalloc on coiled strips of 100 and 200 panels (every pair a
-#: candidate), rounded up
-RUN_BYTES = 3_500
+#: measured with tracemalloc on coiled strips (every pair a candidate) of 60, 100 and 200
+#: panels, 5.1, 2.9 and 2.4 KB a run with everything the phase allocates, our choice
+#: between them (tests/test_guards_costs.py)
+RUN_BYTES = 4_000
 #: bytes per hinge on a run's tree path: a Python int in one of the path lists (8 B
 #: pointer, 28 B object) and its entry in the index and lever arrays (2 x 8 B)
 PATH_BYTES_PER_HINGE = 56

@@ -14,6 +14,7 @@ spring) and factorises it.
 
 from __future__ import annotations
 
+from ..core.constants import DEFAULT_DT_S
 from ..core.guards import (BASE_BYTES, LIFT_TIME, ResourceError, enforce, fmt_bytes, fmt_seconds, lift_memory_env,
                            source_of)
 
@@ -37,6 +38,11 @@ BYTES_PER_ENTRY = 96
 #: tables made from them), over the grid times of a run (the 105 of the benchmarks, 3x)
 BYTES_PER_NODE_STEP = 48
 GRID_TIMES = 320
+#: bytes per hinge: its recovery curve on the model's grid (15,400 floats,
+#: physics.recovery.curve_time_grid) and, per time of the run, its rest angle, stiffness
+#: and log stiffness (3 x 8 B) on the run's times at the default 10 ms step
+CURVE_BYTES_PER_HINGE = 15_400 * 8
+BYTES_PER_HINGE_STEP = 24
 
 
 def model_size(design) -> dict:
@@ -56,7 +62,10 @@ def mechanics_estimate(design) -> dict:
     """Peak bytes and CPU seconds of a bar-and-hinge run on ``design`` (:func:`model_size`)."""
     size = model_size(design)
     seconds = ITERATIONS * (S_PER_ITERATION + S_PER_ENTRY * size["entries"])
-    nbytes = BASE_BYTES + BYTES_PER_ENTRY * size["entries"] + BYTES_PER_NODE_STEP * GRID_TIMES * size["nodes"]
+    steps = float(design.process.duration_s) / DEFAULT_DT_S + 2
+    per_hinge = CURVE_BYTES_PER_HINGE + BYTES_PER_HINGE_STEP * steps
+    nbytes = (BASE_BYTES + BYTES_PER_ENTRY * size["entries"] + BYTES_PER_NODE_STEP * GRID_TIMES * size["nodes"]
+              + per_hinge * len(design.hinges))
     return {**size, "bytes": nbytes, "seconds": seconds}
 
 

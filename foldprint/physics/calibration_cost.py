@@ -17,7 +17,7 @@ from ..core.guards import BASE_BYTES, LIFT_TIME, enforce, fmt_bytes, fmt_seconds
 from .recovery_batch import MAX_BATCH_ELEMENTS
 
 # Measured with a synthetic CSV per dimension (one curve and 2,000 ratio rows, 50 curves,
-# 200 time_to rows on 50 curves, 10 new materials; benchmarks: tests/test_guards_fit.py
+# 200 time_to rows on 50 curves, 10 new materials; tests/test_guards_costs.py
 # holds the estimate above a measured fit), CPU on the loaded 2-core machine, rounded up:
 #: seconds of one evaluation: a fixed part, per row read off its curve (interpolation or
 #: first crossing, 2.4-2.5 us measured), per curve point made (0.13 us), per curve group
