@@ -19,11 +19,14 @@ from .recovery_batch import MAX_BATCH_ELEMENTS
 # Measured with a synthetic CSV per dimension (one curve and 2,000 ratio rows, 50 curves,
 # 200 time_to rows on 50 curves, 10 new materials; tests/test_guards_costs.py
 # holds the estimate above a measured fit), CPU on the loaded 2-core machine, rounded up:
-#: seconds of one evaluation: a fixed part, per row read off its curve (interpolation or
-#: first crossing, 2.4-2.5 us measured), per curve point made (0.13 us), per curve group
-#: (one array pass per material and starting temperature: 1.4 ms measured with its curve)
+#: seconds of one evaluation: a fixed part, per row read off its curve at a time (ratio,
+#: angle: one interpolation per curve, 8.6 ns a row measured on 100,000 rows), per row
+#: read at a crossing (time_to, spread: one at a time, 3.8 us measured on 2,000 rows), per
+#: curve point made (0.13 us), per curve group (one array pass per material and starting
+#: temperature: 1.4 ms measured with its curve)
 S_PER_EVALUATION = 0.5e-3
-S_PER_ROW = 3e-6
+S_PER_ROW = 0.05e-6
+S_PER_CROSSING_ROW = 5e-6
 S_PER_CURVE_POINT = 0.15e-6
 S_PER_GROUP = 1.0e-3
 #: evaluations of the fit, per start and free parameter (measured 283 for 3 parameters
@@ -43,11 +46,13 @@ def fit_estimate(problem, starts: int, with_profile: bool = True) -> dict:
     """Peak bytes and CPU seconds of fitting ``problem`` from ``starts`` + 1 starting points
     (the library's and ``starts`` more), with its profile intervals when ``with_profile``."""
     rows = float(len(problem.data.observations))
+    crossing = float(sum(1 for o in problem.data.observations if o.kind in ("time_to", "spread")))
     keys = float(len(problem.curve_keys))
     groups = float(len({(k[0], k[3]) for k in problem.curve_keys}))
     nt = float(len(problem.t))
     n = float(len(problem.params))
-    per_eval = S_PER_EVALUATION + rows * S_PER_ROW + keys * nt * S_PER_CURVE_POINT + groups * S_PER_GROUP
+    per_eval = (S_PER_EVALUATION + rows * S_PER_ROW + crossing * S_PER_CROSSING_ROW + keys * nt * S_PER_CURVE_POINT
+                + groups * S_PER_GROUP)
     evals = (starts + 1) * EVALS_PER_START_PARAM * (n + 1) + (PROFILE_EVALS_PER_PARAM2 * n * (n + 1) if with_profile else 0)
     nbytes = BASE_BYTES + keys * nt * BYTES_PER_CURVE_POINT + BATCH_BYTES + rows * (n + 4) * 8 * 3
     return {"bytes": nbytes, "seconds": evals * per_eval, "evaluations": evals, "seconds_per_evaluation": per_eval,
