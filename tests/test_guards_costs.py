@@ -161,6 +161,31 @@ def test_the_fit_estimate_bounds_a_measured_fit():
     assert peak <= est["bytes"] - guards.BASE_BYTES, (peak, est)
 
 
+def test_rows_read_off_a_curve_at_once_are_the_rows_read_one_by_one():
+    """predict reads a curve's ratio and angle rows in one interpolation: bit for bit what
+    predict_row gives row by row, with time_to and spread rows and one-sided relations."""
+    import numpy as np
+
+    from foldprint.io.hinge_data import parse_hinge_data
+    from foldprint.model.materials import default_library
+    from foldprint.physics.calibration import Problem
+
+    head = HEAD.rstrip("\n") + ",printed_deg\n"
+    rows = ([f"ratio,H-1,,{60 + k},0.8,10,{0.5 + k / 7},,0.5,,,," for k in range(30)]
+            + [f"angle,H-3,,90,0.8,10,{1 + k / 3},,{100 + k},,,,{80 + k}" for k in range(20)]
+            + ["time_to,H-7,,90,0.8,10,,0.98,7,at_most,,,", "spread,H-7,H-1,80,0.8,10,,0.98,7.0,at_least,0.5,,"])
+    pb = Problem(parse_hinge_data(head + "\n".join(rows) + "\n", "m.csv"), default_library())
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        x = pb.lower + (pb.upper - pb.lower) * rng.uniform(0.1, 0.9, len(pb.params))
+        curves = pb.curves(x)
+        one_by_one = np.array([pb.predict_row(o, curves) for o in pb.data.observations])
+        assert np.array_equal(pb.predict(x), one_by_one)
+        d = one_by_one - np.array([o.value for o in pb.data.observations])
+        d[-2], d[-1] = max(d[-2], 0.0), min(d[-1], 0.0)  # at_most, at_least
+        assert np.array_equal(pb.residuals_of(one_by_one), d / pb.sigmas)
+
+
 @pytest.mark.parametrize("n, limit", [(50_000, "memory limit"), (5_000, "time budget")])
 def test_a_fit_too_large_is_refused_before_the_first_curve(monkeypatch, n, limit):
     """50,000 curves ended in MemoryError, 5,000 ran for many minutes: both refused from
