@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 _CHILD = r"""
 import json, resource, sys, time
 from foldprint.model.design import strip
-from foldprint.core import guards
+from foldprint.simulation import costs
 from foldprint.simulation.simulate import simulate
 kind, n = sys.argv[1], int(sys.argv[2])
 if kind == "staircase":
@@ -49,7 +49,7 @@ if kind == "staircase":
               depth=6.0, radius=3.0, thickness=0.8, hinge_thickness=0.8)
 else:
     d = strip(f"strip{n}", [10.0] * n, [30.0 if i % 2 == 0 else -30.0 for i in range(n - 1)], ["H-3"] * (n - 1))
-est = guards.check_simulation(d, 0.01, None, "fcl")
+est = costs.check_simulation(d, 0.01, None, "fcl")
 t0 = time.perf_counter()
 r = simulate(d, method="fcl")
 wall = time.perf_counter() - t0
@@ -190,7 +190,7 @@ def guards_bench(tmp: Path):
 
 def export_bench(strip1000: Path, tmp: Path):
     from bench_export import sheet
-    from foldprint.core import guards
+    from foldprint.geometry.build_cost import check_export
     from foldprint.exchange.export import export_assembly
     from foldprint.geometry import build_assembly
     from foldprint.geometry import bed as asm_mod  # bed_report and its probe
@@ -199,7 +199,7 @@ def export_bench(strip1000: Path, tmp: Path):
 
     rows = []
     for d in (sheet(100), load_design(strip1000)):
-        est = guards.check_export(d)
+        est = check_export(d)
         t0 = time.perf_counter()
         asm = build_assembly(d, "permanent")
         t1 = time.perf_counter()

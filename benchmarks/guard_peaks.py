@@ -13,7 +13,7 @@ For strips of 250 to 2000 panels (10 mm, +-30 deg, H-3, 20 s at dt 10 ms; robust
   is bounded on its own, its batches fitted to the memory left, and left out above
   ``MARGIN_MAX_PAIRS``) and ``robust --samples 16`` (the fold
   held while a chunk of samples folds in this process): the estimate of
-  ``guards.run_estimate`` with the runs the command holds, and the measured peak (max RSS
+  ``costs.run_estimate`` with the runs the command holds, and the measured peak (max RSS
   of the command in its own process, no address limit), their ratio;
 * the same command with ``--max-memory`` (``FOLDPRINT_MAX_MEMORY``) set to 0.8x its
   measured peak (it must refuse: exit 2 at once, naming the estimate) and to 1.5x (it
@@ -39,16 +39,16 @@ RUNS = {"check": (1, True), "simulate": (2, True), "robust": (2, False)}
 
 
 def _estimate(path: Path, command: str) -> float:
-    from foldprint.core import guards
+    from foldprint.simulation import costs
     from foldprint.io.load import load_design
     from foldprint.simulation.robust import curve_batch
 
     runs, clearance = RUNS[command]
     d = load_design(path)
     # simulate runs --method both: the paper's 2D index too on a strip, unless it is left out
-    both = command == "simulate" and not guards.index2d_skip_reason(d, 0.01, None)
+    both = command == "simulate" and not costs.index2d_skip_reason(d, 0.01, None)
     curves = curve_batch(d, 0.01, 16)[1] if command == "robust" else 0.0  # the chunk's sampled curves
-    return guards.run_estimate(d, 0.01, None, "both" if both else "fcl", runs, clearance, curves)["bytes"]
+    return costs.run_estimate(d, 0.01, None, "both" if both else "fcl", runs, clearance, curves)["bytes"]
 
 
 def _args(command: str, name: str) -> list[str]:

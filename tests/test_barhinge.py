@@ -290,10 +290,10 @@ def test_check_says_a_rigidly_locked_pattern_needs_the_compliant_model(capsys):
 
 
 def test_guard_refuses_a_design_too_large_for_the_solver(monkeypatch):
-    from foldprint.core import guards
+    from foldprint.physics import barhinge_cost
     from foldprint.simulation.simulate import simulate
 
-    monkeypatch.setattr(guards, "MAX_MECHANICS_NODES", 10)
+    monkeypatch.setattr(barhinge_cost, "MAX_MECHANICS_NODES", 10)
     with pytest.raises(FoldprintError, match="--mechanics bar-hinge refused: 36 panel vertices"):
         simulate(load_design("templates/miura_3x3.toml"), mechanics="bar-hinge")
 

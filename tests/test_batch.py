@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from foldprint.core import guards
+from foldprint.simulation import costs
 from foldprint.core.guards import ResourceError
 from foldprint.core.modes import Method
 from foldprint.io.load import load_design
@@ -82,7 +82,7 @@ def test_time_guard_refuses_as_jam_probability_does(monkeypatch, workers):
         calls.append((samples, n_workers, name, per_sample > 0))
         raise ResourceError(f"{name}: --samples {samples} refused")
 
-    monkeypatch.setattr(guards, "check_samples", refuse)
+    monkeypatch.setattr(costs, "check_samples", refuse)
     with pytest.raises(ResourceError):
         jam_probability(d, N, SEED, workers=workers)
     with pytest.raises(ResourceError):
@@ -173,7 +173,7 @@ def test_a_plain_mapper_guards_time_only_past_the_first_chunk(monkeypatch):
     from foldprint.simulation.verdict import jam_test
 
     calls = []
-    monkeypatch.setattr(guards, "check_samples", lambda n, per, w, name="": calls.append((n, w, name)) or 0.0)
+    monkeypatch.setattr(costs, "check_samples", lambda n, per, w, name="": calls.append((n, w, name)) or 0.0)
     d = load_design(templates_dir() / "helix_graded.toml")
     plain = lambda fn, items, progress=None: [fn(x) for x in items]  # noqa: E731
     (r,) = jam_tests(d, jam_test(max_samples=CHUNK), (1.0,), SEED, workers=1, mapper=plain).values()

@@ -18,6 +18,8 @@ import pytest
 
 from fuzz_gen import contract_violations, run_fresh
 
+from foldprint.simulation import costs
+
 GiB = 2 ** 30
 
 
@@ -154,21 +156,21 @@ def default_guards(monkeypatch):
 def test_runs_held_at_once_and_what_callers_hold_add_up(default_guards):
     guards = default_guards
     d = _s(50)
-    one = guards.run_estimate(d, 0.01, None, "fcl")
-    two = guards.run_estimate(d, 0.01, None, "fcl", runs=2)
+    one = costs.run_estimate(d, 0.01, None, "fcl")
+    two = costs.run_estimate(d, 0.01, None, "fcl", runs=2)
     assert two["bytes"] - one["bytes"] == pytest.approx(one["trajectory_bytes"])
-    assert guards.run_estimate(d, 0.01, None, "fcl", extra=5e6)["bytes"] == pytest.approx(one["bytes"] + 5e6)
+    assert costs.run_estimate(d, 0.01, None, "fcl", extra=5e6)["bytes"] == pytest.approx(one["bytes"] + 5e6)
     with guards.holding(3e6, "a"), guards.holding(4e6, "b"):
         with guards.holding(1e6, "a"):  # an owner's nested stage replaces its count
             assert guards.held_elsewhere() == 5e6
-        assert guards.run_estimate(d, 0.01, None, "fcl")["bytes"] == pytest.approx(one["bytes"] + 7e6)
+        assert costs.run_estimate(d, 0.01, None, "fcl")["bytes"] == pytest.approx(one["bytes"] + 7e6)
         guards.set_max_memory(int(one["bytes"] + 6e6))
         with pytest.raises(guards.ResourceError, match="of earlier results held"):
-            guards.check_simulation(d, 0.01, None, "fcl")
+            costs.check_simulation(d, 0.01, None, "fcl")
     assert guards.held_elsewhere() == 0.0
-    guards.check_simulation(d, 0.01, None, "fcl")  # fits once nothing is held
+    costs.check_simulation(d, 0.01, None, "fcl")  # fits once nothing is held
     with pytest.raises(guards.ResourceError, match=r"2 runs held at once: .* in all"):
-        guards.check_simulation(d, 0.01, None, "fcl", runs=2)
+        costs.check_simulation(d, 0.01, None, "fcl", runs=2)
 
 
 def test_an_evaluation_counts_what_it_keeps_in_every_later_run(default_guards, monkeypatch):
@@ -179,15 +181,15 @@ def test_an_evaluation_counts_what_it_keeps_in_every_later_run(default_guards, m
     guards = default_guards
     d = _s(40)
     seen = []
-    real = guards.check_simulation
-    monkeypatch.setattr(guards, "check_simulation",
+    real = costs.check_simulation
+    monkeypatch.setattr(costs, "check_simulation",
                         lambda *a, **k: seen.append(guards.held_elsewhere()) or real(*a, **k))
     ev = Evaluation(d, EvalOptions(method="fcl"))
     ev.simulation_json()
     kept = ev.simulation.nbytes
     assert ev.held_bytes == kept > 0
     assert seen[-1] == kept  # the comparison's own guard, inside simulate()
-    est = guards.run_estimate(d, ev.options.dt, None, "fcl")
+    est = costs.run_estimate(d, ev.options.dt, None, "fcl")
     assert kept <= est["trajectory_bytes"] <= 4 * kept
 
 
@@ -201,9 +203,9 @@ def test_simulate_is_refused_up_front_when_its_two_runs_do_not_fit(default_guard
     d = _s(60)
     f = tmp_path / "s60.toml"
     f.write_text(design_to_toml(d))
-    skip = guards.index2d_skip_reason
-    one = guards.run_estimate(d, 0.01, None, "fcl")["bytes"]
-    two = guards.run_estimate(d, 0.01, None, "fcl", runs=2)["bytes"]
+    skip = costs.index2d_skip_reason
+    one = costs.run_estimate(d, 0.01, None, "fcl")["bytes"]
+    two = costs.run_estimate(d, 0.01, None, "fcl", runs=2)["bytes"]
     limit = int((one + two) / 2)
     guards.set_max_memory(limit)
     assert skip(d, 0.01, None)  # the index does not fit either: both runs are the 3D check's

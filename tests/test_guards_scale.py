@@ -9,6 +9,8 @@ import tracemalloc
 import pytest
 
 from foldprint.core import guards
+from foldprint.geometry import build_cost
+from foldprint.simulation import costs
 from foldprint.cli.commands import main
 from foldprint.model.crease_patterns import miura
 from foldprint.model.design import strip
@@ -40,15 +42,15 @@ def test_runs_that_finish_in_seconds_are_not_refused():
     (the old n_t x all-pairs work bound refused the 100-panel strip)."""
     sheet = design_from_fold(miura(10, 10), "miura10")
     for d in (_strip(100), _strip(1000), sheet):
-        est = guards.check_simulation(d, 0.01, None, "fcl")
+        est = costs.check_simulation(d, 0.01, None, "fcl")
         assert est["bytes"] < guards.max_memory() and est["seconds"] < guards.time_budget()
-    assert guards.check_sample_memory(load_design(TEMPLATES / "helix_graded.toml"), 10 ** 5)["bytes"] < guards.max_memory()
-    assert guards.check_export(_strip(1000))["seconds"] < guards.time_budget()
+    assert costs.check_sample_memory(load_design(TEMPLATES / "helix_graded.toml"), 10 ** 5)["bytes"] < guards.max_memory()
+    assert build_cost.check_export(_strip(1000))["seconds"] < guards.time_budget()
 
 
 def test_memory_estimate_bounds_what_a_simulation_allocates():
     d = _strip(200)
-    est = guards.check_simulation(d, 0.01, None, "fcl")
+    est = costs.check_simulation(d, 0.01, None, "fcl")
     tracemalloc.start()
     simulate(d, method="fcl")
     peak = tracemalloc.get_traced_memory()[1]
@@ -61,7 +63,7 @@ def test_memory_estimate_bounds_what_a_simulation_allocates():
 @pytest.mark.parametrize("dur, dt", [(1e300, 1e-300), (1e9, 0.01), (1e308, 1e-10)])
 def test_absurd_sizes_are_refused_cleanly(dur, dt):
     with pytest.raises(guards.ResourceError, match="memory limit") as ei:
-        guards.check_simulation(_strip(3), dt, dur, "fcl")
+        costs.check_simulation(_strip(3), dt, dur, "fcl")
     assert "inf" not in str(ei.value).replace("info", "")
 
 
@@ -70,9 +72,9 @@ def test_samples_refused_by_memory_naming_both_numbers():
     measured rate (tests/test_recovery_batch.py)."""
     d = load_design(TEMPLATES / "helix_graded.toml")
     with pytest.raises(guards.ResourceError, match=r"1e\+09 samples hold .* over the 2 GiB memory limit"):
-        guards.check_sample_memory(d, 1e9)
+        costs.check_sample_memory(d, 1e9)
     guards.set_max_memory("1T")
-    assert guards.check_sample_memory(d, 1e9)["bytes"] > 2 * guards.GiB
+    assert costs.check_sample_memory(d, 1e9)["bytes"] > 2 * guards.GiB
 
 
 def test_check_refuses_samples_over_its_memory_limit_at_once(capsys):
@@ -136,9 +138,9 @@ def test_both_leaves_out_an_index_over_the_limit_and_says_so(tmp_path, capsys):
     from foldprint.io.design_io import design_to_toml
 
     d = _strip(150)
-    with2d = guards.simulation_estimate(150, 149, 2001, True, 600)["bytes"]
+    with2d = costs.simulation_estimate(150, 149, 2001, True, 600)["bytes"]
     limit = int(with2d) - 2 ** 20
-    assert guards.run_estimate(d, 0.01, None, "fcl", 2, True)["bytes"] < limit
+    assert costs.run_estimate(d, 0.01, None, "fcl", 2, True)["bytes"] < limit
     guards.set_max_memory(limit)
     assert Evaluation(d, EvalOptions(method="fcl")).margin_batch(upfront=True) >= 1  # not refused
     f = tmp_path / "s150.toml"

@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 
 from foldprint.cli.commands import main
 from foldprint.core.constants import CHECK_SAMPLES
-from foldprint.core.guards import ResourceError, check_samples
+from foldprint.core.guards import ResourceError
+from foldprint.simulation.costs import check_samples
 from foldprint.io.load import load_design
 from foldprint.physics.recovery import _curve, _slab_roots
 from foldprint.physics.recovery import spectrum
@@ -269,7 +270,7 @@ def test_chunking_and_workers_do_not_change_the_answer(graded, lib):
 def test_check_samples_refuses_only_over_budget(monkeypatch):
     monkeypatch.setenv("FOLDPRINT_TIME_BUDGET", "100")
     assert check_samples(1000, 0.1, 2) == pytest.approx(50.0)
-    with pytest.raises(ResourceError, match=r"estimated 1e\+08 s .*100 s budget.*about 1000 samples"):
+    with pytest.raises(ResourceError, match=r"estimated 1e\+08 s .*over the 1.67 min time budget.*about 1000 samples"):
         check_samples(10 ** 9, 0.2, 2, "helix")
 
 

@@ -17,6 +17,7 @@ from shapely import contains_xy
 from shapely.geometry import Polygon
 
 from foldprint.core import guards
+from foldprint.exchange import voxel_cost
 from foldprint.core.errors import ExportError
 from foldprint.exchange import voxels as vx
 from foldprint.exchange.export import export_assembly
@@ -394,17 +395,17 @@ def test_guard_refuses_only_what_exceeds_the_limits():
     plate = vx.part_size([vx.VoxelRegion("panel", "p", "VeroWhite", _box(0, 0, 0, 150, 150, 20), vx.Uniform(1.0))],
                          J750)
     assert plate == (3544, 1772, 741)
-    est = guards.check_voxels(plate)  # a 150 x 150 x 20 mm plate, the largest part we target, is accepted under the default limits
+    est = voxel_cost.check_voxels(plate)  # a 150 x 150 x 20 mm plate, the largest part we target, is accepted under the default limits
     try:  # refused just below its estimate, accepted just above
         guards.set_max_memory(int(est["bytes"] * 0.99))
         with pytest.raises(guards.ResourceError, match="voxel export refused.*memory limit"):
-            guards.check_voxels(plate)
+            voxel_cost.check_voxels(plate)
         guards.set_max_memory(int(est["bytes"] * 1.01))
-        guards.check_voxels(plate)
+        voxel_cost.check_voxels(plate)
     finally:
         guards.set_max_memory(None)
     with pytest.raises(guards.ResourceError, match="voxel export refused"):
-        guards.check_voxels((400_000, 200_000, 10))
+        voxel_cost.check_voxels((400_000, 200_000, 10))
 
 
 # -- geometry: hinge axes ------------------------------------------------------------------

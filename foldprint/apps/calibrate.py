@@ -20,6 +20,7 @@ from ..io.hinge_data import HingeData, load_hinge_data, read_text
 from ..model.materials import MaterialLibrary
 from ..physics.calibration import FITTABLE, Fit, Hold, Problem, fit_best, fitted_materials, holds
 from ..physics.calibration_profile import Interval, curve_residuals, findings, profile
+from ..physics.calibration_cost import check_fit
 
 log = logging.getLogger(__name__)
 
@@ -90,6 +91,7 @@ def calibrate(data: HingeData, library: MaterialLibrary, fixed: dict | None = No
     free = tuple(n for n in FITTABLE if n not in names)
     held = {h.name: h.value for h in held_by if h.value is not None}
     problem = Problem(data, library, free=free, per_material=tuple(per_material), fixed=held)
+    check_fit(problem, problem.config.starts, with_profile)  # refuse before the first curve is made
     r0 = problem.residuals(problem.library_point())
     result = fit_best(problem)
     log.info("fit: chi2 %.3f after %d evaluations (%s)", result.chi2, result.nfev, result.message)

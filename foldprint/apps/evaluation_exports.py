@@ -11,7 +11,8 @@ from pathlib import Path
 from typing import Iterable
 
 from ..checks.rules import Printer
-from ..core import guards
+from ..exchange import voxel_cost
+from ..geometry import build_cost
 from ..core.constants import ANIMATION_DT_S
 from ..core.errors import ExportError, GeometryError
 from ..core.modes import HingeModel, State, parse
@@ -105,7 +106,7 @@ class ExportStages:
             if assembly is None:
                 raise GeometryError(self.assembly_error)
         if assembly is None:
-            guards.check_export(self.design)  # time and memory of the build, estimated from the design
+            build_cost.check_export(self.design)  # time and memory of the build, estimated from the design
         frames = self.frames if any(f in TRAJECTORY_FORMATS for f in fmts) else None
         check = check_summary(self.printer.name, self.findings) if self.has("findings") else None
         with self.cache.active():
@@ -120,6 +121,5 @@ class ExportStages:
         """The part's voxel regions at ``pitch``, after the voxel grid's guard."""
         d = self.design
         voxels = voxel_part(d, assembly, self.library, pitch)
-        graded = sum(1 for r in voxels.regions if r.constant is None and not r.along_length)
-        guards.check_voxels(voxels.grid().shape, f"{d.source}: " if d.source else f"{d.name}: ", graded)
+        voxel_cost.check_part(voxels, f"{d.source}: " if d.source else f"{d.name}: ")
         return voxels

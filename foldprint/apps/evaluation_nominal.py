@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ..core import guards
+from ..simulation import costs
 from ..core.errors import FoldprintError, GeometryError
 from ..core.modes import HingeModel, Mechanics, Method, State, parse
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
@@ -66,13 +66,13 @@ class NominalStages:
         if self._nominal_drive is None:
             o = self.options
             if o.mechanics == Mechanics.BAR_HINGE:  # its own equilibrium path, solved on first use
-                guards.check_mechanics(self.design)
+                costs.check_mechanics(self.design)
                 d = CompliantDrive(self.design, o.bath_c, self.library)
             else:
                 d = HingeDrive(self.design, o.bath_c, self.library)
             if d.loops is not None:
                 try:
-                    guards.check_simulation(self.design, o.dt, o.duration, Method.FCL)
+                    costs.check_simulation(self.design, o.dt, o.duration, Method.FCL)
                 except FoldprintError:
                     pass
                 else:

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 from ..core import guards
+from ..simulation import costs
 from ..checks.rules import Printer, Thresholds, default_printer_key, load_printers
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
 from ..core.constants import (ANIMATION_DT_S, CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S,  # noqa: F401 (re-exported)
@@ -141,16 +142,16 @@ class Evaluation(NominalStages, VerdictStages, ExportStages, ReportStages):
         return sum(r.nbytes for r in runs if isinstance(r, SimulationResult))
 
     def guard(self, runs: int, clearance: bool = False, samples: bool = False) -> None:
-        """Refuse up front what ``runs`` runs held at once (a sample's, ``samples``) would need (guards.check_runs)."""
+        """Refuse up front what ``runs`` runs held at once (a sample's, ``samples``) would need (costs.check_runs)."""
         o = self.options
-        guards.check_runs(self.design, o.dt, o.duration, o.method, runs, clearance,
-                          (lambda: curve_batch(self.design, o.dt, o.samples)[1]) if samples else None)
+        costs.check_runs(self.design, o.dt, o.duration, o.method, runs, clearance,
+                         (lambda: curve_batch(self.design, o.dt, o.samples)[1]) if samples else None)
 
     def margin_batch(self, upfront: bool = False) -> int:
-        """Samples of the margin screen given their curves at once: in the memory left (guards.check_margin),
+        """Samples of the margin screen given their curves at once: in the memory left (costs.check_margin),
         at most CURVE_BATCH_BYTES of curves (robust.curves_at_once)."""
         o = self.options
-        per = guards.check_margin(self.design, o.dt, o.duration, o.method, lambda k: margin_batch_bytes(
+        per = costs.check_margin(self.design, o.dt, o.duration, o.method, lambda k: margin_batch_bytes(
             self.design, run_end(self.design, o.dt, o.duration), k), MARGIN_SAMPLES, upfront,
             screened_poses(self.design) if o.mechanics == Mechanics.RIGID else None)
         return per if per == 1 else min(per, curves_at_once(self.design, run_end(self.design, o.dt, o.duration), per)[0])

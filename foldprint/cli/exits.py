@@ -40,8 +40,8 @@ def internal_error(exc: BaseException, argv: list[str]) -> int:
     import traceback
 
     if isinstance(exc, MemoryError):
-        echo_err(f"out of memory ({type(exc).__name__}); the input is too large for this machine: "
-             "reduce it, raise --dt or lower --max-memory so the guard refuses it early")
+        echo_err(f"out of memory ({type(exc).__name__}): the run needed more than this machine gave it, beyond "
+             "the resource guard's estimate; reduce the input or raise --dt (and please report the command)")
         return EXIT_INPUT
     frame = traceback.extract_tb(exc.__traceback__)[-1:] if exc.__traceback__ else []
     at = f" at {Path(frame[0].filename).name}:{frame[0].lineno}" if frame else ""

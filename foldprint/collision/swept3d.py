@@ -61,6 +61,7 @@ from .broadphase import (  # noqa: F401  (the broad phase's names, importable fr
     panel_centres,
 )
 from .rigid import convex_pieces, prism, rigid_polygons
+from .narrow_cost import check_narrow
 
 #: Relative contact tolerance: a fraction of the sheet's size (coordinates of 1e15 mm
 #: cannot be resolved to 0.01 mm in double precision).
@@ -392,6 +393,7 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
     if k_start >= len(times):
         return None, []
     runs = candidate_runs(checker, angles, poses, k_start, skip, times)
+    check_narrow(checker, runs, poses.nbytes + angles.nbytes)  # what the runs hold open, before stepping
     best, initial = None, []
     # advance every candidate pair together in time (a heap on the sample each has
     # certified): once the earliest open pair is past the best contact, stop

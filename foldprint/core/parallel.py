@@ -9,11 +9,17 @@ Items are consumed lazily and at most ``2 x workers`` are in flight, so a long s
 (Monte-Carlo chunks) never sits in memory at once. Each worker process limits its BLAS
 (OpenBLAS / MKL / OpenMP) pools to one thread (:func:`limit_blas_threads`): the
 processes are the parallelism, and a worker's BLAS threads would fight the others.
+Each worker also ends when the process that started it ends, even by ``kill -9``
+(:func:`die_with_parent`), so no worker lives on without a parent holding its pipes.
 """
 
 from __future__ import annotations
 
 import os
+import signal
+import sys
+import threading
+import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Callable, Iterable, Sequence, TypeVar
 
@@ -48,8 +54,48 @@ def limit_blas_threads(n: int = 1) -> bool:
     return True
 
 
+#: How often a worker's watchdog looks whether its parent is still there (s; our choice:
+#: an orphan is gone within a second, the check costs one system call)
+WATCH_S = 0.5
+
+
+def _deathsig() -> bool:
+    """Ask Linux to SIGKILL this process when its parent (the thread that forked it) ends
+    (``prctl(PR_SET_PDEATHSIG)``); False where that is not available."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(1, int(signal.SIGKILL), 0, 0, 0) == 0  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # pragma: no cover - no libc prctl
+        return False
+
+
+def _watch(parent: int) -> None:
+    while True:
+        time.sleep(WATCH_S)
+        if os.getppid() != parent:  # re-parented: the parent is gone
+            os._exit(1)
+
+
+def die_with_parent() -> None:
+    """Make this worker process end when its parent ends, however it ends (``kill -9``
+    included): the kernel's parent-death signal on Linux, and everywhere a daemon thread
+    that exits the worker once its parent id changes (the fallback, and the guard against
+    the parent dying before the signal was armed). SIGKILL, not SIGTERM: a forked worker
+    inherits the parent's handlers, and must not run the parent's clean-up."""
+    parent = os.getppid()
+    _deathsig()
+    if os.getppid() != parent or parent == 1:  # the parent died before the signal was armed
+        os._exit(1)
+    threading.Thread(target=_watch, args=(parent,), daemon=True, name="foldprint-parent-watch").start()
+
+
 def _worker_init() -> None:
     limit_blas_threads(1)
+    die_with_parent()
 
 
 def map_ordered(fn: Callable[[T], R], items: Sequence[T] | Iterable[T], *, workers: int | None = None,

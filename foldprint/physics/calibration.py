@@ -209,6 +209,25 @@ class Problem:
                                     if o.reference is not None}, key=str)
         self.sigmas = np.array([o.sigma if o.sigma is not None else self.config.sigma[o.kind]
                                 for o in data.observations])
+        self._plan()
+
+    def _plan(self) -> None:
+        """What every evaluation reads the same way, made once: the rows read off their curve
+        at a time (ratio, angle) by curve, the angle rows' printed angles and fixities, the
+        other rows, and the values and one-sided relations of :meth:`residuals_of`."""
+        obs = self.data.observations
+        by_key: dict = {}
+        for i, o in enumerate(obs):
+            if o.kind in ("ratio", "angle"):
+                by_key.setdefault((o.material, o.bath_c, o.thickness_mm, o.initial_c), []).append(i)
+        self._interp = {k: (np.array(ix), np.array([obs[i].time_s for i in ix], float)) for k, ix in by_key.items()}
+        self._angle = np.array([i for i, o in enumerate(obs) if o.kind == "angle"], dtype=np.intp)
+        self._printed = np.array([obs[i].printed_deg for i in self._angle], float)
+        self._fix = np.array([self.fixity[obs[i].material] for i in self._angle], float)
+        self._other = [i for i, o in enumerate(obs) if o.kind not in ("ratio", "angle")]
+        self._values = np.array([o.value for o in obs])
+        self._at_most = np.array([o.relation == "at_most" for o in obs], bool)
+        self._at_least = np.array([o.relation == "at_least" for o in obs], bool)
 
     @property
     def lower(self) -> np.ndarray:
@@ -268,16 +287,25 @@ class Problem:
         return t1 - time_to(self.t, ref, o.level, self.horizon)
 
     def predict(self, x) -> np.ndarray:
+        """:meth:`predict_row` of every row: the rows read off a curve at a time, a curve's
+        at once (the same interpolation, element by element), the others one by one."""
         curves = self.curves(x)
-        return np.array([self.predict_row(o, curves) for o in self.data.observations])
+        obs = self.data.observations
+        out = np.empty(len(obs))
+        for key, (ix, ts) in self._interp.items():
+            out[ix] = np.interp(ts, self.t, curves[key], left=0.0)
+        a = self._angle
+        out[a] = 180.0 - (180.0 - self._printed) * (1.0 - self._fix * (1.0 - out[a]))
+        for i in self._other:
+            out[i] = self.predict_row(obs[i], curves)
+        return out
 
     def residuals_of(self, pred: np.ndarray) -> np.ndarray:
         """(model - measured) / sigma per row; an ``at_most`` / ``at_least`` row counts only
         when the model is on its wrong side."""
-        d = pred - np.array([o.value for o in self.data.observations])
-        rel = [o.relation for o in self.data.observations]
-        d = np.where([r == "at_most" for r in rel], np.maximum(d, 0.0), d)
-        d = np.where([r == "at_least" for r in rel], np.minimum(d, 0.0), d)
+        d = pred - self._values
+        d = np.where(self._at_most, np.maximum(d, 0.0), d)
+        d = np.where(self._at_least, np.minimum(d, 0.0), d)
         return d / self.sigmas
 
     def residuals(self, x) -> np.ndarray:

@@ -34,6 +34,7 @@ import numpy as np
 
 from .loop_solve import CLOSURE_TOL, MAX_STEP, OPT_TOL, solve  # noqa: F401
 from .loop_tracking import FOLLOW_TOL, JUMP, NEAR_FLAT, SKIP_TOL, track as track_all  # noqa: F401
+from .loop_cost import check_loops
 
 
 def _hat(w: np.ndarray) -> np.ndarray:
@@ -166,6 +167,7 @@ class LoopSolver:
         # the cycles padded to one length L for the batched residual: a padded place is hinge
         # n (an identity factor) with sign 0, so it adds nothing to C or J
         m, L = len(self.cycles), max((len(c) for c in self.cycles), default=0)
+        check_loops(self.n, m, L)  # refuse before the tables are made
         self._pk = np.full((m, L), self.n, dtype=np.intp)
         self._ps = np.zeros((m, L))
         for ci, cyc in enumerate(self.cycles):
@@ -250,6 +252,7 @@ class LoopSolver:
         drivens = [np.asarray(d, float) for d in drivens]
         if not drivens:
             return []
+        check_loops(self.n, len(self.cycles), self._pk.shape[1], len(drivens))
         got = track_all(self._evaluate, times, np.stack(drivens))
         self.rounds += got.rounds
         return [self._solution(times, got.angles[i], d, float(got.closure[i]), got.locked_at[i], int(got.dof[i]))

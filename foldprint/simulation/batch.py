@@ -26,7 +26,7 @@ stopping index depend on the seed alone, never on the number of workers, on whic
 came back first or on how many were folded past the stop. Workers receive the jobs once,
 at start (inherited on fork); a task names (job, scale, first sample, size), so a design's FCL
 geometry is built once per worker. The first chunk of each stream is timed in its worker
-and the run is refused (:func:`foldprint.core.guards.check_samples`, on the maximum
+and the run is refused (:func:`foldprint.simulation.costs.check_samples`, on the maximum
 sample count) as ``jam_probability`` would refuse it.
 """
 
@@ -36,7 +36,7 @@ import time
 from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
-from ..core import guards
+from . import costs
 from ..core.constants import DEFAULT_DT_S
 from ..core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
 from ..model.design import Design, has_loops
@@ -132,9 +132,10 @@ _STATE: dict = {}
 
 
 def _init(jobs, library) -> None:
-    from ..core.parallel import limit_blas_threads
+    from ..core.parallel import die_with_parent, limit_blas_threads
 
     limit_blas_threads(1)
+    die_with_parent()
     _STATE["jobs"], _STATE["library"] = jobs, library
 
 
@@ -270,7 +271,7 @@ class _Batch:
     def __init__(self, jobs: list[MonteCarloJob], lib: MaterialLibrary, workers: int, after, tasks: list,
                  progress, follow=None):
         for job in jobs:
-            guards.check_sample_memory(job.design, job.samples)
+            costs.check_sample_memory(job.design, job.samples)
         self.jobs, self.lib, self.workers, self.after, self.tasks = jobs, lib, workers, after, tasks
         self.progress, self.follow = progress, follow
         self.streams = []
@@ -318,7 +319,7 @@ class _Batch:
         if not s.timed:
             s.timed = True
             if s.max_samples > CHUNK:
-                guards.check_samples(s.max_samples, per_sample, self.workers, s.job.design.name)
+                costs.check_samples(s.max_samples, per_sample, self.workers, s.job.design.name)
         was = s.done
         s.add(start, out)
         if not was:

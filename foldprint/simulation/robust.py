@@ -17,7 +17,7 @@ order on any number of processes: the same seed gives the same answer. The recov
 curves of a chunk are computed in one array pass per hinge material
 (:func:`sample_drives`, :mod:`foldprint.physics.recovery_batch`, the relaxation sum read from
 its table: within 2e-8 of the per-curve model); a run whose estimated time exceeds the budget of
-:func:`foldprint.core.guards.check_samples` is refused after its first chunk.
+:func:`foldprint.simulation.costs.check_samples` is refused after its first chunk.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..model.derived import design_scope
-from ..core import guards
+from . import costs
 from ..model.design import Design
 from ..core.constants import DEFAULT_DT_S, DEFAULT_SEED, ROBUST_SAMPLES
 from ..core.errors import DesignError, MaterialError
@@ -310,7 +310,7 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     comparisons. ``method``: the collision check of the nominal fold and of every sample;
     ``mechanics``: theirs (``bar-hinge``: slow, the first chunk's time guards the rest).
     The first chunk runs here and times the run: a sample count whose
-    estimated time exceeds the budget (:func:`foldprint.core.guards.check_samples`) is refused."""
+    estimated time exceeds the budget (:func:`foldprint.simulation.costs.check_samples`) is refused."""
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise DesignError(f"samples must be a whole number >= 1, got {samples!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -322,7 +322,7 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     model = parse(HingeModel, hinge_model, "hinge_model")
     method = parse(Method, method, "method")
     mech = parse(Mechanics, mechanics, "mechanics")
-    guards.check_sample_memory(design, samples)  # refuse before any fold: the outcomes are held
+    costs.check_sample_memory(design, samples)  # refuse before any fold: the outcomes are held
     if nominal is None:
         nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib, mechanics=mech)
     # simulation.batch.Precomputed (folded in a shared pool) holds rigid folds only
@@ -349,7 +349,7 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     report(len(first))
     if chunks_total > 1:
         n_workers = default_workers() if workers is None else max(1, int(workers))
-        guards.check_samples(samples, (time.perf_counter() - start) / len(first), n_workers, design.name)
+        costs.check_samples(samples, (time.perf_counter() - start) / len(first), n_workers, design.name)
         chunk_done = lambda _d, _n: report(CHUNK)  # noqa: E731 - progress in samples, not chunks
         if mapper is None:
             rest = map_ordered(run_samples, chunks, workers=workers, progress=chunk_done, total=chunks_total - 1)

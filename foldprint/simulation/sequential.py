@@ -19,7 +19,7 @@ from dataclasses import replace
 from itertools import islice
 from typing import Callable, Mapping, Sequence
 
-from ..core import guards
+from . import costs
 from ..core.constants import CHECK_DT_S, CHECK_SEED
 from ..core.errors import DesignError
 from ..core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
@@ -107,7 +107,7 @@ def jam_tests_of(design: Design, test: JamTest | Mapping[str, JamTest], models: 
     model, method = parse(HingeModel, hinge_model, "hinge_model"), parse(Method, method, "method")
     mech = parse(Mechanics, mechanics, "mechanics")
     n_workers = default_workers() if workers is None else max(1, int(workers))
-    guards.check_sample_memory(design, max(t.max_samples for t in tests.values()))  # refuse before any fold
+    costs.check_sample_memory(design, max(t.max_samples for t in tests.values()))  # refuse before any fold
     if nominal is None:
         nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib, mechanics=mech)
     found: dict[str, tuple[Outcome, ...]] = {}
@@ -159,7 +159,7 @@ def _rounds(design: Design, lib: MaterialLibrary, scatter: Scatter, seed: int, t
     first = next(chunks)
     outcomes += run_samples((design, lib, first, model, dt, False, method, mech))
     if test.max_samples > CHUNK:
-        guards.check_samples(test.max_samples, (time.perf_counter() - start) / len(first), workers, design.name)
+        costs.check_samples(test.max_samples, (time.perf_counter() - start) / len(first), workers, design.name)
     while True:
         d = decide([o.jammed for o in outcomes], test)
         if progress:

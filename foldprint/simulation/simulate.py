@@ -11,7 +11,7 @@ import numpy as np
 from ..model.derived import scoped
 from ..collision.index2d import Index2D, collision_index
 from ..collision.swept3d import Contact, checker_for, swept_first_contact
-from ..core import guards
+from . import costs
 from ..core.constants import DEFAULT_DT_S, FOLD_LEVEL, tol
 from ..model.design import Design, tree_order
 from ..core.errors import DesignError
@@ -20,6 +20,7 @@ from ..physics.kinematics import HingeDrive, Trajectory, simulate_kinematics
 from ..model.materials import MaterialLibrary
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, AfterContact,
                           HingeModel, Mechanics, Method, parse)
+from ..physics import barhinge_cost
 from ..physics.barhinge_solve import CompliantDrive, CompliantSolution
 
 METHODS = tuple(m.value for m in Method)
@@ -194,7 +195,7 @@ def _run_drive(design: Design, bath_c, library, drive: HingeDrive | None, mechan
     """This run's own drive: the nominal one, a copy of the given one (arrests go to the
     copy), or for ``bar-hinge`` a compliant drive (on the given drive's curves)."""
     if mechanics == Mechanics.BAR_HINGE and not (drive is not None and drive.compliant):
-        guards.check_mechanics(design)
+        barhinge_cost.check_mechanics(design)
         drive = CompliantDrive(design, bath_c if drive is None else drive.bath_c, library,
                                None if drive is None else drive.curves)
     if drive is None:
@@ -225,12 +226,12 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     """
     method = parse(Method, method, "method")
     notes: list[str] = []
-    skip2d = guards.index2d_skip_reason(design, dt, duration) if (
+    skip2d = costs.index2d_skip_reason(design, dt, duration) if (
         method == Method.BOTH and design.is_planar_strip) else None
     if skip2d:
         notes.append(skip2d)
     # refuse before allocating
-    guards.check_simulation(design, dt, duration, Method.FCL if skip2d else method)
+    costs.check_simulation(design, dt, duration, Method.FCL if skip2d else method)
     after_contact = parse(AfterContact, after_contact, "after_contact")
     hinge_model = parse(HingeModel, hinge_model, "hinge_model")
     use2d = method in (Method.INDEX2D, Method.BOTH) and design.is_planar_strip and not skip2d

@@ -1,0 +1,293 @@
+"""Cost models of the layers that know them, against what the work really takes: the 3D
+narrow phase's open runs (a strip coiled onto itself, every pair a candidate), a
+calibration fit, a bar-and-hinge run. Each estimate bounds a measured peak on a mid-size
+case, and the large case is refused with its estimate before any of the work it
+estimates is done."""
+
+from __future__ import annotations
+
+import time
+import tracemalloc
+from pathlib import Path
+
+import pytest
+
+from foldprint.core import guards
+from foldprint.model.design import strip
+
+GiB = 2 ** 30
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(autouse=True)
+def _defaults(monkeypatch):
+    monkeypatch.delenv("FOLDPRINT_TIME_BUDGET", raising=False)
+    monkeypatch.delenv("FOLDPRINT_MAX_MEMORY", raising=False)
+    guards.set_max_memory(None)
+    guards.set_time_budget(None)
+    yield
+    guards.set_max_memory(None)
+    guards.set_time_budget(None)
+
+
+def _coil(n: int):
+    """A helix-like strip whose 5 mm panels are shorter than its hinges (R 5 mm, 90 deg):
+    it coils onto itself, so every pair of panels is a candidate of the broad phase."""
+    return strip(f"coil{n}", [5.0] * n, [90.0] * (n - 1), [f"H-{1 + k % 7}" for k in range(n - 1)],
+                 radius=5.0)
+
+
+def _coil_toml(n: int) -> str:
+    mats = [f"H-{1 + k % 7}" for k in range(n - 1)]
+    return (f'schema = 1\nname = "coil{n}"\n[defaults]\nhinge_radius_mm = 5.0\n[strip]\n'
+            f'lengths_mm = {[5] * n}\nangles_deg = {[90] * (n - 1)}\nmaterials = {mats}\n').replace("'", '"')
+
+
+# -- the narrow phase ----------------------------------------------------------------------
+
+def test_the_narrow_estimate_bounds_what_its_open_runs_hold(monkeypatch):
+    """On a 60-panel coil (all 1,711 non-adjacent pairs candidates) the narrow phase's
+    allocations (tracemalloc, from the broad phase's runs to the first contact: 8.8 MB
+    measured) stay under the estimate, and the estimate is not a wild overestimate."""
+    from foldprint.collision import swept3d
+    from foldprint.collision.narrow_cost import narrow_estimate
+    from foldprint.simulation.simulate import simulate
+
+    seen = {}
+    real_check, real_first = swept3d.check_narrow, swept3d.swept_first_contact
+
+    def check(checker, runs, held=0.0):
+        seen["est"] = narrow_estimate(checker, runs, held)
+        return real_check(checker, runs, held)
+
+    def first(*a, **k):
+        tracemalloc.start()
+        try:
+            return real_first(*a, **k)
+        finally:
+            seen["peak"] = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+
+    monkeypatch.setattr(swept3d, "check_narrow", check)
+    monkeypatch.setattr("foldprint.simulation.simulate.swept_first_contact", first)
+    d = _coil(60)
+    res = simulate(d, method="fcl")
+    assert res.contacts  # it does coil into itself
+    est = seen["est"]
+    assert est["runs"] == 60 * 59 / 2 - 59
+    # what it allocates: the open runs, and the bound coordinates beside the trajectory held
+    assert seen["peak"] <= est["bytes"] - guards.BASE_BYTES, (seen["peak"], est)
+    assert seen["peak"] >= est["narrow_bytes"] / 5, (seen["peak"], est)
+
+
+def test_the_narrow_phase_is_refused_before_any_pair_is_stepped(monkeypatch):
+    from foldprint.collision import narrow_cost, swept3d
+    from foldprint.collision.narrow_cost import narrow_estimate
+    from foldprint.simulation import costs
+    from foldprint.simulation.simulate import simulate
+
+    # open runs made costlier (100 KB each), so that the limit can sit between the
+    # simulation's estimate and the narrow phase's
+    monkeypatch.setattr(narrow_cost, "RUN_BYTES", 100_000)
+    d = _coil(60)
+    est = {}
+    real = swept3d.check_narrow
+    monkeypatch.setattr(swept3d, "check_narrow",
+                        lambda c, runs, held=0.0: est.update(narrow_estimate(c, runs, held)) or real(c, runs, held))
+    simulate(d, method="fcl")
+
+    def boom(*a, **k):
+        raise AssertionError("stepped despite the refusal")
+
+    monkeypatch.setattr(swept3d.SweptChecker, "_steps", boom)
+    guards.set_max_memory(int(est["bytes"]) - 1)
+    assert costs.check_simulation(d, 0.01, None, "fcl")["bytes"] < est["bytes"] - 1
+    with pytest.raises(guards.ResourceError, match=r"coil60: the 3D swept check refused: its narrow phase holds "
+                                                   r"1711 candidate panel-pair runs open at once"):
+        simulate(d, method="fcl")
+
+
+def test_a_1000_panel_coil_is_answered_within_a_minute_under_the_default_limit(tmp_path):
+    """Before: past 300 s and 9.2 GB resident under the 2 GiB guard; now refused (exit 2,
+    one line naming the estimate) once the broad phase has left its 498,501 runs."""
+    from fuzz_gen import run_fresh
+
+    (tmp_path / "coil.toml").write_text(_coil_toml(1000))
+    res = run_fresh(["check", "coil.toml", "--samples", "0"], tmp_path, address_limit=2 * GiB + 2 ** 29, cpu_s=60)
+    assert res["code"] == 2, res["err"][-1000:]
+    assert "narrow phase holds 498501 candidate panel-pair runs" in res["err"] and res["err"].count("\n") == 1
+    assert res["cpu_seconds"] < 60 and res["peak_mib"] < 2 * 1024
+
+
+# -- a calibration fit ---------------------------------------------------------------------
+
+HEAD = "kind,material,reference,bath_c,thickness_mm,initial_c,time_s,level,value,relation,sigma,source\n"
+
+
+def _curves_csv(n: int) -> str:
+    """``n`` ratio rows of H-1 at ``n`` bath temperatures: one curve each."""
+    return HEAD + "".join(f"ratio,H-1,,{60 + 39.9 * k / n:.5f},0.8,10,3,,0.5,,,\n" for k in range(n))
+
+
+def test_the_fit_estimate_bounds_a_measured_fit():
+    """20 curves, the shipped number of starts, no profile: CPU and the allocations of the
+    fit under the estimate, and within 15x of it."""
+    from foldprint.apps import calibrate as cal
+    from foldprint.io.hinge_data import parse_hinge_data
+    from foldprint.model.materials import default_library
+    from foldprint.physics.calibration_cost import fit_estimate
+
+    data = parse_hinge_data(_curves_csv(20), "c.csv")
+    seen = {}
+    real = cal.check_fit
+
+    def check(problem, starts, with_profile=True):
+        seen["est"] = fit_estimate(problem, starts, with_profile)
+        return real(problem, starts, with_profile)
+
+    cal.check_fit = check
+    try:
+        tracemalloc.start()
+        t0 = time.process_time()
+        c = cal.calibrate(data, default_library(), with_profile=False)
+        cpu = time.process_time() - t0
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+        cal.check_fit = real
+    est = seen["est"]
+    assert est["curves"] == 20 and c.fit.nfev > 0
+    assert cpu <= est["seconds"] <= 15 * cpu, (cpu, est)
+    assert peak <= est["bytes"] - guards.BASE_BYTES, (peak, est)
+
+
+def test_rows_read_off_a_curve_at_once_are_the_rows_read_one_by_one():
+    """predict reads a curve's ratio and angle rows in one interpolation: bit for bit what
+    predict_row gives row by row, with time_to and spread rows and one-sided relations."""
+    import numpy as np
+
+    from foldprint.io.hinge_data import parse_hinge_data
+    from foldprint.model.materials import default_library
+    from foldprint.physics.calibration import Problem
+
+    head = HEAD.rstrip("\n") + ",printed_deg\n"
+    rows = ([f"ratio,H-1,,{60 + k},0.8,10,{0.5 + k / 7},,0.5,,,," for k in range(30)]
+            + [f"angle,H-3,,90,0.8,10,{1 + k / 3},,{100 + k},,,,{80 + k}" for k in range(20)]
+            + ["time_to,H-7,,90,0.8,10,,0.98,7,at_most,,,", "spread,H-7,H-1,80,0.8,10,,0.98,7.0,at_least,0.5,,"])
+    pb = Problem(parse_hinge_data(head + "\n".join(rows) + "\n", "m.csv"), default_library())
+    rng = np.random.default_rng(7)
+    for _ in range(3):
+        x = pb.lower + (pb.upper - pb.lower) * rng.uniform(0.1, 0.9, len(pb.params))
+        curves = pb.curves(x)
+        one_by_one = np.array([pb.predict_row(o, curves) for o in pb.data.observations])
+        assert np.array_equal(pb.predict(x), one_by_one)
+        d = one_by_one - np.array([o.value for o in pb.data.observations])
+        d[-2], d[-1] = max(d[-2], 0.0), min(d[-1], 0.0)  # at_most, at_least
+        assert np.array_equal(pb.residuals_of(one_by_one), d / pb.sigmas)
+
+
+@pytest.mark.parametrize("n, limit", [(50_000, "memory limit"), (5_000, "time budget")])
+def test_a_fit_too_large_is_refused_before_the_first_curve(monkeypatch, n, limit):
+    """50,000 curves ended in MemoryError, 5,000 ran for many minutes: both refused from
+    the problem's size, before any curve is made."""
+    from foldprint.apps import calibrate as cal
+    from foldprint.io.hinge_data import parse_hinge_data
+    from foldprint.model.materials import default_library
+    from foldprint.physics.calibration import Problem
+
+    def boom(*a, **k):
+        raise AssertionError("a curve was made despite the refusal")
+
+    monkeypatch.setattr(Problem, "curves", boom)
+    data = parse_hinge_data(_curves_csv(n), "big.csv")
+    t0 = time.process_time()
+    with pytest.raises(guards.ResourceError, match=rf"big.csv: calibrate refused: {n} rows on {n} curves .*{limit}"):
+        cal.calibrate(data, default_library())
+    assert time.process_time() - t0 < 10
+
+
+# -- a bar-and-hinge run -------------------------------------------------------------------
+
+def test_the_bar_hinge_estimate_bounds_a_measured_run():
+    """The Miura template under --mechanics bar-hinge: the model's size counted from the
+    design bounds the built model's, and the solve's CPU and allocations stay under the
+    estimate (within 25x)."""
+    from foldprint.io.load import load_design
+    from foldprint.physics.barhinge import build
+    from foldprint.physics.barhinge_cost import mechanics_estimate
+    from foldprint.physics.barhinge_solve import CompliantDrive
+
+    d = load_design(ROOT / "templates" / "miura_3x3.toml")
+    est = mechanics_estimate(d)
+    model = build(d)
+    assert len(model.nodes) <= est["nodes"] and len(model.bars) <= est["bars"]
+    assert len(model.springs) <= est["springs"]
+    t0 = time.process_time()
+    CompliantDrive(d).solve()  # 247 Newton iterations, 0.7 CPU-s measured
+    cpu = time.process_time() - t0
+    drive = CompliantDrive(d)
+    tracemalloc.start()  # (tracing makes the solve several times slower: timed above without it)
+    try:
+        drive.solve()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert cpu <= est["seconds"] <= 25 * max(cpu, 0.1), (cpu, est)
+    assert peak <= est["bytes"] - guards.BASE_BYTES, (peak, est)
+
+
+def test_a_bar_hinge_run_over_the_budget_is_refused_before_the_model_is_built(monkeypatch):
+    import foldprint.physics.barhinge_solve as solve
+    from foldprint.io.load import load_design
+    from foldprint.physics.barhinge_cost import mechanics_estimate
+    from foldprint.simulation.simulate import simulate
+
+    def boom(*a, **k):
+        raise AssertionError("built despite the refusal")
+
+    monkeypatch.setattr(solve, "build", boom)
+    d = load_design(ROOT / "templates" / "miura_3x3.toml")
+    guards.set_time_budget(mechanics_estimate(d)["seconds"] / 2)
+    with pytest.raises(guards.ResourceError, match=r"--mechanics bar-hinge refused: its model of \d+ nodes.*time budget"):
+        simulate(d, mechanics="bar-hinge")
+
+
+# -- a loop closure ------------------------------------------------------------------------
+
+def test_the_loop_estimate_bounds_a_measured_closure():
+    """A 6 x 6 Miura sheet's closure tracked over a 2 s fold: the solver's allocations
+    (tracemalloc, its tables and every round's Jacobians) stay under the estimate."""
+    import numpy as np
+
+    from foldprint.io.fold_format import design_from_fold
+    from foldprint.model.crease_patterns import miura
+    from foldprint.physics.kinematics import HingeDrive
+    from foldprint.physics.loop_cost import loop_estimate
+
+    d = design_from_fold(miura(6, 6), "miura6")
+    tracemalloc.start()
+    try:
+        drive = HingeDrive(d)
+        loops = drive.loops
+        times = np.linspace(0.0, 2.0, 201)
+        loops.track(times, drive.driven(times))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    est = loop_estimate(loops.n, len(loops.cycles), max(len(c) for c in loops.cycles))
+    assert len(loops.cycles) == 25
+    assert peak <= est["bytes"] - guards.BASE_BYTES + 20 * 2 ** 20, (peak, est)  # + the drive's curves
+
+
+def test_a_1500_face_sheet_is_refused_before_its_loop_tables_are_made():
+    """A 30 x 50 Miura sheet (1,421 loops over 2,920 hinges) ended in MemoryError: its
+    closure is refused from the loops' sizes, in seconds."""
+    from foldprint.io.fold_format import design_from_fold
+    from foldprint.model.crease_patterns import miura
+    from foldprint.physics.kinematics import HingeDrive
+
+    d = design_from_fold(miura(30, 50), "miura1500")
+    t0 = time.process_time()
+    with pytest.raises(guards.ResourceError, match=r"loop closure refused: 1421 loops .* over 2920 hinges"):
+        HingeDrive(d)
+    assert time.process_time() - t0 < 20
