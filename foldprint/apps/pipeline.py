@@ -256,7 +256,8 @@ class Evaluation:
 
     def _build(self) -> tuple[Assembly | None, str | None]:
         try:
-            return build_assembly(self.design, State.PERMANENT.value, self.library), None
+            return build_assembly(self.design, State.PERMANENT.value, self.library,
+                                  resolution_mm=self.printer.layer_mm), None
         except GeometryError as exc:
             return None, str(exc)
 
@@ -497,7 +498,8 @@ class Evaluation:
         check = check_summary(self.printer.name, self.findings) if self.has("findings") else None
         with self.cache.active():
             if assembly is None:
-                assembly = build_assembly(self.design, st.value, self.library)
+                assembly = build_assembly(self.design, st.value, self.library,
+                                          resolution_mm=None if profile is None else profile.layer_mm)
             placed = self.placed_state(st) if "inp" in fmts else None
             voxels = None if pitch is None else self._voxels(assembly, pitch)
             return export_assembly(self.design, assembly, out_dir, fmts, self.library, frames, self.fold_times,

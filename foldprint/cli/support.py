@@ -94,7 +94,10 @@ def load_input(design: str, materials_file=None, scale=None, crease_materials=No
     lib = load_library(materials_file or None)
     if scale is not None:
         check_in_range(scale, "--scale", 0.0, 1e6, "mm per file unit", lo_open=True)
-    return load_design(resolve_design_path(design), lib, scale=scale, crease_materials=crease_materials), lib
+    d = load_design(resolve_design_path(design), lib, scale=scale, crease_materials=crease_materials)
+    for note in d.notes:
+        echo_note(f"note: {d.source or d.name}: {note}")
+    return d, lib
 
 
 SCALE_HELP = "FOLD/SVG crease patterns: mm per file unit (needed when frame_unit is 'unit' or missing)."

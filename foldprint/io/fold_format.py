@@ -9,6 +9,7 @@ result ends in :func:`foldprint.model.design.validate`. This is the input layer:
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -250,6 +251,7 @@ class _EdgeTable:
     radius: list
     thickness: list
     faces: list
+    xy: np.ndarray | None = None  # the vertices (file units), for the straight runs of creases
 
 
 def _unit_factor(frame: Mapping, scale, src: str) -> float:
@@ -373,8 +375,9 @@ def _panel_entries(frame: Mapping, members: list, polys: list, factor: float, sr
 
 
 def _crease_groups(et: _EdgeTable, crease: list, group_of: dict, pid_of: list, src: str) -> dict:
-    """Creases between the same two panels (or with the same hinge id) form one hinge:
-    the crease edges of each, keyed by hinge id or by the pair of panel groups."""
+    """The crease edges of each hinge: those with the same hinge id, keyed by it, or the
+    straight runs of creases between the same two panels (:func:`_straight_runs`), keyed by
+    the pair of panel groups and the run's number."""
     hgroups: dict[Any, list[int]] = {}
     for i in crease:
         ga, gb = sorted(group_of[f] for f in et.faces[i])
@@ -383,7 +386,50 @@ def _crease_groups(et: _EdgeTable, crease: list, group_of: dict, pid_of: list, s
                               "the faces on its two sides are also joined by flat edges, so it does not "
                               "separate two panels; a foldprint hinge must run between separate panels")
         hgroups.setdefault(str(et.hinge_id[i]) if et.hinge_id[i] is not None else (ga, gb), []).append(i)
-    return hgroups
+    out: dict[Any, list[int]] = {}
+    for key, ids in hgroups.items():
+        if isinstance(key, str):  # a named hinge is one hinge (one line, one angle), checked later
+            out[key] = ids
+            continue
+        for k, run in enumerate(_straight_runs(et, ids)):
+            out[key + (k,)] = run
+    return out
+
+
+def _straight_runs(et: _EdgeTable, ids: list[int]) -> list[list[int]]:
+    """The creases between one pair of panels split into hinges: edges that meet end to end
+    on one line with one fold angle form one hinge (a crease drawn in pieces); pieces on
+    other lines, with other angles or separated by a gap (a cut) are hinges of their own.
+    Two hinges between the same two panels close a loop of the hinge graph: whether they
+    fold together is the loop closure's answer (collinear with one angle: yes; at an angle
+    to each other or with opposite angles: they lock), not the reader's."""
+    parent = {i: i for i in ids}
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    at_vertex: dict[int, list[int]] = {}
+    for i in ids:
+        for v in et.edges[i]:
+            at_vertex.setdefault(v, []).append(i)
+    for v, es in at_vertex.items():
+        for a in es:
+            for b in es:
+                if a < b and et.angle[a] == et.angle[b] and et.assign[a] == et.assign[b] \
+                        and _collinear_pair(et, a, b):
+                    parent[root(a)] = root(b)
+    runs: dict[int, list[int]] = {}
+    for i in ids:
+        runs.setdefault(root(i), []).append(i)
+    return sorted(runs.values(), key=min)
+
+
+def _collinear_pair(et: _EdgeTable, a: int, b: int) -> bool:
+    xy = et.xy
+    return _hinge_line(xy, [et.edges[a], et.edges[b]]) is not None
 
 
 def _design_extras(frame: Mapping, src: str) -> tuple[Mapping, Mapping]:
@@ -400,11 +446,28 @@ def _design_extras(frame: Mapping, src: str) -> tuple[Mapping, Mapping]:
     return fp, extras
 
 
+def _refuse_unangled(et: _EdgeTable, creases: list[int], src: str) -> None:
+    """A mountain or valley crease without ``edges_foldAngle`` is refused: FOLD reads a bare
+    M or V as folded flat (-180 / 180 deg), a target no printed hinge of a pattern with
+    loops can reach and rarely the one meant; the target angle is the design's to give
+    (docs/input-safety.md)."""
+    bare = sorted(i for i in creases if et.angle[i] is None and et.assign[i] in ("M", "V"))
+    if not bare:
+        return
+    shown_ids = ", ".join(map(str, bare[:5])) + (f" and {len(bare) - 5} more" if len(bare) > 5 else "")
+    where_ = ("is missing" if all(a is None for a in et.angle)
+              else f"has no value (null) for {len(bare)} crease(s)")
+    raise DesignError(f"{src}edges_foldAngle {where_}: the mountain/valley creases (edges_vertices {shown_ids}) "
+                      "have no target angle; foldprint does not assume FOLD's flat fold (+-180 deg): give "
+                      "every crease its fold angle in edges_foldAngle (degrees, + valley, - mountain)")
+
+
 def _hinge_entries(et: _EdgeTable, xy: np.ndarray, hgroups: dict, group_of: dict, pid_of: list,
                    extras: Mapping, src: str, crease_materials: Mapping[str, str] | None,
                    default_hinge_material: str, default_radius_mm: float,
                    default_thickness_mm: float) -> list:
     """The design's hinges, one per group of creases: one line, one angle, its panels."""
+    _refuse_unangled(et, [i for ids in hgroups.values() for i in ids], src)
     htaken = {k for k in hgroups if isinstance(k, str)}
     hinges = []
     for key, ids in hgroups.items():
@@ -414,8 +477,7 @@ def _hinge_entries(et: _EdgeTable, xy: np.ndarray, hgroups: dict, group_of: dict
                               f"({sorted({tuple(pid_of[g] for g in p) for p in pairs})})")
         ga, gb = pairs.pop()
         hid = key if isinstance(key, str) else _edge_id(min(ids), htaken)
-        degs = [et.angle[i] if et.angle[i] is not None else 180.0 if et.assign[i] == "V" else
-                -180.0 if et.assign[i] == "M" else 0.0 for i in ids]
+        degs = [et.angle[i] if et.angle[i] is not None else 0.0 for i in ids]
         if max(degs) - min(degs) > 1e-6:
             raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases with "
                               f"different fold angles {sorted(set(degs))} (edges_vertices {ids}); one "
@@ -487,6 +549,7 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     if not faces:
         raise DesignError(f"{src}faces_vertices is empty; a design needs at least one face")
     et = _edge_table(frame, faces, len(xy), src)
+    et.xy = xy
     crease, members = _facet_groups(et, len(faces), src)
     if len(members) > MAX_PANELS:  # counted before any polygon is built
         raise DesignError(f"{src}the {len(faces)} faces form {len(members)} panels (faces joined by flat edges "
@@ -499,7 +562,45 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     fp, extras = _design_extras(frame, src)
     hinges = _hinge_entries(et, xy, hgroups, group_of, pid_of, extras, src, crease_materials,
                             default_hinge_material, default_radius_mm, default_thickness_mm)
-    return design_from_dict(_design_dict(frame, fp, source, panels, hinges, factor), source, library)
+    notes = list(frame.get("foldprint:notes") or []) if isinstance(frame.get("foldprint:notes"), list) else []
+    if frame.get("foldprint:pieces") == "largest":
+        panels, hinges = _largest_piece(panels, hinges, notes)
+    design = design_from_dict(_design_dict(frame, fp, source, panels, hinges, factor), source, library)
+    if notes:
+        design = dataclasses.replace(design, notes=design.notes + tuple(str(n) for n in notes))
+    return design
+
+
+def _largest_piece(panels: list, hinges: list, notes: list) -> tuple[list, list]:
+    """The panels joined by creases to the most others (the largest piece of the sheet) and
+    their hinges; the other pieces are named in ``notes``. An SVG in Origami Simulator's
+    convention may cut a sheet into pieces (black lines inside it, kirigami cuts): each
+    piece is a part of its own, and a design is one part."""
+    comp = {p["id"]: p["id"] for p in panels}
+
+    def root(x):
+        while comp[x] != x:
+            comp[x] = comp[comp[x]]
+            x = comp[x]
+        return x
+
+    for h in hinges:
+        comp[root(h["panels"][0])] = root(h["panels"][1])
+    sizes: dict[str, int] = {}
+    for p in panels:
+        sizes[root(p["id"])] = sizes.get(root(p["id"]), 0) + 1
+    if len(sizes) < 2:
+        return panels, hinges
+    area: dict[str, float] = {}
+    for p in panels:
+        area[root(p["id"])] = area.get(root(p["id"]), 0.0) + Polygon(p["outline"]).area
+    big = max(sizes, key=lambda r: (sizes[r], area[r]))  # the most panels, then the most area
+    dropped = [p["id"] for p in panels if root(p["id"]) != big]
+    notes.append(f"the lines cut the sheet into {len(sizes)} pieces joined by no crease; a design is one part: "
+                 f"kept the largest ({sizes[big]} panels), dropped {len(dropped)} panel(s) "
+                 f"({', '.join(dropped[:5])}{', ...' if len(dropped) > 5 else ''}); draw one piece per file")
+    return ([p for p in panels if root(p["id"]) == big],
+            [h for h in hinges if root(h["panels"][0]) == big])
 
 
 def _hinge_line(xy: np.ndarray, segs: list[list[int]]) -> np.ndarray | None:
