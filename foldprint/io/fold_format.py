@@ -25,6 +25,7 @@ from ..core.constants import (DEFAULT_HINGE_MATERIAL, DEFAULT_HINGE_RADIUS_MM, D
                               DEFAULT_THICKNESS_MM, tol)
 from ..model.design import Design
 from .design_io import design_from_dict
+from .fold_creases import hinge_line, largest_piece, refuse_unangled, straight_runs
 from ..core.inputs import read_input_text, shown, stem_text
 from ..core.errors import DesignError, where
 from ..model import composition
@@ -391,45 +392,9 @@ def _crease_groups(et: _EdgeTable, crease: list, group_of: dict, pid_of: list, s
         if isinstance(key, str):  # a named hinge is one hinge (one line, one angle), checked later
             out[key] = ids
             continue
-        for k, run in enumerate(_straight_runs(et, ids)):
+        for k, run in enumerate(straight_runs(et, ids)):
             out[key + (k,)] = run
     return out
-
-
-def _straight_runs(et: _EdgeTable, ids: list[int]) -> list[list[int]]:
-    """The creases between one pair of panels split into hinges: edges that meet end to end
-    on one line with one fold angle form one hinge (a crease drawn in pieces); pieces on
-    other lines, with other angles or separated by a gap (a cut) are hinges of their own.
-    Two hinges between the same two panels close a loop of the hinge graph: whether they
-    fold together is the loop closure's answer (collinear with one angle: yes; at an angle
-    to each other or with opposite angles: they lock), not the reader's."""
-    parent = {i: i for i in ids}
-
-    def root(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    at_vertex: dict[int, list[int]] = {}
-    for i in ids:
-        for v in et.edges[i]:
-            at_vertex.setdefault(v, []).append(i)
-    for v, es in at_vertex.items():
-        for a in es:
-            for b in es:
-                if a < b and et.angle[a] == et.angle[b] and et.assign[a] == et.assign[b] \
-                        and _collinear_pair(et, a, b):
-                    parent[root(a)] = root(b)
-    runs: dict[int, list[int]] = {}
-    for i in ids:
-        runs.setdefault(root(i), []).append(i)
-    return sorted(runs.values(), key=min)
-
-
-def _collinear_pair(et: _EdgeTable, a: int, b: int) -> bool:
-    xy = et.xy
-    return _hinge_line(xy, [et.edges[a], et.edges[b]]) is not None
 
 
 def _design_extras(frame: Mapping, src: str) -> tuple[Mapping, Mapping]:
@@ -446,28 +411,12 @@ def _design_extras(frame: Mapping, src: str) -> tuple[Mapping, Mapping]:
     return fp, extras
 
 
-def _refuse_unangled(et: _EdgeTable, creases: list[int], src: str) -> None:
-    """A mountain or valley crease without ``edges_foldAngle`` is refused: FOLD reads a bare
-    M or V as folded flat (-180 / 180 deg), a target no printed hinge of a pattern with
-    loops can reach and rarely the one meant; the target angle is the design's to give
-    (docs/input-safety.md)."""
-    bare = sorted(i for i in creases if et.angle[i] is None and et.assign[i] in ("M", "V"))
-    if not bare:
-        return
-    shown_ids = ", ".join(map(str, bare[:5])) + (f" and {len(bare) - 5} more" if len(bare) > 5 else "")
-    where_ = ("is missing" if all(a is None for a in et.angle)
-              else f"has no value (null) for {len(bare)} crease(s)")
-    raise DesignError(f"{src}edges_foldAngle {where_}: the mountain/valley creases (edges_vertices {shown_ids}) "
-                      "have no target angle; foldprint does not assume FOLD's flat fold (+-180 deg): give "
-                      "every crease its fold angle in edges_foldAngle (degrees, + valley, - mountain)")
-
-
 def _hinge_entries(et: _EdgeTable, xy: np.ndarray, hgroups: dict, group_of: dict, pid_of: list,
                    extras: Mapping, src: str, crease_materials: Mapping[str, str] | None,
                    default_hinge_material: str, default_radius_mm: float,
                    default_thickness_mm: float) -> list:
     """The design's hinges, one per group of creases: one line, one angle, its panels."""
-    _refuse_unangled(et, [i for ids in hgroups.values() for i in ids], src)
+    refuse_unangled(et, [i for ids in hgroups.values() for i in ids], src)
     htaken = {k for k in hgroups if isinstance(k, str)}
     hinges = []
     for key, ids in hgroups.items():
@@ -482,7 +431,7 @@ def _hinge_entries(et: _EdgeTable, xy: np.ndarray, hgroups: dict, group_of: dict
             raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases with "
                               f"different fold angles {sorted(set(degs))} (edges_vertices {ids}); one "
                               "hinge has one angle: split a panel or give the creases one angle")
-        line = _hinge_line(xy, [et.edges[i] for i in ids])
+        line = hinge_line(xy, [et.edges[i] for i in ids])
         if line is None:
             raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases that "
                               f"do not lie on one line (edges_vertices {ids}); a hinge is straight")
@@ -564,55 +513,11 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
                             default_hinge_material, default_radius_mm, default_thickness_mm)
     notes = list(frame.get("foldprint:notes") or []) if isinstance(frame.get("foldprint:notes"), list) else []
     if frame.get("foldprint:pieces") == "largest":
-        panels, hinges = _largest_piece(panels, hinges, notes)
+        panels, hinges = largest_piece(panels, hinges, notes)
     design = design_from_dict(_design_dict(frame, fp, source, panels, hinges, factor), source, library)
     if notes:
         design = dataclasses.replace(design, notes=design.notes + tuple(str(n) for n in notes))
     return design
-
-
-def _largest_piece(panels: list, hinges: list, notes: list) -> tuple[list, list]:
-    """The panels joined by creases to the most others (the largest piece of the sheet) and
-    their hinges; the other pieces are named in ``notes``. An SVG in Origami Simulator's
-    convention may cut a sheet into pieces (black lines inside it, kirigami cuts): each
-    piece is a part of its own, and a design is one part."""
-    comp = {p["id"]: p["id"] for p in panels}
-
-    def root(x):
-        while comp[x] != x:
-            comp[x] = comp[comp[x]]
-            x = comp[x]
-        return x
-
-    for h in hinges:
-        comp[root(h["panels"][0])] = root(h["panels"][1])
-    sizes: dict[str, int] = {}
-    for p in panels:
-        sizes[root(p["id"])] = sizes.get(root(p["id"]), 0) + 1
-    if len(sizes) < 2:
-        return panels, hinges
-    area: dict[str, float] = {}
-    for p in panels:
-        area[root(p["id"])] = area.get(root(p["id"]), 0.0) + Polygon(p["outline"]).area
-    big = max(sizes, key=lambda r: (sizes[r], area[r]))  # the most panels, then the most area
-    dropped = [p["id"] for p in panels if root(p["id"]) != big]
-    notes.append(f"the lines cut the sheet into {len(sizes)} pieces joined by no crease; a design is one part: "
-                 f"kept the largest ({sizes[big]} panels), dropped {len(dropped)} panel(s) "
-                 f"({', '.join(dropped[:5])}{', ...' if len(dropped) > 5 else ''}); draw one piece per file")
-    return ([p for p in panels if root(p["id"]) == big],
-            [h for h in hinges if root(h["panels"][0]) == big])
-
-
-def _hinge_line(xy: np.ndarray, segs: list[list[int]]) -> np.ndarray | None:
-    """The segment spanning collinear edges, or None if they are not collinear."""
-    pts = xy[np.array(segs).reshape(-1)]
-    d = pts[1] - pts[0]
-    d = d / np.linalg.norm(d)
-    s = (pts - pts[0]) @ d
-    off = np.abs((pts - pts[0]) @ np.array([-d[1], d[0]]))
-    if off.max() > max(tol.length, 1e-9 * float(np.ptp(s))):
-        return None
-    return np.array([pts[int(np.argmin(s))], pts[int(np.argmax(s))]])
 
 
 def _scaled(d: dict, factor: float) -> dict:
