@@ -262,3 +262,30 @@ def test_cli_prints_the_reader_notes(tmp_path, capsys):
     assert main(["simulate", str(path)]) in (0, 1)
     err = capsys.readouterr().err
     assert "note:" in err and "separate no two faces" in err
+
+
+# -- the benchmark over Origami Simulator's examples ----------------------------------------
+
+def test_benchmark_runs_each_pattern_and_names_the_outcome(tmp_path):
+    """benchmarks/bench_origami_simulator.py on a folder of two tiny patterns: one folds,
+    one draws a curve (refused for it); docs/doc/ figures are skipped."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "bench_os", Path(__file__).resolve().parent.parent / "benchmarks" / "bench_origami_simulator.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    (tmp_path / "Simple").mkdir()
+    (tmp_path / "doc").mkdir()
+    (tmp_path / "Simple" / "fold.svg").write_text(svg(BORDER, VALLEY.format(5, 0, 5, 10)))
+    (tmp_path / "Simple" / "curve.svg").write_text(svg(BORDER, '<path d="M5 0 c1 3 1 6 0 10" stroke="#00F"/>'))
+    (tmp_path / "doc" / "figure.svg").write_text(svg(BORDER))
+    out = tmp_path / "bench.json"
+    assert bench.main([str(tmp_path), "--out", str(out), "--jobs", "1"]) == 0
+    data = json.loads(out.read_text())
+    got = {r["file"]: r for r in data["results"]}
+    assert set(got) == {"Simple/fold.svg", "Simple/curve.svg"}
+    assert got["Simple/fold.svg"]["outcome"] == "completes" and got["Simple/fold.svg"]["exit"] == 0
+    assert got["Simple/curve.svg"]["outcome"] == "refused" and got["Simple/curve.svg"]["reason"] == "curved creases"
+    assert data["counts"] == {"completes": 1, "refused": 1}
+    assert all(r["cpu_s"] > 0 for r in data["results"])
