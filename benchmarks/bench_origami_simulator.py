@@ -40,13 +40,13 @@ WALL_FACTOR = 10.0
 
 #: refusal reasons, first match wins: (label, pattern of the message)
 REASONS = [
-    ("curved creases", r"curved|arc|bezier|Bezier|path command"),
+    ("crease inside a panel", r"inside panel"),
+    ("curved creases", r"curve|path command"),
     ("crease borders too few faces", r"borders \d+ face"),
     ("creases of one hinge not on one line", r"do not lie on one line"),
     ("different angles on one hinge", r"different fold angles"),
     ("memory or time guard", r"memory|--max-memory|estimate"),
     ("fold the printed hinge cannot make", r"hinge cannot|cannot make|beyond the .* hinge|bend radius"),
-    ("crease inside a panel", r"inside panel"),
     ("no face / not a pattern", r"enclose no face|no coloured line|not a simple polygon"),
 ]
 

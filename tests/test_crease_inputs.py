@@ -242,6 +242,16 @@ def test_hinge_of_two_segments_at_an_angle_is_two_hinges_and_simulate_answers(tm
     assert not json.loads(capsys.readouterr().out)["completed"]
 
 
+def test_curved_crease_drawn_as_a_polyline_is_refused_as_curved():
+    """Three or more straight pieces end to end between the same two panels: the faceted
+    curve of Origami Simulator's curved-crease examples (shell6.svg: 40 pieces)."""
+    from foldprint.core.errors import DesignError
+
+    text = svg(BORDER, '<polyline points="5,0 5.5,3 5.5,7 5,10" fill="none" stroke="#00F"/>')
+    with pytest.raises(DesignError, match="bent line of 3 straight crease pieces.*curved crease"):
+        design_from_svg(text, "t.svg")
+
+
 def test_collinear_pieces_of_one_crease_stay_one_hinge():
     text = svg(BORDER, VALLEY.format(5, 0, 5, 4), VALLEY.format(5, 4, 5, 10))
     d = design_from_svg(text, "t.svg")

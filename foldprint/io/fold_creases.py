@@ -65,6 +65,47 @@ def collinear_pair(et, a: int, b: int) -> bool:
     return hinge_line(xy, [et.edges[a], et.edges[b]]) is not None
 
 
+#: straight pieces end to end between two panels from which a bent crease line is read as a
+#: curved crease drawn as a polyline (our choice: two pieces at an angle are two hinges the
+#: loop closure locks, a drawing's corner; three or more are the polyline idiom of a curve)
+POLYLINE_PIECES = 3
+
+
+def refuse_polyline(et, runs: list[list[int]], panels: list[str], src: str) -> None:
+    """Refuse a curved crease drawn in straight pieces: ``POLYLINE_PIECES`` or more straight
+    runs of creases between the same two panels that meet end to end. Rigid panels joined
+    along a bent line cannot fold (any two of its pieces lock), and the faceted curve is
+    what Origami Simulator's curved-crease examples draw."""
+    if len(runs) < POLYLINE_PIECES:
+        return
+    of_vertex: dict[int, set[int]] = {}
+    for k, run in enumerate(runs):
+        for i in run:
+            for v in et.edges[i]:
+                of_vertex.setdefault(v, set()).add(k)
+    parent = list(range(len(runs)))
+
+    def root(k: int) -> int:
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    for ks in of_vertex.values():
+        ks = sorted(ks)
+        for k in ks[1:]:
+            parent[root(k)] = root(ks[0])
+    sizes: dict[int, int] = {}
+    for k in range(len(runs)):
+        sizes[root(k)] = sizes.get(root(k), 0) + 1
+    chain = max(sizes.values())
+    if chain >= POLYLINE_PIECES:
+        raise DesignError(f"{src}panels {panels[0]!r} and {panels[1]!r} are joined along a bent line of {chain} "
+                          "straight crease pieces end to end: a curved crease drawn as a polyline; rigid printed "
+                          "panels cannot fold along a bent line (it bends the panels, as curved-crease folding "
+                          "does): foldprint folds straight creases between rigid panels only")
+
+
 def hinge_line(xy: np.ndarray, segs: list[list[int]]) -> np.ndarray | None:
     """The segment spanning collinear edges, or None if they are not collinear."""
     pts = xy[np.array(segs).reshape(-1)]

@@ -25,7 +25,7 @@ from ..core.constants import (DEFAULT_HINGE_MATERIAL, DEFAULT_HINGE_RADIUS_MM, D
                               DEFAULT_THICKNESS_MM, tol)
 from ..model.design import Design
 from .design_io import design_from_dict
-from .fold_creases import hinge_line, largest_piece, refuse_unangled, straight_runs
+from .fold_creases import hinge_line, largest_piece, refuse_polyline, refuse_unangled, straight_runs
 from ..core.inputs import read_input_text, shown, stem_text
 from ..core.errors import DesignError, where
 from ..model import composition
@@ -393,7 +393,9 @@ def _crease_groups(et: _EdgeTable, crease: list, group_of: dict, pid_of: list, s
         if isinstance(key, str):  # a named hinge is one hinge (one line, one angle), checked later
             out[key] = ids
             continue
-        for k, run in enumerate(straight_runs(et, ids)):
+        runs = straight_runs(et, ids)
+        refuse_polyline(et, runs, [pid_of[g] for g in key], src)
+        for k, run in enumerate(runs):
             out[key + (k,)] = run
     return out
 

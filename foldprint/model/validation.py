@@ -193,7 +193,7 @@ def _on_common_side(line: LineString, a: Panel, b: Panel) -> bool:
     """The fold line lies on the common boundary of the two outlines (within 1e-3 mm): two
     panels may meet along several sides (a crease pattern's two panels joined by creases
     on two lines), and a hinge may lie on any of them, not only the longest."""
-    common = a.polygon.exterior.intersection(b.polygon.exterior)
+    common = a.polygon.boundary.intersection(b.polygon.boundary)
     return not common.is_empty and line.difference(common.buffer(1e-3)).length <= 1e-3
 
 
