@@ -385,8 +385,8 @@ def _crease_groups(et: _EdgeTable, crease: list, group_of: dict, pid_of: list, s
         if ga == gb:
             raise DesignError(f"{src}edges_vertices[{i}] is a {et.assign[i]} crease inside panel {pid_of[ga]!r}: "
                               "flat (facet) edges join the faces on its two sides into that one panel, and a "
-                              "rigid printed panel cannot fold along a crease inside it (a pattern whose facets "
-                              "bend, as curved-crease ones do); a foldprint hinge must run between separate panels")
+                              "rigid printed panel cannot fold along a crease inside it (its facets would have to "
+                              "bend); a foldprint hinge must run between separate panels")
         hgroups.setdefault(str(et.hinge_id[i]) if et.hinge_id[i] is not None else (ga, gb), []).append(i)
     out: dict[Any, list[int]] = {}
     for key, ids in hgroups.items():
