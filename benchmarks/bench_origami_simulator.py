@@ -35,6 +35,11 @@ ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "data" / "bench_origami_simulator.json"
 #: s per pattern: the limit the examples are held to (our choice, as the task's "within 30 s")
 TIMEOUT_S = 30.0
+#: BLAS threads of each run (0: the library's default). One, because the limit is CPU time:
+#: OpenBLAS's threads spin while they wait, and on a loaded 2-core machine they doubled the
+#: CPU a loop pattern's small stacked SVDs took (miyamotoTower.svg: past 30 CPU-s with the
+#: default, 16 CPU-s with one thread, measured at load 20)
+BLAS_THREADS = {"n": 1}
 #: wall seconds per CPU second of the limit before a run is stopped anyway (a loaded machine)
 WALL_FACTOR = 10.0
 
@@ -86,6 +91,8 @@ def run_one(path: Path, folder: Path, timeout: float, command: str) -> dict:
     load's) or at WALL_FACTOR times that of wall time, whichever comes first."""
     rel = path.relative_to(folder).as_posix()
     env = dict(os.environ, PYTHONPATH=str(ROOT))
+    if BLAS_THREADS["n"]:
+        env.update({k: str(BLAS_THREADS["n"]) for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")})
     t0 = time.perf_counter()
     proc = subprocess.Popen([sys.executable, "-m", "foldprint", command, str(path)], cwd=ROOT, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
@@ -163,8 +170,11 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(OUT))
     ap.add_argument("--only", nargs="*", help="run only files whose path contains one of these")
     ap.add_argument("--merge", action="store_true", help="keep the other patterns' rows of --out")
+    ap.add_argument("--blas-threads", type=int, default=BLAS_THREADS["n"],
+                    help="BLAS threads per run (0: the library's default)")
     args = ap.parse_args(argv)
     folder = assets_dir(args.assets)
+    BLAS_THREADS["n"] = args.blas_threads
     files = patterns(folder)
     if args.only:
         files = [f for f in files if any(s in f.as_posix() for s in args.only)]
@@ -181,6 +191,7 @@ def main(argv=None) -> int:
         rows = sorted(rows + [r for r in json.loads(Path(args.out).read_text())["results"] if r["file"] not in again],
                       key=lambda r: r["file"])
     result = {"command": f"foldprint {args.command} FILE", "timeout_s": args.timeout, "jobs": args.jobs,
+              "blas_threads": args.blas_threads,
               "patterns": len(rows), "counts": counts(rows),
               "load_before": [round(x, 2) for x in load0], "load_after": [round(x, 2) for x in os.getloadavg()],
               "cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(), "results": rows}
