@@ -182,8 +182,10 @@ def origami_simulator_table() -> str:
     order = ["completes", "does not complete", "refused", "past the limit", "bug"]
     counts = data["counts"]
     verdicts = counts.get("completes", 0) + counts.get("does not complete", 0)
+    blas = data.get("blas_threads", 0)
     lines = [f"`{data['command']}` on {data['patterns']} patterns, each stopped at {data['timeout_s']:g} CPU-s "
-             f"({data['jobs']} at a time on {data['cores']} cores; load {data['load_before'][0]:.1f} before, "
+             f"({'one BLAS thread' if blas == 1 else f'{blas} BLAS threads' if blas else 'default BLAS threads'}; "
+             f"{data['jobs']} at a time on {data['cores']} cores; load {data['load_before'][0]:.1f} before, "
              f"{data['load_after'][0]:.1f} after): **{verdicts} give a verdict** "
              + "(" + ", ".join(f"{counts[k]} {k}" for k in order if k in counts) + ").", "",
              "| refused because | patterns |", "|---|---|"]

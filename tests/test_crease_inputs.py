@@ -121,6 +121,14 @@ def test_check_prints_the_tolerance_it_used(tmp_path, capsys):
     assert "FP105" in out and "within the design's angle resolution 0.01 deg" in out and "FP102" not in out
 
 
+def test_export_prints_the_tolerance_it_used(tmp_path, capsys):
+    path = tmp_path / "vertex.fold"
+    path.write_text(json.dumps(degree4_rounded(1)))
+    assert main(["export", str(path), "--out", str(tmp_path / "out"), "--format", "stl"]) == 0
+    err = capsys.readouterr().err
+    assert "note: the target angles close the loops" in err and "angle resolution 0.1 deg" in err
+
+
 # -- the two crashes ------------------------------------------------------------------------
 
 def sheet_2x2(angle: float, size: float) -> dict:

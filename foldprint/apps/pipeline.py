@@ -138,6 +138,8 @@ class Evaluation:
         self.computed: Counter = Counter()
         self._stages: dict = {}
         self._printer = printer
+        #: the notes of the part :meth:`export` built (loops closed within a tolerance)
+        self.build_notes: tuple[str, ...] = ()
         if simulation is not None:
             self._stages[("simulation", self.options.method)] = simulation
 
@@ -502,6 +504,7 @@ class Evaluation:
                                           resolution_mm=None if profile is None else profile.layer_mm)
             placed = self.placed_state(st) if "inp" in fmts else None
             voxels = None if pitch is None else self._voxels(assembly, pitch)
+            self.build_notes = tuple(assembly.notes)  # what the build accepted within a tolerance
             return export_assembly(self.design, assembly, out_dir, fmts, self.library, frames, self.fold_times,
                                    placed, voxels, profile, check, force=force)
 

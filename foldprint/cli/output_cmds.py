@@ -84,10 +84,11 @@ def export(
     out_dir = out if out is not None else Path("output") / d.name
     published = _plan_out(out_dir, force, "export").publish
     profile = None if printer is None else load_printer(printer, printers_file)[1]
-    records = with_progress(f"building {d.name} ({state})",
-                             lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts),
-                                                               mechanics=parse(Mechanics, mechanics, "--mechanics")),
-                                                library=lib).export(out_dir, printer=profile, force=force))
+    ev = Evaluation(d, EvalOptions(state=state, formats=tuple(fmts), mechanics=parse(Mechanics, mechanics, "--mechanics")),
+                    library=lib)
+    records = with_progress(f"building {d.name} ({state})", lambda: ev.export(out_dir, printer=profile, force=force))
+    for note in ev.build_notes:
+        echo_note(f"note: {note}")
     if json_out:
         from ..exchange.outfolder import MANIFEST
 
