@@ -138,8 +138,7 @@ class Evaluation:
         self.computed: Counter = Counter()
         self._stages: dict = {}
         self._printer = printer
-        #: the notes of the part :meth:`export` built (loops closed within a tolerance)
-        self.build_notes: tuple[str, ...] = ()
+        self.build_notes: tuple[str, ...] = ()  # of the part export built (loops closed within a tolerance)
         if simulation is not None:
             self._stages[("simulation", self.options.method)] = simulation
 
@@ -258,8 +257,7 @@ class Evaluation:
 
     def _build(self) -> tuple[Assembly | None, str | None]:
         try:
-            return build_assembly(self.design, State.PERMANENT.value, self.library,
-                                  resolution_mm=self.printer.layer_mm), None
+            return build_assembly(self.design, State.PERMANENT.value, self.library, resolution_mm=self.printer.layer_mm), None
         except GeometryError as exc:
             return None, str(exc)
 
@@ -500,11 +498,10 @@ class Evaluation:
         check = check_summary(self.printer.name, self.findings) if self.has("findings") else None
         with self.cache.active():
             if assembly is None:
-                assembly = build_assembly(self.design, st.value, self.library,
-                                          resolution_mm=None if profile is None else profile.layer_mm)
+                assembly = build_assembly(self.design, st.value, self.library, resolution_mm=getattr(profile, "layer_mm", None))
             placed = self.placed_state(st) if "inp" in fmts else None
             voxels = None if pitch is None else self._voxels(assembly, pitch)
-            self.build_notes = tuple(assembly.notes)  # what the build accepted within a tolerance
+            self.build_notes = tuple(assembly.notes)
             return export_assembly(self.design, assembly, out_dir, fmts, self.library, frames, self.fold_times,
                                    placed, voxels, profile, check, force=force)
 
