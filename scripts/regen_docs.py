@@ -16,6 +16,8 @@ templates). Blocks:
   timings-summary       docs/structure-timings.md: the ratios of the paper's times to the model's
   sample1-scatter       docs/structure-timings.md: Sample 1 under scatter with arrest (slow:
                         60 Monte-Carlo folds, ~1-3 min)
+  origami-simulator     docs/origami-simulator.md: Origami Simulator's examples through
+                        simulate, from docs/data/bench_origami_simulator.json
 
 and the figures of FIGURES (written without --check, not compared):
 
@@ -172,6 +174,39 @@ def sample1_scatter() -> str:
             f"phase is 0.67 of it (5 s after 7.5 s), the model's median {s['p50'] / c['p50']:.2f}.")
 
 
+def origami_simulator_table() -> str:
+    """docs/origami-simulator.md: Origami Simulator's examples through `simulate`, from
+    docs/data/bench_origami_simulator.json (benchmarks/bench_origami_simulator.py)."""
+    import json
+
+    data = json.loads((ROOT / "docs" / "data" / "bench_origami_simulator.json").read_text(encoding="utf-8"))
+    rows = data["results"]
+    order = ["completes", "does not complete", "refused", "past the limit", "bug"]
+    counts = data["counts"]
+    verdicts = counts.get("completes", 0) + counts.get("does not complete", 0)
+    blas = data.get("blas_threads", 0)
+    lines = [f"`{data['command']}` on {data['patterns']} patterns, each stopped at {data['timeout_s']:g} CPU-s "
+             f"({'one BLAS thread' if blas == 1 else f'{blas} BLAS threads' if blas else 'default BLAS threads'}; "
+             f"{data['jobs']} at a time on {data['cores']} cores; load {data['load_before'][0]:.1f} before, "
+             f"{data['load_after'][0]:.1f} after): **{verdicts} give a verdict** "
+             + "(" + ", ".join(f"{counts[k]} {k}" for k in order if k in counts) + ").", "",
+             "| refused because | patterns |", "|---|---|"]
+    reasons: dict[str, int] = {}
+    for r in rows:
+        if r["outcome"] == "refused":
+            reasons[r["reason"]] = reasons.get(r["reason"], 0) + 1
+    lines += [f"| {k} | {v} |" for k, v in sorted(reasons.items(), key=lambda kv: (-kv[1], kv[0]))]
+    lines += ["", "| pattern | outcome | CPU s | what foldprint says (first line) |", "|---|---|---|---|"]
+    for r in rows:
+        said = r.get("message", "").replace("|", "/")
+        said = said.split(": ", 2)[-1] if r["outcome"] == "refused" else said
+        said = said if len(said) <= 140 else said[:137] + "..."
+        if r.get("notes"):
+            said += f" (+{len(r['notes'])} reader note(s))"
+        lines.append(f"| {r['file']} | {r['outcome']} | {r['cpu_s']:.1f} | {said} |")
+    return "\n".join(lines)
+
+
 #: name -> (doc, builder, slow)
 BLOCKS = {
     "recovery-fold-times": ("docs/recovery-model.md", recovery_fold_times, False),
@@ -179,6 +214,7 @@ BLOCKS = {
     "timings-predicted": ("docs/structure-timings.md", lambda m=None: timings_table("predicted", m), False),
     "timings-summary": ("docs/structure-timings.md", timings_summary, False),
     "sample1-scatter": ("docs/structure-timings.md", sample1_scatter, True),
+    "origami-simulator": ("docs/origami-simulator.md", origami_simulator_table, False),
 }
 
 

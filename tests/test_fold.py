@@ -215,13 +215,31 @@ def test_foreign_units_and_scale():
     check_simulator(design_from_fold(simulator_cp(), scale=3.0), 3.0)
 
 
-@pytest.mark.parametrize("letter, expected", [("M", -math.pi), ("V", math.pi), ("m", -math.pi)])
-def test_foreign_crease_without_fold_angle(letter, expected):
+@pytest.mark.parametrize("letter", ["M", "V", "m"])
+def test_foreign_crease_without_fold_angle_is_refused_naming_the_field(letter):
+    """FOLD reads a bare M or V as folded flat (+-180 deg); foldprint asks for the angle."""
     cp = simulator_cp()
     cp["edges_assignment"][1] = letter
     del cp["edges_foldAngle"]
-    d = design_from_fold(cp)
-    assert d.hinges[0].angle == pytest.approx(expected)
+    with pytest.raises(DesignError, match=r"edges_foldAngle is missing.*edges_vertices 1\b"):
+        design_from_fold(cp)
+    cp["edges_foldAngle"] = [None, None, 0, 0, 0, 0, 0, 0]
+    with pytest.raises(DesignError, match=r"edges_foldAngle has no value \(null\) for 1 crease"):
+        design_from_fold(cp)
+    cp["edges_foldAngle"][1] = -45 if letter.upper() == "M" else 45
+    assert design_from_fold(cp).hinges[0].angle_deg == pytest.approx(cp["edges_foldAngle"][1])
+
+
+def test_cli_fold_without_angles_exits_2_in_one_line(tmp_path, capsys):
+    from foldprint.cli.commands import main
+
+    cp = simulator_cp()
+    del cp["edges_foldAngle"]
+    path = tmp_path / "bare.fold"
+    path.write_text(json.dumps(cp))
+    assert main(["check", str(path), "--samples", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "edges_foldAngle" in err and "Traceback" not in err
 
 
 def test_foreign_unassigned_edge_with_angle_is_a_hinge():
@@ -257,6 +275,7 @@ def test_foreign_facets_around_a_hole_give_a_panel_with_a_hole():
         "edges_vertices": [[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4],
                            [0, 4], [1, 5], [2, 6], [3, 7], [1, 8], [8, 9], [9, 2]],
         "edges_assignment": ["B", "V", "B", "B", "B", "B", "B", "B", "F", "F", "F", "F", "B", "B", "B"],
+        "edges_foldAngle": [0, 180] + [0] * 13,
     }
     d = design_from_fold(cp)
     assert [len(p.holes) for p in d.panels] == [1, 0]

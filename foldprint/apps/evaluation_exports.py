@@ -111,9 +111,11 @@ class ExportStages:
         check = check_summary(self.printer.name, self.findings) if self.has("findings") else None
         with self.cache.active():
             if assembly is None:
-                assembly = build_assembly(self.design, st.value, self.library)
+                assembly = build_assembly(self.design, st.value, self.library,
+                                          resolution_mm=getattr(profile, "layer_mm", None))
             placed = self.placed_state(st) if "inp" in fmts else None
             voxels = None if pitch is None else self._voxels(assembly, pitch)
+            self.build_notes = tuple(assembly.notes)
             return export_assembly(self.design, assembly, out_dir, fmts, self.library, frames, self.fold_times,
                                    placed, voxels, profile, check, force=force)
 

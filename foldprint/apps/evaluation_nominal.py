@@ -109,7 +109,8 @@ class NominalStages:
 
     def _build(self) -> tuple[Assembly | None, str | None]:
         try:
-            return build_assembly(self.design, State.PERMANENT.value, self.library), None
+            return build_assembly(self.design, State.PERMANENT.value, self.library,
+                                  resolution_mm=self.printer.layer_mm), None
         except GeometryError as exc:
             return None, str(exc)
 

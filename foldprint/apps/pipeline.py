@@ -122,6 +122,7 @@ class Evaluation(NominalStages, VerdictStages, ExportStages, ReportStages):
         self.computed: Counter = Counter()
         self._stages: dict = {}
         self._printer = printer
+        self.build_notes: tuple[str, ...] = ()  # of the part export built (loops closed within a tolerance)
         if simulation is not None:
             self._stages[("simulation", self.options.method)] = simulation
 

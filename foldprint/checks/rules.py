@@ -125,8 +125,10 @@ def rule_tools(ctx: CheckContext) -> list[Finding]:
 def rule_buildable(ctx: CheckContext) -> list[Finding]:
     """The printed part could be built: its bodies are watertight and disjoint."""
     if ctx.assembly_error is None:
-        return []
+        return [_f("FP105", "info", note) for note in getattr(ctx.assembly, "notes", ())]
+    loops = "do not close the loops" in ctx.assembly_error
     return [_f("FP102", "error", f"the printed part cannot be built: {ctx.assembly_error}",
+               "move the target angles onto the pattern's folding path" if loops else
                "the panels or hinges overlap in the printed (permanent) state; change the target angles, "
                "lengths or holes")]
 

@@ -19,7 +19,7 @@ from ..core.modes import DEFAULT_OBJECTIVE, Objective
 from .exits import ExitCode, echo_err
 from .lazy import summary
 from .options import open_mapper
-from .printing import echo_json, echo_note
+from .printing import echo_json, echo_note, noted
 from .progress import samples_progress
 from .root import app
 
@@ -60,7 +60,7 @@ def assign(
 
     objective, mats, temps, fixed_map = _assign_request(materials, temperature, temperature_range, fixed, objective,
                                                         top, budget, samples, workers, seed)
-    d, lib = load_input(design)
+    d, lib = noted(load_input(design))
     if continuous:  # per-hinge VeroWhite fractions and the bath (docs/assign.md, "Continuous fractions")
         from ..apps.assign_continuous import continuous_objective, search_options as search  # noqa: F811
         objective = continuous_objective(objective, mats, fixed_map)

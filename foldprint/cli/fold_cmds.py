@@ -18,7 +18,7 @@ from ..core.modes import DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MEC
 from .exits import ExitCode
 from .lazy import summary
 from .options import CREASE_HELP, SCALE_HELP, check_out_dir, open_mapper
-from .printing import echo_json, echo_note, print_paper, print_simulation, verdict_word
+from .printing import echo_json, echo_note, noted, print_paper, print_simulation, verdict_word
 from .progress import samples_progress, stage_progress
 from .root import app
 
@@ -68,7 +68,7 @@ def simulate(
     time_options(duration, dt, "--duration", "--dt")
     plot = check_out_dir(plot, "--plot")
     set_memory_limit(max_memory)  # the resource guard
-    d, lib = load_input(design, materials_file, scale, crease_materials, scale_what="--scale")
+    d, lib = noted(load_input(design, materials_file, scale, crease_materials, scale_what="--scale"))
     if plot is not None:
         from ..core.files import ensure_dir
         ensure_dir(plot)
@@ -139,7 +139,7 @@ def check(
     ks = sigma_scales(scales, "--scales") if sensitivity else ()
     key, pr = load_printer(printer, printers_file)
     sc = load_scatter(scatter_file)
-    d, lib = load_input(design, materials_file, scale, crease_materials, scale_what="--scale")
+    d, lib = noted(load_input(design, materials_file, scale, crease_materials, scale_what="--scale"))
     opts = EvalOptions(hinge_model=model, samples=samples, seed=seed, scales=check_scales(ks), thresholds=th,
                        mechanics=mech)
     with stage_progress(f"check {d.name}", json_out) as cb:
@@ -197,7 +197,7 @@ def robust(
     check_seed(seed, "--seed")
     ks = sigma_scales(scales, "--scales")
     sc = load_scatter(scatter_file)
-    d, lib = load_input(design, materials_file)
+    d, lib = noted(load_input(design, materials_file))
     opts = EvalOptions(hinge_model=model, samples=samples, sample_rule=SampleRule.FIXED, seed=seed,
                        scales=ks if sensitivity else (), mechanics=mech)
     with open_mapper(scheduler) as mapper:

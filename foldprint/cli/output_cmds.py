@@ -18,7 +18,7 @@ from ..core.modes import DEFAULT_MECHANICS, DEFAULT_STATE, Mechanics, State, par
 from ..core.errors import FoldprintError
 from .lazy import summary
 from .options import CREASE_HELP, SCALE_HELP, check_out_dir
-from .printing import OUTPUT_STATE, echo_json, echo_note
+from .printing import OUTPUT_STATE, echo_json, echo_note, noted
 from .progress import with_progress
 from .root import app
 
@@ -84,14 +84,15 @@ def export(
     if bad or not fmts:
         raise FoldprintError(f"--format: unknown format(s) {bad or formats!r}; choose from {', '.join(known)}")
     out = check_out_dir(out)
-    d, lib = load_input(design, materials_file, scale, crease_materials, scale_what="--scale")
+    d, lib = noted(load_input(design, materials_file, scale, crease_materials, scale_what="--scale"))
     out_dir = out if out is not None else Path("output") / d.name
     published = _plan_out(out_dir, force, "export").publish
     profile = None if printer is None else load_printer(printer, printers_file)[1]
-    records = with_progress(f"building {d.name} ({state})",
-                             lambda: Evaluation(d, EvalOptions(state=state, formats=tuple(fmts),
-                                                               mechanics=parse(Mechanics, mechanics, "--mechanics")),
-                                                library=lib).export(out_dir, printer=profile, force=force))
+    ev = Evaluation(d, EvalOptions(state=state, formats=tuple(fmts), mechanics=parse(Mechanics, mechanics, "--mechanics")),
+                    library=lib)
+    records = with_progress(f"building {d.name} ({state})", lambda: ev.export(out_dir, printer=profile, force=force))
+    for note in ev.build_notes:
+        echo_note(f"note: {note}")
     if json_out:
         from ..apps.outputs import manifest_name
 

@@ -19,6 +19,15 @@ def echo_json(obj) -> None:
     echo(json.dumps(obj, indent=2, allow_nan=False))
 
 
+def noted(loaded):
+    """A loaded ``(design, library)`` after its reader's notes are printed (a stray
+    crease dropped, rounded loop angles closed within a tolerance)."""
+    d, lib = loaded
+    for note in d.notes:
+        echo_note(f"note: {d.source or d.name}: {note}")
+    return d, lib
+
+
 def echo_note(msg: str) -> None:
     """A human message on stderr (silenced by --quiet)."""
     if not OUTPUT_STATE["quiet"]:

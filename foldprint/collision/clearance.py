@@ -46,7 +46,9 @@ class Gap:
 
 def _piece_vertices(checker: SweptChecker) -> tuple[np.ndarray, np.ndarray]:
     """The vertices of every panel's rigid solid in the sheet frame (m, 3) and the panel
-    of each (m,): the same solids the checker's FCL pieces are built from."""
+    of each (m,): the same solids the checker's FCL pieces are built from. A panel whose
+    hinge strips cover it whole (strips R |rho| wide on a small panel: FP140) has no rigid
+    solid and no vertices here; when no panel has one, both arrays are empty."""
     cached = checker.__dict__.get("_clearance_vertices")
     if cached is None:
         pts, owner = [], []
@@ -57,7 +59,8 @@ def _piece_vertices(checker: SweptChecker) -> tuple[np.ndarray, np.ndarray]:
             for z in (-p.thickness / 2, p.thickness / 2):
                 pts.append(np.column_stack([ring, np.full(len(ring), z)]))
                 owner.append(np.full(len(ring), i))
-        cached = (np.concatenate(pts), np.concatenate(owner))
+        cached = ((np.concatenate(pts), np.concatenate(owner)) if pts
+                  else (np.zeros((0, 3)), np.zeros(0, dtype=int)))
         checker.__dict__["_clearance_vertices"] = cached
     return cached
 
@@ -106,13 +109,14 @@ def sampled_poses(n: int, n_samples: int = CLEARANCE_SAMPLES) -> np.ndarray:
 def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
                   n_samples: int = CLEARANCE_SAMPLES, t_end: float | None = None) -> Gap | None:
     """The smallest gap between non-adjacent panels over ``n_samples`` poses of the
-    trajectory up to ``t_end`` (default: its end), or None for a design with no such pair.
+    trajectory up to ``t_end`` (default: its end), or None for a design with no such pair
+    (or none whose panels both keep a rigid part beside their hinge strips).
     The search over those poses is :func:`foldprint.collision.swept3d.min_clearance` (exact,
     branch and bound on sphere bounds); this adds the sampling, the time and the point."""
     n = len(times) if t_end is None else int(np.searchsorted(times, t_end, side="right"))
     ks = sampled_poses(n, n_samples)
     found = swept_min_clearance(checker, poses[ks])
-    if found is None:
+    if found is None or found[1] is None:  # no pair, or no pair with a rigid solid on both sides
         return None
     best, (i, j), k = found
     k, (i, j) = earliest_within(checker, poses[ks[:k + 1]], float(best) + tol.length) or (k, (i, j))

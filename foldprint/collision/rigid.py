@@ -45,12 +45,19 @@ def _compute_rigid_polygons(design: Design, model: HingeModel) -> list:
             band = LineString([a, b]).buffer(f.width / 2, cap_style="flat")
             for idx in (f.parent, f.child):
                 polys[idx] = polys[idx].difference(band)
-    out = []
-    for i, poly in enumerate(polys):
-        if poly.geom_type == "MultiPolygon":  # keep the largest piece; report the rest
-            poly = max(poly.geoms, key=lambda g: g.area)
-        out.append(shapely.normalize(poly) if not poly.is_empty else poly)
-    return out
+    return [_largest_polygon(poly) for poly in polys]
+
+
+def _largest_polygon(geom):
+    """The largest polygon of what cutting the strips left (a Polygon, possibly empty).
+    Cutting several strips can leave a MultiPolygon, or a GeometryCollection in which GEOS
+    keeps a zero-area line where two strip edges meet on a panel's side (six panels of
+    Origami Simulator's miura-ori.svg): lines and points are no part of a solid."""
+    if geom.geom_type != "Polygon":
+        parts = [g for g in shapely.get_parts(geom) if g.geom_type == "Polygon" and g.area > 0]
+        parts += [g for m in shapely.get_parts(geom) if m.geom_type == "MultiPolygon" for g in m.geoms]
+        geom = max(parts, key=lambda g: g.area) if parts else Polygon()
+    return shapely.normalize(geom) if not geom.is_empty else geom
 
 
 def side_segments(design: Design, model: HingeModel, y: float | None = None) -> list[np.ndarray]:

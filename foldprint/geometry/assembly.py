@@ -12,16 +12,17 @@ from ..model.design import Design
 from ..core.errors import GeometryError
 from ..core.modes import DEFAULT_STATE, State
 from ..model.materials import MaterialLibrary, default_library
-from .hinges import tree_poses, arc_transform, state_angles, strip_solids
+from .hinges import tree_poses, arc_transform, closed_targets, state_angles, strip_solids
 from .layout import layout
 from .solids import VOLUME_RTOL, Assembly, Body, Piece, checked_solid, extrude, apply_pose
 
 # -- pieces and bodies --------------------------------------------------------------------
 
-def build_pieces(design: Design, state: State = DEFAULT_STATE) -> list[Piece]:
+def build_pieces(design: Design, state: State = DEFAULT_STATE, resolution_mm: float | None = None) -> list[Piece]:
     """Every solid piece of a build state, in a fixed order (panels, then per hinge its
-    strip segments and teeth)."""
-    angles = state_angles(design, state)
+    strip segments and teeth); ``resolution_mm``: the printer's, the tolerance of closing a
+    pattern's loops (:func:`~foldprint.geometry.hinges.closed_targets`)."""
+    angles = state_angles(design, state, resolution_mm)
     lays, rigid = layout(design)
     frames = [lay.frame for lay in lays]
     poses = tree_poses(design, frames, angles)
@@ -87,24 +88,31 @@ def _units(pieces: list[Piece]) -> list[Piece]:
 def _overlap_message(units: list[Piece], state: State) -> str:
     for i, a in enumerate(units):
         for b in units[i + 1:]:
-            vol = (a.solid ^ b.solid).volume()
+            common = a.solid ^ b.solid
+            vol = common.volume()
             if vol > VOLUME_RTOL * min(a.volume, b.volume):
+                # a thin overlap of area A and depth d has volume A d and surface 2 A: d = 2 V / S
+                depth = 2.0 * vol / max(common.surface_area(), 1e-300)
+                at = np.asarray(common.bounding_box()).reshape(2, 3).mean(axis=0)
                 return (f"{state} state: {a.kind} {a.owner!r} ({a.material}) and {b.kind} {b.owner!r} "
-                        f"({b.material}) overlap by {vol:.4g} mm^3; the printed part would not be as "
-                        "designed (panels colliding when folded?)")
+                        f"({b.material}) overlap by {vol:.4g} mm^3, about {depth:.2g} mm deep, around "
+                        f"({at[0]:.1f}, {at[1]:.1f}, {at[2]:.1f}) mm; the printed part would not be as designed")
     return f"{state} state: pieces overlap"
 
 
 @scoped
 def build_assembly(design: Design, state: State = DEFAULT_STATE, library: MaterialLibrary | None = None,
-                   check: bool = True) -> Assembly:
+                   check: bool = True, resolution_mm: float | None = None) -> Assembly:
     """One watertight body per material for a state (``permanent`` or ``programmed``).
 
     With ``check`` (default), raises GeometryError when panels or hinges overlap, within
     one material or across two (touching is fine): such a part would not print as
-    designed (e.g. panels colliding in the folded state)."""
+    designed (e.g. panels colliding in the folded state). ``resolution_mm`` (the printer's
+    layer; default the default printer's) is how far closing a pattern's loops may move the
+    part; when the build used it, :attr:`Assembly.notes` says so."""
     lib = library or default_library()
-    units = _units(build_pieces(design, state))
+    note = closed_targets(design, state, resolution_mm)[1]
+    units = _units(build_pieces(design, state, resolution_mm))
     by_mat: dict[str, list[Piece]] = {}
     for u in units:
         by_mat.setdefault(u.material, []).append(u)
@@ -131,7 +139,7 @@ def build_assembly(design: Design, state: State = DEFAULT_STATE, library: Materi
                 if vol > VOLUME_RTOL * min(bodies[i].volume, bodies[j].volume):
                     raise GeometryError(_overlap_message(by_mat[bodies[i].material] + by_mat[bodies[j].material],
                                                          state))
-    return Assembly(design.name, state, tuple(bodies), tuple(units))
+    return Assembly(design.name, state, tuple(bodies), tuple(units), notes=(note,) if note else ())
 
 
 # -- hinge axes: where a point of a hinge body lies across and along its hinge ------------

@@ -8,36 +8,128 @@ import math
 import manifold3d as mf
 import numpy as np
 
+from ..model.derived import derived
 from ..model.design import Design, Hinge, has_loops, tangent_factor
 from ..core.errors import GeometryError
 from ..core.modes import HingeModel, Interface, State
-from ..physics.kinematics import HingeFrame, hinge_map, loop_gap_mm
+from ..physics.kinematics import HingeFrame, forward, hinge_frames, hinge_map, loop_gap_mm
 from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, checked_solid, solid_from_arrays, apply_pose)
 
 # -- kinematics of the printed states ----------------------------------------------------
 
-#: largest loop misfit (mm) a folded (permanent) build of a loop pattern may have: loop
-#: hinges turn about their fold lines (``HingeFrame.centred``), so targets on the
-#: pattern's folding path close to round-off and anything larger is a wrong target
-LOOP_GAP_TOL_MM = 0.01
+#: largest loop misfit (mm) taken as closed without a word: loop hinges turn about their
+#: fold lines (``HingeFrame.centred``), so targets on the pattern's folding path close to
+#: round-off (our choice: far below any printer's resolution, far above round-off)
+LOOP_GAP_TOL_MM = 1e-6
+#: decimals of a target angle (deg) read as the design's resolution: targets written with at
+#: most this many decimals have a resolution of one unit of their last one (our choice:
+#: crease-pattern editors write 1 to 4; more is a computed, exact angle)
+MAX_ANGLE_DECIMALS = 4
 
 
-def state_angles(design: Design, state: State) -> np.ndarray:
-    """Hinge angles (rad, ``design.hinges`` order) of a build state."""
+def angle_resolution_deg(design: Design) -> float | None:
+    """The resolution the design writes its target angles with: one unit of the last
+    decimal its angles use (0.1 for angles such as 159.1 and 90, 0.01 for 159.06), or None
+    when some angle has more than :data:`MAX_ANGLE_DECIMALS` decimals (an exact angle) or
+    none has a decimal (a whole number of degrees states no precision: taken as exact)."""
+    worst = 0
+    for h in design.hinges:
+        a = float(h.angle_deg)
+        k = next((k for k in range(MAX_ANGLE_DECIMALS + 1)
+                  if abs(a * 10 ** k - round(a * 10 ** k)) <= 1e-9 * max(1.0, abs(a) * 10 ** k)), None)
+        if k is None:
+            return None
+        worst = max(worst, k)
+    return 10.0 ** -worst if worst else None
+
+
+def default_resolution_mm() -> float:
+    """The default printer's resolution (its layer height, data/printers.toml): the
+    tolerance of a build no printer profile was given for."""
+    from ..model.printers import default_printer_key, load_printers
+
+    return float(load_printers()[default_printer_key()].layer_mm)
+
+
+def state_angles(design: Design, state: State, resolution_mm: float | None = None) -> np.ndarray:
+    """Hinge angles (rad, ``design.hinges`` order) of a build state: the targets, or for a
+    pattern with loops whose targets close them only to within the tolerance, the nearest
+    closed angles (:func:`closed_targets`)."""
+    return closed_targets(design, state, resolution_mm)[0]
+
+
+def closed_targets(design: Design, state: State, resolution_mm: float | None = None) -> tuple[np.ndarray, str | None]:
+    """The angles of a build state and a note when the targets were moved to close the loops.
+
+    Rounded targets (a FOLD file's ``edges_foldAngle`` written to 0.01 deg) do not close a
+    pattern's loops exactly: built as written, a loop hinge misses its panel by the misfit
+    and its strip overlaps the panel. The build then takes the closed angles nearest to the
+    targets (least squares on the closure constraints, :class:`LoopSolver`) when they are
+    within the tolerance: they differ from the targets by at most the design's angle
+    resolution (:func:`angle_resolution_deg`), or they move no point of the part by more than
+    ``resolution_mm`` (the printer's layer; default :func:`default_resolution_mm`). Beyond
+    it, GeometryError names the misfit and the change the closure needs."""
     if state not in STATES:
         raise GeometryError(f"state must be one of {STATES}, got {state!r}")
     if state == State.PROGRAMMED:
-        return np.zeros(len(design.hinges))
+        return np.zeros(len(design.hinges)), None
+    return derived(design, ("closed_targets", resolution_mm), lambda: _closed_targets(design, resolution_mm))
+
+
+def _closed_targets(design: Design, resolution_mm: float | None) -> tuple[np.ndarray, str | None]:
     angles = np.array([h.angle for h in design.hinges], dtype=float)
-    if has_loops(design):
-        gap = loop_gap_mm(design, angles, HingeModel.ARC)
-        if gap > LOOP_GAP_TOL_MM:
-            raise GeometryError(
-                f"{design.name}: the target angles do not close the loops of the hinge graph (rigid origami): "
-                f"a {gap:.2f} mm misfit at a loop hinge in the folded state, so panels would overlap or gap; "
-                "choose targets on the pattern's folding path (foldprint simulate reports the closed angles, "
-                "hinges[].final_angle_deg; docs/loops.md); --state programmed builds the flat (programmed) shape")
-    return angles
+    if not has_loops(design):
+        return angles, None
+    gap = loop_gap_mm(design, angles, HingeModel.ARC)
+    if gap <= LOOP_GAP_TOL_MM:
+        return angles, None
+    res_mm = default_resolution_mm() if resolution_mm is None else float(resolution_mm)
+    res_deg = angle_resolution_deg(design)
+    closed, done = _nearest_closed(design, angles)
+    change = np.degrees(np.abs(closed - angles))
+    k = int(np.argmax(change))
+    moved = _largest_move(design, angles, closed) if done else math.inf
+    by_angle = res_deg is not None and done and change[k] <= res_deg * (1 + 1e-9)
+    if done and (by_angle or moved <= res_mm):
+        why = (f"the design's angle resolution {res_deg:g} deg" if by_angle
+               else f"the printer's {res_mm:g} mm resolution")
+        return closed, (f"the target angles close the loops of the hinge graph only to a {gap:.2g} mm misfit; "
+                        f"the part is built at the nearest closed angles, which differ from the targets by at "
+                        f"most {change[k]:.2g} deg (hinge {design.hinges[k].id!r}) and move no point more than "
+                        f"{moved:.2g} mm: within {why}")
+    needed = (f"the nearest closed angles differ from the targets by {change[k]:.3g} deg at hinge "
+              f"{design.hinges[k].id!r} and move points up to {moved:.3g} mm" if done else
+              "no closed configuration near the targets was found")
+    tolerance = (f"the tolerance is the design's angle resolution {res_deg:g} deg or the printer's "
+                 f"{res_mm:g} mm" if res_deg is not None else f"the tolerance is the printer's {res_mm:g} mm")
+    raise GeometryError(
+        f"{design.name}: the target angles do not close the loops of the hinge graph (rigid origami): "
+        f"a {gap:.3g} mm misfit at a loop hinge in the folded state; {needed} ({tolerance}), so panels "
+        "would overlap or gap; choose targets on the pattern's folding path (foldprint simulate reports the "
+        "closed angles, hinges[].final_angle_deg; docs/loops.md); --state programmed builds the flat "
+        "(programmed) shape")
+
+
+def _nearest_closed(design: Design, angles: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The closed configuration nearest to ``angles`` (Gauss-Newton from them toward them)
+    and whether the solve converged to closure."""
+    from ..physics.loops import CLOSURE_TOL, LoopSolver
+
+    solver = LoopSolver(hinge_frames(design), [h.id for h in design.hinges])
+    x, res, _, _ = solver.project(angles, angles)
+    return x, bool(np.all(np.isfinite(x)) and res <= 1e3 * CLOSURE_TOL)
+
+
+def _largest_move(design: Design, a: np.ndarray, b: np.ndarray) -> float:
+    """The largest distance (mm) a panel corner moves between the tree poses of angles
+    ``a`` and ``b`` (arc hinges), the root panel held."""
+    poses = forward(design, np.stack([a, b]), HingeModel.ARC)
+    move = 0.0
+    for k, p in enumerate(design.panels):
+        pts = np.column_stack([p.outline, np.zeros(len(p.outline)), np.ones(len(p.outline))])
+        d = (poses[0, k] @ pts.T - poses[1, k] @ pts.T)[:3]
+        move = max(move, float(np.linalg.norm(d, axis=0).max()))
+    return move
 
 
 def _local(frame: HingeFrame, rho: float) -> np.ndarray:

@@ -92,6 +92,9 @@ class Assembly:
     #: the panels and hinges (each a :class:`Piece` of kind "panel" or "hinge") the
     #: bodies were united from, for per-piece reports (:func:`bed_report`)
     units: tuple["Piece", ...] = field(default=(), repr=False, compare=False)
+    #: what the build accepted within a tolerance (loops closed at angles moved from the
+    #: targets by less than the design's or the printer's resolution), one sentence each
+    notes: tuple[str, ...] = field(default=(), compare=False)
 
     @property
     def materials(self) -> list[str]:

@@ -9,6 +9,7 @@ result ends in :func:`foldprint.model.design.validate`. This is the input layer:
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -24,6 +25,7 @@ from ..core.constants import (DEFAULT_HINGE_MATERIAL, DEFAULT_HINGE_RADIUS_MM, D
                               DEFAULT_THICKNESS_MM, tol)
 from ..model.design import Design
 from .design_io import design_from_dict
+from .fold_creases import hinge_line, largest_piece, refuse_polyline, refuse_unangled, straight_runs
 from ..core.inputs import read_input_text, shown, stem_text
 from ..core.errors import DesignError, where
 from ..model import composition
@@ -250,6 +252,7 @@ class _EdgeTable:
     radius: list
     thickness: list
     faces: list
+    xy: np.ndarray | None = None  # the vertices (file units), for the straight runs of creases
 
 
 def _unit_factor(frame: Mapping, scale, src: str) -> float:
@@ -373,17 +376,28 @@ def _panel_entries(frame: Mapping, members: list, polys: list, factor: float, sr
 
 
 def _crease_groups(et: _EdgeTable, crease: list, group_of: dict, pid_of: list, src: str) -> dict:
-    """Creases between the same two panels (or with the same hinge id) form one hinge:
-    the crease edges of each, keyed by hinge id or by the pair of panel groups."""
+    """The crease edges of each hinge: those with the same hinge id, keyed by it, or the
+    straight runs of creases between the same two panels (:func:`_straight_runs`), keyed by
+    the pair of panel groups and the run's number."""
     hgroups: dict[Any, list[int]] = {}
     for i in crease:
         ga, gb = sorted(group_of[f] for f in et.faces[i])
         if ga == gb:
             raise DesignError(f"{src}edges_vertices[{i}] is a {et.assign[i]} crease inside panel {pid_of[ga]!r}: "
-                              "the faces on its two sides are also joined by flat edges, so it does not "
-                              "separate two panels; a foldprint hinge must run between separate panels")
+                              "flat (facet) edges join the faces on its two sides into that one panel, and a "
+                              "rigid printed panel cannot fold along a crease inside it (its facets would have to "
+                              "bend); a foldprint hinge must run between separate panels")
         hgroups.setdefault(str(et.hinge_id[i]) if et.hinge_id[i] is not None else (ga, gb), []).append(i)
-    return hgroups
+    out: dict[Any, list[int]] = {}
+    for key, ids in hgroups.items():
+        if isinstance(key, str):  # a named hinge is one hinge (one line, one angle), checked later
+            out[key] = ids
+            continue
+        runs = straight_runs(et, ids)
+        refuse_polyline(et, runs, [pid_of[g] for g in key], src)
+        for k, run in enumerate(runs):
+            out[key + (k,)] = run
+    return out
 
 
 def _design_extras(frame: Mapping, src: str) -> tuple[Mapping, Mapping]:
@@ -405,6 +419,7 @@ def _hinge_entries(et: _EdgeTable, xy: np.ndarray, hgroups: dict, group_of: dict
                    default_hinge_material: str, default_radius_mm: float,
                    default_thickness_mm: float) -> list:
     """The design's hinges, one per group of creases: one line, one angle, its panels."""
+    refuse_unangled(et, [i for ids in hgroups.values() for i in ids], src)
     htaken = {k for k in hgroups if isinstance(k, str)}
     hinges = []
     for key, ids in hgroups.items():
@@ -414,13 +429,12 @@ def _hinge_entries(et: _EdgeTable, xy: np.ndarray, hgroups: dict, group_of: dict
                               f"({sorted({tuple(pid_of[g] for g in p) for p in pairs})})")
         ga, gb = pairs.pop()
         hid = key if isinstance(key, str) else _edge_id(min(ids), htaken)
-        degs = [et.angle[i] if et.angle[i] is not None else 180.0 if et.assign[i] == "V" else
-                -180.0 if et.assign[i] == "M" else 0.0 for i in ids]
+        degs = [et.angle[i] if et.angle[i] is not None else 0.0 for i in ids]
         if max(degs) - min(degs) > 1e-6:
             raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases with "
                               f"different fold angles {sorted(set(degs))} (edges_vertices {ids}); one "
                               "hinge has one angle: split a panel or give the creases one angle")
-        line = _hinge_line(xy, [et.edges[i] for i in ids])
+        line = hinge_line(xy, [et.edges[i] for i in ids])
         if line is None:
             raise DesignError(f"{src}panels {pid_of[ga]!r} and {pid_of[gb]!r} are joined by creases that "
                               f"do not lie on one line (edges_vertices {ids}); a hinge is straight")
@@ -487,6 +501,7 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     if not faces:
         raise DesignError(f"{src}faces_vertices is empty; a design needs at least one face")
     et = _edge_table(frame, faces, len(xy), src)
+    et.xy = xy
     crease, members = _facet_groups(et, len(faces), src)
     if len(members) > MAX_PANELS:  # counted before any polygon is built
         raise DesignError(f"{src}the {len(faces)} faces form {len(members)} panels (faces joined by flat edges "
@@ -499,19 +514,13 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     fp, extras = _design_extras(frame, src)
     hinges = _hinge_entries(et, xy, hgroups, group_of, pid_of, extras, src, crease_materials,
                             default_hinge_material, default_radius_mm, default_thickness_mm)
-    return design_from_dict(_design_dict(frame, fp, source, panels, hinges, factor), source, library)
-
-
-def _hinge_line(xy: np.ndarray, segs: list[list[int]]) -> np.ndarray | None:
-    """The segment spanning collinear edges, or None if they are not collinear."""
-    pts = xy[np.array(segs).reshape(-1)]
-    d = pts[1] - pts[0]
-    d = d / np.linalg.norm(d)
-    s = (pts - pts[0]) @ d
-    off = np.abs((pts - pts[0]) @ np.array([-d[1], d[0]]))
-    if off.max() > max(tol.length, 1e-9 * float(np.ptp(s))):
-        return None
-    return np.array([pts[int(np.argmin(s))], pts[int(np.argmax(s))]])
+    notes = list(frame.get("foldprint:notes") or []) if isinstance(frame.get("foldprint:notes"), list) else []
+    if frame.get("foldprint:pieces") == "largest":
+        panels, hinges = largest_piece(panels, hinges, notes)
+    design = design_from_dict(_design_dict(frame, fp, source, panels, hinges, factor), source, library)
+    if notes:
+        design = dataclasses.replace(design, notes=design.notes + tuple(str(n) for n in notes))
+    return design
 
 
 def _scaled(d: dict, factor: float) -> dict:

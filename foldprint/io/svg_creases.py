@@ -238,7 +238,15 @@ def _piece_owners(raw: list, tree, segs: list, size: float) -> np.ndarray:
     """The segment each noded piece comes from (the strongest assignment where several
     overlap; -1 for none), one bulk query instead of one per piece."""
     mids = shapely.points([(c[0] + c[-1]) / 2 for c in raw])
-    pi, sj = tree.query(mids, predicate="dwithin", distance=1e-9 * max(size, 1.0))
+    eps = 1e-9 * max(size, 1.0)
+    pi, sj = tree.query(mids, predicate="dwithin", distance=eps)
+    # a segment that only ends at a piece's midpoint does not run along it (a crease ending
+    # on the middle of a border side): it must also pass the piece's quarter points
+    lines = tree.geometries
+    for f in (0.25, 0.75):
+        q = shapely.points([c[0] + f * (c[-1] - c[0]) for c in raw])
+        on = shapely.dwithin(lines[sj], q[pi], eps) if len(pi) else np.zeros(0, bool)
+        pi, sj = pi[on], sj[on]
     seg_rank = np.array([_RANK[sg[2]] for sg in segs])
     order = np.lexsort((sj, seg_rank[sj], pi))
     first = np.unique(pi[order], return_index=True)[1]
@@ -271,7 +279,53 @@ def build_edge_graph(segs: list, tree, size: float, snap: float, src: str, verts
         assign.append(segs[best][2])
         angles.append(segs[best][3])
         pieces.append(LineString([verts.coords[a], verts.coords[b]]))
+    edges, assign, angles = split_at_dangling_ends(edges, assign, angles, verts, snap)
+    pieces = [LineString([verts.coords[a], verts.coords[b]]) for a, b in edges]
     return edges, assign, angles, pieces
+
+
+def split_at_dangling_ends(edges: list, assign: list, angles: list, verts: Vertices, snap: float):
+    """Edges split where another edge ends on them: an end that touches no other end but
+    lies within ``snap`` of an edge's interior (a T junction) joins it there. Noding splits
+    lines only where GEOS finds them crossing, and an end drawn onto a line (or snapped
+    onto it) lies off it by round-off (1e-15 to 1e-3 user units in Origami Simulator's
+    examples): unsplit, the crease dangles and borders no face."""
+    deg = np.zeros(len(verts.coords), int)
+    for a, b in edges:
+        deg[a] += 1
+        deg[b] += 1
+    ends = np.nonzero(deg == 1)[0]
+    if not len(ends) or not edges:
+        return edges, assign, angles
+    xy = np.asarray(verts.coords, float)
+    lines = shapely.linestrings(xy[np.asarray(edges)])
+    pts = shapely.points(xy[ends])
+    pi, ej = shapely.STRtree(lines).query(pts, predicate="dwithin", distance=snap)
+    e_arr = np.asarray(edges)
+    own = (e_arr[ej, 0] == ends[pi]) | (e_arr[ej, 1] == ends[pi])
+    pi, ej = pi[~own], ej[~own]
+    inserts: dict[int, list] = {}
+    if len(pi):
+        d = shapely.distance(lines[ej], pts[pi])
+        order = np.lexsort((ej, d, pi))
+        first = np.unique(pi[order], return_index=True)[1]
+        for k in order[first]:
+            e, v = int(ej[k]), int(ends[pi[k]])
+            a, b = e_arr[e]
+            t = float(shapely.line_locate_point(lines[e], pts[pi[k]], normalized=True))
+            near_end = min(np.linalg.norm(xy[v] - xy[a]), np.linalg.norm(xy[v] - xy[b]))
+            if 0.0 < t < 1.0 and near_end > snap:
+                inserts.setdefault(e, []).append((t, v))
+    if not inserts:
+        return edges, assign, angles
+    out_e, out_a, out_g = [], [], []
+    for i, (a, b) in enumerate(edges):
+        chain = [a] + [v for _, v in sorted(inserts.get(i, []))] + [b]
+        for u, w in zip(chain[:-1], chain[1:]):
+            out_e.append([u, w])
+            out_a.append(assign[i])
+            out_g.append(angles[i])
+    return out_e, out_a, out_g
 
 
 def find_faces(pieces: list, verts: Vertices, size: float, edges: list, assign: list, src: str) -> list:
@@ -288,20 +342,50 @@ def find_faces(pieces: list, verts: Vertices, size: float, edges: list, assign: 
 
 
 def check_creases(faces: list, edges: list, assign: list, coords: list, segs: list, tree,
-                   snap: float, src: str) -> None:
-    """A crease must separate two faces: name the dangling ones in SVG coordinates."""
+                  snap: float, src: str, notes: list | None = None) -> list[int]:
+    """What each crease separates: a crease between two faces is kept; one bordering a
+    single face lies on the sheet's outline (or a cut's), where nothing is on its other
+    side to fold, and is read as border; one bordering none (a stray inside a face, or in
+    a hole cut out of the sheet) folds nothing of a rigid panel and is dropped. Both are
+    counted in ``notes``. Returns the indices of the edges kept; ``assign`` is updated in
+    place. Without ``notes`` any such crease is refused, named in SVG coordinates."""
     count = {}
     for ring in faces:
         for k in range(len(ring)):
             e = (min(ring[k], ring[k - 1]), max(ring[k], ring[k - 1]))
             count[e] = count.get(e, 0) + 1
+    keep, on_edge, stray = [], [], []
     for i, (a, b) in enumerate(edges):
         n = count.get((min(a, b), max(a, b)), 0)
         if assign[i] in "MVU" and n != 2:
-            near = tree.query(shapely.Point(np.mean([coords[a], coords[b]], axis=0)),
-                              predicate="dwithin", distance=snap)
-            owner = segs[min(near, key=lambda k: _RANK[segs[k][2]])][4] if len(near) else "a segment"
-            raise DesignError(
-                f"{src}{owner}: the {CREASE_NAMES[assign[i]]} crease from ({coords[a][0]:g}, {coords[a][1]:g}) to "
-                f"({coords[b][0]:g}, {coords[b][1]:g}) borders {n} face(s); a crease must run between two "
-                "faces: extend it to the border or to another crease, or delete it")
+            if notes is None:
+                _refuse_crease(i, n, edges, assign, coords, segs, tree, snap, src)
+            (on_edge if n == 1 else stray).append(i)
+            if n == 0:
+                continue
+            assign[i] = "B"
+        keep.append(i)
+    if on_edge:
+        notes.append(f"{len(on_edge)} crease segment(s) lie on the sheet's outline (first from "
+                     f"{_at(coords, edges[on_edge[0]])}): nothing is on their other side to fold; read as border")
+    if stray:
+        notes.append(f"{len(stray)} crease segment(s) separate no two faces (first from "
+                     f"{_at(coords, edges[stray[0]])}: a stray inside a face or in a cut-out hole); a rigid "
+                     "panel cannot fold along them: dropped")
+    return keep
+
+
+def _at(coords: list, edge) -> str:
+    a, b = edge
+    return f"({coords[a][0]:g}, {coords[a][1]:g}) to ({coords[b][0]:g}, {coords[b][1]:g}) user units"
+
+
+def _refuse_crease(i: int, n: int, edges: list, assign: list, coords: list, segs: list, tree, snap: float,
+                   src: str) -> None:
+    a, b = edges[i]
+    near = tree.query(shapely.Point(np.mean([coords[a], coords[b]], axis=0)), predicate="dwithin", distance=snap)
+    owner = segs[min(near, key=lambda k: _RANK[segs[k][2]])][4] if len(near) else "a segment"
+    raise DesignError(
+        f"{src}{owner}: the {CREASE_NAMES[assign[i]]} crease from ({coords[a][0]:g}, {coords[a][1]:g}) to "
+        f"({coords[b][0]:g}, {coords[b][1]:g}) borders {n} face(s); a crease must run between two "
+        "faces: extend it to the border or to another crease, or delete it")

@@ -58,6 +58,7 @@ VERTEX_TOL = 3.0
 def fold_from_svg(text: str, src: str = "", scale: float | None = None,
                   vertex_tol: float | None = None) -> dict:
     """A FOLD crease-pattern dict (mm) from SVG text."""
+    notes: list[str] = []
     segs, factor = svg_segments(svg_root(text, src), src)
     if scale is not None:
         if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
@@ -79,7 +80,10 @@ def fold_from_svg(text: str, src: str = "", scale: float | None = None,
     verts = Vertices()
     edges, assign, angles, pieces = build_edge_graph(segs, tree, size, snap, src, verts)
     faces = find_faces(pieces, verts, size, edges, assign, src)
-    check_creases(faces, edges, assign, verts.coords, segs, tree, snap, src)
+    keep = check_creases(faces, edges, assign, verts.coords, segs, tree, snap, src, notes)
+    edges = [edges[i] for i in keep]
+    angles = [angles[i] if assign[i] != "B" else 0.0 for i in keep]
+    assign = [assign[i] for i in keep]
     span = size * factor
     if not (math.isfinite(factor) and factor > 0 and math.isfinite(span) and span <= MAX_LENGTH_MM):
         raise DesignError(f"{src}the pattern is {size:g} user units wide at {factor:g} mm per unit (from the "
@@ -89,7 +93,8 @@ def fold_from_svg(text: str, src: str = "", scale: float | None = None,
     faces = [r[::-1] for r in faces]  # keep counter-clockwise after the mirror
     return {"file_spec": 1.2, "file_creator": "foldprint.io.svg_format", "frame_classes": ["creasePattern"],
             "frame_unit": "mm", "vertices_coords": xy, "faces_vertices": faces, "edges_vertices": edges,
-            "edges_assignment": assign, "edges_foldAngle": angles}
+            "edges_assignment": assign, "edges_foldAngle": angles, "foldprint:notes": notes,
+            "foldprint:pieces": "largest"}
 
 
 def design_from_svg(text: str, source: str = "", library: MaterialLibrary | None = None,

@@ -127,8 +127,10 @@ def _path_polylines(d: str, src: str, what: str) -> list[list[tuple[float, float
         if cmd is None:
             raise DesignError(f"{src}{what}: path data must start with a command (M)")
         if cmd not in "MmLlHhVv":
-            raise DesignError(f"{src}{what}: path command {cmd!r} (a curve or arc) is not supported; Origami "
-                              "Simulator's convention uses straight segments only: flatten curves to lines")
+            raise DesignError(f"{src}{what}: path command {cmd!r} draws a curve or arc: a curved crease bends "
+                              "the panels beside it as it folds, which rigid printed panels joined by straight "
+                              "hinges cannot do; foldprint reads straight creases only (flatten the curve to "
+                              "lines for a faceted approximation)")
         rel = cmd.islower()
         c = cmd.upper()
         if c in "ML":
@@ -279,4 +281,31 @@ def svg_root(text: str, src: str):
         raise DesignError(f"{src}not valid SVG/XML: {exc}") from None
     if _tag(root) != "svg":
         raise DesignError(f"{src}the root element is <{_tag(root)}>, not <svg>")
+    _apply_classes(root)
     return root
+
+
+_CLASS_RULE = re.compile(r"([^{}]+)\{([^{}]*)\}")
+
+
+def _apply_classes(root) -> None:
+    """Class rules of the document's ``<style>`` sheets (``.st2{stroke:#FF0000}``, as
+    Illustrator writes them; Origami Simulator reads the browser's computed style, which
+    applies them) copied into the ``style`` of the elements of that class, before their own
+    inline style (which wins, as in CSS). Only plain class selectors are read."""
+    rules: dict[str, str] = {}
+    for el in root.iter():
+        if _tag(el) == "style" and el.text:
+            text = re.sub(r"/\*.*?\*/", "", el.text, flags=re.S)
+            for selectors, body in _CLASS_RULE.findall(text):
+                for sel in selectors.split(","):
+                    sel = sel.strip()
+                    if re.fullmatch(r"\.[-\w]+", sel):
+                        rules[sel[1:]] = rules.get(sel[1:], "") + ";" + body
+    if not rules:
+        return
+    for el in root.iter():
+        names = (el.get("class") or "").split()
+        extra = ";".join(rules[n] for n in names if n in rules)
+        if extra:
+            el.set("style", extra + ";" + (el.get("style") or ""))

@@ -183,6 +183,9 @@ class Design:
     depth: float = 0.0  # mm, the strip depth for planar (side-view) designs; 0 = not a strip
     source: str = ""  # where it was loaded from, for messages
     paper: PaperRef | None = None  # a structure of the paper: its name, figure and statements
+    #: what a reader changed in the file to make it a design (strays dropped, a crease on
+    #: the sheet's edge read as its border), one sentence each; the CLI prints them
+    notes: tuple[str, ...] = field(default=(), compare=False)
 
     def __post_init__(self):
         object.__setattr__(self, "panels", tuple(self.panels))

@@ -18,8 +18,9 @@ from .derived import derived
 
 
 def shared_edge(a: Panel, b: Panel) -> np.ndarray | None:
-    """The longest common boundary segment of two panel outlines, (2, 2), or None."""
-    inter = a.polygon.exterior.intersection(b.polygon.exterior)
+    """The longest common boundary segment of two panels, (2, 2), or None. Holes' rings
+    count: a flap cut from a window of its neighbour meets it on the window's edge."""
+    inter = a.polygon.boundary.intersection(b.polygon.boundary)
     best, best_len = None, tol.length * 100
     for g in getattr(inter, "geoms", [inter]):
         if isinstance(g, LineString) and g.length > best_len:

@@ -177,13 +177,24 @@ def _check_hinge_place(h: Hinge, item: str, by_id: Mapping[str, Panel]) -> None:
     """The hinge's fold line lies on the edge its two panels share."""
     a, b = (by_id[pid] for pid in h.panels)
     edge = shared_edge(a, b)
+    line = LineString(h.line)
     if edge is None:
+        if _on_common_side(line, a, b):
+            return
         raise DesignError(f"{item}panels {a.id!r} and {b.id!r} share no edge; a hinge joins two "
                           "panels along a common side of their outlines")
-    line = LineString(h.line)
-    if line.distance(LineString(edge)) > 1e-3 or line.length > LineString(edge).length + 1e-3:
+    if (line.distance(LineString(edge)) > 1e-3 or line.length > LineString(edge).length + 1e-3) \
+            and not _on_common_side(line, a, b):
         raise DesignError(f"{item}fold line {h.line.tolist()} does not lie on the edge shared by "
                           f"{a.id!r} and {b.id!r} ({edge.tolist()})")
+
+
+def _on_common_side(line: LineString, a: Panel, b: Panel) -> bool:
+    """The fold line lies on the common boundary of the two outlines (within 1e-3 mm): two
+    panels may meet along several sides (a crease pattern's two panels joined by creases
+    on two lines), and a hinge may lie on any of them, not only the longest."""
+    common = a.polygon.boundary.intersection(b.polygon.boundary)
+    return not common.is_empty and line.difference(common.buffer(1e-3)).length <= 1e-3
 
 
 def _check_style(h: Hinge, item: str) -> None:
