@@ -78,6 +78,7 @@ def calibrate(
     Example: foldprint calibrate foldprint/data/paper_hinge_data.csv --out mine.toml --plot fit.png
     """
     from ..apps import calibrate as cal
+    from ..apps.calibrate_library import change_lines
     from ..apps.resolve import load_library
 
     lib = load_library(materials_file)
@@ -90,7 +91,9 @@ def calibrate(
                            + [f"--per-material {x}" for x in per_material or ()]
                            + [f"--materials {x}" for x in materials_file or ()])
         cal.write(result, out, data, command)
-        echo_note(f"wrote {out}")
+        echo_note(f"wrote {out}: the library's materials unchanged, except:")
+        for line in change_lines(cal.changes(result)):
+            echo_note("  " + line)
     if plot is not None:
         cal.plot(result, plot)
         echo_note(f"wrote {plot}")
