@@ -19,7 +19,7 @@ from ..exchange.materials_file import write_materials
 from ..io.hinge_data import HingeData, load_hinge_data, read_text
 from ..model.materials import MaterialLibrary
 from ..physics.calibration import FITTABLE, Fit, Hold, Problem, fit_best, holds
-from ..physics.calibration_profile import Interval, curve_residuals, findings, profile
+from ..physics.calibration_profile import Interval, curve_residuals, findings, profile, row_reading
 from .calibrate_library import changes, entries
 
 log = logging.getLogger(__name__)
@@ -142,7 +142,8 @@ def to_json(cal: Calibration) -> dict:
                        "bounds": [b.lower, b.upper], "bound_kind": b.kind, "bound_source": b.source})
     rows = [{"line": o.line, "kind": o.kind, "material": o.material, "reference": o.reference, "bath_c": o.bath_c,
              "thickness_mm": o.thickness_mm, "time_s": o.time_s, "level": o.level, "relation": o.relation,
-             "measured": o.value, "model": float(m), "sigma": float(s), "residual_sigma": float(r)}
+             "measured": o.value, "model": float(m), "sigma": float(s), "residual_sigma": float(r),
+             **_reading(o, float(m), float(s))}
             for o, m, s, r in zip(pb.data.observations, f.predictions, pb.sigmas, f.residuals)]
     delta = cal.start_chi2 - f.chi2
     return {"data": pb.data.source, "materials": pb.materials, "parameters": params,
@@ -156,6 +157,13 @@ def to_json(cal: Calibration) -> dict:
                       "inside_joint_region": bool(delta <= cal.joint_threshold)},
             "curves": cal.curves, "rows": rows, "findings": cal.findings,
             "fixity": {m: float(x) for m, x in pb.fixity.items()}, "changes": changes(cal)}
+
+
+def _reading(o, model: float, sigma: float) -> dict:
+    """A time row's verdict under the one reading of the paper's words (its sigma as the
+    tolerance): ``reading`` (words and interval) and ``verdict``; None for other rows."""
+    rd = row_reading(o, sigma)
+    return {"reading": None if rd is None else rd.text, "verdict": None if rd is None else rd.verdict(model)}
 
 
 def run(data_path: str | Path, library: MaterialLibrary, fixed: dict | None = None, per_material=(),

@@ -50,6 +50,13 @@ def _print(out: dict) -> None:
         lvl = f" to {c['level']:.0%}" if c["level"] is not None else ""
         echo(f"    {c['kind']} {c['material']}{ref} {c['bath_c']:g} C {c['thickness_mm']:g} mm{lvl}: "
              f"{c['rms']:.3g} {c['unit']} ({c['rms_sigma']:.2f} sigma, {c['rows']} rows)")
+    timed = [r for r in out["rows"] if r["verdict"] is not None]
+    if timed:
+        echo("  time rows, read as the paper's words are (docs/structure-timings.md):")
+        for r in timed:
+            what = f"{r['kind']} {r['material']}" + (f" - {r['reference']}" if r["reference"] else "")
+            echo(f"    line {r['line']}: {what} at {r['bath_c']:g} C: {r['reading']}; model {r['model']:.2f} s: "
+                 f"{r['verdict']}")
     for fd in out["findings"]:
         echo(f"  note: {fd['message']}")
 

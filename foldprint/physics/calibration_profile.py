@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.paper_reading import Reading, read
 from .calibration import Fit, Problem, solve
 
 #: Where the profile is evaluated on each side: fractions of the way from the optimum to
@@ -133,6 +134,19 @@ def curve_residuals(problem: Problem, fit: Fit) -> list[dict]:
     return out
 
 
+#: Row kinds whose value is a time read like the paper's words.
+TIME_KINDS = ("time_to", "spread")
+
+
+def row_reading(o, sigma: float) -> Reading | None:
+    """A ``time_to`` / ``spread`` row's value and relation read as the paper's words are
+    (:mod:`foldprint.model.paper_reading`), the row's sigma as the tolerance (0.5 s on the
+    paper's rows, its reading of "~"); None for other rows."""
+    if o.kind not in TIME_KINDS:
+        return None
+    return read(o.relation, o.value, sigma, "the row's sigma")
+
+
 def _fmt(v: float, unit: str) -> str:
     return f"{v:.4g}{(' ' + unit) if unit and not unit.startswith('log') else ''}"
 
@@ -186,10 +200,13 @@ def findings(problem: Problem, fit: Fit, intervals: tuple[Interval, ...]) -> lis
                         f"{p.label} is not identified {side} its value {_fmt(iv.value, b.unit)}: the fit stays "
                         f"within the {problem.config.confidence:.0%} threshold up to the bound. To fix it: {b.remedy}"})
     for o, r, sg, m in zip(problem.data.observations, fit.residuals, problem.sigmas, fit.predictions):
-        if o.relation != "about" and r != 0.0:
-            out.append({"code": "relation", "line": o.line, "message":
-                        f"line {o.line}: the data say {o.kind} of {o.material} at {o.bath_c:g} C is "
-                        f"{o.relation.replace('_', ' ')} {o.value:g} s; the model misses that by {abs(r) * sg:.2f} s"})
+        rd = row_reading(o, sg)
+        if o.relation != "about" and rd is not None:
+            if rd.verdict(float(m)) == "misses":
+                out.append({"code": "relation", "line": o.line, "message":
+                            f"line {o.line}: the data say {o.kind} of {o.material} at {o.bath_c:g} C is "
+                            f"{rd.phrase} ({rd.read_as}); the model, {m:.3g} s, misses that by "
+                            f"{rd.off_by(float(m)):.2f} s"})
         elif abs(r) > MISS_SIGMA:
             unit = {"ratio": "", "angle": " deg"}.get(o.kind, " s")
             what = f"{o.kind} of {o.material}" + (f" - {o.reference}" if o.reference else "")
