@@ -138,7 +138,8 @@ def to_json(cal: Calibration) -> dict:
         iv = ivs.get(p.label)
         params.append({"name": p.name, "material": p.material, "value": float(v), "unit": b.unit,
                        "start": float(x0), "low": iv.low if iv else None, "high": iv.high if iv else None,
-                       "identified": iv.identified if iv else None, "at_bound": iv.at_bound if iv else None,
+                       "identified": iv.identified if iv else None,
+                       "identified_why": iv.why if iv else None, "at_bound": iv.at_bound if iv else None,
                        "bounds": [b.lower, b.upper], "bound_kind": b.kind, "bound_source": b.source})
     rows = [{"line": o.line, "kind": o.kind, "material": o.material, "reference": o.reference, "bath_c": o.bath_c,
              "thickness_mm": o.thickness_mm, "time_s": o.time_s, "level": o.level, "relation": o.relation,
