@@ -37,7 +37,8 @@ def _print(out: dict) -> None:
         label = p["name"] + (f"[{p['material']}]" if p["material"] else "")
         iv = "-" if p["low"] is None else f"{p['low']:.4g} .. {p['high']:.4g}"
         mark = f" (at {p['at_bound']} bound)" if p["at_bound"] else ""
-        table.add_row(label, f"{p['value']:.4g} {p['unit']}".strip() + mark, iv, (p["identified"] or "-") + (" (0 dof)" if f["dof"] <= 0 and p["identified"] else ""),
+        ident = (p["identified"] or "-") + (" (0 dof)" if f["dof"] <= 0 and p["identified"] else "")
+        table.add_row(label, f"{p['value']:.4g} {p['unit']}".strip() + mark, iv, ident,
                       f"{p['bounds'][0]:g} .. {p['bounds'][1]:g} ({p['bound_kind']})")
     Console(file=sys.stdout, width=130).print(table)
     if out["held"]:

@@ -20,6 +20,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .paper_statements import load_statements
+
 #: The phrase each kind stands for.
 PHRASES = {"about": "~{} s", "at_most": "within ~{} s", "at_least": "after {} s"}
 #: Slack for floating point at the interval's ends (s).
@@ -88,8 +90,6 @@ class Reading:
 
 def paper_tolerance() -> float:
     """Our reading of the paper's "~" (s): ``approx_tol_s`` of ``data/paper_timings.toml``."""
-    from .paper_statements import load_statements
-
     return load_statements().approx_tol_s
 
 
