@@ -82,6 +82,17 @@ def test_a_new_material_is_not_called_a_blend(myresin):
     assert fraction_profile(lib, "H-1").uniform
 
 
+def test_blend_is_a_boolean():
+    from foldprint.model.materials import parse_library
+
+    raw = {"materials": {"R": {"role": "hinge", "tg_c": 50.0, "blend": "no"}}}
+    with pytest.raises(MaterialError, match=r"blend.*must be true"):
+        parse_library(raw, "r.toml", base=default_library())
+    raw["materials"]["R"]["blend"] = False
+    assert not parse_library(raw, "r.toml", base=default_library())["R"].blend
+    assert default_library()["H-4"].blend
+
+
 def test_zero_degrees_of_freedom_identify_nothing(myresin):
     c, _ = myresin
     assert c.fit.dof == 0 and c.intervals
