@@ -800,6 +800,8 @@ def test_each_section_quotes_the_paper_beside_the_model(gallery):
             assert st[ln["id"]].quote in text and ln["model"] in text
             if ln["ratio"] is not None:
                 assert f"{ln['ratio']:.2f}" in text
+            if ln["reading"] and ln["verdict"] in ("meets", "misses"):  # the tolerance beside a verdict on a number
+                assert f"{ln['verdict']} ({ln['reading']['read_as']})" in text
 
 
 def test_a_part_that_cannot_be_built_is_reported_as_a_verdict_not_a_crash(tmp_path):

@@ -10,17 +10,18 @@ from __future__ import annotations
 
 import hashlib
 import logging
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.version import __version__
 from ..core.errors import DataError
-from ..exchange.materials_file import Entry, write_materials
+from ..exchange.materials_file import write_materials
 from ..io.hinge_data import HingeData, load_hinge_data, read_text
 from ..model.materials import MaterialLibrary
-from ..physics.calibration import FITTABLE, Fit, Hold, Problem, fit_best, fitted_materials, holds
-from ..physics.calibration_profile import Interval, curve_residuals, findings, profile
+from ..physics.calibration import FITTABLE, Fit, Hold, Problem, fit_best, holds
+from ..physics.calibration_profile import Interval, curve_residuals, findings, profile, row_reading
 from ..physics.calibration_cost import check_fit
+from .calibrate_library import changes, entries
 
 log = logging.getLogger(__name__)
 
@@ -101,35 +102,6 @@ def calibrate(data: HingeData, library: MaterialLibrary, fixed: dict | None = No
                        held_by)
 
 
-def entries(cal: Calibration) -> list[Entry]:
-    """The materials the file holds: every measured one (fitted parameters, measured Tg and
-    fixity), then every other hinge material of the library with the shared fitted values
-    (the recovery parameters do not depend on the grade, data/composition.toml)."""
-    pb = cal.problem
-    fitted = fitted_materials(pb, cal.fit.x)
-    labels = {iv.label: iv for iv in cal.intervals}
-    out = []
-    for name, mat in fitted.items():
-        notes = [f"{name}: fitted to {sum(name in (o.material, o.reference) for o in pb.data.observations)} rows"]
-        tg = pb.data.tg(name)
-        notes.append(f"tg_c: {'measured, ' + pb.data.property_source('tg', name) if tg is not None else 'the library'}")
-        for p, v in zip(pb.params, cal.fit.x):
-            if p.material in (None, name):
-                iv = labels.get(p.label)
-                rng = f" [{iv.low:.4g}, {iv.high:.4g}] ({pb.config.confidence:.0%}, identified: {iv.identified})" \
-                    if iv else ""
-                notes.append(f"{p.name} = {v:.6g}{rng}")
-        out.append(Entry(mat, name not in pb.library, tg is not None or name not in pb.library, tuple(notes)))
-    shared = {p.name: float(v) for p, v in zip(pb.params, cal.fit.x) if p.material is None}
-    shared.update(pb.fixed)
-    for mat in pb.library.hinges():
-        if mat.name in fitted or mat.recovery is None:
-            continue
-        out.append(Entry(replace(mat, recovery=replace(mat.recovery, **shared), fixity=None), False, False,
-                         (f"{mat.name}: not measured; the shared fitted parameters",)))
-    return out
-
-
 def header(cal: Calibration, data_path: str | Path, command: str) -> list[str]:
     digest = hashlib.sha256(read_text(data_path, "the measurements").encode("utf-8")).hexdigest()[:16]
     f, pb = cal.fit, cal.problem
@@ -168,11 +140,13 @@ def to_json(cal: Calibration) -> dict:
         iv = ivs.get(p.label)
         params.append({"name": p.name, "material": p.material, "value": float(v), "unit": b.unit,
                        "start": float(x0), "low": iv.low if iv else None, "high": iv.high if iv else None,
-                       "identified": iv.identified if iv else None, "at_bound": iv.at_bound if iv else None,
+                       "identified": iv.identified if iv else None,
+                       "identified_why": iv.why if iv else None, "at_bound": iv.at_bound if iv else None,
                        "bounds": [b.lower, b.upper], "bound_kind": b.kind, "bound_source": b.source})
     rows = [{"line": o.line, "kind": o.kind, "material": o.material, "reference": o.reference, "bath_c": o.bath_c,
              "thickness_mm": o.thickness_mm, "time_s": o.time_s, "level": o.level, "relation": o.relation,
-             "measured": o.value, "model": float(m), "sigma": float(s), "residual_sigma": float(r)}
+             "measured": o.value, "model": float(m), "sigma": float(s), "residual_sigma": float(r),
+             **_reading(o, float(m), float(s))}
             for o, m, s, r in zip(pb.data.observations, f.predictions, pb.sigmas, f.residuals)]
     delta = cal.start_chi2 - f.chi2
     return {"data": pb.data.source, "materials": pb.materials, "parameters": params,
@@ -185,7 +159,14 @@ def to_json(cal: Calibration) -> dict:
             "start": {"chi2": cal.start_chi2, "delta_chi2": delta, "joint_threshold": cal.joint_threshold,
                       "inside_joint_region": bool(delta <= cal.joint_threshold)},
             "curves": cal.curves, "rows": rows, "findings": cal.findings,
-            "fixity": {m: float(x) for m, x in pb.fixity.items()}}
+            "fixity": {m: float(x) for m, x in pb.fixity.items()}, "changes": changes(cal)}
+
+
+def _reading(o, model: float, sigma: float) -> dict:
+    """A time row's verdict under the one reading of the paper's words (its sigma as the
+    tolerance): ``reading`` (words and interval) and ``verdict``; None for other rows."""
+    rd = row_reading(o, sigma)
+    return {"reading": None if rd is None else rd.text, "verdict": None if rd is None else rd.verdict(model)}
 
 
 def run(data_path: str | Path, library: MaterialLibrary, fixed: dict | None = None, per_material=(),

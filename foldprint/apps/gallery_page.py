@@ -241,12 +241,21 @@ def _paper_html(entry: Entry) -> list[str]:
         ratio = "" if p["ratio"] is None else f"{p['ratio']:.2f}"
         rows.append(f"<tr><td>{esc(p['figure'])}</td><td>{esc(p['what'])}<blockquote>\u201c{esc(p['quote'])}"
                     f"\u201d</blockquote></td><td class=\"num\">{esc(paper)}</td><td class=\"num\">{esc(model)}</td>"
-                    f"<td class=\"num\">{esc(ratio)}</td><td>{esc(p['verdict'])} \u2014 {esc(p['model'])}</td></tr>")
+                    f"<td class=\"num\">{esc(ratio)}</td><td>{esc(p['verdict'])}{esc(_read_as(p))} \u2014 "
+                    f"{esc(p['model'])}</td></tr>")
     return ["<h3>The paper beside the model</h3><table><thead><tr><th>figure</th><th>the paper says</th>"
             "<th>paper</th><th>model</th><th>model / paper</th><th>verdict</th></tr></thead>"
             f"<tbody>{''.join(rows)}</tbody></table>",
-            '<p class="muted">The paper\u2019s times are read off video frames to the half second; '
-            "\u201c~X s\u201d is met within \u00b10.5 s (docs/structure-timings.md).</p>"]
+            '<p class="muted">The paper\u2019s times are read off video frames to the half second; each '
+            "verdict names the interval its words are read as (docs/structure-timings.md).</p>"]
+
+
+def _read_as(p: dict) -> str:
+    """" (read as 6.5-7.5 s, +/-0.5 s)" beside a verdict on a number; "" otherwise."""
+    r = p.get("reading")
+    if not r or p["verdict"] not in ("meets", "misses"):
+        return ""
+    return f" ({r['read_as']})"
 
 
 def _hinges_and_goals(d, sim: dict, lib: MaterialLibrary) -> list[str]:

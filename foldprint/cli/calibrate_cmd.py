@@ -37,7 +37,8 @@ def _print(out: dict) -> None:
         label = p["name"] + (f"[{p['material']}]" if p["material"] else "")
         iv = "-" if p["low"] is None else f"{p['low']:.4g} .. {p['high']:.4g}"
         mark = f" (at {p['at_bound']} bound)" if p["at_bound"] else ""
-        table.add_row(label, f"{p['value']:.4g} {p['unit']}".strip() + mark, iv, p["identified"] or "-",
+        ident = (p["identified"] or "-") + (" (0 dof)" if f["dof"] <= 0 and p["identified"] else "")
+        table.add_row(label, f"{p['value']:.4g} {p['unit']}".strip() + mark, iv, ident,
                       f"{p['bounds'][0]:g} .. {p['bounds'][1]:g} ({p['bound_kind']})")
     Console(file=sys.stdout, width=130).print(table)
     if out["held"]:
@@ -50,6 +51,13 @@ def _print(out: dict) -> None:
         lvl = f" to {c['level']:.0%}" if c["level"] is not None else ""
         echo(f"    {c['kind']} {c['material']}{ref} {c['bath_c']:g} C {c['thickness_mm']:g} mm{lvl}: "
              f"{c['rms']:.3g} {c['unit']} ({c['rms_sigma']:.2f} sigma, {c['rows']} rows)")
+    timed = [r for r in out["rows"] if r["verdict"] is not None]
+    if timed:
+        echo("  time rows, read as the paper's words are (docs/structure-timings.md):")
+        for r in timed:
+            what = f"{r['kind']} {r['material']}" + (f" - {r['reference']}" if r["reference"] else "")
+            echo(f"    line {r['line']}: {what} at {r['bath_c']:g} C: {r['reading']}; model {r['model']:.2f} s: "
+                 f"{r['verdict']}")
     for fd in out["findings"]:
         echo(f"  note: {fd['message']}")
 
@@ -78,6 +86,7 @@ def calibrate(
     Example: foldprint calibrate foldprint/data/paper_hinge_data.csv --out mine.toml --plot fit.png
     """
     from ..apps import calibrate as cal
+    from ..apps.calibrate_library import change_lines
     from ..apps.resolve import load_library
 
     lib = load_library(materials_file)
@@ -90,7 +99,9 @@ def calibrate(
                            + [f"--per-material {x}" for x in per_material or ()]
                            + [f"--materials {x}" for x in materials_file or ()])
         cal.write(result, out, data, command)
-        echo_note(f"wrote {out}")
+        echo_note(f"wrote {out}: the library's materials unchanged, except:")
+        for line in change_lines(cal.changes(result)):
+            echo_note("  " + line)
     if plot is not None:
         cal.plot(result, plot)
         echo_note(f"wrote {plot}")

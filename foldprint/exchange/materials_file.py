@@ -62,6 +62,8 @@ def materials_toml(entries: Sequence[Entry], header: Sequence[str]) -> str:
         out.append(f"[materials.{_key(m.name)}]\n")
         if e.new:
             out.append(f"role = {_str(m.role)}\ncolor = {_str(m.color)}\ndescription = {_str(m.description)}\n")
+            if not m.blend:
+                out.append("blend = false\n")
         if e.write_tg or e.new:
             out.append(f"tg_c = {_num(m.tg_c)}\n")
         if m.fixity is not None:

@@ -418,6 +418,9 @@ def fraction_profile(library, material_name: str) -> FractionProfile:
     if mat.role != "hinge":
         raise MaterialError(f"material {material_name!r} is a {mat.role} material, not a hinge "
                             "material; it has no VeroWhite fraction profile")
+    if not mat.blend:
+        raise MaterialError(f"material {material_name!r} is not a VeroWhite/TangoBlack digital material (its "
+                            "materials file says blend = false); it has no VeroWhite fraction profile")
     w = composition_model().fraction(mat.tg_c)
     return FractionProfile((float(w),), None)
 

@@ -107,6 +107,11 @@ class Material:
     profile: FractionProfile | None = None
     fixity: float | None = None
     fixity_source: str = ""
+    #: A digital material jetted from VeroWhite and TangoBlack (the paper's grades, the
+    #: ``VW...`` names): the composition model and the PolyJet resin count apply to it.
+    #: False for a resin of its own (``calibrate`` writes ``blend = false`` for a material it
+    #: adds: its data do not say what it is made of).
+    blend: bool = True
 
     @property
     def shape_fixity(self) -> float:
@@ -199,7 +204,7 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     at = sc.Where(src, f"materials.{name}", error=MaterialError)
     sc.ident(name, at)
     sc.table(raw, at, {"role", "tg_c", "color", "description", "max_strain", "recovery", "source", "fixity",
-                         "fixity_source"})
+                         "fixity_source", "blend"})
     prev = previous
     role = raw.get("role", prev.role if prev else None)
     if role not in ROLES:
@@ -218,6 +223,10 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     fixity = raw.get("fixity", prev.fixity if prev else None)
     if fixity is not None:  # a measured shape fixity; None: the material's default (default_fixity)
         fixity = sc.number(fixity, at / "fixity", 0.0, 1.0, "(a fraction)", lo_open=True)
+    blend = raw.get("blend", prev.blend if prev else True)
+    if not isinstance(blend, bool):
+        raise (at / "blend").fail(f"must be true (a VeroWhite/TangoBlack digital material) or false, "
+                                  f"got {sc.describe(blend)}")
     rec = None
     if role == "hinge":
         merged = dict(base_rec)
@@ -234,7 +243,7 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     text = {k: sc.string(raw.get(k, getattr(prev, k) if prev else ""), at / k, sc.MAX_TEXT)
             for k in ("description", "source", "fixity_source")}
     return Material(name=name, role=role, tg_c=tg, color=color, max_strain=max_strain, recovery=rec,
-                    fixity=fixity, **text)
+                    fixity=fixity, blend=blend, **text)
 
 
 def parse_library(data: Mapping, src: str, base: MaterialLibrary | None = None) -> MaterialLibrary:

@@ -258,9 +258,11 @@ def tool_fit(printer: Printer, materials: Iterable[str], library: MaterialLibrar
     hinges = tuple(m for m in mats if m in library and library[m].role == "hinge")
     if not printer.base_resins:
         return ToolFit(printer, mats, mats, (), hinges)
+    # a hinge material that is not a VeroWhite/TangoBlack blend (Material.blend) is a resin of its own
+    mixed = tuple(m for m in hinges if library[m].blend)
     feeds: list[str] = []
     for m in mats:
-        for r in (DIGITAL_SMP_RESINS if m in hinges else (m,)):
+        for r in (DIGITAL_SMP_RESINS if m in mixed else (m,)):
             if r not in feeds:
                 feeds.append(r)
-    return ToolFit(printer, mats, tuple(feeds), hinges, hinges)
+    return ToolFit(printer, mats, tuple(feeds), mixed, hinges)

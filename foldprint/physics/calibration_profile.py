@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.paper_reading import Reading, read
 from .calibration import Fit, Problem, solve
 
 #: Where the profile is evaluated on each side: fractions of the way from the optimum to
@@ -42,12 +43,29 @@ class Interval:
     open_high: bool
     at_bound: str | None  # "lower", "upper" or None
     points: tuple  # (value, delta chi2) evaluated, for plots and reports
+    no_dof: bool = False  # the fit had no degrees of freedom left: the profile cannot identify
 
     @property
     def identified(self) -> str:
-        """"yes", "one side" or "no"."""
+        """"yes", "one side" or "no" ("no" whenever the fit had no degrees of freedom)."""
+        if self.no_dof:
+            return "no"
         n = int(self.open_low) + int(self.open_high)
         return ("yes", "one side", "no")[n]
+
+    @property
+    def why(self) -> str:
+        """Why :attr:`identified` is not "yes" ("" when it is)."""
+        if self.no_dof:
+            return NO_DOF_WHY
+        return {"one side": "open on one side: the profile reaches a bound within the threshold",
+                "no": "open on both sides: the profile reaches both bounds within the threshold"}.get(
+                    self.identified, "")
+
+
+#: Why a fit with no degrees of freedom identifies nothing.
+NO_DOF_WHY = ("no degrees of freedom left (as many free parameters as rows or more): with nothing over to "
+              "measure the scatter by, the threshold of the profile means nothing")
 
 
 def at_bound(problem: Problem, fit: Fit, j: int) -> str | None:
@@ -109,7 +127,7 @@ def profile(problem: Problem, fit: Fit, confidence: float | None = None) -> tupl
             pts += ps
         pts.append((float(fit.x[j]), 0.0))
         out.append(Interval(p.label, float(fit.x[j]), ends[0], ends[1], opens[0], opens[1], at,
-                            tuple(sorted(pts))))
+                            tuple(sorted(pts)), fit.dof <= 0))
     return tuple(out)
 
 
@@ -133,6 +151,19 @@ def curve_residuals(problem: Problem, fit: Fit) -> list[dict]:
     return out
 
 
+#: Row kinds whose value is a time read like the paper's words.
+TIME_KINDS = ("time_to", "spread")
+
+
+def row_reading(o, sigma: float) -> Reading | None:
+    """A ``time_to`` / ``spread`` row's value and relation read as the paper's words are
+    (:mod:`foldprint.model.paper_reading`), the row's sigma as the tolerance (0.5 s on the
+    paper's rows, its reading of "~"); None for other rows."""
+    if o.kind not in TIME_KINDS:
+        return None
+    return read(o.relation, o.value, sigma, "the row's sigma")
+
+
 def _fmt(v: float, unit: str) -> str:
     return f"{v:.4g}{(' ' + unit) if unit and not unit.startswith('log') else ''}"
 
@@ -146,7 +177,8 @@ def findings(problem: Problem, fit: Fit, intervals: tuple[Interval, ...]) -> lis
     if fit.dof <= 0:
         out.append({"code": "underdetermined", "message":
                     f"{n} measurement rows for {k} free parameters: the data can fix at most {n} combinations "
-                    "of them; add curves (ratio rows) or hold parameters (--fix)"})
+                    "of them, and no parameter is identified (" + NO_DOF_WHY + "); add curves (ratio rows) or "
+                    "hold parameters (--fix)"})
     if fit.rank < k:
         out.append({"code": "rank", "message":
                     f"the data fix only {fit.rank} of {k} parameter combinations (rank of the Jacobian at the "
@@ -179,17 +211,20 @@ def findings(problem: Problem, fit: Fit, intervals: tuple[Interval, ...]) -> lis
             out.append({"code": "at_bound", "parameter": p.label, "message":
                         f"{p.label} = {_fmt(fit.x[j], b.unit)} is at its {at} bound {_fmt(edge, b.unit)} "
                         f"({why}; the bound: {b.source}). To fix it: {b.remedy}"})
-        elif iv is not None and (iv.open_low or iv.open_high):
+        elif iv is not None and (iv.open_low or iv.open_high) and not iv.no_dof:
             side = ("on either side of" if iv.open_low and iv.open_high else
                     "below" if iv.open_low else "above")
             out.append({"code": "not_identified", "parameter": p.label, "message":
                         f"{p.label} is not identified {side} its value {_fmt(iv.value, b.unit)}: the fit stays "
                         f"within the {problem.config.confidence:.0%} threshold up to the bound. To fix it: {b.remedy}"})
     for o, r, sg, m in zip(problem.data.observations, fit.residuals, problem.sigmas, fit.predictions):
-        if o.relation != "about" and r != 0.0:
-            out.append({"code": "relation", "line": o.line, "message":
-                        f"line {o.line}: the data say {o.kind} of {o.material} at {o.bath_c:g} C is "
-                        f"{o.relation.replace('_', ' ')} {o.value:g} s; the model misses that by {abs(r) * sg:.2f} s"})
+        rd = row_reading(o, sg)
+        if o.relation != "about" and rd is not None:
+            if rd.verdict(float(m)) == "misses":
+                out.append({"code": "relation", "line": o.line, "message":
+                            f"line {o.line}: the data say {o.kind} of {o.material} at {o.bath_c:g} C is "
+                            f"{rd.phrase} ({rd.read_as}); the model, {m:.3g} s, misses that by "
+                            f"{rd.off_by(float(m)):.2f} s"})
         elif abs(r) > MISS_SIGMA:
             unit = {"ratio": "", "angle": " deg"}.get(o.kind, " s")
             what = f"{o.kind} of {o.material}" + (f" - {o.reference}" if o.reference else "")

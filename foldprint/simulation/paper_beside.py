@@ -20,6 +20,7 @@ import numpy as np
 from ..core.display import first_few, percent, seconds
 from ..core.constants import FOLD_LEVEL, ONSET_LEVEL
 from ..model.design import Design
+from ..model.paper_reading import PHRASES, Reading, read
 from ..model.paper_statements import Statement, load_statements
 from .simulate import SimulationResult, crossing_times
 
@@ -118,26 +119,29 @@ def model_value(s: Statement, result: SimulationResult) -> ModelValue:
     raise ValueError(f"statement {s.id!r}: measure {m!r} is not read off a structure's simulation")
 
 
-def verdict(statement: Statement, value: ModelValue, tol_s: float) -> str:
+def reading(statement: Statement, tol_s: float | None = None) -> Reading | None:
+    """The statement's words as one interval (:mod:`foldprint.model.paper_reading`); None
+    for a statement without a number."""
+    if statement.kind not in PHRASES or statement.value_s is None:
+        return None
+    return read(statement.kind, statement.value_s, tol_s)
+
+
+def verdict(statement: Statement, value: ModelValue, tol_s: float | None = None) -> str:
     """'meets', 'misses', 'never happens' (the model has no such event), or '-' (no number
-    to compare)."""
+    to compare); a number is judged by :func:`reading` (``tol_s`` None: the paper's)."""
     if statement.kind in ("none", "qualitative"):
         if statement.kind == "qualitative" and "holds" in value.compare:
             return "meets" if value.compare["holds"] else "misses"
         return "-"
-    if value.value_s is None:
-        return "never happens"
-    v, x = value.value_s, statement.value_s
-    ok = {"about": abs(v - x) <= tol_s + 1e-9, "at_most": v <= x + tol_s + 1e-9,
-          "at_least": v >= x - tol_s - 1e-9}[statement.kind]
-    return "meets" if ok else "misses"
+    return reading(statement, tol_s).verdict(value.value_s)
 
 
 def paper_value_text(s: Statement) -> str:
     """The paper's number as the paper says it: "~7.5 s", "within ~1 s", "after 3 s"."""
     if s.value_s is None:
         return "no time given" if s.kind == "none" else "no number"
-    return {"about": "~{} s", "at_most": "within ~{} s", "at_least": "after {} s"}[s.kind].format(f"{s.value_s:g}")
+    return PHRASES[s.kind].format(f"{s.value_s:g}")
 
 
 @dataclass(frozen=True)
@@ -149,6 +153,7 @@ class PaperLine:
     value: ModelValue
     verdict: str
     model: str  # the model's side, in words
+    tol_s: float | None = None  # the reading's tolerance (None: the paper's)
 
     @property
     def ratio(self) -> float | None:
@@ -158,11 +163,15 @@ class PaperLine:
 
     @property
     def summary(self) -> str:
-        """"paper ~7.5 s; model 2.20 s (model/paper 0.29): misses"."""
+        """"paper ~7.5 s; model 2.20 s (model/paper 0.29): misses the paper (read as
+        7-8 s, +/-0.5 s: ...)": the tolerance beside every verdict on a number."""
         s = self.statement
         paper = f"paper {paper_value_text(s)}; " if s.kind not in ("qualitative",) else ""
         ratio = "" if self.ratio is None else f" (model/paper {self.ratio:.2f})"
         tail = {"meets": ": meets the paper", "misses": ": misses the paper"}.get(self.verdict, "")
+        rd = reading(s, self.tol_s)
+        if tail and rd is not None:
+            tail += f" ({rd.read_as})"
         return f"{paper}model: {self.model}{ratio}{tail}"
 
     def to_json(self) -> dict:
@@ -170,7 +179,13 @@ class PaperLine:
         return {"id": s.id, "structure": self.structure, "figure": s.figure, "what": s.what, "quote": s.quote,
                 "source": s.source, "kind": s.kind, "paper_s": s.value_s, "paper": paper_value_text(s),
                 "model_s": _r(self.value.value_s, 4),
-                "ratio": _r(self.ratio, 3), "verdict": self.verdict, "model": self.model, "summary": self.summary}
+                "ratio": _r(self.ratio, 3), "verdict": self.verdict, "model": self.model, "summary": self.summary,
+                "reading": self._reading_json()}
+
+    def _reading_json(self) -> dict | None:
+        rd = reading(self.statement, self.tol_s)
+        return None if rd is None else {"text": rd.text, "read_as": rd.read_as, "low_s": rd.low, "high_s": None if math.isinf(rd.high)
+                                        else rd.high, "tolerance_s": rd.tol_s, "tolerance_source": rd.tol_source}
 
 
 def _words(s: Statement, v: ModelValue, result: SimulationResult, clearance, jam_probability) -> str:
@@ -207,5 +222,5 @@ def paper_lines(design: Design, result: SimulationResult, clearance=None,
         bath, own = float(result.trajectory.bath_c), float(design.process.bath_temperature_c)
         if abs(bath - own) > 1e-9:  # a bath given for this run: not the paper's conditions
             words += f" (this run's bath {bath:g} C, the design's {own:g} C)"
-        out.append(PaperLine(s, ref.name, v, verdict(s, v, st.approx_tol_s), words))
+        out.append(PaperLine(s, ref.name, v, verdict(s, v), words))
     return tuple(out)

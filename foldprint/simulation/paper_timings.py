@@ -104,7 +104,7 @@ def fig1b_lines(library: MaterialLibrary | None = None) -> tuple[PaperLine, ...]
     for sid, v in fig1b_values(lib).items():
         s = st[sid]
         words = "a hinge does not fold" if v.value_s is None else f"{v.value_s:.2f} s ({v.note})"
-        out.append(PaperLine(s, "free hinges", v, verdict(s, v, st.approx_tol_s), words))
+        out.append(PaperLine(s, "free hinges", v, verdict(s, v), words))
     return tuple(out)
 
 
