@@ -64,8 +64,10 @@ MOVES: dict[str, str] = {
     "apps.gallery_page": "apps.gallery.page",
     "apps.gallery_samples": "apps.gallery.samples",
     "apps.gallery_entry": "apps.gallery.entry",
-    # apps: material assignment (the search, its tasks, its result, continuous fractions)
+    # apps: material assignment (the search, its waves, its ledger, its tasks, its result, continuous fractions)
     "apps.assign": "apps.assign.search",
+    "apps.assign_waves": "apps.assign.waves",
+    "apps.assign_ledger": "apps.assign.ledger",
     "apps.assign_tasks": "apps.assign.tasks",
     "apps.assign_result": "apps.assign.result",
     "apps.assign_continuous": "apps.assign.continuous",
@@ -100,7 +102,8 @@ WINGS: dict[str, str] = {
     "apps.gallery": "The offline HTML gallery: the runs of every design in one pool (`runner`), one design's "
                     "files (`build`), the page (`page`), the Monte-Carlo tables (`samples`) and what the page "
                     "shows of a design (`entry`).",
-    "apps.assign": "Material assignment: the search over the seven grades (`search`), its tasks and mappers "
+    "apps.assign": "Material assignment: the search over the seven grades (`search`), the waves of its "
+                   "patterns (`waves`), the ledger of its evaluations (`ledger`), its tasks and mappers "
                    "(`tasks`), its result and JSON (`result`), continuous VeroWhite fractions and bath "
                    "(`continuous`).",
     "physics.recovery": "Hinge recovery R(t; material, bath, thickness): one curve and its fold times "

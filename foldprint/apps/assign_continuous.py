@@ -51,7 +51,9 @@ from ..model.materials import Material, MaterialLibrary, default_library
 from ..physics.recovery_batch import batch_ratios, grid_until
 from ..simulation.robust import Scatter, default_scatter, draw_samples
 from ..collision.clearance import permanent_crossings
-from .assign import PREFIX_CLEARANCE_SAMPLES, hinge_adjacency, Ledger
+from .assign import PREFIX_CLEARANCE_SAMPLES
+from .assign_ledger import Ledger
+from .assign_waves import hinge_adjacency
 from .assign_result import AssignResult, Choice
 from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_materials
 
