@@ -71,6 +71,7 @@ MOVES: dict[str, str] = {
     "apps.assign_tasks": "apps.assign.tasks",
     "apps.assign_result": "apps.assign.result",
     "apps.assign_continuous": "apps.assign.continuous",
+    "apps.assign_surrogate": "apps.assign.surrogate",
     # physics: hinge recovery (one curve, many temperatures, many hinges at once)
     "physics.recovery": "physics.recovery.curve",
     "physics.recovery_table": "physics.recovery.table",
@@ -105,7 +106,7 @@ WINGS: dict[str, str] = {
     "apps.assign": "Material assignment: the search over the seven grades (`search`), the waves of its "
                    "patterns (`waves`), the ledger of its evaluations (`ledger`), its tasks and mappers "
                    "(`tasks`), its result and JSON (`result`), continuous VeroWhite fractions and bath "
-                   "(`continuous`).",
+                   "(`continuous`) and their timing surrogate (`surrogate`).",
     "physics.recovery": "Hinge recovery R(t; material, bath, thickness): one curve and its fold times "
                         "(`curve`), over many bath temperatures (`table`), of many scattered hinges at once "
                         "(`batch`).",
