@@ -72,10 +72,11 @@ MOVES: dict[str, str] = {
     "apps.assign_result": "apps.assign.result",
     "apps.assign_continuous": "apps.assign.continuous",
     "apps.assign_surrogate": "apps.assign.surrogate",
-    # physics: hinge recovery (one curve, many temperatures, many hinges at once)
+    # physics: hinge recovery (one curve, many temperatures, many hinges at once, the relaxation table)
     "physics.recovery": "physics.recovery.curve",
     "physics.recovery_table": "physics.recovery.table",
     "physics.recovery_batch": "physics.recovery.batch",
+    "physics.recovery_relaxation": "physics.recovery.relaxation",
     # physics: loop closure (the equations, the Gauss-Newton corrector, the tracker)
     "physics.loops": "physics.loops.closure",
     "physics.loop_solve": "physics.loops.corrector",
@@ -109,7 +110,7 @@ WINGS: dict[str, str] = {
                    "(`continuous`) and their timing surrogate (`surrogate`).",
     "physics.recovery": "Hinge recovery R(t; material, bath, thickness): one curve and its fold times "
                         "(`curve`), over many bath temperatures (`table`), of many scattered hinges at once "
-                        "(`batch`).",
+                        "(`batch`) with their working arrays and relaxation table (`relaxation`).",
     "physics.loops": "Loop closure on the constraint manifold: the closure equations and the drive "
                      "(`closure`), one Gauss-Newton step of many solves at once (`corrector`), the tracker "
                      "of many drives at once (`tracker`).",
