@@ -77,10 +77,11 @@ MOVES: dict[str, str] = {
     "physics.recovery_table": "physics.recovery.table",
     "physics.recovery_batch": "physics.recovery.batch",
     "physics.recovery_relaxation": "physics.recovery.relaxation",
-    # physics: loop closure (the equations, the Gauss-Newton corrector, the tracker)
+    # physics: loop closure (the equations, the Gauss-Newton corrector, the tracker, its drives' state)
     "physics.loops": "physics.loops.closure",
     "physics.loop_solve": "physics.loops.corrector",
     "physics.loop_tracking": "physics.loops.tracker",
+    "physics.loop_state": "physics.loops.drive_state",
     # physics: the bar-and-hinge model (the model, its energy, the equilibrium path, stiffnesses)
     "physics.barhinge": "physics.barhinge.model",
     "physics.barhinge_energy": "physics.barhinge.energy",
@@ -113,7 +114,7 @@ WINGS: dict[str, str] = {
                         "(`batch`) with their working arrays and relaxation table (`relaxation`).",
     "physics.loops": "Loop closure on the constraint manifold: the closure equations and the drive "
                      "(`closure`), one Gauss-Newton step of many solves at once (`corrector`), the tracker "
-                     "of many drives at once (`tracker`).",
+                     "of many drives at once (`tracker`) and each drive's state between rounds (`drive_state`).",
     "physics.barhinge": "The bar-and-hinge model (docs/mechanics.md): the model built from a design "
                         "(`model`), its energy with gradient and Hessian (`energy`), the equilibrium path "
                         "and CompliantDrive (`equilibrium`), moduli and stiffnesses (`stiffness`).",

@@ -33,7 +33,8 @@ from typing import Callable
 import numpy as np
 
 from .loop_solve import CLOSURE_TOL, MAX_STEP, OPT_TOL, solve  # noqa: F401
-from .loop_tracking import FOLLOW_TOL, JUMP, NEAR_FLAT, SKIP_TOL, track as track_all  # noqa: F401
+from .loop_state import FOLLOW_TOL, NEAR_FLAT, SKIP_TOL  # noqa: F401
+from .loop_tracking import JUMP, track as track_all  # noqa: F401
 
 
 def _hat(w: np.ndarray) -> np.ndarray:
