@@ -100,7 +100,7 @@ def _phases(n: int = 16) -> list[dict]:
     and the later chunk's phases: recovery curves, loop closure (lockstep), folds."""
     from itertools import islice
 
-    from foldprint.collision import swept3d
+    from foldprint.collision import swept_search
     from foldprint.core.constants import CHECK_DT_S, CHECK_SEED
     from foldprint.core.modes import VERDICT_METHOD, HingeModel
     from foldprint.model import derived
@@ -116,7 +116,7 @@ def _phases(n: int = 16) -> list[dict]:
         args = (d, lib, samples, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD)
         robust.run_samples((d, lib, samples[:1], *args[3:]))  # process-wide caches (grids) warm
         derived._kept.clear()
-        swept3d._checkers.clear()
+        swept_search._checkers.clear()
         c0 = pt()
         cold = robust.run_samples(args)
         c1 = pt()

@@ -97,7 +97,7 @@ def _staircase(n):
 def prefix_vs_per_pair(n=1000, pairs=200, repeat=3):
     """Baseline: compose the hinge transforms along each pair's tree path (per pair, what a
     straightforward narrow phase does). New: every panel's world pose once (prefix products)."""
-    from foldprint.collision.swept3d import non_adjacent_pairs
+    from foldprint.collision.broadphase import non_adjacent_pairs
     from foldprint.physics.kinematics import HingeDrive, TreeTransforms, hinge_frames, local_transforms
     from foldprint.physics.motion import tree_bounds
 

@@ -11,7 +11,9 @@ from shapely.geometry import LineString
 
 from foldprint.collision.clearance import gaps_in_pose, min_clearance
 from foldprint.collision.index2d import collision_index, index_arrays, paper_contact, world_side_segments
-from foldprint.collision.swept3d import SweptChecker, non_adjacent_pairs, swept_first_contact
+from foldprint.collision.broadphase import non_adjacent_pairs
+from foldprint.collision.swept3d import SweptChecker
+from foldprint.collision.swept_search import swept_first_contact
 from foldprint.model.design import strip
 from foldprint.io.load import load_design
 from foldprint.physics.kinematics import HingeDrive, forward, simulate_kinematics, transform_points

@@ -21,8 +21,9 @@ import numpy as np
 from ..core.constants import CLEARANCE_SAMPLES, tol
 from ..model.derived import scoped
 from .broadphase import pair_bounds
-from .swept3d import SweptChecker, non_adjacent_pairs
-from .swept3d import min_clearance as swept_min_clearance
+from .broadphase import non_adjacent_pairs
+from .swept3d import SweptChecker
+from .swept_search import min_clearance as swept_min_clearance
 from .rigid import rigid_polygons
 
 

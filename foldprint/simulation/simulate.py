@@ -10,7 +10,8 @@ import numpy as np
 
 from ..model.derived import scoped
 from ..collision.index2d import Index2D, collision_index
-from ..collision.swept3d import Contact, checker_for, swept_first_contact
+from ..collision.swept3d import Contact
+from ..collision.swept_search import checker_for, swept_first_contact
 from ..core import guards
 from ..core.constants import DEFAULT_DT_S, FOLD_LEVEL, tol
 from ..model.design import Design, tree_order
