@@ -18,7 +18,8 @@ from foldprint.collision.broadphase import candidate_runs, non_adjacent_pairs, p
 from foldprint.collision.swept3d import FCL_REL, SweptChecker
 from foldprint.collision.swept_search import min_clearance, swept_first_contact
 from foldprint.model.design import Design, Panel, strip
-from foldprint.physics.kinematics import HingeDrive, forward, simulate_kinematics
+from foldprint.physics.kinematics import forward
+from foldprint.physics.hinge_drive import HingeDrive, simulate_kinematics
 from foldprint.io.load import load_design
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"

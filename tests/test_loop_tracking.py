@@ -25,7 +25,8 @@ from foldprint.io.load import load_design
 from foldprint.model import crease_patterns as cp
 from foldprint.model.materials import default_library
 from foldprint.physics import loop_solve, loop_state, loop_tracking
-from foldprint.physics.kinematics import GRID_TOL_S, HingeDrive, hinge_frames, loop_dt, run_times
+from foldprint.physics.kinematics import hinge_frames
+from foldprint.physics.hinge_drive import GRID_TOL_S, HingeDrive, loop_dt, run_times
 from foldprint.physics.loops import CLOSURE_TOL, OPT_TOL, LoopSolver, _rotvec
 from foldprint.simulation.robust import sample_drives
 from foldprint.simulation.scatter import default_scatter, iter_samples
@@ -270,7 +271,8 @@ def test_held_configurations_give_the_poses_and_gap_of_every_time(model):
     """simulate_kinematics computes the poses (and the arc gap) of a pattern with loops once
     per distinct configuration: the same arrays as forward() and loop_gap_mm() of every time."""
     from foldprint.core.modes import HingeModel
-    from foldprint.physics.kinematics import forward, loop_gap_mm, simulate_kinematics
+    from foldprint.physics.kinematics import forward
+    from foldprint.physics.hinge_drive import loop_gap_mm, simulate_kinematics
 
     d = _design("miura_3x3")
     traj = simulate_kinematics(d, model=model)
@@ -284,17 +286,17 @@ def test_the_arc_gap_is_computed_when_read_not_for_the_monte_carlo(monkeypatch):
     """A loop pattern's arc gap is a report's number: the Monte-Carlo's folds (outcomes only)
     never compute it, a trajectory computes it once, when first read, and then holds it."""
     from foldprint.core.modes import VERDICT_METHOD, HingeModel
-    from foldprint.physics import kinematics
+    from foldprint.physics import hinge_drive
     from foldprint.simulation.robust import run_samples
 
     d = _design("miura_3x3")
     calls = []
-    real = kinematics.loop_gap_mm
-    monkeypatch.setattr(kinematics, "loop_gap_mm", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = hinge_drive.loop_gap_mm
+    monkeypatch.setattr(hinge_drive, "loop_gap_mm", lambda *a, **k: calls.append(1) or real(*a, **k))
     samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), 2))
     assert len(run_samples((d, default_library(), samples, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD))) == 2
     assert calls == []
-    traj = kinematics.simulate_kinematics(d, model="arc")
+    traj = hinge_drive.simulate_kinematics(d, model="arc")
     assert calls == []
     first = traj.loops.arc_gap_mm
     assert calls == [1] and traj.loops.arc_gap_mm == first == real(d, traj.angles, HingeModel.ARC)

@@ -55,7 +55,8 @@ import numpy as np
 from ..core.modes import HingeModel, Method
 from ..model.derived import scope
 from ..model.design import Design
-from ..physics.kinematics import HingeDrive, TreeTransforms, hinge_frames
+from ..physics.kinematics import TreeTransforms, hinge_frames
+from ..physics.hinge_drive import HingeDrive
 from ..physics.motion import build_hierarchy, tree_bounds
 from .rigid import convex_pieces, prism, rigid_polygons
 

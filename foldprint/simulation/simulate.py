@@ -17,7 +17,8 @@ from ..core.constants import DEFAULT_DT_S, FOLD_LEVEL, tol
 from ..model.design import Design, tree_order
 from ..core.errors import DesignError
 from ..collision.goals import GoalResult, evaluate_goals
-from ..physics.kinematics import HingeDrive, Trajectory, simulate_kinematics
+from ..physics.kinematics import Trajectory
+from ..physics.hinge_drive import HingeDrive, simulate_kinematics
 from ..model.materials import MaterialLibrary
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, AfterContact,
                           HingeModel, Mechanics, Method, parse)
