@@ -9,7 +9,7 @@ the check), and the material chart's fold-time table against one recovery curve 
 Prints wall and CPU times and ratios measured in the same run: the cost of the
 Monte-Carlo (the gallery against the one without it), the fold of a chunk of
 miura_3x3 samples with their closures tracked in lockstep
-(:func:`foldprint.physics.kinematics.solve_loops_many`, what the Monte-Carlo does) against
+(:func:`foldprint.physics.hinge_drive.solve_loops_many`, what the Monte-Carlo does) against
 the same chunk tracked drive by drive (same outcomes), optionally (``--in-process``) the
 gallery built in this process, optionally (``--one-process``) the
 speed-up of ``--jobs`` worker processes (default: the CPU count) over one, and of the
@@ -100,11 +100,11 @@ def _phases(n: int = 16) -> list[dict]:
     and the later chunk's phases: recovery curves, loop closure (lockstep), folds."""
     from itertools import islice
 
-    from foldprint.collision import swept3d
+    from foldprint.collision import swept_search
     from foldprint.core.constants import CHECK_DT_S, CHECK_SEED
     from foldprint.core.modes import VERDICT_METHOD, HingeModel
     from foldprint.model import derived
-    from foldprint.physics.kinematics import run_times, solve_loops_many
+    from foldprint.physics.hinge_drive import run_times, solve_loops_many
     from foldprint.simulation import robust
     from foldprint.simulation.scatter import default_scatter, iter_samples
     from foldprint.simulation.simulate import simulate
@@ -116,7 +116,7 @@ def _phases(n: int = 16) -> list[dict]:
         args = (d, lib, samples, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD)
         robust.run_samples((d, lib, samples[:1], *args[3:]))  # process-wide caches (grids) warm
         derived._kept.clear()
-        swept3d._checkers.clear()
+        swept_search._checkers.clear()
         c0 = pt()
         cold = robust.run_samples(args)
         c1 = pt()

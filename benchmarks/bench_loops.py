@@ -49,8 +49,8 @@ from foldprint.io.load import load_design
 from foldprint.io.templates import templates_dir
 from foldprint.model import derived
 from foldprint.model.materials import default_library
-from foldprint.physics import kinematics
-from foldprint.physics.kinematics import loop_dt, run_times, solve_loops_many
+from foldprint.physics import hinge_drive
+from foldprint.physics.hinge_drive import loop_dt, run_times, solve_loops_many
 from foldprint.physics.loops import LoopSolver
 from foldprint.simulation import robust
 from foldprint.simulation.scatter import default_scatter, iter_samples
@@ -67,8 +67,8 @@ def _baseline():
     """The replaced tracker, loop grid and poses of every time, patched in."""
     from foldprint.simulation import simulate as simulate_module
 
-    return (mock.patch.object(kinematics, "LoopSolver", OldSolver),
-            mock.patch.object(kinematics.HingeDrive, "_loop_grid", old_loop_grid),
+    return (mock.patch.object(hinge_drive, "LoopSolver", OldSolver),
+            mock.patch.object(hinge_drive.HingeDrive, "_loop_grid", old_loop_grid),
             mock.patch.object(simulate_module, "simulate_kinematics", old_simulate_kinematics))
 
 

@@ -33,6 +33,7 @@ from foldprint.core.modes import DEFAULT_HINGE_MODEL  # noqa: E402
 from foldprint.io.load import load_design  # noqa: E402
 from foldprint.model.materials import default_library  # noqa: E402
 from foldprint.physics import recovery_batch as rb  # noqa: E402
+from foldprint.physics import recovery_relaxation as rr  # noqa: E402
 from foldprint.physics.recovery import spectrum  # noqa: E402
 from foldprint.simulation import robust  # noqa: E402
 
@@ -57,8 +58,8 @@ def table_error(step: float) -> float:
     for p in spectra():
         tau, g = spectrum(p)
         x = xi[:, None] / tau[None, :]
-        exact = np.sum(np.where(x <= rb.CUT, g * np.exp(-np.minimum(x, rb.CUT)), 0.0), axis=1)
-        worst = max(worst, float(np.max(np.abs(rb.relaxation_table(p, step)(xi) - exact))))
+        exact = np.sum(np.where(x <= rr.CUT, g * np.exp(-np.minimum(x, rr.CUT)), 0.0), axis=1)
+        worst = max(worst, float(np.max(np.abs(rr.relaxation_table(p, step)(xi) - exact))))
     return worst
 
 

@@ -97,8 +97,9 @@ def _staircase(n):
 def prefix_vs_per_pair(n=1000, pairs=200, repeat=3):
     """Baseline: compose the hinge transforms along each pair's tree path (per pair, what a
     straightforward narrow phase does). New: every panel's world pose once (prefix products)."""
-    from foldprint.collision.swept3d import non_adjacent_pairs
-    from foldprint.physics.kinematics import HingeDrive, TreeTransforms, hinge_frames, local_transforms
+    from foldprint.collision.broadphase import non_adjacent_pairs
+    from foldprint.physics.kinematics import TreeTransforms, hinge_frames, local_transforms
+    from foldprint.physics.hinge_drive import HingeDrive
     from foldprint.physics.motion import tree_bounds
 
     d = _staircase(n)
@@ -149,7 +150,7 @@ def _timed(fn):
 
 def swept_vs_trimesh(n=100):
     from bench_simulation import discrete_trimesh, swept
-    from foldprint.physics.kinematics import simulate_kinematics
+    from foldprint.physics.hinge_drive import simulate_kinematics
 
     d = _staircase(n)
     traj = simulate_kinematics(d, model="arc")

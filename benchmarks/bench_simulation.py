@@ -32,8 +32,10 @@ import numpy as np
 import trimesh
 
 from foldprint.collision.index2d import collision_index, world_side_segments
-from foldprint.collision.swept3d import SweptChecker, non_adjacent_pairs, swept_first_contact
-from foldprint.physics.kinematics import HingeDrive, simulate_kinematics
+from foldprint.collision.broadphase import non_adjacent_pairs
+from foldprint.collision.swept3d import SweptChecker
+from foldprint.collision.swept_search import swept_first_contact
+from foldprint.physics.hinge_drive import HingeDrive, simulate_kinematics
 from foldprint.io.load import load_design
 from foldprint.collision.rigid import rigid_polygons
 

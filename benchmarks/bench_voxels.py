@@ -60,7 +60,7 @@ TARGET_BYTES = 1e9
 def plate(size):
     import manifold3d as mf
 
-    from foldprint.exchange import voxels as vx
+    from foldprint.exchange import voxel_regions as vr
     from foldprint.geometry import HingeAxes
     from foldprint.model.composition import Along, FractionProfile
 
@@ -69,7 +69,7 @@ def plate(size):
     while x < sx - 1e-9:
         w = min(10.0, sx - x)
         box = mf.Manifold.cube([w, sy, sz]).translate([x, 0.0, -sz / 2])
-        regions.append(vx.VoxelRegion("panel", f"p{k}", "VeroWhite", box, vx.Uniform(1.0)))
+        regions.append(vr.VoxelRegion("panel", f"p{k}", "VeroWhite", box, vr.Uniform(1.0)))
         x += w
         if x >= sx - 1e-9:
             break
@@ -78,11 +78,11 @@ def plate(size):
         mid = np.stack([np.linspace(x, x + w, 65), np.zeros(65), np.zeros(65)], axis=1)
         axes = HingeAxes(f"h{k}", mid[0].copy(), np.array([0.0, 1.0, 0.0]), sy, mid)
         prof = FractionProfile((0.2, 0.8), Along.WIDTH) if k % 2 else FractionProfile((0.42,))
-        regions.append(vx.VoxelRegion("hinge", f"h{k}", prof.name, box, prof, axes))
+        regions.append(vr.VoxelRegion("hinge", f"h{k}", prof.name, box, prof, axes))
         x += w
         k += 1
-    pitch = vx.Pitch(25.4 / 600, 25.4 / 300, 0.027, "j750", "bench")
-    return vx.VoxelPart("plate", "permanent", tuple(regions), pitch, np.array([0.0, 0.0, sz / 2]))
+    pitch = vr.Pitch(25.4 / 600, 25.4 / 300, 0.027, "j750", "bench")
+    return vr.VoxelPart("plate", "permanent", tuple(regions), pitch, np.array([0.0, 0.0, sz / 2]))
 
 
 def run_streamed(size, workers=None) -> dict:
@@ -148,7 +148,9 @@ class _Reference:
 
     def block_sums(self, idx, r, mask, white, f, i0, j0, k):
         """The old per-layer block sums of a hinge (``_Stats.add_window``: rows first, int64)."""
-        vx, p, blk = self.vx, self.p, self.vx.BLOCK_MM
+        from foldprint.exchange.voxel_stats import BLOCK_MM
+
+        vx, p, blk = self.vx, self.p, BLOCK_MM
         if idx not in self.blocks:
             bb = r.solid.bounding_box()
             lo = np.floor((np.array(bb[:3]) - self.grid.origin) / blk).astype(np.int64)

@@ -19,7 +19,7 @@ from foldprint.model import crease_patterns as cp
 from foldprint.model.design import Design, Hinge, Panel, strip
 from foldprint.physics import barhinge_solve as bs
 from foldprint.physics.barhinge import diagonal_curvatures, kresling, kresling_heights
-from foldprint.physics.kinematics import HingeDrive, run_times
+from foldprint.physics.hinge_drive import HingeDrive, run_times
 from foldprint.physics.modulus import default_params
 
 STIFF = 1e5

@@ -64,19 +64,24 @@ MOVES: dict[str, str] = {
     "apps.gallery_page": "apps.gallery.page",
     "apps.gallery_samples": "apps.gallery.samples",
     "apps.gallery_entry": "apps.gallery.entry",
-    # apps: material assignment (the search, its tasks, its result, continuous fractions)
+    # apps: material assignment (the search, its waves, its ledger, its tasks, its result, continuous fractions)
     "apps.assign": "apps.assign.search",
+    "apps.assign_waves": "apps.assign.waves",
+    "apps.assign_ledger": "apps.assign.ledger",
     "apps.assign_tasks": "apps.assign.tasks",
     "apps.assign_result": "apps.assign.result",
     "apps.assign_continuous": "apps.assign.continuous",
-    # physics: hinge recovery (one curve, many temperatures, many hinges at once)
+    "apps.assign_surrogate": "apps.assign.surrogate",
+    # physics: hinge recovery (one curve, many temperatures, many hinges at once, the relaxation table)
     "physics.recovery": "physics.recovery.curve",
     "physics.recovery_table": "physics.recovery.table",
     "physics.recovery_batch": "physics.recovery.batch",
-    # physics: loop closure (the equations, the Gauss-Newton corrector, the tracker)
+    "physics.recovery_relaxation": "physics.recovery.relaxation",
+    # physics: loop closure (the equations, the Gauss-Newton corrector, the tracker, its drives' state)
     "physics.loops": "physics.loops.closure",
     "physics.loop_solve": "physics.loops.corrector",
     "physics.loop_tracking": "physics.loops.tracker",
+    "physics.loop_state": "physics.loops.drive_state",
     # physics: the bar-and-hinge model (the model, its energy, the equilibrium path, stiffnesses)
     "physics.barhinge": "physics.barhinge.model",
     "physics.barhinge_energy": "physics.barhinge.energy",
@@ -100,15 +105,16 @@ WINGS: dict[str, str] = {
     "apps.gallery": "The offline HTML gallery: the runs of every design in one pool (`runner`), one design's "
                     "files (`build`), the page (`page`), the Monte-Carlo tables (`samples`) and what the page "
                     "shows of a design (`entry`).",
-    "apps.assign": "Material assignment: the search over the seven grades (`search`), its tasks and mappers "
+    "apps.assign": "Material assignment: the search over the seven grades (`search`), the waves of its "
+                   "patterns (`waves`), the ledger of its evaluations (`ledger`), its tasks and mappers "
                    "(`tasks`), its result and JSON (`result`), continuous VeroWhite fractions and bath "
-                   "(`continuous`).",
+                   "(`continuous`) and their timing surrogate (`surrogate`).",
     "physics.recovery": "Hinge recovery R(t; material, bath, thickness): one curve and its fold times "
                         "(`curve`), over many bath temperatures (`table`), of many scattered hinges at once "
-                        "(`batch`).",
+                        "(`batch`) with their working arrays and relaxation table (`relaxation`).",
     "physics.loops": "Loop closure on the constraint manifold: the closure equations and the drive "
                      "(`closure`), one Gauss-Newton step of many solves at once (`corrector`), the tracker "
-                     "of many drives at once (`tracker`).",
+                     "of many drives at once (`tracker`) and each drive's state between rounds (`drive_state`).",
     "physics.barhinge": "The bar-and-hinge model (docs/mechanics.md): the model built from a design "
                         "(`model`), its energy with gradient and Hessian (`energy`), the equilibrium path "
                         "and CompliantDrive (`equilibrium`), moduli and stiffnesses (`stiffness`).",

@@ -15,8 +15,8 @@ from foldprint.core.errors import DesignError
 from foldprint.core.modes import DEFAULT_HINGE_MODEL, HingeModel
 from foldprint.model.design import Design
 from foldprint.model.materials import MaterialLibrary
-from foldprint.physics.kinematics import (HINGE_MODELS, HingeDrive, Trajectory, _with_arc_gap, forward, loop_dt,
-                                          run_times)
+from foldprint.physics.hinge_drive import HingeDrive, _with_arc_gap, loop_dt, run_times
+from foldprint.physics.kinematics import HINGE_MODELS, Trajectory, forward
 from foldprint.physics.loops import (CLOSURE_TOL, FOLLOW_TOL, JUMP, MAX_STEP, NEAR_FLAT, OPT_TOL, SKIP_TOL,
                                      LoopSolution, LoopSolver, _cross3, _rotvec)
 

@@ -8,7 +8,8 @@ import re
 
 import pytest
 
-from foldprint.apps.assign import assign, connected_waves, permanent_crossings, temperature_grid, with_materials
+from foldprint.apps.assign import assign, permanent_crossings, temperature_grid, with_materials
+from foldprint.apps.assign_waves import connected_waves
 from foldprint.cli.commands import main
 from foldprint.model.design import strip
 from foldprint.io.design_io import design_to_toml
@@ -235,7 +236,7 @@ def test_assign_text_output(capsys, tmp_path):
 def test_growing_waves_extend_the_folded_region_in_small_steps():
     """The robust search's children: "all the rest", then connected groups of at most
     ROBUST_WAVE_MAX hinges touching what is placed (anything at the root)."""
-    from foldprint.apps.assign import ROBUST_WAVE_MAX, hinge_adjacency, growing_waves
+    from foldprint.apps.assign_waves import ROBUST_WAVE_MAX, hinge_adjacency, growing_waves
 
     graph = hinge_adjacency(load_design(resolve_design_path("helix_uniform")))
     every = frozenset(range(9))

@@ -23,7 +23,7 @@ from foldprint.model.design import Design, Hinge, Panel, strip
 from foldprint.physics import barhinge_solve as bs
 from foldprint.physics.barhinge import build, diagonal_curvatures, kresling, kresling_heights
 from foldprint.physics.barhinge_energy import dihedral, fold_angles
-from foldprint.physics.kinematics import HingeDrive, run_times
+from foldprint.physics.hinge_drive import HingeDrive, run_times
 from foldprint.physics.modulus import ModulusCurve, default_params, hinge_modulus, params_from
 
 STIFF = 1e5  # MPa: panels 100x the paper's 1 GPa, for the comparisons with rigid panels

@@ -23,8 +23,9 @@ from scipy.spatial.transform import Rotation
 from foldprint.apps.pipeline import EvalOptions, Evaluation
 from foldprint.collision.clearance import Gap, earliest_within, gaps_in_pose, min_clearance, permanent_crossings
 from foldprint.core.constants import tol
-from foldprint.collision.swept3d import SweptChecker, non_adjacent_pairs
-from foldprint.collision.swept3d import min_clearance as swept_min_clearance
+from foldprint.collision.broadphase import non_adjacent_pairs
+from foldprint.collision.swept3d import SweptChecker
+from foldprint.collision.swept_search import min_clearance as swept_min_clearance
 from foldprint.io.templates import resolve_design_path
 from foldprint.io.load import load_design
 from foldprint.model.design import strip

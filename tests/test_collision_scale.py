@@ -14,17 +14,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from foldprint.collision.index2d import collision_index, index_memory_bytes
-from foldprint.collision.swept3d import (
-    FCL_REL,
-    SweptChecker,
-    candidate_runs,
-    min_clearance,
-    non_adjacent_pairs,
-    panel_centres,
-    swept_first_contact,
-)
+from foldprint.collision.broadphase import candidate_runs, non_adjacent_pairs, panel_centres
+from foldprint.collision.swept3d import FCL_REL, SweptChecker
+from foldprint.collision.swept_search import min_clearance, swept_first_contact
 from foldprint.model.design import Design, Panel, strip
-from foldprint.physics.kinematics import HingeDrive, forward, simulate_kinematics
+from foldprint.physics.kinematics import forward
+from foldprint.physics.hinge_drive import HingeDrive, simulate_kinematics
 from foldprint.io.load import load_design
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
@@ -154,7 +149,7 @@ def _assert_no_contact_missed(d, model):
 
 
 #: strips on which a narrow phase that steps three times too far (``target = cum[c] + 2.7 * d``
-#: in ``SweptChecker._steps``) finds the contact late or not at all, under the shipped
+#: in ``SweptChecker.steps``) finds the contact late or not at all, under the shipped
 #: materials: found by a seeded random search (numpy seeds 1 and 2, 60 strips per hinge model,
 #: the property test's ranges; 9 and 15 strips caught it), the smallest kept. They depend on
 #: the recovery curves: when materials.toml moves, check that they still catch that rule
@@ -516,7 +511,7 @@ def test_a_step_is_certified_only_with_fcl_distances_shrunk(monkeypatch, motion,
     monkeypatch.setattr(ch, "_bound", lambda pair, ang0, ang: np.array([0.0, motion])[:len(ang)])
     monkeypatch.setattr(ch, "_split", lambda pair, ang0, ta, da, fa, tb, db, fb: split_at.append((ta, tb)) or "hit")
     times, angles = np.array([0.0, 1.0]), np.zeros((2, 2))
-    gen = ch._steps((0, 2), times, angles, np.zeros((2, 3, 4, 4)), 0, 1, False)
+    gen = ch.steps((0, 2), times, angles, np.zeros((2, 3, 4, 4)), 0, 1, False)
     with pytest.raises(StopIteration) as stop:
         while True:
             next(gen)
@@ -557,7 +552,7 @@ def test_gap_is_the_distance_of_the_same_queries(data, model):
 
 class _MarkedGap:
     """A stand-in for ``SweptChecker.gap``: the distance at the sample whose poses are
-    filled with its index (``_steps`` asks at sample poses only), from a table."""
+    filled with its index (``steps`` asks at sample poses only), from a table."""
 
     def __init__(self, table):
         self.table = table

@@ -20,7 +20,7 @@ from foldprint.io.load import load_design
 from foldprint.io.templates import resolve_design_path
 from foldprint.model import derived
 from foldprint.model.derived import DerivedCache
-from foldprint.physics.kinematics import HingeDrive
+from foldprint.physics.hinge_drive import HingeDrive
 from foldprint.simulation.simulate import simulate
 
 

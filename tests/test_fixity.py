@@ -16,7 +16,7 @@ from foldprint.model import crease_patterns as cp
 from foldprint.model.composition import composition_model
 from foldprint.model.design import strip
 from foldprint.model.materials import default_fixity, default_library, load_library
-from foldprint.physics.kinematics import HingeDrive, simulate_kinematics
+from foldprint.physics.hinge_drive import HingeDrive, simulate_kinematics
 from foldprint.physics.recovery import recovery_curve
 from foldprint.simulation.robust import default_scatter, draw_samples, sample_drive, sample_drives
 

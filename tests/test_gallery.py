@@ -461,7 +461,8 @@ def test_viewer_data_is_the_printed_part_in_the_simulated_poses():
     import numpy as np
 
     from foldprint.geometry.hinges import hinge_segments
-    from foldprint.physics.kinematics import HingeDrive, forward, hinge_frames, target_angles
+    from foldprint.physics.kinematics import forward, hinge_frames, target_angles
+    from foldprint.physics.hinge_drive import HingeDrive
     from foldprint.model.materials import default_library
     from foldprint.render.scene import motion_end
     from foldprint.simulation.simulate import simulate

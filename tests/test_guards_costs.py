@@ -49,12 +49,12 @@ def test_the_narrow_estimate_bounds_what_its_open_runs_hold(monkeypatch):
     """On a 60-panel coil (all 1,711 non-adjacent pairs candidates) the narrow phase's
     allocations (tracemalloc, from the broad phase's runs to the first contact: 8.8 MB
     measured) stay under the estimate, and the estimate is not a wild overestimate."""
-    from foldprint.collision import swept3d
+    from foldprint.collision import swept_search
     from foldprint.collision.narrow_cost import narrow_estimate
     from foldprint.simulation.simulate import simulate
 
     seen = {}
-    real_check, real_first = swept3d.check_narrow, swept3d.swept_first_contact
+    real_check, real_first = swept_search.check_narrow, swept_search.swept_first_contact
 
     def check(checker, runs, held=0.0):
         seen["est"] = narrow_estimate(checker, runs, held)
@@ -68,7 +68,7 @@ def test_the_narrow_estimate_bounds_what_its_open_runs_hold(monkeypatch):
             seen["peak"] = tracemalloc.get_traced_memory()[1]
             tracemalloc.stop()
 
-    monkeypatch.setattr(swept3d, "check_narrow", check)
+    monkeypatch.setattr(swept_search, "check_narrow", check)
     monkeypatch.setattr("foldprint.simulation.simulate.swept_first_contact", first)
     d = _coil(60)
     res = simulate(d, method="fcl")
@@ -81,7 +81,7 @@ def test_the_narrow_estimate_bounds_what_its_open_runs_hold(monkeypatch):
 
 
 def test_the_narrow_phase_is_refused_before_any_pair_is_stepped(monkeypatch):
-    from foldprint.collision import narrow_cost, swept3d
+    from foldprint.collision import narrow_cost, swept3d, swept_search
     from foldprint.collision.narrow_cost import narrow_estimate
     from foldprint.simulation import costs
     from foldprint.simulation.simulate import simulate
@@ -91,15 +91,15 @@ def test_the_narrow_phase_is_refused_before_any_pair_is_stepped(monkeypatch):
     monkeypatch.setattr(narrow_cost, "RUN_BYTES", 100_000)
     d = _coil(60)
     est = {}
-    real = swept3d.check_narrow
-    monkeypatch.setattr(swept3d, "check_narrow",
+    real = swept_search.check_narrow
+    monkeypatch.setattr(swept_search, "check_narrow",
                         lambda c, runs, held=0.0: est.update(narrow_estimate(c, runs, held)) or real(c, runs, held))
     simulate(d, method="fcl")
 
     def boom(*a, **k):
         raise AssertionError("stepped despite the refusal")
 
-    monkeypatch.setattr(swept3d.SweptChecker, "_steps", boom)
+    monkeypatch.setattr(swept3d.SweptChecker, "steps", boom)
     guards.set_max_memory(int(est["bytes"]) - 1)
     assert costs.check_simulation(d, 0.01, None, "fcl")["bytes"] < est["bytes"] - 1
     with pytest.raises(guards.ResourceError, match=r"coil60: the 3D swept check refused: its narrow phase holds "
@@ -261,7 +261,7 @@ def test_the_loop_estimate_bounds_a_measured_closure():
 
     from foldprint.io.fold_format import design_from_fold
     from foldprint.model.crease_patterns import miura
-    from foldprint.physics.kinematics import HingeDrive
+    from foldprint.physics.hinge_drive import HingeDrive
     from foldprint.physics.loop_cost import loop_estimate
 
     d = design_from_fold(miura(6, 6), "miura6")
@@ -284,7 +284,7 @@ def test_a_1500_face_sheet_is_refused_before_its_loop_tables_are_made():
     closure is refused from the loops' sizes, in seconds."""
     from foldprint.io.fold_format import design_from_fold
     from foldprint.model.crease_patterns import miura
-    from foldprint.physics.kinematics import HingeDrive
+    from foldprint.physics.hinge_drive import HingeDrive
 
     d = design_from_fold(miura(30, 50), "miura1500")
     t0 = time.process_time()

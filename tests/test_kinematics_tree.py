@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 
 from foldprint.io.load import load_design
 from foldprint.model.design import strip
-from foldprint.physics.kinematics import HingeDrive, TreeTransforms, forward, hinge_frames, hinge_map
+from foldprint.physics.kinematics import TreeTransforms, forward, hinge_frames, hinge_map
+from foldprint.physics.hinge_drive import HingeDrive
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 

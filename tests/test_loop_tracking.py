@@ -24,8 +24,9 @@ from foldprint.io.fold_format import design_from_fold
 from foldprint.io.load import load_design
 from foldprint.model import crease_patterns as cp
 from foldprint.model.materials import default_library
-from foldprint.physics import loop_solve, loop_tracking
-from foldprint.physics.kinematics import GRID_TOL_S, HingeDrive, hinge_frames, loop_dt, run_times
+from foldprint.physics import loop_solve, loop_state, loop_tracking
+from foldprint.physics.kinematics import hinge_frames
+from foldprint.physics.hinge_drive import GRID_TOL_S, HingeDrive, loop_dt, run_times
 from foldprint.physics.loops import CLOSURE_TOL, OPT_TOL, LoopSolver, _rotvec
 from foldprint.simulation.robust import sample_drives
 from foldprint.simulation.scatter import default_scatter, iter_samples
@@ -167,10 +168,10 @@ def _assert_same_path(a, b, drive):
     apart = diff >= ANGLE_TOL
     if not apart.any():
         return
-    flat = np.abs(drive).max(axis=1) < loop_tracking.NEAR_FLAT
+    flat = np.abs(drive).max(axis=1) < loop_state.NEAR_FLAT
     assert flat[apart].all(), "the trackers part away from the flat sheet"
     for x in (a, b):
-        assert np.abs(x.angles[apart]).max() < loop_tracking.NEAR_FLAT
+        assert np.abs(x.angles[apart]).max() < loop_state.NEAR_FLAT
     assert diff[~flat].max(initial=0.0) < ANGLE_TOL and not apart[-1]  # the same path once folded
 
 
@@ -205,7 +206,7 @@ def test_lockstep_tracking_of_many_drives_gives_each_drives_own_answer():
 
 
 def test_window_widths_are_the_next_steps_that_move_by_a_step_at_most():
-    """_State.ahead (from per-drive tables made once) against the definition, step by step:
+    """DriveState.ahead (from per-drive tables made once) against the definition, step by step:
     1 plus the number of next grid steps in a row whose drive moves by more than SKIP_TOL and
     at most MAX_STEP, at most WINDOW of them, capped by the drive's width."""
     rng = np.random.default_rng(7)
@@ -213,15 +214,15 @@ def test_window_widths_are_the_next_steps_that_move_by_a_step_at_most():
     move = rng.choice([0.0, 1e-9, 0.05, loop_solve.MAX_STEP, 0.3], size=(3, n_t - 1, 2),
                       p=[0.1, 0.05, 0.7, 0.05, 0.1])
     driven = np.concatenate([np.zeros((3, 1, 2)), np.cumsum(move, axis=1)], axis=1)
-    state = loop_tracking._State(np.arange(float(n_t)), driven)
+    state = loop_state.DriveState(np.arange(float(n_t)), driven)
     for k in range(n_t):
-        state.k[:], state.width[:] = k, [2, 16, loop_tracking.WINDOW]
+        state.k[:], state.width[:] = k, [2, 16, loop_state.WINDOW]
         got = state.ahead(np.arange(3), np.array([True, True, True]))
         for d in range(3):
             run = 0
-            while run < loop_tracking.WINDOW and k + run + 1 < n_t:
+            while run < loop_state.WINDOW and k + run + 1 < n_t:
                 step = np.abs(driven[d, k + run + 1] - driven[d, k + run]).max()
-                if not loop_tracking.SKIP_TOL < step <= loop_solve.MAX_STEP:
+                if not loop_state.SKIP_TOL < step <= loop_solve.MAX_STEP:
                     break
                 run += 1
             assert got[d] == min(1 + run, state.width[d]), (d, k)
@@ -235,6 +236,7 @@ def test_windows_solve_ahead_without_changing_the_answers(monkeypatch):
     solver = _solvers(d)[0]
     evaluate = solver.residuals
     ahead = loop_tracking.track(evaluate, grid, np.stack(drivens))
+    monkeypatch.setattr(loop_state, "WINDOW", 1)
     monkeypatch.setattr(loop_tracking, "WINDOW", 1)
     single = loop_tracking.track(evaluate, grid, np.stack(drivens))
     assert np.abs(ahead.angles - single.angles).max() < ANGLE_TOL
@@ -269,7 +271,8 @@ def test_held_configurations_give_the_poses_and_gap_of_every_time(model):
     """simulate_kinematics computes the poses (and the arc gap) of a pattern with loops once
     per distinct configuration: the same arrays as forward() and loop_gap_mm() of every time."""
     from foldprint.core.modes import HingeModel
-    from foldprint.physics.kinematics import forward, loop_gap_mm, simulate_kinematics
+    from foldprint.physics.kinematics import forward
+    from foldprint.physics.hinge_drive import loop_gap_mm, simulate_kinematics
 
     d = _design("miura_3x3")
     traj = simulate_kinematics(d, model=model)
@@ -283,17 +286,17 @@ def test_the_arc_gap_is_computed_when_read_not_for_the_monte_carlo(monkeypatch):
     """A loop pattern's arc gap is a report's number: the Monte-Carlo's folds (outcomes only)
     never compute it, a trajectory computes it once, when first read, and then holds it."""
     from foldprint.core.modes import VERDICT_METHOD, HingeModel
-    from foldprint.physics import kinematics
+    from foldprint.physics import hinge_drive
     from foldprint.simulation.robust import run_samples
 
     d = _design("miura_3x3")
     calls = []
-    real = kinematics.loop_gap_mm
-    monkeypatch.setattr(kinematics, "loop_gap_mm", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = hinge_drive.loop_gap_mm
+    monkeypatch.setattr(hinge_drive, "loop_gap_mm", lambda *a, **k: calls.append(1) or real(*a, **k))
     samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), 2))
     assert len(run_samples((d, default_library(), samples, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD))) == 2
     assert calls == []
-    traj = kinematics.simulate_kinematics(d, model="arc")
+    traj = hinge_drive.simulate_kinematics(d, model="arc")
     assert calls == []
     first = traj.loops.arc_gap_mm
     assert calls == [1] and traj.loops.arc_gap_mm == first == real(d, traj.angles, HingeModel.ARC)
@@ -427,26 +430,26 @@ def test_away_from_the_flat_sheet_a_drive_that_barely_moved_keeps_its_answer(mon
     SKIP_TOL holds it. Against solving every moving step (SKIP_FAR = SKIP_TOL): answers within
     ANGLE_TOL, the same events, fewer evaluations."""
     times, drive = np.arange(3.0), np.zeros((1, 3, 2))
-    state = loop_tracking._State(times, np.repeat(drive, 3, axis=0))
+    state = loop_state.DriveState(times, np.repeat(drive, 3, axis=0))
     state.x[:] = [[0.5, 0.1], [0.05, 0.1], [0.5, 0.1]]
     state.xmax[:] = np.abs(state.x).max(axis=1)  # as settle keeps it
     state.tangent[:] = [True, True, False]
-    assert state.skip_tol(np.arange(3)).tolist() == [loop_tracking.SKIP_FAR, loop_tracking.SKIP_TOL,
-                                                     loop_tracking.SKIP_TOL]
-    assert loop_tracking.SKIP_TOL < loop_tracking.SKIP_FAR <= OPT_TOL
+    assert state.skip_tol(np.arange(3)).tolist() == [loop_state.SKIP_FAR, loop_state.SKIP_TOL,
+                                                     loop_state.SKIP_TOL]
+    assert loop_state.SKIP_TOL < loop_state.SKIP_FAR <= OPT_TOL
 
     d, grid, drivens = _check_drives("miura_3x3", 4)
     evaluate = _solvers(d)[0].residuals
     held = loop_tracking.track(evaluate, grid, np.stack(drivens))
-    monkeypatch.setattr(loop_tracking, "SKIP_FAR", loop_tracking.SKIP_TOL)
+    monkeypatch.setattr(loop_state, "SKIP_FAR", loop_state.SKIP_TOL)
     every = loop_tracking.track(evaluate, grid, np.stack(drivens))
     assert np.abs(held.angles - every.angles).max() < ANGLE_TOL
     assert np.array_equal(held.dof, every.dof) and np.array_equal(held.locked_at, every.locked_at, equal_nan=True)
     assert held.evaluations < 0.97 * every.evaluations
     # the held steps: far from the flat sheet, drive moved less than SKIP_FAR, answer unchanged
     a, v = held.angles, np.stack(drivens)
-    same = (np.abs(np.diff(a, axis=1)).max(axis=2) == 0) & (np.abs(a[:, :-1]).max(axis=2) >= loop_tracking.NEAR_FLAT)
-    assert (same & (np.abs(np.diff(v, axis=1)).max(axis=2) > loop_tracking.SKIP_TOL)).any()
+    same = (np.abs(np.diff(a, axis=1)).max(axis=2) == 0) & (np.abs(a[:, :-1]).max(axis=2) >= loop_state.NEAR_FLAT)
+    assert (same & (np.abs(np.diff(v, axis=1)).max(axis=2) > loop_state.SKIP_TOL)).any()
 
 
 def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
@@ -463,7 +466,7 @@ def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
     ids = pool.add(x, ys)
     pool.round(toy.residuals)  # one step from x: C and J evaluated at x
     assert pool.alive[ids].tolist() == [True, False] and pool.it[ids[0]] == 1
-    state = loop_tracking._State(np.arange(2.0), np.zeros((2, 2, 2)))
+    state = loop_state.DriveState(np.arange(2.0), np.zeros((2, 2, 2)))
     state.x[:], state.tangent[:], state.plain[:] = x, True, True
     state.basis[:], state.free[:] = pool.basis[ids[1]], pool.free[ids[1]]  # the tangent at x
     near = np.array([True, True])
@@ -512,12 +515,12 @@ def test_the_drive_is_restarted_from_only_while_it_too_is_near_the_flat_sheet():
     or more from flat (the answer may lag there: a lock, a lagging crease), nor ahead for such
     steps, nor at the steps between (those start none ahead either: the restarting steps
     before them did), unless the drive is within RESTART_ALL of flat: then every step."""
-    flat, every = loop_tracking.NEAR_FLAT, loop_tracking.RESTART_EVERY
+    flat, every = loop_state.NEAR_FLAT, loop_state.RESTART_EVERY
     assert every > 1
     ramp = np.linspace(0.0, 2.0 * flat, 21)  # crosses NEAR_FLAT at step 10
-    tiny = ramp * (0.5 * loop_tracking.RESTART_ALL / ramp.max())  # every step within RESTART_ALL
+    tiny = ramp * (0.5 * loop_state.RESTART_ALL / ramp.max())  # every step within RESTART_ALL
     driven = np.stack([np.stack([r, 0.5 * r], axis=1) for r in (ramp, ramp, ramp, tiny)])
-    state = loop_tracking._State(np.arange(21.0), driven)
+    state = loop_state.DriveState(np.arange(21.0), driven)
     k0 = every  # a restarting step near the flat sheet (drive below NEAR_FLAT)
     state.k[:] = [k0, 12, k0 + 1, k0 + 1]  # near, beyond, near between restarting steps, tiny; answers at flat
     state.prev[:] = driven[[0, 1, 2, 3], [k0 - 1, 11, k0, k0]]  # the drives of the steps before: one sub-step each

@@ -15,7 +15,7 @@ from foldprint.cli.commands import main
 from foldprint.model.design import strip
 from foldprint.core.errors import DesignError
 from foldprint.io.fold_format import design_from_fold
-from foldprint.physics.kinematics import HingeDrive, simulate_kinematics
+from foldprint.physics.hinge_drive import HingeDrive, simulate_kinematics
 from foldprint.model.materials import default_library
 
 DURATION = 4.0  # s: the default H-3 creases finish folding by ~3 s at 90 C (3.03 s)
@@ -197,7 +197,7 @@ def test_solve_loops_many_solves_every_group_of_grids():
     request, each with the answers it gets alone."""
     from dataclasses import replace
 
-    from foldprint.physics.kinematics import loop_dt, solve_loops_many
+    from foldprint.physics.hinge_drive import loop_dt, solve_loops_many
 
     d = design_from_fold(cp.degree4())
     d = replace(d, process=replace(d.process, duration_s=1.5))
@@ -468,7 +468,7 @@ def test_a_small_programming_bias_selects_the_miura_branch():
     from foldprint.io.templates import templates_dir
 
     from foldprint.model.materials import default_fixity
-    from foldprint.physics.kinematics import HingeDrive
+    from foldprint.physics.hinge_drive import HingeDrive
 
     d = load_design(templates_dir() / "miura_3x3.toml")
     assert all(h.fixity is None for h in d.hinges)

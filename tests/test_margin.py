@@ -97,7 +97,7 @@ def test_a_fold_without_loops_is_screened_at_the_searched_poses_only():
     search samples: each sample's closest approach equals the one searched on its whole
     trajectory (every step made), with scatter on (octagon_stack: touching and not)."""
     from foldprint.collision.clearance import min_clearance
-    from foldprint.physics.kinematics import simulate_kinematics
+    from foldprint.physics.hinge_drive import simulate_kinematics
     from foldprint.simulation.robust import default_scatter, sample_drives
     from foldprint.simulation.scatter import draw_samples
 

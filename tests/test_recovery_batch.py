@@ -18,7 +18,8 @@ from foldprint.simulation.costs import check_samples
 from foldprint.io.load import load_design
 from foldprint.physics.recovery import _curve, _slab_roots
 from foldprint.physics.recovery import spectrum
-from foldprint.physics.recovery_batch import CUT, batch_ratios, grid_until, relaxation_table, slab_roots
+from foldprint.physics.recovery_batch import batch_ratios, grid_until, slab_roots
+from foldprint.physics.recovery_relaxation import CUT, relaxation_table
 from foldprint.simulation.robust import (default_scatter, draw_samples, iter_samples, jam_probability, run_end, run_samples,
                               sample_drive, sample_drives, wilson)
 from foldprint.io.templates import resolve_design_path
@@ -168,13 +169,14 @@ def test_slab_terms_past_their_cut_are_exactly_zero(lib, biot_scale):
     every term cut) its excess temperature is exactly 0, before it positive, also where a
     thicker hinge of its batch (0.25 mm) is still computed; at the shipped h (40 s) and at
     100x it (Bi ~ 45, zeta_0^2 > 1: 1.9 s)."""
-    from foldprint.physics.recovery_batch import _Block, _fresh, _slab, _slab_block
+    from foldprint.physics.recovery_batch import _slab, _slab_block
+    from foldprint.physics.recovery_relaxation import Block, fresh_arrays
 
     p = lib["H-2"].recovery
     hw = np.full(2, p.h_w_m2k * biot_scale)
     slab, thin = _slab(p, hw, np.array([0.2, 0.25])), _slab(p, hw[:1], np.array([0.2]))
     tb = np.linspace(0.75, 1.5, 61) * slab.t_cut[0]
-    v = _Block(_fresh(8 * len(tb)), 2, 4, len(tb))
+    v = Block(fresh_arrays(8 * len(tb)), 2, 4, len(tb))
     _slab_block(slab, tb, v, slab.nsq.shape[1])
     past = tb > thin.t_cut[0]
     assert np.sum(past & (tb < slab.t_cut[0])) > 10
@@ -186,12 +188,13 @@ def test_relaxation_branches_past_their_cut_are_exactly_zero(lib):
     """The exact sum, element by element: where every branch is past its cut (xi > CUT
     tau_16) U is exactly 0, also in a block whose other elements are not cut; elsewhere
     the sum of the exponentials."""
-    from foldprint.physics.recovery_batch import _Block, _fresh, _unrecovered_block
+    from foldprint.physics.recovery_batch import _unrecovered_block
+    from foldprint.physics.recovery_relaxation import Block, fresh_arrays
 
     p = lib["H-2"].recovery
     tau, g = spectrum(p)
     xi = np.array([0.0, 1e-3, 1.0, 1e3, 1e5, 60.0 * tau[-1], 1e9])[None, None, :]
-    v = _Block(_fresh(xi.size), 1, 1, xi.shape[-1])
+    v = Block(fresh_arrays(xi.size), 1, 1, xi.shape[-1])
     _unrecovered_block(xi, tau, g, v, 0)
     assert np.array_equal(v.u[0, 0, -2:], np.zeros(2))
     assert np.allclose(v.u[0, 0, :-2], _exact_sum(p, xi[0, 0, :-2]), rtol=1e-14, atol=0)

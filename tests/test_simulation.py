@@ -11,10 +11,13 @@ from shapely.geometry import LineString
 
 from foldprint.collision.clearance import gaps_in_pose, min_clearance
 from foldprint.collision.index2d import collision_index, index_arrays, paper_contact, world_side_segments
-from foldprint.collision.swept3d import SweptChecker, non_adjacent_pairs, swept_first_contact
+from foldprint.collision.broadphase import non_adjacent_pairs
+from foldprint.collision.swept3d import SweptChecker
+from foldprint.collision.swept_search import swept_first_contact
 from foldprint.model.design import strip
 from foldprint.io.load import load_design
-from foldprint.physics.kinematics import HingeDrive, forward, simulate_kinematics, transform_points
+from foldprint.physics.kinematics import forward, transform_points
+from foldprint.physics.hinge_drive import HingeDrive, simulate_kinematics
 from foldprint.apps.pipeline import build
 from foldprint.simulation.simulate import simulate
 
@@ -147,7 +150,7 @@ def test_held_configurations_get_the_poses_forward_gives(rows):
     """The poses of a pattern with loops are computed once per distinct configuration in
     a row of held ones: every row, also one that returns to an earlier configuration,
     gets exactly forward's poses (derandomised: the poses feed the collision check)."""
-    from foldprint.physics.kinematics import _held_forward
+    from foldprint.physics.hinge_drive import _held_forward
 
     d = strip("h", [10, 12, 9], [90, -60], ["H-1", "H-3"])
     palette = np.radians([[0.0, 0.0], [30.0, -20.0], [90.0, -60.0]])

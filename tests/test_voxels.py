@@ -20,12 +20,14 @@ from foldprint.core import guards
 from foldprint.exchange import voxel_cost
 from foldprint.core.errors import ExportError
 from foldprint.exchange import voxels as vx
+from foldprint.exchange import voxel_regions as vr
+from foldprint.exchange import voxel_stats as vs
 from foldprint.exchange.export import export_assembly
 from foldprint.exchange.files import write_set
 from foldprint.geometry import HingeAxes, build_pieces, hinge_axes
 from foldprint.model.composition import Along, FractionProfile
 
-J750 = vx.Pitch(25.4 / 600, 25.4 / 300, 0.027, "j750", "test")
+J750 = vr.Pitch(25.4 / 600, 25.4 / 300, 0.027, "j750", "test")
 
 
 def Profile(knots, along=None):
@@ -42,14 +44,14 @@ def _straight_axes(hid, x0, x1, y0, y1, z) -> HingeAxes:
     return HingeAxes(hid, mid[0].copy(), np.array([0.0, 1.0, 0.0]), y1 - y0, mid)
 
 
-def _part(profile, size=(4.0, 3.0, 0.8), panel=True) -> vx.VoxelPart:
+def _part(profile, size=(4.0, 3.0, 0.8), panel=True) -> vr.VoxelPart:
     w, length, t = size
     regions = []
     if panel:
-        regions.append(vx.VoxelRegion("panel", "p", "VeroWhite", _box(-2.0, 0.0, -0.5, 0.0, length, 0.5), vx.Uniform(1.0)))
-    regions.append(vx.VoxelRegion("hinge", "h", "X", _box(0.0, 0.0, -t / 2, w, length, t / 2), profile,
+        regions.append(vr.VoxelRegion("panel", "p", "VeroWhite", _box(-2.0, 0.0, -0.5, 0.0, length, 0.5), vr.Uniform(1.0)))
+    regions.append(vr.VoxelRegion("hinge", "h", "X", _box(0.0, 0.0, -t / 2, w, length, t / 2), profile,
                                   _straight_axes("h", 0.0, w, 0.0, length, 0.0)))
-    return vx.VoxelPart("test", "permanent", tuple(regions), J750, np.array([0.0, 0.0, 0.5]))
+    return vr.VoxelPart("test", "permanent", tuple(regions), J750, np.array([0.0, 0.0, 0.5]))
 
 
 def _stack(part, tmp_path: Path, name="t") -> tuple[list[bytes], dict]:
@@ -147,7 +149,7 @@ def _block_errors(slices, manifest, part, region_index):
             total[kk] = total.get(kk, 0) + 1
             target[kk] = target.get(kk, 0.0) + ff
     full = (1 / p.x) * (1 / p.y) * (1 / p.z)
-    return {k: abs(white[k] - target[k]) / total[k] for k in total if total[k] >= vx.BLOCK_MIN_FILL * full}
+    return {k: abs(white[k] - target[k]) / total[k] for k in total if total[k] >= vs.BLOCK_MIN_FILL * full}
 
 
 @pytest.mark.parametrize("profile", [Profile((0.42,)), Profile((0.137,)), Profile((0.3, 0.7), Along.WIDTH),
@@ -157,7 +159,7 @@ def test_every_mm3_of_a_hinge_within_1_percent(tmp_path, profile):
     slices, manifest = _stack(part, tmp_path)
     errs = _block_errors(slices, manifest, part, 1)
     assert len(errs) >= 8
-    assert max(errs.values()) <= vx.FRACTION_TOL
+    assert max(errs.values()) <= vs.FRACTION_TOL
     rec = next(r for r in manifest["regions"] if r["id"] == "h")
     assert rec["within_tolerance"] and rec["blocks_checked"] == len(errs)
     # the writer looks u up in a table of quarter-voxel cells; the recount uses the exact u
@@ -188,7 +190,7 @@ def test_slices_are_byte_identical_between_runs(tmp_path):
     assert len(a) == part.grid().shape[2] == ma["layers"]
 
 
-def _tilted_part(profile) -> vx.VoxelPart:
+def _tilted_part(profile) -> vr.VoxelPart:
     """A panel and a hinge whose cross-sections change from layer to layer (rotated about
     x and z), next to a flat prism hinge whose cross-section repeats."""
     import math as _m
@@ -197,11 +199,11 @@ def _tilted_part(profile) -> vx.VoxelPart:
     d = np.array([-_m.sin(_m.radians(23.0)), _m.cos(_m.radians(23.0)), 0.0])
     mid = np.stack([np.linspace(lo[0], lo[3], 65), np.linspace(lo[1], lo[1], 65), np.zeros(65)], axis=1)
     axes = HingeAxes("t", mid[0].copy(), d, 2.0, mid)
-    regions = (vx.VoxelRegion("panel", "p", "TangoBlack", _box(-2.0, -1.0, -0.5, -0.5, 2.0, 0.5), vx.Uniform(0.0)),
-               vx.VoxelRegion("hinge", "t", "X", tilt, profile, axes),
-               vx.VoxelRegion("hinge", "h", "Y", _box(3.5, 0.0, -0.4, 5.0, 2.0, 0.4), Profile((0.2, 0.6), Along.WIDTH),
+    regions = (vr.VoxelRegion("panel", "p", "TangoBlack", _box(-2.0, -1.0, -0.5, -0.5, 2.0, 0.5), vr.Uniform(0.0)),
+               vr.VoxelRegion("hinge", "t", "X", tilt, profile, axes),
+               vr.VoxelRegion("hinge", "h", "Y", _box(3.5, 0.0, -0.4, 5.0, 2.0, 0.4), Profile((0.2, 0.6), Along.WIDTH),
                               _straight_axes("h", 3.5, 5.0, 0.0, 2.0, 0.0)))
-    return vx.VoxelPart("test", "permanent", regions, J750, np.array([0.0, 0.0, 0.6]))
+    return vr.VoxelPart("test", "permanent", regions, J750, np.array([0.0, 0.0, 0.6]))
 
 
 @pytest.mark.parametrize("profile", [Profile((0.3, 0.8), Along.WIDTH), Profile((0.7, 0.1), Along.LENGTH),
@@ -256,7 +258,7 @@ def test_the_writer_matches_a_layer_by_layer_reference():
 def test_width_table_cells_are_width_u_of_their_centres():
     """The lazily filled table holds, cell by cell, what width_u gives for the whole grid."""
     r = _tilted_part(Profile((0.3, 0.8), Along.WIDTH)).regions[1]
-    t = vx._WidthTable(r, vx.Pitch(0.2, 0.2, 0.2))
+    t = vx._WidthTable(r, vr.Pitch(0.2, 0.2, 0.2))
     rng = np.random.default_rng(3)
     ia = rng.integers(0, t.n[0], (40, 1))
     ib = rng.integers(0, t.n[1], (1, 30))
@@ -280,7 +282,7 @@ def test_width_fractions_of_a_fold_line_out_of_the_bed(tilt_deg):
     mid = np.stack([np.linspace(0.0, w, 65), np.zeros(65), np.zeros(65)], axis=1)
     solid = _box(0.0, 0.0, -t / 2, w, length, t / 2).rotate([tilt_deg, 0.0, 0.0])
     profile = Profile((0.3, 0.8), Along.WIDTH)
-    r = vx.VoxelRegion("hinge", "h", "X", solid, profile, HingeAxes("h", mid[0].copy(), d, length, mid))
+    r = vr.VoxelRegion("hinge", "h", "X", solid, profile, HingeAxes("h", mid[0].copy(), d, length, mid))
     table = vx._WidthTable(r, J750)
     xs = np.linspace(0.05, w - 0.05, 41)
     ys = length / 2 * _m.cos(a) + np.linspace(-0.1, 0.1, 7)
@@ -344,9 +346,9 @@ def test_png_packing_is_the_shift_and_or_of_four_pixels(nx, ny, seed):
 
 
 def test_a_slice_failing_in_a_worker_thread_leaves_no_set(tmp_path):
-    bad = vx.VoxelRegion("panel", "q", "VW0.5", _box(-4.0, 0.0, -0.5, -2.5, 3.0, 0.5), vx.Uniform(0.5))
+    bad = vr.VoxelRegion("panel", "q", "VW0.5", _box(-4.0, 0.0, -0.5, -2.5, 3.0, 0.5), vr.Uniform(0.5))
     part = _part(Profile((0.5,)))
-    part = vx.VoxelPart(part.design, part.state, part.regions + (bad,), part.pitch, part.print_offset)
+    part = vr.VoxelPart(part.design, part.state, part.regions + (bad,), part.pitch, part.print_offset)
     with pytest.raises(ExportError, match="panel 'q'.*not a base resin"):
         write_set(tmp_path / "out", vx.slice_files(part, "t", workers=2))
     assert not (tmp_path / "out").exists()
@@ -392,7 +394,7 @@ def test_a_failed_slice_leaves_no_set(tmp_path):
 # -- guards -------------------------------------------------------------------------------
 
 def test_guard_refuses_only_what_exceeds_the_limits():
-    plate = vx.part_size([vx.VoxelRegion("panel", "p", "VeroWhite", _box(0, 0, 0, 150, 150, 20), vx.Uniform(1.0))],
+    plate = vr.part_size([vr.VoxelRegion("panel", "p", "VeroWhite", _box(0, 0, 0, 150, 150, 20), vr.Uniform(1.0))],
                          J750)
     assert plate == (3544, 1772, 741)
     est = voxel_cost.check_voxels(plate)  # a 150 x 150 x 20 mm plate, the largest part we target, is accepted under the default limits
@@ -441,7 +443,7 @@ def _helix_voxel_part(profiles):
 
     d = load_design(resolve_design_path("helix_graded"))
     asm = pipeline.build(d)
-    return d, asm, pipeline.voxel_part(d, asm, profiles=profiles, pitch=vx.Pitch(0.2, 0.2, 0.2))
+    return d, asm, pipeline.voxel_part(d, asm, profiles=profiles, pitch=vr.Pitch(0.2, 0.2, 0.2))
 
 
 def _profiles(lib, material):

@@ -30,14 +30,15 @@ results come back in input order, so the answer does not depend on where it ran.
 
 This module is the search; the tasks and their mappers are in
 :mod:`foldprint.apps.assign_tasks`, what it reports (verdicts, choices, the result and its
-JSON) in :mod:`foldprint.apps.assign_result`. Their names still import from here.
+JSON) in :mod:`foldprint.apps.assign_result`. Their names still import from here. The
+waves a pattern is made of are in :mod:`foldprint.apps.assign_waves`, the ledger of
+evaluations in :mod:`foldprint.apps.assign_ledger`.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
@@ -55,6 +56,8 @@ from ..simulation.timing import order_risk
 # the results and the tasks, importable from here as before
 from .assign_result import AssignResult, Choice, Verdict, choice_from  # noqa: F401
 from .assign_tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_materials  # noqa: F401
+from .assign_ledger import Ledger
+from .assign_waves import connected_waves, growing_waves, hinge_adjacency
 
 #: The objectives' names (the values of :class:`~foldprint.core.modes.Objective`).
 OBJECTIVES = tuple(o.value for o in Objective)
@@ -62,8 +65,6 @@ OBJECTIVES = tuple(o.value for o in Objective)
 DEFAULT_BUDGET = ASSIGN_BUDGET
 #: Prefixes expanded per round of the best-first pattern search.
 DEFAULT_BEAM = 6
-#: Connected waves offered as children of one prefix (the smallest first).
-MAX_CHILDREN = 48
 #: Share of the budget the pattern search (phase 1) may spend; the rest maps patterns
 #: onto materials and confirms the finalists.
 PHASE1_SHARE = 0.5
@@ -73,8 +74,6 @@ PHASE1_SHARE = 0.5
 #: and get ``samples`` folds of the printed part each (the batch Monte-Carlo made these
 #: cheap: 12 finalists x 60 samples cost what 5 x 60 cost on the per-curve path).
 ROBUST_POOL = 48
-#: ``robust`` pattern search: the largest wave it proposes (but the last, "all the rest").
-ROBUST_WAVE_MAX = 2
 ROBUST_SCREEN_SAMPLES = 16
 ROBUST_FINALISTS = 12
 #: Search spaces up to this size (and within the budget) are enumerated outright.
@@ -99,95 +98,6 @@ def temperature_grid(lo: float, hi: float) -> tuple[float, ...]:
     if n == 1:
         return (float(lo),) if hi == lo else (float(lo), float(hi))
     return tuple(float(x) for x in np.linspace(lo, hi, n if (hi - lo) / (n - 1) <= TEMPERATURE_STEP_C else n + 1))
-
-
-def hinge_adjacency(design: Design) -> list[set[int]]:
-    by_panel: dict[str, list[int]] = {}
-    for k, h in enumerate(design.hinges):
-        for p in h.panels:
-            by_panel.setdefault(p, []).append(k)
-    nb = [set() for _ in design.hinges]
-    for ks in by_panel.values():
-        for a in ks:
-            nb[a] |= set(ks) - {a}
-    return nb
-
-
-def connected_waves(remaining: frozenset, graph: list[set[int]], limit: int = MAX_CHILDREN) -> list[frozenset]:
-    """Nonempty connected groups of ``remaining`` hinges (in the hinge graph restricted to
-    them), smallest first, at most ``limit``; then all of ``remaining`` (possibly
-    disconnected), so every prefix can be completed in one wave."""
-    found: set[frozenset] = set()
-    frontier = [frozenset([k]) for k in sorted(remaining)]
-    out: list[frozenset] = []
-    while frontier and len(out) < limit:
-        nxt = []
-        for s in frontier:
-            if s in found or s == remaining:
-                continue
-            found.add(s)
-            out.append(s)
-            for k in sorted(set().union(*(graph[x] for x in s)) & remaining - s):
-                nxt.append(s | {k})
-        frontier = sorted(set(nxt), key=lambda s: sorted(s))
-    out = sorted(out[:limit], key=lambda s: (len(s), sorted(s)))
-    return [remaining] + out
-
-
-def growing_waves(remaining: frozenset, placed: frozenset, graph: list[set[int]]) -> list[frozenset]:
-    """The ``robust`` search's children of a prefix: "all the rest", then connected groups
-    of at most ROBUST_WAVE_MAX remaining hinges that touch the hinges already placed (any
-    group for the first wave). Many small waves, growing the folded region one step at a
-    time: what a sequence that scatter cannot reorder looks like, and a narrow enough
-    tree to reach the deep patterns within the budget."""
-    out = [remaining]
-    for g in connected_waves(remaining, graph)[1:]:
-        if len(g) <= ROBUST_WAVE_MAX and (not placed or any(graph[k] & placed for k in g)):
-            out.append(g)
-    return out
-
-
-@dataclass
-class Ledger:
-    """Every evaluation, cached, counted and tallied."""
-
-    mapper: Mapper
-    budget: int
-    progress: Callable[[int, int], None] | None
-    cache: dict = field(default_factory=dict)
-    evaluated: int = 0
-    pairs: dict = field(default_factory=dict)
-    goals: dict = field(default_factory=dict)
-    first_feasible_at: int | None = None
-
-    def run(self, tasks: list[Task], cap: int | None = None) -> list[Verdict]:
-        """Verdicts of ``tasks`` (None for those beyond the budget, or ``cap`` evaluations)."""
-        cap = self.budget if cap is None else min(cap, self.budget)
-        todo = []
-        for t in tasks:
-            key = (t.materials, t.bath_c, t.method, t.duration, t.clearance_samples)
-            if key not in self.cache and key not in {k for k, _ in todo}:
-                todo.append((key, t))
-        todo = todo[: max(0, cap - self.evaluated)]
-        if todo:
-            base = self.evaluated
-            cb = (lambda done, _n: self.progress(base + done, self.budget)) if self.progress else None
-            results = self.mapper(run_task, [t for _, t in todo], cb)
-            for (key, t), v in zip(todo, results):
-                self.cache[key] = v
-                self.evaluated += 1
-                complete = all(m is not None for m in t.materials)
-                if v.pair is not None:
-                    self.pairs[v.pair] = self.pairs.get(v.pair, 0) + 1
-                elif v.goal is not None:
-                    self.goals[v.goal] = self.goals.get(v.goal, 0) + 1
-                if complete and v.completed and self.first_feasible_at is None:
-                    self.first_feasible_at = self.evaluated
-        out = []
-        for t in tasks:
-            key = (t.materials, t.bath_c, t.method, t.duration, t.clearance_samples)
-            out.append(self.cache.get(key))
-        return out
 
 
 def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_c: float) -> dict[str, float | None]:

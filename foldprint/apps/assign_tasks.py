@@ -17,7 +17,7 @@ from ..core.constants import CLEARANCE_SAMPLES
 from ..core.modes import HingeModel, Method
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
-from ..physics.kinematics import HingeDrive
+from ..physics.hinge_drive import HingeDrive
 from ..physics.recovery import recovery_curve
 from ..simulation.robust import CHUNK, Sample, Scatter, draw_samples, run_end, run_samples, sample_drive, wilson
 from .assign_result import Choice, Verdict

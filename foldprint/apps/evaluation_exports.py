@@ -19,7 +19,7 @@ from ..core.modes import HingeModel, State, parse
 from ..exchange.export import TRAJECTORY_FORMATS, check_formats, export_assembly
 from ..exchange.fem import PlacedState, check_strip
 from ..exchange.recipe import check_summary
-from ..exchange.voxels import Pitch, VoxelPart
+from ..exchange.voxel_regions import Pitch, VoxelPart
 from ..geometry import Assembly, build_assembly, state_angles
 from ..geometry.surfaces import Frames, fold_frames
 from ..model.printers import find_printer, tool_fit

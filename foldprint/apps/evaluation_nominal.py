@@ -16,7 +16,8 @@ from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_cr
 from ..collision.swept3d import SweptChecker
 from ..geometry import Assembly, build_assembly
 from ..physics.barhinge_solve import CompliantDrive
-from ..physics.kinematics import HingeDrive, forward, run_times, solve_loops_many, target_angles
+from ..physics.kinematics import forward, target_angles
+from ..physics.hinge_drive import HingeDrive, run_times, solve_loops_many
 from ..simulation.margin import ScatterMargin, scatter_margin
 from ..simulation.margin import left_out as margin_left_out
 from ..simulation.paper_beside import PaperLine, paper_lines
@@ -60,7 +61,7 @@ class NominalStages:
         """The nominal drive of this evaluation's simulations (each ``simulate`` arrests on
         its own copy), the closure of a pattern with loops tracked once for all of them
         (every hinge model uses the point model's closed angles): what each simulation
-        would track for itself, on the same grid (:func:`~foldprint.physics.kinematics.run_times`
+        would track for itself, on the same grid (:func:`~foldprint.physics.hinge_drive.run_times`
         of the options). A run the simulation guard refuses is not tracked here (the
         simulation refuses it with its own message)."""
         if self._nominal_drive is None:

@@ -35,7 +35,7 @@ from ..model.derived import DerivedCache
 from ..model.design import Design
 from ..exchange.export import DEFAULT_FORMATS
 from ..geometry import Assembly, build_assembly
-from ..physics.kinematics import HingeDrive
+from ..physics.hinge_drive import HingeDrive
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, DEFAULT_STATE,
                           VERDICT_METHOD, AfterContact, HingeModel, Mechanics, Method, SampleRule, State, parse)

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..checks.report import simulation_json
 from ..checks.rules import CheckContext, run_checks
-from ..collision.swept3d import min_clearance as swept_min_clearance
+from ..collision.swept_search import min_clearance as swept_min_clearance
 from ..core import schema as sc
 from ..core.constants import CHECK_SAMPLES, CHECK_SEED, CLEARANCE_SAMPLES
 from ..core.errors import DesignError, FoldprintError
@@ -278,7 +278,7 @@ def nominal_json(entry: Entry) -> dict:
 def clearance_curve(ev: Evaluation) -> dict:
     """The smallest gap between non-adjacent panels at :data:`CURVE_POSES` moments of the
     nominal fold up to its first contact (the search of
-    :func:`foldprint.collision.swept3d.min_clearance` on one pose at a time)."""
+    :func:`foldprint.collision.swept_search.min_clearance` on one pose at a time)."""
     traj, first = ev.simulation.trajectory, ev.simulation.first_collision
     n = len(traj.times) if first is None else int(np.searchsorted(traj.times, first.time, side="right"))
     ks = np.unique(np.linspace(0, max(n - 1, 0), min(max(n, 1), CURVE_POSES)).round().astype(int))

@@ -1,6 +1,6 @@
 """What a voxel print is made of: the voxel pitch of a printer profile
 (:func:`voxel_pitch`) and every panel and hinge of a built part with its VeroWhite fraction
-profile (:func:`voxel_part`), the :class:`~foldprint.exchange.voxels.VoxelPart` the voxel
+profile (:func:`voxel_part`), the :class:`~foldprint.exchange.voxel_regions.VoxelPart` the voxel
 writer rasterises (``foldprint export --format voxels``).
 """
 
@@ -11,7 +11,7 @@ from typing import Callable
 
 from ..checks.rules import Printer, default_voxel_printer_key, load_printers
 from ..core.errors import ExportError
-from ..exchange.voxels import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart, VoxelRegion
+from ..exchange.voxel_regions import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart, VoxelRegion
 from ..geometry import Assembly, hinge_axes
 from ..model.composition import fraction_profile
 from ..model.design import Design

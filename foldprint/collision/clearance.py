@@ -7,7 +7,7 @@ Exact distances come from the FCL solids of :class:`foldprint.collision.swept3d.
 vectorised axis-aligned-box prefilter skips the pairs whose boxes are farther apart than
 the distance of interest. Along a trajectory the clearance is sampled (``n_samples``
 evenly spaced poses plus the last) and searched by the swept check's own branch and bound
-(:func:`foldprint.collision.swept3d.min_clearance`); the earliest sampled time at which the
+(:func:`foldprint.collision.swept_search.min_clearance`); the earliest sampled time at which the
 smallest gap is reached (to :data:`~foldprint.core.constants.tol` ``.length``) is reported. Between samples the swept check, not this module, guarantees that
 nothing touches.
 """
@@ -21,8 +21,9 @@ import numpy as np
 from ..core.constants import CLEARANCE_SAMPLES, tol
 from ..model.derived import scoped
 from .broadphase import pair_bounds
-from .swept3d import SweptChecker, non_adjacent_pairs
-from .swept3d import min_clearance as swept_min_clearance
+from .broadphase import non_adjacent_pairs
+from .swept3d import SweptChecker
+from .swept_search import min_clearance as swept_min_clearance
 from .rigid import rigid_polygons
 
 
@@ -111,7 +112,7 @@ def min_clearance(checker: SweptChecker, times: np.ndarray, poses: np.ndarray,
     """The smallest gap between non-adjacent panels over ``n_samples`` poses of the
     trajectory up to ``t_end`` (default: its end), or None for a design with no such pair
     (or none whose panels both keep a rigid part beside their hinge strips).
-    The search over those poses is :func:`foldprint.collision.swept3d.min_clearance` (exact,
+    The search over those poses is :func:`foldprint.collision.swept_search.min_clearance` (exact,
     branch and bound on sphere bounds); this adds the sampling, the time and the point."""
     n = len(times) if t_end is None else int(np.searchsorted(times, t_end, side="right"))
     ks = sampled_poses(n, n_samples)

@@ -2,7 +2,7 @@
 its candidate pair runs and before any is stepped, and refused through the guard
 (:func:`foldprint.core.guards.enforce`) when it would not fit in the memory limit.
 
-The narrow phase (:func:`foldprint.collision.swept3d.swept_first_contact`) advances every
+The narrow phase (:func:`foldprint.collision.swept_search.swept_first_contact`) advances every
 candidate run together in time: each run open at once holds its stepping generator, its
 motion bound on up to 64 samples (Python floats) and, cached per pair, the hinges on the
 pair's tree path with one lever each (two lists of Python ints, two float arrays). So

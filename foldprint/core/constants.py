@@ -29,7 +29,7 @@ ONSET_LEVEL = 0.05
 #: How long the recovery model looks ahead before it calls a hinge "does not fold" (s).
 RECOVERY_HORIZON_S = 600.0
 #: Step in ln(reduced time) between the nodes of the table the batch recovery curves (the
-#: Monte-Carlo's) read the relaxation sum from (``physics.recovery_batch.relaxation_table``).
+#: Monte-Carlo's) read the relaxation sum from (``physics.recovery_relaxation.relaxation_table``).
 #: Our choice: 55 000 nodes (0.9 MB) from 1e-13 tau_1 to 50 tau_16; max |dR| 5.5e-9 against
 #: the exact sum (3x the step: 4.9e-8, 10x: 5.5e-7; < 2e-8 asserted in
 #: tests/test_recovery_batch.py), every template's Monte-Carlo outcomes unchanged

@@ -46,7 +46,8 @@ from .recipe import CheckSummary, recipe_markdown
 from .slicer_config import BedLayout, bed_layout
 from .stl import manifest, stl_bytes
 from .threemf import composite3mf_bytes, prusa3mf_bytes, threemf_bytes
-from .voxels import VoxelPart, slice_files
+from .voxels import slice_files
+from .voxel_regions import VoxelPart
 from .xdmf import xdmf_files
 
 def safe_name(text: str) -> str:
@@ -223,7 +224,7 @@ DEFAULT_FORMATS = EXPORT_FORMATS
 #: Formats that show the fold over time: they need its :class:`~foldprint.geometry.surfaces.Frames`
 #: (the surfaces placed along the simulated trajectory).
 TRAJECTORY_FORMATS = tuple(f.name for f in REGISTRY.values() if f.needs == "frames")
-#: Formats written from a :class:`~foldprint.exchange.voxels.VoxelPart` (the regions with
+#: Formats written from a :class:`~foldprint.exchange.voxel_regions.VoxelPart` (the regions with
 #: their VeroWhite fraction profiles and hinge axes): the PNG slice stack, its manifest
 #: and the 3MF with composite materials.
 VOXEL_FORMATS = tuple(f.name for f in REGISTRY.values() if f.needs == "voxels")

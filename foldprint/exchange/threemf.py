@@ -292,7 +292,7 @@ def composite_model_xml(design: Design, assembly: Assembly, part, library: Mater
     TangoBlack, one ``<m:compositematerials>`` per hinge (a uniform hinge one composite,
     its object's ``pindex``; a graded hinge one composite per distinct vertex fraction,
     referenced per vertex by its triangles' p1/p2/p3), one mesh object per panel and hinge
-    (``part.regions``, :class:`~foldprint.exchange.voxels.VoxelPart`), each a build item
+    (``part.regions``, :class:`~foldprint.exchange.voxel_regions.VoxelPart`), each a build item
     lifted onto the plate."""
     lib = library or default_library()
     require_bodies(assembly)

@@ -166,7 +166,7 @@ def png_chunk(kind: bytes, data: bytes) -> bytes:
 def png_bytes(labels: np.ndarray, pitch) -> bytes:
     """A 2-bit palette PNG of ``labels`` (ny, nx) with values 0..3 (:data:`PALETTE`);
     row 0 of the image is y index 0 (the grid's front edge); pHYs gives the pitch
-    (``pitch.x``, ``pitch.y`` in mm: a :class:`foldprint.exchange.voxels.Pitch`)."""
+    (``pitch.x``, ``pitch.y`` in mm: a :class:`foldprint.exchange.voxel_regions.Pitch`)."""
     ny, nx = labels.shape
     lab = np.zeros((ny, padded_width(nx)), np.uint8)
     lab[:, :nx] = labels

@@ -1,10 +1,12 @@
 """Voxel print: the printed part as a stack of PNG slices at the printer's pitch, one
 colour per base resin, hinges dithered to their VeroWhite fraction (``docs/voxels.md``).
 
-The writer receives everything it writes (:class:`VoxelPart`: one :class:`VoxelRegion`
-per panel and hinge, each with its solid, its :class:`FractionProfile`-like profile and,
-for hinges, the :class:`~foldprint.geometry.HingeAxes` that map a point to u); it runs no
-physics and builds no geometry.
+The writer receives everything it writes (:class:`~foldprint.exchange.voxel_regions.VoxelPart`:
+one :class:`~foldprint.exchange.voxel_regions.VoxelRegion` per panel and hinge, each with
+its solid, its :class:`FractionProfile`-like profile and, for hinges, the
+:class:`~foldprint.geometry.HingeAxes` that map a point to u); it runs no physics and builds
+no geometry. What it measures of each hinge per 1 mm block is in
+:mod:`foldprint.exchange.voxel_stats`.
 
 Streamed: each slice is cut from the solids (``Manifold.slice``), rasterised with numpy
 (even-odd scan lines at pixel centres) and encoded as a 2-bit palette PNG with zlib;
@@ -30,10 +32,8 @@ import os
 import threading
 import weakref
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, field
 from typing import Any, Callable
 
-import manifold3d as mf
 import numpy as np
 
 from ..core.version import __version__
@@ -41,134 +41,14 @@ from ..core.errors import ExportError
 from .voxel_pixels import (EMPTY, MASK_SIZE, PALETTE, TANGO, VERO, ZLIB_LEVEL, blue_noise,  # noqa: F401
                            fill, layer_mask, paint_runs, padded_width, pixel_runs, png_bytes, png_padded, read_png,
                            tiled)
+from .voxel_regions import TANGO_BLACK, VERO_WHITE, Grid, Pitch, VoxelPart, VoxelRegion
+from .voxel_stats import BLOCK_MIN_FILL, BLOCK_MM, FRACTION_TOL, BlockStats
 
-#: the two base resins (names as in the material library)
-VERO_WHITE, TANGO_BLACK = "VeroWhite", "TangoBlack"
-#: the accuracy the issue asks for: |measured - target| <= 1 % in every checked 1 mm^3
-FRACTION_TOL = 0.01
-#: block size (mm) over which the measured fraction is checked
-BLOCK_MM = 1.0
-#: a block is checked when it holds at least this share of a full 1 mm^3 block's voxels
-#: of the hinge (a 0.8 mm hinge fills 80 % of the blocks inside it; blocks cut by the
-#: hinge's faces hold a few voxels, where no dithering can be within 1 %)
-BLOCK_MIN_FILL = 0.5
 #: threads that make slices ahead of the writer, at most (2 cores here; zlib, numpy and the
 #: fill release the GIL, the Python between them does not)
 MAX_WORKERS = 4
 #: layers made ahead per worker thread (each holds a slice's labels and PNG until written)
 AHEAD = 2
-
-
-@dataclass(frozen=True)
-class Pitch:
-    """Voxel size (mm) in x, y and z (layer), and where it comes from."""
-
-    x: float
-    y: float
-    z: float
-    printer: str = ""
-    source: str = ""
-
-    def __post_init__(self):
-        for k in ("x", "y", "z"):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v > 0):
-                raise ExportError(f"voxel pitch {k} must be a positive length in mm, got {v!r}")
-
-    @property
-    def dpi(self) -> tuple[float, float]:
-        return 25.4 / self.x, 25.4 / self.y
-
-
-@dataclass(frozen=True)
-class Uniform:
-    """A constant VeroWhite fraction (panels: 1 or 0); the FractionProfile interface."""
-
-    value: float
-    along: Any = None
-
-    def at(self, u: np.ndarray) -> np.ndarray:
-        return np.full(np.shape(u), float(self.value))
-
-    @property
-    def mean(self) -> float:
-        return float(self.value)
-
-    @property
-    def knots(self) -> tuple[float, ...]:
-        return (float(self.value),)
-
-
-@dataclass(frozen=True)
-class VoxelRegion:
-    """One panel or hinge to rasterise: its solid (sheet frame, mm), its VeroWhite
-    fraction profile (``.at(u)``, ``.knots``, ``.along``: None, WIDTH or LENGTH) and, for a
-    profile that varies, the hinge axes that give u."""
-
-    kind: str  # "panel" | "hinge"
-    id: str
-    material: str
-    solid: mf.Manifold = field(repr=False)
-    profile: Any
-    axes: Any = field(default=None, repr=False)
-
-    @property
-    def constant(self) -> float | None:
-        knots = tuple(self.profile.knots)
-        if len(set(knots)) == 1:
-            return float(knots[0])
-        return None
-
-    @property
-    def along_length(self) -> bool:
-        return getattr(self.profile.along, "name", str(self.profile.along)).upper().endswith("LENGTH")
-
-    def fraction(self, p: np.ndarray, width_u: Callable | None = None) -> np.ndarray:
-        """VeroWhite fraction at points (n, 3); ``width_u`` replaces ``axes.width_u``
-        (the writer's tabulated u)."""
-        c = self.constant
-        if c is not None:
-            return np.full(len(p), c)
-        if self.axes is None:
-            raise ExportError(f"{self.kind} {self.id!r}: a graded fraction needs the hinge's axes")
-        u = self.axes.length_u(p) if self.along_length else (width_u or self.axes.width_u)(p)
-        return np.clip(np.asarray(self.profile.at(u), dtype=float), 0.0, 1.0)
-
-
-@dataclass(frozen=True)
-class VoxelPart:
-    """Everything the voxel writer writes: the regions, the pitch and the print offset
-    (sheet frame -> print frame, ``Assembly.print_offset``)."""
-
-    design: str
-    state: str
-    regions: tuple[VoxelRegion, ...]
-    pitch: Pitch
-    print_offset: np.ndarray
-
-    def grid(self) -> "Grid":
-        lo = np.min([r.solid.bounding_box()[:3] for r in self.regions], axis=0)
-        hi = np.max([r.solid.bounding_box()[3:] for r in self.regions], axis=0)
-        p = self.pitch
-        n = [max(1, int(math.ceil((hi[i] - lo[i]) / s - 1e-9))) for i, s in enumerate((p.x, p.y, p.z))]
-        return Grid(lo, tuple(n), p)
-
-
-@dataclass(frozen=True)
-class Grid:
-    """The voxel grid: ``origin`` (sheet frame, the lower corner), ``shape`` (nx, ny, nz)."""
-
-    origin: np.ndarray
-    shape: tuple[int, int, int]
-    pitch: Pitch
-
-    def layer_z(self, k: int) -> float:
-        return float(self.origin[2] + (k + 0.5) * self.pitch.z)
-
-
-def part_size(regions, pitch: Pitch) -> tuple[int, int, int]:
-    """(nx, ny, nz) of the grid the regions need (for the guard, before any slicing)."""
-    return VoxelPart("", "", tuple(regions), pitch, np.zeros(3)).grid().shape
 
 
 def _plane(xs: np.ndarray, ys: np.ndarray, z: float, o: np.ndarray, e: np.ndarray) -> np.ndarray:
@@ -265,68 +145,6 @@ def _window(region: VoxelRegion, grid: Grid) -> tuple[int, int, int, int, int, i
 
 # -- the stack -----------------------------------------------------------------------------
 
-class _Stats:
-    """Per hinge: VeroWhite voxels, voxels and the target's sum, per 1 mm block. The blocks
-    of its window's columns and rows are fixed; each layer's sums are made by
-    :meth:`block_sums` (in any thread) and added by :meth:`add` in layer order."""
-
-    def __init__(self, region: VoxelRegion, grid: Grid, window: tuple):
-        bb = region.solid.bounding_box()
-        self.lo = np.floor((np.array(bb[:3]) - grid.origin) / BLOCK_MM).astype(np.int64)
-        hi = np.floor((np.array(bb[3:]) - grid.origin) / BLOCK_MM).astype(np.int64)
-        self.n = hi - self.lo + 1
-        size = int(np.prod(self.n))
-        self.vw = np.zeros(size)
-        self.count = np.zeros(size)
-        self.target = np.zeros(size)
-        self.pitch = p = grid.pitch
-        i0, i1, j0, j1 = window[:4]
-        # the runs of columns and rows whose centres fall in one 1 mm block
-        cb = np.floor((i0 + np.arange(i1 - i0) + 0.5) * p.x / BLOCK_MM).astype(np.int64) - self.lo[0]
-        rb = np.floor((j0 + np.arange(j1 - j0) + 0.5) * p.y / BLOCK_MM).astype(np.int64) - self.lo[1]
-        self.cs = np.flatnonzero(np.r_[True, cb[1:] != cb[:-1]])
-        self.rs = np.flatnonzero(np.r_[True, rb[1:] != rb[:-1]])
-        cb, rb = np.clip(cb[self.cs], 0, self.n[0] - 1), np.clip(rb[self.rs], 0, self.n[1] - 1)
-        self.key_xy = rb[:, None] * self.n[0] + cb[None, :]
-
-    def int_sums(self, a: np.ndarray) -> np.ndarray:
-        """Per-block counts of a bool window (columns first: contiguous and exact)."""
-        return np.add.reduceat(np.add.reduceat(a.view(np.uint8), self.cs, axis=1, dtype=np.int32),
-                               self.rs, axis=0, dtype=np.int64)
-
-    def block_sums(self, mask: np.ndarray, white: np.ndarray, f, k: int, count: np.ndarray | None = None) -> tuple:
-        """Layer k's (block keys, voxels, VeroWhite voxels, target sum) of the hinge's window;
-        ``count`` the mask's block counts when known."""
-        if count is None:
-            count = self.int_sums(mask)
-        vw = self.int_sums(mask & white)
-        if np.isscalar(f):
-            target = count * float(f)
-        else:  # float sums: rows first, then columns (the order the manifest's numbers were made in)
-            target = np.add.reduceat(np.add.reduceat(np.where(mask, f, 0.0), self.rs, axis=0, dtype=np.float64),
-                                     self.cs, axis=1, dtype=np.float64)
-        zb = int(math.floor((k + 0.5) * self.pitch.z / BLOCK_MM)) - int(self.lo[2])
-        zb = min(max(zb, 0), int(self.n[2]) - 1)
-        key = (zb * self.n[1] * self.n[0] + self.key_xy).ravel()
-        return key, count.ravel(), vw.ravel(), np.asarray(target, float).ravel()
-
-    def add(self, key: np.ndarray, count: np.ndarray, vw: np.ndarray, target: np.ndarray) -> None:
-        np.add.at(self.count, key, count)
-        np.add.at(self.vw, key, vw)
-        np.add.at(self.target, key, target)
-
-    def record(self, full_block: float) -> dict:
-        total = float(self.count.sum())
-        sel = self.count >= BLOCK_MIN_FILL * full_block
-        err = np.abs(self.vw[sel] - self.target[sel]) / self.count[sel] if sel.any() else np.zeros(0)
-        return {"voxels": int(total),
-                "target_fraction": round(float(self.target.sum()) / total, 6) if total else None,
-                "measured_fraction": round(float(self.vw.sum()) / total, 6) if total else None,
-                "blocks_checked": int(sel.sum()),
-                "worst_block_error": round(float(err.max()), 6) if len(err) else None,
-                "within_tolerance": bool(len(err) == 0 or err.max() <= FRACTION_TOL)}
-
-
 def default_workers() -> int:
     """Threads that make slices ahead of the writer: the CPUs this process may use, at most
     :data:`MAX_WORKERS` (1: every slice made by the caller, in order)."""
@@ -371,7 +189,7 @@ class _SliceWriter:
     def __init__(self, part: VoxelPart, workers: int = 1):
         self.part, self.grid, self.p = part, part.grid(), part.pitch
         self.windows = [_window(r, self.grid) for r in part.regions]
-        self.stats = {k: _Stats(r, self.grid, self.windows[k]) for k, r in enumerate(part.regions)
+        self.stats = {k: BlockStats(r, self.grid, self.windows[k]) for k, r in enumerate(part.regions)
                       if r.kind == "hinge"}
         self.tables: dict[int, _WidthTable] = {}
         self.masks: dict[int, tuple] = {}  # region -> (runs, mask, block counts), the last painted

@@ -12,7 +12,8 @@ from ..model.derived import derived
 from ..model.design import Design, Hinge, has_loops, tangent_factor
 from ..core.errors import GeometryError
 from ..core.modes import HingeModel, Interface, State
-from ..physics.kinematics import HingeFrame, forward, hinge_frames, hinge_map, loop_gap_mm
+from ..physics.kinematics import HingeFrame, forward, hinge_frames, hinge_map
+from ..physics.hinge_drive import loop_gap_mm
 from .solids import (MAX_SLICE_RAD, STATES, TEETH_OVERLAP, checked_solid, solid_from_arrays, apply_pose)
 
 # -- kinematics of the printed states ----------------------------------------------------

@@ -10,7 +10,7 @@ definite (past a snap-through: the step then still descends) and an Armijo backt
 line search on the energy; a step whose Newton solve does not converge is split into
 halves (load stepping: rest angles and stiffnesses are interpolated).
 
-:class:`CompliantDrive` is a :class:`~foldprint.physics.kinematics.HingeDrive` whose angles
+:class:`CompliantDrive` is a :class:`~foldprint.physics.hinge_drive.HingeDrive` whose angles
 are the equilibrium's fold angles (piecewise linear between grid times, like the loop
 tracker's), so forward kinematics, the swept collision check (with the total variation of
 each angle as its motion bound), goals and arrest run on it unchanged.
@@ -29,7 +29,8 @@ from ..core.errors import DesignError
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
 from .barhinge import BarHinge, build
-from .kinematics import HingeDrive, forward
+from .kinematics import forward
+from .hinge_drive import HingeDrive
 from ..core.modes import HingeModel
 from .modulus import MechanicsParams, default_params, hinge_modulus, hinge_stiffness
 

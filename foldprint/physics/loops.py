@@ -3,7 +3,7 @@
 When creases meet at interior vertices the hinge graph has cycles and the fold angles
 are not independent: going around a loop the rigid transforms must compose to the
 identity. Each hinge is driven toward its material's recovery angle rho_i(t)
-(:class:`foldprint.physics.kinematics.HingeDrive`); at every time step this module finds the
+(:class:`foldprint.physics.hinge_drive.HingeDrive`); at every time step this module finds the
 closed configuration nearest to the driven angles, continuing from the previous step
 (least-squares tracking on the constraint manifold, as in Tachi's Rigid Origami
 Simulator):
@@ -33,7 +33,8 @@ from typing import Callable
 import numpy as np
 
 from .loop_solve import CLOSURE_TOL, MAX_STEP, OPT_TOL, solve  # noqa: F401
-from .loop_tracking import FOLLOW_TOL, JUMP, NEAR_FLAT, SKIP_TOL, track as track_all  # noqa: F401
+from .loop_state import FOLLOW_TOL, NEAR_FLAT, SKIP_TOL  # noqa: F401
+from .loop_tracking import JUMP, track as track_all  # noqa: F401
 from .loop_cost import check_loops
 
 
@@ -106,7 +107,7 @@ class LoopSolution:
     @cached_property
     def arc_gap_mm(self) -> float:
         """The arc hinge model's largest positional gap at a loop hinge (mm, over the
-        run; ``foldprint.physics.kinematics.loop_gap_mm``), 0 for the point model."""
+        run; ``foldprint.physics.hinge_drive.loop_gap_mm``), 0 for the point model."""
         return 0.0 if self.gap is None else float(self.gap())
 
     def at(self, t) -> np.ndarray:

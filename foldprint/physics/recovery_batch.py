@@ -41,23 +41,24 @@ times 1e-20..1e12, asserted < 2e-8 (``tests/test_recovery_batch.py``); every tem
 Monte-Carlo outcomes (jammed, reason, pair) are those of the exact sum sample by sample
 (``benchmarks/bench_relaxation_table.py``). Without the table the difference to the
 per-curve path is round-off: measured max |dR| = 2e-15, asserted < 1e-12.
+
+The working arrays and the relaxation table are in
+:mod:`foldprint.physics.recovery_relaxation`.
 """
 
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
-from ..core.constants import RECOVERY_HORIZON_S, RELAXATION_TABLE_STEP
+from ..core.constants import RECOVERY_HORIZON_S
 from ..model.materials import RecoveryParams
 from .recovery import N_LAYERS, N_TERMS, curve_time_grid, combine_strips, is_graded, spectrum, strip_tgs
+from .recovery_relaxation import CUT, Block, Buffers, RelaxationTable, relaxation_table, table_block
 
-#: Exponent beyond which a series term or relaxation branch is dropped (exp(-50) = 2e-22).
-CUT = 50.0
 #: Elements (hinges x grid times x layer pairs) of one batch: a larger batch is computed
 #: in parts of at most this many (bounds its per-hinge arrays, whatever the number of hinges).
 MAX_BATCH_ELEMENTS = 2_000_000
@@ -158,53 +159,7 @@ class _Slab:
     t_cut: np.ndarray  # each term's last time (s) with Fo zeta^2 <= CUT in any hinge
 
 
-class _Block:
-    """The working arrays of a block of ``m`` times, each C-contiguous: (n, n_z, m),
-    (n, m) and (n, n_z, m, 2) views of the flat buffers of :class:`_Buffers`."""
-
-    def __init__(self, flat: dict[str, np.ndarray], n: int, n_z: int, m: int):
-        shapes = {"fo": (n, m), "arg": (n, m), "cut": (n, m), "r": (n, m), "c": (n, n_z, m, 2)}
-        for name, a in flat.items():
-            shape = shapes.get(name, (n, n_z, m))
-            setattr(self, name, a[:math.prod(shape)].reshape(shape))
-
-
-_SCRATCH = threading.local()  # each thread's flat working arrays, kept between batches
-
-
-def _fresh(size: int) -> dict[str, np.ndarray]:
-    """Flat working arrays of ``size`` elements (``c`` of 2 x size)."""
-    flat = {name: np.empty(size) for name in ("theta", "x", "e", "xi", "u", "rate", "fo", "arg", "r")}
-    flat.update((name, np.empty(size, dtype=bool)) for name in ("keep", "cut"))
-    flat["idx"], flat["c"] = np.empty(size, dtype=np.intp), np.empty(2 * size)
-    return flat
-
-
-def _scratch(size: int) -> dict[str, np.ndarray]:
-    """:func:`_fresh` arrays of at least ``size`` elements, reused from batch to batch (a
-    fresh array's first writes cost page faults: ~0.5 ms a batch): at most a few x
-    :data:`BLOCK_ELEMENTS` x 8 bytes held per thread."""
-    flat = getattr(_SCRATCH, "flat", None)
-    if flat is None or flat["x"].size < size:
-        flat = _SCRATCH.flat = _fresh(size)
-    return flat
-
-
-class _Buffers:
-    """The working arrays of a batch's blocks and their views for each block length."""
-
-    def __init__(self, n: int, n_z: int, m: int):
-        self.n, self.n_z = n, n_z
-        self.flat = _scratch(n * n_z * m)
-        self.views: dict[int, _Block] = {}
-
-    def block(self, m: int) -> _Block:
-        if m not in self.views:
-            self.views[m] = _Block(self.flat, self.n, self.n_z, m)
-        return self.views[m]
-
-
-def _slab_block(slab: _Slab, tb: np.ndarray, v: _Block, terms: int) -> int:
+def _slab_block(slab: _Slab, tb: np.ndarray, v: Block, terms: int) -> int:
     """Excess temperature theta (into ``v.theta``) at the block's times ``tb``: the
     series' first ``terms`` terms, each exactly 0 where Fo zeta^2 > CUT. Returns how many
     terms are alive at the block's first time (Fo rises in t and zeta^2 in the term: a term
@@ -236,7 +191,7 @@ def _slab_block(slab: _Slab, tb: np.ndarray, v: _Block, terms: int) -> int:
     return terms
 
 
-def _reduced_time_block(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams, dt: np.ndarray, v: _Block,
+def _reduced_time_block(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams, dt: np.ndarray, v: Block,
                         carry: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """Reduced time xi (into ``v.xi``) at the block's times: the running trapezoid sum of
     1 / a_T, continued from ``carry`` = (xi, rate) at the previous block's last time (zero
@@ -280,76 +235,7 @@ def _running_sum(inc: np.ndarray, start: np.ndarray, out: np.ndarray) -> np.ndar
     return res
 
 
-@dataclass(frozen=True, eq=False)
-class RelaxationTable:
-    """The relaxation sum U(xi) = sum_b g_b exp(-xi / tau_b) of one spectrum (each branch
-    exactly 0 past xi / tau_b = CUT, as in the exact sum) at the nodes ln xi = y0 + i h,
-    read by linear interpolation in ln xi. Below the first node (xi < 1e-13 tau_1) it
-    holds U there (the exact U differs by less than 1e-13); every node from ``zero_from``
-    on (the last node before CUT tau_n, where U < 1e-22) is exactly 0, so U is exactly 0
-    past CUT tau_n, where every branch is cut, as in the exact sum."""
-
-    y0: float
-    step: float
-    zero_from: int
-    nodes: np.ndarray  # (N, 2): U at each node and its change to the next node
-
-    def __call__(self, xi: np.ndarray) -> np.ndarray:
-        """U at ``xi`` (any shape, >= 0)."""
-        xi = np.asarray(xi, float)
-        v = _Block(_fresh(xi.size), 1, 1, xi.size)
-        _table_values(xi.reshape(1, 1, -1), self, v)
-        return v.u.reshape(xi.shape).copy()
-
-
-@lru_cache(maxsize=32)
-def _table(tau: tuple[float, ...], g: tuple[float, ...], step: float) -> RelaxationTable:
-    tau_a, g_a = np.array(tau), np.array(g)
-    y0 = math.log(1e-13 * tau_a[0])
-    y = y0 + step * np.arange(int(math.ceil((math.log(CUT * tau_a[-1]) - y0) / step)) + 3)
-    x = np.exp(y)[:, None] * (1.0 / tau_a)[None, :]
-    u = np.sum(np.where(x <= CUT, g_a * np.exp(-np.minimum(x, CUT)), 0.0), axis=1)
-    # 0 from the last node before CUT tau_n on (U < 1e-22 there): exactly 0 from CUT tau_n on
-    zero_from = max(0, int(np.argmax(x[:, -1] > CUT)) - 1)
-    u[zero_from:] = 0.0
-    nodes = np.stack([u, np.diff(u, append=0.0)], axis=1)
-    nodes.setflags(write=False)
-    return RelaxationTable(y0, step, zero_from, nodes)
-
-
-def relaxation_table(p: RecoveryParams, step: float = RELAXATION_TABLE_STEP) -> RelaxationTable:
-    """The (cached) :class:`RelaxationTable` of ``p``'s spectrum, nodes ``step`` apart in ln xi."""
-    tau, g = spectrum(p)
-    return _table(tuple(map(float, tau)), tuple(map(float, g)), float(step))
-
-
-def _table_block(xi: np.ndarray, table: RelaxationTable, v: _Block) -> None:
-    """U(xi) (into ``v.u``) of a block (xi rising along its last axis) read from ``table``:
-    nothing to read where every element is past the nodes that are all 0."""
-    if np.min(xi[..., 0]) > math.exp(table.y0 + (table.zero_from + 1) * table.step) * (1.0 + 1e-9):
-        v.u.fill(0.0)
-    else:
-        _table_values(xi, table, v)
-
-
-def _table_values(xi: np.ndarray, table: RelaxationTable, v: _Block) -> None:
-    """U(xi) (into ``v.u``) read from ``table``, element by element: one log and one
-    interpolation instead of a sum of exponentials."""
-    u, w, f = v.u, v.x, v.e
-    with np.errstate(divide="ignore"):
-        np.log(xi, out=w)  # -inf at xi = 0: held at the first node
-    w -= table.y0
-    w *= 1.0 / table.step
-    np.clip(w, 0.0, len(table.nodes) - 2, out=w)
-    np.floor(w, out=f)
-    np.copyto(v.idx, f, casting="unsafe")
-    w -= f
-    c = np.take(table.nodes, v.idx, axis=0, out=v.c)
-    np.multiply(c[..., 1], w, out=u)
-    u += c[..., 0]
-
-
-def _unrecovered_block(xi: np.ndarray, tau: np.ndarray, g: np.ndarray, v: _Block, first: int) -> int:
+def _unrecovered_block(xi: np.ndarray, tau: np.ndarray, g: np.ndarray, v: Block, first: int) -> int:
     """sum_b g_b exp(-xi / tau_b) (into ``v.u``) over the branches from ``first`` on, each
     exactly 0 where xi / tau_b > CUT. Returns the first branch alive at the block's first
     time (xi rises in t: a branch cut everywhere there stays cut, and so does every
@@ -449,7 +335,7 @@ def _curves(p: RecoveryParams, slab: _Slab, tg: np.ndarray, bath: np.ndarray, in
     ratio, mean_t = np.empty((n, len(t))), np.empty((n, len(t)))
     dt = np.diff(t, prepend=t[:1])  # each time's step from the previous one (0 at the first)
     bt = max(1, BLOCK_ELEMENTS // (n * len(w) * SUM_GROUP)) * SUM_GROUP
-    buf = _Buffers(n, len(w), min(bt, len(t)))
+    buf = Buffers(n, len(w), min(bt, len(t)))
     carry = np.zeros((n, len(w))), np.zeros((n, len(w)))  # xi and rate at the previous block's end
     terms, first = slab.nsq.shape[1], 0  # slab terms alive, first relaxation branch alive
     for a in range(0, len(t), bt):
@@ -468,7 +354,7 @@ def _curves(p: RecoveryParams, slab: _Slab, tg: np.ndarray, bath: np.ndarray, in
         if table is None:
             first = _unrecovered_block(xi, tau, g, v, first)
         else:
-            _table_block(xi, table, v)
+            table_block(xi, table, v)
         np.subtract(1.0, np.einsum("nzt,z->nt", v.u, w, out=v.r), out=ratio[:, a:a + len(tb)])
     np.clip(ratio, 0.0, 1.0, out=ratio)
     np.maximum.accumulate(ratio, axis=1, out=ratio)

@@ -36,7 +36,7 @@ from ..collision.broadphase import count_non_adjacent_pairs
 from ..core.constants import CHECK_SEED, CLEARANCE_SAMPLES, MARGIN_MAX_PAIRS, MARGIN_SAMPLES, tol
 from ..model.hinge_graph import has_loops
 from ..model.materials import MaterialLibrary
-from ..physics.kinematics import simulate_kinematics, solve_loops_many
+from ..physics.hinge_drive import simulate_kinematics, solve_loops_many
 from ..physics.recovery_batch import MAX_BATCH_ELEMENTS, N_LAYERS, grid_until
 from .robust import curves_at_once, sample_drives
 from .scatter import Scatter, draw_samples

@@ -35,7 +35,7 @@ from . import costs
 from ..model.design import Design
 from ..core.constants import DEFAULT_DT_S, DEFAULT_SEED, ROBUST_SAMPLES
 from ..core.errors import DesignError, MaterialError
-from ..physics.kinematics import HingeDrive, run_times, solve_loops_many
+from ..physics.hinge_drive import HingeDrive, run_times, solve_loops_many
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, JamReason, Mechanics,
                           Method, parse)
@@ -180,7 +180,7 @@ def run_sample(args) -> Outcome:
 def run_samples(args) -> list[Outcome]:
     """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), the
     closure of a pattern with loops tracked for all of them in lockstep
-    (:func:`foldprint.physics.kinematics.solve_loops_many`), then one fold each. ``args``:
+    (:func:`foldprint.physics.hinge_drive.solve_loops_many`), then one fold each. ``args``:
     (design, library, samples, hinge_model, dt[, exact[, method[, mechanics]]]), the method
     :data:`~foldprint.core.modes.VERDICT_METHOD` and rigid mechanics by default (``bar-hinge``:
     each sample folds the bar-and-hinge model on its own curves). The design's derived data

@@ -10,13 +10,15 @@ import numpy as np
 
 from ..model.derived import scoped
 from ..collision.index2d import Index2D, collision_index
-from ..collision.swept3d import Contact, checker_for, swept_first_contact
+from ..collision.swept3d import Contact
+from ..collision.swept_search import checker_for, swept_first_contact
 from . import costs
 from ..core.constants import DEFAULT_DT_S, FOLD_LEVEL, tol
 from ..model.design import Design, tree_order
 from ..core.errors import DesignError
 from ..collision.goals import GoalResult, evaluate_goals
-from ..physics.kinematics import HingeDrive, Trajectory, simulate_kinematics
+from ..physics.kinematics import Trajectory
+from ..physics.hinge_drive import HingeDrive, simulate_kinematics
 from ..model.materials import MaterialLibrary
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, AfterContact,
                           HingeModel, Mechanics, Method, parse)
