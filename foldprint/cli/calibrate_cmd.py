@@ -79,6 +79,7 @@ def calibrate(
     from ..apps import calibrate as cal
     from ..model.materials import load_library
 
+    cal.check_outputs(out, plot)
     lib = load_library(materials_file or None)
     fixed, fit_names = cal.parse_fixed(fix), cal.parse_fit(fit)
     result = with_progress("fitting the recovery model",
