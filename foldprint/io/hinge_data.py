@@ -29,6 +29,7 @@ from pathlib import Path
 
 from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM
 from ..core.errors import DataError
+from ..core.inputs import read_input, shown
 from ..core.schema import (MAX_FILE_BYTES, MAX_LENGTH_MM, MIN_LENGTH_MM, TEMPERATURE_C, control_char, ident,
                            number_text)
 
@@ -55,25 +56,15 @@ MAX_ROWS = 200_000
 
 
 def read_text(path: str | Path, what: str) -> str:
-    """The text of the file at ``path`` (``what`` it should be, for messages): a regular
-    file of at most ``MAX_FILE_BYTES``, UTF-8. The one function calibrate reads files with."""
-    p = Path(path)
-    try:
-        if not p.exists():
-            raise DataError(f"{p}: file not found; expected {what}")
-        if not p.is_file():
-            raise DataError(f"{p}: not a regular file; expected {what}")
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise DataError(f"{p}: file is {size / 2**20:.0f} MiB; at most {MAX_FILE_BYTES // 2**20} MiB "
-                            "are accepted")
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise DataError(f"{p}: cannot read: {exc.strerror}") from None
+    """The text of the file at ``path`` (``what`` it should be, for messages), through the
+    one door every input comes in by (:func:`foldprint.core.inputs.read_input`: a regular
+    file, not a FIFO or device, of at most ``MAX_FILE_BYTES``), UTF-8 with or without a BOM.
+    The one function calibrate reads files with."""
+    raw = read_input(path, what, MAX_FILE_BYTES, DataError)
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError:
-        raise DataError(f"{p}: not a UTF-8 text file; expected {what}") from None
+        raise DataError(f"{shown(path)}: not a UTF-8 text file; expected {what}") from None
 
 
 @dataclass(frozen=True)
