@@ -359,6 +359,10 @@ def test_an_output_folder_holding_a_tree_1000_levels_deep_is_walked_not_recursed
     assert err.count("\n") == 1 and "holds files foldprint did not write (a)" in err, err
     assert main(["export", str(d), "--format", "stl", "--out", str(out), "--force"]) == 0
     assert (out / "foldprint-set.json").exists() and (out / "a").is_dir()
+    deepest = out.joinpath(*["a"] * 1000)
+    (deepest / "leaf.txt").unlink()
+    for k in range(1000, 0, -1):  # removed here: shutil.rmtree recurses once per level too
+        os.rmdir(out.joinpath(*["a"] * k))
 
 
 def test_the_output_folder_walk_stops_at_its_bound(tmp_path, monkeypatch):
@@ -386,3 +390,22 @@ def test_material_names_follow_the_one_id_rule(tmp_path, name, needle):
     with pytest.raises(MaterialError) as ei:
         load_library(f)
     assert needle in str(ei.value) and "a name is 1 to 100 characters, no control characters" in str(ei.value)
+
+
+def test_an_output_file_1500_levels_deep_is_made_without_recursion(tmp_path, capsys):
+    """calibrate --out a/a/.../m.toml (1,500 levels, under PATH_MAX) was a RecursionError in
+    Path.mkdir(parents=True); a file in the way is named, and nothing is left made."""
+    from foldprint.core.files import ensure_dir
+
+    deep = tmp_path.joinpath(*["a"] * 1500)
+    assert ensure_dir(deep) == deep and deep.is_dir()
+    for k in range(1500, 0, -1):  # removed here: shutil.rmtree recurses once per level too
+        os.rmdir(tmp_path.joinpath(*["a"] * k))
+    (tmp_path / "f").write_text("mine")
+    from foldprint.core.errors import ExportError
+
+    with pytest.raises(ExportError, match="f is a file, not a folder"):
+        ensure_dir(tmp_path / "f" / "x" / "y")
+    with pytest.raises(ExportError, match="longer than 4095 bytes"):
+        ensure_dir(tmp_path.joinpath(*["b"] * 2100))
+    assert not (tmp_path / "b").exists()
