@@ -269,9 +269,10 @@ def test_a_plot_format_we_do_not_write_is_refused_before_anything_is_written(tmp
 
 
 def test_odd_but_valid_names_are_written_and_load_back(tmp_path):
-    """Names the id rule allows (quotes, backslashes, dots, other scripts, 100 characters)
-    are written as TOML keys every command loads back."""
-    names = ['q"uote', "back\\slash", "a.b", "\u540d\u524d", "M" * 100]
+    """Names the id rule allows (quotes, backslashes, dots, other scripts, 100 characters,
+    a VeroWhite composition the library synthesises) are written as TOML keys every command
+    loads back."""
+    names = ['q"uote', "back\\slash", "a.b", "\u540d\u524d", "M" * 100, "VW0.620"]
     def q(n):
         return '"' + n.replace('"', '""') + '"'
 

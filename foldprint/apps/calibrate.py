@@ -117,7 +117,8 @@ def entries(cal: Calibration) -> list[Entry]:
                 rng = f" [{iv.low:.4g}, {iv.high:.4g}] ({pb.config.confidence:.0%}, identified: {iv.identified})" \
                     if iv else ""
                 notes.append(f"{p.name} = {v:.6g}{rng}")
-        out.append(Entry(mat, name not in pb.library, tg is not None or name not in pb.library, tuple(notes)))
+        new = name not in pb.library.names()  # a VW... composition is synthesised, not an entry
+        out.append(Entry(mat, new, tg is not None or new, tuple(notes)))
     shared = {p.name: float(v) for p, v in zip(pb.params, cal.fit.x) if p.material is None}
     shared.update(pb.fixed)
     for mat in pb.library.hinges():
