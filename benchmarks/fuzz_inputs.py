@@ -239,8 +239,11 @@ def main():
                 c["cases"] += 1
                 c[f"exit {v['code']}"] += 1
                 for b in v["bad"]:
-                    c[b] += 1
-                if v["cpu_seconds"] > 30 or "timeout" in v["bad"]:
+                    if not b.startswith("exit ") and b != "timeout":  # counted by its exit code, below
+                        c[b] += 1
+                if "timeout" in v["bad"]:  # stopped at 30 s of CPU, or at 5x that in wall time
+                    c["timeout: CPU budget" if v["cpu_seconds"] > 30 else "timeout: wall, CPU under 30 s"] += 1
+                if v["cpu_seconds"] > 30:
                     c["over 30 s CPU"] += 1
                 if v["seconds"] > 30:
                     c["over 30 s wall (busy machine)"] += 1

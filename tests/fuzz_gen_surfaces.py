@@ -132,10 +132,11 @@ def _fix_refused(name: str, value: str) -> bool:
 
 
 @hs.composite
-def calibrate_command_lines(draw) -> tuple[list[str], str | None]:
+def calibrate_command_lines(draw, profile: bool = True) -> tuple[list[str], str | None]:
     """(arguments, why they must be refused or None) of ``calibrate h.csv`` on the valid data
-    set with 0-4 options; ``--no-profile`` except one case in six (seconds each)."""
-    args = ["calibrate", "h.csv"] + (["--no-profile"] if draw(hs.integers(0, 5)) else [])
+    set with 0-4 options; ``--no-profile`` except one case in six when ``profile`` (the
+    profile costs ~10 CPU-s, the point alone ~2)."""
+    args = ["calibrate", "h.csv"] + (["--no-profile"] if not profile or draw(hs.integers(0, 5)) else [])
     must = None
     fixed, fitted = set(), set()
     for _ in range(draw(hs.integers(0, 4))):

@@ -88,7 +88,7 @@ def _loads_back(path: Path, raw: bytes) -> list[str]:
     return [f"written file lacks {missing[:3]}"] if missing else []
 
 
-FAST = settings(max_examples=max(4, int(10 * SCALE)), deadline=None, database=None, derandomize=True,
+FAST = settings(max_examples=max(3, int(6 * SCALE)), deadline=None, database=None, derandomize=True,
                 suppress_health_check=list(HealthCheck))
 
 
@@ -100,16 +100,16 @@ def test_calibrate_csvs_keep_the_contract(case):
     assert not res["bad"], (raw[:600], must, res["code"], res["bad"], res["err"][-800:])
 
 
-@settings(max_examples=max(3, int(5 * SCALE)), deadline=None, database=None, derandomize=True,
+@settings(max_examples=max(3, int(4 * SCALE)), deadline=None, database=None, derandomize=True,
           suppress_health_check=list(HealthCheck))
-@given(case=calibrate_command_lines())
+@given(case=calibrate_command_lines(profile=False))
 def test_calibrate_options_keep_the_contract(case):
     args, must = case
     res = run_file_case("h.csv", valid_csv(), args, must, json_stdout="--json" in args)
     assert not res["bad"], (args, must, res["code"], res["bad"], res["err"][-800:])
 
 
-@settings(max_examples=max(2, int(3 * SCALE)), deadline=None, database=None, derandomize=True,
+@settings(max_examples=max(2, int(2 * SCALE)), deadline=None, database=None, derandomize=True,
           suppress_health_check=list(HealthCheck))
 @given(case=barhinge_designs())
 def test_barhinge_designs_keep_the_contract(case):
