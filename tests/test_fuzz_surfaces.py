@@ -121,7 +121,7 @@ def test_barhinge_designs_keep_the_contract(case):
 def test_the_harness_sees_a_refusal_missed_and_a_file_that_does_not_load(tmp_path):
     """The properties can fail: a case marked as past a limit that exits 0 is reported, and
     a materials file that does not load is."""
-    res = run_file_case("h.csv", valid_csv(), ["calibrate", "h.csv", "--no-profile"], "marked")
+    res = run_file_case("h.csv", valid_csv(), ["templates", "--json"], "marked")  # exit 0, cheaply
     assert res["code"] == 0 and res["bad"] == ["not refused (marked)"], (res["bad"], res["err"][-400:])
     broken = tmp_path / "m.toml"
     broken.write_text('[materials."a\\u0000b"]\nrole = "hinge"\ntg_c = 40.0\n')
