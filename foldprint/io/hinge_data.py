@@ -173,6 +173,15 @@ SIGMA_RANGE = {"ratio": (1e-6, 1.5, ""), "angle": (1e-4, 225.0, "deg"), "time_to
                "spread": (1e-4, 1e6, "s"), "tg": (1e-4, 600.0, "deg C"), "fixity": (1e-6, 1.0, "")}
 
 
+def _sigma(text: str, at: _Cell, kind: str) -> float:
+    lo, hi, unit = SIGMA_RANGE[kind]
+    v = _number(text, at, unit=unit)
+    if not lo <= v <= hi:
+        raise at.fail(f"must be in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}, got {v:g} (a smaller sigma makes one "
+                      "row outweigh the others beyond floating point, a larger one says the row tells nothing)")
+    return v
+
+
 def _header(row: list[str], src: str) -> list[str]:
     cols = [c.strip() for c in row]
     for i, c in enumerate(cols):
@@ -202,7 +211,7 @@ def _row(cells: dict[str, str], line: int, src: str) -> Observation | Property:
     material = _name(cells["material"], at["material"])
     if cells.get("reference"):
         _name(cells["reference"], at["reference"])
-    sigma = _number(cells["sigma"], at["sigma"], *SIGMA_RANGE[kind]) if cells.get("sigma") else None
+    sigma = _sigma(cells["sigma"], at["sigma"], kind) if cells.get("sigma") else None
     source = cells.get("source", "")
     if kind == "tg":
         return Property(line, kind, material, _number(cells["value"], at["value"], *TEMPERATURE_C, "deg C"),
