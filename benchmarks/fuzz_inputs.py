@@ -16,7 +16,18 @@ Kinds (``--kind``, comma-separated or ``all``; ``--cases`` is split evenly betwe
 * ``paths``: FIFOs, devices, directories, dangling or looping links, names and paths too
   long or too deep, as a design, an option file, ``--out`` or ``--plot``;
 * ``numeric``: numeric options of every command at their extremes (1e308, 5e-324, nan,
-  400 digits, ...).
+  400 digits, ...);
+* ``calibrate``: calibrate's CSV with hostile cells (numbers that are not, digits of other
+  scripts, quoted line breaks, names past the id rule, sigma extremes) through
+  ``calibrate --no-profile --out``; ``calibrate-options``: ``--fix``, ``--fit``,
+  ``--per-material``, ``--plot`` on a valid CSV; ``barhinge``: small strips, rows of panels
+  (extra outline vertices, holes), single panels and four-panel loops at extreme angles
+  through ``simulate`` / ``check --samples 0`` with ``--mechanics bar-hinge``
+  (``tests/fuzz_gen_surfaces.py``; a case marked as past a limit must exit 2, a written
+  materials file must load back).
+
+``--kind new`` runs the last three. ``--max-wall S`` stops drawing new cases after S seconds
+(the counts say how many ran).
 
 Every command runs in a forked child with a budget of 30 s of its own CPU time (wall time
 on the shared machine is reported, not used). Prints per kind: the exit codes,
@@ -39,13 +50,17 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_fuzz import one, run_case  # noqa: E402
 
-KINDS = ("design", "svg", "fold", "cli", "planted", "options", "paths", "numeric")
+KINDS = ("design", "svg", "fold", "cli", "planted", "options", "paths", "numeric", "calibrate",
+         "calibrate-options", "barhinge")
+NEW_KINDS = ("calibrate", "calibrate-options", "barhinge")
 
 
 def _warm():
     """Import the CLI and every stage once per worker, so each forked case starts warm."""
     import foldprint.checks.rules, foldprint.cli.fold_cmds, foldprint.cli.output_cmds, foldprint.io.load, foldprint.apps.pipeline, foldprint.simulation.simulate  # noqa: E401,F401
     import foldprint.geometry, foldprint.exchange.export, foldprint.io.svg_format  # noqa: E401,F401
+    import foldprint.apps.calibrate, foldprint.cli.calibrate_cmd, foldprint.physics.barhinge_solve  # noqa: E401,F401
+    import foldprint.render.calibration_figure  # noqa: F401
 
 
 def _summary(kind: str, code, bad: list, seconds: float, cpu: float, peak: float, err: str, case) -> dict:
@@ -128,6 +143,14 @@ def _run_planted(plants, names, twice, force) -> list[dict]:
                      err, {"plants": plants, "names": names, "twice": twice, "force": force})]
 
 
+def _run_surface(kind: str, name: str, raw: bytes, args: list[str], must) -> list[dict]:
+    from test_fuzz_surfaces import run_file_case
+
+    res = run_file_case(name, raw, args, must, json_stdout="--json" in args)
+    return [_summary(kind, res["code"], res["bad"], res["seconds"], res["cpu_seconds"], res["peak_mib"], res["err"],
+                     {"args": args, "must": must, "file": raw.decode("utf-8", "replace")[:20000]})]
+
+
 def _jobs(kind: str, n: int, seed_base: int):
     """(function, args) of ``n`` cases of ``kind``, drawn from the hypothesis strategies."""
     if kind == "design":
@@ -137,12 +160,15 @@ def _jobs(kind: str, n: int, seed_base: int):
 
     from fuzz_gen import (FILE_NAMES, PLANTS, command_lines, fold_documents, numeric_command_lines, option_files,
                           path_cases, svg_documents)
+    from fuzz_gen_surfaces import barhinge_designs, calibrate_command_lines, calibrate_csvs
 
     out = []
     strat = {"svg": svg_documents(), "fold": fold_documents(), "cli": command_lines(),
              "planted": hs.tuples(hs.lists(hs.sampled_from(PLANTS), max_size=3, unique=True), FILE_NAMES,
                                   hs.booleans(), hs.booleans()),
-             "options": option_files(), "paths": path_cases(), "numeric": numeric_command_lines()}[kind]
+             "options": option_files(), "paths": path_cases(), "numeric": numeric_command_lines(),
+             "calibrate": calibrate_csvs(), "calibrate-options": calibrate_command_lines(),
+             "barhinge": barhinge_designs()}[kind]
 
     @settings(max_examples=n, deadline=None, database=None, derandomize=True,
               suppress_health_check=list(HealthCheck))
@@ -160,6 +186,15 @@ def _jobs(kind: str, n: int, seed_base: int):
             out.append((_run_file, ("options", "opt.toml", x[1], OPTION_ARGS[x[0]])))
         elif kind == "paths":
             out.append((_run_path, x))
+        elif kind == "calibrate":
+            out.append((_run_surface, (kind, "h.csv", x[0], ["calibrate", "h.csv", "--no-profile", "--out", "m.toml"],
+                                       x[1])))
+        elif kind == "calibrate-options":
+            from test_fuzz_surfaces import valid_csv
+
+            out.append((_run_surface, (kind, "h.csv", valid_csv(), x[0], x[1])))
+        elif kind == "barhinge":
+            out.append((_run_surface, (kind, "b.toml", x[0].encode(), x[1], None)))
         else:
             out.append((_run_planted, x))
 
@@ -168,7 +203,9 @@ def _jobs(kind: str, n: int, seed_base: int):
 
 
 def _call(job):
-    fn, args = job
+    fn, args, deadline = job
+    if deadline is not None and time.time() > deadline:
+        return []  # past --max-wall: not run, not counted
     return fn(*args)
 
 
@@ -181,12 +218,16 @@ def main():
     ap.add_argument("--json", type=Path)
     ap.add_argument("--keep", type=Path, help="directory for the failing inputs")
     ap.add_argument("--limit", type=int, help="run only the first N cases drawn (a partial campaign)")
+    ap.add_argument("--max-wall", type=float, help="draw no new case after this many seconds")
     a = ap.parse_args()
-    kinds = KINDS if a.kind == "all" else tuple(a.kind.split(","))
+    kinds = KINDS if a.kind == "all" else NEW_KINDS if a.kind == "new" else tuple(a.kind.split(","))
     per = max(1, a.cases // len(kinds))
-    jobs = [j for k in kinds for j in _jobs(k, per, a.seed_base)]
+    by_kind = [_jobs(k, per, a.seed_base) for k in kinds]
     if a.limit:  # evenly over the kinds: every kind's first cases
-        jobs = [j for k in range(len(kinds)) for j in jobs[k * per:k * per + a.limit // len(kinds)]]
+        by_kind = [js[:a.limit // len(kinds)] for js in by_kind]
+    # interleaved over the kinds, so that a run stopped by --max-wall has run every kind
+    deadline = time.time() + a.max_wall if a.max_wall else None
+    jobs = [(*js[i], deadline) for i in range(max(map(len, by_kind))) for js in by_kind if i < len(js)]
     counts: dict[str, Counter] = {}
     peaks: dict[str, float] = {}
     failures = []
@@ -198,8 +239,11 @@ def main():
                 c["cases"] += 1
                 c[f"exit {v['code']}"] += 1
                 for b in v["bad"]:
-                    c[b] += 1
-                if v["cpu_seconds"] > 30 or "timeout" in v["bad"]:
+                    if not b.startswith("exit ") and b != "timeout":  # counted by its exit code, below
+                        c[b] += 1
+                if "timeout" in v["bad"]:  # stopped at 30 s of CPU, or at 5x that in wall time
+                    c["timeout: CPU budget" if v["cpu_seconds"] > 30 else "timeout: wall, CPU under 30 s"] += 1
+                if v["cpu_seconds"] > 30:
                     c["over 30 s CPU"] += 1
                 if v["seconds"] > 30:
                     c["over 30 s wall (busy machine)"] += 1

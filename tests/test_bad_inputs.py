@@ -300,3 +300,112 @@ def test_python_api_raises_the_same_errors():
     with pytest.raises(ResourceError) as ei:
         simulate(d, duration=1e9)
     assert isinstance(ei.value, FoldprintError) and "--duration" in str(ei.value)
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--error-above", "1"], "--error-above: must be a jam probability in (0, 1)"),
+    (["--error-above", "0"], "--error-above: must be a jam probability in (0, 1)"),
+    (["--warn-above", "0"], "--warn-above: must be a jam probability in (0, 1)"),
+    (["--error-above", "0.04"], "--warn-above (0.05) must be below --error-above (0.04)"),
+])
+def test_jam_thresholds_outside_0_1_or_out_of_order_are_refused(tmp_path, capsys, args, needle):
+    d = tmp_path / "d.toml"
+    d.write_text(GOOD_STRIP.format(name="d"))
+    assert main(["check", str(d), "--samples", "0", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err, err
+
+
+def test_jam_thresholds_are_checked_for_the_python_api_too():
+    from foldprint.checks.rules import Thresholds
+    from foldprint.core.errors import DesignError
+
+    assert Thresholds(0.999, 0.001).error == 0.999
+    for error, warning in ((1.0, 0.05), (float("nan"), 0.05), (0.2, 0.0), (0.2, 0.2)):
+        with pytest.raises(DesignError):
+            Thresholds(error, warning)
+
+
+def _deep_tree(top, levels: int) -> None:
+    """``levels`` nested folders under ``top``, made one level at a time relative to an open
+    folder (os.makedirs recurses once per level)."""
+    os.mkdir(top)
+    fd = os.open(top, os.O_RDONLY)
+    try:
+        for _ in range(levels):
+            os.mkdir("a", dir_fd=fd)
+            nxt = os.open("a", os.O_RDONLY, dir_fd=fd)
+            os.close(fd)
+            fd = nxt
+        with open(os.open("leaf.txt", os.O_WRONLY | os.O_CREAT, 0o644, dir_fd=fd), "w") as f:
+            f.write("mine")
+    finally:
+        os.close(fd)
+
+
+def test_an_output_folder_holding_a_tree_1000_levels_deep_is_walked_not_recursed(tmp_path, capsys):
+    """An export into a folder holding a tree 1,000 levels deep (RecursionError in os.walk
+    before) is refused as a folder of other files, and with --force writes beside it."""
+    from foldprint.exchange.outfolder import OutFolder, inspect
+
+    out = tmp_path / "out"
+    _deep_tree(out, 1000)
+    held = inspect(out)
+    assert held.kind == OutFolder.FOREIGN and held.foreign == ("a",)
+    d = tmp_path / "d.toml"
+    d.write_text(GOOD_STRIP.format(name="d"))
+    assert main(["export", str(d), "--format", "stl", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds files foldprint did not write (a)" in err, err
+    assert main(["export", str(d), "--format", "stl", "--out", str(out), "--force"]) == 0
+    assert (out / "foldprint-set.json").exists() and (out / "a").is_dir()
+    deepest = out.joinpath(*["a"] * 1000)
+    (deepest / "leaf.txt").unlink()
+    for k in range(1000, 0, -1):  # removed here: shutil.rmtree recurses once per level too
+        os.rmdir(out.joinpath(*["a"] * k))
+
+
+def test_the_output_folder_walk_stops_at_its_bound(tmp_path, monkeypatch):
+    from foldprint.exchange import outfolder
+
+    monkeypatch.setattr(outfolder, "MAX_WALK", 25)
+    for i in range(40):
+        (tmp_path / f"f{i:02d}").write_text("x")
+    held = outfolder.inspect(tmp_path)
+    assert held.kind == outfolder.OutFolder.FOREIGN and len(held.foreign) == 26
+    assert "(more than 25 entries)" in held.foreign
+
+
+@pytest.mark.parametrize("name, needle", [
+    ("a\\u007fb", "holds the control character '\\x7f'"), (" H-9", "has a space at its start or end"),
+    ("a\\u2028b", "holds the control character '\\u2028'"), ("M" * 101, "is 101 characters long"),
+])
+def test_material_names_follow_the_one_id_rule(tmp_path, name, needle):
+    """The library refuses the names calibrate refuses, with the rule in the message."""
+    from foldprint.core.errors import MaterialError
+    from foldprint.model.materials import load_library
+
+    f = tmp_path / "m.toml"
+    f.write_text(f'[materials."{name}"]\nrole = "panel"\ntg_c = 40.0\n')
+    with pytest.raises(MaterialError) as ei:
+        load_library(f)
+    assert needle in str(ei.value) and "a name is 1 to 100 characters, no control characters" in str(ei.value)
+
+
+def test_an_output_file_1500_levels_deep_is_made_without_recursion(tmp_path, capsys):
+    """calibrate --out a/a/.../m.toml (1,500 levels, under PATH_MAX) was a RecursionError in
+    Path.mkdir(parents=True); a file in the way is named, and nothing is left made."""
+    from foldprint.core.files import ensure_dir
+
+    deep = tmp_path.joinpath(*["a"] * 1500)
+    assert ensure_dir(deep) == deep and deep.is_dir()
+    for k in range(1500, 0, -1):  # removed here: shutil.rmtree recurses once per level too
+        os.rmdir(tmp_path.joinpath(*["a"] * k))
+    (tmp_path / "f").write_text("mine")
+    from foldprint.core.errors import ExportError
+
+    with pytest.raises(ExportError, match="f is a file, not a folder"):
+        ensure_dir(tmp_path / "f" / "x" / "y")
+    with pytest.raises(ExportError, match="longer than 4095 bytes"):
+        ensure_dir(tmp_path.joinpath(*["b"] * 2100))
+    assert not (tmp_path / "b").exists()

@@ -162,6 +162,25 @@ BAD = {
     "negative sigma": (HEADER + "\nratio,H-1,,90,0.8,1,,0.5,,-1,,\n", "column sigma (ratio row)"),
     "only properties": (HEADER + "\ntg,H-1,,,,,,32,,,,\n", "no ratio, angle, time_to or spread rows"),
     "empty": ("# nothing\n", "empty"),
+    "sigma 5e-324": (HEADER + "\nratio,H-1,,90,0.8,1,,0.5,,5e-324,,\n", "column sigma (ratio row): must be in [1e-06, 1.5]"),
+    "sigma 1e-300": (HEADER + "\nangle,H-1,,90,0.8,1,,120,,1e-300,,\n", "column sigma (angle row): must be in [0.0001, 225]"),
+    "sigma 1e308": (HEADER + "\ntime_to,H-1,,90,0.8,,0.98,3,,1e308,,\n", "column sigma (time_to row): must be in"),
+    "fullwidth digits": (HEADER + "\nratio,H-1,,\uff19\uff10,0.8,1,,0.5,,,,\n",
+                         "column bath_c (ratio row): must be a number in [-100, 500] deg C, written in ASCII"),
+    "Arabic-Indic digit": (HEADER + "\nratio,H-1,,90,0.8,\u0663,,0.5,,,,\n", "column time_s (ratio row): must be a number"),
+    "underscore": (HEADER + "\nratio,H-1,,90,0.8,1_0,,0.5,,,,\n", "column time_s (ratio row): must be a number"),
+    "inf": (HEADER + "\nratio,H-1,,90,0.8,inf,,0.5,,,,\n", "column time_s (ratio row): must be a finite number"),
+    "line break in quotes": (HEADER + '\nratio,H-1,,90,0.8,1,,0.5,,,,"a\nb"\n',
+                             "line 2: a quoted cell runs past the end of its line (to line 3)"),
+    "form feed in quotes": (HEADER + '\nratio,H-1,,90,0.8,1,,0.5,,,,"a\x0cb"\n',
+                            "line 2, column source: holds the control character '\\x0c'"),
+    "unterminated quote": (HEADER + '\nratio,H-1,,90,0.8,1,,0.5,,,,"ab\n', "line 2: a quoted cell is not closed"),
+    "tab in a name": (HEADER + "\nratio,H\t1,,90,0.8,1,,0.5,,,,\n", "column material: holds the control character"),
+    "NUL in a name": (HEADER + "\nratio,H\x001,,90,0.8,1,,0.5,,,,\n", "column material: holds the control character"),
+    "long name": (HEADER + "\nratio," + "M" * 101 + ",,90,0.8,1,,0.5,,,,\n",
+                  "column material (ratio row): is 101 characters long; a name is 1 to 100 characters"),
+    "long reference": (HEADER + "\nspread,H-1," + "R" * 300 + ",90,0.8,,0.98,3,,,,\n",
+                       "column reference (spread row): is 300 characters long"),
 }
 
 
@@ -186,7 +205,8 @@ def test_cli_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys):
     for args, needle in ((["calibrate", str(tmp_path / "missing.csv")], "file not found"),
                          (["calibrate", str(tmp_path)], "not a regular file"),
                          (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fix", "c9"], "'c9' is not a recovery"),
-                         (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fix", "c1=abc"], "is not a number"),
+                         (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fix", "c1=abc"],
+                          "--fix c1: must be a finite number in [0.1, 100]"),
                          (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fit", "c9"], "'c9': not a recovery"),
                          (["calibrate", str(DATA / "paper_hinge_data.csv"), "--fit", "c1", "--fix", "c1=3"],
                           "--fit c1 and --fix c1: a parameter is either fitted or held"),
@@ -195,6 +215,76 @@ def test_cli_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys):
         code = main(args)
         _, err = capsys.readouterr()
         assert code == 2 and needle in err and err.count("\n") == 1, (args, err)
+
+
+def test_crlf_a_bom_and_quoted_commas_are_read():
+    """What a spreadsheet writes is not refused: CRLF line ends, a BOM (read_text), a quoted
+    source with commas and doubled quotes."""
+    text = (HEADER + '\nratio,H-1,,90,0.8,1,,0.5,,,,"Fig. 2, ""left"""\n').replace("\n", "\r\n")
+    d = parse_hinge_data(text, "x.csv")
+    assert d.observations[0].source == 'Fig. 2, "left"' and d.observations[0].time_s == 1.0
+
+
+@pytest.mark.parametrize("item, needle", [
+    ("h_w_m2k=inf", "--fix h_w_m2k: must be a finite number in [0.1, 1e+06] W/m^2/K"),
+    ("c1=nan", "--fix c1: must be a finite number in [0.1, 100]"),
+    ("log10_tau_ref_s=-inf", "--fix log10_tau_ref_s: must be a finite number in [-12, 12]"),
+    ("c2=0", "--fix c2: must be a finite number in [1, 1000] K (WLF C2 of polymers is 20-200 K), got 0"),
+    ("spectrum_sigma_decades=0", "--fix spectrum_sigma_decades: must be a finite number in [0.01, 20] decades"),
+    ("spectrum_sigma_decades=1e308", "got 1e+308"),
+    ("spectrum_sigma_decades=-1", "got -1"),
+    ("c2=\uff15\uff10", "written in ASCII digits"),
+])
+def test_fix_values_outside_what_a_materials_file_holds_are_refused(item, needle):
+    with pytest.raises(DataError) as ei:
+        cal.parse_fixed([item])
+    assert needle in str(ei.value), str(ei.value)
+    name, _, value = item.partition("=")
+    if value not in ("inf", "nan", "-inf") and value.isascii():  # the Python API refuses the number too
+        with pytest.raises(DataError, match=f"--fix {name}: must be"):
+            holds({name: float(value)})
+
+
+def test_a_held_value_at_the_edge_of_a_materials_file_range_is_used():
+    """c2 = 1000 K is outside the fit's box (15-80 K) but a materials file may hold it."""
+    assert cal.parse_fixed(["c2=1000", "c1"]) == {"c2": 1000.0, "c1": None}
+    assert {h.name: h.value for h in holds({"c2": 1000.0})}["c2"] == 1000.0
+
+
+def test_plot_formats_are_ones_matplotlib_writes():
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from foldprint.core.constants import PLOT_FORMATS
+
+    assert set(PLOT_FORMATS) <= set(FigureCanvasBase.get_supported_filetypes())
+
+
+@pytest.mark.parametrize("suffix", [".jpg", ".xyz", ".txt", ".raw", ".webp", ".pgf", ".tiff", ""])
+def test_a_plot_format_we_do_not_write_is_refused_before_anything_is_written(tmp_path, capsys, suffix):
+    out, fig = tmp_path / "m.toml", tmp_path / f"fit{suffix}"
+    code = main(["calibrate", str(DATA / "paper_hinge_data.csv"), "--no-profile", "--out", str(out),
+                 "--plot", str(fig)])
+    _, err = capsys.readouterr()
+    assert code == 2 and err.count("\n") == 1 and "must end in .png, .svg, .pdf" in err, err
+    assert sorted(tmp_path.iterdir()) == []
+
+
+def test_odd_but_valid_names_are_written_and_load_back(tmp_path):
+    """Names the id rule allows (quotes, backslashes, dots, other scripts, 100 characters,
+    a VeroWhite composition the library synthesises) are written as TOML keys every command
+    loads back."""
+    names = ['q"uote', "back\\slash", "a.b", "\u540d\u524d", "M" * 100, "VW0.620"]
+    def q(n):
+        return '"' + n.replace('"', '""') + '"'
+
+    rows = [f"tg,{q(n)},,,,,,45,,,," for n in names]
+    rows += [f"ratio,{q(n)},,80,0.8,{t},,{v},,,," for n in names for t, v in ((2, 0.2), (6, 0.8))]
+    f = tmp_path / "odd.csv"
+    f.write_text(HEADER + "\n" + "\n".join(rows) + "\n")
+    result = cal.run(f, default_library(), with_profile=False)
+    out = cal.write(result, tmp_path / "m.toml", f, "test")
+    lib = load_library(out)
+    assert all(n in lib and lib[n].tg_c == 45.0 for n in names)
 
 
 def test_cli_json_out_and_plot(tmp_path, capsys):

@@ -10,15 +10,18 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.version import __version__
-from ..core.errors import DataError
-from ..exchange.materials_file import write_materials
+from ..core.errors import DataError, FoldprintError
+from ..core.schema import control_char
+from ..core.files import write_atomic
+from ..exchange.materials_file import materials_toml
 from ..io.hinge_data import HingeData, load_hinge_data, read_text
-from ..model.materials import MaterialLibrary
-from ..physics.calibration import FITTABLE, Fit, Hold, Problem, fit_best, holds
+from ..model.materials import MaterialLibrary, parse_library
+from ..physics.calibration import FITTABLE, Fit, Hold, Problem, fit_best, held_value, holds
 from ..physics.calibration_profile import Interval, curve_residuals, findings, profile, row_reading
 from ..physics.calibration_cost import check_fit
 from .calibrate_library import changes, entries
@@ -65,10 +68,7 @@ def parse_fixed(items) -> dict:
             raise DataError(f"--fix {item!r}: {name!r} is not a recovery parameter calibrate fits; use one of "
                             f"{', '.join(FITTABLE)}")
         if value:
-            try:
-                out[name] = float(value)
-            except ValueError:
-                raise DataError(f"--fix {item!r}: {value!r} is not a number") from None
+            out[name] = held_value(name, value)
         else:
             out[name] = None
     return out
@@ -116,17 +116,42 @@ def header(cal: Calibration, data_path: str | Path, command: str) -> list[str]:
         lines.append(f"Held, not fitted: {name} = {v:g} ({source}).")
     for fd in cal.findings:
         lines.append("NOTE: " + fd["message"])
-    return lines
+    return [_plain(ln) for ln in lines]
+
+
+def _plain(text: str) -> str:
+    """``text`` for a comment line: control characters (a file name may hold them) as U+FFFD."""
+    return "".join("\ufffd" if control_char(c) else c for c in text)
+
+
+def check_outputs(out: str | Path | None = None, plot: str | Path | None = None) -> None:
+    """Refuse, before the fit runs or anything is written, a ``--plot`` whose name does not
+    end in a figure format we write (:func:`foldprint.render.figures.figure_format`), and
+    ``--out`` and ``--plot`` naming one file."""
+    if plot is not None:
+        from ..render.figures import figure_format
+
+        figure_format(plot)
+    if out is not None and plot is not None and Path(out).absolute() == Path(plot).absolute():
+        raise DataError(f"--out and --plot name the same file {str(out)[:80]!r}; give each its own")
 
 
 def write(cal: Calibration, out: str | Path, data_path: str | Path, command: str) -> Path:
-    return write_materials(out, entries(cal), header(cal, data_path, command))
+    """Write the materials file; its text is loaded back first (the library's parser, the
+    names' rule), so a file no command could read is never written."""
+    text = materials_toml(entries(cal), header(cal, data_path, command))
+    try:
+        parse_library(tomllib.loads(text), str(out), cal.problem.library)
+    except (ValueError, FoldprintError) as exc:  # a bug of the writer: say so, write nothing
+        raise RuntimeError(f"the materials file for {out} would not load back: {exc}") from None
+    return write_atomic(out, text)
 
 
 def plot(cal: Calibration, path: str | Path) -> Path:
     from ..render.calibration_figure import calibration_figure
-    from ..render.figures import save_figure
+    from ..render.figures import figure_format, save_figure
 
+    figure_format(path)
     return save_figure(calibration_figure(cal.problem, cal.fit), path)
 
 

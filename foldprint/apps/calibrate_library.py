@@ -81,7 +81,8 @@ def entries(cal) -> list[Entry]:
                 rng = f" [{iv.low:.4g}, {iv.high:.4g}] ({pb.config.confidence:.0%}, identified: {iv.identified})" \
                     if iv else ""
                 notes.append(f"{p.name} = {v:.6g}{rng}")
-        out.append(Entry(mat, name not in pb.library, tg is not None or name not in pb.library, tuple(notes)))
+        new = name not in pb.library.names()  # a VW... composition is synthesised, not an entry
+        out.append(Entry(mat, new, tg is not None or new, tuple(notes)))
     for mat in pb.library.hinges():
         if mat.name in measured or mat.recovery is None:
             continue

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..model.design import Design, has_loops, tangent_factor
 from ..core.constants import JAM_ERROR_ABOVE, JAM_WARN_ABOVE, tol
+from ..core.schema import jam_thresholds
 from ..model.materials import MaterialLibrary
 # the printer profiles live in model.printers; importable from here as before
 from ..model.printers import (Printer, default_printer_key, default_voxel_printer_key,  # noqa: F401
@@ -52,6 +53,9 @@ class Thresholds:
 
     error: float = JAM_ERROR_ABOVE
     warning: float = JAM_WARN_ABOVE
+
+    def __post_init__(self):
+        jam_thresholds(self.error, self.warning)  # DesignError naming --error-above / --warn-above
 
 
 @dataclass(frozen=True)

@@ -89,6 +89,7 @@ def calibrate(
     from ..apps.calibrate_library import change_lines
     from ..apps.resolve import load_library
 
+    cal.check_outputs(out, plot)
     lib = load_library(materials_file)
     fixed, fit_names = cal.parse_fixed(fix), cal.parse_fit(fit)
     result = with_progress("fitting the recovery model",

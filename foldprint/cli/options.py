@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..core.constants import PLOT_FORMATS
 from ..core.errors import FoldprintError
 
 #: Options that take several values after one flag (``--temperature 80 90 100``).
@@ -23,8 +24,6 @@ CREASE_HELP = "FOLD/SVG crease patterns: hinge materials by assignment, e.g. 'M=
 #: (the folders are created one level at a time).
 MAX_OUT_PATH_BYTES = 3800
 MAX_OUT_LEVELS = 128
-#: Formats of a chart (``materials --plot``).
-PLOT_FORMATS = ("png", "svg", "pdf")
 
 
 def _check_out_path(value: str, option: str) -> None:

@@ -118,6 +118,10 @@ ASSIGN_BUDGET = 600
 ASSIGN_SAMPLES = 40
 #: The formats ``export`` writes when none is asked for (the files a printer needs).
 EXPORT_FORMATS = ("3mf", "prusa3mf", "stl")
+#: The formats a figure (``--plot``) is written in: those matplotlib's Agg canvas writes
+#: without another package (jpg, tiff and webp need Pillow, pgf a LaTeX install; raw and
+#: rgba are pixel dumps no viewer opens); tests/test_calibrate.py checks matplotlib lists them.
+PLOT_FORMATS = ("png", "svg", "pdf")
 #: Sigma scales ``check`` also runs (the same draws and seed, the same sequential test at
 #: each) to say when its verdict flips inside that range (FP183); the gallery runs the same.
 CHECK_SCALES = (0.5, 2.0)

@@ -33,12 +33,38 @@ def token() -> str:
     return secrets.token_hex(4)
 
 
+#: The longest path the file system takes (Linux PATH_MAX, bytes with the final NUL).
+PATH_MAX = 4096
+
+
 def ensure_dir(path: str | Path) -> Path:
-    """Create ``path`` (and parents); ExportError with the reason if impossible."""
+    """Create ``path`` (and parents); ExportError with the reason if impossible. The
+    missing levels are made one at a time from the top (``Path.mkdir(parents=True)``
+    recurses once per level: 1,500 levels were a RecursionError), and removed again when a
+    deeper one cannot be made."""
     p = Path(path)
+    if len(os.fsencode(os.path.abspath(p))) >= PATH_MAX:
+        raise ExportError(f"{p}: cannot create output directory: the path is longer than {PATH_MAX - 1} bytes; "
+                          "give a shorter one")
+    missing, q = [], p
+    while not q.is_dir() and q != q.parent:
+        missing.append(q)
+        q = q.parent
+    made = []
     try:
-        p.mkdir(parents=True, exist_ok=True)
+        for d in reversed(missing):
+            try:
+                os.mkdir(d)
+                made.append(d)
+            except FileExistsError:
+                if not d.is_dir():
+                    raise NotADirectoryError(0, f"{d} is a file, not a folder") from None
     except OSError as exc:
+        for d in reversed(made):
+            try:
+                os.rmdir(d)
+            except OSError:
+                break
         raise ExportError(f"{p}: cannot create output directory: {exc.strerror or exc}") from None
     if not os.access(p, os.W_OK):
         raise ExportError(f"{p}: output directory is not writable; choose another with --out")

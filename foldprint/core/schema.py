@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import re
+import unicodedata
 from typing import Any, Mapping
 
 from .errors import DesignError, FoldprintError
@@ -142,6 +143,26 @@ def number(value, at: Where, lo: float | None = None, hi: float | None = None,
     return v
 
 
+#: A number as text (a CSV cell): an optional sign, ASCII digits, a point, an exponent.
+#: Python's ``float`` reads more: "nan", "inf", "1_000", and digits of any script
+#: (fullwidth "\uff11\uff12", Arabic-Indic "\u0663"), none of which a lab's CSV means as a number.
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
+def number_text(text: str, at, lo: float | None = None, hi: float | None = None, unit: str = "",
+                lo_open: bool = False) -> float:
+    """A number written as text (a CSV cell), checked as :func:`number`: decimal ASCII
+    digits only (``1.5``, ``-2e-3``), no "nan", "inf", "1_000" or digits of other scripts;
+    ``at`` is anything with a ``fail(what)`` method."""
+    t = text.strip()
+    rng = range_text(lo, hi, lo_open, f" {unit}" if unit else "")
+    if not _DECIMAL.fullmatch(t):
+        finite = " finite" if t.lower().lstrip("+-") in ("nan", "inf", "infinity") else ""
+        raise at.fail(f"must be a{finite} number{rng}, written in ASCII digits (e.g. 0.25, -3 or 1e-3), "
+                      f"got {text[:40]!r}")
+    return number(float(t), at, lo, hi, unit, lo_open)
+
+
 def range_text(lo, hi, lo_open, u) -> str:
     """" in [lo, hi] u" (or a one-sided bound, or nothing): how a range reads in a message."""
     if lo is None and hi is None:
@@ -151,6 +172,25 @@ def range_text(lo, hi, lo_open, u) -> str:
     if lo is None:
         return f" <= {hi:g}{u}"
     return f" in {'(' if lo_open else '['}{lo:g}, {hi:g}]{u}"
+
+
+def jam_thresholds(error, warning) -> tuple[float, float]:
+    """``check``'s jam thresholds (``--error-above``, ``--warn-above``): each a probability
+    strictly between 0 and 1 (at 1 no part could fail or warn, at 0 every part would, and
+    the sequential test's indifference region would leave [0, 1]), the warning's below the
+    error's."""
+    out = []
+    for v, option in ((error, "--error-above"), (warning, "--warn-above")):
+        at = Where(option)
+        v = number(v, at)
+        if not 0.0 < v < 1.0:
+            raise at.fail(f"must be a jam probability in (0, 1) (at 1 no part could fail or warn, at 0 every part "
+                          f"would), got {v:g}")
+        out.append(v)
+    if not out[1] < out[0]:
+        raise DesignError(f"--warn-above ({out[1]:g}) must be below --error-above ({out[0]:g}): a warning comes "
+                          "before the error")
+    return out[0], out[1]
 
 
 def length(value, at: Where) -> float:
@@ -189,14 +229,36 @@ def string(value, at: Where, max_len: int = MAX_NAME, what: str = "a string") ->
     return value
 
 
+#: The one rule for ids and material names (a design's panels and hinges, a material
+#: library, calibrate's CSV): what it says, for messages.
+ID_RULE = (f"1 to {MAX_NAME} characters, no control characters (tab, NUL, line breaks), no space at either "
+           "end")
+
+
+def control_char(text: str) -> str | None:
+    """The first control character of ``text`` (Unicode categories Cc, Cs: tab, NUL, DEL,
+    C1 controls, lone surrogates; and the line and paragraph separators), None without."""
+    for c in text:
+        if (c < " " or "\x7f" <= c <= "\x9f" or c in "\u2028\u2029"
+                or (not c.isascii() and unicodedata.category(c) in ("Cc", "Cs"))):
+            return c
+    return None
+
+
 def ident(value, at: Where) -> str:
-    """A panel/hinge/goal id: a non-empty string (numbers are accepted and become text)."""
+    """A panel/hinge/goal id or a material name: a non-empty string (numbers are accepted
+    and become text) of :data:`ID_RULE`; a TOML key of any such name loads back."""
     if isinstance(value, bool) or not isinstance(value, (str, int)):
         raise at.fail(f"must be an id (a string), got {describe(value)}")
-    text = string(str(value), at)
-    if not text or any(ord(c) < 32 for c in text):
-        raise at.fail("must be a non-empty id without control characters")
-    return text
+    text = str(value)
+    if len(text) > MAX_NAME:
+        raise at.fail(f"is {len(text)} characters long; a name is {ID_RULE}")
+    bad = control_char(text)
+    if not text or bad is not None or text != text.strip():
+        what = ("is empty" if not text else f"holds the control character {bad!r}" if bad is not None
+                else "has a space at its start or end")
+        raise at.fail(f"{what} ({text[:40]!r}); a name is {ID_RULE}")
+    return string(text, at)
 
 
 def name(value, at: Where) -> str:

@@ -147,25 +147,43 @@ def is_ours(d: str | Path) -> bool:
         return False
 
 
+#: The most entries :func:`_walk` lists (our choice: an export set holds tens of files; a
+#: folder past this holds other files whatever the rest are, and its walk stays bounded).
+MAX_WALK = 100_000
+
+
 def _walk(out: Path):
     """(files, others, empty dirs) under ``out`` by relative name, links not followed;
-    the staging folders (of foldprint's) and temp files of foldprint at the top are left out."""
+    the staging folders (of foldprint's) and temp files of foldprint at the top are left out.
+    Iterative (a tree 1,000 levels deep is walked, not a RecursionError) and bounded: it
+    stops after :data:`MAX_WALK` entries (then ``others`` ends with a note saying so)."""
     files, others, empty = [], [], []
-    for dirpath, dirnames, filenames in os.walk(out, followlinks=False):
-        rel = os.path.relpath(dirpath, out)
-        base = "" if rel == "." else rel + "/"
-        if base == "":
-            dirnames[:] = [d for d in dirnames if not (STAGE_INSIDE.match(d) and is_ours(out / d))]
-            filenames = [f for f in filenames if not TMP_NAME.match(f)]
-        for d in list(dirnames):
-            if os.path.islink(os.path.join(dirpath, d)):  # os.walk lists a link to a folder here
-                others.append(base + d)
-                dirnames.remove(d)
-        if base and not dirnames and not filenames:
+    stack, seen = [(str(out), "")], 0
+    while stack:
+        path, base = stack.pop()
+        try:
+            with os.scandir(path) as it:
+                entries = sorted(it, key=lambda e: e.name)
+        except OSError:
+            others.append(base[:-1] or ".")
+            continue
+        if base and not entries:
             empty.append(base[:-1])
-        for f in filenames:
-            p = os.path.join(dirpath, f)
-            (files if os.path.isfile(p) and not os.path.islink(p) else others).append(base + f)
+        for e in entries:
+            seen += 1
+            if seen > MAX_WALK:
+                others.append(f"(more than {MAX_WALK} entries)")
+                return files, others, empty
+            if not base and ((TMP_NAME.match(e.name) and not e.is_dir())
+                             or (STAGE_INSIDE.match(e.name) and e.is_dir(follow_symlinks=False)
+                                 and is_ours(out / e.name))):
+                continue
+            if e.is_dir(follow_symlinks=False):
+                stack.append((e.path, base + e.name + "/"))
+            elif e.is_file(follow_symlinks=False):
+                files.append(base + e.name)
+            else:
+                others.append(base + e.name)
     return files, others, empty
 
 

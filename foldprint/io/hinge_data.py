@@ -29,7 +29,9 @@ from pathlib import Path
 
 from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM
 from ..core.errors import DataError
-from ..core.schema import MAX_FILE_BYTES, MAX_LENGTH_MM, MIN_LENGTH_MM, TEMPERATURE_C, number, range_text
+from ..core.inputs import read_input, shown
+from ..core.schema import (MAX_FILE_BYTES, MAX_LENGTH_MM, MIN_LENGTH_MM, TEMPERATURE_C, control_char, ident,
+                           number_text)
 
 COLUMNS = ("kind", "material", "reference", "bath_c", "thickness_mm", "initial_c", "time_s", "level",
            "value", "relation", "sigma", "printed_deg", "source")
@@ -54,25 +56,15 @@ MAX_ROWS = 200_000
 
 
 def read_text(path: str | Path, what: str) -> str:
-    """The text of the file at ``path`` (``what`` it should be, for messages): a regular
-    file of at most ``MAX_FILE_BYTES``, UTF-8. The one function calibrate reads files with."""
-    p = Path(path)
-    try:
-        if not p.exists():
-            raise DataError(f"{p}: file not found; expected {what}")
-        if not p.is_file():
-            raise DataError(f"{p}: not a regular file; expected {what}")
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise DataError(f"{p}: file is {size / 2**20:.0f} MiB; at most {MAX_FILE_BYTES // 2**20} MiB "
-                            "are accepted")
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise DataError(f"{p}: cannot read: {exc.strerror}") from None
+    """The text of the file at ``path`` (``what`` it should be, for messages), through the
+    one door every input comes in by (:func:`foldprint.core.inputs.read_input`: a regular
+    file, not a FIFO or device, of at most ``MAX_FILE_BYTES``), UTF-8 with or without a BOM.
+    The one function calibrate reads files with."""
+    raw = read_input(path, what, MAX_FILE_BYTES, DataError)
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError:
-        raise DataError(f"{p}: not a UTF-8 text file; expected {what}") from None
+        raise DataError(f"{shown(path)}: not a UTF-8 text file; expected {what}") from None
 
 
 @dataclass(frozen=True)
@@ -162,14 +154,32 @@ class _Cell:
 
 def _number(text: str, at: _Cell, lo: float | None = None, hi: float | None = None, unit: str = "",
             lo_open: bool = False) -> float:
-    """A cell's number, checked as a design file's (:func:`foldprint.core.schema.number`,
-    which reports through ``at.fail``)."""
-    try:
-        v = float(text)
-    except ValueError:
-        rng = range_text(lo, hi, lo_open, f" {unit}" if unit else "")
-        raise at.fail(f"must be a number{rng}, got {text[:40]!r}") from None
-    return number(v, at, lo, hi, unit, lo_open)
+    """A cell's number: decimal ASCII digits, finite, within [lo, hi]
+    (:func:`foldprint.core.schema.number_text`, which reports through ``at.fail``)."""
+    return number_text(text, at, lo, hi, unit, lo_open)
+
+
+def _name(text: str, at: _Cell) -> str:
+    """A material name, by the library's rule (:func:`foldprint.core.schema.ident`): the
+    fitted file names it as a TOML key that every command must load back."""
+    return ident(text, at)  # the schema's words, the cell's location (at.fail)
+
+
+#: The smallest and largest ``sigma`` of a row, per kind, in the row's unit: below, one row
+#: outweighs every other by more than floating point resolves (5e-324 and 1e-300 made the
+#: residuals infinite); above, the row says nothing (our choices: 1e-6 of the value's
+#: scale; the whole range of the value).
+SIGMA_RANGE = {"ratio": (1e-6, 1.5, ""), "angle": (1e-4, 225.0, "deg"), "time_to": (1e-4, 1e6, "s"),
+               "spread": (1e-4, 1e6, "s"), "tg": (1e-4, 600.0, "deg C"), "fixity": (1e-6, 1.0, "")}
+
+
+def _sigma(text: str, at: _Cell, kind: str) -> float:
+    lo, hi, unit = SIGMA_RANGE[kind]
+    v = _number(text, at, unit=unit)
+    if not lo <= v <= hi:
+        raise at.fail(f"must be in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}, got {v:g} (a smaller sigma makes one "
+                      "row outweigh the others beyond floating point, a larger one says the row tells nothing)")
+    return v
 
 
 def _header(row: list[str], src: str) -> list[str]:
@@ -198,8 +208,10 @@ def _row(cells: dict[str, str], line: int, src: str) -> Observation | Property:
     for c, v in cells.items():
         if v and c != "kind" and c not in NEEDS[kind] and c not in MAY[kind]:
             raise at[c].fail(f"means nothing for a {kind} row (got {v[:40]!r}); leave it blank")
-    material = cells["material"]
-    sigma = _number(cells["sigma"], at["sigma"], 0.0, None, lo_open=True) if cells.get("sigma") else None
+    material = _name(cells["material"], at["material"])
+    if cells.get("reference"):
+        _name(cells["reference"], at["reference"])
+    sigma = _sigma(cells["sigma"], at["sigma"], kind) if cells.get("sigma") else None
     source = cells.get("source", "")
     if kind == "tg":
         return Property(line, kind, material, _number(cells["value"], at["value"], *TEMPERATURE_C, "deg C"),
@@ -236,17 +248,41 @@ def _row(cells: dict[str, str], line: int, src: str) -> Observation | Property:
                        value, relation, sigma, printed, source)
 
 
+def _lines(text: str) -> list[str]:
+    """The file's lines (``\\n`` or ``\\r\\n`` ends a line, nothing else: a form feed or
+    U+2028 inside a cell stays there, to be refused), comment lines blank."""
+    lines = text.split("\n")
+    lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
+    return [("" if ln.lstrip().startswith("#") else ln) for ln in lines]
+
+
+def _cells(row: list[str], line: int, src: str, header: list[str] | None) -> None:
+    """Refuse a row a CSV reader took from more than one line, or a cell holding a control
+    character: a cell is one line of text (a line break inside quotes would be lost)."""
+    for i, c in enumerate(row):
+        bad = control_char(c)
+        if bad is not None:
+            col = f"column {header[i]}" if header and i < len(header) else f"cell {i + 1}"
+            raise DataError(f"{src}: line {line}, {col}: holds the control character {bad!r}; a cell is "
+                            "one line of text without tabs, form feeds or NULs")
+
+
 def parse_hinge_data(text: str, src: str) -> HingeData:
     """Rows of ``text`` (the CSV layout above); :class:`DataError` naming the line and column
     of the first bad cell."""
-    lines = [("" if ln.lstrip().startswith("#") else ln) for ln in text.splitlines()]
     header: list[str] | None = None
     obs: list[Observation] = []
     props: list[Property] = []
-    reader = csv.reader(lines)
+    reader = csv.reader(_lines(text), strict=True)
+    line = 0
     try:
         for row in reader:
+            if reader.line_num != line + 1:
+                raise DataError(f"{src}: line {line + 1}: a quoted cell runs past the end of its line (to line "
+                                f"{reader.line_num}); a cell is one line of text: close the quote (\"...\") on "
+                                "the line it opens")
             line = reader.line_num
+            _cells(row, line, src, header)
             if not any(c.strip() for c in row):
                 continue
             if header is None:
@@ -261,7 +297,10 @@ def parse_hinge_data(text: str, src: str) -> HingeData:
             item = _row(cells, line, src)
             (props if isinstance(item, Property) else obs).append(item)
     except csv.Error as exc:
-        raise DataError(f"{src}: line {reader.line_num}: not valid CSV: {exc}") from None
+        what = ("a quoted cell is not closed (\"...\" needs its closing quote on the same line)"
+                if "unexpected end" in str(exc) else f"not valid CSV: {exc}")
+        raise DataError(f"{src}: line {line + 1 if 'unexpected end' in str(exc) else reader.line_num}: {what}") \
+            from None
     if header is None:
         raise DataError(f"{src}: empty: expected a header line ({', '.join(COLUMNS)}) and rows (docs/calibrate.md)")
     if not obs:

@@ -31,9 +31,10 @@ from importlib import resources
 import numpy as np
 
 from ..core.constants import RECOVERY_HORIZON_S
+from ..core import schema as sc
 from ..core.errors import DataError
 from ..io.hinge_data import HingeData, Observation
-from ..model.materials import Material, MaterialLibrary, RecoveryParams
+from ..model.materials import RECOVERY_BOUNDS, Material, MaterialLibrary, RecoveryParams
 from .recovery_batch import grid_until, material_batch_ratios
 
 #: The recovery parameters a fit may move (the thermal properties k, rho, c and the branch
@@ -100,6 +101,25 @@ class Hold:
     source: str
 
 
+def held_value(name: str, value) -> float:
+    """A value ``--fix NAME=VALUE`` may hold ``name`` at (a number, or its text): a finite
+    number a materials file may hold (:data:`~foldprint.model.materials.RECOVERY_BOUNDS`,
+    so the fitted file loads back), else :class:`DataError` naming the range and why. Not
+    limited to the fit's box (``data/calibration.toml``): holding c2 at a measured 30 K is
+    a choice the user may make."""
+    lo, hi, unit, why = RECOVERY_BOUNDS[name]
+    rng = f"a finite number in [{lo:g}, {hi:g}]{' ' + unit if unit else ''} ({why})"
+    at = sc.Where(f"--fix {name}", error=DataError)
+    try:
+        v = sc.number_text(value, at) if isinstance(value, str) else sc.number(value, at)
+    except DataError:
+        how = ", written in ASCII digits" if isinstance(value, str) else ""
+        raise at.fail(f"must be {rng}{how}, got {sc.describe(value)}") from None
+    if not lo <= v <= hi:
+        raise at.fail(f"must be {rng}, got {v:g}")
+    return v
+
+
 def holds(fixed: dict | None = None, fit_names=(), config: Settings | None = None) -> tuple[Hold, ...]:
     """The parameters a calibration holds: those ``fixed`` ({name: value, or None for the
     library's}: ``--fix``), and those ``data/calibration.toml`` holds by default (its
@@ -116,7 +136,7 @@ def holds(fixed: dict | None = None, fit_names=(), config: Settings | None = Non
     for name in FITTABLE:
         b = config.bounds[name]
         if name in fixed:
-            v = fixed[name]
+            v = None if fixed[name] is None else held_value(name, fixed[name])
             out.append(Hold(name, v, "--fix" if v is not None else "--fix: the library's value"))
         elif b.hold is not None and name not in fit_names:
             out.append(Hold(name, b.hold, b.hold_source))
@@ -185,6 +205,7 @@ class Problem:
             if name not in FITTABLE:
                 raise DataError(f"{name!r} is not a recovery parameter calibrate fits; use one of "
                                 f"{', '.join(FITTABLE)}")
+        fixed = {n: held_value(n, v) for n, v in fixed.items()}
         bad = [n for n in per_material if n not in free]
         if bad:
             raise DataError(f"--per-material {bad[0]}: {bad[0]} is held, not fitted; add --fit {bad[0]} "

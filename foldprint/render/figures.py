@@ -10,7 +10,8 @@ from typing import Sequence
 import numpy as np
 
 from ..core.display import seconds
-from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM
+from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM, PLOT_FORMATS
+from ..core.errors import DataError
 from ..model.materials import MaterialLibrary
 from ..model.paper_statements import load_statements
 from ..physics.recovery import recovery_curve
@@ -40,10 +41,30 @@ def figure_bytes(fig, fmt: str = "png", dpi: int = 110) -> bytes:
     return buf.getvalue()
 
 
+def figure_format(path: str | Path, option: str = "--plot") -> str:
+    """The format of a figure file, from the end of its name: one of
+    :data:`~foldprint.core.constants.PLOT_FORMATS`, else :class:`DataError` naming them
+    (called before anything is computed or written)."""
+    fmt = Path(path).suffix.lstrip(".").lower()
+    if fmt not in PLOT_FORMATS:
+        raise DataError(f"{option} {str(path)[:80]!r}: the file name must end in "
+                        f"{', '.join('.' + f for f in PLOT_FORMATS)} (the figure's format), got "
+                        f"{('.' + fmt) if fmt else 'no suffix'!r}")
+    return fmt
+
+
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Write ``fig`` to ``path`` whole (:func:`foldprint.core.files.write_atomic`), in the
+    format its name ends in (:func:`figure_format`)."""
     from ..core.files import write_atomic
 
-    fmt = Path(path).suffix.lstrip(".").lower() or "png"
+    try:
+        fmt = figure_format(path)
+    except DataError:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        raise
     return write_atomic(path, figure_bytes(fig, fmt, dpi))
 
 
