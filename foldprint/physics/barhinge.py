@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core.errors import DesignError
 from ..model.design import Design
-from .barhinge_energy import fold_angles, total
+from .barhinge_energy import fold_angles, stretch, total
 from .modulus import MechanicsParams, bar_stiffness, bending_stiffness, default_params
 
 #: relative tolerance (of the design's size) for a vertex lying on a fold line
@@ -74,8 +74,11 @@ class BarHinge:
         """(stiffness, rest angle) of every spring for per-hinge stiffness (N mm/rad) and
         rest angle (rad)."""
         h = np.maximum(self.spring_hinge, 0)
-        k = np.where(self.fold, np.asarray(hinge_k, float)[h] * self.spring_share, self.bend_k)
-        rest = np.where(self.fold, np.asarray(hinge_rest, float)[h], 0.0)
+        # a design without hinges (one panel) has bending springs only: pad the lookup
+        hk = np.append(np.asarray(hinge_k, float).ravel(), 0.0)
+        hr = np.append(np.asarray(hinge_rest, float).ravel(), 0.0)
+        k = np.where(self.fold, hk[h] * self.spring_share, self.bend_k)
+        rest = np.where(self.fold, hr[h], 0.0)
         return k, rest
 
     def energy(self, x: np.ndarray, hinge_k, hinge_rest, hessian: bool = True):
@@ -84,10 +87,16 @@ class BarHinge:
         return total(x, self.bars, self.bar_rest, self.bar_k, self.springs, rest, k, hessian)
 
     def hinge_angles(self, x: np.ndarray) -> np.ndarray:
-        """(n_hinges,) each hinge's fold angle: its springs' angles weighted by length."""
+        """(n_hinges,) each hinge's fold angle: its springs' angles weighted by length, each
+        taken within pi of the springs' circular mean (a hinge folded flat may have springs
+        on both sides of atan2's cut at +-pi; its angle is then near 180 deg, possibly a
+        round-off past it)."""
         rho = fold_angles(x, self.springs[self.fold])
         h = self.spring_hinge[self.fold]
         w = self.spring_share[self.fold]
+        mean = np.arctan2(np.bincount(h, weights=w * np.sin(rho), minlength=self.n_hinges),
+                          np.bincount(h, weights=w * np.cos(rho), minlength=self.n_hinges))
+        rho = mean[h] + stretch(rho, mean[h])
         num = np.bincount(h, weights=w * rho, minlength=self.n_hinges)
         den = np.bincount(h, weights=w, minlength=self.n_hinges)
         return num / np.where(den > 0, den, 1.0)
