@@ -309,7 +309,8 @@ class Evaluation:
         scattered folds (:mod:`foldprint.simulation.margin`); None unless the fold completes."""
         def run():
             sim, gap = self.simulation, self.clearance
-            return None if not sim.completed or gap is None or margin_left_out(self.design) else scatter_margin(
+            return None if not sim.completed or gap is None or margin_left_out(self.design, self.options.mechanics) \
+                else scatter_margin(
                 sim, gap, self.clearance_checker, self.scatter or default_scatter(), self.library,
                 seed=self.options.seed, batch=self.margin_batch())
 
@@ -524,12 +525,12 @@ class Evaluation:
 
         if "comparison" not in self._stages:
             self.guard(2, clearance=True)  # the fold and the other hinge model's, held at once, and the clearance search
-            if not margin_left_out(self.design):
+            if not margin_left_out(self.design, self.options.mechanics):
                 self.margin_batch(upfront=True)  # the margin screen's samples, one at a time at least, beside the fold
         sim, other, crossing = self.simulation, self.comparison, self.printed_crossings
         report = simulate_json(sim, other, crossing, self.clearance, None if crossing else self.scatter_margin,
                                self.paper_lines())
-        if (why := margin_left_out(self.design)) and sim.completed and not crossing:
+        if (why := margin_left_out(self.design, self.options.mechanics)) and sim.completed and not crossing:
             report["notes"] = [*report.get("notes", []), why]
         return report
 
