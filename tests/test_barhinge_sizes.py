@@ -216,3 +216,15 @@ def test_a_grid_whose_equilibrium_cannot_be_found_stops_its_path():
         k = int(np.searchsorted(sol.grid, sol.unconverged[0]))
         assert np.array_equal(sol.x[k], sol.x[-1])  # held from the failed step on
         assert sol.splits <= bs.MAX_SPLIT * 2
+
+
+def test_the_rigid_margin_screen_is_left_out_of_a_compliant_loop_pattern_only():
+    """Under bar-hinge the screen's rigid scattered folds would track a loop pattern's
+    closure rigidly (the 10 x 10 Miura sheet: 201 dense SVDs after the fold completed);
+    a tree keeps the screen (its compliant angles are its drive's), and rigid runs are as before."""
+    from foldprint.simulation.margin import left_out
+
+    miura, helix = load_design("templates/miura_3x3.toml"), load_design("templates/helix_graded.toml")
+    assert "--mechanics bar-hinge" in left_out(miura, "bar-hinge")
+    assert left_out(miura, "rigid") is None and left_out(miura) is None
+    assert left_out(helix, "bar-hinge") is None
