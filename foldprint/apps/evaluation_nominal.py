@@ -164,7 +164,8 @@ class NominalStages:
         scattered folds (:mod:`foldprint.simulation.margin`); None unless the fold completes."""
         def run():
             sim, gap = self.simulation, self.clearance
-            return None if not sim.completed or gap is None or margin_left_out(self.design) else scatter_margin(
+            left_out = margin_left_out(self.design, self.options.mechanics)
+            return None if not sim.completed or gap is None or left_out else scatter_margin(
                 sim, gap, self.clearance_checker, self.scatter or default_scatter(), self.library,
                 seed=self.options.seed, batch=self.margin_batch())
 

@@ -32,12 +32,12 @@ class ReportStages:
 
         if "comparison" not in self._stages:
             self.guard(2, clearance=True)  # the fold and the other hinge model's, held at once, and the clearance search
-            if not margin_left_out(self.design):
+            if not margin_left_out(self.design, self.options.mechanics):
                 self.margin_batch(upfront=True)  # the margin screen's samples, one at a time at least, beside the fold
         sim, other, crossing = self.simulation, self.comparison, self.printed_crossings
         report = simulate_json(sim, other, crossing, self.clearance, None if crossing else self.scatter_margin,
                                self.paper_lines())
-        if (why := margin_left_out(self.design)) and sim.completed and not crossing:
+        if (why := margin_left_out(self.design, self.options.mechanics)) and sim.completed and not crossing:
             report["notes"] = [*report.get("notes", []), why]
         return report
 

@@ -19,14 +19,22 @@ from dataclasses import dataclass
 
 import manifold3d as mf
 import numpy as np
+import shapely
 
 from ..core.errors import DesignError
 from ..model.design import Design
-from .barhinge_energy import fold_angles, total
+from .barhinge_energy import fold_angles, stretch, total
 from .modulus import MechanicsParams, bar_stiffness, bending_stiffness, default_params
 
 #: relative tolerance (of the design's size) for a vertex lying on a fold line
 _ON_LINE = 1e-7
+#: a panel's outline and holes are simplified to this share of its size for the model (our
+#: choice, docs/mechanics.md "Few nodes per panel"): the model needs the fold-line nodes
+#: and the panel's rough shape, not every vertex of a curve; holes narrower collapse
+SIMPLIFY = 0.02
+#: ... and coarser (the tolerance doubled) while it keeps more points than this (our choice:
+#: a bar-and-hinge panel is a few triangles; 200 holes of a sieve would be 800 nodes)
+PANEL_POINTS = 100
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,8 +82,11 @@ class BarHinge:
         """(stiffness, rest angle) of every spring for per-hinge stiffness (N mm/rad) and
         rest angle (rad)."""
         h = np.maximum(self.spring_hinge, 0)
-        k = np.where(self.fold, np.asarray(hinge_k, float)[h] * self.spring_share, self.bend_k)
-        rest = np.where(self.fold, np.asarray(hinge_rest, float)[h], 0.0)
+        # a design without hinges (one panel) has bending springs only: pad the lookup
+        hk = np.append(np.asarray(hinge_k, float).ravel(), 0.0)
+        hr = np.append(np.asarray(hinge_rest, float).ravel(), 0.0)
+        k = np.where(self.fold, hk[h] * self.spring_share, self.bend_k)
+        rest = np.where(self.fold, hr[h], 0.0)
         return k, rest
 
     def energy(self, x: np.ndarray, hinge_k, hinge_rest, hessian: bool = True):
@@ -84,10 +95,16 @@ class BarHinge:
         return total(x, self.bars, self.bar_rest, self.bar_k, self.springs, rest, k, hessian)
 
     def hinge_angles(self, x: np.ndarray) -> np.ndarray:
-        """(n_hinges,) each hinge's fold angle: its springs' angles weighted by length."""
+        """(n_hinges,) each hinge's fold angle: its springs' angles weighted by length, each
+        taken within pi of the springs' circular mean (a hinge folded flat may have springs
+        on both sides of atan2's cut at +-pi; its angle is then near 180 deg, possibly a
+        round-off past it)."""
         rho = fold_angles(x, self.springs[self.fold])
         h = self.spring_hinge[self.fold]
         w = self.spring_share[self.fold]
+        mean = np.arctan2(np.bincount(h, weights=w * np.sin(rho), minlength=self.n_hinges),
+                          np.bincount(h, weights=w * np.cos(rho), minlength=self.n_hinges))
+        rho = mean[h] + stretch(rho, mean[h])
         num = np.bincount(h, weights=w * rho, minlength=self.n_hinges)
         den = np.bincount(h, weights=w, minlength=self.n_hinges)
         return num / np.where(den > 0, den, 1.0)
@@ -162,11 +179,61 @@ def _rings(design: Design, eps: float) -> list[list[list[np.ndarray]]]:
     return rings
 
 
+def _simplify(ring: list, pinned: np.ndarray, tol: float) -> list:
+    """Douglas-Peucker on a closed ring (list of (2,) arrays) to ``tol`` (mm), keeping
+    every ``pinned`` point (the points on fold lines, which the hinges' panels share). A
+    ring without two pins is cut at its first point and the point farthest from it."""
+    pts = np.array(ring, float)
+    n = len(pts)
+    pins = list(np.nonzero(pinned)[0])
+    if len(pins) < 2:
+        far = int(np.argmax(np.linalg.norm(pts - pts[0], axis=1)))
+        pins = sorted({0, far, *pins})
+    keep = np.zeros(n, bool)
+    keep[pins] = True
+    for a, b in zip(pins, pins[1:] + [pins[0] + n]):
+        stack = [(a, b)]
+        while stack:
+            i, j = stack.pop()
+            if j - i < 2:
+                continue
+            idx = np.arange(i + 1, j) % n
+            p, q = pts[i % n], pts[j % n]
+            d = q - p
+            L = float(np.hypot(*d))
+            r = pts[idx] - p
+            dist = np.abs(d[0] * r[:, 1] - d[1] * r[:, 0]) / L if L > 0 else np.linalg.norm(r, axis=1)
+            k = int(np.argmax(dist))
+            if dist[k] > tol:
+                keep[idx[k]] = True
+                stack += [(i, i + 1 + k), (i + 1 + k, j)]
+    return [ring[i] for i in range(n) if keep[i]]
+
+
+def _coarse(rings: list, lines: list, tol: float, eps: float) -> list:
+    """A panel's rings for the model: simplified to ``tol`` (:func:`_simplify`) with the
+    points on its fold ``lines`` kept; holes that collapse (fewer than 3 points or under
+    tol^2 of area) are left out."""
+    out = []
+    for n, r in enumerate(rings):
+        pinned = np.array([any(_on_segment(q, a, b, eps) is not None for a, b in lines) for q in r], bool)
+        s = _simplify(r, pinned, tol)
+        if n > 0 and (len(s) < 3 or abs(_area(s)) < tol * tol):
+            continue
+        out.append(s if len(s) >= 3 else r)
+    return out
+
+
+def _area(ring) -> float:
+    a = np.array(ring, float)
+    return 0.5 * float(np.sum(a[:, 0] * np.roll(a[:, 1], -1) - np.roll(a[:, 0], -1) * a[:, 1]))
+
+
 def _triangulate(rings: list[list[np.ndarray]], what: str) -> np.ndarray:
     arrs, index, start = [], [], 0
     for n, r in enumerate(rings):  # outline counter-clockwise, holes clockwise (positive fill)
         a = np.array(r, dtype=np.float64)
-        area = 0.5 * float(np.sum(a[:, 0] * np.roll(a[:, 1], -1) - np.roll(a[:, 0], -1) * a[:, 1]))
+        area = _area(a)
         keep = (area > 0) == (n == 0)
         arrs.append(a if keep else a[::-1].copy())
         ids = np.arange(start, start + len(a))
@@ -175,7 +242,35 @@ def _triangulate(rings: list[list[np.ndarray]], what: str) -> np.ndarray:
     tris = np.concatenate(index)[np.asarray(mf.triangulate(arrs), dtype=np.int64).reshape(-1, 3)]
     if len(tris) == 0:
         raise DesignError(f"panel {what!r}: its outline could not be triangulated for the bar-and-hinge model")
+    pts = np.concatenate(arrs)[np.argsort(np.concatenate(index))]
+    flat = _flat_triangles(pts, tris)
+    if flat.any():  # manifold3d joins collinear vertices (aligned holes) into 0-area triangles
+        tris = _delaunay(rings, pts)
+        flat = _flat_triangles(pts, tris)
+    if flat.any():
+        x, y = pts[tris[np.argmax(flat)]].mean(axis=0)
+        raise DesignError(f"panel {what!r}: its bar-and-hinge triangulation has a triangle of zero area near "
+                          f"({x:.3g}, {y:.3g}) mm (vertices on one line); move or remove one of them")
     return tris
+
+
+def _flat_triangles(pts: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """(T,) whether each triangle's area is under 1e-9 of its longest edge squared."""
+    a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
+    u, v = b - a, c - a
+    area = 0.5 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+    edge2 = np.max([np.sum(u * u, 1), np.sum(v * v, 1), np.sum((c - b) ** 2, 1)], axis=0)
+    return area <= 1e-9 * edge2
+
+
+def _delaunay(rings: list, pts: np.ndarray) -> np.ndarray:
+    """The rings' constrained Delaunay triangulation (shapely), as indices into ``pts``."""
+    poly = shapely.Polygon(np.array(rings[0], float), [np.array(r, float) for r in rings[1:]])
+    at = {tuple(q): i for i, q in enumerate(pts.tolist())}
+    out = [[at.get(tuple(q), -1) for q in np.asarray(t.exterior.coords)[:3].tolist()]
+           for t in shapely.constrained_delaunay_triangles(poly).geoms]
+    tris = np.array(out, dtype=np.int64).reshape(-1, 3)
+    return tris[(tris >= 0).all(axis=1)]
 
 
 def _nodes(design: Design, rings, eps: float):
@@ -212,6 +307,14 @@ def build(design: Design, params: MechanicsParams | None = None,
     size = max(float(np.ptp(np.concatenate([p.outline for p in design.panels]), axis=0).max()), 1.0)
     eps = _ON_LINE * size
     rings = _rings(design, eps)
+    pidx = design.panel_index()
+    for k, p in enumerate(design.panels):  # few nodes per panel: its outline to SIMPLIFY of its size
+        lines = [tuple(np.asarray(q, float) for q in h.line) for h in design.hinges if p.id in h.panels]
+        span = float(np.ptp(np.asarray(p.outline, float), axis=0).max())
+        tol, coarse = SIMPLIFY * span, None
+        while coarse is None or (sum(map(len, coarse)) > PANEL_POINTS and tol < span):
+            coarse, tol = _coarse(rings[k], lines, tol, eps), 2 * tol
+        rings[k] = coarse
     gid, xy, owner = _nodes(design, rings, eps)
     E = params.panel_modulus_mpa if panel_modulus_mpa is None else float(panel_modulus_mpa)
     tri, tri_panel, start = [], [], 0
@@ -226,7 +329,6 @@ def build(design: Design, params: MechanicsParams | None = None,
     tri, tri_panel = np.concatenate(tri), np.concatenate(tri_panel)
     nodes = np.column_stack([xy, np.zeros(len(xy))])
     thick = np.array([p.thickness for p in design.panels])
-    pidx = design.panel_index()
     lines = [(pidx[h.panels[0]], pidx[h.panels[1]], *(np.asarray(q, float) for q in h.line), h.length)
              for h in design.hinges]
 

@@ -17,7 +17,9 @@ Two element kinds (Liu and Paulino 2017, Proc. R. Soc. A 473: 20170348; ``docs/m
   A = r_ij . r_kj / |r_kj|^2, B = r_kl . r_kj / |r_kj|^2, and the closed-form second
   derivatives of their Eq. (33)-(36) (:func:`dihedral`). Here rho = pi - theta, taken as
   atan2(|r_kj| (m . r_kl), -(m . n)), so it is continuous through the flat state and
-  defined on (-pi, pi]; the model builder orders j and k so that + is a valley.
+  defined on (-pi, pi]; the model builder orders j and k so that + is a valley. The
+  spring's stretch rho - rho0 is taken modulo 2 pi (:func:`stretch`, in (-pi, pi]): atan2's
+  cut at +-pi is then not a cliff beside a rest angle of 180 deg (a flap folded flat).
 
 Everything is assembled into one ``scipy.sparse`` matrix per call (COO, duplicates summed).
 """
@@ -42,6 +44,16 @@ def fold_angles(x: np.ndarray, ijkl: np.ndarray) -> np.ndarray:
     rij, rkj, rkl = xi - xj, xk - xj, xk - xl
     m, n = np.cross(rij, rkj), np.cross(rkj, rkl)
     return np.arctan2(np.linalg.norm(rkj, axis=1) * _dot(m, rkl), -_dot(m, n))
+
+
+def stretch(rho: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """rho - rest modulo 2 pi, in (-pi, pi]: the spring's departure from its rest angle.
+    Without the modulus a crease whose rest angle is 180 deg minus a hair sits a hair from
+    atan2's cut at +-pi, where rho jumps by 2 pi and the energy by 2 pi^2 c: every Newton
+    step that turns the crease by more than the hair is refused by the line search
+    (docs/mechanics.md, "Flat folds")."""
+    d = np.asarray(rho, float) - np.asarray(rest, float)
+    return d - 2 * np.pi * np.round(d / (2 * np.pi))
 
 
 def dihedral(x: np.ndarray, ijkl: np.ndarray, hessian: bool = True):
@@ -126,8 +138,9 @@ def bar_terms(x: np.ndarray, bars: np.ndarray, rest: np.ndarray, k: np.ndarray, 
 def spring_terms(x: np.ndarray, ijkl: np.ndarray, rest: np.ndarray, k: np.ndarray, hessian: bool = True):
     """Energy, gradient (3n,) and the Hessian's COO triplets of the rotational springs."""
     rho, grad, H = dihedral(x, ijkl, hessian)
-    m = k * (rho - rest)
-    energy = 0.5 * float(np.dot(m, rho - rest))
+    dev = stretch(rho, rest)
+    m = k * dev
+    energy = 0.5 * float(np.dot(m, dev))
     H_loc = None
     if hessian:
         H_loc = k[:, None, None] * _outer(grad, grad) + m[:, None, None] * H

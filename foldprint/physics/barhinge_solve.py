@@ -29,6 +29,7 @@ from ..core.errors import DesignError
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
 from .barhinge import BarHinge, build
+from .barhinge_energy import stretch
 from .kinematics import forward
 from .hinge_drive import HingeDrive
 from ..core.modes import HingeModel
@@ -288,6 +289,9 @@ def solve_path(design: Design, drive: HingeDrive, times, model: BarHinge | None 
     xs, iters, splits, bad = [], 0, 0, []
     prev = (rest[0], kk[0])
     for n in range(len(grid)):
+        if bad:  # the path stopped: the structure holds where the last solve left it
+            xs.append(x)
+            continue
         x, it, sp_, ok = _step(model, x, prev, (rest[n], kk[n]))
         iters, splits = iters + it, splits + sp_
         if not ok:
@@ -300,12 +304,16 @@ def solve_path(design: Design, drive: HingeDrive, times, model: BarHinge | None 
 
 def _step(model: BarHinge, x, start, end, depth: int = 0):
     """Equilibrium at ``end`` (rest, k) from ``x`` (in equilibrium at ``start``), halving
-    the increment when Newton fails."""
+    the increment when Newton fails. A first half that fails even at the deepest halving
+    ends the step (failed): solving its second half from a state out of equilibrium would
+    only repeat the failure, at 2^MAX_SPLIT solves per step."""
     eq = equilibrium(model, x, end[1], end[0])
     if eq.converged or depth >= MAX_SPLIT:
         return eq.x, eq.iterations, 0, eq.converged
     mid = tuple(0.5 * (a + b) for a, b in zip(start, end))
     xm, i1, s1, ok1 = _step(model, x, start, mid, depth + 1)
+    if not ok1:
+        return xm, eq.iterations + i1, 1 + s1, False
     xe, i2, s2, ok2 = _step(model, xm, mid, end, depth + 1)
     return xe, eq.iterations + i1 + i2, 1 + s1 + s2, ok2
 
@@ -325,7 +333,7 @@ def _solution(model, grid, rest, kk, X, iters, splits, bad, limit, times, rest_a
         if len(bpanel):
             np.maximum.at(bend[n], bpanel, np.abs(model.bending(x)))
         energy[n] = model.energy(x, kk[n], rest[n], hessian=False)[0]
-    dev = angles - rest
+    dev = stretch(angles, rest)  # within pi of the rest angle: a flat fold's springs may straddle +-pi
     full = rest_all + np.stack([np.interp(times, grid, dev[:, h]) for h in range(model.n_hinges)], axis=1) \
         if model.n_hinges else np.zeros((len(times), 0))
     var = np.vstack([np.zeros((1, model.n_hinges)), np.cumsum(np.abs(np.diff(full, axis=0)), axis=0)])

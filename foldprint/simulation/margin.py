@@ -103,10 +103,15 @@ def screened_poses(design) -> int | None:
     return None if has_loops(design) else CLEARANCE_SAMPLES
 
 
-def left_out(design) -> str | None:
+def left_out(design, mechanics=None) -> str | None:
     """Why the screen is not run on ``design``: more non-adjacent panel pairs than
     :data:`~foldprint.core.constants.MARGIN_MAX_PAIRS` (its exact searches would take
-    minutes), or None."""
+    minutes), or a pattern with loops folded with ``mechanics`` bar-hinge (the screen's
+    scattered folds are rigid: their loop closure is not the compliant fold's, and
+    tracking it for a large sheet costs minutes), or None."""
+    if str(mechanics) == "bar-hinge" and has_loops(design):
+        return ("the scatter margin screen is left out under --mechanics bar-hinge for a pattern with loops (its "
+                "scattered folds are rigid); `foldprint check --mechanics bar-hinge` gives the jam probability")
     pairs = count_non_adjacent_pairs(design)
     if pairs <= MARGIN_MAX_PAIRS:
         return None
