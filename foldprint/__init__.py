@@ -16,7 +16,8 @@ _API = {
     "io.design_io": ("design_from_dict", "design_to_dict", "design_to_toml"),
     "io.load": ("load_design",),
     "model.materials": ("Material", "MaterialLibrary", "default_library", "load_library"),
-    "model.composition": ("composition_model", "fraction_profile", "vero"),
+    "model.composition": ("composition_model", "vero"),
+    "model.composition_library": ("fraction_profile",),
     "physics.recovery": ("fold_time", "recovery_curve", "recovery_ratio"),
     # the door: inputs resolved as the command line resolves them, and the evaluation
     "apps.resolve": ("load_input", "load_printer", "load_scatter"),

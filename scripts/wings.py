@@ -82,8 +82,9 @@ MOVES: dict[str, str] = {
     "physics.loop_solve": "physics.loops.corrector",
     "physics.loop_tracking": "physics.loops.tracker",
     "physics.loop_state": "physics.loops.drive_state",
-    # physics: the bar-and-hinge model (the model, its energy, the equilibrium path, stiffnesses)
+    # physics: the bar-and-hinge model (the model, its mesh, its energy, the equilibrium path, stiffnesses)
     "physics.barhinge": "physics.barhinge.model",
+    "physics.barhinge_mesh": "physics.barhinge.mesh",
     "physics.barhinge_energy": "physics.barhinge.energy",
     "physics.barhinge_solve": "physics.barhinge.equilibrium",
     "physics.modulus": "physics.barhinge.stiffness",
@@ -116,8 +117,9 @@ WINGS: dict[str, str] = {
                      "(`closure`), one Gauss-Newton step of many solves at once (`corrector`), the tracker "
                      "of many drives at once (`tracker`) and each drive's state between rounds (`drive_state`).",
     "physics.barhinge": "The bar-and-hinge model (docs/mechanics.md): the model built from a design "
-                        "(`model`), its energy with gradient and Hessian (`energy`), the equilibrium path "
-                        "and CompliantDrive (`equilibrium`), moduli and stiffnesses (`stiffness`).",
+                        "(`model`), the panels' mesh (`mesh`), its energy with gradient and Hessian "
+                        "(`energy`), the equilibrium path and CompliantDrive (`equilibrium`), moduli and "
+                        "stiffnesses (`stiffness`).",
     "physics.calibration": "The recovery model fitted to measurements (`fit`) and what the fit can say: "
                            "profile-likelihood intervals, parameters the data do not fix (`profile`).",
     "simulation.jamtest": "check's sequential jam test: the SPRTs, the verdict and its confidence sequence "

@@ -13,7 +13,7 @@ from foldprint.apps.calibrate_library import MIN_COLOR_STEP, changes, own_color
 from foldprint.cli.commands import main
 from foldprint.core.errors import MaterialError
 from foldprint.io.hinge_data import parse_hinge_data
-from foldprint.model.composition import fraction_profile
+from foldprint.model.composition_library import fraction_profile
 from foldprint.model.materials import default_library, load_library
 from foldprint.model.printers import find_printer, tool_fit
 

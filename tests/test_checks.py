@@ -5,7 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from foldprint.checks.rules import CheckContext, Thresholds, load_printers, rule_jam_probability, rule_jam_sensitivity
+from foldprint.checks.jam_rules import rule_jam_probability, rule_jam_sensitivity
+from foldprint.checks.rules import CheckContext, Thresholds, load_printers
 from foldprint.cli.commands import main
 from foldprint.core.constants import CHECK_SAMPLES
 from foldprint.model.design import Process, strip

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 import shapely
 
-from foldprint.checks.rules import Thresholds, rule_jam_probability
+from foldprint.checks.jam_rules import rule_jam_probability
+from foldprint.checks.rules import Thresholds
 from foldprint.cli.commands import main
 from foldprint.model.crease_patterns import waterbomb
 from foldprint.io.fold_format import design_from_fold

@@ -20,7 +20,8 @@ import pytest
 from scipy.optimize import brentq
 
 from foldprint.apps.pipeline import EvalOptions, Evaluation
-from foldprint.checks.rules import CheckContext, Thresholds, load_printers, rule_jam_sensitivity
+from foldprint.checks.jam_rules import rule_jam_sensitivity
+from foldprint.checks.rules import CheckContext, Thresholds, load_printers
 from foldprint.cli.commands import main
 from foldprint.core.errors import DesignError
 from foldprint.core.modes import JamQuestion, JamVerdict, Side, SpreadBasis

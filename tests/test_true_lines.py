@@ -18,7 +18,8 @@ from foldprint.apps.gallery_entry import Entry, Image
 from foldprint.apps.gallery_page import entry_done, page_html, paper_label
 from foldprint.apps.pipeline import EvalOptions, Evaluation
 from foldprint.checks.report import finding_lines, simulation_json
-from foldprint.checks.rules import Finding, jam_hint
+from foldprint.checks.jam_rules import jam_hint
+from foldprint.checks.rules import Finding
 from foldprint.cli.commands import main
 from foldprint.core.display import LIST_FIRST, clipped, first_few, hinge_lines, hinge_text
 from foldprint.core.modes import JamReason, Method

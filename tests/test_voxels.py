@@ -518,7 +518,7 @@ def test_cli_export_voxels_of_the_flat_helix(tmp_path):
     """The whole path: CLI -> pipeline (fractions from the composition model) -> writer."""
     from foldprint import load_design
     from foldprint.io.templates import resolve_design_path
-    from foldprint.model.composition import fraction_profile
+    from foldprint.model.composition_library import fraction_profile
     from foldprint.model.materials import default_library
 
     out = subprocess.run(["foldprint", "export", "helix_graded", "--state", "programmed", "--format", "voxels",

@@ -13,7 +13,7 @@ from ..checks.rules import Printer, default_voxel_printer_key, load_printers
 from ..core.errors import ExportError
 from ..exchange.voxel_regions import TANGO_BLACK, VERO_WHITE, Pitch, Uniform, VoxelPart, VoxelRegion
 from ..geometry import Assembly, hinge_axes
-from ..model.composition import fraction_profile
+from ..model.composition_library import fraction_profile
 from ..model.design import Design
 from ..model.materials import MaterialLibrary, default_library
 
@@ -35,7 +35,7 @@ def voxel_part(design: Design, assembly: Assembly, library: MaterialLibrary | No
                pitch: Pitch | None = None, profiles: Callable | None = None) -> VoxelPart:
     """What the voxel writer writes: every panel and hinge of ``assembly`` (its units)
     with its VeroWhite fraction profile (panels: VeroWhite 1, TangoBlack 0; hinges:
-    ``profiles(library, material)``, by default :func:`foldprint.model.composition.fraction_profile`)
+    ``profiles(library, material)``, by default :func:`foldprint.model.composition_library.fraction_profile`)
     and, for hinges, the axes that give u (:func:`foldprint.geometry.hinge_axes`)."""
     lib = library or default_library()
     profiles = profiles or fraction_profile

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
@@ -30,10 +29,9 @@ from ..core.inputs import read_input_text, shown, stem_text
 from ..core.errors import DesignError, where
 from ..model import composition
 from ..model.materials import MaterialLibrary
-from ..core.schema import MAX_FACES, MAX_LENGTH_MM, MAX_PANELS, check_fold, parse_error
+from ..core.schema import MAX_PANELS, check_fold, parse_error
+from .fold_fields import crease_frame, index_lists, is_number, per_item, unit_factor, vertex_coords
 
-UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "pt": 25.4 / 72.0,
-         "um": 1e-3, "nm": 1e-6}
 #: mm: how far a fold line may sit from its edge (as in validate); the writer splits
 #: panel sides at hinge ends within it.
 LINE_TOL = 1e-3
@@ -76,127 +74,6 @@ def project_onto_line(pts: np.ndarray, a: np.ndarray, b: np.ndarray):
 
 
 # -- import -----------------------------------------------------------------------
-
-def _number(v) -> bool:
-    """A finite int or float (an int too large for a float is not one: no OverflowError)."""
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return False
-    return abs(v) < 1e300 if isinstance(v, int) else math.isfinite(v)
-
-
-def _classes(frame: Mapping) -> set[str]:
-    c = frame.get("frame_classes")
-    return {str(x) for x in c} if isinstance(c, list) else set()
-
-
-def _frame(data: Mapping, src: str) -> Mapping:
-    """The crease-pattern frame: the top level, or the first of ``file_frames`` classed
-    ``creasePattern`` (or, without classes, the first with coordinates), merged over the
-    top level (``frame_inherit``). A file holding only folded states is refused."""
-    frames = data.get("file_frames")
-    top_cp = "vertices_coords" in data and "foldedForm" not in _classes(data)
-    if frames is None or top_cp and "creasePattern" in _classes(data):
-        chosen = data
-    else:
-        if not isinstance(frames, list) or not all(isinstance(f, Mapping) for f in frames):
-            raise DesignError(f"{src}file_frames must be a list of frame objects")
-        cands = [f for f in frames if "creasePattern" in _classes(f)]
-        if not cands and top_cp:
-            chosen = data
-        else:
-            cands = cands or [f for f in frames if "foldedForm" not in _classes(f)
-                              and ("vertices_coords" in f or "vertices_coords" not in data)]
-            if not cands:
-                if "vertices_coords" in data or not frames:
-                    chosen = data
-                else:
-                    chosen = None
-            else:
-                merged = {k: v for k, v in data.items() if k != "file_frames"}
-                merged.update(cands[0])
-                chosen = merged
-    if chosen is None or "foldedForm" in _classes(chosen) and "creasePattern" not in _classes(chosen):
-        raise DesignError(f"{src}this FOLD file holds only a folded state (frame_classes: foldedForm); "
-                          "foldprint needs the flat crease pattern: export the crease pattern "
-                          "(frame_classes: creasePattern) instead")
-    return chosen
-
-
-def _coords(frame: Mapping, factor: float, src: str) -> np.ndarray:
-    raw = frame.get("vertices_coords")
-    if raw is None:
-        raise DesignError(f"{src}vertices_coords is missing; a FOLD crease pattern needs vertex coordinates")
-    if not isinstance(raw, list):
-        raise DesignError(f"{src}vertices_coords must be a list of [x, y] points")
-    if len(raw) > 4 * MAX_FACES:
-        raise DesignError(f"{src}vertices_coords has {len(raw)} points; at most {4 * MAX_FACES} are accepted")
-    xyz = np.zeros((len(raw), 3))
-    for i, v in enumerate(raw):
-        if not isinstance(v, list) or len(v) not in (2, 3) or not all(_number(c) for c in v):
-            raise DesignError(f"{src}vertices_coords[{i}] must be [x, y] or [x, y, z] finite numbers, got {v!r}")
-        xyz[i, :len(v)] = v
-    with np.errstate(over="ignore", invalid="ignore"):
-        big = np.abs(xyz * factor).max(axis=1) if len(xyz) else np.zeros(0)
-    if len(big) and not np.all(big <= MAX_LENGTH_MM):  # also inf/nan: 1e306 m overflows
-        i = int(np.argmax(~(big <= MAX_LENGTH_MM)))
-        raise DesignError(f"{src}vertices_coords[{i}] is {_short(raw[i])}, {big[i]:.3g} mm from the origin at "
-                          f"{factor:g} mm per unit, beyond the {MAX_LENGTH_MM:g} mm foldprint accepts; check "
-                          "frame_unit or --scale")
-    flat = np.abs(xyz) <= 1e-9 * max(1.0, float(np.abs(xyz).max(initial=0.0)))
-    if flat[:, 2].all():
-        return xyz[:, :2] * factor
-    if flat[:, 1].all():  # Origami Simulator writes its flat sheet in the xz plane (y up)
-        return xyz[:, [0, 2]] * factor
-    i = int(np.nonzero(~flat[:, 2])[0][0])
-    raise DesignError(f"{src}vertices_coords is not flat: vertex {i} has z = {xyz[i, 2]:g}; foldprint "
-                      "imports crease patterns (the flat sheet), not folded states")
-
-
-def _index_lists(frame: Mapping, key: str, nv: int, src: str, size: int | None) -> list[list[int]]:
-    raw = frame.get(key)
-    if not isinstance(raw, list):
-        raise DesignError(f"{src}{key} must be a list of vertex index lists, got {type(raw).__name__}")
-    if len(raw) > MAX_FACES:
-        raise DesignError(f"{src}{key} has {len(raw)} entries; at most {MAX_FACES} are accepted "
-                          "(a printable part has far fewer faces and edges)")
-    out = []
-    for i, item in enumerate(raw):
-        if not isinstance(item, list) or (len(item) != size if size else not 3 <= len(item) <= MAX_RING):
-            raise DesignError(f"{src}{key}[{i}] must be a list of {size or f'3 to {MAX_RING}'} vertex indices, "
-                              f"got {_short(item)}")
-        for v in item:  # FOLD indices are integers: 2.0 is a float, true is a boolean
-            if isinstance(v, bool) or not isinstance(v, int):
-                raise DesignError(f"{src}{key}[{i}] holds {_short(v)}, not a vertex index; indices are whole "
-                                  "numbers written without a decimal point (2, not 2.0)")
-            if not 0 <= v < nv:
-                raise DesignError(f"{src}{key}[{i}] refers to vertex {_short(v)} but there are {nv} vertices "
-                                  f"(indices 0 to {nv - 1})")
-        if len(set(item)) != len(item):
-            raise DesignError(f"{src}{key}[{i}] repeats a vertex: {item}")
-        out.append(item)
-    return out
-
-
-MAX_RING = 10_000  # vertices of one face (as schema.MAX_POINTS for a TOML outline)
-
-
-def _short(v) -> str:
-    """A bad value for a message, never thousands of digits long."""
-    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10 ** 30:
-        return f"an integer of {len(str(abs(v)))} digits"
-    text = repr(v)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _per(frame: Mapping, key: str, n: int, of: str, src: str) -> list:
-    raw = frame.get(key)
-    if raw is None:
-        return [None] * n
-    if not isinstance(raw, list) or len(raw) != n:
-        got = f"{len(raw)} entries" if isinstance(raw, list) else f"a {type(raw).__name__}"
-        raise DesignError(f"{src}{key} has {got} but {of} has {n}; give one entry per item")
-    return list(raw)
-
 
 def _clean_ring(ring: np.ndarray) -> np.ndarray:
     """Drop repeated points and vertices lying straight on the line of their neighbours."""
@@ -255,39 +132,21 @@ class _EdgeTable:
     xy: np.ndarray | None = None  # the vertices (file units), for the straight runs of creases
 
 
-def _unit_factor(frame: Mapping, scale, src: str) -> float:
-    """mm per file unit: ``scale`` if given, else the known ``frame_unit``."""
-    unit = str(frame.get("frame_unit", "unit")).lower()
-    if scale is not None:
-        if not _number(scale) or scale <= 0:
-            raise DesignError(f"{src}scale must be a number > 0 (mm per file unit), got {scale!r}")
-        return float(scale)
-    if unit in UNITS:
-        return UNITS[unit]
-    if unit == "unit":
-        said = "frame_unit is \"unit\"" if "frame_unit" in frame else "frame_unit is missing"
-        raise DesignError(f"{src}{said}, so the crease pattern has no physical size; give one with "
-                          "--scale MM_PER_UNIT (e.g. --scale 100 makes a 1-unit square 100 mm wide) "
-                          "or set frame_unit to mm, cm, m or in")
-    raise DesignError(f"{src}frame_unit {unit!r} is unknown; known: {sorted(UNITS)} "
-                      "(or give --scale MM_PER_UNIT)")
-
-
 def _edge_table(frame: Mapping, faces: list, nv: int, src: str) -> _EdgeTable:
     """The edges, their assignments, fold angles and foldprint fields, checked, and the
     faces bordering each edge."""
-    edges = _index_lists(frame, "edges_vertices", nv, src, 2) if "edges_vertices" in frame else []
+    edges = index_lists(frame, "edges_vertices", nv, src, 2) if "edges_vertices" in frame else []
     ne = len(edges)
     assign = [str(a).upper() if a is not None else "U"
-              for a in _per(frame, "edges_assignment", ne, "edges_vertices", src)]
+              for a in per_item(frame, "edges_assignment", ne, "edges_vertices", src)]
     for i, a in enumerate(assign):
         if a not in _KNOWN:
             raise DesignError(f"{src}edges_assignment[{i}] is {a!r}; FOLD knows {sorted(_KNOWN)}")
-    angle = _per(frame, "edges_foldAngle", ne, "edges_vertices", src)
+    angle = per_item(frame, "edges_foldAngle", ne, "edges_vertices", src)
     for i, a in enumerate(angle):
-        if a is not None and not (_number(a) and abs(a) <= 180 + 1e-9):
+        if a is not None and not (is_number(a) and abs(a) <= 180 + 1e-9):
             raise DesignError(f"{src}edges_foldAngle[{i}] must be a number of degrees in [-180, 180], got {a!r}")
-    e_hid, e_mat, e_rad, e_thk = (_per(frame, f"edges_foldprint:{k}", ne, "edges_vertices", src)
+    e_hid, e_mat, e_rad, e_thk = (per_item(frame, f"edges_foldprint:{k}", ne, "edges_vertices", src)
                                   for k in ("hinge_id", "material", "radius_mm", "thickness_mm"))
     # which faces border which edge; face sides missing from edges_vertices count as "U"
     lookup = {}
@@ -348,7 +207,7 @@ def _panel_entries(frame: Mapping, members: list, polys: list, factor: float, sr
     """The design's panels (outline, holes, thickness, material) and their ids, one per
     group of faces."""
     nf = len(polys)
-    f_id, f_mat, f_thk, f_holes = (_per(frame, f"faces_foldprint:{k}", nf, "faces_vertices", src)
+    f_id, f_mat, f_thk, f_holes = (per_item(frame, f"faces_foldprint:{k}", nf, "faces_vertices", src)
                                    for k in ("id", "material", "thickness_mm", "holes"))
     taken = {str(v) for v in f_id if v is not None}
     panels, pid_of, start = [], [], {}
@@ -363,7 +222,7 @@ def _panel_entries(frame: Mapping, members: list, polys: list, factor: float, sr
         for f in fs:
             for k, hole in enumerate(f_holes[f] or []):
                 arr = np.array(hole, dtype=object)
-                if arr.ndim != 2 or arr.shape[1] != 2 or not all(_number(c) for c in arr.flat):
+                if arr.ndim != 2 or arr.shape[1] != 2 or not all(is_number(c) for c in arr.flat):
                     raise DesignError(f"{src}faces_foldprint:holes[{f}][{k}] must be a list of [x, y] points")
                 holes.append((arr.astype(float) * factor).tolist())
         entry = {"id": pid, "outline": _clean_ring(np.asarray(shape.exterior.coords)[:-1]).tolist(),
@@ -490,14 +349,14 @@ def design_from_fold(data: dict, source: str = "", library: MaterialLibrary | No
     src = where(source)
     if not isinstance(data, Mapping):
         raise DesignError(f"{src}a FOLD file must hold a JSON object, got {type(data).__name__}")
-    frame = _frame(data, src)
+    frame = crease_frame(data, src)
     check_fold(frame, source)  # the types of the foldprint per-item fields
     if "faces_vertices" not in frame:
         raise DesignError(f"{src}faces_vertices is missing; foldprint needs faces (its panels), "
                           "re-export the crease pattern with faces")
-    factor = _unit_factor(frame, scale, src)
-    xy = _coords(frame, factor, src)
-    faces = _index_lists(frame, "faces_vertices", len(xy), src, None)
+    factor = unit_factor(frame, scale, src)
+    xy = vertex_coords(frame, factor, src)
+    faces = index_lists(frame, "faces_vertices", len(xy), src, None)
     if not faces:
         raise DesignError(f"{src}faces_vertices is empty; a design needs at least one face")
     et = _edge_table(frame, faces, len(xy), src)
@@ -528,9 +387,9 @@ def _scaled(d: dict, factor: float) -> dict:
     d = dict(d)
     if isinstance(d.get("goals"), list):
         d["goals"] = [dict(g, tip=[c * factor for c in g["tip"]]) if isinstance(g, Mapping)
-                      and isinstance(g.get("tip"), list) and all(map(_number, g["tip"])) else g
+                      and isinstance(g.get("tip"), list) and all(map(is_number, g["tip"])) else g
                       for g in d["goals"]]
-    if isinstance(d.get("defaults"), Mapping) and _number(d["defaults"].get("depth_mm")):
+    if isinstance(d.get("defaults"), Mapping) and is_number(d["defaults"].get("depth_mm")):
         d["defaults"] = dict(d["defaults"], depth_mm=d["defaults"]["depth_mm"] * factor)
     return d
 

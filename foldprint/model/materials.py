@@ -18,7 +18,7 @@ from ..core import schema as sc
 from ..core.errors import MaterialError, where
 from ..core.inputs import read_toml
 from ..core.schema import TG_C
-from . import composition
+from . import composition, composition_library
 from .composition import FractionProfile
 
 ROLES = ("hinge", "panel", "base")
@@ -181,7 +181,7 @@ class MaterialLibrary:
             if m.name == name:
                 return m
         if composition.is_composition_name(name):
-            return composition.synthesise(self, name)
+            return composition_library.synthesise(self, name)
         raise MaterialError(
             f"unknown material {name!r}; known materials: {', '.join(self.names())}"
         )
