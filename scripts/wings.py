@@ -64,6 +64,7 @@ MOVES: dict[str, str] = {
     "apps.gallery_page": "apps.gallery.page",
     "apps.gallery_samples": "apps.gallery.samples",
     "apps.gallery_entry": "apps.gallery.entry",
+    "apps.gallery_cache": "apps.gallery.cache",
     # apps: material assignment (the search, its waves, its ledger, its tasks, its result, continuous fractions)
     "apps.assign": "apps.assign.search",
     "apps.assign_waves": "apps.assign.waves",
@@ -81,6 +82,7 @@ MOVES: dict[str, str] = {
     "physics.loops": "physics.loops.closure",
     "physics.loop_solve": "physics.loops.corrector",
     "physics.loop_tracking": "physics.loops.tracker",
+    "physics.loop_cost": "physics.loops.closure_cost",
     "physics.loop_state": "physics.loops.drive_state",
     # physics: the bar-and-hinge model (the model, its mesh, its energy, the equilibrium path, stiffnesses)
     "physics.barhinge": "physics.barhinge.model",
@@ -88,9 +90,11 @@ MOVES: dict[str, str] = {
     "physics.barhinge_energy": "physics.barhinge.energy",
     "physics.barhinge_solve": "physics.barhinge.equilibrium",
     "physics.modulus": "physics.barhinge.stiffness",
+    "physics.barhinge_cost": "physics.barhinge.solve_cost",
     # physics: the recovery model fitted to measurements, and what the fit can say
     "physics.calibration": "physics.calibration.fit",
     "physics.calibration_profile": "physics.calibration.profile",
+    "physics.calibration_cost": "physics.calibration.fit_cost",
     # simulation: check's sequential jam test (the verdict, at every scale, its stages, the pool, a flip's drivers)
     "simulation.verdict": "simulation.jamtest.verdict",
     "simulation.sequential": "simulation.jamtest.scales",
@@ -105,7 +109,7 @@ MOVES: dict[str, str] = {
 WINGS: dict[str, str] = {
     "apps.gallery": "The offline HTML gallery: the runs of every design in one pool (`runner`), one design's "
                     "files (`build`), the page (`page`), the Monte-Carlo tables (`samples`) and what the page "
-                    "shows of a design (`entry`).",
+                    "shows of a design (`entry`), which designs' folders a run keeps (`cache`).",
     "apps.assign": "Material assignment: the search over the seven grades (`search`), the waves of its "
                    "patterns (`waves`), the ledger of its evaluations (`ledger`), its tasks and mappers "
                    "(`tasks`), its result and JSON (`result`), continuous VeroWhite fractions and bath "
@@ -115,13 +119,13 @@ WINGS: dict[str, str] = {
                         "(`batch`) with their working arrays and relaxation table (`relaxation`).",
     "physics.loops": "Loop closure on the constraint manifold: the closure equations and the drive "
                      "(`closure`), one Gauss-Newton step of many solves at once (`corrector`), the tracker "
-                     "of many drives at once (`tracker`) and each drive's state between rounds (`drive_state`).",
+                     "of many drives at once (`tracker`) and each drive's state between rounds (`drive_state`), what a closure costs (`closure_cost`).",
     "physics.barhinge": "The bar-and-hinge model (docs/mechanics.md): the model built from a design "
                         "(`model`), the panels' mesh (`mesh`), its energy with gradient and Hessian "
                         "(`energy`), the equilibrium path and CompliantDrive (`equilibrium`), moduli and "
-                        "stiffnesses (`stiffness`).",
+                        "stiffnesses (`stiffness`), what a path costs (`solve_cost`).",
     "physics.calibration": "The recovery model fitted to measurements (`fit`) and what the fit can say: "
-                           "profile-likelihood intervals, parameters the data do not fix (`profile`).",
+                           "profile-likelihood intervals, parameters the data do not fix (`profile`), what a fit costs (`fit_cost`).",
     "simulation.jamtest": "check's sequential jam test: the SPRTs, the verdict and its confidence sequence "
                           "(`verdict`), the test on a design at every sigma scale (`scales`), check's stages "
                           "as follow-up streams (`stages`), many designs' streams in one adaptive pool "
