@@ -21,12 +21,12 @@ import time
 
 import numpy as np
 
-from foldprint.apps.assign import Task, assign, run_task, with_materials
+from foldprint.apps.assign.search import Task, assign, run_task, with_materials
 from foldprint.io.load import load_design
 from foldprint.model.materials import default_library
 from foldprint.core.modes import Method
 from foldprint.core.parallel import default_workers, map_ordered
-from foldprint.physics.recovery import recovery_curve
+from foldprint.physics.recovery.curve import recovery_curve
 from foldprint.simulation.simulate import simulate
 from foldprint.io.templates import resolve_design_path
 

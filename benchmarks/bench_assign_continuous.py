@@ -85,7 +85,7 @@ def _paired(base: list[dict]) -> list[dict]:
 
 
 def recheck(a) -> None:
-    from foldprint.apps.assign import with_materials
+    from foldprint.apps.assign.search import with_materials
     from foldprint.io.templates import resolve_design_path
 
     prev = json.loads(a.recheck.read_text())

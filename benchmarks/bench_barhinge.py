@@ -32,7 +32,7 @@ import numpy as np
 
 from foldprint.io.fold_format import design_from_fold
 from foldprint.model import crease_patterns as cp
-from foldprint.physics.barhinge_solve import CompliantDrive
+from foldprint.physics.barhinge.equilibrium import CompliantDrive
 from foldprint.physics.hinge_drive import HingeDrive, run_times
 
 

@@ -18,7 +18,7 @@ import json
 import tempfile
 import time
 
-from foldprint.physics.recovery import hinge_fold_times
+from foldprint.physics.recovery.curve import hinge_fold_times
 from foldprint.model.design import HingeStyle, strip
 from foldprint.exchange.export import export_assembly
 from foldprint.geometry import build_assembly

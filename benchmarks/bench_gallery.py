@@ -13,7 +13,7 @@ miura_3x3 samples with their closures tracked in lockstep
 the same chunk tracked drive by drive (same outcomes), optionally (``--in-process``) the
 gallery built in this process, optionally (``--one-process``) the
 speed-up of ``--jobs`` worker processes (default: the CPU count) over one, and of the
-vectorised, cached :func:`foldprint.physics.recovery_table.fold_times` over the loop a user would
+vectorised, cached :func:`foldprint.physics.recovery.table.fold_times` over the loop a user would
 write (``recovery_curve(m, T).fold_time`` per material and bath; each curve computed
 afresh). The target is the whole gallery in under 30 s wall on this 2-core machine; the
 load average is printed because other processes on the machine slow every wall time
@@ -35,11 +35,11 @@ import time
 import numpy as np
 
 from foldprint.core.constants import CHECK_SAMPLES
-from foldprint.apps.gallery import build_gallery
+from foldprint.apps.gallery.runner import build_gallery
 from foldprint.io.load import load_design
 from foldprint.model.materials import default_library
-from foldprint.physics.recovery import _curve, recovery_curve
-from foldprint.physics.recovery_table import _fold_times, fold_times
+from foldprint.physics.recovery.curve import _curve, recovery_curve
+from foldprint.physics.recovery.table import _fold_times, fold_times
 from foldprint.io.templates import list_templates
 
 TARGET_S = 30.0

@@ -9,7 +9,7 @@ replaced, in the same run.
 
 For each template, the first 16 of ``check``'s samples (its seed, 1x scatter, its time
 step: one chunk of :func:`foldprint.simulation.robust.run_samples`) are folded as the
-Monte-Carlo folds them, with the array tracker (:mod:`foldprint.physics.loop_tracking`)
+Monte-Carlo folds them, with the array tracker (:mod:`foldprint.physics.loops.tracker`)
 and with the baseline: the replaced tracker (``tests/loop_reference.py``: one generator
 per drive in lockstep, an SVD per Gauss-Newton step, a solve at every grid step) on the
 replaced loop grid (each simulation time held twice), with the poses of every time (held
@@ -51,7 +51,7 @@ from foldprint.model import derived
 from foldprint.model.materials import default_library
 from foldprint.physics import hinge_drive
 from foldprint.physics.hinge_drive import loop_dt, run_times, solve_loops_many
-from foldprint.physics.loops import LoopSolver
+from foldprint.physics.loops.closure import LoopSolver
 from foldprint.simulation import robust
 from foldprint.simulation.scatter import default_scatter, iter_samples
 from foldprint.simulation.simulate import simulate

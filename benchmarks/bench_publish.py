@@ -1,4 +1,4 @@
-"""What publishing a set costs (``foldprint/exchange/files.py``, docs/output-files.md):
+"""What publishing a set costs (``foldprint/exchange/fileset.py``, docs/output-files.md):
 ``write_set`` of N files (a first export into a new folder, then a re-export over it, which
 reads and hashes the earlier set to know it is foldprint's) against the floor any writer
 that survives a crash pays: the same files written and fsynced one by one into a folder.
@@ -14,7 +14,7 @@ import os
 import tempfile
 import time
 
-from foldprint.exchange.files import write_set
+from foldprint.exchange.fileset import write_set
 
 
 def _cpu() -> float:

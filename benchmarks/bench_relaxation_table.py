@@ -32,9 +32,9 @@ from foldprint.core.constants import CHECK_DT_S, RELAXATION_TABLE_STEP  # noqa: 
 from foldprint.core.modes import DEFAULT_HINGE_MODEL  # noqa: E402
 from foldprint.io.load import load_design  # noqa: E402
 from foldprint.model.materials import default_library  # noqa: E402
-from foldprint.physics import recovery_batch as rb  # noqa: E402
-from foldprint.physics import recovery_relaxation as rr  # noqa: E402
-from foldprint.physics.recovery import spectrum  # noqa: E402
+from foldprint.physics.recovery import batch as rb  # noqa: E402
+from foldprint.physics.recovery import relaxation as rr  # noqa: E402
+from foldprint.physics.recovery.curve import spectrum  # noqa: E402
 from foldprint.simulation import robust  # noqa: E402
 
 #: Fold and first-contact times (s) closer than this count as the same.

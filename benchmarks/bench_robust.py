@@ -39,7 +39,7 @@ from foldprint.io.load import load_design
 from foldprint.model.materials import default_library
 from foldprint.core.modes import Method
 from foldprint.core.parallel import default_workers
-from foldprint.physics.recovery import _curve
+from foldprint.physics.recovery.curve import _curve
 from foldprint.simulation.robust import (default_scatter, draw_samples, jam_probability, outcome_of, run_end, run_sample,
                               sample_drive, sample_drives)
 from foldprint.simulation.simulate import simulate

@@ -196,7 +196,7 @@ def export_bench(strip1000: Path, tmp: Path):
     from foldprint.geometry import build_assembly
     from foldprint.geometry import bed as asm_mod  # bed_report and its probe
     from foldprint.io.load import load_design
-    from foldprint.physics.recovery import hinge_fold_times
+    from foldprint.physics.recovery.curve import hinge_fold_times
 
     rows = []
     for d in (sheet(100), load_design(strip1000)):

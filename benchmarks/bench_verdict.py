@@ -4,7 +4,7 @@
 
 For each true jam probability p (the thresholds, the edges of their indifference regions,
 and 0-98 %), ``--streams`` independent Bernoulli(p) streams are judged by the test of
-:func:`foldprint.simulation.verdict.jam_test` (check's defaults): the share of each
+:func:`foldprint.simulation.jamtest.verdict.jam_test` (check's defaults): the share of each
 verdict, the average sample number (ASN), the share that reached the maximum undecided
 (truncated) and the share that needed more than the 80 samples of a fixed-size check.
 The stated error rates are checked against the table (a breach is printed and exits 1).
@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from foldprint.core.constants import CHECK_SAMPLES, JAM_TEST_ALPHA, JAM_TEST_BETA
-from foldprint.simulation.verdict import confidence_sequence, decide_many, jam_test
+from foldprint.simulation.jamtest.verdict import confidence_sequence, decide_many, jam_test
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "verdict.md"

@@ -8,7 +8,7 @@ The part is a plate of --size mm (default 150 x 150 x 20, our target for it: < 2
 < 1 GB) cut across x into 10 mm VeroWhite panels and 5 mm hinges (odd hinges graded
 0.2 -> 0.8 across their width, even ones uniform 0.42), so every slice dithers 1/3 of its
 area. It is written at the J750 pitch (600 x 300 dpi, 27 um) through the staged set
-(:func:`foldprint.exchange.files.write_set`, one fsync per file), each run in a fresh
+(:func:`foldprint.exchange.fileset.write_set`, one fsync per file), each run in a fresh
 process whose peak RSS is read from the kernel (``ru_maxrss``); CPU time is the process's
 (all threads).
 
@@ -88,7 +88,7 @@ def plate(size):
 def run_streamed(size, workers=None) -> dict:
     """The writer (``workers`` slice threads, default :func:`~foldprint.exchange.voxels.default_workers`)."""
     from foldprint.exchange import voxels as vx
-    from foldprint.exchange.files import write_set
+    from foldprint.exchange.fileset import write_set
 
     part = plate(size)
     shape = part.grid().shape
@@ -235,7 +235,7 @@ def _digests(paths) -> list[str]:
 def run_reference(size) -> dict:
     """The pre-change writer (:class:`_Reference`), written through the same staged set."""
     from foldprint.exchange import voxels as vx
-    from foldprint.exchange.files import write_set
+    from foldprint.exchange.fileset import write_set
 
     part = plate(size)
     vx.blue_noise()  # made once per process by both writers, outside the timing

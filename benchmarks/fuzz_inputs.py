@@ -59,7 +59,7 @@ def _warm():
     """Import the CLI and every stage once per worker, so each forked case starts warm."""
     import foldprint.checks.rules, foldprint.cli.fold_cmds, foldprint.cli.output_cmds, foldprint.io.load, foldprint.apps.pipeline, foldprint.simulation.simulate  # noqa: E401,F401
     import foldprint.geometry, foldprint.exchange.export, foldprint.io.svg_format  # noqa: E401,F401
-    import foldprint.apps.calibrate, foldprint.cli.calibrate_cmd, foldprint.physics.barhinge_solve  # noqa: E401,F401
+    import foldprint.apps.calibrate, foldprint.cli.calibrate_cmd, foldprint.physics.barhinge.equilibrium  # noqa: E401,F401
     import foldprint.render.calibration_figure  # noqa: F401
 
 

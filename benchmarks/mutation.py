@@ -76,10 +76,10 @@ MUTMUT_VERSION = "3.8.1"
 
 # module -> (source, the test files that cover it)
 MODULES: dict[str, tuple[str, tuple[str, ...]]] = {
-    "recovery": ("foldprint/physics/recovery.py",
+    "recovery": ("foldprint/physics/recovery/curve.py",
                  ("tests/test_recovery.py", "tests/test_recovery_batch.py", "tests/test_materials.py",
                   "tests/test_grading.py")),
-    "recovery_batch": ("foldprint/physics/recovery_batch.py",
+    "recovery_batch": ("foldprint/physics/recovery/batch.py",
                        ("tests/test_recovery_batch.py", "tests/test_grading.py")),
     "kinematics": ("foldprint/physics/kinematics.py",
                    ("tests/test_simulation.py", "tests/test_loops.py", "tests/test_collision_scale.py",
@@ -94,14 +94,14 @@ MODULES: dict[str, tuple[str, tuple[str, ...]]] = {
     "robust": ("foldprint/simulation/robust.py",
                ("tests/test_jam_reference.py", "tests/test_robust.py", "tests/test_scatter.py",
                 "tests/test_recovery_batch.py")),
-    "verdict": ("foldprint/simulation/verdict.py", ("tests/test_jam_reference.py", "tests/test_verdict.py")),
-    "sequential": ("foldprint/simulation/sequential.py",
+    "verdict": ("foldprint/simulation/jamtest/verdict.py", ("tests/test_jam_reference.py", "tests/test_verdict.py")),
+    "sequential": ("foldprint/simulation/jamtest/scales.py",
                    ("tests/test_batch.py", "tests/test_verdict.py", "tests/test_evaluation.py",
                     "tests/test_flip_drivers.py", "tests/test_progress.py")),
     "threemf": ("foldprint/exchange/threemf.py", ("tests/test_export.py", "tests/test_printfiles.py", "tests/test_voxels.py")),
     "voxels": ("foldprint/exchange/voxels.py", ("tests/test_voxels.py",)),
     "voxel_pixels": ("foldprint/exchange/voxel_pixels.py", ("tests/test_voxels.py",)),
-    "files": ("foldprint/exchange/files.py",
+    "files": ("foldprint/exchange/fileset.py",
               ("tests/test_export_publish.py", "tests/test_export_kill.py", "tests/test_export.py")),
     "core_files": ("foldprint/core/files.py", ("tests/test_export_publish.py", "tests/test_export_kill.py")),
 }
@@ -381,7 +381,7 @@ def _classify(codes: dict[str, int | None]) -> dict[str, str]:
 
 
 def _short(key: str) -> str:
-    """'foldprint.physics.recovery.x_f__mutmut_3' -> 'x_f__mutmut_3'."""
+    """'foldprint.physics.recovery.curve.x_f__mutmut_3' -> 'x_f__mutmut_3'."""
     return key.rpartition(".")[2]
 
 

@@ -18,7 +18,7 @@ _API = {
     "model.materials": ("Material", "MaterialLibrary", "default_library", "load_library"),
     "model.composition": ("composition_model", "vero"),
     "model.composition_library": ("fraction_profile",),
-    "physics.recovery": ("fold_time", "recovery_curve", "recovery_ratio"),
+    "physics.recovery.curve": ("fold_time", "recovery_curve", "recovery_ratio"),
     # the door: inputs resolved as the command line resolves them, and the evaluation
     "apps.resolve": ("load_input", "load_printer", "load_scatter"),
     "apps.pipeline": ("EvalOptions", "Evaluation", "evaluate"),

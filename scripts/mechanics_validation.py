@@ -17,10 +17,10 @@ from foldprint.io.fold_format import design_from_fold
 from foldprint.io.load import load_design
 from foldprint.model import crease_patterns as cp
 from foldprint.model.design import Design, Hinge, Panel, strip
-from foldprint.physics import barhinge_solve as bs
-from foldprint.physics.barhinge import diagonal_curvatures, kresling, kresling_heights
+from foldprint.physics.barhinge import equilibrium as bs
+from foldprint.physics.barhinge.model import diagonal_curvatures, kresling, kresling_heights
 from foldprint.physics.hinge_drive import HingeDrive, run_times
-from foldprint.physics.modulus import default_params
+from foldprint.physics.barhinge.stiffness import default_params
 
 STIFF = 1e5
 

@@ -59,8 +59,8 @@ def recovery_fold_times() -> str:
     """docs/recovery-model.md: fold times at 80/90/100 C (0.8 mm, from 10 C), onsets at 90 C,
     and what happens at 60 C."""
     from foldprint.model.materials import default_library
-    from foldprint.physics.recovery import recovery_curve
-    from foldprint.physics.recovery_table import fold_times
+    from foldprint.physics.recovery.curve import recovery_curve
+    from foldprint.physics.recovery.table import fold_times
 
     lib = default_library()
     hinges = lib.hinges()
@@ -82,7 +82,7 @@ def recovery_fold_times() -> str:
 
 def _notes(sid: str, v, lib) -> str:
     """The notes cell of one statement: what the model's number is made of."""
-    from foldprint.physics.recovery import recovery_curve
+    from foldprint.physics.recovery.curve import recovery_curve
 
     c = v.compare
     curve = lambda m, th=0.8: recovery_curve(lib[m], 90.0, th)  # noqa: E731

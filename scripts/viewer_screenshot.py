@@ -134,7 +134,7 @@ def build(gallery: Path | None, work: Path) -> Path:
         if not page.is_file():
             raise SystemExit(f"viewer_screenshot: {page} does not exist")
         return page
-    from foldprint.apps.gallery import build_gallery
+    from foldprint.apps.gallery.runner import build_gallery
     from foldprint.io.load import load_design
     from foldprint.io.templates import templates_dir
 

@@ -17,7 +17,7 @@ from foldprint.model.design import Design
 from foldprint.model.materials import MaterialLibrary
 from foldprint.physics.hinge_drive import HingeDrive, _with_arc_gap, loop_dt, run_times
 from foldprint.physics.kinematics import HINGE_MODELS, Trajectory, forward
-from foldprint.physics.loops import (CLOSURE_TOL, FOLLOW_TOL, JUMP, MAX_STEP, NEAR_FLAT, OPT_TOL, SKIP_TOL,
+from foldprint.physics.loops.closure import (CLOSURE_TOL, FOLLOW_TOL, JUMP, MAX_STEP, NEAR_FLAT, OPT_TOL, SKIP_TOL,
                                      LoopSolution, LoopSolver, _cross3, _rotvec)
 
 

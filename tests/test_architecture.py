@@ -275,7 +275,7 @@ def test_the_walker_sees_a_facade_import_in_every_form():
 
 
 #: Modules whose leading-underscore names other modules of their own subpackage may still
-#: import, each with its reason (empty: cli.support's plumbing, apps.assign's ledger and
+#: import, each with its reason (empty: cli.support's plumbing, apps.assign.search's ledger and
 #: hinge graph and the split modules' helpers were given public names).
 PRIVATE_IMPORT_ALLOWLIST: dict[str, str] = {}
 
@@ -330,11 +330,11 @@ def test_the_private_import_walker_sees_every_form():
     dunder names, the module's own names and other packages do not (a test of the test)."""
     modules = _modules()
     src = ("from ..io.fold_format import _ring_edges, LINE_TOL\nfrom foldprint.geometry.solids import _clean\n"
-           "from .. import __version__\nfrom . import fem as F\nimport foldprint.physics.recovery as rec\n"
+           "from .. import __version__\nfrom . import fem as F\nimport foldprint.physics.recovery.curve as rec\n"
            "from numpy import _private\nx = F._levels(1) + rec._grid(2) + F.ELEMENT_SIZE_MM\n")
     got = {(m, n) for m, n, _ in private_imports("foldprint.exchange.fake", False, src, modules)}
     assert got == {("foldprint.io.fold_format", "_ring_edges"), ("foldprint.geometry.solids", "_clean"),
-                   ("foldprint.exchange.fem", "_levels"), ("foldprint.physics.recovery", "_grid")}
+                   ("foldprint.exchange.fem", "_levels"), ("foldprint.physics.recovery.curve", "_grid")}
     assert private_imports("foldprint.exchange.fem", False, "from .fem import _levels\n", modules) == []
 
 
@@ -342,11 +342,11 @@ def test_the_import_walker_sees_every_form():
     """Relative, absolute and dynamic imports all count (a test of the test)."""
     modules = _modules()
     src = ("from ..core import errors\nfrom .rules import run_checks\nimport foldprint.model.design\n"
-           "from foldprint.physics.recovery import fold_time\n__import__('foldprint.apps.pipeline')\n"
+           "from foldprint.physics.recovery.curve import fold_time\n__import__('foldprint.apps.pipeline')\n"
            "importlib.import_module('foldprint.render.figures')\nfrom . import report\n")
     got = {b for _, b in edges_of("foldprint.checks.fake", False, src, modules)}
     assert got == {"foldprint.core.errors", "foldprint.checks.rules", "foldprint.model.design",
-                   "foldprint.physics.recovery", "foldprint.apps.pipeline", "foldprint.render.figures",
+                   "foldprint.physics.recovery.curve", "foldprint.apps.pipeline", "foldprint.render.figures",
                    "foldprint.checks.report"}
 
 

@@ -8,15 +8,15 @@ import re
 
 import pytest
 
-from foldprint.apps.assign import assign, permanent_crossings, temperature_grid, with_materials
-from foldprint.apps.assign_waves import connected_waves
+from foldprint.apps.assign.search import assign, permanent_crossings, temperature_grid, with_materials
+from foldprint.apps.assign.waves import connected_waves
 from foldprint.cli.commands import main
 from foldprint.model.design import strip
 from foldprint.io.design_io import design_to_toml
 from foldprint.io.load import load_design
 from foldprint.core.errors import DesignError
 from foldprint.core.modes import Method, Objective
-from foldprint.physics.recovery import recovery_curve
+from foldprint.physics.recovery.curve import recovery_curve
 from foldprint.simulation.simulate import simulate
 from foldprint.io.templates import resolve_design_path
 
@@ -236,7 +236,7 @@ def test_assign_text_output(capsys, tmp_path):
 def test_growing_waves_extend_the_folded_region_in_small_steps():
     """The robust search's children: "all the rest", then connected groups of at most
     ROBUST_WAVE_MAX hinges touching what is placed (anything at the root)."""
-    from foldprint.apps.assign_waves import ROBUST_WAVE_MAX, hinge_adjacency, growing_waves
+    from foldprint.apps.assign.waves import ROBUST_WAVE_MAX, hinge_adjacency, growing_waves
 
     graph = hinge_adjacency(load_design(resolve_design_path("helix_uniform")))
     every = frozenset(range(9))
@@ -293,7 +293,7 @@ def test_robust_best_is_no_worse_than_the_papers_graded_helix(helix, monkeypatch
     reports is the one ``foldprint robust`` makes of the written design. Small budgets
     (a smaller pool, fewer samples) keep it quick; it can fail when the finalists are
     chosen badly."""
-    import foldprint.apps.assign as A
+    import foldprint.apps.assign.search as A
     from foldprint.simulation.robust import jam_probability
 
     monkeypatch.setattr(A, "ROBUST_POOL", 16)

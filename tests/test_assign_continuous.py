@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from foldprint.apps.assign import with_materials
-from foldprint.apps.assign_continuous import TG_GRID_STEP_C, _levels_for, assign_continuous, find_chains
-from foldprint.apps.assign_surrogate import (canonical_tg, chain_risk, material_name, optimise_levels, tg_bounds,
+from foldprint.apps.assign.search import with_materials
+from foldprint.apps.assign.continuous import TG_GRID_STEP_C, _levels_for, assign_continuous, find_chains
+from foldprint.apps.assign.surrogate import (canonical_tg, chain_risk, material_name, optimise_levels, tg_bounds,
                                              timing_table)
-from foldprint.apps.assign_ledger import Ledger
-from foldprint.apps.assign_tasks import local_mapper
+from foldprint.apps.assign.ledger import Ledger
+from foldprint.apps.assign.tasks import local_mapper
 from foldprint.cli.commands import main
 from foldprint.core.modes import Method
 from foldprint.io.design_io import design_to_toml

@@ -20,11 +20,11 @@ from foldprint.io.fold_format import design_from_fold
 from foldprint.io.load import load_design
 from foldprint.model import crease_patterns as cp
 from foldprint.model.design import Design, Hinge, Panel, strip
-from foldprint.physics import barhinge_solve as bs
-from foldprint.physics.barhinge import build, diagonal_curvatures, kresling, kresling_heights
-from foldprint.physics.barhinge_energy import dihedral, fold_angles
+from foldprint.physics.barhinge import equilibrium as bs
+from foldprint.physics.barhinge.model import build, diagonal_curvatures, kresling, kresling_heights
+from foldprint.physics.barhinge.energy import dihedral, fold_angles
 from foldprint.physics.hinge_drive import HingeDrive, run_times
-from foldprint.physics.modulus import ModulusCurve, default_params, hinge_modulus, params_from
+from foldprint.physics.barhinge.stiffness import ModulusCurve, default_params, hinge_modulus, params_from
 
 STIFF = 1e5  # MPa: panels 100x the paper's 1 GPa, for the comparisons with rigid panels
 
@@ -290,7 +290,7 @@ def test_check_says_a_rigidly_locked_pattern_needs_the_compliant_model(capsys):
 
 
 def test_guard_refuses_a_design_too_large_for_the_solver(monkeypatch):
-    from foldprint.physics import barhinge_cost
+    from foldprint.physics.barhinge import solve_cost as barhinge_cost
     from foldprint.simulation.simulate import simulate
 
     monkeypatch.setattr(barhinge_cost, "MAX_MECHANICS_NODES", 10)

@@ -16,9 +16,9 @@ import shapely
 
 from foldprint.cli.commands import main
 from foldprint.io.load import load_design
-from foldprint.physics import barhinge as bh
-from foldprint.physics import barhinge_solve as bs
-from foldprint.physics.barhinge_energy import stretch
+from foldprint.physics.barhinge import model as bh
+from foldprint.physics.barhinge import equilibrium as bs
+from foldprint.physics.barhinge.energy import stretch
 from foldprint.physics.hinge_drive import run_times
 
 

@@ -1,4 +1,4 @@
-"""The shared Monte-Carlo pool (foldprint.simulation.batch) against the one-design path:
+"""The shared Monte-Carlo pool (foldprint.simulation.jamtest.pool) against the one-design path:
 the same samples folded in one pool across designs and scales give the outcomes that
 jam_probability and the sigma sweep give design by design, the follow-up task receives
 them, jam_probability returns them without folding, and the time guard refuses the
@@ -13,7 +13,7 @@ from foldprint.core.guards import ResourceError
 from foldprint.core.modes import Method
 from foldprint.io.load import load_design
 from foldprint.io.templates import templates_dir
-from foldprint.simulation.batch import MonteCarloJob, Precomputed, run_batch
+from foldprint.simulation.jamtest.pool import MonteCarloJob, Precomputed, run_batch
 from foldprint.simulation.robust import jam_probability
 from foldprint.simulation.scatter import default_scatter
 
@@ -96,8 +96,8 @@ MAX = 20  # two chunks (16 + 4): helix_uniform decides inside the first, helix_g
 
 
 def _tested(design, **kw):
-    from foldprint.simulation.sequential import jam_tests
-    from foldprint.simulation.verdict import jam_test
+    from foldprint.simulation.jamtest.scales import jam_tests
+    from foldprint.simulation.jamtest.verdict import jam_test
 
     return jam_tests(design, jam_test(max_samples=MAX), (1.0, 2.0), SEED, **kw)
 
@@ -119,8 +119,8 @@ def sequential():
 def test_jam_test_stops_where_its_outcomes_say(sequential):
     """The samples kept are the stream's first n, n the test's stop on them: the uniform
     helix fails after 6 (every sample jams), the graded one reaches the maximum."""
-    from foldprint.simulation.sequential import on_check_stream
-    from foldprint.simulation.verdict import decide, jam_test
+    from foldprint.simulation.jamtest.scales import on_check_stream
+    from foldprint.simulation.jamtest.verdict import decide, jam_test
 
     designs, ref = sequential
     for d in designs:
@@ -142,7 +142,8 @@ def test_jam_test_stops_where_its_outcomes_say(sequential):
 def test_jam_test_is_the_same_on_any_workers_and_chunks(sequential, monkeypatch, workers, chunk):
     """One worker or two, chunks of 16, 5 or 3 samples (so chunks come back in any order
     and stops fall mid-chunk): the same samples, verdicts, stops and intervals."""
-    from foldprint.simulation import batch, robust, sequential as seq
+    from foldprint.simulation.jamtest import pool as batch, scales as seq
+    from foldprint.simulation import robust
 
     for mod in (batch, robust, seq):
         monkeypatch.setattr(mod, "CHUNK", chunk)
@@ -169,8 +170,8 @@ def test_a_plain_mapper_guards_time_only_past_the_first_chunk(monkeypatch):
     every sample is in that chunk has nothing left to guard; one sample more is estimated
     from that chunk's time per sample."""
     from foldprint.simulation.robust import CHUNK
-    from foldprint.simulation.sequential import jam_tests
-    from foldprint.simulation.verdict import jam_test
+    from foldprint.simulation.jamtest.scales import jam_tests
+    from foldprint.simulation.jamtest.verdict import jam_test
 
     calls = []
     monkeypatch.setattr(costs, "check_samples", lambda n, per, w, name="": calls.append((n, w, name)) or 0.0)
@@ -186,9 +187,9 @@ def test_shared_pool_answers_the_jam_test_as_check_alone(sequential):
     """The gallery's path: both designs' streams in one adaptive pool with a follow-up
     each; the Precomputed it hands on gives each design's jam test without folding, equal
     to the test run alone."""
-    from foldprint.simulation.verdict import jam_test
+    from foldprint.simulation.jamtest.verdict import jam_test
 
-    from foldprint.simulation.check_stages import check_follow
+    from foldprint.simulation.jamtest.stages import check_follow
 
     designs, ref = sequential
     jobs = [MonteCarloJob(d, MAX, SEED, (1.0,), test=jam_test(max_samples=MAX)) for d in designs]
@@ -196,7 +197,7 @@ def test_shared_pool_answers_the_jam_test_as_check_alone(sequential):
     # the test at 1x, then the sweep asking whether it flips; helix_graded's pass flips at 2x:
     # its five probes (one per scatter component) join the pool too
     assert after == [2, 7]
-    from foldprint.simulation import sequential as seq
+    from foldprint.simulation.jamtest import scales as seq
 
     def no_fold(*_a, **_k):
         raise AssertionError("a precomputed stream was folded again")
@@ -212,7 +213,7 @@ def test_shared_pool_answers_the_jam_test_as_check_alone(sequential):
             n = [ref[d.name][k].samples for k in (1.0, 2.0)]
             assert calls == [("jam test at 1x", n[0], n[0]), ("jam test at 2x", n[1], n[1])]
         # the flip's probes: answered from the pool's streams, as flip_drivers folds them alone
-        from foldprint.simulation.flip_drivers import flip_drivers, flips_of
+        from foldprint.simulation.jamtest.flip_drivers import flip_drivers, flips_of
         from foldprint.simulation.sensitivity import SweepPoint
 
         d, p = designs[1], pre[1]
@@ -230,8 +231,8 @@ def test_no_chunk_is_folded_past_a_decided_stop(monkeypatch):
     """In one process the pool folds exactly the samples a stream needs: the uniform helix
     jams at every sample and its test can stop after 6 jams, so each scale's stream is one
     chunk of 6 samples (not a whole chunk of 16, 10 of them past the stop)."""
-    from foldprint.simulation import batch
-    from foldprint.simulation.verdict import jam_test
+    from foldprint.simulation.jamtest import pool as batch
+    from foldprint.simulation.jamtest.verdict import jam_test
 
     folded = []
     real = batch._chunk_task
@@ -247,9 +248,9 @@ def test_a_chunk_is_sized_to_the_earliest_stop():
     """A stream's next chunk holds the samples after which an unbroken run could stop its
     test (the fewest of all-clean and all-jammed), at least MIN_CHUNK, at most CHUNK; with a
     chunk in flight, or without a test, a whole CHUNK."""
-    from foldprint.simulation import batch
+    from foldprint.simulation.jamtest import pool as batch
     from foldprint.simulation.robust import CHUNK, Outcome
-    from foldprint.simulation.verdict import decide, jam_test
+    from foldprint.simulation.jamtest.verdict import decide, jam_test
 
     clean, jam = Outcome(False, None, None, None, 1.0), Outcome(True, None, None, None, None)
     test = jam_test(max_samples=200)
@@ -281,9 +282,9 @@ def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
     """Chunks that come back out of order wait for their predecessors: the outcomes are
     the stream's in order and the stop is counted over them, whatever the arrival order
     (chunks of 4 here: jams only from sample 8 on, so a pass-or-not hinges on the order)."""
-    from foldprint.simulation import batch
+    from foldprint.simulation.jamtest import pool as batch
     from foldprint.simulation.robust import Outcome
-    from foldprint.simulation.verdict import decide, jam_test
+    from foldprint.simulation.jamtest.verdict import decide, jam_test
 
     clean, jam = Outcome(False, None, None, None, 1.0), Outcome(True, None, None, None, None)
     stream = [clean] * 8 + [jam] * 12
@@ -303,7 +304,7 @@ def test_a_batch_run_inside_a_worker_keeps_the_workers_jobs():
     batch run there (FP183's probes, not in the shared pool's outcomes): afterwards the
     worker still folds the shared pool's chunks, the same outcomes as before."""
     from foldprint.model.materials import default_library
-    from foldprint.simulation import batch
+    from foldprint.simulation.jamtest import pool as batch
 
     d, lib = _designs()[1], default_library()
     batch._init([MonteCarloJob(d, 4, SEED)], lib)  # what the pool's initializer gives a worker
@@ -321,8 +322,8 @@ def test_jam_tests_fold_the_nominal_with_the_options_given():
     and mechanics the jam test was given, and the result says so."""
     from foldprint.model.design import strip
     from foldprint.simulation.scatter import Scatter
-    from foldprint.simulation.sequential import jam_tests
-    from foldprint.simulation.verdict import jam_test
+    from foldprint.simulation.jamtest.scales import jam_tests
+    from foldprint.simulation.jamtest.verdict import jam_test
 
     d = strip("n", [15, 15], [90], ["H-7"])
     (r,) = jam_tests(d, jam_test(max_samples=MAX), (1.0,), SEED, scatter=Scatter.zero(), dt=0.02,
@@ -337,8 +338,8 @@ def test_jam_tests_fold_the_nominal_with_the_options_given():
 def test_jam_tests_refuse_a_bad_seed_or_mechanics_by_name():
     from foldprint.core.errors import DesignError
     from foldprint.model.design import strip
-    from foldprint.simulation.sequential import jam_tests
-    from foldprint.simulation.verdict import jam_test
+    from foldprint.simulation.jamtest.scales import jam_tests
+    from foldprint.simulation.jamtest.verdict import jam_test
 
     d = strip("n", [15, 15], [90], ["H-7"])
     with pytest.raises(DesignError, match=r"^seed must be a whole number >= 0, got -1$"):

@@ -15,9 +15,9 @@ from foldprint.cli.commands import main
 from foldprint.core.errors import DataError
 from foldprint.io.hinge_data import load_hinge_data, parse_hinge_data
 from foldprint.model.materials import default_library, load_library
-from foldprint.physics.calibration import Problem, fit, holds, settings
-from foldprint.physics.calibration_profile import findings, profile
-from foldprint.physics.recovery import recovery_curve
+from foldprint.physics.calibration.fit import Problem, fit, holds, settings
+from foldprint.physics.calibration.profile import findings, profile
+from foldprint.physics.recovery.curve import recovery_curve
 
 DATA = Path(__file__).resolve().parent.parent / "foldprint" / "data"
 #: Parameters the synthetic curves are drawn from (inside every bound, away from them).

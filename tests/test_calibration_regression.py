@@ -13,7 +13,7 @@ miss. What the model predicts without having been fitted to it is tested elsewhe
 
 import pytest
 
-from foldprint.physics.recovery import fold_time, recovery_curve
+from foldprint.physics.recovery.curve import fold_time, recovery_curve
 from foldprint.simulation.paper_timings import load_statements
 
 #: s: how far a re-asserted fitted number may drift (the docs print two decimals)

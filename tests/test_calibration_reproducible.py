@@ -14,8 +14,8 @@ from foldprint.apps import calibrate as cal
 from foldprint.cli.commands import main
 from foldprint.io.hinge_data import load_hinge_data
 from foldprint.model.materials import MaterialLibrary, default_library, load_library
-from foldprint.physics.calibration import FITTABLE, settings
-from foldprint.physics.recovery_table import fold_times
+from foldprint.physics.calibration.fit import FITTABLE, settings
+from foldprint.physics.recovery.table import fold_times
 
 DATA = Path(__file__).resolve().parent.parent / "foldprint" / "data"
 CSV = DATA / "paper_hinge_data.csv"

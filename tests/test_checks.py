@@ -12,7 +12,7 @@ from foldprint.core.constants import CHECK_SAMPLES
 from foldprint.model.design import Process, strip
 from foldprint.io.load import load_design
 from foldprint.model.materials import default_library
-from foldprint.physics.recovery import fold_time
+from foldprint.physics.recovery.curve import fold_time
 from foldprint.core.modes import HingeModel
 from foldprint.apps.pipeline import evaluate
 from foldprint.simulation.robust import wilson
@@ -148,7 +148,7 @@ class _Tested(_Fake):
     """A stand-in for check's result: the sequential test on k jams then n - k clean samples."""
 
     def __init__(self, k, n, test=None):
-        from foldprint.simulation.verdict import decide, jam_test
+        from foldprint.simulation.jamtest.verdict import decide, jam_test
 
         self.decision = decide([True] * k + [False] * (n - k), test or jam_test())
         super().__init__(self.decision.jams, self.decision.samples)

@@ -24,7 +24,7 @@ def test_materials_json_contract(capsys, lib):
     h1 = rows["H-1"]
     assert h1["role"] == "hinge" and h1["tg_c"] == 32.0
     assert list(h1["fold_time_s"]) == ["80", "90", "100"]
-    from foldprint.physics.recovery import fold_time
+    from foldprint.physics.recovery.curve import fold_time
     assert h1["fold_time_s"]["90"] == pytest.approx(fold_time(lib["H-1"], 90.0), abs=1e-3)
     assert rows["VeroWhite"]["fold_time_s"]["90"] is None
 

@@ -76,7 +76,7 @@ def test_api_names_and_general_hinge_validation():
 
 
 def test_viewer_and_gallery_show_the_ramp():
-    from foldprint.apps.gallery_page import _ramp_note, _swatch
+    from foldprint.apps.gallery.page import _ramp_note, _swatch
     from foldprint.model.composition import composition_model
     from foldprint.render.viewer import viewer_data
     from foldprint.simulation.simulate import simulate

@@ -26,7 +26,7 @@ from foldprint.io.fold_format import design_from_fold
 from foldprint.io.svg_format import design_from_svg
 from foldprint.model import crease_patterns as cp
 from foldprint.physics.kinematics import hinge_frames
-from foldprint.physics.loops import LoopSolver
+from foldprint.physics.loops.closure import LoopSolver
 
 DATA = Path(__file__).parent / "data" / "origami_simulator"
 

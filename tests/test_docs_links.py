@@ -131,4 +131,4 @@ def test_the_checks_see_what_they_guard(tmp_path):
                                    "there.md#nope: no heading with that anchor in there.md",
                                    "x.png: no such file"]
     assert [h.split(":")[0] for h in _history(page)] == ["line 6", "line 7", "line 8", "line 10"]
-    assert _resolves("foldprint.simulation.verdict") and not _resolves("foldprint.simulation.no_such_name")
+    assert _resolves("foldprint.simulation.jamtest.verdict") and not _resolves("foldprint.simulation.no_such_name")

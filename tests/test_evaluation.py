@@ -208,7 +208,7 @@ def test_the_stl_writer_is_given_the_fold_times(helix, tmp_path, monkeypatch):
     import json
     import sys
 
-    import foldprint.physics.recovery as recovery
+    import foldprint.physics.recovery.curve as recovery
     from foldprint.core.errors import ExportError
     from foldprint.exchange.export import export_assembly
     from foldprint.geometry import build_assembly
@@ -235,7 +235,7 @@ def test_the_stl_writer_is_given_the_fold_times(helix, tmp_path, monkeypatch):
 def test_the_manifest_fold_times_are_the_recovery_models(helix, tmp_path):
     import json
 
-    from foldprint.physics.recovery import fold_time
+    from foldprint.physics.recovery.curve import fold_time
     from foldprint.model.materials import default_library
 
     pipeline.export(helix, tmp_path, formats=("stl",))

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import foldprint
-from foldprint.physics.recovery import hinge_fold_times
+from foldprint.physics.recovery.curve import hinge_fold_times
 from foldprint.model.design import strip
 from foldprint.io.design_io import design_from_dict
 from foldprint.io.load import load_design
@@ -38,7 +38,7 @@ from foldprint.exchange.stl import read_stl_volume
 from foldprint.exchange.threemf import REL_DESIGN
 from foldprint.geometry import build_assembly
 from foldprint.model.materials import default_library
-from foldprint.physics.recovery import fold_time
+from foldprint.physics.recovery.curve import fold_time
 
 TEMPLATES = sorted((Path(__file__).resolve().parent.parent / "templates").glob("*.toml"))
 #: see tests/test_geometry.py: templates whose permanent state does not build

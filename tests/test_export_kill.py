@@ -1,7 +1,7 @@
 """SIGKILL ``export`` at random moments: the output folder holds exactly the previous
 complete set or the new one, as plain files, never a mix, and nothing the killed run left
 survives the next export (a set is staged beside the folder and published by one rename,
-``foldprint/exchange/files.py``). ``tests/test_export_publish.py`` kills the writer after
+``foldprint/exchange/fileset.py``). ``tests/test_export_publish.py`` kills the writer after
 each of its steps in turn; this test kills the real command at random moments.
 ``benchmarks/kill_export.py`` runs the same with 100 kills."""
 

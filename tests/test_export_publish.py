@@ -1,5 +1,5 @@
 """A set of files (an export, a gallery) lands as plain files and as a whole
-(``foldprint/exchange/files.py``, docs/output-files.md).
+(``foldprint/exchange/fileset.py``, docs/output-files.md).
 
 Checked on the directory listing itself (``os.walk(followlinks=False)``, ``lstat``): every
 entry a regular file or folder, exactly the names of ``foldprint-set.json`` with its
@@ -24,8 +24,8 @@ import pytest
 
 from foldprint.core import files as core_files
 from foldprint.core.errors import ExportError
-from foldprint.exchange import files as files_mod
-from foldprint.exchange.files import StagedSet, recover, sibling_prefix, write_set
+from foldprint.exchange import fileset as files_mod
+from foldprint.exchange.fileset import StagedSet, recover, sibling_prefix, write_set
 from foldprint.exchange.outfolder import MANIFEST, plan
 
 OLD = [("a.3mf", b"old a"), ("b.stl", b"old b"), ("only_old.stl", b"old c")]
@@ -428,7 +428,7 @@ def test_the_current_folder_takes_a_set_file_by_file_with_force(tmp_path, monkey
 
 
 def test_a_refusal_comes_before_a_gallery_builds_anything(tmp_path):
-    from foldprint.apps.gallery import build_gallery
+    from foldprint.apps.gallery.runner import build_gallery
     from foldprint.model.design import strip
 
     out = tmp_path / "site"

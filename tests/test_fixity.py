@@ -17,7 +17,7 @@ from foldprint.model.composition import composition_model
 from foldprint.model.design import strip
 from foldprint.model.materials import default_fixity, default_library, load_library
 from foldprint.physics.hinge_drive import HingeDrive, simulate_kinematics
-from foldprint.physics.recovery import recovery_curve
+from foldprint.physics.recovery.curve import recovery_curve
 from foldprint.simulation.robust import default_scatter, draw_samples, sample_drive, sample_drives
 
 SQUARE = """<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 10 10">

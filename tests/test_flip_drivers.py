@@ -1,4 +1,4 @@
-"""What drives a flip of check's jam verdict (FP183, foldprint.simulation.flip_drivers), and
+"""What drives a flip of check's jam verdict (FP183, foldprint.simulation.jamtest.flip_drivers), and
 what each scatter spread rests on (``basis`` in data/scatter.toml).
 
 The reference case is tests/test_jam_reference.py's: a two-panel strip with one H-7 hinge
@@ -28,10 +28,10 @@ from foldprint.core.modes import JamQuestion, JamVerdict, Side, SpreadBasis
 from foldprint.io.design_io import design_to_toml
 from foldprint.model.design import strip
 from foldprint.model.materials import default_library
-from foldprint.physics.recovery import recovery_curve
-from foldprint.simulation.flip_drivers import FlipDrivers, Probe, undoes, undoes_all
+from foldprint.physics.recovery.curve import recovery_curve
+from foldprint.simulation.jamtest.flip_drivers import FlipDrivers, Probe, undoes, undoes_all
 from foldprint.simulation.scatter import KEYS, Scatter, component, default_scatter, draw_samples, scatter_from
-from foldprint.simulation.verdict import decide, jam_test
+from foldprint.simulation.jamtest.verdict import decide, jam_test
 
 DT_S = 0.01  # check's time step (core.constants.CHECK_DT_S)
 COLD_C = 2.2  # the run ends when a hinge in a bath this much below nominal reaches 98 %

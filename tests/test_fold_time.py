@@ -31,7 +31,7 @@ def _latest_crossing(design) -> float:
     from scipy.optimize import brentq
 
     from foldprint.model.materials import default_library
-    from foldprint.physics.recovery import recovery_ratio
+    from foldprint.physics.recovery.curve import recovery_ratio
 
     lib, pr = default_library(), design.process
     def t98(h):

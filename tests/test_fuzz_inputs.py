@@ -26,7 +26,7 @@ from fuzz_gen import (FILE_NAMES, PLANTS, PLANTS_OURS, READERS, SMALL_DESIGN, co
                       fold_documents, make_path, numeric_command_lines, option_files, path_cases, plant, svg_documents,
                       written_outside)
 from foldprint.core.errors import ExportError, FoldprintError
-from foldprint.exchange.files import write_set
+from foldprint.exchange.fileset import write_set
 from foldprint.io.load import load_design
 
 SCALE = float(os.environ.get("FOLDPRINT_FUZZ_CASES", "200")) / 200  # 1 at the suite's default
@@ -172,7 +172,7 @@ def _use_options(option: str, path: Path) -> None:
     from foldprint.core.schema import TEMPERATURE_C
     from foldprint.model.design import strip
     from foldprint.model.materials import load_library
-    from foldprint.physics.recovery import fold_time
+    from foldprint.physics.recovery.curve import fold_time
     from foldprint.simulation.robust import sample_drives
     from foldprint.simulation.scatter import draw_samples, load_scatter
 

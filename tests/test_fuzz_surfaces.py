@@ -23,7 +23,7 @@ from hypothesis import HealthCheck, given, settings
 
 import foldprint.apps.calibrate  # noqa: F401  (imported once: every forked case starts warm)
 import foldprint.cli.calibrate_cmd, foldprint.cli.fold_cmds  # noqa: E401,F401
-import foldprint.physics.barhinge_solve, foldprint.render.calibration_figure  # noqa: E401,F401
+import foldprint.physics.barhinge.equilibrium, foldprint.render.calibration_figure  # noqa: E401,F401
 
 from fuzz_gen import contract_violations, written_outside
 from fuzz_gen_surfaces import CAL_COLUMNS, CAL_ROWS, barhinge_designs, calibrate_command_lines, calibrate_csvs

@@ -1,4 +1,4 @@
-"""The HTML gallery (foldprint.apps.gallery) and the 3D renders behind it (foldprint.render.stills).
+"""The HTML gallery (foldprint.apps.gallery.runner) and the 3D renders behind it (foldprint.render.stills).
 
 One gallery of two small templates is built per module; the page is checked as files
 (every image referenced exists and is valid, every file referenced exists, offline, valid
@@ -26,7 +26,7 @@ from PIL import Image
 
 from foldprint.model.design import strip
 from foldprint.io.load import load_design
-from foldprint.apps.gallery import build_gallery
+from foldprint.apps.gallery.runner import build_gallery
 from foldprint.core.display import seconds
 from foldprint.io.templates import templates_dir
 
@@ -570,8 +570,8 @@ def test_viewer_in_headless_chromium_moves_with_the_url(gallery, tmp_path):
 def test_fold_time_table_equals_the_recovery_curves(lib):
     """The vectorised table gives each recovery curve's own 98 % time, including 'never'
     (a bath far below Tg) and a thicker hinge."""
-    from foldprint.physics.recovery import recovery_curve
-    from foldprint.physics.recovery_table import fold_times
+    from foldprint.physics.recovery.curve import recovery_curve
+    from foldprint.physics.recovery.table import fold_times
 
     baths = [20.0, 71.5, 84.0, 100.0]
     for name, thick in (("H-1", 0.8), ("H-4", 1.2), ("H-7", 0.8)):

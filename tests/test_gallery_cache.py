@@ -1,4 +1,4 @@
-"""The gallery's cache (foldprint.apps.gallery_cache): a second gallery with nothing changed
+"""The gallery's cache (foldprint.apps.gallery.cache): a second gallery with nothing changed
 builds nothing and gives the same files; a changed design, or a changed material, builds
 that design only; ``cache=False`` (``--force``) builds everything; a folder edited by hand
 is built again; the cache travels with a copy of the gallery."""
@@ -10,9 +10,9 @@ import shutil
 
 import pytest
 
-from foldprint.apps.gallery import build_gallery
+from foldprint.apps.gallery.runner import build_gallery
 from foldprint.core.errors import ExportError
-from foldprint.apps.gallery_cache import CACHE_FILE, Earlier, code_digest, design_key
+from foldprint.apps.gallery.cache import CACHE_FILE, Earlier, code_digest, design_key
 from foldprint.model.design import strip
 from foldprint.model.materials import default_library
 
@@ -119,7 +119,7 @@ def test_no_gallery_no_cache(tmp_path):
 
 
 def test_the_code_digest_follows_the_libraries(monkeypatch):
-    from foldprint.apps import gallery_cache
+    from foldprint.apps.gallery import cache as gallery_cache
 
     before = code_digest()
     monkeypatch.setattr(gallery_cache, "_versions", lambda: "numpy==0.0")

@@ -1,4 +1,4 @@
-"""Graded hinges: effective recovery of strips (physics.recovery) against analytic cases."""
+"""Graded hinges: effective recovery of strips (physics.recovery.curve) against analytic cases."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import pytest
 
 from foldprint.model.composition import Along, FractionProfile, composition_model, vero
 from foldprint.model.materials import default_library
-from foldprint.physics.recovery import combine_strips, recovery_curve, strip_tgs
-from foldprint.physics.recovery_batch import grid_until, material_batch_ratios
+from foldprint.physics.recovery.curve import combine_strips, recovery_curve, strip_tgs
+from foldprint.physics.recovery.batch import grid_until, material_batch_ratios
 
 LIB = default_library()
 M = composition_model()

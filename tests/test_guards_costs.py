@@ -135,7 +135,7 @@ def test_the_fit_estimate_bounds_a_measured_fit():
     from foldprint.apps import calibrate as cal
     from foldprint.io.hinge_data import parse_hinge_data
     from foldprint.model.materials import default_library
-    from foldprint.physics.calibration_cost import fit_estimate
+    from foldprint.physics.calibration.fit_cost import fit_estimate
 
     data = parse_hinge_data(_curves_csv(20), "c.csv")
     seen = {}
@@ -168,7 +168,7 @@ def test_rows_read_off_a_curve_at_once_are_the_rows_read_one_by_one():
 
     from foldprint.io.hinge_data import parse_hinge_data
     from foldprint.model.materials import default_library
-    from foldprint.physics.calibration import Problem
+    from foldprint.physics.calibration.fit import Problem
 
     head = HEAD.rstrip("\n") + ",printed_deg\n"
     rows = ([f"ratio,H-1,,{60 + k},0.8,10,{0.5 + k / 7},,0.5,,,," for k in range(30)]
@@ -193,7 +193,7 @@ def test_a_fit_too_large_is_refused_before_the_first_curve(monkeypatch, n, limit
     from foldprint.apps import calibrate as cal
     from foldprint.io.hinge_data import parse_hinge_data
     from foldprint.model.materials import default_library
-    from foldprint.physics.calibration import Problem
+    from foldprint.physics.calibration.fit import Problem
 
     def boom(*a, **k):
         raise AssertionError("a curve was made despite the refusal")
@@ -213,9 +213,9 @@ def test_the_bar_hinge_estimate_bounds_a_measured_run():
     design bounds the built model's, and the solve's CPU and allocations stay under the
     estimate (within 25x)."""
     from foldprint.io.load import load_design
-    from foldprint.physics.barhinge import build
-    from foldprint.physics.barhinge_cost import mechanics_estimate
-    from foldprint.physics.barhinge_solve import CompliantDrive
+    from foldprint.physics.barhinge.model import build
+    from foldprint.physics.barhinge.solve_cost import mechanics_estimate
+    from foldprint.physics.barhinge.equilibrium import CompliantDrive
 
     d = load_design(ROOT / "templates" / "miura_3x3.toml")
     est = mechanics_estimate(d)
@@ -237,9 +237,9 @@ def test_the_bar_hinge_estimate_bounds_a_measured_run():
 
 
 def test_a_bar_hinge_run_over_the_budget_is_refused_before_the_model_is_built(monkeypatch):
-    import foldprint.physics.barhinge_solve as solve
+    import foldprint.physics.barhinge.equilibrium as solve
     from foldprint.io.load import load_design
-    from foldprint.physics.barhinge_cost import mechanics_estimate
+    from foldprint.physics.barhinge.solve_cost import mechanics_estimate
     from foldprint.simulation.simulate import simulate
 
     def boom(*a, **k):
@@ -262,7 +262,7 @@ def test_the_loop_estimate_bounds_a_measured_closure():
     from foldprint.io.fold_format import design_from_fold
     from foldprint.model.crease_patterns import miura
     from foldprint.physics.hinge_drive import HingeDrive
-    from foldprint.physics.loop_cost import loop_estimate
+    from foldprint.physics.loops.closure_cost import loop_estimate
 
     d = design_from_fold(miura(6, 6), "miura6")
     tracemalloc.start()

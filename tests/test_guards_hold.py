@@ -112,7 +112,7 @@ def test_a_gallery_refused_after_it_started_leaves_no_folder_it_made(tmp_path, m
     """The real gallery, refused after its viewer files were staged (a design's samples
     refused by the guard): exit 2, one line, no folder it made (the output folder, its
     parents, the staging folder beside it); a folder that was there before stays as it was."""
-    import foldprint.apps.gallery as gallery
+    import foldprint.apps.gallery.runner as gallery
     from foldprint.core.guards import ResourceError
     from foldprint.cli.commands import main
 

@@ -24,7 +24,7 @@ from scipy.stats import norm
 
 from foldprint.model.design import strip
 from foldprint.model.materials import default_library
-from foldprint.physics.recovery import recovery_curve
+from foldprint.physics.recovery.curve import recovery_curve
 from foldprint.simulation.robust import jam_probability
 from foldprint.simulation.scatter import TRUNCATE_SD, Scatter, component, draw_samples
 

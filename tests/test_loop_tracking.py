@@ -1,4 +1,4 @@
-"""The array tracker (:mod:`foldprint.physics.loop_tracking`) against the tracker it replaced.
+"""The array tracker (:mod:`foldprint.physics.loops.tracker`) against the tracker it replaced.
 
 Two references. C and J: each cycle's closure as a product of 4x4 transforms, one cycle at
 a time (:class:`Reference` below), equal to round-off. The tracking: the step-by-step
@@ -24,10 +24,10 @@ from foldprint.io.fold_format import design_from_fold
 from foldprint.io.load import load_design
 from foldprint.model import crease_patterns as cp
 from foldprint.model.materials import default_library
-from foldprint.physics import loop_solve, loop_state, loop_tracking
+from foldprint.physics.loops import corrector as loop_solve, drive_state as loop_state, tracker as loop_tracking
 from foldprint.physics.kinematics import hinge_frames
 from foldprint.physics.hinge_drive import GRID_TOL_S, HingeDrive, loop_dt, run_times
-from foldprint.physics.loops import CLOSURE_TOL, OPT_TOL, LoopSolver, _rotvec
+from foldprint.physics.loops.closure import CLOSURE_TOL, OPT_TOL, LoopSolver, _rotvec
 from foldprint.simulation.robust import sample_drives
 from foldprint.simulation.scatter import default_scatter, iter_samples
 

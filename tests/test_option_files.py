@@ -244,7 +244,7 @@ def test_recovery_model_at_the_corners_of_the_bounds_warns_nothing(corner):
     """Every material value at a bound, Tg and the bath at theirs, the thinnest and
     thickest hinge: the fold time is a number or None, never a warning or an error."""
     from foldprint.model.materials import RECOVERY_BOUNDS, default_library
-    from foldprint.physics.recovery import fold_time
+    from foldprint.physics.recovery.curve import fold_time
 
     m = default_library()["H-3"]
     keys = sorted(RECOVERY_BOUNDS)

@@ -15,7 +15,7 @@ from foldprint.io.load import load_design
 from foldprint.io.templates import list_templates, templates_dir
 from foldprint.model.materials import default_library
 from foldprint.model.paper_statements import PaperRef, load_statements
-from foldprint.physics.recovery import recovery_curve
+from foldprint.physics.recovery.curve import recovery_curve
 from foldprint.simulation.paper_beside import paper_lines
 from foldprint.simulation.simulate import simulate
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from foldprint.model.materials import default_library
 from foldprint.simulation.paper_timings import (ModelValue, Statement, load_statements, measure,
                                      sample1_contact_ratio, verdict)
-from foldprint.physics.recovery import recovery_curve
+from foldprint.physics.recovery.curve import recovery_curve
 
 DOC = Path(__file__).resolve().parent.parent / "docs" / "structure-timings.md"
 
@@ -127,7 +127,7 @@ def test_the_joint_fit_file_is_the_docs_joint_column():
     user materials file, gives every hinge material the same parameters, and its free-hinge
     Fig. 1b spreads are the docs' joint-fit column."""
     from foldprint.model.materials import load_library
-    from foldprint.physics.recovery_table import fold_times
+    from foldprint.physics.recovery.table import fold_times
 
     path = Path(__file__).resolve().parent.parent / "foldprint" / "data" / "recovery_structure_fit.toml"
     lib = load_library(path)

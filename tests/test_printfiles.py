@@ -34,7 +34,7 @@ from foldprint.io.templates import resolve_design_path
 from foldprint.model.design import strip
 from foldprint.model.materials import default_library
 from foldprint.model.printers import DIGITAL_SMP_RESINS, fdm_setup, load_printers, tool_fit
-from foldprint.physics.recovery import hinge_fold_times
+from foldprint.physics.recovery.curve import hinge_fold_times
 
 PRUSA = shutil.which("prusa-slicer")
 needs_prusa = pytest.mark.skipif(PRUSA is None, reason="prusa-slicer is not on PATH (install PrusaSlicer "

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from foldprint.physics.recovery import (fold_time, log10_shift, recovery_curve, slab_temperature, spectrum)
+from foldprint.physics.recovery.curve import (fold_time, log10_shift, recovery_curve, slab_temperature, spectrum)
 
 TEMPS = (70.0, 80.0, 90.0, 100.0)
 
@@ -222,7 +222,7 @@ def test_curve_grid_is_the_documented_grid():
     """Steps of _DT_FINE up to _T_FINE exactly, then 399 more geometric points ending at the
     horizon: strictly increasing, no duplicate at the seam, for a horizon past, at and
     inside the fine part."""
-    from foldprint.physics import recovery as rec
+    from foldprint.physics.recovery import curve as rec
 
     n_fine = int(round(rec._T_FINE / rec._DT_FINE)) + 1
     for horizon in (rec._T_FINE, 600.0, 17.0):
@@ -250,7 +250,7 @@ def test_every_argument_reaches_the_curve(lib):
     """recovery_ratio, fold_time and hinge_fold_times pass each argument on: a thicker
     hinge, a warmer start, a colder bath each change the answer the physical way."""
     from foldprint.model.design import Process, strip
-    from foldprint.physics.recovery import hinge_fold_times, recovery_ratio
+    from foldprint.physics.recovery.curve import hinge_fold_times, recovery_ratio
 
     m = lib["H-3"]
     t = np.linspace(0.1, 3.0, 30) * fold_time(m, 90.0, 0.8)  # through the transition, whatever the library
@@ -310,7 +310,7 @@ def test_time_to_is_the_first_crossing_of_the_tabulated_curve(steps, level):
     """Reference: the piecewise-linear curve the model tabulates, read by np.interp: the
     time returned reaches ``level`` exactly, and no earlier grid point does; None exactly
     when the curve never gets there."""
-    from foldprint.physics.recovery import RecoveryCurve
+    from foldprint.physics.recovery.curve import RecoveryCurve
 
     t = np.concatenate([[0.0], np.cumsum([dt for dt, _ in steps])])
     ratio = np.minimum(np.concatenate([[0.0], np.cumsum([dr for _, dr in steps])]), 1.0)

@@ -1,4 +1,4 @@
-"""The Monte-Carlo's fast path: batched recovery curves (foldprint.physics.recovery_batch) against
+"""The Monte-Carlo's fast path: batched recovery curves (foldprint.physics.recovery.batch) against
 the exact per-curve model (the exact sum to round-off, the relaxation table to its bound), the
 chunked and guarded jam probability, the worker pool."""
 
@@ -16,10 +16,10 @@ from foldprint.core.constants import CHECK_SAMPLES
 from foldprint.core.guards import ResourceError
 from foldprint.simulation.costs import check_samples
 from foldprint.io.load import load_design
-from foldprint.physics.recovery import _curve, _slab_roots
-from foldprint.physics.recovery import spectrum
-from foldprint.physics.recovery_batch import batch_ratios, grid_until, slab_roots
-from foldprint.physics.recovery_relaxation import CUT, relaxation_table
+from foldprint.physics.recovery.curve import _curve, _slab_roots
+from foldprint.physics.recovery.curve import spectrum
+from foldprint.physics.recovery.batch import batch_ratios, grid_until, slab_roots
+from foldprint.physics.recovery.relaxation import CUT, relaxation_table
 from foldprint.simulation.robust import (default_scatter, draw_samples, iter_samples, jam_probability, run_end, run_samples,
                               sample_drive, sample_drives, wilson)
 from foldprint.io.templates import resolve_design_path
@@ -114,7 +114,7 @@ def test_blocks_of_any_length_give_the_same_curves(lib, monkeypatch, table):
     """The time axis is computed block by block, the reduced time and the rate carried from
     one block to the next: blocks of 8 times (every block boundary a carry) give bit for
     bit the curves of the default blocks, at every grid time."""
-    from foldprint.physics import recovery_batch
+    from foldprint.physics.recovery import batch as recovery_batch
 
     p, t = lib["H-4"].recovery, grid_until(25.0)
     args = ([40.0, 45.5, 51.0, 43.0], [200.0, 260.0, 320.0, 150.0], [0.7, 0.8, 1.1, 0.9], [70.0, 80.0, 90.0, 85.0])
@@ -131,7 +131,7 @@ def test_blocks_of_any_length_give_the_same_curves(lib, monkeypatch, table):
 def test_running_sum_is_the_cumsum_from_its_start(m, rows, seed):
     """The reduced time's running sum, in groups of SUM_GROUP and a tail: start + the
     cumulative sum, and start becomes the last sum (what the next block starts from)."""
-    from foldprint.physics.recovery_batch import _running_sum
+    from foldprint.physics.recovery.batch import _running_sum
 
     rng = np.random.default_rng(seed)
     inc, start = rng.random((rows, 2, m)), rng.random((rows, 2))
@@ -147,7 +147,7 @@ def test_the_monte_carlo_reads_the_relaxation_table(lib, monkeypatch, graded):
     """table=True (what sample_drives asks for) reads U from the table, the default sums
     the exponentials: a coarse table moves the first's curve, not the second's, and the
     Monte-Carlo's drives follow the coarse table."""
-    from foldprint.physics import recovery_batch
+    from foldprint.physics.recovery import batch as recovery_batch
 
     p, t = lib["H-5"].recovery, grid_until(15.0)
     args = ([48.5, 50.0], [227.0, 300.0], [0.8, 0.9], [90.0, 85.0])
@@ -169,8 +169,8 @@ def test_slab_terms_past_their_cut_are_exactly_zero(lib, biot_scale):
     every term cut) its excess temperature is exactly 0, before it positive, also where a
     thicker hinge of its batch (0.25 mm) is still computed; at the shipped h (40 s) and at
     100x it (Bi ~ 45, zeta_0^2 > 1: 1.9 s)."""
-    from foldprint.physics.recovery_batch import _slab, _slab_block
-    from foldprint.physics.recovery_relaxation import Block, fresh_arrays
+    from foldprint.physics.recovery.batch import _slab, _slab_block
+    from foldprint.physics.recovery.relaxation import Block, fresh_arrays
 
     p = lib["H-2"].recovery
     hw = np.full(2, p.h_w_m2k * biot_scale)
@@ -188,8 +188,8 @@ def test_relaxation_branches_past_their_cut_are_exactly_zero(lib):
     """The exact sum, element by element: where every branch is past its cut (xi > CUT
     tau_16) U is exactly 0, also in a block whose other elements are not cut; elsewhere
     the sum of the exponentials."""
-    from foldprint.physics.recovery_batch import _unrecovered_block
-    from foldprint.physics.recovery_relaxation import Block, fresh_arrays
+    from foldprint.physics.recovery.batch import _unrecovered_block
+    from foldprint.physics.recovery.relaxation import Block, fresh_arrays
 
     p = lib["H-2"].recovery
     tau, g = spectrum(p)
@@ -203,8 +203,8 @@ def test_relaxation_branches_past_their_cut_are_exactly_zero(lib):
 def test_a_batch_split_for_memory_gives_every_hinge_its_exact_curve(lib, monkeypatch):
     """Over the element bound, a batch is computed in parts (here 2 hinges a part, 5
     hinges): each hinge's ratio and mean temperature are still the exact model's."""
-    from foldprint.physics import recovery_batch
-    from foldprint.physics.recovery import N_LAYERS
+    from foldprint.physics.recovery import batch as recovery_batch
+    from foldprint.physics.recovery.curve import N_LAYERS
 
     t = grid_until(20.0)
     monkeypatch.setattr(recovery_batch, "MAX_BATCH_ELEMENTS", 2 * len(t) * N_LAYERS // 2)
@@ -329,8 +329,8 @@ def test_robust_json_reports_what_it_ran(capsys):
 def test_batch_shift_rate_is_the_models_shift_bit_for_bit(lib, name, tg_shift, temps):
     """The batch's in-place 1 / a_T is recovery.log10_shift's, exponentiated, to the bit
     (a second copy of the WLF/Arrhenius law, kept for speed: it must not drift)."""
-    from foldprint.physics.recovery import log10_shift
-    from foldprint.physics.recovery_batch import _LN10, _rate
+    from foldprint.physics.recovery.curve import log10_shift
+    from foldprint.physics.recovery.batch import _LN10, _rate
 
     p = lib[name].recovery
     tg = lib[name].tg_c + tg_shift

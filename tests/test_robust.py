@@ -165,11 +165,11 @@ def test_sample_drives_are_read_only_and_refuse_a_non_finite_draw():
 
 
 def test_precomputed_outcomes_are_returned_without_folding(monkeypatch):
-    """A mapper holding this design's outcomes (simulation.batch.Precomputed): the same
+    """A mapper holding this design's outcomes (simulation.jamtest.pool.Precomputed): the same
     result, no sample folded, progress told the whole count at once."""
     from foldprint.simulation import robust
     from foldprint.core.constants import DEFAULT_DT_S
-    from foldprint.simulation.batch import Precomputed
+    from foldprint.simulation.jamtest.pool import Precomputed
 
     d = strip("p", [20, 20, 25], [90, 90], ["H-3", "H-5"])
     ref = jam_probability(d, 5, 4, workers=1)

@@ -122,7 +122,7 @@ def test_curves_on_their_own_time_grids_are_each_read_on_theirs():
     from dataclasses import replace
 
     from foldprint.model.materials import default_library
-    from foldprint.physics.recovery import recovery_curve
+    from foldprint.physics.recovery.curve import recovery_curve
 
     d = strip("g", [10, 10, 10], [90, -60], ["H-1", "H-3"])
     lib = default_library()

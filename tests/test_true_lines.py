@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from foldprint.apps.gallery_entry import Entry, Image
-from foldprint.apps.gallery_page import entry_done, page_html, paper_label
+from foldprint.apps.gallery.entry import Entry, Image
+from foldprint.apps.gallery.page import entry_done, page_html, paper_label
 from foldprint.apps.pipeline import EvalOptions, Evaluation
 from foldprint.checks.report import finding_lines, simulation_json
 from foldprint.checks.jam_rules import jam_hint

@@ -1,4 +1,4 @@
-"""check's sequential jam test (foldprint.simulation.verdict): the SPRT boundaries and steps
+"""check's sequential jam test (foldprint.simulation.jamtest.verdict): the SPRT boundaries and steps
 against hand-computed values, streams that stop where a hand count says, the verdict's
 independence of how a stream is cut, the stated error rates on simulated Bernoulli
 streams, and the confidence sequence's values and its coverage over time."""
@@ -16,7 +16,7 @@ from hypothesis import strategies as hs
 from foldprint.core.constants import CHECK_SAMPLES, JAM_TEST_ALPHA, JAM_TEST_BETA
 from foldprint.core.errors import DesignError
 from foldprint.core.modes import JamQuestion, JamVerdict, Side
-from foldprint.simulation.verdict import (Sprt, confidence_sequence, decide, decide_many, indifference, jam_test,
+from foldprint.simulation.jamtest.verdict import (Sprt, confidence_sequence, decide, decide_many, indifference, jam_test,
                                           operating_point)
 
 T = jam_test()  # check's defaults: warning 5 % (2.5-7.5 %), error 20 % (15-25 %), 5 % error rates, 400 samples

@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from foldprint.apps.gallery_entry import Entry
-from foldprint.apps.gallery_page import check_verdict, nominal_status
+from foldprint.apps.gallery.entry import Entry
+from foldprint.apps.gallery.page import check_verdict, nominal_status
 from foldprint.apps.pipeline import CHECK_SCALES, EvalOptions, Evaluation, check_scales
 from foldprint.checks.report import simulation_json
 from foldprint.core.modes import Method

@@ -23,7 +23,7 @@ from foldprint.exchange import voxels as vx
 from foldprint.exchange import voxel_regions as vr
 from foldprint.exchange import voxel_stats as vs
 from foldprint.exchange.export import export_assembly
-from foldprint.exchange.files import write_set
+from foldprint.exchange.fileset import write_set
 from foldprint.geometry import HingeAxes, build_pieces, hinge_axes
 from foldprint.model.composition import Along, FractionProfile
 

@@ -1,7 +1,7 @@
 """``foldprint calibrate``: hinge measurements in, a materials file out, with what the data
 can and cannot say. Chains the reader (:mod:`foldprint.io.hinge_data`), the fit
-(:mod:`foldprint.physics.calibration`), its uncertainty and findings
-(:mod:`foldprint.physics.calibration_profile`), the writer
+(:mod:`foldprint.physics.calibration.fit`), its uncertainty and findings
+(:mod:`foldprint.physics.calibration.profile`), the writer
 (:mod:`foldprint.exchange.materials_file`) and the figure
 (:mod:`foldprint.render.calibration_figure`). ``docs/calibrate.md`` explains the output.
 """
@@ -21,9 +21,9 @@ from ..core.files import write_atomic
 from ..exchange.materials_file import materials_toml
 from ..io.hinge_data import HingeData, load_hinge_data, read_text
 from ..model.materials import MaterialLibrary, parse_library
-from ..physics.calibration import FITTABLE, Fit, Hold, Problem, fit_best, held_value, holds
-from ..physics.calibration_profile import Interval, curve_residuals, findings, profile, row_reading
-from ..physics.calibration_cost import check_fit
+from ..physics.calibration.fit import FITTABLE, Fit, Hold, Problem, fit_best, held_value, holds
+from ..physics.calibration.profile import Interval, curve_residuals, findings, profile, row_reading
+from ..physics.calibration.fit_cost import check_fit
 from .calibrate_library import changes, entries
 
 log = logging.getLogger(__name__)

@@ -16,7 +16,7 @@ from dataclasses import fields, replace
 
 from ..exchange.materials_file import Entry
 from ..model.materials import Material, MaterialLibrary
-from ..physics.calibration import fitted_materials
+from ..physics.calibration.fit import fitted_materials
 
 #: Two colours closer than this (largest channel difference, 0..255) count as the same
 #: (our choice: about what tells two swatches apart on a screen).

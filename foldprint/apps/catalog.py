@@ -20,7 +20,7 @@ def material_rows(lib: "MaterialLibrary", temperatures: Sequence[tuple[str, floa
     """One row per material: name, role, Tg, colour, the fold time (s, to
     :data:`JSON_DECIMALS`; None for a hinge that does not fold and for a non-hinge) at
     each ``(key, deg C)`` of ``temperatures`` by its key, the shape fixity and its source."""
-    from ..physics.recovery import fold_time
+    from ..physics.recovery.curve import fold_time
 
     rows = []
     for m in lib:

@@ -24,7 +24,7 @@ from ..geometry import Assembly, build_assembly, state_angles
 from ..geometry.surfaces import Frames, fold_frames
 from ..model.printers import find_printer, tool_fit
 from ..physics.kinematics import forward, hinge_frames
-from ..physics.recovery import hinge_fold_times
+from ..physics.recovery.curve import hinge_fold_times
 from ..simulation.simulate import SimulationResult, simulate
 from .replay import Replay, replay_sample, worst_sample
 from .voxel_part import voxel_part, voxel_pitch

@@ -15,7 +15,7 @@ from ..core.modes import HingeModel, Mechanics, Method, State, parse
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
 from ..collision.swept3d import SweptChecker
 from ..geometry import Assembly, build_assembly
-from ..physics.barhinge_solve import CompliantDrive
+from ..physics.barhinge.equilibrium import CompliantDrive
 from ..physics.kinematics import forward, target_angles
 from ..physics.hinge_drive import HingeDrive, run_times, solve_loops_many
 from ..simulation.margin import ScatterMargin, scatter_margin

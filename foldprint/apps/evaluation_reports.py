@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from ..model.printers import default_printer_key
 from ..simulation.margin import left_out as margin_left_out
-from ..simulation.sequential import on_check_stream
+from ..simulation.jamtest.scales import on_check_stream
 
 
 class ReportStages:

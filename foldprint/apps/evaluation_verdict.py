@@ -11,10 +11,10 @@ from typing import Callable
 
 from ..checks.rules import CheckContext, Finding, run_checks
 from ..core.modes import SampleRule
-from ..simulation.flip_drivers import FlipDrivers, flip_drivers, flips_of
+from ..simulation.jamtest.flip_drivers import FlipDrivers, flip_drivers, flips_of
 from ..simulation.robust import RobustResult, jam_probability
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
-from ..simulation.sequential import jam_test, jam_tests
+from ..simulation.jamtest.scales import jam_test, jam_tests
 
 
 class VerdictStages:
@@ -72,7 +72,7 @@ class VerdictStages:
     def flip_drivers(self) -> tuple[FlipDrivers, ...]:
         """What drives each flip of the jam verdict that FP183 reports: check's test at the
         flipping scale with each scatter component removed, in this evaluation's pool or
-        mapper (:func:`~foldprint.simulation.flip_drivers.flip_drivers`); none without a
+        mapper (:func:`~foldprint.simulation.jamtest.flip_drivers.flip_drivers`); none without a
         flip or a sequential test."""
         def run():
             r, o = self.robust, self.options

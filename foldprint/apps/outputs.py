@@ -31,8 +31,8 @@ def manifest_name() -> str:
 
 def plan_out(out_dir: str | Path, force: bool = False) -> "Plan":
     """Whether ``out_dir`` may take a set and how it will be published
-    (:func:`foldprint.exchange.files.plan_out`): refused before anything is built."""
-    from ..exchange.files import plan_out as plan
+    (:func:`foldprint.exchange.fileset.plan_out`): refused before anything is built."""
+    from ..exchange.fileset import plan_out as plan
 
     return plan(out_dir, force)
 

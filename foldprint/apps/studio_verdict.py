@@ -1,6 +1,6 @@
 """The studio's background work: the jam verdict of the current revision and the material
 search, each in a thread of its own (the Monte-Carlo folds in the process pool
-:func:`foldprint.simulation.batch.run_batch` opens), with its state readable at any time
+:func:`foldprint.simulation.jamtest.pool.run_batch` opens), with its state readable at any time
 and every change announced to the listeners the server registers.
 
 **The verdict is check's.** Phase 1 is the revision's own
@@ -9,13 +9,13 @@ and every change announced to the listeners the server registers.
 ``foldprint check``, so the verdict, samples, estimate and interval are its numbers; the
 state is ``decided`` as soon as it is. Phase 2 is check's own evaluation (the sweep's
 sigma scales, :data:`~foldprint.core.constants.CHECK_SCALES`) given the nominal fold and,
-as its mapper, phase 1's outcomes (:class:`~foldprint.simulation.batch.Precomputed`: the
+as its mapper, phase 1's outcomes (:class:`~foldprint.simulation.jamtest.pool.Precomputed`: the
 1x stream is not folded again): its ``check --json`` object (the findings with the jam
 test's and the sweep's) completes the state.
 
 **Cancellation.** A newer edit cancels the stale run: the run's progress callback raises
 :class:`Cancelled` at the pool's next report (a chunk of samples; the pool is stopped
-on the way out, :func:`foldprint.simulation.batch.run_batch`; the first report comes
+on the way out, :func:`foldprint.simulation.jamtest.pool.run_batch`; the first report comes
 before the pool starts). A new run waits for a stale one that is folding samples to stop,
 so two runs never share the cores; a stale run still waiting for its nominal fold (the
 edit's own answer computes it) is not waited for: it stops before it folds a sample.
@@ -33,8 +33,8 @@ from ..checks.report import jam_test_json, robust_json
 from ..core.constants import CHECK_SCALES
 from ..core.errors import FoldprintError
 from ..core.modes import Mechanics
-from ..simulation.batch import Precomputed
-from ..simulation.verdict import jam_test
+from ..simulation.jamtest.pool import Precomputed
+from ..simulation.jamtest.verdict import jam_test
 from .pipeline import Evaluation, check_scales
 
 log = logging.getLogger(__name__)
@@ -158,7 +158,7 @@ def assign_job(design, library, notify, previous: Job | None = None, *, objectiv
     """Start ``assign`` on ``design`` (the material search of ``foldprint assign``):
     state ``running`` with its evaluations so far, then ``done`` with ``assign --json``'s
     ``best`` (ranked) and the choices to apply (:meth:`Job.choice`)."""
-    from .assign import DEFAULT_BUDGET, assign
+    from .assign.search import DEFAULT_BUDGET, assign
 
     job = Job("assign", notify, previous)
     job.set(state="running", done=0, total=budget or DEFAULT_BUDGET, result=None, design=design.name)

@@ -61,7 +61,7 @@ class CheckContext:
     ``sweep``: the same estimate with the scatter spreads scaled (points with ``.scale``
     and ``.result``, :func:`foldprint.simulation.sensitivity.sweep`; empty when not run);
     ``flip_drivers``: what drives each flip FP183 reports
-    (:func:`foldprint.simulation.flip_drivers.flip_drivers`; empty when not run)."""
+    (:func:`foldprint.simulation.jamtest.flip_drivers.flip_drivers`; empty when not run)."""
 
     design: Design
     library: MaterialLibrary

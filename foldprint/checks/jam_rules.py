@@ -14,7 +14,7 @@ from .report import VERDICT_SEVERITY, answer_text, basis_text, jam_estimate_text
 
 def jam_verdict(r, th: Thresholds) -> str:
     """The severity a jam probability earns: its sequential test's verdict (``check``,
-    :mod:`foldprint.simulation.verdict`: error, warning or pass = info); for a fixed-size
+    :mod:`foldprint.simulation.jamtest.verdict`: error, warning or pass = info); for a fixed-size
     estimate, error when the 95 % interval's lower end is above ``th.error``, warning when
     the estimate is above ``th.warning``, else info."""
     return jam_verdicts(r, th)[0]
@@ -139,7 +139,7 @@ def rule_jam_sensitivity(ctx: CheckContext) -> list[Finding]:
 
 
 def _drivers_text(fd) -> str:
-    """What drives one flip (:class:`~foldprint.simulation.flip_drivers.FlipDrivers`): each
+    """What drives one flip (:class:`~foldprint.simulation.jamtest.flip_drivers.FlipDrivers`): each
     named component, what its spread rests on, and the test's verdict in its probe."""
     change = "without it" if fd.worse else "with it at its 1x spread"
 

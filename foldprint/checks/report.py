@@ -22,7 +22,7 @@ VERDICT_SEVERITY = {JamVerdict.ERROR: "error", JamVerdict.WARNING: "warning", Ja
 
 
 def answer_text(d) -> str:
-    """What a jam test's decision (:class:`foldprint.simulation.verdict.JamDecision`) says,
+    """What a jam test's decision (:class:`foldprint.simulation.jamtest.verdict.JamDecision`) says,
     as a verb phrase: "passes", "warns", "fails", or a one-threshold answer that leaves two
     verdicts open: "does not pass (above 5 %)", "does not fail (below 20 %)", or none: "is
     undecided at its maximum of 400 samples (p on the 5 % threshold)"."""
@@ -66,7 +66,7 @@ def jam_test_text(r) -> str:
 
 
 def jam_test_json(d) -> dict | None:
-    """A jam test's decision (:class:`foldprint.simulation.verdict.JamDecision`), None for a
+    """A jam test's decision (:class:`foldprint.simulation.jamtest.verdict.JamDecision`), None for a
     fixed-size estimate."""
     if d is None:
         return None
@@ -234,7 +234,7 @@ def sweep_json(points) -> list[dict]:
 
 def flip_drivers_json(flips) -> list[dict]:
     """What drives each flip of the jam verdict
-    (:class:`foldprint.simulation.flip_drivers.FlipDrivers`): per flip its scale, the
+    (:class:`foldprint.simulation.jamtest.flip_drivers.FlipDrivers`): per flip its scale, the
     verdicts at 1x and there, the drivers (or the strongest probe) and each probe (a
     component removed, or kept at its 1x spread, at the flipping scale)."""
     out = []

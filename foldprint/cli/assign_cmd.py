@@ -56,13 +56,13 @@ def assign(
 
     Example: foldprint assign helix_uniform --objective margin --top 3 --json
     """
-    from ..apps.assign import assign as search, with_materials
+    from ..apps.assign.search import assign as search, with_materials
 
     objective, mats, temps, fixed_map = _assign_request(materials, temperature, temperature_range, fixed, objective,
                                                         top, budget, samples, workers, seed)
     d, lib = noted(load_input(design))
     if continuous:  # per-hinge VeroWhite fractions and the bath (docs/assign.md, "Continuous fractions")
-        from ..apps.assign_continuous import continuous_objective, search_options as search  # noqa: F811
+        from ..apps.assign.continuous import continuous_objective, search_options as search  # noqa: F811
         objective = continuous_objective(objective, mats, fixed_map)
     with open_mapper(scheduler) as mapper, samples_progress(f"{d.name}: evaluations") as cb:
         r = search(d, library=lib, materials=mats, temperatures=temps, fixed=fixed_map, objective=objective,
@@ -87,7 +87,7 @@ def _assign_request(materials, temperature, temperature_range, fixed, objective,
     """``assign``'s options checked: the objective (parsed to an
     :class:`~foldprint.core.modes.Objective`), the materials to choose from, the bath
     temperatures and the fixed hinges (FoldprintError naming the option)."""
-    from ..apps.assign import temperature_grid
+    from ..apps.assign.search import temperature_grid
 
     objective = parse_mode(Objective, objective, "--objective")
     if temperature is not None and temperature_range is not None:

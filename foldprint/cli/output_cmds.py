@@ -131,7 +131,7 @@ def gallery(
 
     Example: foldprint gallery --out output/gallery
     """
-    from ..apps.gallery import build_gallery
+    from ..apps.gallery.runner import build_gallery
 
     out = check_out_dir(out)
     if jobs is not None:

@@ -29,7 +29,7 @@ ONSET_LEVEL = 0.05
 #: How long the recovery model looks ahead before it calls a hinge "does not fold" (s).
 RECOVERY_HORIZON_S = 600.0
 #: Step in ln(reduced time) between the nodes of the table the batch recovery curves (the
-#: Monte-Carlo's) read the relaxation sum from (``physics.recovery_relaxation.relaxation_table``).
+#: Monte-Carlo's) read the relaxation sum from (``physics.recovery.relaxation.relaxation_table``).
 #: Our choice: 55 000 nodes (0.9 MB) from 1e-13 tau_1 to 50 tau_16; max |dR| 5.5e-9 against
 #: the exact sum (3x the step: 4.9e-8, 10x: 5.5e-7; < 2e-8 asserted in
 #: tests/test_recovery_batch.py), every template's Monte-Carlo outcomes unchanged
@@ -38,7 +38,7 @@ RELAXATION_TABLE_STEP = 1e-3
 
 #: The most Monte-Carlo samples ``foldprint check`` (and the gallery, which runs the same
 #: check) draws for its jam verdict, a sequential test that stops as soon as the answer is
-#: known at its stated error rates (:mod:`foldprint.simulation.verdict`, ``docs/verdict.md``);
+#: known at its stated error rates (:mod:`foldprint.simulation.jamtest.verdict`, ``docs/verdict.md``);
 #: ``--samples N`` sets it. Our choice: 400 (25 chunks) is about 2.4x the test's largest
 #: average sample number (167, at a jam probability near 4.6 %, the warning test's
 #: hardest case, where 7.6 % of runs reach the maximum; under 1 % do at the edges of the
@@ -70,7 +70,7 @@ JAM_TEST_MIN_HALF_WIDTH = 0.005
 #: Error rates of each threshold's test (our choice, the usual 5 %): alpha, the chance of
 #: saying "above" when p is at or below the lower end of its indifference region; beta,
 #: of saying "below" when p is at or above the upper end (strict bounds: the boundaries
-#: are log(1 / alpha) and log(beta), :class:`foldprint.simulation.verdict.Sprt`).
+#: are log(1 / alpha) and log(beta), :class:`foldprint.simulation.jamtest.verdict.Sprt`).
 JAM_TEST_ALPHA = 0.05
 JAM_TEST_BETA = 0.05
 #: Level of the interval reported beside the verdict (an anytime-valid confidence

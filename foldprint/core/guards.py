@@ -1,8 +1,8 @@
 """Resource guards: the limits, the arithmetic and the refusal. Each layer estimates its
 own runs' memory and time from what it knows (the simulation's in
 :mod:`foldprint.simulation.costs`, the build's in :mod:`foldprint.geometry.build_cost`, the
-bar-and-hinge solver's in :mod:`foldprint.physics.barhinge_cost`, a fit's in
-:mod:`foldprint.physics.calibration_cost`, the voxel stack's in
+bar-and-hinge solver's in :mod:`foldprint.physics.barhinge.solve_cost`, a fit's in
+:mod:`foldprint.physics.calibration.fit_cost`, the voxel stack's in
 :mod:`foldprint.exchange.voxel_cost`); here an estimate (a dict with ``bytes`` and/or
 ``seconds``) is compared with the limits and, over one, refused with a
 :class:`ResourceError` (exit 2) that names the estimate, the limit and how to lift it:

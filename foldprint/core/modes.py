@@ -112,7 +112,7 @@ class JamReason(Mode):
 
 
 class JamVerdict(Mode):
-    """What the jam test of ``check`` concludes (:mod:`foldprint.simulation.verdict`):
+    """What the jam test of ``check`` concludes (:mod:`foldprint.simulation.jamtest.verdict`):
     ``PASS`` below the warning threshold (FP182), ``WARNING`` between the two (FP181),
     ``ERROR`` above the error threshold (FP180)."""
 
@@ -122,10 +122,10 @@ class JamVerdict(Mode):
 
 
 class JamQuestion(Mode):
-    """What a jam test asks (:mod:`foldprint.simulation.verdict`): ``VERDICT`` which of
+    """What a jam test asks (:mod:`foldprint.simulation.jamtest.verdict`): ``VERDICT`` which of
     pass, warning or error (both thresholds' tests; ``check``'s verdict and its sweep);
     ``WARNING`` or ``ERROR`` only which side of that one threshold p is on (that threshold's
-    test alone: a probe of what drives a flip asks no more, :mod:`foldprint.simulation.flip_drivers`)."""
+    test alone: a probe of what drives a flip asks no more, :mod:`foldprint.simulation.jamtest.flip_drivers`)."""
 
     VERDICT = "verdict"
     WARNING = "warning"
@@ -150,7 +150,7 @@ class SampleRule(Mode):
 
 
 class Objective(Mode):
-    """What ``foldprint assign`` optimises (:mod:`foldprint.apps.assign`): ``TIME`` the
+    """What ``foldprint assign`` optimises (:mod:`foldprint.apps.assign.search`): ``TIME`` the
     fastest fold, ``MARGIN`` the widest smallest clearance along the fold, ``ROBUST`` the
     lowest jam probability of the finalists under scatter (``--continuous`` ranks by it
     too)."""

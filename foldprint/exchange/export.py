@@ -5,7 +5,7 @@ animated glTF binary.
 This module only writes: the assembly comes built from :mod:`foldprint.apps.pipeline`.
 
 Everything is built in memory first; only then is the set written, as a whole
-(:func:`~foldprint.exchange.files.write_set`: staged beside the folder, published by one
+(:func:`~foldprint.exchange.fileset.write_set`: staged beside the folder, published by one
 rename), so a failed or killed export leaves the previous complete set or the new one.
 
 File names (``stem`` = the design name, ``<name>_programmed`` for the flat state):
@@ -39,7 +39,7 @@ from ..geometry.surfaces import Frames
 from ..model.materials import MaterialLibrary, default_library
 from ..model.printers import Printer, fdm_setup, tool_fit
 from .fem import PlacedState, inp_bytes
-from .files import write_set
+from .fileset import write_set
 from .fold import fold_bytes
 from .gltf import glb_bytes
 from .recipe import CheckSummary, recipe_markdown
@@ -94,7 +94,7 @@ def body_records(assembly: Assembly, files: dict[str, list[str]] | None = None) 
 @dataclass(frozen=True)
 class Rendered:
     """One file of an export, in memory: its name, its bytes (or, for a voxel slice, a
-    callable that makes them when :func:`~foldprint.exchange.files.write_set` stages it),
+    callable that makes them when :func:`~foldprint.exchange.fileset.write_set` stages it),
     its format, the bodies it holds (records of :func:`body_records`) and the extra fields
     of its record (``mesh`` for inp; ``steps``, ``dt_s``, ... for xdmf and glb)."""
     name: str
@@ -235,7 +235,7 @@ NEEDS = {
               "simulated trajectory, geometry.surfaces.fold_frames); export through "
               "foldprint.apps.pipeline.export, which runs the simulation",
     "fold_times": "format {names} writes a manifest with each hinge's fold time and needs them "
-                  "(foldprint.physics.recovery.hinge_fold_times); export through "
+                  "(foldprint.physics.recovery.curve.hinge_fold_times); export through "
                   "foldprint.apps.pipeline.export, which computes them",
     "placed": "format {names} meshes the strip in its placed state and needs it (fem.PlacedState); "
               "export through foldprint.apps.pipeline.export, which places it",
@@ -266,7 +266,7 @@ def render(design: Design, assembly: Assembly, formats: Iterable[str] = DEFAULT_
     ``placed`` (the state's poses) by inp, ``voxels`` (the regions with their VeroWhite
     fractions) by :data:`VOXEL_FORMATS`: the writers compute none of them. The voxel
     slices are callables that make their bytes when
-    :func:`~foldprint.exchange.files.write_set` stages them (streamed). ``printer``: the
+    :func:`~foldprint.exchange.fileset.write_set` stages them (streamed). ``printer``: the
     profile the export is for (the slicer 3MFs describe it when it is an FDM printer, else a
     generic FDM printer; the recipe says what the design needs of it); ``check``: the
     check's findings for the recipe, when it ran. Every export ends with its recipe
@@ -314,7 +314,7 @@ def export_assembly(design: Design, assembly: Assembly, out_dir: str | Path,
     "manifest" (with stl) or "h5" (the arrays of xdmf); bodies as :func:`body_records`;
     ``mesh`` (inp) and ``steps``, ``dt_s``, ... (xdmf, glb) describe the file.
 
-    The files land as a whole (:func:`~foldprint.exchange.files.write_set`): an
+    The files land as a whole (:func:`~foldprint.exchange.fileset.write_set`): an
     interrupted export leaves the previous complete set or the new one, never a mix, and
     nothing is created when the export fails. A folder that holds other files is refused
     unless ``force`` (then the set's files are added beside them, each by its own rename)."""

@@ -35,7 +35,7 @@ from ..core.errors import DesignError, where
 from ..io.fold_format import (HINGE_EXTRA, LINE_TOL, index_face_edges, project_onto_line, ring_edges)
 # the reader, importable beside the writer (tests and callers round-trip through both)
 from ..io.fold_format import design_from_fold, design_from_fold_file  # noqa: F401
-from .files import write_atomic
+from .fileset import write_atomic
 
 
 class _Vertices:

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ..model.materials import Material, RecoveryParams
-from .files import write_atomic
+from .fileset import write_atomic
 
 _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 

@@ -51,7 +51,7 @@ def programming(design: Design, fold_times: Mapping[str, float | None]) -> dict:
     """The programming and recovery protocol, with the expected fold time: the slowest
     hinge's 98 % recovery time (s), or None when a hinge does not fold in the bath.
     ``fold_times``: each hinge's 98 % time by id
-    (:func:`foldprint.physics.recovery.hinge_fold_times`, passed by the pipeline)."""
+    (:func:`foldprint.physics.recovery.curve.hinge_fold_times`, passed by the pipeline)."""
     pr = design.process
     per_hinge = {}
     for h in design.hinges:

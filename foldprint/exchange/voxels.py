@@ -10,7 +10,7 @@ no geometry. What it measures of each hinge per 1 mm block is in
 
 Streamed: each slice is cut from the solids (``Manifold.slice``), rasterised with numpy
 (even-odd scan lines at pixel centres) and encoded as a 2-bit palette PNG with zlib;
-:func:`slice_files` returns callables that :func:`~foldprint.exchange.files.write_set`
+:func:`slice_files` returns callables that :func:`~foldprint.exchange.fileset.write_set`
 calls in order. A few threads make the next slices ahead (at most ``workers * AHEAD + 1``
 in memory), taken and measured in order, so the bytes are those of a one-at-a-time
 writer. The manifest comes last and carries the fractions measured on the written voxels.
@@ -158,7 +158,7 @@ def default_workers() -> int:
 def slice_files(part: VoxelPart, stem: str, workers: int | None = None) -> list[tuple[str, Callable[[], bytes]]]:
     """(name, callable) per file of the voxel stack: ``<stem>_slice_NNNNN.png`` per layer
     (bottom first), then ``<stem>_voxels.json`` (the manifest). The callables must be
-    called in this order (:func:`~foldprint.exchange.files.write_set` does): each returns
+    called in this order (:func:`~foldprint.exchange.fileset.write_set` does): each returns
     one layer's PNG, and the manifest reports what they measured. ``workers`` threads
     (default :func:`default_workers`) make the next layers while the caller writes one;
     the bytes do not depend on it."""

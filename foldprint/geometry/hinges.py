@@ -114,7 +114,7 @@ def _closed_targets(design: Design, resolution_mm: float | None) -> tuple[np.nda
 def _nearest_closed(design: Design, angles: np.ndarray) -> tuple[np.ndarray, bool]:
     """The closed configuration nearest to ``angles`` (Gauss-Newton from them toward them)
     and whether the solve converged to closure."""
-    from ..physics.loops import CLOSURE_TOL, LoopSolver
+    from ..physics.loops.closure import CLOSURE_TOL, LoopSolver
 
     solver = LoopSolver(hinge_frames(design), [h.id for h in design.hinges])
     x, res, _, _ = solver.project(angles, angles)

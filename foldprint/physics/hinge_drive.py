@@ -18,8 +18,8 @@ from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
 from ..model.design import Design, has_loops
 from ..model.materials import MaterialLibrary, default_library
 from .kinematics import HINGE_MODELS, Trajectory, forward, hinge_frames, local_transforms, target_angles
-from .loops import LoopSolution, LoopSolver
-from .recovery import recovery_curve
+from .loops.closure import LoopSolution, LoopSolver
+from .recovery.curve import recovery_curve
 
 #: time step of the loop solver's continuation grid (s)
 LOOP_DT = 0.01
@@ -40,13 +40,13 @@ class HingeDrive:
     trajectory and by the collision refinement between samples)."""
 
     #: True for a drive whose angles come from a compliant (bar-and-hinge) equilibrium
-    #: (:class:`foldprint.physics.barhinge_solve.CompliantDrive`)
+    #: (:class:`foldprint.physics.barhinge.equilibrium.CompliantDrive`)
     compliant = False
 
     def __init__(self, design: Design, bath_c: float | None = None,
                  library: MaterialLibrary | None = None, curves=None):
         """Nominal recovery curves of each hinge's material, thickness and the bath, or
-        the given ``curves`` (one :class:`~foldprint.physics.recovery.RecoveryCurve` per hinge, in
+        the given ``curves`` (one :class:`~foldprint.physics.recovery.curve.RecoveryCurve` per hinge, in
         ``design.hinges`` order: e.g. a scattered sample from :mod:`foldprint.simulation.robust`)."""
         self.design = design
         self.bath_c = float(design.process.bath_temperature_c if bath_c is None else bath_c)
@@ -119,7 +119,7 @@ class HingeDrive:
 
     def angles(self, t) -> np.ndarray:
         """Fold angles (n_t, n_hinges) rad: the driven angles for a hinge tree; with loops
-        the closed angles nearest the drive (:mod:`foldprint.physics.loops`), piecewise linear
+        the closed angles nearest the drive (:mod:`foldprint.physics.loops.closure`), piecewise linear
         between the solve grid's times."""
         if self.loops is None:
             return self.driven(t)

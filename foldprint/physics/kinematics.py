@@ -23,7 +23,7 @@ import numpy as np
 from ..model.derived import derived
 from ..model.design import Design, Hinge, has_loops, spanning_tree, tangent_factor
 from ..core.errors import DesignError
-from .loops import LoopSolution
+from .loops.closure import LoopSolution
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
 
 HINGE_MODELS = tuple(m.value for m in HingeModel)

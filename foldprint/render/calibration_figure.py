@@ -5,7 +5,7 @@ with its uncertainty (or the side an inequality allows) and the model's value.""
 
 from __future__ import annotations
 
-from ..physics.calibration import Fit, Problem
+from ..physics.calibration.fit import Fit, Problem
 from .figures import pyplot
 
 

@@ -14,8 +14,8 @@ from ..core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM, PLOT_FORMATS
 from ..core.errors import DataError
 from ..model.materials import MaterialLibrary
 from ..model.paper_statements import load_statements
-from ..physics.recovery import recovery_curve
-from ..physics.recovery_table import fold_times
+from ..physics.recovery.curve import recovery_curve
+from ..physics.recovery.table import fold_times
 
 
 def _plt():

@@ -23,7 +23,7 @@ from typing import Callable
 from ..core.guards import (BASE_BYTES, enforce, fmt_bytes, fmt_seconds, held_elsewhere, lift_hint, max_memory,
                            source_of, time_budget, LIFT_TIME)
 from ..core.modes import Method
-from ..physics.barhinge_cost import check_mechanics  # noqa: F401 (the bar-and-hinge drive's guard, for callers)
+from ..physics.barhinge.solve_cost import check_mechanics  # noqa: F401 (the bar-and-hinge drive's guard, for callers)
 
 # Cost model. Measured on the 2-core sandbox with benchmarks/bench_scale.py (strips of 100
 # to 1000 panels, 2001 steps; peak RSS of fresh processes, docs/input-safety.md):
@@ -35,7 +35,7 @@ TRAJ_BYTES_PER_HINGE_STEP = 64
 #: centroid temporaries (3 x 24 B) per panel and step, held with the trajectory
 BROAD_BYTES_PER_PANEL_STEP = 120
 #: the hinge drive's recovery table, held with a run's trajectory: one curve per hinge on
-#: the recovery model's time grid, 15,400 floats (physics.recovery.curve_time_grid: 4 ms
+#: the recovery model's time grid, 15,400 floats (physics.recovery.curve.curve_time_grid: 4 ms
 #: steps to 60 s, then 400 to the 600 s horizon; 117 MiB of a 1000-panel strip's drive)
 DRIVE_BYTES_PER_HINGE = 15_400 * 8
 #: kinematics (recovery lookup, hinge transforms, forward poses) per hinge and step, s

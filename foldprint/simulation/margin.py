@@ -37,7 +37,7 @@ from ..core.constants import CHECK_SEED, CLEARANCE_SAMPLES, MARGIN_MAX_PAIRS, MA
 from ..model.hinge_graph import has_loops
 from ..model.materials import MaterialLibrary
 from ..physics.hinge_drive import simulate_kinematics, solve_loops_many
-from ..physics.recovery_batch import MAX_BATCH_ELEMENTS, N_LAYERS, grid_until
+from ..physics.recovery.batch import MAX_BATCH_ELEMENTS, N_LAYERS, grid_until
 from .robust import curves_at_once, sample_drives
 from .scatter import Scatter, draw_samples
 from .simulate import SimulationResult
@@ -89,7 +89,7 @@ def margin_batch_bytes(design, until_s: float, k: int) -> float:
     """Bytes the recovery curves of ``k`` samples hold while they are made: the curves
     (:func:`~foldprint.simulation.robust.curves_at_once`) and the batch's working arrays
     (:data:`BATCH_BYTES_PER_ELEMENT` per hinge, time and layer, at most
-    :data:`~foldprint.physics.recovery_batch.MAX_BATCH_ELEMENTS` elements at once)."""
+    :data:`~foldprint.physics.recovery.batch.MAX_BATCH_ELEMENTS` elements at once)."""
     n_t = len(grid_until(until_s))
     elements = min(k * len(design.hinges) * n_t * N_LAYERS // 2, MAX_BATCH_ELEMENTS)
     return curves_at_once(design, until_s, k)[1] + BATCH_BYTES_PER_ELEMENT * elements

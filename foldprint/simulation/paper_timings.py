@@ -19,8 +19,8 @@ from ..core.modes import AfterContact, HingeModel, Method
 from ..model.materials import MaterialLibrary, default_library
 # the statements and a simulation's value of each live beside what reads them; re-exported here
 from ..model.paper_statements import Statement, load_statements  # noqa: F401
-from ..physics.recovery import recovery_curve
-from ..physics.recovery_table import fold_times
+from ..physics.recovery.curve import recovery_curve
+from ..physics.recovery.table import fold_times
 from .paper_beside import ModelValue, PaperLine, model_value, motion_end, verdict  # noqa: F401
 from .simulate import simulate
 

@@ -15,7 +15,7 @@ Samples are drawn from one seeded generator, in order, streamed in chunks of
 :data:`CHUNK` (memory stays bounded whatever ``--samples`` is), and evaluated in any
 order on any number of processes: the same seed gives the same answer. The recovery
 curves of a chunk are computed in one array pass per hinge material
-(:func:`sample_drives`, :mod:`foldprint.physics.recovery_batch`, the relaxation sum read from
+(:func:`sample_drives`, :mod:`foldprint.physics.recovery.batch`, the relaxation sum read from
 its table: within 2e-8 of the per-curve model); a run whose estimated time exceeds the budget of
 :func:`foldprint.simulation.costs.check_samples` is refused after its first chunk.
 """
@@ -39,14 +39,14 @@ from ..physics.hinge_drive import HingeDrive, run_times, solve_loops_many
 from ..model.materials import MaterialLibrary, default_library
 from ..core.modes import (DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, JamReason, Mechanics,
                           Method, parse)
-from ..physics.recovery import RecoveryCurve, recovery_curve
-from ..physics.recovery_batch import grid_until, material_batch_ratios
+from ..physics.recovery.curve import RecoveryCurve, recovery_curve
+from ..physics.recovery.batch import grid_until, material_batch_ratios
 # What is drawn (the model, its data file, the samples) lives in foldprint.simulation.scatter; this
 # module folds what it draws. Re-exported so callers keep importing them from here.
 from .scatter import (Sample, Scatter, default_scatter, draw_samples, iter_samples,  # noqa: F401
                       load_scatter)
 from .simulate import SimulationResult, simulate
-from .verdict import INTERVAL_NAME, JamDecision
+from .jamtest.verdict import INTERVAL_NAME, JamDecision
 
 #: z of a two-sided 95 % interval.
 Z95 = 1.959963984540054
@@ -70,7 +70,7 @@ def sample_drive(design: Design, library: MaterialLibrary, sample: Sample, *, un
                  exact: bool = False) -> HingeDrive:
     """The hinge drive of one sample: each hinge's curve from its perturbed material.
 
-    ``exact``: the reference path, one cached :func:`~foldprint.physics.recovery.recovery_curve`
+    ``exact``: the reference path, one cached :func:`~foldprint.physics.recovery.curve.recovery_curve`
     per hinge over the whole model horizon (``until_s`` ignored); otherwise
     :func:`sample_drives`, equal to it to round-off up to ``until_s``."""
     if not exact:
@@ -94,7 +94,7 @@ def run_end(design: Design, dt: float, duration: float | None = None) -> float:
 def sample_drives(design: Design, library: MaterialLibrary, samples: Sequence[Sample],
                   until_s: float | None = None) -> list[HingeDrive]:
     """The hinge drives of ``samples``: the recovery curves of every hinge of every sample
-    in one array pass per hinge material (:func:`foldprint.physics.recovery_batch.batch_ratios`),
+    in one array pass per hinge material (:func:`foldprint.physics.recovery.batch.batch_ratios`),
     on the recovery model's grid up to ``until_s`` (default: the whole horizon; a curve
     holds its last value past it, and its ``time_to`` sees only up to it).
 
@@ -243,7 +243,7 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
 @dataclass(frozen=True)
 class RobustResult:
     """A jam probability: the ``samples`` outcomes of the stream of ``seed``; with a
-    ``decision`` (``check``'s sequential test, :mod:`foldprint.simulation.verdict`) they
+    ``decision`` (``check``'s sequential test, :mod:`foldprint.simulation.jamtest.verdict`) they
     are the samples the test used, up to its stop, and the interval is its anytime-valid
     confidence sequence; without, a fixed count and its Wilson interval."""
 
@@ -303,8 +303,8 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     ``nominal``: the nominal simulation if the caller has it (else it is run here).
     ``mapper(fn, items, progress)``: how to run the chunks of samples (default: all local
     cores, :func:`foldprint.core.parallel.map_ordered`); a
-    :class:`foldprint.simulation.batch.Precomputed` mapper that holds these samples' outcomes
-    (folded in a shared pool, :func:`~foldprint.simulation.batch.run_batch`) returns them
+    :class:`foldprint.simulation.jamtest.pool.Precomputed` mapper that holds these samples' outcomes
+    (folded in a shared pool, :func:`~foldprint.simulation.jamtest.pool.run_batch`) returns them
     without folding. ``exact``: the reference path (one
     cached curve per hinge over the whole horizon, as before the batch path), for
     comparisons. ``method``: the collision check of the nominal fold and of every sample;
@@ -325,7 +325,7 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     costs.check_sample_memory(design, samples)  # refuse before any fold: the outcomes are held
     if nominal is None:
         nominal = simulate(design, dt=dt, method=method, hinge_model=model, library=lib, mechanics=mech)
-    # simulation.batch.Precomputed (folded in a shared pool) holds rigid folds only
+    # simulation.jamtest.pool.Precomputed (folded in a shared pool) holds rigid folds only
     lookup = getattr(mapper, "lookup", None) if mech == Mechanics.RIGID else None
     done_before = lookup(design, scatter, samples, seed, model, dt, method) if lookup is not None else None
     if done_before is not None:

@@ -22,8 +22,8 @@ from ..physics.hinge_drive import HingeDrive, simulate_kinematics
 from ..model.materials import MaterialLibrary
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, AfterContact,
                           HingeModel, Mechanics, Method, parse)
-from ..physics import barhinge_cost
-from ..physics.barhinge_solve import CompliantDrive, CompliantSolution
+from ..physics.barhinge import solve_cost as barhinge_cost
+from ..physics.barhinge.equilibrium import CompliantDrive, CompliantSolution
 
 METHODS = tuple(m.value for m in Method)
 AFTER = tuple(m.value for m in AfterContact)

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..model.design import Design
 from ..model.materials import Material, MaterialLibrary
-from ..physics.recovery import recovery_curve
+from ..physics.recovery.curve import recovery_curve
 from .scatter import Scatter
 
 

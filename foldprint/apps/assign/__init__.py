@@ -1,0 +1,1 @@
+"""Material assignment: the search over the seven grades (`search`), the waves of its patterns (`waves`), the ledger of its evaluations (`ledger`), its tasks and mappers (`tasks`), its result and JSON (`result`), continuous VeroWhite fractions and bath (`continuous`) and their timing surrogate (`surrogate`)."""

@@ -1,0 +1,130 @@
+"""One evaluation of :func:`foldprint.apps.assign.search.assign`'s search: a picklable
+:class:`Task` (a partial or complete assignment, optionally a scatter draw), the
+module-level :func:`run_task` that folds it through an
+:class:`~foldprint.apps.pipeline.Evaluation`, and the mappers that run many of them (local
+processes by default, a Dask cluster with :mod:`foldprint.apps.distributed`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ...core.constants import CLEARANCE_SAMPLES
+from ...core.modes import HingeModel, Method
+from ...model.design import Design
+from ...model.materials import MaterialLibrary
+from ...physics.hinge_drive import HingeDrive
+from ...physics.recovery.curve import recovery_curve
+from ...simulation.robust import CHUNK, Sample, Scatter, draw_samples, run_end, run_samples, sample_drive, wilson
+from .result import Choice, Verdict
+
+#: Screening runs stop this long after the slowest active hinge reaches 98 % (s).
+SCREEN_TAIL_S = 0.5
+
+
+@dataclass(frozen=True)
+class Task:
+    """One simulation: ``materials`` per hinge (None = held in its programmed shape)."""
+
+    design: Design
+    library: MaterialLibrary
+    materials: tuple[str | None, ...]
+    bath_c: float
+    method: Method
+    dt: float
+    duration: float | None
+    clearance_samples: int
+    #: a scatter draw (``robust`` screen): the hinges' materials, thicknesses and bath as
+    #: drawn; the run stops SCREEN_TAIL_S after the slowest drawn hinge reaches 98 %
+    sample: Sample | None = None
+
+
+def with_materials(design: Design, materials: Sequence[str], bath_c: float | None = None,
+                   library: MaterialLibrary | None = None) -> Design:
+    """``design`` with hinge ``k`` made of ``materials[k]`` (and the bath at ``bath_c``),
+    validated against ``library``."""
+    hinges = tuple(replace(h, material=m) for h, m in zip(design.hinges, materials))
+    proc = design.process if bath_c is None else replace(design.process, bath_temperature_c=float(bath_c))
+    return design.replace(library, hinges=hinges, process=proc)
+
+
+def _drive(task: Task) -> HingeDrive:
+    d, lib = task.design, task.library
+    if task.sample is not None:
+        return sample_drive(with_materials(d, task.materials, task.bath_c, lib), lib, task.sample,
+                            until_s=run_end(d, task.dt, task.duration))
+    curves = []
+    for h, m in zip(d.hinges, task.materials):
+        c = recovery_curve(lib[m or h.material], task.bath_c, h.thickness, d.process.fix_temperature_c)
+        curves.append(c if m is not None else replace(c, ratio=np.zeros_like(c.ratio)))
+    return HingeDrive(d, task.bath_c, lib, curves=curves)
+
+
+def run_task(task: Task) -> Verdict:
+    """Fold one (partial) assignment; a module-level function so processes and Dask
+    workers can run it."""
+    d = task.design
+    drive = _drive(task)
+    duration = task.duration
+    if task.sample is not None:
+        times = [c.time_to(0.98) for c in drive.curves]
+        if all(x is not None for x in times):
+            duration = min(duration or d.process.duration_s, max(times) + SCREEN_TAIL_S)
+    from ..pipeline import EvalOptions, Evaluation
+
+    opts = EvalOptions(hinge_model=HingeModel.ARC, method=task.method, dt=task.dt, bath_c=task.bath_c,
+                       duration=duration, samples=0, clearance_samples=task.clearance_samples or CLEARANCE_SAMPLES)
+    ev = Evaluation(d, opts, library=task.library, drive=drive)
+    res = ev.simulation
+    c = res.first_collision
+    partial = any(m is None for m in task.materials)
+    goal = None
+    if c is None and not partial:
+        goal = next((g.goal.id for g in res.goals if not g.met), None)
+    clearance = None
+    if task.clearance_samples and c is None:  # the clearance along the whole fold (no contact)
+        g = ev.clearance
+        clearance = math.inf if g is None else float(g.distance)
+    done = (c is None) and (partial or res.completed)
+    ft = None
+    if not partial:
+        ft = res.fold_time
+    return Verdict(bool(done), None if c is None else tuple(c.panels), None if c is None else float(c.time),
+                   goal, ft, clearance, str(task.method))
+
+
+Mapper = Callable[[Callable, list, Callable | None], list]
+
+
+def local_mapper(workers: int | None = None) -> Mapper:
+    """Run on ``workers`` local processes (default: all cores)."""
+    from ...core.parallel import map_ordered
+
+    def mapper(fn, items, progress=None):
+        return map_ordered(fn, items, workers=workers, progress=progress)
+
+    return mapper
+
+
+def jam_estimates(design: Design, library: MaterialLibrary, scatter: Scatter, choices: Sequence[Choice],
+                  samples: int, seed: int, dt: float, mapper) -> list[Choice]:
+    """Every choice with its jam probability and Wilson interval: the draws and folds of
+    ``foldprint robust --samples N --seed S`` on the design in that choice's materials and
+    bath (the same draws for each), the chunks of all of them mapped in one pass so they
+    spread over the workers at once. In the order given."""
+    chunks, owner = [], []
+    for j, c in enumerate(choices):
+        variant = with_materials(design, c.materials, c.bath_c, library)
+        drawn = draw_samples(variant, scatter, samples, seed)
+        for a in range(0, samples, CHUNK):
+            chunks.append((variant, library, drawn[a:a + CHUNK], HingeModel.ARC, dt))
+            owner.append(j)
+    results = mapper(run_samples, chunks, None) if chunks else []
+    counts = [0] * len(choices)
+    for j, outcomes in zip(owner, results):
+        counts[j] += sum(o.jammed for o in outcomes)
+    return [replace(c, jam_probability=k / samples, jam_ci95=wilson(k, samples)) for c, k in zip(choices, counts)]

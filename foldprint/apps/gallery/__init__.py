@@ -1,0 +1,1 @@
+"""The offline HTML gallery: the runs of every design in one pool (`runner`), one design's files (`build`), the page (`page`), the Monte-Carlo tables (`samples`) and what the page shows of a design (`entry`), which designs' folders a run keeps (`cache`)."""

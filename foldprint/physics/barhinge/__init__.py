@@ -1,0 +1,1 @@
+"""The bar-and-hinge model (docs/mechanics.md): the model built from a design (`model`), the panels' mesh (`mesh`), its energy with gradient and Hessian (`energy`), the equilibrium path and CompliantDrive (`equilibrium`), moduli and stiffnesses (`stiffness`), what a path costs (`solve_cost`)."""

@@ -1,0 +1,1 @@
+"""Loop closure on the constraint manifold: the closure equations and the drive (`closure`), one Gauss-Newton step of many solves at once (`corrector`), the tracker of many drives at once (`tracker`) and each drive's state between rounds (`drive_state`), what a closure costs (`closure_cost`)."""

@@ -1,0 +1,1 @@
+"""Hinge recovery R(t; material, bath, thickness): one curve and its fold times (`curve`), over many bath temperatures (`table`), of many scattered hinges at once (`batch`) with their working arrays and relaxation table (`relaxation`)."""

@@ -1,0 +1,1 @@
+"""check's sequential jam test: the SPRTs, the verdict and its confidence sequence (`verdict`), the test on a design at every sigma scale (`scales`), check's stages as follow-up streams (`stages`), many designs' streams in one adaptive pool (`pool`), what drives a flip of the verdict (`flip_drivers`)."""

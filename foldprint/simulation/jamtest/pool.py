@@ -1,0 +1,448 @@
+"""The Monte-Carlo of many designs, and the work that follows each, in one adaptive process pool.
+
+``foldprint check`` runs one design's jam test at 1x and at each sweep scale; the gallery
+runs that check for every template. :func:`run_batch` folds every (design, scale)
+*stream* of samples in one pool: chunks are submitted as workers free up, a stream with
+nothing in flight first (the costliest design first: a loop pattern's sample costs tens
+of strip samples), then the follow-up work of a design whose streams are all decided
+(the gallery's per-design build, which then answers its check from the
+:class:`Precomputed` outcomes instead of folding again), and only when every open stream
+already has a chunk in flight a second chunk of one (it may be discarded). A stream
+with a sequential test (:class:`~foldprint.simulation.jamtest.verdict.JamTest`) stops being fed
+once its test decides; the chunks folded beyond the stop are discarded. Its chunks are
+sized to the test: never more than the samples after which an unbroken run of clean (or
+of jammed) samples would stop it (:func:`to_decision`; at least
+:data:`MIN_CHUNK`, at most
+:data:`~foldprint.simulation.robust.CHUNK`), so a clear strip's stream folds the samples
+its test uses and no more (a loop pattern keeps whole chunks: its closure tracking is
+cheaper a sample in bigger ones).
+
+The samples are the ones :func:`~foldprint.simulation.robust.jam_probability` draws
+(:func:`~foldprint.simulation.scatter.iter_samples`, same seed; a chunk draws its own with
+:func:`~foldprint.simulation.scatter.samples_between`),
+folded by the same :func:`~foldprint.simulation.robust.run_samples`, and each stream
+consumes its chunks **in stream order, one sample at a time**: the outcomes kept and the
+stopping index depend on the seed alone, never on the number of workers, on which chunk
+came back first or on how many were folded past the stop. Workers receive the jobs once,
+at start (inherited on fork); a task names (job, scale, first sample, size), so a design's FCL
+geometry is built once per worker. The first chunk of each stream is timed in its worker
+and the run is refused (:func:`foldprint.simulation.costs.check_samples`, on the maximum
+sample count) as ``jam_probability`` would refuse it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Callable, Mapping, Sequence
+
+from .. import costs
+from ...core.constants import DEFAULT_DT_S
+from ...core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
+from ...model.design import Design, has_loops
+from ...model.materials import MaterialLibrary, default_library
+from ..robust import CHUNK, Outcome, n_chunks, run_samples
+from ..scatter import Scatter, default_scatter, samples_between
+from .verdict import JamTest, decide
+
+
+@dataclass(frozen=True)
+class MonteCarloJob:
+    """One design's Monte-Carlo: up to ``samples`` samples of ``seed`` under ``scatter``
+    times each of ``scales`` (1.0 is the estimate itself); with a ``test``, each scale's
+    stream stops when the test decides (``samples`` is then the test's maximum)."""
+
+    design: Design
+    samples: int
+    seed: int
+    scales: tuple[float, ...] = (1.0,)
+    scatter: Scatter | None = None
+    hinge_model: HingeModel | str = DEFAULT_HINGE_MODEL
+    dt: float = DEFAULT_DT_S
+    method: Method = VERDICT_METHOD
+    test: JamTest | None = None
+    mechanics: Mechanics = DEFAULT_MECHANICS
+
+    def __post_init__(self):
+        object.__setattr__(self, "hinge_model", parse(HingeModel, self.hinge_model, "hinge_model"))
+        object.__setattr__(self, "method", parse(Method, self.method, "method"))
+        object.__setattr__(self, "mechanics", parse(Mechanics, self.mechanics, "mechanics"))
+        if self.test is not None and self.test.max_samples != self.samples:
+            raise ValueError(f"a sequential job's samples ({self.samples}) must be its test's maximum "
+                             f"({self.test.max_samples})")
+
+    def scatter_at(self, k: float) -> Scatter:
+        sc = self.scatter or default_scatter()
+        return sc if k == 1.0 else sc.scaled(k)
+
+
+@dataclass(frozen=True)
+class Precomputed:
+    """A design's folded outcomes per scatter model (for a sequential job: the samples its
+    test consumed, up to the stop), to hand to ``jam_probability`` or the jam test as
+    their ``mapper``: they then use these instead of folding (same design name, samples,
+    seed, hinge model, time step, collision method, test and scatter, else they fold)."""
+
+    design: str
+    samples: int
+    seed: int
+    hinge_model: HingeModel
+    dt: float
+    outcomes: tuple[tuple[Scatter, tuple[Outcome, ...], JamTest | None], ...]  # per stream: its test (None: fixed)
+    method: Method = VERDICT_METHOD
+
+    def lookup(self, design: Design, scatter: Scatter, samples: int, seed: int, hinge_model: HingeModel,
+               dt: float, method: Method = VERDICT_METHOD, test: JamTest | None = None) -> tuple[Outcome, ...] | None:
+        if (design.name, seed, hinge_model, dt, method) != (self.design, self.seed, self.hinge_model, self.dt,
+                                                           self.method):
+            return None
+        for sc, outs, t in self.outcomes:  # a stream's test's maximum is its sample count
+            if sc == scatter and t == test and (self.samples if t is None else t.max_samples) == samples:
+                return outs
+        return None
+
+    def __call__(self, fn, items, progress=None):  # a plain mapper for whatever was not precomputed
+        out = []
+        for k, x in enumerate(items):
+            out.append(fn(x))
+            if progress:
+                progress(k + 1, len(items))
+        return out
+
+
+@dataclass(frozen=True)
+class StreamStatus:
+    """Where one (job, scale) stream is: samples consumed in order so far, its maximum,
+    and whether it is finished (its test decided, or every sample of a fixed job in)."""
+
+    job: int
+    scale: float
+    samples: int
+    max_samples: int
+    done: bool
+
+
+#: The smallest chunk a sequential test's strip stream is given when its test could stop
+#: sooner than :data:`~foldprint.simulation.robust.CHUNK` samples on. Our choice: a strip's
+#: sample costs about the same in chunks of 4 as of 16 (measured on helix_graded: 26.9
+#: against 26.6 CPU-ms), one of 1 about 1.5x.
+MIN_CHUNK = 4
+
+_STATE: dict = {}
+
+
+def _init(jobs, library) -> None:
+    from ...core.parallel import die_with_parent, limit_blas_threads
+
+    limit_blas_threads(1)
+    die_with_parent()
+    _STATE["jobs"], _STATE["library"] = jobs, library
+
+
+def _chunk_task(j: int, scatter: Scatter, start: int, size: int) -> tuple[list[Outcome], float]:
+    """Fold samples ``start`` .. ``start + size - 1`` of job ``j``'s stream under ``scatter``
+    (in a worker); their outcomes and the seconds per sample it took."""
+    job: MonteCarloJob = _STATE["jobs"][j]
+    samples = samples_between(job.design, scatter, job.seed, start, min(start + size, job.samples))
+    t0 = time.perf_counter()  # wall, as jam_probability times its first chunk
+    out = run_samples((job.design, _STATE["library"], samples, job.hinge_model, job.dt, False, job.method,
+                       job.mechanics))
+    return out, (time.perf_counter() - t0) / max(1, len(samples))
+
+
+def to_decision(jammed: Sequence[bool], test: JamTest, limit: int) -> int:
+    """The fewest further samples after ``jammed`` with which ``test`` can decide when they
+    all come out alike (all clean or all jammed), at most ``limit``: a chunk of that many
+    cannot be folded past the stop by an unbroken run, the way a test ends most often."""
+    jammed = list(jammed)
+    best = limit
+    for more in (False, True):
+        d = decide(jammed + [more] * limit, test)
+        if d.decided:
+            best = min(best, d.samples - len(jammed))
+    return max(1, best)
+
+
+def _cost(design: Design) -> float:
+    """Relative cost of one sample, for the order only (costliest first): the hinges,
+    times 50 for a pattern with loops (its fold tracks the closure at every step;
+    measured: miura_3x3's sample about 50x a helix strip's)."""
+    return len(design.hinges) * (50.0 if has_loops(design) else 1.0)
+
+
+class _Stream:
+    """One stream of a job: a scale of it (``k``), or a follow-up (``k`` its name), with its
+    scatter model and test; the chunks submitted (by first sample), in flight and back, and
+    the outcomes consumed in stream order (cut at the test's stop)."""
+
+    def __init__(self, j: int, k, job: MonteCarloJob, scatter: Scatter, test: JamTest | None):
+        self.j, self.k, self.job, self.scatter, self.test = j, k, job, scatter, test
+        self.max_samples = job.samples if test is None else test.max_samples  # a probe's may be lower
+        self.next = 0  # the first sample of the next chunk to submit
+        self.flying = 0
+        self.back: dict[int, list[Outcome]] = {}  # chunks back out of order, by first sample
+        self.outcomes: list[Outcome] = []
+        self.done = self.max_samples == 0
+        self.timed = False
+        # a loop pattern's closure is tracked for a chunk's samples together: in chunks of 4
+        # a miura_3x3 sample cost 145 CPU-ms, in chunks of 16 87 (17 % of it curves)
+        self.floor = CHUNK if has_loops(job.design) else MIN_CHUNK
+
+    @property
+    def wants(self) -> bool:
+        return not self.done and self.next < self.max_samples
+
+    @property
+    def sure(self) -> bool:
+        """Its next chunk will be used: a fixed job, or nothing of it in flight."""
+        return self.test is None or self.flying == 0
+
+    def size(self) -> int:
+        """The next chunk's size: :data:`CHUNK`, or with a test and nothing in flight the
+        samples its test needs at least before it can stop (:func:`to_decision`), not below
+        :data:`MIN_CHUNK` (a whole chunk for a loop pattern): a strip whose test stops after
+        6 clean samples folds 6, not 16."""
+        left = self.max_samples - self.next
+        if self.test is None or self.flying:
+            return min(CHUNK, left)
+        need = to_decision([o.jammed for o in self.outcomes], self.test, CHUNK)
+        return min(left, CHUNK, max(need, self.floor))
+
+    def take(self, size: int | None = None) -> tuple[int, int]:
+        """The next chunk, (first sample, size), now in flight."""
+        size = self.size() if size is None else size
+        start = self.next
+        self.next += size
+        self.flying += 1
+        return start, size
+
+    def add(self, start: int, out: list[Outcome]) -> bool:
+        """A chunk came back; consume what is in order; True when this finished the stream."""
+        self.flying -= 1
+        if self.done:
+            return False  # folded past the stop: discarded
+        self.back[start] = out
+        while len(self.outcomes) in self.back:
+            self.outcomes.extend(self.back.pop(len(self.outcomes)))
+        if self.test is not None:
+            d = decide([o.jammed for o in self.outcomes], self.test)
+            if d.decided:
+                del self.outcomes[d.samples:]
+                self.done = True
+        if len(self.outcomes) >= self.max_samples:
+            self.done = True
+        return self.done
+
+    def status(self) -> StreamStatus:
+        return StreamStatus(self.j, self.k, len(self.outcomes), self.max_samples, self.done)
+
+
+def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None = None, workers: int = 1,
+              after: Callable[[int, Precomputed], tuple] | None = None, tasks: Sequence[tuple] = (),
+              progress: Callable[..., None] | None = None,
+              follow: Callable[[int, Precomputed], Mapping] | None = None) -> tuple[list[Precomputed], list, list]:
+    """Fold every job's streams (one per scale) in one pool of ``workers`` processes.
+
+    ``follow(i, pre)`` -> ``{name: (scatter, test)}``: more streams of job ``i`` (the same
+    design, samples and seed; their own scatter model and test), asked each time its
+    streams are all finished (``pre`` its :class:`Precomputed` so far) until it returns
+    none: work that depends on what the first streams decided (check's sweep after the
+    test at 1x, the probes of a flip after the sweep) folds in the same pool.
+    ``after(i, pre)`` -> ``(fn, args)``: a task run in the same pool once job ``i``'s
+    streams are all finished (``pre`` its :class:`Precomputed`); ``tasks``: ``(fn, args)``
+    run in the pool beside them. ``progress(kind, what, out)`` is called as a follow-up
+    (``"after"``, job index, its result) or independent task (``"task"``, its index, its
+    result) finishes, and as a stream consumes samples (``"samples"``, a
+    :class:`StreamStatus`, None). Returns the Precomputed per job, the follow-ups' results
+    and the tasks' results (in input order)."""
+    batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress, follow)
+    for s in batch.streams:  # every stream, at 0 of its maximum, before the first chunk
+        batch.report("samples", s.status())
+    if workers <= 1 or sum(n_chunks(s.max_samples) for s in batch.streams if not s.done) + len(batch.tasks) <= 1:  # no pool for one task
+        batch.run_here()
+    else:
+        batch.run_pool()
+    return batch.pre, batch.after_out, batch.task_out
+
+
+class _Batch:
+    """The state of one :func:`run_batch`: the streams, the follow-ups' and tasks' results."""
+
+    def __init__(self, jobs: list[MonteCarloJob], lib: MaterialLibrary, workers: int, after, tasks: list,
+                 progress, follow=None):
+        for job in jobs:
+            costs.check_sample_memory(job.design, job.samples)
+        self.jobs, self.lib, self.workers, self.after, self.tasks = jobs, lib, workers, after, tasks
+        self.progress, self.follow = progress, follow
+        self.streams = []
+        self.add_streams([_Stream(j, float(k), job, job.scatter_at(float(k)), job.test)
+                          for j, job in enumerate(jobs) for k in job.scales])
+        self.ready: list[int] = []  # jobs whose streams are all finished, follow-up not yet run
+        self.pre: list[Precomputed | None] = [None] * len(jobs)
+        self.after_out: list = [None] * len(jobs)
+        self.task_out: list = [None] * len(tasks)
+
+    def add_streams(self, new: list[_Stream]) -> None:
+        """Streams to fold, kept in order of cost (costliest design first; stable: job,
+        scale and follow-up order kept)."""
+        self.streams = sorted(self.streams + new, key=lambda s: -_cost(self.jobs[s.j].design))
+
+    def precomputed(self, j: int) -> Precomputed:
+        job = self.jobs[j]
+        outs = tuple((s.scatter, tuple(s.outcomes), s.test) for s in self.streams if s.j == j)
+        return Precomputed(job.design.name, job.samples, job.seed, job.hinge_model, job.dt, outs, job.method)
+
+    def finished(self, j: int) -> None:
+        """Job ``j``'s streams are all finished: its follow-up streams if it has more, else
+        it is ready (its Precomputed made, its ``after`` task due)."""
+        pre = self.precomputed(j)
+        more = self.follow(j, pre) if self.follow is not None else None
+        if not more:
+            self.pre[j] = pre
+            self.ready.append(j)
+            return
+        new = [_Stream(j, name, self.jobs[j], sc, test) for name, (sc, test) in more.items()]
+        self.add_streams(new)
+        for s in new:
+            self.report("samples", s.status())
+        if all(s.done for s in new):  # nothing to fold (no samples)
+            self.finished(j)
+
+    def report(self, kind: str, what) -> None:
+        if self.progress:
+            out = self.after_out[what] if kind == "after" else self.task_out[what] if kind == "task" else None
+            self.progress(kind, what, out)
+
+    def chunk_done(self, s: _Stream, start: int, out: list[Outcome], per_sample: float) -> None:
+        """Record a folded chunk (the first back of each stream times the run, refused as
+        jam_probability would refuse it); a job whose streams are all finished is ready."""
+        if not s.timed:
+            s.timed = True
+            if s.max_samples > CHUNK:
+                costs.check_samples(s.max_samples, per_sample, self.workers, s.job.design.name)
+        was = s.done
+        s.add(start, out)
+        if not was:
+            self.report("samples", s.status())
+        if s.done and not was and all(t.done for t in self.streams if t.j == s.j):
+            self.finished(s.j)
+
+    def run_here(self) -> None:
+        outer = dict(_STATE)  # a worker of an enclosing batch (the gallery's) keeps its jobs
+        _init(self.jobs, self.lib)
+        try:
+            for j in range(len(self.jobs)):
+                if all(s.done for s in self.streams if s.j == j):  # no samples
+                    self.finished(j)
+            while (s := next((t for t in self.streams if t.wants), None)) is not None:
+                start, size = s.take()
+                self.chunk_done(s, start, *_chunk_task(s.j, s.scatter, start, size))
+        finally:
+            _STATE.clear()
+            _STATE.update(outer)
+        for j in sorted(self.ready):
+            if self.after is not None:
+                fn, args = self.after(j, self.pre[j])
+                self.after_out[j] = fn(*args)
+                self.report("after", j)
+        for i, (fn, args) in enumerate(self.tasks):
+            self.task_out[i] = fn(*args)
+            self.report("task", i)
+
+    def next_work(self) -> tuple | None:
+        """What to submit to a free worker: a chunk whose outcome will be used (costliest
+        stream first), else a finished job's follow-up, else a chunk that may be folded
+        past its stream's stop; None when there is nothing left to start."""
+        for s in self.streams:
+            if s.wants and s.sure:
+                return ("chunk", s, s.take())
+        while self.ready:
+            j = self.ready.pop(0)
+            if self.after is not None:
+                fn, args = self.after(j, self.pre[j])
+                return ("after", j, fn, args)
+        open_ = [s for s in self.streams if s.wants]
+        if open_:
+            s = min(open_, key=lambda t: t.flying)  # stable: the costliest among the least fed
+            return ("chunk", s, s.take())
+        return None
+
+    def run_pool(self) -> None:
+        import multiprocessing as mp
+        import sys
+        from concurrent.futures import ProcessPoolExecutor
+
+        ctx = mp.get_context("fork") if sys.platform.startswith("linux") else None
+        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_init,
+                                   initargs=(self.jobs, self.lib))
+        pending: dict = {}
+        try:
+            for i, (fn, args) in enumerate(self.tasks):  # short, independent: first, off the critical path
+                pending[pool.submit(fn, *args)] = ("task", i)
+            for j in range(len(self.jobs)):
+                if all(s.done for s in self.streams if s.j == j):  # no samples
+                    self.finished(j)
+            self.drain(pool, pending)
+        except BaseException:
+            _stop(pool)
+            raise
+        _stop(pool)
+
+    def fill(self, pool, pending: dict) -> None:
+        """Start work until every worker has some (or nothing is left to start)."""
+        while sum(1 for kind, *_ in pending.values() if kind != "stale") < self.workers:
+            work = self.next_work()
+            if work is None:
+                return
+            if work[0] == "chunk":
+                _, s, (start, size) = work
+                pending[pool.submit(_chunk_task, s.j, s.scatter, start, size)] = ("chunk", s, start)
+            else:
+                _, j, fn, args = work
+                pending[pool.submit(fn, *args)] = ("after", j)
+
+    def drain(self, pool, pending: dict) -> None:
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        self.fill(pool, pending)
+        while any(kind != "stale" for kind, *_ in pending.values()):
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                kind, *key = pending.pop(fut)
+                if kind == "chunk":
+                    self.chunk_done(key[0], key[1], *fut.result())
+                    self.cancel_stale(pending)
+                elif kind == "after":
+                    self.after_out[key[0]] = fut.result()
+                    self.report("after", key[0])
+                elif kind == "task":
+                    self.task_out[key[0]] = fut.result()
+                    self.report("task", key[0])
+            self.fill(pool, pending)
+
+    @staticmethod
+    def cancel_stale(pending: dict) -> None:
+        """Chunks of finished streams: cancelled if not started, else marked stale (their
+        outcomes would be discarded; nothing waits for them)."""
+        for fut, (kind, *key) in list(pending.items()):
+            if kind == "chunk" and key[0].done:
+                if fut.cancel():
+                    key[0].flying -= 1
+                    del pending[fut]
+                else:
+                    pending[fut] = ("stale", *key)
+
+
+def _stop(pool) -> None:
+    """Shut the pool down without waiting for chunks folded past their stream's stop: the
+    workers still folding one are ended (``terminate_workers`` where the executor has it,
+    Python >= 3.14, else each worker process is terminated)."""
+    running = [p for p in (getattr(pool, "_processes", None) or {}).values() if p.is_alive()]
+    pool.shutdown(wait=False, cancel_futures=True)
+    if hasattr(pool, "terminate_workers"):
+        pool.terminate_workers()
+        return
+    for p in running:
+        p.terminate()
+    for p in running:
+        p.join()
