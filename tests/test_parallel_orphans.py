@@ -34,7 +34,7 @@ PARENT = textwrap.dedent("""
             parallel._deathsig = lambda: False
         if sys.argv[2] == "batch":  # the batch pool's own initializer
             from concurrent.futures import ProcessPoolExecutor
-            from foldprint.simulation import batch
+            from foldprint.simulation.jamtest import pool as batch
             with ProcessPoolExecutor(2, initializer=batch._init, initargs=((), None)) as pool:
                 list(pool.map(work, range(2)))
         else:
