@@ -19,15 +19,7 @@ GiB = 2 ** 30
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.fixture(autouse=True)
-def _defaults(monkeypatch):
-    monkeypatch.delenv("FOLDPRINT_TIME_BUDGET", raising=False)
-    monkeypatch.delenv("FOLDPRINT_MAX_MEMORY", raising=False)
-    guards.set_max_memory(None)
-    guards.set_time_budget(None)
-    yield
-    guards.set_max_memory(None)
-    guards.set_time_budget(None)
+pytestmark = pytest.mark.usefixtures("guard_defaults")
 
 
 def _coil(n: int):

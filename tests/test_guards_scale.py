@@ -26,15 +26,7 @@ def _strip(n, angle=30.0):
     return strip(f"s{n}", [10.0] * n, [angle if k % 2 == 0 else -angle for k in range(n - 1)], ["H-3"] * (n - 1))
 
 
-@pytest.fixture(autouse=True)
-def _defaults(monkeypatch):
-    monkeypatch.delenv("FOLDPRINT_TIME_BUDGET", raising=False)
-    monkeypatch.delenv("FOLDPRINT_MAX_MEMORY", raising=False)
-    guards.set_max_memory(None)
-    guards.set_time_budget(None)
-    yield
-    guards.set_max_memory(None)
-    guards.set_time_budget(None)
+pytestmark = pytest.mark.usefixtures("guard_defaults")
 
 
 def test_runs_that_finish_in_seconds_are_not_refused():
