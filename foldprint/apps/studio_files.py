@@ -19,8 +19,8 @@ import os
 import re
 from pathlib import Path
 
-from ..core.errors import ExportError, FoldprintError
-from ..core.files import TMP_PREFIX, TMP_SUFFIX, ensure_dir, fsync_dir, rename_noreplace, token, write_atomic, write_new
+from ..core.errors import FoldprintError
+from ..core.files import fsync_dir, write_atomic
 from ..io.design_io import design_to_toml
 from ..model.design import Design
 from ..render import viewer
@@ -57,20 +57,11 @@ def save_design(design: Design, folder: Path, name: str, overwrite: bool = False
         if not path.is_file():
             raise FoldprintError(f"save: {path} is not a regular file")
         return write_atomic(path, text)
-    ensure_dir(path.parent)
-    tmp = path.parent / f"{TMP_PREFIX}{token()}{TMP_SUFFIX}"
     try:
-        write_new(tmp, text)
-        rename_noreplace(tmp, path)
-        tmp = None
-        fsync_dir(path.parent)
+        write_atomic(path, text, replace=False)
     except FileExistsError:
         raise SaveExists(f"save: {path} was created meanwhile; confirm to overwrite it") from None
-    except OSError as exc:
-        raise ExportError(f"{path}: cannot write: {exc.strerror or exc}") from None
-    finally:
-        if tmp is not None and os.path.lexists(tmp):
-            os.unlink(tmp)
+    fsync_dir(path.parent)
     return path
 
 

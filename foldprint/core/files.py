@@ -94,9 +94,10 @@ def write_new(path: str | Path, data: bytes) -> None:
         os.fsync(fh.fileno())
 
 
-def write_atomic(path: str | Path, data: bytes | str) -> Path:
+def write_atomic(path: str | Path, data: bytes | str, replace: bool = True) -> Path:
     """Write ``data`` to ``path`` so that no half-written file is ever left behind: a temp
-    file beside it (``.foldprint-XXXXXXXX.tmp``), flushed, then renamed over ``path``."""
+    file beside it (``.foldprint-XXXXXXXX.tmp``), flushed, then renamed over ``path``;
+    with ``replace=False`` renamed only if ``path`` does not exist (FileExistsError else)."""
     p = Path(path)
     if isinstance(data, str):
         data = data.encode("utf-8")
@@ -105,8 +106,10 @@ def write_atomic(path: str | Path, data: bytes | str) -> Path:
     try:
         tmp = p.parent / f"{TMP_PREFIX}{token()}{TMP_SUFFIX}"
         write_new(tmp, data)
-        os.replace(tmp, p)
+        (os.replace if replace else rename_noreplace)(tmp, p)
         tmp = None
+    except FileExistsError:
+        raise
     except OSError as exc:
         raise ExportError(f"{p}: cannot write: {exc.strerror or exc}") from None
     finally:
