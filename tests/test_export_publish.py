@@ -703,3 +703,17 @@ def test_a_legacy_export_that_is_the_current_folder_becomes_plain_files(tmp_path
     write_set(out, NEW, force=True)
     assert sorted(os.listdir(out)) == sorted([MANIFEST, *(n for n, _ in NEW)])
     assert_plain_set(out, dict(NEW))
+
+
+def test_write_atomic_without_replace_keeps_what_is_there(tmp_path):
+    """``replace=False`` (the studio's save of a new file) writes a new file whole, but
+    never over one that exists: FileExistsError, the old bytes kept, no temp file left."""
+    from foldprint.core.files import write_atomic
+
+    p = tmp_path / "d.toml"
+    assert write_atomic(p, "first", replace=False) == p and p.read_text() == "first"
+    with pytest.raises(FileExistsError):
+        write_atomic(p, "second", replace=False)
+    assert p.read_text() == "first" and sorted(x.name for x in tmp_path.iterdir()) == ["d.toml"]
+    write_atomic(p, "third")  # the default replaces
+    assert p.read_text() == "third"
