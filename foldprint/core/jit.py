@@ -1,0 +1,81 @@
+"""Compiled kernels: numba when it loads, the numpy reference path otherwise.
+
+A kernel module (``*_kernels.py`` beside the numpy code it speeds up) decorates its
+functions with :func:`njit` and is imported lazily, only by a caller that has asked
+:func:`use_kernels` first, so ``foldprint --help`` never loads numba or LLVM. The numpy
+code stays the reference: tests compare the two paths, and a platform where numba cannot
+load (no wheel for the Python, a broken llvmlite) runs the numpy path with one note
+(:func:`fallback_note`).
+
+``FOLDPRINT_KERNELS=numpy`` selects the reference path (tests, benchmarks, a suspected
+kernel bug); ``numba`` (the default) uses the kernels where numba loads.
+Compiled code is cached on disk (``cache=True``: beside the module, or numba's user
+cache where the package folder is read-only), so only the first command after an install
+pays the compilation (docs/kernels.md measures it).
+"""
+
+from __future__ import annotations
+
+import os
+from functools import lru_cache
+from typing import Callable, TypeVar
+
+from .errors import DesignError
+from .modes import Mode
+
+F = TypeVar("F", bound=Callable)
+
+ENV = "FOLDPRINT_KERNELS"
+
+
+class Kernels(Mode):
+    """Which implementation runs the Monte-Carlo sample's inner loops. ``NUMBA``: the
+    compiled kernels (the default, where numba loads). ``NUMPY``: the reference path."""
+
+    NUMBA = "numba"
+    NUMPY = "numpy"
+
+
+def requested() -> Kernels:
+    """The path asked for by ``FOLDPRINT_KERNELS`` (default: numba)."""
+    text = os.environ.get(ENV, Kernels.NUMBA.value).strip().lower() or Kernels.NUMBA.value
+    try:
+        return Kernels(text)
+    except ValueError:
+        raise DesignError(
+            f"environment variable {ENV}={text!r} is not a kernel path; "
+            f"use one of {', '.join(k.value for k in Kernels)}"
+        ) from None
+
+
+@lru_cache(maxsize=1)
+def _numba_error() -> str | None:
+    """None when numba imports, else why it does not (cached: tried once per process)."""
+    try:
+        import numba  # noqa: F401
+    except Exception as exc:  # ImportError, or an llvmlite that cannot load its library
+        return f"{type(exc).__name__}: {exc}"
+    return None
+
+
+def use_kernels() -> bool:
+    """True when the compiled kernels run: numba requested (the default) and loadable."""
+    return requested() is Kernels.NUMBA and _numba_error() is None
+
+
+def fallback_note() -> str | None:
+    """One line for the user when numba was requested but cannot load, else None."""
+    if requested() is not Kernels.NUMBA:
+        return None
+    err = _numba_error()
+    if err is None:
+        return None
+    return f"compiled kernels unavailable ({err}); using the numpy path, which gives the same results more slowly"
+
+
+def njit(fn: F) -> F:
+    """Compile ``fn`` with numba (``nopython``, cached on disk, no GIL held). Call only
+    from a kernel module imported after :func:`use_kernels` said yes."""
+    import numba
+
+    return numba.njit(cache=True, nogil=True)(fn)
