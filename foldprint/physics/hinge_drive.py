@@ -218,7 +218,7 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
     else:
         angles = drive.angles(times)
-    poses = forward(design, angles, model) if loop is None else _held_forward(design, angles, model)
+    poses = forward(design, angles, model, compiled=True) if loop is None else _held_forward(design, angles, model)
     if loop is not None and model == HingeModel.ARC:
         loop = _with_arc_gap(design, loop, angles, poses)
     for a in (times, ratios, angles, poses):
@@ -240,7 +240,7 @@ def _held_forward(design: Design, angles: np.ndarray, model: HingeModel) -> np.n
     drive stopped moving: the poses of each distinct configuration computed once (the
     same numbers)."""
     moved = _held(angles)
-    return forward(design, angles[moved], model)[np.cumsum(moved) - 1]
+    return forward(design, angles[moved], model, compiled=True)[np.cumsum(moved) - 1]
 
 
 def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HINGE_MODEL,

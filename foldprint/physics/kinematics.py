@@ -23,6 +23,7 @@ import numpy as np
 from ..model.derived import derived
 from ..model.design import Design, Hinge, has_loops, spanning_tree, tangent_factor
 from ..core.errors import DesignError
+from ..core.jit import use_kernels
 from .loops.closure import LoopSolution
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
 
@@ -161,12 +162,16 @@ def local_transforms(frame: HingeFrame, angle: np.ndarray, model: HingeModel) ->
 
 
 def forward(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HINGE_MODEL,
-            frames: list[HingeFrame] | None = None) -> np.ndarray:
+            frames: list[HingeFrame] | None = None, compiled: bool = False) -> np.ndarray:
     """Panel poses (n_t, n_panels, 4, 4) for hinge angles (n_t, n_hinges) in
     ``design.hinges`` order (rad): every tree hinge's child transform in one array pass
     (:meth:`TreeTransforms.local`), then one product per hinge root outward (the parent's
     pose times the child transform, exactly; :meth:`TreeTransforms.poses` takes the
-    products by pointer doubling instead)."""
+    products by pointer doubling instead). ``compiled``: the simulation's and the
+    Monte-Carlo's callers ask for the compiled kernel
+    (:func:`~foldprint.physics.kinematics_kernels.chain_poses`, where
+    :func:`~foldprint.core.jit.use_kernels`; the same poses to round-off); geometry,
+    exports and renders keep this reference path."""
     angles = np.atleast_2d(np.asarray(angles, float))
     if frames is None:
         tt = derived(design, ("tree_transforms", str(model)), lambda: TreeTransforms(design, model))
@@ -174,6 +179,8 @@ def forward(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HING
         tt = TreeTransforms(design, model, frames)
     n_t, n_p = angles.shape[0], len(design.panels)
     root = design.panel_index()[design.root]
+    if compiled and use_kernels():
+        return tt.compiled_poses(angles, root, fill_eye=False)
     parent, child = tt.parent.tolist(), tt.child.tolist()
     poses = np.empty((n_t, n_p, 4, 4))
     # a block of times at a time: the working arrays (panel-major poses, the hinges'
@@ -204,6 +211,7 @@ class TreeTransforms:
         self.model = HingeModel(str(model))
         n = len(design.panels)
         self.n = n
+        self.root = int(np.setdiff1d(np.arange(n), [f.child for f in frames])[0]) if n else 0
         self.hinge = np.array([f.index for f in frames], dtype=np.int64)
         self.child = np.array([f.child for f in frames], dtype=np.int64)
         parent = np.arange(n)
@@ -255,9 +263,22 @@ class TreeTransforms:
         out = np.ascontiguousarray(out.transpose(0, 3, 1, 2))
         return out if hinge_major else out.swapaxes(0, 1)
 
+    def compiled_poses(self, angles: np.ndarray, root: int, fill_eye: bool = True) -> np.ndarray:
+        """World poses (m, n_panels, 4, 4) by the compiled kernel
+        (:mod:`foldprint.physics.kinematics_kernels`): one product per hinge root outward."""
+        from .kinematics_kernels import chain_poses
+
+        return chain_poses(np.ascontiguousarray(np.atleast_2d(np.asarray(angles, float))), self.hinge,
+                           self.parent, self.child, int(root), self.n, self.k, self.kk, self.q, self.start,
+                           self.nrm, self.line, self.w, self.centred, self.model == HingeModel.POINT, fill_eye)
+
     def poses(self, angles: np.ndarray) -> np.ndarray:
         """World poses (m, n_panels, 4, 4) for hinge angles (m, n_hinges): prefix products
-        root outward by pointer doubling (A <- A[ancestor] @ A, log2(depth) rounds)."""
+        root outward by pointer doubling (A <- A[ancestor] @ A, log2(depth) rounds); the
+        compiled kernel's products down the tree where :func:`~foldprint.core.jit.use_kernels`
+        (the same poses to round-off)."""
+        if use_kernels():
+            return self.compiled_poses(angles, self.root)
         loc = self.local(angles)
         A = np.empty((len(loc), self.n, 4, 4))
         A[:] = _EYE4
