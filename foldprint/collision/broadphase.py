@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.jit import use_kernels
 from ..model.design import Design
 
 
@@ -54,8 +55,13 @@ def pair_bounds(checker, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
 
 
 def panel_centres(checker: SweptChecker, poses: np.ndarray) -> np.ndarray:
-    """World centroids (n_t, n, 3) of every panel."""
+    """World centroids (n_t, n, 3) of every panel (the compiled kernel of
+    :mod:`foldprint.collision.broadphase_kernels` where :func:`~foldprint.core.jit.use_kernels`)."""
     c = checker.tree.centroid
+    if use_kernels() and poses.ndim == 4:
+        from .broadphase_kernels import centres
+
+        return centres(np.ascontiguousarray(poses, float), np.ascontiguousarray(c, float))
     R = poses[..., :3, :3]
     return R[..., 0] * c[:, 0, None] + R[..., 1] * c[:, 1, None] + R[..., 2] * c[:, 2, None] + poses[..., :3, 3]
 

@@ -129,18 +129,24 @@ class SweptChecker:
         self.model = HingeModel(str(self.model))
         self.frames = hinge_frames(d)
         self.pieces = []
-        for i, (p, poly) in enumerate(zip(d.panels, rigid_polygons(d, self.model))):
+        verts, offsets = [], [0]  # every panel's prism vertices (panel frame): the compiled screen's
+        for i, (p, poly) in enumerate(zip(d.panels, rigid_polygons(d, self.model))):  # bounds (swept3d_kernels)
             objs = []
             for ring in convex_pieces(poly):
                 v, f = prism(ring, p.thickness)
                 objs.append(fcl.CollisionObject(fcl.Convex(v, len(f) and _count_faces(f), f)))
+                verts.append(v)
             self.pieces.append(objs)
+            offsets.append(offsets[-1] + sum(len(v) for v in verts[len(verts) - len(objs):]))
+        self.hull_pts = np.ascontiguousarray(np.concatenate(verts) if verts else np.zeros((0, 3)), float)
+        self.hull_off = np.array(offsets, dtype=np.int64)
         # bounds follow the spanning tree; hinges closing loops (tree=False) move nothing
         self.tree = tree_bounds(d, self.model, [f for f in self.frames if f.tree])
         self.hier = build_hierarchy(self.tree)
         pts = np.concatenate([p.outline for p in d.panels])
         extent = float(np.max(np.abs(pts))) + float(np.ptp(pts, axis=0).max())
         self.tol = max(self.contact_tol_mm, REL_TOL * extent)
+        self.extent = extent
         self._pairs: dict = {}
         self.transforms = TreeTransforms(d, self.model, self.frames)
         self._world: dict = {}  # time -> world poses of every panel (bounded cache)
@@ -233,6 +239,11 @@ class SweptChecker:
             idx, lev = t.pair_levers(i, j, t.qp[i] + t.reach[i], t.qp[j] + t.reach[j], path)
             hit = self._pairs[pair] = (up_i, down_j, l, idx, lev)
         return hit
+
+    def levers(self, pair) -> tuple[np.ndarray, np.ndarray]:
+        """The hinges on ``pair``'s tree path and their levers (the motion bound's terms:
+        F = sum lever |rho - rho_0|), computed once per pair."""
+        return self._path(pair)[3:]
 
     def _bound(self, pair, ang0: np.ndarray, ang: np.ndarray) -> np.ndarray:
         _, _, _, idx, lev = self._path(pair)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.jit import use_kernels
 from ..model.design import Design
 from .broadphase import candidate_runs, pair_bounds
 from .narrow_cost import check_narrow
@@ -25,6 +26,8 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
     if k_start >= len(times):
         return None, []
     runs = candidate_runs(checker, angles, poses, k_start, skip, times)
+    if len(runs) and use_kernels():
+        runs = screen(checker, runs, angles, poses)
     check_narrow(checker, runs, poses.nbytes + angles.nbytes)  # what the runs hold open, before stepping
     best, initial = None, []
     # advance every candidate pair together in time (a heap on the sample each has
@@ -62,6 +65,29 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
         if best is None or c.time < best.time:
             best = c
     return best, initial
+
+
+def screen(checker: SweptChecker, runs: np.ndarray, angles: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """The candidate runs (m, 4: i, j, ka, kb) each started at its first sample the compiled
+    screen cannot certify apart (:func:`foldprint.collision.swept3d_kernels.screen_runs`:
+    vertex-projection lower bounds and the pair's motion bound), runs certified to their
+    end dropped, sorted by their first sample as before. Only the samples it leaves reach
+    FCL; the narrow phase walks them as it walked the whole run."""
+    from .swept3d_kernels import screen_runs
+
+    idx, lev, off = [], [], [0]
+    for i, j in runs[:, :2].tolist():
+        a, b = checker.levers((i, j))
+        idx.append(np.asarray(a, np.int64))
+        lev.append(np.asarray(b, float))
+        off.append(off[-1] + len(a))
+    start = screen_runs(runs, np.ascontiguousarray(angles, float), np.ascontiguousarray(poses, float),
+                        checker.hull_pts, checker.hull_off, np.concatenate(idx), np.concatenate(lev),
+                        np.array(off, np.int64), float(checker.tol), 1e-9 * (checker.extent + 1.0))
+    out = runs.copy()
+    out[:, 2] = start
+    out = out[start < runs[:, 3]]
+    return out[np.argsort(out[:, 2], kind="stable")]
 
 
 def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 19, block: int = 4096):

@@ -55,6 +55,7 @@ from functools import lru_cache
 import numpy as np
 
 from ...core.constants import RECOVERY_HORIZON_S
+from ...core.jit import use_kernels
 from ...model.materials import RecoveryParams
 from .curve import N_LAYERS, N_TERMS, curve_time_grid, combine_strips, is_graded, spectrum, strip_tgs
 from .relaxation import CUT, Block, Buffers, RelaxationTable, relaxation_table, table_block
@@ -331,9 +332,14 @@ def _curves(p: RecoveryParams, slab: _Slab, tg: np.ndarray, bath: np.ndarray, in
     axis at a time (:data:`BLOCK_ELEMENTS`)."""
     n = len(tg)
     _, w, wm = _layers()
+    dt = np.diff(t, prepend=t[:1])  # each time's step from the previous one (0 at the first)
+    if table is not None and use_kernels():  # the compiled path (batch_kernels): the same model
+        from .batch_kernels import curves_table
+
+        return curves_table(slab.alpha, slab.half2, slab.nsq, slab.shape, tg, bath, float(initial_c), t, dt, w, wm,
+                            float(p.c1), float(p.c2), CUT, table.y0, table.step, table.nodes)
     tau, g = spectrum(p)
     ratio, mean_t = np.empty((n, len(t))), np.empty((n, len(t)))
-    dt = np.diff(t, prepend=t[:1])  # each time's step from the previous one (0 at the first)
     bt = max(1, BLOCK_ELEMENTS // (n * len(w) * SUM_GROUP)) * SUM_GROUP
     buf = Buffers(n, len(w), min(bt, len(t)))
     carry = np.zeros((n, len(w))), np.zeros((n, len(w)))  # xi and rate at the previous block's end
