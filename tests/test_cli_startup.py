@@ -24,10 +24,10 @@ sys.path.insert(0, str(ROOT / "scripts"))
 from cli_help_snapshot import COLUMNS, render  # noqa: E402
 
 #: what a listing or a help page must not import: the numerical, geometry, plotting and
-#: file-format libraries, and pydantic (typer >= 0.29 coerces every option through it;
-#: pyproject.toml bounds typer below 0.29)
-HEAVY = ("numpy", "scipy", "shapely", "trimesh", "manifold3d", "fcl", "matplotlib", "meshio", "h5py", "PIL",
-         "pygltflib", "pydantic", "starlette", "uvicorn", "anyio")
+#: file-format libraries, the kernels' compiler (numba, llvmlite), and pydantic (typer >=
+#: 0.29 coerces every option through it; pyproject.toml bounds typer below 0.29)
+HEAVY = ("numpy", "numba", "llvmlite", "scipy", "shapely", "trimesh", "manifold3d", "fcl", "matplotlib", "meshio",
+         "h5py", "PIL", "pygltflib", "pydantic", "starlette", "uvicorn", "anyio")
 
 _PROBE = """
 import contextlib, io, json, sys

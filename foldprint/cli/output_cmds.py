@@ -18,7 +18,7 @@ from ..core.modes import DEFAULT_MECHANICS, DEFAULT_STATE, Mechanics, State, par
 from ..core.errors import FoldprintError
 from .lazy import summary
 from .options import CREASE_HELP, SCALE_HELP, check_out_dir
-from .printing import OUTPUT_STATE, echo_json, echo_note, noted
+from .printing import OUTPUT_STATE, echo_json, echo_note, note_kernels, noted
 from .progress import with_progress
 from .root import app
 
@@ -131,6 +131,7 @@ def gallery(
 
     Example: foldprint gallery --out output/gallery
     """
+    note_kernels()
     from ..apps.gallery.runner import build_gallery
 
     out = check_out_dir(out)

@@ -13,6 +13,8 @@ from ..core.display import clipped, first_few, hinge_lines, seconds
 
 #: --quiet and --verbose of this run (set by the root's callback).
 OUTPUT_STATE = {"quiet": False, "verbose": False}
+#: whether this process has said that the compiled kernels cannot load (said once)
+_KERNELS = {"noted": False}
 
 
 def echo_json(obj) -> None:
@@ -25,7 +27,22 @@ def noted(loaded):
     d, lib = loaded
     for note in d.notes:
         echo_note(f"note: {d.source or d.name}: {note}")
+    note_kernels()
     return d, lib
+
+
+def note_kernels() -> None:
+    """One note, once per process, when the compiled kernels were asked for but numba
+    cannot load (:func:`foldprint.core.jit.fallback_note`): the numpy path runs instead.
+    Called by the commands that fold designs (never by ``--help``: it tries numba)."""
+    if _KERNELS["noted"]:
+        return
+    _KERNELS["noted"] = True
+    from ..core.jit import fallback_note
+
+    msg = fallback_note()
+    if msg:
+        echo_note(f"note: {msg}")
 
 
 def echo_note(msg: str) -> None:

@@ -29,7 +29,7 @@ from ..core.jit import njit
 
 
 @njit
-def _lower_bound(pose_i, pose_j, pi, pj):  # pragma: no cover - compiled
+def lower_bound(pose_i, pose_j, pi, pj):  # pragma: no cover - compiled
     """A lower bound of the distance between the convex hulls of the vertices ``pi`` (a,
     3) at ``pose_i`` and ``pj`` (b, 3) at ``pose_j`` (panel frames, (4, 4) poses)."""
     na, nb = pi.shape[0], pj.shape[0]
@@ -123,7 +123,7 @@ def screen_runs(runs, angles, poses, pts, poff, idx, lev, loff, tol, margin):  #
         ri = idx[loff[r]:loff[r + 1]]
         rl = lev[loff[r]:loff[r + 1]]
         k = ka
-        d = _lower_bound(poses[k, i], poses[k, j], pi, pj)
+        d = lower_bound(poses[k, i], poses[k, j], pi, pj)
         fk = 0.0
         while k < kb and d > tol:
             k2 = _reach(angles, k, kb, ka, ri, rl, fk + d - tol - margin)
@@ -133,9 +133,9 @@ def screen_runs(runs, angles, poses, pts, poff, idx, lev, loff, tol, margin):  #
             if k2 > k:
                 k = k2
                 fk = _motion(angles, k, ka, ri, rl)
-                d = _lower_bound(poses[k, i], poses[k, j], pi, pj)
+                d = lower_bound(poses[k, i], poses[k, j], pi, pj)
                 continue
-            d1 = _lower_bound(poses[k + 1, i], poses[k + 1, j], pi, pj)
+            d1 = lower_bound(poses[k + 1, i], poses[k + 1, j], pi, pj)
             f1 = _motion(angles, k + 1, ka, ri, rl)
             if d1 > tol and d + d1 - (f1 - fk) - margin > 2.0 * tol:
                 k, d, fk = k + 1, d1, f1
