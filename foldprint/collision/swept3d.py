@@ -135,7 +135,7 @@ class SweptChecker:
             for ring in convex_pieces(poly):
                 v, f = prism(ring, p.thickness)
                 objs.append(fcl.CollisionObject(fcl.Convex(v, len(f) and _count_faces(f), f)))
-                verts.append(v)
+                verts.append(v.copy())  # a copy: holding FCL's own array changed its distances (measured)
             self.pieces.append(objs)
             offsets.append(offsets[-1] + sum(len(v) for v in verts[len(verts) - len(objs):]))
         self.hull_pts = np.ascontiguousarray(np.concatenate(verts) if verts else np.zeros((0, 3)), float)

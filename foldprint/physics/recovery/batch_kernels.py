@@ -63,6 +63,46 @@ def vexp(x, out, bits):  # pragma: no cover - compiled
 
 
 @njit
+def _slab_theta(tk, alpha, half2, nsq, shape, cut, theta, fo, xs, e, bits_n):  # pragma: no cover - compiled
+    """Excess temperature theta (n * n_z,) of every hinge and layer at time ``tk``: the
+    slab series term by term, each exactly 0 where Fo zeta^2 > ``cut`` (and so is every
+    later term: zeta rises with the term); 1 at t = 0, where the series converges slowly."""
+    n, n_terms, n_z = nsq.shape[0], nsq.shape[1], shape.shape[2]
+    if tk <= 0.0:
+        theta[:] = 1.0
+        return
+    theta[:] = 0.0
+    for i in range(n):
+        fo[i] = (alpha * tk) / half2[i]
+    for j in range(n_terms):
+        alive = 0
+        for i in range(n):
+            x = fo[i] * nsq[i, j]
+            alive += x >= -cut
+            xs[i] = max(x, -cut)
+        if alive == 0:
+            break
+        vexp(xs, e, bits_n)
+        for i in range(n):
+            ei = e[i] if fo[i] * nsq[i, j] >= -cut else 0.0
+            for z in range(n_z):
+                theta[i * n_z + z] += shape[j, i, z] * ei
+
+
+@njit
+def _unrecovered(x, y0, step, nodes):  # pragma: no cover - compiled
+    """U(xi) read from the relaxation table: linear in ln xi between its nodes, the first
+    node's value below it (and at xi = 0), the last's past it."""
+    last = nodes.shape[0] - 2
+    y = 0.0
+    if x > 0.0:
+        y = min(max((math.log(x) - y0) * (1.0 / step), 0.0), last)
+    fl = math.floor(y)
+    b = int(fl)
+    return nodes[b, 1] * (y - fl) + nodes[b, 0]
+
+
+@njit
 def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, dt, w, wm, c1, c2, cut, y0, step,
                  nodes):  # pragma: no cover - compiled
     """Ratio and mean temperature (n, m) of n hinges at the m times ``t`` (``dt``: each
@@ -73,48 +113,20 @@ def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, dt, w, wm, c1
     (ln xi - ``y0``) / ``step``. Time by time, every hinge and layer at once (the
     exponentials in vectorised loops, :func:`vexp`; the log is numba's scalar one: a
     search of the nodes instead cost more)."""
-    n, m = tg.shape[0], t.shape[0]
-    n_terms, n_z = nsq.shape[1], w.shape[0]
+    n, m, n_z = tg.shape[0], t.shape[0], w.shape[0]
     lanes = n * n_z
-    last = nodes.shape[0] - 2
-    ratio = np.empty((n, m))
-    mean_t = np.empty((n, m))
-    xi = np.zeros(lanes)
-    rate_prev = np.zeros(lanes)
-    rate = np.empty(lanes)
-    lg = np.empty(lanes)
+    ratio, mean_t = np.empty((n, m)), np.empty((n, m))
+    xi, rate_prev = np.zeros(lanes), np.zeros(lanes)
+    rate, lg, theta = np.empty(lanes), np.empty(lanes), np.empty(lanes)
     bits = np.empty(lanes, np.int64)
-    theta = np.empty(lanes)
-    node = np.zeros(lanes, np.int64)
-    fo = np.empty(n)
-    xs = np.empty(n)
-    e = np.empty(n)
-    bits_n = np.empty(n, np.int64)
+    fo, xs, e, bits_n = np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64)
     top = np.zeros(n)
     tgk = tg + 273.15
     arr_k = (c1 / c2) * tgk ** 2
     inv_tgk = 1.0 / tgk
     span = bath - initial_c
     for k in range(m):
-        if t[k] <= 0.0:
-            theta[:] = 1.0
-        else:
-            theta[:] = 0.0
-            for i in range(n):
-                fo[i] = (alpha * t[k]) / half2[i]
-            for j in range(n_terms):  # term j is cut where Fo zeta^2 > CUT, and so is every later term
-                alive = 0
-                for i in range(n):
-                    x = fo[i] * nsq[i, j]
-                    alive += x >= -cut
-                    xs[i] = max(x, -cut)
-                if alive == 0:
-                    break
-                vexp(xs, e, bits_n)
-                for i in range(n):
-                    ei = e[i] if fo[i] * nsq[i, j] >= -cut else 0.0
-                    for z in range(n_z):
-                        theta[i * n_z + z] += shape[j, i, z] * ei
+        _slab_theta(t[k], alpha, half2, nsq, shape, cut, theta, fo, xs, e, bits_n)
         for i in range(n):
             mean = 0.0
             for z in range(n_z):
@@ -122,27 +134,19 @@ def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, dt, w, wm, c1
                 temp = bath[i] - min(max(theta[q], 0.0), 1.0) * span[i]
                 mean += temp * wm[z]
                 d = temp - tg[i]
-                if d < 0.0:
+                if d < 0.0:  # 1 / a_T: Arrhenius below Tg, WLF above
                     lg[q] = ((1.0 / (temp + 273.15) - inv_tgk[i]) * arr_k[i]) * -_LN10
                 else:
                     lg[q] = ((d * -c1) / (d + c2)) * -_LN10
             mean_t[i, k] = mean
         vexp(lg, rate, bits)
-        for q in range(lanes):
+        for q in range(lanes):  # the reduced time: a trapezoid sum
             xi[q] += (rate[q] + rate_prev[q]) * 0.5 * dt[k]
             rate_prev[q] = rate[q]
         for i in range(n):
             uw = 0.0
             for z in range(n_z):
-                q = i * n_z + z
-                x = xi[q]
-                if x > 0.0:
-                    y = min(max((math.log(x) - y0) * (1.0 / step), 0.0), last)
-                else:
-                    y = 0.0
-                fl = math.floor(y)
-                b = int(fl)
-                uw += (nodes[b, 1] * (y - fl) + nodes[b, 0]) * w[z]
+                uw += _unrecovered(xi[i * n_z + z], y0, step, nodes) * w[z]
             r = min(max(1.0 - uw, 0.0), 1.0)
             if r > top[i]:
                 top[i] = r
