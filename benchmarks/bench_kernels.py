@@ -48,11 +48,11 @@ def _counted():
     from foldprint.physics.recovery.curve import N_LAYERS
 
     count = {"curve_elements": 0, "transforms": 0, "fcl_calls": 0}
-    ratios, fwd, gap = batch.batch_ratios, kinematics.forward, SweptChecker.gap
+    curves, fwd, gap = batch._curves, kinematics.forward, SweptChecker.gap  # noqa: SLF001 -- counted
 
-    def b(p, tg, *a, **k):
-        count["curve_elements"] += len(tg) * len(a[4]) * N_LAYERS // 2
-        return ratios(p, tg, *a, **k)
+    def b(p, slab, tg, bath, initial_c, t, table):
+        count["curve_elements"] += len(tg) * len(t) * N_LAYERS // 2  # a batch's parts, each once
+        return curves(p, slab, tg, bath, initial_c, t, table)
 
     def f(design, angles, *a, **k):
         import numpy as np
@@ -66,7 +66,7 @@ def _counted():
 
     from foldprint.physics import hinge_drive
 
-    return count, (mock.patch.object(batch, "batch_ratios", b), mock.patch.object(hinge_drive, "forward", f),
+    return count, (mock.patch.object(batch, "_curves", b), mock.patch.object(hinge_drive, "forward", f),
                    mock.patch.object(SweptChecker, "gap", g))
 
 
