@@ -83,6 +83,24 @@ def test_simulate_says_a_crossing_part_can_never_be_printed(crossing, capsys):
     assert code == 1 and rep["printed_crossings"] == [["p1", "p3"]] and rep["comparison"] is None
 
 
+def test_simulate_answers_a_crossing_part_before_folding(crossing, capsys, monkeypatch):
+    """The text verdict of a part that cannot be printed is the line the full report gives
+    (the JSON path, which folds), reached without folding."""
+    from foldprint.apps import evaluation_nominal
+    from foldprint.cli.printing import print_simulation
+
+    assert main(["simulate", str(crossing), "--json"]) == 1
+    print_simulation(json.loads(capsys.readouterr().out))
+    want = capsys.readouterr().out
+
+    def no_fold(*args, **kwargs):
+        raise AssertionError("folded a part that cannot be printed")
+
+    monkeypatch.setattr(evaluation_nominal, "simulate", no_fold)
+    assert main(["simulate", str(crossing)]) == 1
+    assert capsys.readouterr().out == want and "can never be printed" in want
+
+
 def test_fp170_offers_no_lower_tg_hint_for_a_crossing_part(crossing, capsys):
     main(["check", str(crossing), "--samples", "0", "--json"])
     findings = {f["code"]: f for f in json.loads(capsys.readouterr().out)["findings"]}

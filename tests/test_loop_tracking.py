@@ -535,3 +535,18 @@ def test_the_drive_is_restarted_from_only_while_it_too_is_near_the_flat_sheet():
     assert want and sorted(req.early_k[0][req.early_k[0] >= 0].tolist()) == want
     assert (req.early_k[1:3] < 0).all()
     assert sorted(req.early_k[3].tolist()) == list(range(k0 + 2, k0 + 2 + loop_tracking.PREFETCH))
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_interp_rows_is_np_interp_of_every_column(seed):
+    """LoopSolution.at reads all hinges with one search: the same numbers as np.interp of
+    each column, bit for bit, inside, outside and exactly on the grid."""
+    from foldprint.physics.loops.closure import interp_rows
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 60))
+    grid = np.round(np.arange(n) * 0.01, 10) if seed % 2 else np.cumsum(rng.random(n) + 1e-3)
+    values = rng.normal(size=(n, 7))
+    t = np.concatenate([rng.uniform(grid[0] - 1, grid[-1] + 1, 40), grid[rng.integers(0, n, 6)], grid[[0, -1]]])
+    want = np.stack([np.interp(t, grid, values[:, k]) for k in range(values.shape[1])], axis=1)
+    np.testing.assert_array_equal(interp_rows(t, grid, values), want)

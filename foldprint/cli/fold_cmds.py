@@ -74,6 +74,10 @@ def simulate(
         ensure_dir(plot)
     ev = Evaluation(d, EvalOptions(hinge_model=model, method=m, after_contact=after, dt=dt, bath_c=temperature,
                                    duration=duration, mechanics=mech), library=lib)
+    if not json_out and plot is None and (early := ev.printed_crossings):
+        # a part that cannot be printed: its verdict and line need no fold (the JSON and plots still fold it)
+        print_simulation({"design": ev.design.name, "printed_crossings": early})
+        raise ExitCode(1)
     report = ev.simulation_json()  # with the printed crossings and the other hinge model's verdict
     res, crossing = ev.simulation, ev.printed_crossings
     if plot is not None:

@@ -81,6 +81,22 @@ def _rotvecs(r: np.ndarray) -> np.ndarray:
     return w
 
 
+def interp_rows(t: np.ndarray, grid: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """``np.interp(t, grid, values[:, k])`` for every column k at once (n, k): the same
+    arithmetic (slope (v1 - v0) / (g1 - g0) times t - g0, plus v0; the end values outside
+    the grid, the grid value on a grid time), one search for all columns instead of one
+    interp call per hinge (a pattern of hundreds of hinges read its angles that way)."""
+    last = len(grid) - 1
+    j = np.clip(np.searchsorted(grid, t, side="right") - 1, 0, last)
+    j1 = np.minimum(j + 1, last)
+    out = values[np.where(t >= grid[last], last, j)]  # the ends outside the grid, grid values on it
+    i = ((t > grid[0]) & (t < grid[last]) & (grid[j] != t)).nonzero()[0]
+    if i.size:
+        g0, a0 = grid[j[i]], values[j[i]]
+        out[i] = (values[j1[i]] - a0) / (grid[j1[i]] - g0)[:, None] * (t[i] - g0)[:, None] + a0
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class LoopSolution:
     """Closed fold angles on a time grid and what the solver met on the way.
@@ -112,9 +128,7 @@ class LoopSolution:
 
     def at(self, t) -> np.ndarray:
         """Angles (n, n_hinges) at times ``t``, piecewise linear between grid times."""
-        t = np.atleast_1d(np.asarray(t, float))
-        return np.stack([np.interp(t, self.times, self.angles[:, k])
-                         for k in range(self.angles.shape[1])], axis=1)
+        return interp_rows(np.atleast_1d(np.asarray(t, float)), self.times, self.angles)
 
     def total_variation(self, t) -> np.ndarray:
         """Cumulative total variation (n, n_hinges) of the piecewise linear angles from
