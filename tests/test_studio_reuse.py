@@ -102,6 +102,25 @@ def test_the_bound_is_used_and_a_changed_minimum_is_found(counted):
         fresh(entry)["clearance_curve"]
 
 
+def test_the_reported_moment_is_the_first_within_the_minimum(monkeypatch):
+    """With the minimum and the pair it was first reached by both unchanged, only the
+    changed pairs are scanned for an earlier moment within it; the gap reported is the
+    whole scan's."""
+    scans = []
+    whole = studio_reuse.earliest_within
+    monkeypatch.setattr(studio_reuse, "earliest_within", lambda *a, **k: scans.append(1) or whole(*a, **k))
+    s = session(staircase(12))
+    s.nominal(*s.current())
+    for hinge in ("h11", "h10", "h1"):
+        scans.clear()
+        rev, entry = s.apply({"hinges": {hinge: {"material": "H-6"}}})
+        got = s.nominal(rev, entry)
+        bounded = not scans
+        assert got["clearance"] == fresh(entry)["clearance"], hinge
+        if hinge == "h11":  # the far end: neither the minimum's pair nor the first one within it changed
+            assert bounded
+
+
 def _path_hinges(design, a: str, b: str) -> set[str]:
     """The hinges on the path from panel a to panel b (breadth-first in the hinge graph)."""
     prev = {a: None}
@@ -150,3 +169,25 @@ def test_relabelled_pieces_build_the_same_part():
     for a, b in zip(got.bodies, want.bodies):
         assert a.volume == pytest.approx(b.volume, rel=1e-12)
         assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+
+
+def test_a_changed_pair_first_within_the_minimum_is_found():
+    """Two end hinges made faster: their pair reaches the strip's smallest gap (every step
+    pair's) before the pair an earlier revision reported; the bounded scan finds it, as
+    the whole scan (``earliest_within``) does."""
+    s = session(staircase(12))
+    before = s.nominal(*s.current())
+    rev, entry = s.apply({"hinges": {"h10": {"material": "H-1"}, "h11": {"material": "H-1"}}})
+    got = s.nominal(rev, entry)
+    memo, old = entry.memo, s.history[0].memo.clearance
+    assert got["clearance"]["time_s"] < before["clearance"]["time_s"]
+    traj = entry.evaluation.simulation.trajectory
+    ks = studio_reuse.sampled_poses(studio_reuse.fold_end(entry.evaluation.simulation))
+    changed = ~np.all(old.angles == traj.angles[ks], axis=0)
+    split = studio_reuse.changed_pairs(entry.design, memo.pairs, changed)
+    assert not split[studio_reuse.row_of(memo.pairs, old.earliest[1])]
+    now = studio_reuse.Searched(old.times, traj.angles[ks], old.best, split)  # the minimum taken over unchanged
+    found = studio_reuse.earliest(memo, traj.poses[ks], now, old)
+    whole = studio_reuse.earliest_within(memo.checker, traj.poses[ks][:old.best[2] + 1],
+                                         float(old.best[0]) + studio_reuse.tol.length)
+    assert found == whole and found != old.earliest and split[studio_reuse.row_of(memo.pairs, found[1])]

@@ -65,6 +65,8 @@ class Searched:
     times: np.ndarray
     angles: np.ndarray
     best: tuple | None
+    split: np.ndarray | None = None  # the pairs searched when bounded (None: all, the library's search)
+    earliest: tuple | None = None  # (pose index, (i, j)) the clearance was reported at
 
 
 @dataclass(frozen=True)
@@ -174,11 +176,10 @@ def minimum(memo: Memo, design: Design, times: np.ndarray, angles: np.ndarray, p
         changed = ~np.all(before.angles == angles, axis=0)
         if changed.sum() <= MAX_CHANGED:
             split = changed_pairs(design, memo.pairs, changed)
-            i, j = before.best[1]
-            row = np.flatnonzero((memo.pairs[:, 0] == min(i, j)) & (memo.pairs[:, 1] == max(i, j)))
-            if len(row) and not split[row[0]]:
+            row = row_of(memo.pairs, before.best[1])
+            if row >= 0 and not split[row]:
                 found = search_pairs(memo.checker, poses, memo.pairs[split], before.best[0])
-                return Searched(times, angles, found or before.best)
+                return Searched(times, angles, found or before.best, split)
     return Searched(times, angles, swept_min_clearance(memo.checker, poses))
 
 
@@ -200,11 +201,52 @@ def nominal_clearance(ev, memo: Memo) -> tuple[Gap | None, Searched]:
     if s.best is None or s.best[1] is None:
         return None, s
     best, (i, j), k = s.best
-    k, (i, j) = earliest_within(checker, poses[:k + 1], float(best) + tol.length) or (k, (i, j))
+    k, (i, j) = earliest(memo, poses, s, memo.clearance) or (k, (i, j))
+    s = dataclasses.replace(s, split=None, earliest=(k, (i, j)))
     dist, point = checker.distance(i, j, poses[k][i], poses[k][j])
     panels = ev.design.panels
     return Gap(max(float(dist), 0.0), (i, j), (panels[i].id, panels[j].id), float(traj.times[ks[k]]),
                None if point is None else tuple(float(x) for x in point)), s
+
+
+def row_of(pairs: np.ndarray, pair: tuple[int, int]) -> int:
+    """The row of ``pair`` in ``pairs`` (i < j), -1 when it is not there."""
+    i, j = min(pair), max(pair)
+    rows = np.flatnonzero((pairs[:, 0] == i) & (pairs[:, 1] == j))
+    return int(rows[0]) if len(rows) else -1
+
+
+def earliest(memo: Memo, poses: np.ndarray, s: Searched, before: Searched | None):
+    """The first pose, and in it the first pair in ``memo.pairs``' order, within
+    ``tol.length`` of the minimum ``s.best`` (:func:`~foldprint.collision.clearance.earliest_within`,
+    where the clearance is reported): when the minimum was taken over unchanged from
+    ``before`` (the same value, so the same threshold) and so was the pair ``before``
+    reported, that pose and pair unless a changed pair is within the threshold before it;
+    else the library's scan whole."""
+    best, _pair, k = s.best
+    within = float(best) + tol.length
+    prev = None if before is None or before.earliest is None or s.split is None or s.best is not before.best         else before.earliest
+    m_prev = -1 if prev is None else row_of(memo.pairs, prev[1])
+    if m_prev < 0 or s.split[m_prev]:
+        return earliest_within(memo.checker, poses[:k + 1], within)
+    k_prev = prev[0]
+    rows = np.flatnonzero(s.split)
+    pairs = memo.pairs[rows]
+    rc = memo.checker.tree.rc
+    r_pair = rc[pairs[:, 0]] + rc[pairs[:, 1]]
+    step = max(1, CHUNK // max(len(rows), 1))
+    for k0 in range(0, k_prev + 1, step):
+        C = panel_centres(memo.checker, poses[k0:min(k_prev + 1, k0 + step)])
+        lb = np.linalg.norm(C[:, pairs[:, 0]] - C[:, pairs[:, 1]], axis=-1) - r_pair
+        for dk, line in enumerate(lb):
+            t = k0 + dk
+            for m in np.flatnonzero(line <= within):
+                if t == k_prev and rows[m] > m_prev:
+                    break
+                i, j = (int(x) for x in pairs[m])
+                if memo.checker.distance(i, j, poses[t][i], poses[t][j])[0] <= within:
+                    return t, (i, j)
+    return prev
 
 
 def curve(ev, memo: Memo, poses_wanted: int) -> tuple[dict, tuple[Searched, ...]]:
@@ -220,7 +262,7 @@ def curve(ev, memo: Memo, poses_wanted: int) -> tuple[dict, tuple[Searched, ...]
         s = minimum(memo, ev.design, traj.times[k:k + 1], traj.angles[k:k + 1], traj.poses[k:k + 1], prev)
         if s.best is None:
             return {"time_s": [], "distance_mm": []}, ()
-        kept.append(s)
+        kept.append(dataclasses.replace(s, split=None))
         times.append(round(float(traj.times[k]), 4))
         dist.append(round(max(float(s.best[0]), 0.0), 4))
     return {"time_s": times, "distance_mm": dist}, tuple(kept)
