@@ -216,6 +216,51 @@ def test_the_verdict_is_checks(client):
     assert '"worst":{' in page and "#run=worst" in page
 
 
+def _running_ok(v: dict) -> bool:
+    """A running state with samples: its estimate is jams/samples and lies in its interval,
+    the confidence sequence check reports at its stop (here at the running count)."""
+    from foldprint.simulation.jamtest.verdict import confidence_sequence
+
+    if v["state"] != "running" or not v["samples"]:
+        return False
+    lo, hi = v["interval"]
+    assert 0.0 <= lo <= v["estimate"] <= hi <= 1.0, v
+    assert v["estimate"] == pytest.approx(v["jams"] / v["samples"])
+    assert (lo, hi) == pytest.approx(confidence_sequence(v["jams"], v["samples"], v["level"]))
+    assert hi < 1.0  # it narrows with the samples
+    return True
+
+
+def test_the_running_state_has_samples_estimate_and_interval(tmp_path):
+    """Polled while helix_graded's test runs: running states with samples so far, the
+    running estimate and its interval; then decided, with ``foldprint check --json``'s
+    verdict, samples and interval."""
+    from foldprint.cli.commands import main
+
+    inputs = resolve_inputs("helix_graded", out=tmp_path)
+    with TestClient(create_app(inputs, TOKEN, PORT), base_url=BASE) as c:
+        seen, t0 = [], time.monotonic()
+        while time.monotonic() - t0 < 120:
+            v = c.get("/api/verdict", headers=H).json()
+            assert v["state"] in ("running", "decided"), v
+            seen.append(v)
+            if v["state"] == "decided":
+                break
+            time.sleep(0.02)
+    running = [v for v in seen if _running_ok(v)]
+    assert running, [(v["state"], v["samples"]) for v in seen]
+    samples = [v["samples"] for v in seen]
+    assert samples == sorted(samples)
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main(["-q", "check", "helix_graded", "--json"])
+    check = json.loads(buf.getvalue())["robust"]
+    d = seen[-1]
+    assert code == 0 and d["state"] == "decided" and d["verdict"] == check["test"]["verdict"] == "pass"
+    assert (d["samples"], d["jams"]) == (check["samples"], check["jams"]) and d["samples"] >= running[-1]["samples"]
+    assert d["interval"] == pytest.approx(check["test"]["interval"], abs=1e-4) and d["test"] == check["test"]
+
+
 # -- save, export, assign --------------------------------------------------------------------
 
 @pytest.mark.parametrize("name", ["../out.toml", "/tmp/abs.toml", "sub/dir.toml", "..toml", ".hidden.toml",
@@ -344,6 +389,7 @@ def test_the_command_serves_over_http_and_stops_on_ctrl_c(tmp_path):
                         break
         verdicts = [e for k, e in events if k == "verdict"]
         assert verdicts[0]["state"] == "running" and verdicts[-1]["verdict"] == "pass"
+        assert any(_running_ok(v) for v in verdicts), verdicts  # the stream carries the running estimate
         samples = [v["samples"] for v in verdicts]
         assert samples == sorted(samples)
         proc.send_signal(signal.SIGINT)

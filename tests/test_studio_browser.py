@@ -99,6 +99,15 @@ def test_the_studio_page_turns_a_failing_helix_into_a_passing_one(studio, browse
     assert len(driver.find_elements(By.CSS_SELECTOR, "#timeline rect[data-hinge]")) == 9
     verdict, _ = _verdict(driver, 90)
     assert verdict == "error"  # helix_uniform jams under scatter (check fails it)
+    banner = WebDriverWait(driver, 30).until(lambda d: d.find_element(By.ID, "status").get_attribute("data-jam"))
+    status = driver.find_element(By.ID, "status")
+    assert banner == "error" and "jam test: FAIL" in status.text and "fail" in status.get_attribute("class")
+    # every running state the verdict box shows from here on, with its estimate and interval
+    driver.execute_script("""window.seenRunning = [];
+      new MutationObserver(function () {
+        var e = document.querySelector('#verdict[data-state="running"] .estimate');
+        if (e) window.seenRunning.push(e.textContent);
+      }).observe(document.getElementById('verdict'), {childList: true, subtree: true});""")
 
     graded = [h.material for h in load_design(resolve_design_path("helix_graded")).hinges]
     for k, material in enumerate(graded, start=1):
@@ -114,6 +123,10 @@ def test_the_studio_page_turns_a_failing_helix_into_a_passing_one(studio, browse
     assert shown == graded
     verdict, _ = _verdict(driver, 120, final)
     assert verdict == "pass"
+    running = driver.execute_script("return window.seenRunning;")
+    assert any(re.search(r"so far \d+\.\d %, 95\.0 % interval \d+\.\d % - \d+\.\d %", t) for t in running), running
+    WebDriverWait(driver, 30).until(lambda d: d.find_element(By.ID, "status").get_attribute("data-jam") == "pass")
+    assert "jam test: PASS" in driver.find_element(By.ID, "status").text
 
     name = driver.find_element(By.ID, "save-name")
     name.clear()

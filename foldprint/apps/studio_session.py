@@ -31,7 +31,6 @@ import numpy as np
 
 from ..checks.report import simulation_json
 from ..checks.rules import CheckContext, run_checks
-from ..collision.swept_search import min_clearance as swept_min_clearance
 from ..core import schema as sc
 from ..core.constants import CHECK_SAMPLES, CHECK_SEED, CLEARANCE_SAMPLES
 from ..core.errors import DesignError, FoldprintError
@@ -40,6 +39,7 @@ from ..model import composition
 from ..model.design import Design
 from ..model.materials import MaterialLibrary
 from ..model.printers import Printer
+from . import studio_reuse
 from .pipeline import EvalOptions, Evaluation
 
 #: Most hinges one edit may change (our choice: the schema's panel limit).
@@ -78,6 +78,8 @@ class Entry:
     setup: Setup
     evaluation: Evaluation
     nominal: dict | None = None
+    parent: "Entry | None" = None  # the revision this one was edited from, until its nominal result is made
+    memo: studio_reuse.Memo | None = None  # what the next revision's nominal result may take over
     check: dict | None = None  # the verdict's ``check --json`` once its sweep ran (an undo finds it)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
@@ -97,11 +99,11 @@ class Session:
         self.revision = 1
 
     # -- the history ----------------------------------------------------------------
-    def _entry(self, design: Design, setup: Setup) -> Entry:
+    def _entry(self, design: Design, setup: Setup, parent: Entry | None = None) -> Entry:
         opts = EvalOptions(hinge_model=setup.hinge_model, mechanics=setup.mechanics, samples=CHECK_SAMPLES,
                            seed=CHECK_SEED)
         ev = Evaluation(design, opts, library=self.library, printer=self.printers[setup.printer], scatter=self.scatter)
-        return Entry(design, setup, ev)
+        return Entry(design, setup, ev, parent=parent)
 
     @property
     def entry(self) -> Entry:
@@ -124,7 +126,7 @@ class Session:
             cur = self.entry
             design, setup = edited(cur.design, cur.setup, edit, self.library, self.printers)
             del self.history[self.at + 1:]
-            self.history.append(self._entry(design, setup))
+            self.history.append(self._entry(design, setup, cur))
             if len(self.history) > MAX_HISTORY:
                 del self.history[0]
             return self._move_to(len(self.history) - 1)
@@ -144,9 +146,9 @@ class Session:
     def replace_design(self, design: Design) -> tuple[int, Entry]:
         """A whole design (an assignment chosen) as the next revision, setup kept."""
         with self.lock:
-            setup = self.entry.setup
+            cur = self.entry
             del self.history[self.at + 1:]
-            self.history.append(self._entry(design, setup))
+            self.history.append(self._entry(design, cur.setup, cur))
             if len(self.history) > MAX_HISTORY:
                 del self.history[0]
             return self._move_to(len(self.history) - 1)
@@ -168,7 +170,8 @@ class Session:
         """The nominal result of ``entry`` (computed once, in the caller's thread)."""
         with entry.lock:
             if entry.nominal is None:
-                entry.nominal = nominal_json(entry)
+                parent, entry.parent = entry.parent, None
+                entry.nominal = nominal_json(entry, None if parent is None else parent.memo)
         return dict(entry.nominal, revision=revision)
 
 
@@ -251,43 +254,30 @@ def choices_json(library: MaterialLibrary, printers: Mapping[str, Printer]) -> d
             "temperature_c": list(sc.TEMPERATURE_C)}
 
 
-def nominal_json(entry: Entry) -> dict:
+def nominal_json(entry: Entry, before: studio_reuse.Memo | None = None) -> dict:
     """What an edit answers: the nominal fold in ``simulate --json``'s keys (``completed``,
     ``fold_time_s``, ``hinges`` with each ``onset_time_s`` and ``fold_time_s``,
     ``contacts``), the smallest ``clearance`` and the clearance along the fold, the
     printed crossings, and the design rules' ``findings`` (``check --json``'s keys;
-    without the jam test, whose verdict streams from ``/api/verdict``)."""
+    without the jam test, whose verdict streams from ``/api/verdict``). ``before``: the
+    memo of the revision this one was edited from (:mod:`foldprint.apps.studio_reuse`:
+    what the edit did not change is not searched again); this one's is left in
+    ``entry.memo``."""
     ev = entry.evaluation
     sim = ev.simulation
-    asm, err = ev.assembly, ev.assembly_error
-    gaps, clear = ev.printed_gaps, ev.clearance
     with ev.cache.active():
+        memo, (asm, err, gaps, crossings) = studio_reuse.printed_part(ev, studio_reuse.memo_for(ev, before))
+        clear, searched = studio_reuse.nominal_clearance(ev, memo)
+        curve, curve_searched = studio_reuse.curve(ev, memo, CURVE_POSES)
         findings = run_checks(CheckContext(ev.design, ev.library, ev.printer, sim, asm, err, gaps, clear, None,
                                            ev.options.thresholds, (), ()))
-        curve = clearance_curve(ev)
+    entry.memo = replace(memo, clearance=searched, curve=curve_searched)
     out = simulation_json(sim)
-    out.update(printed_crossings=[list(p) for p in ev.printed_crossings],
-               clearance=None if clear is None else clear.to_json(), clearance_curve=curve,
+    out.update(printed_crossings=[list(p) for p in crossings],
+               clearance=None if clear is None else clear.to_json(),
+               clearance_curve=dict(curve, poses=CLEARANCE_SAMPLES) if curve["time_s"] else curve,
                findings=[f.to_json() for f in findings], errors=sum(f.severity == "error" for f in findings),
                warnings=sum(f.severity == "warning" for f in findings), setup=entry.setup.to_json())
     out["fold_order"] = [h["id"] for h in sorted(out["hinges"], key=lambda h: (h["onset_time_s"] is None,
                                                                               h["onset_time_s"] or 0.0))]
     return out
-
-
-def clearance_curve(ev: Evaluation) -> dict:
-    """The smallest gap between non-adjacent panels at :data:`CURVE_POSES` moments of the
-    nominal fold up to its first contact (the search of
-    :func:`foldprint.collision.swept_search.min_clearance` on one pose at a time)."""
-    traj, first = ev.simulation.trajectory, ev.simulation.first_collision
-    n = len(traj.times) if first is None else int(np.searchsorted(traj.times, first.time, side="right"))
-    ks = np.unique(np.linspace(0, max(n - 1, 0), min(max(n, 1), CURVE_POSES)).round().astype(int))
-    times, dist = [], []
-    checker = ev.clearance_checker
-    for k in ks:
-        found = swept_min_clearance(checker, traj.poses[k:k + 1])
-        if found is None:
-            return {"time_s": [], "distance_mm": []}
-        times.append(round(float(traj.times[k]), 4))
-        dist.append(round(max(float(found[0]), 0.0), 4))
-    return {"time_s": times, "distance_mm": dist, "poses": CLEARANCE_SAMPLES}

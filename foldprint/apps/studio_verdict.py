@@ -34,7 +34,8 @@ from ..core.constants import CHECK_SCALES
 from ..core.errors import FoldprintError
 from ..core.modes import Mechanics
 from ..simulation.jamtest.pool import Precomputed
-from ..simulation.jamtest.verdict import jam_test
+from ..simulation.jamtest.scales import JamCounts
+from ..simulation.jamtest.verdict import confidence_sequence, jam_test
 from .pipeline import Evaluation, check_scales
 
 log = logging.getLogger(__name__)
@@ -104,17 +105,21 @@ def verdict_job(session, revision: int, entry, notify, previous: Job | None = No
     is ``running`` at once (no sample yet)."""
     job = Job("verdict", notify, previous)
     t = entry.evaluation.options
+    level = jam_test(t.thresholds.warning, t.thresholds.error, t.samples).level
     job.set(design_revision=revision, state="running", stage="nominal fold", samples=0, max_samples=t.samples,
-            estimate=None, interval=None, verdict=None, test=None, robust=None,
+            jams=None, estimate=None, interval=None, level=level, verdict=None, test=None, robust=None,
             sweep={"state": "waiting", "points": None}, check=None, started=time.time())
 
-    def progress(stage: str, done: int, total: int) -> None:
+    def report(stage: str, done: int, total: int, jams: int | None) -> None:
         job.check()
         if stage.endswith(" at 1x"):
-            job.set(stage=stage, samples=done, max_samples=total)
+            if job.read()["state"] == "running":  # phase 2's replay of the decided 1x stream changes nothing
+                job.set(stage=stage, samples=done, max_samples=total, **running_estimate(jams, done, level))
         else:
             job.set(sweep={"state": "running", "stage": stage, "samples": done, "max_samples": total,
-                           "points": None})
+                           "jams": jams, "points": None})
+
+    progress = JamCounts(report)
 
     def work() -> None:
         session.nominal(revision, entry)  # the fold first (computed once: the edit's answer waits on the same)
@@ -134,6 +139,18 @@ def verdict_job(session, revision: int, entry, notify, previous: Job | None = No
         job.set(sweep={"state": "done", "points": entry.check["sensitivity"]}, check=entry.check)
 
     return job.start(work)
+
+
+def running_estimate(jams: int | None, samples: int, level: float) -> dict:
+    """The running state of a test at ``samples`` samples with ``jams`` jams: the estimate
+    jams/samples and the interval the verdict reports
+    (:func:`~foldprint.simulation.jamtest.verdict.confidence_sequence`: anytime-valid, so it
+    holds at this count as at the stop); none of them before the first sample or when the
+    count is not known."""
+    if jams is None or samples <= 0:
+        return {"jams": jams if samples > 0 else None, "estimate": None, "interval": None}
+    lo, hi = confidence_sequence(jams, samples, level)
+    return {"jams": jams, "estimate": jams / samples, "interval": [lo, hi]}
 
 
 def sweep_evaluation(ev: Evaluation, r, progress) -> Evaluation:

@@ -100,19 +100,29 @@ def _overlap_message(units: list[Piece], state: State) -> str:
     return f"{state} state: pieces overlap"
 
 
+def relabelled(pieces: list[Piece], design: Design) -> list[Piece]:
+    """``pieces`` of a design of the same geometry (``build_pieces``) with ``design``'s
+    materials: its pieces, without cutting them again (a material is a label of a piece)."""
+    panel = {p.id: p.material for p in design.panels}
+    hinge = {h.id: h.material for h in design.hinges}
+    return [Piece(pc.kind, pc.owner, (panel if pc.kind == "panel" else hinge)[pc.owner], pc.solid) for pc in pieces]
+
+
 @scoped
 def build_assembly(design: Design, state: State = DEFAULT_STATE, library: MaterialLibrary | None = None,
-                   check: bool = True, resolution_mm: float | None = None) -> Assembly:
+                   check: bool = True, resolution_mm: float | None = None,
+                   pieces: list[Piece] | None = None) -> Assembly:
     """One watertight body per material for a state (``permanent`` or ``programmed``).
 
     With ``check`` (default), raises GeometryError when panels or hinges overlap, within
     one material or across two (touching is fine): such a part would not print as
     designed (e.g. panels colliding in the folded state). ``resolution_mm`` (the printer's
     layer; default the default printer's) is how far closing a pattern's loops may move the
-    part; when the build used it, :attr:`Assembly.notes` says so."""
+    part; when the build used it, :attr:`Assembly.notes` says so. ``pieces``: this design's
+    ``build_pieces(design, state, resolution_mm)`` when the caller has them (:func:`relabelled`)."""
     lib = library or default_library()
     note = closed_targets(design, state, resolution_mm)[1]
-    units = _units(build_pieces(design, state, resolution_mm))
+    units = _units(build_pieces(design, state, resolution_mm) if pieces is None else pieces)
     by_mat: dict[str, list[Piece]] = {}
     for u in units:
         by_mat.setdefault(u.material, []).append(u)

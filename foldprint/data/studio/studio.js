@@ -8,7 +8,7 @@
   "use strict";
   var SVGNS = "http://www.w3.org/2000/svg";
   var $ = function (id) { return document.getElementById(id); };
-  var design = null, nominal = null, shownRev = 0, selected = null;
+  var design = null, nominal = null, shownRev = 0, selected = null, verdict = null;
 
   function el(tag, attrs, parent, ns) {
     var e = ns ? document.createElementNS(SVGNS, tag) : document.createElement(tag);
@@ -79,12 +79,32 @@
     $("undo").disabled = !design.can_undo; $("redo").disabled = !design.can_redo;
     if (!$("save-name").value) $("save-name").value = design.name + "_edited.toml";
     renderControls(); renderLayout(); renderTimeline(); renderClearance(); renderFindings(); reloadPlayer();
-    var n = nominal;
-    var word = n.completed ? "nominal fold completes in " + fmt(n.fold_time_s, 1) + " s" :
+    renderStatus();
+  }
+
+  function plural(k, word) { return k + " " + word + (k === 1 ? "" : "s"); }
+
+  // The banner: the nominal fold, the design rules and the jam test of the shown revision,
+  // each as it stands (the rules alone until check's findings arrive with the sweep).
+  function renderStatus() {
+    var n = nominal, v = verdict && verdict.design_revision === shownRev ? verdict : null;
+    var parts = [n.completed ? "nominal fold completes in " + fmt(n.fold_time_s, 1) + " s" :
       (n.first_collision ? "nominal fold collides: " + n.first_collision.panels.join("-") + " at " +
-        fmt(n.first_collision.time_s, 2) + " s" : "nominal fold does not complete");
-    status(word + "; " + n.errors + " error(s), " + n.warnings + " warning(s) by the design rules",
-           n.completed && !n.errors ? "ok" : "fail");
+        fmt(n.first_collision.time_s, 2) + " s" : "nominal fold does not complete")];
+    var c = v && v.check, errors = c ? c.errors : n.errors, warnings = c ? c.warnings : n.warnings;
+    parts.push((c ? "check (rules, jam test, sweep): " : "design rules: ") + plural(errors, "error") + ", " +
+               plural(warnings, "warning"));
+    var jam = !v ? "waiting" : v.state === "decided" ?
+      ({pass: "PASS", warning: "WARNING", error: "FAIL"}[v.verdict] || v.verdict) + " (" + v.jams + " of " +
+        v.samples + " samples jam)" :
+      v.state === "failed" ? "could not run" : "running (" + v.samples + " samples" +
+        (v.jams === null || v.jams === undefined ? "" : ", " + v.jams + " jammed") + ")";
+    parts.push("jam test: " + jam);
+    var bad = !n.completed || errors > 0 || (v && (v.verdict === "error" || v.state === "failed"));
+    var cls = bad ? "fail" : warnings > 0 || (v && v.verdict === "warning") ? "warn" :
+      v && v.state === "decided" ? "ok" : "run";
+    status(parts.join("; "), cls);
+    $("status").setAttribute("data-jam", v && v.state === "decided" ? v.verdict : "");
   }
 
   function options(select, values, current) {
@@ -246,6 +266,8 @@
 
   // -- the verdict and the material search (server-sent events) -----------------------
   function renderVerdict(v) {
+    verdict = v;
+    if (nominal && v.design_revision === shownRev) renderStatus();
     var box = $("verdict"); clear(box);
     box.setAttribute("data-state", v.state); box.setAttribute("data-verdict", v.verdict || "");
     box.setAttribute("data-revision", v.design_revision);
@@ -256,21 +278,34 @@
     if (v.state === "failed") { el("b", {text: "the jam test could not run: " + v.error}, box); return; }
     if (v.state !== "decided") {
       el("b", {text: (v.state === "cancelled" ? "cancelled" : "running") + ": " + (v.stage || "")}, box);
-      el("div", {text: v.samples + " of at most " + v.max_samples + " samples (revision " + v.design_revision + ")"}, box);
+      el("div", {"class": "samples", text: v.samples + " of at most " + v.max_samples + " samples" +
+                 (v.jams === null || v.jams === undefined ? "" : ", " + v.jams + " jammed") +
+                 " (revision " + v.design_revision + ")"}, box);
+      if (v.interval) {
+        el("div", {"class": "estimate", text: "jam probability so far " + pct(v.estimate) + ", " +
+                   pct(v.level) + " interval " + pct(v.interval[0]) + " - " + pct(v.interval[1])}, box);
+      }
       return;
     }
     var word = {pass: "PASS", warning: "WARNING", error: "FAIL"}[v.verdict] || v.verdict;
-    el("b", {text: word + ": jam probability " + pct(v.estimate) + " (" + pct(v.interval[0]) + " - " +
-             pct(v.interval[1]) + ")"}, box);
-    el("div", {text: v.jams + " of " + v.samples + " samples jam; " + (v.test ? v.test.name + ", error rates " +
-               v.test.warning.alpha + "/" + v.test.warning.beta : "") + " (revision " + v.design_revision + ")"}, box);
+    el("b", {text: word + ": jam probability " + pct(v.estimate) + " (" + pct(v.level) + " interval " +
+             pct(v.interval[0]) + " - " + pct(v.interval[1]) + ")"}, box);
+    el("div", {text: v.jams + " of " + v.samples + " samples jam" + (v.test && v.test.truncated ? " (truncated)" : "") +
+               " (revision " + v.design_revision + ")"}, box);
+    if (v.test) {
+      el("div", {"class": "muted", text: v.test.name + ": thresholds " + pct(v.test.warning.threshold) + " / " +
+                 pct(v.test.error.threshold) + ", error rates alpha " + pct(v.test.warning.alpha) + ", beta " +
+                 pct(v.test.warning.beta)}, box);
+    }
     var sw = v.sweep || {};
     if (sw.state === "done" && sw.points) {
-      el("div", {text: "sweep: " + sw.points.map(function (p) {
-        return p.scale + "x " + (p.verdict || pct(p.jam_probability)); }).join(", ")}, box);
+      el("div", {"class": "sweep", text: "sweep of the scatter spreads: " + sw.points.map(function (p) {
+        return p.scale + "x " + (p.verdict || (p.verdicts || []).join(" or ") || "undecided") + " (" + p.jams +
+          " of " + p.samples + " jam)"; }).join(", ")}, box);
     } else {
       el("div", {"class": "muted", text: "sweep of the scatter spreads: " + (sw.state || "waiting") +
-                 (sw.samples !== undefined ? " (" + sw.samples + " samples)" : "")}, box);
+                 (sw.stage ? ", " + sw.stage : "") + (sw.samples !== undefined ? " (" + sw.samples + " samples" +
+                 (sw.jams === null || sw.jams === undefined ? "" : ", " + sw.jams + " jammed") + ")" : "")}, box);
     }
     if (v.check && nominal && v.design_revision === shownRev) {
       var ul = $("findings"); clear(ul);

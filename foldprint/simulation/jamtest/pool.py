@@ -113,13 +113,15 @@ class Precomputed:
 @dataclass(frozen=True)
 class StreamStatus:
     """Where one (job, scale) stream is: samples consumed in order so far, its maximum,
-    and whether it is finished (its test decided, or every sample of a fixed job in)."""
+    whether it is finished (its test decided, or every sample of a fixed job in), and the
+    jams among the samples consumed (what a running estimate and its interval need)."""
 
     job: int
     scale: float
     samples: int
     max_samples: int
     done: bool
+    jams: int = 0
 
 
 #: The smallest chunk a sequential test's strip stream is given when its test could stop
@@ -234,7 +236,8 @@ class _Stream:
         return self.done
 
     def status(self) -> StreamStatus:
-        return StreamStatus(self.j, self.k, len(self.outcomes), self.max_samples, self.done)
+        return StreamStatus(self.j, self.k, len(self.outcomes), self.max_samples, self.done,
+                            sum(o.jammed for o in self.outcomes))
 
 
 def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None = None, workers: int = 1,

@@ -33,15 +33,39 @@ from .verdict import JamDecision, JamTest, decide, jam_test, sweep_question  # n
 
 StageProgress = Callable[[str, int, int], None]
 """``progress(stage, done, total)``: stage ``"jam test at 1x"`` (each scale), its samples so
-far of the maximum, then ``(n, n)`` once its test decided at n (the evaluation's progress)."""
+far of the maximum, then ``(n, n)`` once its test decided at n (the evaluation's progress).
+A :class:`JamCounts` is also told the jams among those samples."""
+
+
+class JamCounts:
+    """A :data:`StageProgress` that is also told each stream's jams so far:
+    ``fn(stage, done, total, jams)``, ``jams`` None from a stage that is not a jam test's
+    stream (the evaluation's other Monte-Carlo stages). With them a caller can show the
+    running estimate and its interval
+    (:func:`~foldprint.simulation.jamtest.verdict.confidence_sequence`, anytime-valid: it
+    holds at every sample count, not only at the stop)."""
+
+    def __init__(self, fn: Callable[[str, int, int, int | None], None]):
+        self.fn = fn
+
+    def __call__(self, stage: str, done: int, total: int, jams: int | None = None) -> None:
+        self.fn(stage, done, total, jams)
 
 
 def _stage(progress: StageProgress | None, labels: Sequence[str]):
     """A :class:`~foldprint.simulation.jamtest.pool.StreamStatus` callback reporting to ``progress``
-    (a stream's job indexes ``labels``)."""
+    (a stream's job indexes ``labels``; a :class:`JamCounts` gets the jams too)."""
     if progress is None:
         return None
-    return lambda st: progress(labels[st.job], st.samples, st.samples if st.done else st.max_samples)
+    counts = isinstance(progress, JamCounts)
+
+    def report(st: StreamStatus) -> None:
+        total = st.samples if st.done else st.max_samples
+        if counts:
+            progress(labels[st.job], st.samples, total, st.jams)
+        else:
+            progress(labels[st.job], st.samples, total)
+    return report
 
 
 def jam_tests(design: Design, test: JamTest, scales: Sequence[float] = (1.0,), seed: int = CHECK_SEED, *,
@@ -141,7 +165,7 @@ def jam_tests_of(design: Design, test: JamTest | Mapping[str, JamTest], models: 
             raise RuntimeError(f"{design.name}: the {name} did not decide on its {len(found[name])} samples")
         outs = found[name][:d.samples]
         if report is not None and name not in missing:
-            report(StreamStatus(j, 1.0, d.samples, test.max_samples, True))
+            report(StreamStatus(j, 1.0, d.samples, test.max_samples, True, d.jams))
         out[name] = RobustResult(design.name, d.samples, seed, model, models[name], outs, nominal, method, d, mech)
     return out
 
@@ -164,7 +188,8 @@ def _rounds(design: Design, lib: MaterialLibrary, scatter: Scatter, seed: int, t
     while True:
         d = decide([o.jammed for o in outcomes], test)
         if progress:
-            progress((min(len(outcomes), d.samples) if d.decided else len(outcomes), test.max_samples, d.decided))
+            n = min(len(outcomes), d.samples) if d.decided else len(outcomes)
+            progress((n, test.max_samples, d.decided, sum(o.jammed for o in outcomes[:n])))
         if d.decided:
             return tuple(outcomes[:d.samples])
         items = [(design, lib, c, model, dt, False, method, mech) for c in islice(chunks, workers)]
