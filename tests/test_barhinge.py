@@ -162,9 +162,10 @@ def test_strip_with_stiff_panels_follows_the_rigid_model_within_one_percent():
 
 def test_miura_with_stiff_panels_stays_on_the_rigid_folding_path():
     """Rigid-foldable: at every solved time each interior vertex's straight and zigzag
-    creases satisfy the one-DOF relation tan(|rho_h|/2) = cos(gamma) tan(|rho_z|/2), and
-    the final angles are the rigid model's, within 1 % of the target angle; the panels
-    barely strain, less as they stiffen."""
+    creases satisfy the one-DOF relation tan(|rho_h|/2) = cos(gamma) tan(|rho_z|/2) within
+    1.5 % of the target angle, and closer as the panels stiffen (the relation is the rigid
+    limit's); the final angles are the rigid model's, within 1 % of the target angle; the
+    panels barely strain, less as they stiffen."""
     d = load_design("templates/miura_3x3.toml")
     sol, ca, ra = _compare_with_rigid(d)
     target = np.abs([h.angle for h in d.hinges])
@@ -172,15 +173,21 @@ def test_miura_with_stiff_panels_stays_on_the_rigid_folding_path():
     gamma = math.atan2(20.0, 8.0)
     straight = [k for k, h in enumerate(d.hinges) if abs(abs(h.angle_deg) - 24.2) < 0.1]
     zigzag = [k for k, h in enumerate(d.hinges) if abs(abs(h.angle_deg) - 60) < 0.1]
-    z = np.abs(ca[:, zigzag]).mean(axis=1)
-    h = np.abs(ca[:, straight])
-    pred = 2 * np.arctan(math.cos(gamma) * np.tan(z / 2))
-    folded = z > math.radians(5)
-    assert folded.sum() > 20
-    assert (np.abs(h[folded] - pred[folded, None]) <= 0.01 * target[straight][None]).all()
+
+    def off_path(angles):
+        z = np.abs(angles[:, zigzag]).mean(axis=1)
+        pred = 2 * np.arctan(math.cos(gamma) * np.tan(z / 2))
+        folded = z > math.radians(5)
+        assert folded.sum() > 20
+        return float((np.abs(np.abs(angles[:, straight])[folded] - pred[folded, None])
+                      / target[straight][None]).max())
+
+    off = off_path(ca)
+    assert off <= 0.015
     # near rigid: the panels' strain is a small share of the strain limit and falls as they stiffen
     assert sol.max_strain < 0.01 * sol.strain_limit
     stiffer = bs.CompliantDrive(d, panel_modulus_mpa=10 * STIFF).solve(run_times(d, 0.01))
+    assert off_path(stiffer.grid_angles) < off / 2
     assert stiffer.max_strain < sol.max_strain / 3
 
 
