@@ -126,3 +126,17 @@ def test_bad_moduli_name_the_file_and_the_key(tmp_path, body, needle):
     with pytest.raises(MaterialError, match=needle) as err:
         load_library(f)
     assert "bad.toml" in str(err.value)
+
+
+@pytest.mark.parametrize("log10_tau", [0.894, -5.0])
+def test_offset_for_peak_at_tg_puts_the_peak_at_tg(log10_tau):
+    """Both branches: a long central time puts the 1 Hz peak above T_ref (WLF), a short one
+    below it (Arrhenius); the offset the model names moves the peak onto Tg."""
+    v = _model()
+    v = Viscoelastic(v.tg_c, v.glassy_mpa, v.rubbery_mpa, replace(v.params, log10_tau_ref_s=log10_tau))
+    assert (v.peak_log10_shift < 0) == (log10_tau > 0)
+    off = v.offset_for_peak_at_tg_c
+    moved = Viscoelastic(v.tg_c, v.glassy_mpa, v.rubbery_mpa, replace(v.params, reference_below_tg_c=off))
+    assert moved.tan_delta_peak_c == pytest.approx(v.tg_c, abs=1e-6)
+    T = np.arange(v.tg_c - 5, v.tg_c + 5, 0.001)
+    assert T[np.argmax(moved.tan_delta(1.0, T))] == pytest.approx(v.tg_c, abs=0.002)

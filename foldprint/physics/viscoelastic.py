@@ -124,6 +124,25 @@ def shift_temperature(reference_c, log10_a: float, p: RecoveryParams) -> np.ndar
     return 1.0 / (1.0 / rk + x * p.c2 / (p.c1 * rk**2)) - _KELVIN
 
 
+def reference_for_peak(tg_c, peak_log10: float, p: RecoveryParams) -> np.ndarray:
+    """T_ref (deg C) with log10 a_T(Tg; T_ref) = ``peak_log10`` for each Tg of ``tg_c``: where
+    the shift must be referenced for the model's tan delta peak to lie at Tg. The WLF branch
+    (x* <= 0, the peak above T_ref) gives Tg - T_ref = -x* c2 / (c1 + x*); the Arrhenius branch
+    (x* > 0) the positive root of (c1/c2) T_ref^2 (1/Tg - 1/T_ref) = x* (kelvin).
+
+    >>> from foldprint.model.materials import default_library
+    >>> p = default_library()["H-1"].recovery
+    >>> float(reference_for_peak(50.0, 0.0, p))  # x* = 0: the peak at T_ref itself
+    50.0
+    """
+    tg = np.asarray(tg_c, float)
+    x, k = float(peak_log10), p.c1 / p.c2
+    if x <= 0.0:
+        return tg - (float(shift_temperature(0.0, x, p)))
+    a = k / (tg + _KELVIN)  # a R^2 - k R - x = 0 for R = T_ref in K
+    return (k + np.sqrt(k * k + 4.0 * a * x)) / (2.0 * a) - _KELVIN
+
+
 @dataclass(frozen=True, eq=False)
 class Viscoelastic:
     """A material's viscoelastic model: Tg (deg C, the 1 Hz tan delta peak), moduli (MPa),
@@ -155,6 +174,12 @@ class Viscoelastic:
         """The temperature (deg C) of the model's tan delta peak at the DMA's 1 Hz: the paper's
         definition of Tg, applied to the model."""
         return float(shift_temperature(self.reference_c, self.peak_log10_shift, self.params))
+
+    @property
+    def offset_for_peak_at_tg_c(self) -> float:
+        """The ``reference_below_tg_c`` that would put this model's 1 Hz tan delta peak at its
+        Tg (the paper's definition; what a material calibrated from its own DMA sweep sets)."""
+        return self.tg_c - float(reference_for_peak(self.tg_c, self.peak_log10_shift, self.params))
 
     def log10_shift(self, temp_c) -> np.ndarray:
         """log10 a_T at ``temp_c`` (any shape)."""
