@@ -24,7 +24,9 @@ from foldprint.physics.barhinge import equilibrium as bs
 from foldprint.physics.barhinge.model import build, diagonal_curvatures, kresling, kresling_heights
 from foldprint.physics.barhinge.energy import dihedral, fold_angles
 from foldprint.physics.hinge_drive import HingeDrive, run_times
-from foldprint.physics.barhinge.stiffness import ModulusCurve, default_params, hinge_modulus, params_from
+from foldprint.physics.barhinge.stiffness import default_params, hinge_modulus, params_from
+from foldprint.physics.viscoelastic import viscoelastic
+from foldprint.model.materials import default_library
 
 STIFF = 1e5  # MPa: panels 100x the paper's 1 GPa, for the comparisons with rigid panels
 
@@ -106,22 +108,39 @@ def test_a_valley_lifts_the_child_toward_plus_z():
     assert (sol.x[-1][tip, 2] > 5).all()
 
 
-def test_modulus_curve_has_its_plateaus_and_its_midpoint_at_tg():
-    c = ModulusCurve(1500.0, 5.0, 5.0, 0.45)
-    T = np.linspace(-20, 120, 300)
-    E = hinge_modulus(T, 50.0, c)
-    assert (np.diff(E) < 0).all()
-    assert E[0] == pytest.approx(1500.0, rel=1e-3) and E[-1] == pytest.approx(5.0, rel=1e-3)
-    assert float(hinge_modulus(50.0, 50.0, c)) == pytest.approx(math.sqrt(1500 * 5))
+def test_hinge_modulus_is_the_materials_relaxation_modulus_at_the_load_time():
+    lib = default_library()
     p = default_params()
-    assert p.panel_modulus_mpa == 1000.0 and p.hinge.glassy_mpa / p.hinge.rubbery_mpa == pytest.approx(300)
+    assert p.hinge.load_time_s == 1.0 and p.panel_modulus_mpa == 1000.0
+    m = lib["H-4"]
+    model = viscoelastic(m)
+    T = np.linspace(-20, 140, 321)
+    E = hinge_modulus(model, T, m.tg_c, p.hinge)
+    assert (np.diff(E) <= 1e-9).all()  # hotter is softer
+    # the plateaus are the material's moduli
+    assert E[0] == pytest.approx(m.glassy_mpa, rel=0.02) and E[-1] == pytest.approx(m.rubbery_mpa, rel=1e-3)
+    # the relaxation modulus at 1 s, independently: E_r + dE sum g exp(-t / (a_T tau))
+    tau, g = model.spectrum()
+    a = 10.0 ** float(model.log10_shift(m.tg_c))
+    want = m.rubbery_mpa + (m.glassy_mpa - m.rubbery_mpa) * float(np.sum(g * np.exp(-1.0 / (a * tau))))
+    assert float(hinge_modulus(model, m.tg_c, m.tg_c, p.hinge)) == pytest.approx(want, rel=1e-12)
+    # a Tg scattered by 3 C moves the whole curve by 3 C: exactly on the WLF side of T_ref,
+    # closely on the Arrhenius side (its shift depends on the absolute temperature)
+    moved = hinge_modulus(model, T + 3.0, m.tg_c + 3.0, p.hinge)
+    wlf = T >= model.reference_c
+    assert moved[wlf] == pytest.approx(E[wlf], rel=1e-9)
+    assert moved == pytest.approx(E, rel=1e-4)
 
 
 def test_mechanics_data_errors_name_the_file_and_the_key():
+    good = {"hinge": {"load_time_s": 1.0, "poisson": 0.3},
+            "panel": {"modulus_mpa": 1000, "poisson": 0.3, "bending_coefficient": 0.5},
+            "check": {"panel_strain_limit": 0.01}}
     with pytest.raises(DesignError, match=r"my\.toml \[panel\]: 'modulus_mpa' must be > 0"):
-        params_from({"hinge_modulus": {"glassy_mpa": 1, "rubbery_mpa": 1, "width_c": 1, "poisson": 0.3},
-                     "panel": {"modulus_mpa": -1, "poisson": 0.3, "bending_coefficient": 0.5},
-                     "check": {"panel_strain_limit": 0.01}}, "my.toml")
+        params_from({**good, "panel": {"modulus_mpa": -1, "poisson": 0.3, "bending_coefficient": 0.5}}, "my.toml")
+    with pytest.raises(DesignError, match=r"my\.toml \[hinge\]: \['glassy_mpa', 'width_c'\] are no longer"):
+        params_from({**good, "hinge": {"load_time_s": 1.0, "poisson": 0.3, "glassy_mpa": 1, "width_c": 5}},
+                    "my.toml")
     with pytest.raises(DesignError, match="missing table"):
         params_from({}, "my.toml")
 
@@ -143,9 +162,10 @@ def test_strip_with_stiff_panels_follows_the_rigid_model_within_one_percent():
 
 def test_miura_with_stiff_panels_stays_on_the_rigid_folding_path():
     """Rigid-foldable: at every solved time each interior vertex's straight and zigzag
-    creases satisfy the one-DOF relation tan(|rho_h|/2) = cos(gamma) tan(|rho_z|/2), and
-    the final angles are the rigid model's, within 1 % of the target angle; the panels
-    barely strain, less as they stiffen."""
+    creases satisfy the one-DOF relation tan(|rho_h|/2) = cos(gamma) tan(|rho_z|/2) within
+    1.5 % of the target angle, and closer as the panels stiffen (the relation is the rigid
+    limit's); the final angles are the rigid model's, within 1 % of the target angle; the
+    panels barely strain, less as they stiffen."""
     d = load_design("templates/miura_3x3.toml")
     sol, ca, ra = _compare_with_rigid(d)
     target = np.abs([h.angle for h in d.hinges])
@@ -153,15 +173,21 @@ def test_miura_with_stiff_panels_stays_on_the_rigid_folding_path():
     gamma = math.atan2(20.0, 8.0)
     straight = [k for k, h in enumerate(d.hinges) if abs(abs(h.angle_deg) - 24.2) < 0.1]
     zigzag = [k for k, h in enumerate(d.hinges) if abs(abs(h.angle_deg) - 60) < 0.1]
-    z = np.abs(ca[:, zigzag]).mean(axis=1)
-    h = np.abs(ca[:, straight])
-    pred = 2 * np.arctan(math.cos(gamma) * np.tan(z / 2))
-    folded = z > math.radians(5)
-    assert folded.sum() > 20
-    assert (np.abs(h[folded] - pred[folded, None]) <= 0.01 * target[straight][None]).all()
+
+    def off_path(angles):
+        z = np.abs(angles[:, zigzag]).mean(axis=1)
+        pred = 2 * np.arctan(math.cos(gamma) * np.tan(z / 2))
+        folded = z > math.radians(5)
+        assert folded.sum() > 20
+        return float((np.abs(np.abs(angles[:, straight])[folded] - pred[folded, None])
+                      / target[straight][None]).max())
+
+    off = off_path(ca)
+    assert off <= 0.015
     # near rigid: the panels' strain is a small share of the strain limit and falls as they stiffen
     assert sol.max_strain < 0.01 * sol.strain_limit
     stiffer = bs.CompliantDrive(d, panel_modulus_mpa=10 * STIFF).solve(run_times(d, 0.01))
+    assert off_path(stiffer.grid_angles) < off / 2
     assert stiffer.max_strain < sol.max_strain / 3
 
 

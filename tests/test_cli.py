@@ -146,3 +146,24 @@ def test_export_to_unwritable_place_exits_2_and_writes_nothing(capsys, tmp_path)
     code, out, err = run(capsys, "export", "helix_graded", "--out", str(blocker / "sub"))
     assert code == 2 and "file" in err and "Traceback" not in err and out == ""
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
+def test_materials_plot_model_and_the_models_tg(capsys, tmp_path):
+    png = tmp_path / "model.png"
+    code, out, err = run(capsys, "materials", "--plot-model", str(png), "-t", "90", "--json")
+    assert code == 0 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20000
+    data = json.loads(out)
+    h1 = next(r for r in data["materials"] if r["name"] == "H-1")
+    from foldprint.model.materials import default_library
+    from foldprint.physics.viscoelastic import viscoelastic
+    v = viscoelastic(default_library()["H-1"])
+    assert h1["tan_delta_peak_c"] == pytest.approx(v.tan_delta_peak_c, abs=1e-3)
+    assert h1["shift_reference_c"] == 32.0 and (h1["glassy_mpa"], h1["rubbery_mpa"]) == (1500.0, 5.0)
+    # the two differ for the shipped grades, and the listing says so
+    assert data["notes"] and f"{v.tan_delta_peak_c - 32.0:+.1f} C" in data["notes"][0]
+
+
+def test_materials_plot_model_refuses_a_format_before_writing(capsys, tmp_path):
+    bad = tmp_path / "model.bmp"
+    code, out, err = run(capsys, "materials", "--plot-model", str(bad))
+    assert code == 2 and "--plot-model" in err and ".png" in err and not bad.exists()

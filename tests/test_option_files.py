@@ -149,6 +149,7 @@ def test_what_is_not_a_regular_file_is_refused_before_reading(tmp_path, capsys, 
     ["simulate", "helix_graded", "--plot", "p/" * 1000],
     ["materials", "--plot", "x.exe"],
     ["materials", "--plot", "c" * 5000 + ".png"],
+    ["materials", "--plot-model", "x.exe"],
 ], ids=lambda a: f"{a[0]} {a[-1][:12]}... ({len(a[-1])})")
 def test_long_and_deep_paths_exit_2(tmp_path, capsys, monkeypatch, argv):
     monkeypatch.chdir(tmp_path)

@@ -35,7 +35,8 @@ class RecoveryParams:
     log a_T and its slope continuous at Tg. Relaxation spectrum: ``n_branches``
     Prony terms, log-spaced over ``spectrum_span_decades`` about
     ``log10_tau_ref_s`` (relaxation time at Tg), with Gaussian weights of width
-    ``spectrum_sigma_decades`` in log tau.
+    ``spectrum_sigma_decades`` in log tau. The shift's reference temperature is
+    Tg - ``reference_below_tg_c``.
     """
 
     k_w_mk: float
@@ -48,6 +49,9 @@ class RecoveryParams:
     spectrum_sigma_decades: float
     spectrum_span_decades: float
     n_branches: int = 16
+    #: Tg - T_ref (deg C): how far the shift's reference temperature lies below the material's
+    #: Tg (docs/recovery-model.md, "What Tg means"); 0: the shift is referenced at Tg.
+    reference_below_tg_c: float = 0.0
 
     def validate(self, at: sc.Where) -> None:
         """Every field a finite number within :data:`RECOVERY_BOUNDS` (``n_branches`` a
@@ -77,10 +81,15 @@ RECOVERY_BOUNDS = {
     "spectrum_sigma_decades": (0.01, 20.0, "decades", "a relaxation spectrum spans at most ~20 decades"),
     "spectrum_span_decades": (0.01, 30.0, "decades", "a relaxation spectrum spans at most ~20 decades"),
     "n_branches": (1, 256, "", "the paper's model has 16 branches; each costs a pass over the curve"),
+    "reference_below_tg_c": (-100.0, 100.0, "deg C", "a shift referenced within 100 C of the glass transition"),
 }
 #: Materials one file may define (the shipped library has 9; each hinge material is a
 #: recovery curve per bath temperature in `foldprint materials`).
 MAX_MATERIALS = 256
+#: What a materials file may set for the moduli (MPa), (lo, hi): polymers span soft rubbers,
+#: ~0.1 MPa, to glassy resins, ~5 GPa; the bounds are wider, and glassy must exceed rubbery.
+MODULUS_BOUNDS_MPA = (1e-3, 1e6)
+MODULUS_KEYS = ("glassy_mpa", "rubbery_mpa")
 
 
 @dataclass(frozen=True)
@@ -112,12 +121,20 @@ class Material:
     #: False for a resin of its own (``calibrate`` writes ``blend = false`` for a material it
     #: adds: its data do not say what it is made of).
     blend: bool = True
+    #: Glassy and rubbery moduli (MPa) of the material's viscoelastic model
+    #: (:func:`foldprint.physics.viscoelastic.viscoelastic`); None for non-hinge materials.
+    glassy_mpa: float | None = None
+    rubbery_mpa: float | None = None
 
     @property
     def shape_fixity(self) -> float:
         """The share of a programmed bend the hinge keeps when released: the measured
-        ``fixity``, else :func:`default_fixity`."""
-        return default_fixity() if self.fixity is None else self.fixity
+        ``fixity``, else E_g / (E_g + E_r) of its moduli (:func:`default_fixity`)."""
+        if self.fixity is not None:
+            return self.fixity
+        if self.glassy_mpa is not None and self.rubbery_mpa is not None:
+            return self.glassy_mpa / (self.glassy_mpa + self.rubbery_mpa)
+        return default_fixity()
 
     @property
     def rgba(self) -> tuple[float, float, float, float]:
@@ -199,12 +216,28 @@ class MaterialLibrary:
 _COLOR_CHARS = set("0123456789abcdefABCDEF")
 
 
+def _moduli(raw: Mapping, base: Mapping, prev: Material | None, at: sc.Where) -> dict:
+    """glassy_mpa and rubbery_mpa of a hinge material: its own, else the previous entry's,
+    else the library's ``[modulus_defaults]``; each in :data:`MODULUS_BOUNDS_MPA`, glassy > rubbery."""
+    out = {}
+    lo, hi = MODULUS_BOUNDS_MPA
+    for k in MODULUS_KEYS:
+        v = raw.get(k, getattr(prev, k) if prev is not None and getattr(prev, k) is not None else base.get(k))
+        if v is None:
+            raise (at / k).fail("missing: set it on the material or in [modulus_defaults] (MPa)")
+        out[k] = sc.number(v, at / k, lo, hi, "MPa")
+    if not out["glassy_mpa"] > out["rubbery_mpa"]:
+        raise (at / "glassy_mpa").fail(f"must exceed rubbery_mpa ({out['rubbery_mpa']:g} MPa): a shape-memory "
+                                       f"hinge is stiffer glassy than rubbery, got {out['glassy_mpa']:g}")
+    return out
+
+
 def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
-                    previous: Material | None) -> Material:
+                    previous: Material | None, base_mod: Mapping | None = None) -> Material:
     at = sc.Where(src, f"materials.{name}", error=MaterialError)
     sc.ident(name, at)
     sc.table(raw, at, {"role", "tg_c", "color", "description", "max_strain", "recovery", "source", "fixity",
-                         "fixity_source", "blend"})
+                         "fixity_source", "blend", *MODULUS_KEYS})
     prev = previous
     role = raw.get("role", prev.role if prev else None)
     if role not in ROLES:
@@ -227,15 +260,16 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     if not isinstance(blend, bool):
         raise (at / "blend").fail(f"must be true (a VeroWhite/TangoBlack digital material) or false, "
                                   f"got {sc.describe(blend)}")
-    rec = None
+    rec, moduli = None, {}
     if role == "hinge":
+        moduli = _moduli(raw, base_mod or {}, prev, at)
         merged = dict(base_rec)
         if prev is not None and prev.recovery is not None:
             merged.update({f.name: getattr(prev.recovery, f.name) for f in fields(prev.recovery)})
         merged.update(sc.table(raw.get("recovery", {}), at / "recovery"))
         allowed = {f.name for f in fields(RecoveryParams)}
         sc.table(merged, at / "recovery", allowed)
-        missing = allowed - set(merged) - {"n_branches"}
+        missing = allowed - set(merged) - {"n_branches", "reference_below_tg_c"}
         if missing:
             raise (at / "recovery").fail(f"missing {sorted(missing)}")
         rec = RecoveryParams(**merged)
@@ -243,7 +277,7 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     text = {k: sc.string(raw.get(k, getattr(prev, k) if prev else ""), at / k, sc.MAX_TEXT)
             for k in ("description", "source", "fixity_source")}
     return Material(name=name, role=role, tg_c=tg, color=color, max_strain=max_strain, recovery=rec,
-                    fixity=fixity, blend=blend, **text)
+                    fixity=fixity, blend=blend, **moduli, **text)
 
 
 def parse_library(data: Mapping, src: str, base: MaterialLibrary | None = None) -> MaterialLibrary:
@@ -255,6 +289,11 @@ def parse_library(data: Mapping, src: str, base: MaterialLibrary | None = None) 
         first = next((m for m in base.materials if m.recovery is not None), None)
         if first is not None:
             base_rec = {f.name: getattr(first.recovery, f.name) for f in fields(first.recovery)}
+    base_mod = sc.table(data.get("modulus_defaults", {}), top / "modulus_defaults", set(MODULUS_KEYS))
+    if base is not None and not base_mod:
+        first = next((m for m in base.materials if m.glassy_mpa is not None), None)
+        if first is not None:
+            base_mod = {k: getattr(first, k) for k in MODULUS_KEYS}
     mats = data.get("materials")
     if not isinstance(mats, Mapping) or not mats:
         raise MaterialError(f"{where(src)}expected a [materials.NAME] table for each material")
@@ -262,7 +301,7 @@ def parse_library(data: Mapping, src: str, base: MaterialLibrary | None = None) 
         raise MaterialError(f"{where(src)}{len(mats)} materials; at most {MAX_MATERIALS} per file are accepted")
     order = list(existing)
     for name, raw in mats.items():
-        existing[name] = _parse_material(name, raw, base_rec, src, existing.get(name))
+        existing[name] = _parse_material(name, raw, base_rec, src, existing.get(name), base_mod)
         if name not in order:
             order.append(name)
     return MaterialLibrary(tuple(existing[n] for n in order))

@@ -51,6 +51,7 @@ class HingeDrive:
         self.design = design
         self.bath_c = float(design.process.bath_temperature_c if bath_c is None else bath_c)
         lib = library or default_library()
+        self.library = lib  # the materials of the hinges (their viscoelastic models: barhinge)
         if curves is None:
             curves = [recovery_curve(lib[h.material], self.bath_c, h.thickness,
                                      design.process.fix_temperature_c) for h in design.hinges]

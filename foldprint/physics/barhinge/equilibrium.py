@@ -33,6 +33,7 @@ from .energy import stretch
 from ..kinematics import forward
 from ..hinge_drive import HingeDrive
 from ...core.modes import HingeModel
+from ..viscoelastic import viscoelastic
 from .stiffness import MechanicsParams, default_params, hinge_modulus, hinge_stiffness
 
 log = logging.getLogger(__name__)
@@ -232,14 +233,16 @@ class CompliantSolution:
 
 def hinge_stiffnesses(design: Design, drive: HingeDrive, times, params: MechanicsParams) -> np.ndarray:
     """(n_t, n_hinges) rotational stiffness (N mm/rad) of each hinge at ``times``: its
-    material's modulus at the hinge's mean temperature (the recovery model's heat
-    conduction), over its strip's width w = R |rho_target| (at least its thickness)."""
+    material's relaxation modulus at the load time (:func:`.stiffness.hinge_modulus`) at the
+    hinge's mean temperature (the recovery model's heat conduction) and Tg (its curve's: a
+    Monte-Carlo sample's own), over its strip's width w = R |rho_target| (at least its thickness)."""
     t = np.atleast_1d(np.asarray(times, float))
     out = np.zeros((len(t), len(design.hinges)))
+    lib = drive.library
     for i, (h, c) in enumerate(zip(design.hinges, drive.curves)):
         temp = np.interp(t, c.t, c.mean_temperature_c, left=c.initial_c)
         curve = params.curve(h.material)
-        E = hinge_modulus(temp, c.tg_c, curve)
+        E = hinge_modulus(viscoelastic(lib[h.material]), temp, c.tg_c, curve)
         out[:, i] = hinge_stiffness(E, h.length, h.thickness, max(h.width, h.thickness), curve.poisson)
     return out
 

@@ -1,8 +1,9 @@
 """Stiffnesses of the bar-and-hinge model from the materials' moduli
 (``foldprint/data/mechanics.toml``, its sources there and in ``docs/mechanics.md``).
 
-* A hinge material's storage modulus E(T): glassy and rubbery plateaus with a logistic
-  transition in log10 E centred on its Tg (:func:`hinge_modulus`).
+* A hinge material's modulus: E(t_load, T), the relaxation modulus of its viscoelastic model
+  (:mod:`foldprint.physics.viscoelastic`, the one that also gives its recovery) at the
+  mechanics data's load time t_load (:func:`hinge_modulus`).
 * A printed hinge strip of length L, thickness t and flat width w bent to uniform
   curvature rho / w carries the moment D L rho / w, D = E t^3 / (12 (1 - nu^2)): its
   rotational stiffness is :func:`hinge_stiffness`.
@@ -17,22 +18,22 @@ Units: MPa = N/mm^2, mm, so stiffnesses are N/mm (bars) and N mm/rad (springs).
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from importlib import resources
 
 import numpy as np
 
 from ...core.errors import DesignError
+from ..viscoelastic import Viscoelastic
 
 
 @dataclass(frozen=True)
-class ModulusCurve:
-    """E(T) of one hinge material (MPa): plateaus and the transition width (C)."""
+class HingeMechanics:
+    """What the bar-and-hinge model adds to a hinge material's viscoelastic model: the load
+    time (s) at which its relaxation modulus is read and the Poisson ratio."""
 
-    glassy_mpa: float
-    rubbery_mpa: float
-    width_c: float
+    load_time_s: float
     poisson: float
 
 
@@ -40,14 +41,14 @@ class ModulusCurve:
 class MechanicsParams:
     """The contents of ``data/mechanics.toml``."""
 
-    hinge: ModulusCurve
+    hinge: HingeMechanics
     panel_modulus_mpa: float
     panel_poisson: float
     bending_coefficient: float
     panel_strain_limit: float
-    overrides: dict = field(default_factory=dict)  # material name -> ModulusCurve
+    overrides: dict = field(default_factory=dict)  # material name -> HingeMechanics
 
-    def curve(self, material: str) -> ModulusCurve:
+    def curve(self, material: str) -> HingeMechanics:
         return self.overrides.get(material, self.hinge)
 
 
@@ -64,16 +65,21 @@ def _positive(table: dict, key: str, where: str) -> float:
 def params_from(data: dict, source: str) -> MechanicsParams:
     """:class:`MechanicsParams` from a parsed mechanics TOML (``source`` names it in errors)."""
     try:
-        hm, panel, check = data["hinge_modulus"], data["panel"], data["check"]
+        hm, panel, check = data["hinge"], data["panel"], data["check"]
     except KeyError as exc:
         raise DesignError(f"{source}: missing table [{exc.args[0]}]") from None
 
-    def curve(t: dict, base: ModulusCurve | None, where: str) -> ModulusCurve:
+    def curve(t: dict, base: HingeMechanics | None, where: str) -> HingeMechanics:
+        moved = sorted({"glassy_mpa", "rubbery_mpa", "width_c"} & set(t))
+        if moved:
+            raise DesignError(f"{where}: {moved} are no longer mechanics data: a hinge's moduli are its "
+                              f"material's (glassy_mpa, rubbery_mpa in a materials file, --materials), its "
+                              f"E(T) the material's viscoelastic model; remove them")
         get = (lambda k: _positive(t, k, where)) if base is None else (
             lambda k: _positive(t, k, where) if k in t else getattr(base, k))
-        return ModulusCurve(get("glassy_mpa"), get("rubbery_mpa"), get("width_c"), get("poisson"))
+        return HingeMechanics(get("load_time_s"), get("poisson"))
 
-    base = curve(hm, None, f"{source} [hinge_modulus]")
+    base = curve(hm, None, f"{source} [hinge]")
     over = {name: curve(t, base, f"{source} [materials.{name}]") for name, t in data.get("materials", {}).items()}
     return MechanicsParams(base, _positive(panel, "modulus_mpa", f"{source} [panel]"),
                            _positive(panel, "poisson", f"{source} [panel]"),
@@ -88,16 +94,12 @@ def default_params() -> MechanicsParams:
     return params_from(tomllib.loads(text), "foldprint/data/mechanics.toml")
 
 
-def hinge_modulus(temp_c, tg_c: float, curve: ModulusCurve) -> np.ndarray:
-    """Storage modulus (MPa) at ``temp_c`` of a material with glass transition ``tg_c``.
-
-    >>> c = ModulusCurve(1500.0, 5.0, 5.0, 0.45)
-    >>> round(float(hinge_modulus(40.0, 40.0, c)), 1)  # the geometric mean at Tg
-    86.6
-    """
-    z = np.clip((np.asarray(temp_c, float) - tg_c) / curve.width_c, -50.0, 50.0)
-    lg, lr = np.log10(curve.glassy_mpa), np.log10(curve.rubbery_mpa)
-    return 10.0 ** (lr + (lg - lr) / (1.0 + np.exp(z)))
+def hinge_modulus(model: Viscoelastic, temp_c, tg_c: float, hinge: HingeMechanics) -> np.ndarray:
+    """Modulus (MPa) of a hinge of ``model`` with Tg ``tg_c`` (a scattered Tg moves the whole
+    curve) at ``temp_c``: its relaxation modulus E(t_load, T) at the load time ``hinge.load_time_s``."""
+    if float(tg_c) != model.tg_c:
+        model = replace(model, tg_c=float(tg_c))
+    return model.relaxation_mpa(hinge.load_time_s, temp_c)
 
 
 def plate_rigidity(modulus_mpa, thickness_mm, poisson: float):

@@ -57,7 +57,8 @@ import numpy as np
 from ...core.constants import RECOVERY_HORIZON_S
 from ...core.jit import use_kernels
 from ...model.materials import RecoveryParams
-from .curve import N_LAYERS, N_TERMS, curve_time_grid, combine_strips, is_graded, spectrum, strip_tgs
+from ..viscoelastic import spectrum
+from .curve import N_LAYERS, N_TERMS, curve_time_grid, combine_strips, is_graded, strip_tgs
 from .relaxation import CUT, Block, Buffers, RelaxationTable, relaxation_table, table_block
 
 #: Elements (hinges x grid times x layer pairs) of one batch: a larger batch is computed
@@ -90,23 +91,23 @@ def grid_until(until_s: float, horizon_s: float = RECOVERY_HORIZON_S) -> np.ndar
     return g[: min(len(g), k + 2)]
 
 
-def _rate(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams, out: np.ndarray | None = None,
+def _rate(temp: np.ndarray, ref: np.ndarray, p: RecoveryParams, out: np.ndarray | None = None,
           work: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """1 / a_T = exp(-ln 10 log10 a_T) of :func:`foldprint.physics.recovery.curve.log10_shift`,
     the same operations on the same values (bitwise equal), into ``out`` (with ``work``, two
-    arrays of ``temp``'s shape, as scratch), and Arrhenius only where it is taken (below Tg)."""
+    arrays of ``temp``'s shape, as scratch), and Arrhenius only where it is taken (below T_ref)."""
     d, d_c1 = (None, None) if work is None else work
-    d = np.subtract(temp, tg, out=d)
+    d = np.subtract(temp, ref, out=d)
     out = np.maximum(d, 0.0, out=out)
     out += p.c2
     np.divide(np.multiply(d, -p.c1, out=d_c1), out, out=out)  # WLF: -c1 d / (c2 + max(d, 0))
     below = d < 0.0
     if below.any():
-        tgk = tg + 273.15
+        refk = ref + 273.15
         arr = np.add(temp, 273.15, out=d)
         np.divide(1.0, arr, out=arr)
-        arr -= 1.0 / tgk
-        arr *= (p.c1 / p.c2) * tgk**2  # Arrhenius: (c1 / c2) Tg^2 (1 / T - 1 / Tg), in K
+        arr -= 1.0 / refk
+        arr *= (p.c1 / p.c2) * refk**2  # Arrhenius: (c1 / c2) Tr^2 (1 / T - 1 / Tr), in K
         np.copyto(out, arr, where=below)
     out *= -_LN10
     return np.exp(out, out=out)
@@ -192,7 +193,7 @@ def _slab_block(slab: _Slab, tb: np.ndarray, v: Block, terms: int) -> int:
     return terms
 
 
-def _reduced_time_block(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams, dt: np.ndarray, v: Block,
+def _reduced_time_block(temp: np.ndarray, ref: np.ndarray, p: RecoveryParams, dt: np.ndarray, v: Block,
                         carry: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """Reduced time xi (into ``v.xi``) at the block's times: the running trapezoid sum of
     1 / a_T, continued from ``carry`` = (xi, rate) at the previous block's last time (zero
@@ -200,7 +201,7 @@ def _reduced_time_block(temp: np.ndarray, tg: np.ndarray, p: RecoveryParams, dt:
     previous time (0 at t = 0)."""
     xi_end, rate_end = carry
     rate, inc = v.rate, v.e
-    _rate(temp, tg[:, None, None], p, out=rate, work=(v.e, v.x))
+    _rate(temp, ref[:, None, None], p, out=rate, work=(v.e, v.x))
     flat = rate.reshape(-1)
     np.add(flat[1:], flat[:-1], out=inc.reshape(-1)[1:])  # r_i + r_(i-1); each row's first:
     np.add(rate[..., 0], rate_end, out=inc[..., 0])  # with the previous block's last rate
@@ -293,24 +294,32 @@ def material_batch_ratios(material, tg_c, h_w_m2k, thickness_mm, bath_c, initial
 def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial_c: float,
                  t: np.ndarray, table: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Recovery ratio and mean temperature, each (n, len(t)), of ``n`` hinges of the
-    recovery model ``p`` (its ``h_w_m2k`` replaced by the given one per hinge), with Tg
-    ``tg_c``, thickness ``thickness_mm`` (mm) and bath ``bath_c`` (deg C) per hinge, all
+    recovery model ``p`` (its ``h_w_m2k`` replaced by the given one per hinge), with Tg ``tg_c``
+    (the shift referenced at Tg - ``p.reference_below_tg_c``, as
+    :meth:`foldprint.physics.viscoelastic.Viscoelastic.reference_for`), thickness
+    ``thickness_mm`` (mm) and bath ``bath_c`` (deg C) per hinge, all
     starting at ``initial_c``, at the times ``t`` (a prefix of the model's grid,
     :func:`grid_until`). Inputs are validated by the caller (finite, thickness > 0).
     ``table``: read the relaxation sum from :func:`relaxation_table` (|dR| < 2e-8) instead
     of summing the exponentials (round-off from the per-curve model)."""
-    tg = np.asarray(tg_c, float)
-    n = tg.shape[0]
+    ref = np.asarray(tg_c, float) - p.reference_below_tg_c
+    n = ref.shape[0]
     hw = np.broadcast_to(np.asarray(h_w_m2k, float), (n,))
     th = np.broadcast_to(np.asarray(thickness_mm, float), (n,))
     bath = np.broadcast_to(np.asarray(bath_c, float), (n,))
     t = np.asarray(t, float)
     per = max(1, MAX_BATCH_ELEMENTS // max(1, len(t) * N_LAYERS // 2))
     if n > per:  # bounded memory: batches of at most MAX_BATCH_ELEMENTS elements
-        parts = [batch_ratios(p, tg[a:a + per], hw[a:a + per], th[a:a + per], bath[a:a + per], initial_c, t, table)
+        parts = [_batch(p, ref[a:a + per], hw[a:a + per], th[a:a + per], bath[a:a + per], initial_c, t, table)
                  for a in range(0, n, per)]
         return np.concatenate([r for r, _ in parts]), np.concatenate([m for _, m in parts])
-    return _curves(p, _slab(p, hw, th), tg, bath, initial_c, t, relaxation_table(p) if table else None)
+    return _batch(p, ref, hw, th, bath, initial_c, t, table)
+
+
+def _batch(p: RecoveryParams, ref: np.ndarray, hw: np.ndarray, th: np.ndarray, bath: np.ndarray,
+           initial_c: float, t: np.ndarray, table: bool) -> tuple[np.ndarray, np.ndarray]:
+    """One batch of :func:`batch_ratios`, the shift's reference temperatures ``ref`` given."""
+    return _curves(p, _slab(p, hw, th), ref, bath, initial_c, t, relaxation_table(p) if table else None)
 
 
 def _slab(p: RecoveryParams, hw: np.ndarray, th: np.ndarray) -> _Slab:
@@ -326,11 +335,11 @@ def _slab(p: RecoveryParams, hw: np.ndarray, th: np.ndarray) -> _Slab:
     return _Slab(alpha, half**2, -zeta**2, np.ascontiguousarray(shape.transpose(2, 0, 1)), t_cut)
 
 
-def _curves(p: RecoveryParams, slab: _Slab, tg: np.ndarray, bath: np.ndarray, initial_c: float,
+def _curves(p: RecoveryParams, slab: _Slab, ref: np.ndarray, bath: np.ndarray, initial_c: float,
             t: np.ndarray, table: RelaxationTable | None) -> tuple[np.ndarray, np.ndarray]:
     """Ratio and mean temperature (n, len(t)) of the hinges of ``slab``, a block of the time
     axis at a time (:data:`BLOCK_ELEMENTS`)."""
-    n = len(tg)
+    n = len(ref)
     _, w, wm = _layers()
     dt = np.diff(t, prepend=t[:1])  # each time's step from the previous one (0 at the first)
     if table is not None and use_kernels():  # the compiled path (batch_kernels): the same model
@@ -356,7 +365,7 @@ def _curves(p: RecoveryParams, slab: _Slab, tg: np.ndarray, bath: np.ndarray, in
         theta *= (bath - initial_c)[:, None, None]
         temp = np.subtract(bath[:, None, None], theta, out=theta)
         mean_t[:, a:a + len(tb)] = np.einsum("nzt,z->nt", temp, wm, out=v.r)
-        xi = _reduced_time_block(temp, tg, p, dt[a:a + len(tb)], v, carry)
+        xi = _reduced_time_block(temp, ref, p, dt[a:a + len(tb)], v, carry)
         if table is None:
             first = _unrecovered_block(xi, tau, g, v, first)
         else:

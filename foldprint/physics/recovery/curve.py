@@ -6,9 +6,10 @@ Physically grounded, three parts (equations and calibration: ``docs/recovery-mod
    bath at ``Tb``; both faces see a heat-transfer coefficient ``h_w_m2k``. The exact
    series solution of 1-D conduction with Robin boundaries gives the temperature at
    Gauss points through the thickness.
-2. **Time-temperature superposition** about the material's Tg: WLF above Tg,
-   Arrhenius below, with log a_T and its slope continuous at Tg. Each layer
-   accumulates reduced time xi(t) = integral dt / a_T(T(z, t)).
+2. **Time-temperature superposition** of the material's viscoelastic model
+   (:func:`foldprint.physics.viscoelastic.viscoelastic`: WLF above its reference temperature,
+   Arrhenius below, the reference set so that the model's 1 Hz tan delta peaks at Tg). Each
+   layer accumulates reduced time xi(t) = integral dt / a_T(T(z, t)).
 3. **Relaxation spectrum.** A Prony series of ``n_branches`` (16, as the paper's
    multi-branch model) drives free recovery: R_layer = 1 - sum_b g_b exp(-xi / tau_b).
    The hinge's recovery ratio is the bending-weighted (z^2) mean over the layers.
@@ -35,6 +36,7 @@ from ...core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM, FOLD_LEVEL, O
 from ...core.errors import MaterialError
 from ...model.composition import Along, composition_model, strips
 from ...model.materials import Material, RecoveryParams
+from ..viscoelastic import log10_shift, spectrum, viscoelastic  # noqa: F401  (log10_shift: re-exported)
 
 N_TERMS = 40  # series terms of the slab solution (converged for Fo > ~1e-3)
 N_LAYERS = 8  # Gauss-Legendre points through the thickness
@@ -73,32 +75,6 @@ def slab_temperature(t: np.ndarray, z_frac: np.ndarray, bath_c: float, initial_c
     theta = modes @ shape.T  # (n_t, n_z) dimensionless excess temperature
     theta[np.asarray(t) <= 0] = 1.0  # the series converges slowly at t = 0 exactly
     return bath_c - (bath_c - initial_c) * np.clip(theta, 0.0, 1.0)
-
-
-def log10_shift(temp_c: np.ndarray, tg_c: float, p: RecoveryParams) -> np.ndarray:
-    """log10 a_T: WLF above Tg, Arrhenius below, value and slope continuous at Tg.
-
-    >>> from foldprint.model.materials import default_library
-    >>> p = default_library()["H-1"].recovery
-    >>> float(log10_shift(np.array([32.0]), 32.0, p)[0]) == 0.0  # no shift at Tg (it is -0.0)
-    True
-    """
-    d = np.asarray(temp_c, float) - tg_c
-    wlf = -p.c1 * d / (p.c2 + np.maximum(d, 0.0))
-    tk = np.asarray(temp_c, float) + 273.15
-    tgk = tg_c + 273.15
-    arrhenius = (p.c1 / p.c2) * tgk**2 * (1.0 / tk - 1.0 / tgk)  # = Ea/(R ln10) (1/T - 1/Tg)
-    return np.where(d >= 0.0, wlf, arrhenius)
-
-
-def spectrum(p: RecoveryParams) -> tuple[np.ndarray, np.ndarray]:
-    """Relaxation times tau_b (s, at Tg) and normalised weights g_b of the Prony series."""
-    n = p.n_branches
-    if n == 1:
-        return np.array([10.0**p.log10_tau_ref_s]), np.array([1.0])
-    logtau = p.log10_tau_ref_s + np.linspace(-0.5, 0.5, n) * p.spectrum_span_decades
-    g = np.exp(-0.5 * ((logtau - p.log10_tau_ref_s) / p.spectrum_sigma_decades) ** 2)
-    return 10.0**logtau, g / g.sum()
 
 
 @dataclass(frozen=True, eq=False)
@@ -213,13 +189,14 @@ def _curve(material: Material, bath_c: float, thickness_mm: float, initial_c: fl
     if is_graded(material):
         return _graded_curve(material, bath_c, thickness_mm, initial_c, horizon_s)
     p = material.recovery
+    model = viscoelastic(material)
     t = curve_time_grid(horizon_s)
     zg, wg = np.polynomial.legendre.leggauss(N_LAYERS)
     temp = slab_temperature(t, zg, bath_c, initial_c, thickness_mm, p)  # (n_t, n_z)
-    rate = 10.0 ** (-log10_shift(temp, material.tg_c, p))  # d xi / d t
+    rate = 10.0 ** (-model.log10_shift(temp))  # d xi / d t
     xi = np.zeros_like(rate)
     xi[1:] = np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t)[:, None], axis=0)
-    tau, g = spectrum(p)
+    tau, g = model.spectrum()
     unrecovered = np.zeros_like(xi)
     for tb, gb in zip(tau, g):  # loop over 16 branches keeps memory at (n_t, n_z)
         unrecovered += gb * np.exp(-xi / tb)

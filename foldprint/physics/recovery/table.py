@@ -16,7 +16,8 @@ import numpy as np
 
 from ...core.constants import DEFAULT_FIX_C, DEFAULT_THICKNESS_MM, FOLD_LEVEL, RECOVERY_HORIZON_S
 from ...model.materials import Material
-from .curve import N_LAYERS, curve_time_grid, log10_shift, slab_temperature, spectrum
+from ..viscoelastic import viscoelastic
+from .curve import N_LAYERS, curve_time_grid, slab_temperature
 
 _STRIDE = 64
 
@@ -38,10 +39,11 @@ def _fold_times(material: Material, baths: tuple[float, ...], thickness_mm: floa
     s = slab_temperature(t, zg, 1.0, 0.0, thickness_mm, p)  # (n_t, n_z): 1 - theta
     tb = np.asarray(baths, float)[:, None, None]
     temp = tb - (tb - initial_c) * (1.0 - s[None])  # (n_b, n_t, n_z)
-    rate = 10.0 ** (-log10_shift(temp, material.tg_c, p))
+    model = viscoelastic(material)
+    rate = 10.0 ** (-model.log10_shift(temp))
     xi = np.zeros_like(rate)
     xi[:, 1:] = np.cumsum(0.5 * (rate[:, 1:] + rate[:, :-1]) * np.diff(t)[None, :, None], axis=1)
-    tau, g = spectrum(p)
+    tau, g = model.spectrum()
     w = wg * zg**2
     w = w / w.sum()
     coarse = np.arange(0, len(t), _STRIDE)
