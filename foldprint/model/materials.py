@@ -91,7 +91,8 @@ class Material:
     ``max_strain`` is the largest bending strain the material takes during programming
     (used by the design-rule checks). ``recovery`` is None for non-hinge materials.
     ``fixity`` is a measured shape fixity (None: :func:`default_fixity`, see
-    :attr:`shape_fixity`), ``fixity_source`` where it comes from.
+    :attr:`shape_fixity`), ``fixity_source`` where it comes from. ``glassy_mpa`` and
+    ``rubbery_mpa``: the moduli a DMA gave (``foldprint calibrate``), None where none did.
     """
 
     name: str
@@ -112,6 +113,8 @@ class Material:
     #: False for a resin of its own (``calibrate`` writes ``blend = false`` for a material it
     #: adds: its data do not say what it is made of).
     blend: bool = True
+    glassy_mpa: float | None = None
+    rubbery_mpa: float | None = None
 
     @property
     def shape_fixity(self) -> float:
@@ -204,7 +207,7 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     at = sc.Where(src, f"materials.{name}", error=MaterialError)
     sc.ident(name, at)
     sc.table(raw, at, {"role", "tg_c", "color", "description", "max_strain", "recovery", "source", "fixity",
-                         "fixity_source", "blend"})
+                         "fixity_source", "blend", "glassy_mpa", "rubbery_mpa"})
     prev = previous
     role = raw.get("role", prev.role if prev else None)
     if role not in ROLES:
@@ -227,6 +230,12 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     if not isinstance(blend, bool):
         raise (at / "blend").fail(f"must be true (a VeroWhite/TangoBlack digital material) or false, "
                                   f"got {sc.describe(blend)}")
+    moduli = [raw.get(k, getattr(prev, k) if prev else None) for k in ("glassy_mpa", "rubbery_mpa")]
+    moduli = [None if v is None else sc.number(v, at / k, 0.0, 1e7, "MPa", lo_open=True)
+              for k, v in zip(("glassy_mpa", "rubbery_mpa"), moduli)]
+    if None not in moduli and not moduli[0] > moduli[1]:
+        raise (at / "rubbery_mpa").fail(f"must be below glassy_mpa ({moduli[0]:g} MPa): a polymer softens "
+                                        f"through its glass transition, got {moduli[1]:g}")
     rec = None
     if role == "hinge":
         merged = dict(base_rec)
@@ -243,7 +252,7 @@ def _parse_material(name: str, raw: Mapping, base_rec: Mapping, src: str,
     text = {k: sc.string(raw.get(k, getattr(prev, k) if prev else ""), at / k, sc.MAX_TEXT)
             for k in ("description", "source", "fixity_source")}
     return Material(name=name, role=role, tg_c=tg, color=color, max_strain=max_strain, recovery=rec,
-                    fixity=fixity, blend=blend, **text)
+                    fixity=fixity, blend=blend, glassy_mpa=moduli[0], rubbery_mpa=moduli[1], **text)
 
 
 def parse_library(data: Mapping, src: str, base: MaterialLibrary | None = None) -> MaterialLibrary:
