@@ -23,7 +23,8 @@ from ..io.hinge_data import HingeData, load_hinge_data, read_text
 from ..model.materials import MaterialLibrary, parse_library
 from ..physics.calibration.fit import FITTABLE, Fit, Hold, Problem, fit_best, held_value, holds
 from ..physics.calibration.profile import Interval, curve_residuals, findings, profile, row_reading
-from ..physics.calibration.fit_cost import check_fit
+from ..physics.calibration.fit_cost import check_dma_fits, check_fit
+from ..physics.calibration.dma import DMA_LOCKED, DmaFit, dma_json, dma_problems, fit_dma
 from .calibrate_library import changes, entries
 
 log = logging.getLogger(__name__)
@@ -31,22 +32,29 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class Calibration:
-    """One calibration: the problem, its optimum, the intervals (empty without the
-    profile), per-curve residuals, findings, the starting library's chi2 on the data, and
-    the parameters held (not fitted) with their sources."""
+    """One calibration: the recovery problem (None when the file has DMA rows only), its
+    optimum, the intervals (empty without the profile), per-curve residuals, findings, the
+    starting library's chi2 on the data, the parameters held (not fitted) with their
+    sources, and the DMA fit of every material with DMA rows (:mod:`..physics.calibration.dma`)."""
 
-    problem: Problem
-    fit: Fit
+    problem: Problem | None
+    fit: Fit | None
     intervals: tuple[Interval, ...]
     curves: list
     findings: list
     start_chi2: float
     holds: tuple[Hold, ...] = ()
+    dma: tuple[DmaFit, ...] = ()
+    library: MaterialLibrary | None = None
+    source: str = ""
 
     def held_values(self) -> dict[str, tuple[float, str]]:
         """{name: (value, source)} of every held parameter (the library's value where a
-        ``--fix NAME`` gave none)."""
+        ``--fix NAME`` gave none); the materials a DMA measured keep their own shift and
+        spectrum."""
         pb = self.problem
+        if pb is None:
+            return {}
         rec = pb.base[pb.materials[0]].recovery
         return {h.name: (getattr(rec, h.name) if h.value is None else h.value, h.source) for h in self.holds}
 
@@ -91,27 +99,45 @@ def calibrate(data: HingeData, library: MaterialLibrary, fixed: dict | None = No
     names = {h.name for h in held_by}
     free = tuple(n for n in FITTABLE if n not in names)
     held = {h.name: h.value for h in held_by if h.value is not None}
-    problem = Problem(data, library, free=free, per_material=tuple(per_material), fixed=held)
+    dma_pbs = dma_problems(data, library, {k: v for k, v in (fixed or {}).items() if v is not None},
+                           "spectrum_span_decades" in fit_names)
+    if dma_pbs:  # the DMA fits first (seconds): the recovery fit starts from what they fix
+        check_dma_fits(dma_pbs, dma_pbs[0].config.starts, with_profile)
+    dma = tuple(fit_dma(pb, library, with_profile) for pb in dma_pbs)
+    for d in dma:
+        log.info("DMA fit of %s: chi2 %.3f, Tg %.2f C", d.problem.material, d.fit.chi2, d.material.tg_c)
+    if not data.observations:
+        return Calibration(None, None, (), [], [fd for d in dma for fd in d.findings], 0.0, held_by, dma, library,
+                           data.source)
+    problem = Problem(data, library, free=free, per_material=tuple(per_material), fixed=held,
+                      measured={d.problem.material: d.material for d in dma}, locked=DMA_LOCKED)
     check_fit(problem, problem.config.starts, with_profile)  # refuse before the first curve is made
     r0 = problem.residuals(problem.library_point())
     result = fit_best(problem)
     log.info("fit: chi2 %.3f after %d evaluations (%s)", result.chi2, result.nfev, result.message)
     intervals = profile(problem, result) if with_profile else ()
-    found = findings(problem, result, intervals) if with_profile else findings(problem, result, ())
+    found = findings(problem, result, intervals) + [fd for d in dma for fd in d.findings]
     return Calibration(problem, result, intervals, curve_residuals(problem, result), found, float(r0 @ r0),
-                       held_by)
+                       held_by, dma, library, data.source)
 
 
 def header(cal: Calibration, data_path: str | Path, command: str) -> list[str]:
     digest = hashlib.sha256(read_text(data_path, "the measurements").encode("utf-8")).hexdigest()[:16]
     f, pb = cal.fit, cal.problem
     lines = [f"foldprint materials file, written by `{command}` (foldprint {__version__}).",
-             f"Data: {data_path} (sha256 {digest}...), {len(pb.data.observations)} rows fitted.",
-             f"Fit: scipy.optimize.least_squares (best of {max(1, len(f.ends))} starts), chi2 {f.chi2:.4g} for "
-             f"{f.dof} degrees of freedom, "
-             f"{f.rank} of {len(f.x)} parameter combinations fixed by the data; the library it started from: "
-             f"chi2 {cal.start_chi2:.4g}.",
-             "Load it with: foldprint <command> --materials THIS_FILE (docs/calibrate.md)."]
+             f"Data: {data_path} (sha256 {digest}...), "
+             f"{len(pb.data.observations) if pb else 0} recovery rows and "
+             f"{sum(len(d.problem.rows) for d in cal.dma)} DMA rows fitted."]
+    if f is not None:
+        lines.append(f"Fit: scipy.optimize.least_squares (best of {max(1, len(f.ends))} starts), chi2 {f.chi2:.4g} for "
+                     f"{f.dof} degrees of freedom, {f.rank} of {len(f.x)} parameter combinations fixed by the data; "
+                     f"the library it started from: chi2 {cal.start_chi2:.4g}.")
+    for d in cal.dma:
+        lines.append(f"DMA fit of {d.problem.material}: chi2 {d.fit.chi2:.4g} for {d.fit.dof} degrees of freedom; "
+                     f"tg_c {d.material.tg_c:.2f} C is the model's 1 Hz tan-delta peak and the shift's reference "
+                     f"temperature (the data's largest 1 Hz tan delta: "
+                     + ("none" if d.data_peak_c is None else f"{d.data_peak_c:g} C") + ").")
+    lines.append("Load it with: foldprint <command> --materials THIS_FILE (docs/calibrate.md).")
     for name, (v, source) in cal.held_values().items():
         lines.append(f"Held, not fitted: {name} = {v:g} ({source}).")
     for fd in cal.findings:
@@ -141,7 +167,7 @@ def write(cal: Calibration, out: str | Path, data_path: str | Path, command: str
     names' rule), so a file no command could read is never written."""
     text = materials_toml(entries(cal), header(cal, data_path, command))
     try:
-        parse_library(tomllib.loads(text), str(out), cal.problem.library)
+        parse_library(tomllib.loads(text), str(out), cal.library)
     except (ValueError, FoldprintError) as exc:  # a bug of the writer: say so, write nothing
         raise RuntimeError(f"the materials file for {out} would not load back: {exc}") from None
     return write_atomic(out, text)
@@ -152,12 +178,18 @@ def plot(cal: Calibration, path: str | Path) -> Path:
     from ..render.figures import figure_format, save_figure
 
     figure_format(path)
-    return save_figure(calibration_figure(cal.problem, cal.fit), path)
+    return save_figure(calibration_figure(cal.problem, cal.fit, cal.dma), path)
 
 
 def to_json(cal: Calibration) -> dict:
     """What ``foldprint calibrate --json`` prints (docs/calibrate.md lists the keys)."""
     pb, f = cal.problem, cal.fit
+    dma = [dma_json(d) for d in cal.dma]
+    if pb is None:
+        return {"data": cal.source, "materials": [d.problem.material for d in cal.dma], "parameters": [],
+                "fixed": {}, "held": [], "fit": None, "uncertainty": "profile" if any(d.intervals for d in cal.dma)
+                else "none", "confidence": cal.dma[0].problem.config.confidence, "start": None, "curves": [],
+                "rows": [], "findings": cal.findings, "fixity": {}, "changes": changes(cal), "dma": dma}
     ivs = {iv.label: iv for iv in cal.intervals}
     params = []
     for p, v, x0 in zip(pb.params, f.x, pb.library_point()):
@@ -174,7 +206,8 @@ def to_json(cal: Calibration) -> dict:
              **_reading(o, float(m), float(s))}
             for o, m, s, r in zip(pb.data.observations, f.predictions, pb.sigmas, f.residuals)]
     delta = cal.start_chi2 - f.chi2
-    return {"data": pb.data.source, "materials": pb.materials, "parameters": params,
+    return {"data": pb.data.source, "materials": list(dict.fromkeys(pb.materials + [d.problem.material for d in cal.dma])),
+            "parameters": params,
             "fixed": {k: float(v) for k, v in pb.fixed.items()},
             "held": [{"name": k, "value": float(v), "source": s} for k, (v, s) in cal.held_values().items()],
             "fit": {"chi2": f.chi2, "dof": f.dof, "rank": f.rank, "scale": f.scale, "evaluations": f.nfev,
@@ -184,7 +217,7 @@ def to_json(cal: Calibration) -> dict:
             "start": {"chi2": cal.start_chi2, "delta_chi2": delta, "joint_threshold": cal.joint_threshold,
                       "inside_joint_region": bool(delta <= cal.joint_threshold)},
             "curves": cal.curves, "rows": rows, "findings": cal.findings,
-            "fixity": {m: float(x) for m, x in pb.fixity.items()}, "changes": changes(cal)}
+            "fixity": {m: float(x) for m, x in pb.fixity.items()}, "changes": changes(cal), "dma": dma}
 
 
 def _reading(o, model: float, sigma: float) -> dict:

@@ -16,12 +16,46 @@ from .printing import echo_json, echo_note
 from .progress import with_progress
 
 
+def _print_dma(d: dict, conf: str) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    f = d["fit"]
+    peak = "no 1 Hz row" if d["data_tan_delta_peak_c"] is None else f"{d['data_tan_delta_peak_c']:g} C"
+    echo(f"  DMA of {d['material']}: {d['rows']} rows; chi2 {f['chi2']:.3g} for {f['dof']} degrees of freedom")
+    echo(f"    Tg {d['tg_c']:.2f} C: the model's 1 Hz tan-delta peak ({d['model_tan_delta_peak_c']:.2f} C on the model) "
+         f"and its shift's reference temperature; the data's largest 1 Hz tan delta: {peak}")
+    echo(f"    glassy {d['glassy_mpa']:.4g} MPa, rubbery {d['rubbery_mpa']:.4g} MPa, log10_tau_ref_s "
+         f"{d['log10_tau_ref_s']:.4g} (the centre that puts the peak at Tg)")
+    table = Table(title=f"{d['material']}: viscoelastic model fitted to DMA")
+    for col in ("parameter", "value", conf, "identified", "bounds"):
+        table.add_column(col)
+    for p in d["parameters"]:
+        iv = "-" if p["low"] is None else f"{p['low']:.4g} .. {p['high']:.4g}"
+        table.add_row(p["name"], f"{p['value']:.4g} {p['unit']}".strip(), iv, p["identified"] or "-",
+                      f"{p['bounds'][0]:g} .. {p['bounds'][1]:g} ({p['bound_kind']})")
+    Console(file=sys.stdout, width=130).print(table)
+    for k, v in d["held"].items():
+        echo(f"    held: {k} = {v:g}")
+    for c in d["curves"]:
+        freq = f" {c['frequency_hz']:g} Hz" if c["frequency_hz"] else ""
+        echo(f"    {c['kind']}{freq}: RMS {c['rms_log']:.3g} in ln ({c['rms_sigma']:.2f} sigma, {c['rows']} rows)")
+
+
 def _print(out: dict) -> None:
     from rich.console import Console
     from rich.table import Table
 
     f = out["fit"]
-    echo(f"{out['data']}: {len(out['rows'])} rows, materials {', '.join(out['materials'])}")
+    conf = f"{out['confidence']:.0%} interval" if out["uncertainty"] == "profile" else "interval (--no-profile)"
+    echo(f"{out['data']}: {len(out['rows'])} recovery rows, {sum(d['rows'] for d in out['dma'])} DMA rows, "
+         f"materials {', '.join(out['materials'])}")
+    for d in out["dma"]:
+        _print_dma(d, conf)
+    if f is None:
+        for fd in out["findings"]:
+            echo(f"  note: {fd['message']}")
+        return
     echo(f"  least squares: chi2 {f['chi2']:.3g} for {f['dof']} degrees of freedom; the data fix {f['rank']} of "
          f"{len(out['parameters'])} parameter combinations; the starting library: chi2 {out['start']['chi2']:.3g}"
          + (" (inside the joint confidence region)" if out["start"]["inside_joint_region"] else
@@ -29,7 +63,6 @@ def _print(out: dict) -> None:
     if len(f["start_ends"]) > 1:
         echo(f"  best of {len(f['start_ends'])} starts; chi2 where each ended: "
              + ", ".join(f"{c:.4g}" for c in f["start_ends"]) + " (the first from the starting library)")
-    conf = f"{out['confidence']:.0%} interval" if out["uncertainty"] == "profile" else "interval (--no-profile)"
     table = Table(title="fitted recovery parameters")
     for col in ("parameter", "value", conf, "identified", "bounds"):
         table.add_column(col)

@@ -66,6 +66,9 @@ def materials_toml(entries: Sequence[Entry], header: Sequence[str]) -> str:
                 out.append("blend = false\n")
         if e.write_tg or e.new:
             out.append(f"tg_c = {_num(m.tg_c)}\n")
+        for key in ("glassy_mpa", "rubbery_mpa"):
+            if getattr(m, key) is not None:
+                out.append(f"{key} = {_num(getattr(m, key))}\n")
         if m.fixity is not None:
             out.append(f"fixity = {_num(m.fixity)}\nfixity_source = {_str(m.fixity_source)}\n")
         if m.recovery is not None:

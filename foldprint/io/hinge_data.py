@@ -12,10 +12,15 @@ does not use the column), ``#`` starts a comment line. Kinds:
   "after 3 s");
 * ``spread``  the difference of two materials' ``time_to``: ``material`` minus ``reference``;
 * ``tg``      a DMA tan-delta peak of ``material`` (deg C, ``value``);
-* ``fixity``  a measured shape fixity of ``material`` (0..1, ``value``).
+* ``fixity``  a measured shape fixity of ``material`` (0..1, ``value``);
+* ``storage``, ``loss``, ``tan_delta``: a DMA reading of ``material`` at ``temperature_c``
+  and ``frequency_hz`` (E' or E'' in MPa, or tan delta = E''/E'; a temperature sweep at 1 Hz
+  is the paper's protocol);
+* ``relaxation`` the relaxation modulus E(t) (MPa) at ``time_s`` after a step strain held
+  at ``temperature_c``.
 
 ``sigma`` is the row's standard uncertainty in its own unit (blank: the kind's default in
-``foldprint/data/calibration.toml``); ``source`` is free text (where the number comes from).
+``foldprint/data/calibration.toml``); on the DMA kinds a relative one (a fraction of the value); ``source`` is free text (where the number comes from).
 
 Every file the command line reads goes through :func:`read_text` (one place: file type,
 size limit, encoding).
@@ -34,11 +39,14 @@ from ..core.schema import (MAX_FILE_BYTES, MAX_LENGTH_MM, MIN_LENGTH_MM, TEMPERA
                            number_text)
 
 COLUMNS = ("kind", "material", "reference", "bath_c", "thickness_mm", "initial_c", "time_s", "level",
-           "value", "relation", "sigma", "printed_deg", "source")
+           "value", "relation", "sigma", "printed_deg", "source", "temperature_c", "frequency_hz")
 CURVE_KINDS = ("ratio", "angle")
 TIME_KINDS = ("time_to", "spread")
 PROPERTY_KINDS = ("tg", "fixity")
-KINDS = CURVE_KINDS + TIME_KINDS + PROPERTY_KINDS
+#: DMA readings: a temperature (or frequency) sweep, and stress relaxation.
+DYNAMIC_KINDS = ("storage", "loss", "tan_delta")
+DMA_KINDS = DYNAMIC_KINDS + ("relaxation",)
+KINDS = CURVE_KINDS + TIME_KINDS + PROPERTY_KINDS + DMA_KINDS
 RELATIONS = ("about", "at_most", "at_least")
 #: The columns each kind needs, and the ones it may use; any other cell must be blank.
 NEEDS = {"ratio": ("material", "bath_c", "time_s", "value"),
@@ -46,10 +54,23 @@ NEEDS = {"ratio": ("material", "bath_c", "time_s", "value"),
          "time_to": ("material", "bath_c", "level", "value"),
          "spread": ("material", "reference", "bath_c", "level", "value"),
          "tg": ("material", "value"),
-         "fixity": ("material", "value")}
+         "fixity": ("material", "value"),
+         **{k: ("material", "temperature_c", "frequency_hz", "value") for k in DYNAMIC_KINDS},
+         "relaxation": ("material", "temperature_c", "time_s", "value")}
 _OBS = ("thickness_mm", "initial_c", "sigma", "source")
 MAY = {"ratio": _OBS, "angle": _OBS + ("printed_deg",), "time_to": _OBS + ("relation",),
-       "spread": _OBS + ("relation",), "tg": ("sigma", "source"), "fixity": ("sigma", "source")}
+       "spread": _OBS + ("relation",), "tg": ("sigma", "source"), "fixity": ("sigma", "source"),
+       **{k: ("sigma", "source") for k in DMA_KINDS}}
+#: The DMA values a row may hold (lo, hi, unit; lo excluded): moduli from 1 Pa to 10 TPa
+#: (a polymer's lie between ~0.01 MPa rubbery and ~10 GPa glassy: our wide choice, so that a
+#: lab's unit slip, Pa for MPa, is refused), tan delta up to 100 (rubbers and glasses stay
+#: below ~3).
+DMA_VALUE = {"storage": (0.0, 1e7, "MPa"), "loss": (0.0, 1e7, "MPa"), "tan_delta": (0.0, 100.0, ""),
+             "relaxation": (0.0, 1e7, "MPa")}
+#: DMA frequencies (Hz, lo excluded; instruments span ~1e-3 to ~200 Hz) and relaxation times
+#: (s, lo excluded; up to ~30 years): our wide choices.
+FREQUENCY_HZ = (0.0, 1e6)
+RELAXATION_S = (0.0, 1e9)
 #: The paper's Fig. 1 hinge is printed at theta = 90 deg and programmed flat (180 deg).
 PAPER_PRINTED_DEG = 90.0
 MAX_ROWS = 200_000
@@ -107,12 +128,33 @@ class Property:
 
 
 @dataclass(frozen=True)
+class DmaRow:
+    """One DMA reading (``storage``, ``loss``, ``tan_delta`` at ``frequency_hz``, or
+    ``relaxation`` at ``time_s``) of ``material`` at ``temperature_c``; ``sigma`` relative."""
+
+    line: int
+    kind: str
+    material: str
+    temperature_c: float
+    frequency_hz: float | None
+    time_s: float | None
+    value: float
+    sigma: float | None
+    source: str
+
+
+@dataclass(frozen=True)
 class HingeData:
     """The rows of one measurement file."""
 
     source: str
     observations: tuple[Observation, ...]
     properties: tuple[Property, ...]
+    dma: tuple[DmaRow, ...] = ()
+
+    def dma_materials(self) -> list[str]:
+        """Every material with DMA rows, in file order."""
+        return list(dict.fromkeys(r.material for r in self.dma))
 
     def materials(self) -> list[str]:
         """Every material the observations name (``reference`` included), in file order."""
@@ -170,7 +212,8 @@ def _name(text: str, at: _Cell) -> str:
 #: residuals infinite); above, the row says nothing (our choices: 1e-6 of the value's
 #: scale; the whole range of the value).
 SIGMA_RANGE = {"ratio": (1e-6, 1.5, ""), "angle": (1e-4, 225.0, "deg"), "time_to": (1e-4, 1e6, "s"),
-               "spread": (1e-4, 1e6, "s"), "tg": (1e-4, 600.0, "deg C"), "fixity": (1e-6, 1.0, "")}
+               "spread": (1e-4, 1e6, "s"), "tg": (1e-4, 600.0, "deg C"), "fixity": (1e-6, 1.0, ""),
+               **{k: (1e-4, 2.0, "(relative)") for k in DMA_KINDS}}
 
 
 def _sigma(text: str, at: _Cell, kind: str) -> float:
@@ -197,7 +240,19 @@ def _header(row: list[str], src: str) -> list[str]:
     return cols
 
 
-def _row(cells: dict[str, str], line: int, src: str) -> Observation | Property:
+def _dma_row(cells: dict[str, str], at: dict, line: int, kind: str, material: str, sigma: float | None,
+             source: str) -> DmaRow:
+    temp = _number(cells["temperature_c"], at["temperature_c"], *TEMPERATURE_C, "deg C")
+    freq = (_number(cells["frequency_hz"], at["frequency_hz"], *FREQUENCY_HZ, "Hz", lo_open=True)
+            if kind in DYNAMIC_KINDS else None)
+    time_s = (_number(cells["time_s"], at["time_s"], *RELAXATION_S, "s", lo_open=True) if kind == "relaxation"
+              else None)
+    lo, hi, unit = DMA_VALUE[kind]
+    value = _number(cells["value"], at["value"], lo, hi, unit, lo_open=True)
+    return DmaRow(line, kind, material, temp, freq, time_s, value, sigma, source)
+
+
+def _row(cells: dict[str, str], line: int, src: str) -> Observation | Property | DmaRow:
     kind = cells.get("kind", "")
     if kind not in KINDS:
         raise _Cell(src, line, "kind", "").fail(f"{kind[:40]!r} is not a kind; use one of {', '.join(KINDS)}")
@@ -213,6 +268,8 @@ def _row(cells: dict[str, str], line: int, src: str) -> Observation | Property:
         _name(cells["reference"], at["reference"])
     sigma = _sigma(cells["sigma"], at["sigma"], kind) if cells.get("sigma") else None
     source = cells.get("source", "")
+    if kind in DMA_KINDS:
+        return _dma_row(cells, at, line, kind, material, sigma, source)
     if kind == "tg":
         return Property(line, kind, material, _number(cells["value"], at["value"], *TEMPERATURE_C, "deg C"),
                         sigma, source)
@@ -273,6 +330,7 @@ def parse_hinge_data(text: str, src: str) -> HingeData:
     header: list[str] | None = None
     obs: list[Observation] = []
     props: list[Property] = []
+    dma: list[DmaRow] = []
     reader = csv.reader(_lines(text), strict=True)
     line = 0
     try:
@@ -291,11 +349,11 @@ def parse_hinge_data(text: str, src: str) -> HingeData:
             if len(row) > len(header):
                 raise DataError(f"{src}: line {line}: {len(row)} cells for {len(header)} columns (a comma too "
                                 "many? quote a source that contains commas: \"...\")")
-            if len(obs) + len(props) >= MAX_ROWS:
+            if len(obs) + len(props) + len(dma) >= MAX_ROWS:
                 raise DataError(f"{src}: more than {MAX_ROWS} rows; split the measurements into several runs")
             cells = {c: (row[i].strip() if i < len(row) else "") for i, c in enumerate(header)}
             item = _row(cells, line, src)
-            (props if isinstance(item, Property) else obs).append(item)
+            (props if isinstance(item, Property) else dma if isinstance(item, DmaRow) else obs).append(item)
     except csv.Error as exc:
         what = ("a quoted cell is not closed (\"...\" needs its closing quote on the same line)"
                 if "unexpected end" in str(exc) else f"not valid CSV: {exc}")
@@ -303,9 +361,10 @@ def parse_hinge_data(text: str, src: str) -> HingeData:
             from None
     if header is None:
         raise DataError(f"{src}: empty: expected a header line ({', '.join(COLUMNS)}) and rows (docs/calibrate.md)")
-    if not obs:
-        raise DataError(f"{src}: no ratio, angle, time_to or spread rows: nothing to fit the recovery model to")
-    return HingeData(src, tuple(obs), tuple(props))
+    if not obs and not dma:
+        raise DataError(f"{src}: no ratio, angle, time_to or spread rows and no DMA rows (storage, loss, "
+                        "tan_delta, relaxation): nothing to fit the model to")
+    return HingeData(src, tuple(obs), tuple(props), tuple(dma))
 
 
 def load_hinge_data(path: str | Path) -> HingeData:

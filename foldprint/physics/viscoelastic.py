@@ -209,8 +209,9 @@ class Viscoelastic:
         taus, g = self._taus(temp)
         wt = 2.0 * math.pi * f[..., None] * taus
         d = self.glassy_mpa - self.rubbery_mpa
-        storage = self.rubbery_mpa + d * np.sum(g * wt**2 / (1.0 + wt**2), axis=-1)
-        loss = d * np.sum(g * wt / (1.0 + wt**2), axis=-1)
+        with np.errstate(over="ignore", divide="ignore"):  # (w tau)^2 past 1e308 deep in the glass
+            storage = self.rubbery_mpa + d * np.sum(g / (1.0 + wt**-2.0), axis=-1)  # = wt^2 / (1 + wt^2)
+            loss = d * np.sum(g / (wt + 1.0 / wt), axis=-1)  # = wt / (1 + wt^2)
         return storage, loss
 
     def tan_delta(self, freq_hz, temp_c) -> np.ndarray:

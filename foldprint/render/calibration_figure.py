@@ -56,19 +56,61 @@ def _time_panel(ax, problem: Problem, fit: Fit) -> None:
     ax.invert_yaxis()
 
 
-def calibration_figure(problem: Problem, fit: Fit):
-    """Measurements against the model at ``fit``'s optimum."""
+def _dma_panel(ax, d) -> None:
+    """One material's DMA rows against its fitted model: E', E'' (MPa) and tan delta over
+    temperature per frequency, or E(t) over time per temperature."""
+    import numpy as np
+
+    pb, ve = d.problem, d.problem.model(d.fit.x)
+    dyn = [r for r in pb.rows if r.kind != "relaxation"]
+    marks = {"storage": ("o", "tab:blue", "E'"), "loss": ("s", "tab:red", "E''"), "tan_delta": ("^", "tab:green",
+                                                                                           "tan delta")}
+    if dyn:
+        for f in sorted({r.frequency_hz for r in dyn}):
+            ts = np.linspace(min(r.temperature_c for r in dyn), max(r.temperature_c for r in dyn), 200)
+            e1, e2 = ve.dynamic_mpa(f, ts)
+            for kind, y in (("storage", e1), ("loss", e2), ("tan_delta", e2 / e1)):
+                rows = [r for r in dyn if r.kind == kind and r.frequency_hz == f]
+                if rows:
+                    m, c, lab = marks[kind]
+                    ax.plot([r.temperature_c for r in rows], [r.value for r in rows], m, ms=3, color=c,
+                            label=f"{lab} {f:g} Hz")
+                    ax.plot(ts, y, "-", color=c, lw=0.9)
+        ax.set_xlabel("temperature (C)")
+        ax.axvline(d.material.tg_c, color="0.5", lw=0.8, ls="--")
+    else:
+        for temp in sorted({r.temperature_c for r in pb.rows}):
+            rows = [r for r in pb.rows if r.temperature_c == temp]
+            t = np.geomspace(min(r.time_s for r in rows), max(r.time_s for r in rows), 200)
+            line, = ax.plot(t, ve.relaxation_mpa(t, temp), "-", lw=0.9)
+            ax.plot([r.time_s for r in rows], [r.value for r in rows], "o", ms=3, color=line.get_color(),
+                    label=f"E(t) {temp:g} C")
+        ax.set_xscale("log")
+        ax.set_xlabel("time (s)")
+    ax.set_yscale("log")
+    ax.set_title(f"{pb.material}: DMA, Tg {d.material.tg_c:.1f} C (1 Hz tan-delta peak), chi2 {d.fit.chi2:.3g}",
+                 fontsize=8)
+    ax.legend(fontsize=6)
+
+
+def calibration_figure(problem: Problem | None, fit: Fit | None, dma=()):
+    """Measurements against the model at ``fit``'s optimum, and each DMA fit's rows against
+    its viscoelastic model."""
     plt = pyplot()
-    kinds = {o.kind for o in problem.data.observations}
+    kinds = {o.kind for o in problem.data.observations} if problem is not None else set()
     panels = [p for p, ks in (("curves", {"ratio", "angle"}), ("times", {"time_to", "spread"})) if kinds & ks]
+    panels += list(dma)
     fig, axes = plt.subplots(1, len(panels), figsize=(6.5 * len(panels), 4.2), squeeze=False)
-    curves = problem.curves(fit.x)
+    curves = problem.curves(fit.x) if problem is not None else {}
     for ax, p in zip(axes[0], panels):
         if p == "curves":
             _curve_panel(ax, problem, fit, curves)
-        else:
+        elif p == "times":
             _time_panel(ax, problem, fit)
-    fig.suptitle(f"foldprint calibrate: {problem.data.source} (chi2 {fit.chi2:.3g}, {fit.dof} dof)", fontsize=9)
+        else:
+            _dma_panel(ax, p)
+    src = problem.data.source if problem is not None else dma[0].problem.source
+    what = f" (chi2 {fit.chi2:.3g}, {fit.dof} dof)" if fit is not None else ""
+    fig.suptitle(f"foldprint calibrate: {src}{what}", fontsize=9)
     fig.tight_layout()
     return fig
-

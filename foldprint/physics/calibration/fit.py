@@ -197,7 +197,8 @@ class Problem:
     ``fixed``: parameters held at a given value (the others not free keep the library's)."""
 
     def __init__(self, data: HingeData, library: MaterialLibrary, free=FITTABLE, per_material=(),
-                 fixed: dict | None = None, config: Settings | None = None):
+                 fixed: dict | None = None, config: Settings | None = None, measured: dict | None = None,
+                 locked=()):
         self.data, self.library = data, library
         self.config = config or settings()
         fixed = dict(fixed or {})
@@ -211,12 +212,18 @@ class Problem:
             raise DataError(f"--per-material {bad[0]}: {bad[0]} is held, not fitted; add --fit {bad[0]} "
                             "(or drop its --fix)")
         self.materials = data.materials()
-        base = {m: _base_material(m, data, library) for m in self.materials}
-        self.base = {m: replace(mat, recovery=replace(mat.recovery, **fixed)) for m, mat in base.items()}
+        measured = dict(measured or {})
+        #: per material, the parameters its DMA fixed (``measured``): neither held nor fitted here
+        self.locked = {m: frozenset(locked) for m in self.materials if m in measured}
+        base = {m: measured[m] if m in measured else _base_material(m, data, library) for m in self.materials}
+        self.base = {m: replace(mat, recovery=replace(mat.recovery, **{k: v for k, v in fixed.items()
+                                                                       if k not in self.locked.get(m, ())}))
+                     for m, mat in base.items()}
         self.fixed = fixed
         self.params = tuple(p for name in free if name not in fixed
-                            for p in ([Param(name, m) for m in self.materials] if name in per_material
-                                      else [Param(name)]))
+                            for p in ([Param(name, m) for m in self.materials if name not in self.locked.get(m, ())]
+                                      if name in per_material else [Param(name)])
+                            if not all(name in self.locked.get(m, ()) for m in self.materials))
         if not self.params:
             raise DataError("nothing to fit: every recovery parameter is fixed")
         self.fixity = {m: (data.fixity(m) if data.fixity(m) is not None else self.base[m].shape_fixity)
@@ -260,7 +267,9 @@ class Problem:
 
     def library_point(self) -> np.ndarray:
         """The free parameters as the library the fit starts from has them."""
-        return np.array([getattr(self.base[p.material or self.materials[0]].recovery, p.name) for p in self.params])
+        def owner(p: Param) -> str:  # a shared parameter: the first material it applies to
+            return p.material or next(m for m in self.materials if p.name not in self.locked.get(m, ()))
+        return np.array([getattr(self.base[owner(p)].recovery, p.name) for p in self.params])
 
     def start(self) -> np.ndarray:
         """:meth:`library_point` moved inside the bounds (least_squares needs a strict start)."""
@@ -272,7 +281,8 @@ class Problem:
         """Each material's recovery parameters at the point ``x``."""
         out = {}
         for m in self.materials:
-            vals = {p.name: float(v) for p, v in zip(self.params, x) if p.material in (None, m)}
+            vals = {p.name: float(v) for p, v in zip(self.params, x)
+                    if p.material in (None, m) and p.name not in self.locked.get(m, ())}
             out[m] = replace(self.base[m].recovery, **vals)
         return out
 

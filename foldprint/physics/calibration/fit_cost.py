@@ -71,3 +71,43 @@ def check_fit(problem, starts: int, with_profile: bool = True) -> dict:
                    (f"{what}: the curves need about {fmt_bytes(est['bytes'])}", f"{fix}; or {lift_memory_env(est)}"),
                    (f"{what}: about {est['evaluations']:.0f} evaluations of {fmt_seconds(est['seconds_per_evaluation'])} "
                     f"take about {fmt_seconds(est['seconds'])}", f"{fix}; or {LIFT_TIME}"))
+
+
+# A DMA fit (physics/calibration/dma.py): one evaluation sums the Prony branches over every
+# row (dynamic_mpa / relaxation_mpa) and finds the spectrum's centre that puts the 1 Hz
+# tan-delta peak at Tg (a 0.05-decade grid and a bounded Brent search: the fixed part).
+# Measured on a 92-row synthetic sweep (6 free parameters, 5 starts: 0.53 s for 88 counted
+# evaluations, 7 function calls each with the Jacobian: 0.9 ms a call on the loaded 2-core
+# machine), rounded up:
+#: seconds of one evaluation: a fixed part and per row and branch
+S_PER_DMA_EVALUATION = 2e-3
+S_PER_DMA_ROW_BRANCH = 0.1e-6
+#: the profile of a DMA fit walks :data:`~.profile.FINE_STEPS` (14 a side): twice the evaluations
+DMA_PROFILE_FACTOR = 2
+
+
+def dma_estimate(problem, starts: int, with_profile: bool = True) -> dict:
+    """Peak bytes and CPU seconds of fitting one material's DMA rows (:class:`.dma.DmaProblem`)."""
+    rows = float(len(problem.rows))
+    branches = float(problem.template.recovery.n_branches)
+    n = float(len(problem.params))
+    per_eval = S_PER_DMA_EVALUATION + rows * branches * S_PER_DMA_ROW_BRANCH
+    evals = (starts + 1) * EVALS_PER_START_PARAM * (n + 1) + (
+        DMA_PROFILE_FACTOR * PROFILE_EVALS_PER_PARAM2 * n * (n + 1) if with_profile else 0)
+    nbytes = BASE_BYTES + rows * branches * 8 * 8 + rows * (n + 4) * 8 * 3
+    return {"bytes": nbytes, "seconds": evals * per_eval, "evaluations": evals, "seconds_per_evaluation": per_eval,
+            "rows": rows, "parameters": n}
+
+
+def check_dma_fits(problems, starts: int, with_profile: bool = True) -> dict:
+    """Refuse DMA fits whose summed estimate (:func:`dma_estimate`) is over the memory limit or
+    the time budget, before the first evaluation."""
+    ests = [dma_estimate(p, starts, with_profile) for p in problems]
+    est = {"bytes": max(e["bytes"] for e in ests), "seconds": sum(e["seconds"] for e in ests),
+           "evaluations": sum(e["evaluations"] for e in ests), "rows": sum(e["rows"] for e in ests)}
+    what = f"{est['rows']:.0f} DMA rows of {len(ests)} materials"
+    fix = "fit fewer materials at once (split the file by material), or thin the sweep"
+    return enforce(est, f"{problems[0].source}: calibrate",
+                   (f"{what}: the fit needs about {fmt_bytes(est['bytes'])}", f"{fix}; or {lift_memory_env(est)}"),
+                   (f"{what}: about {est['evaluations']:.0f} evaluations take about {fmt_seconds(est['seconds'])}",
+                    f"{fix}; or {LIFT_TIME}"))

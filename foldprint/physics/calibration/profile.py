@@ -21,6 +21,10 @@ from .fit import Fit, Problem, solve
 #: Where the profile is evaluated on each side: fractions of the way from the optimum to
 #: the bound (numerical choice; the crossing is interpolated between two of them).
 STEPS = (0.03, 0.08, 0.16, 0.3, 0.5, 0.75, 1.0)
+#: Steps for data that pin a parameter to a small part of its range (a DMA sweep pins Tg to
+#: a fraction of a degree in a box of tens): from 1e-5 of the way on, about 3x apart, with
+#: the crossing interpolated in sqrt(delta chi2), exact for a quadratic profile.
+FINE_STEPS = (1e-5, 3e-5, 1e-4, 3e-4, 1e-3, 3e-3, 0.01, 0.03, 0.08, 0.16, 0.3, 0.5, 0.75, 1.0)
 #: A parameter within this share of its range of a bound is "at" it; within NEAR_BOUND,
 #: "next to" it (our choices, for the messages).
 AT_BOUND = 1e-3
@@ -82,14 +86,16 @@ def threshold(fit: Fit, confidence: float) -> float:
     return float(chi2.ppf(confidence, 1)) * fit.scale
 
 
-def _side(problem: Problem, fit: Fit, j: int, bound: float, thr: float, max_nfev: int):
-    """Walk parameter ``j`` from the optimum to ``bound``: (end, open, points)."""
+def _side(problem: Problem, fit: Fit, j: int, bound: float, thr: float, max_nfev: int, steps=STEPS,
+          fine: bool = False):
+    """Walk parameter ``j`` from the optimum to ``bound``: (end, open, points); ``fine``:
+    the crossing interpolated in sqrt(delta chi2) (else in delta chi2)."""
     x_opt = fit.x[j]
     free = np.ones(len(fit.x), bool)
     free[j] = False
     x, prev = fit.x.copy(), (x_opt, 0.0)
     points = []
-    for frac in STEPS:
+    for frac in steps:
         v = x_opt + frac * (bound - x_opt)
         x[j] = v
         if free.any():
@@ -99,15 +105,19 @@ def _side(problem: Problem, fit: Fit, j: int, bound: float, thr: float, max_nfev
         points.append((float(v), d))
         if d > thr:
             (v0, d0) = prev
-            end = v0 + (thr - d0) / (d - d0) * (v - v0) if d != d0 else v
+            if fine:
+                d0, d, thr_ = np.sqrt(d0), np.sqrt(d), np.sqrt(thr)
+            else:
+                thr_ = thr
+            end = v0 + (thr_ - d0) / (d - d0) * (v - v0) if d != d0 else v
             return float(end), False, points
         prev = (v, max(d, 0.0))
     return float(bound), True, points
 
 
-def profile(problem: Problem, fit: Fit, confidence: float | None = None) -> tuple[Interval, ...]:
+def profile(problem: Problem, fit: Fit, confidence: float | None = None, fine: bool = False) -> tuple[Interval, ...]:
     """Profile-likelihood intervals of every free parameter (each side re-fits the others
-    at up to ``len(STEPS)`` values)."""
+    at up to ``len(STEPS)`` values; ``fine``: at :data:`FINE_STEPS`)."""
     conf = problem.config.confidence if confidence is None else confidence
     thr = threshold(fit, conf)
     lo, hi = problem.lower, problem.upper
@@ -121,7 +131,7 @@ def profile(problem: Problem, fit: Fit, confidence: float | None = None) -> tupl
                 ends.append(float(bound))
                 opens.append(True)
                 continue
-            e, o, ps = _side(problem, fit, j, float(bound), thr, max_nfev)
+            e, o, ps = _side(problem, fit, j, float(bound), thr, max_nfev, FINE_STEPS if fine else STEPS, fine)
             ends.append(e)
             opens.append(o)
             pts += ps
