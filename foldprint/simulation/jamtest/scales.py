@@ -122,6 +122,9 @@ def jam_tests_of(design: Design, test: JamTest | Mapping[str, JamTest], models: 
             if got is not None:
                 found[name] = tuple(got)
     missing = [name for name in labels if name not in found]
+    if mech == Mechanics.BAR_HINGE and missing:  # minutes before a first chunk of compliant folds is timed
+        costs.check_mechanics_samples(nominal, sum(tests[name].max_samples for name in missing), n_workers,
+                                      design.name)
     if missing and (mapper is None or lookup is not None):
         jobs = [MonteCarloJob(design, tests[name].max_samples, seed, (1.0,), models[name], model, dt, method,
                               tests[name], mech) for name in missing]
