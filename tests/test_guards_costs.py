@@ -283,3 +283,129 @@ def test_a_1500_face_sheet_is_refused_before_its_loop_tables_are_made():
     with pytest.raises(guards.ResourceError, match=r"loop closure refused: 1421 loops .* over 2920 hinges"):
         HingeDrive(d)
     assert time.process_time() - t0 < 20
+
+
+def test_a_bar_hinge_sample_estimate_bounds_a_measured_sample():
+    """A Monte-Carlo sample under --mechanics bar-hinge solves its own equilibrium path:
+    the estimate from the nominal fold's Newton iterations bounds the CPU of scattered
+    samples of the Miura template (measured 1.1 CPU-s a sample against 1.4 estimated),
+    within 5x."""
+    from foldprint.core.constants import CHECK_DT_S
+    from foldprint.core.modes import Mechanics, Method
+    from foldprint.io.load import load_design
+    from foldprint.model.materials import default_library
+    from foldprint.physics.barhinge.solve_cost import solve_seconds
+    from foldprint.simulation.costs import simulation_estimate
+    from foldprint.simulation.robust import run_samples
+    from foldprint.simulation.scatter import default_scatter, iter_samples
+    from foldprint.simulation.simulate import simulate
+
+    d = load_design(ROOT / "templates" / "miura_3x3.toml")
+    nom = simulate(d, dt=CHECK_DT_S, mechanics="bar-hinge")
+    sol = nom.compliant
+    per = solve_seconds(sol.model, sol.iterations) + simulation_estimate(
+        len(d.panels), len(d.hinges), len(nom.trajectory.times), False)["seconds"]
+    samples = list(iter_samples(d, default_scatter(), 3, 5))
+    t0 = time.process_time()
+    out = run_samples((d, default_library(), samples, nom.trajectory.model, CHECK_DT_S, False, Method.FCL,
+                       Mechanics.BAR_HINGE))
+    cpu = (time.process_time() - t0) / len(samples)
+    assert len(out) == 3
+    assert cpu <= per <= 5 * cpu, (cpu, per)
+
+
+@pytest.mark.parametrize("stage", ["robust", "check"])
+def test_bar_hinge_samples_over_the_budget_are_refused_before_the_first_is_folded(monkeypatch, stage):
+    """octagon_stack's check under --mechanics bar-hinge was refused only once its first
+    chunk of 16 compliant folds had been timed (92 s): now from the nominal fold's path,
+    before any sample is folded, naming the estimate and how to raise the budget."""
+    from foldprint.core.constants import CHECK_DT_S
+    from foldprint.io.load import load_design
+    from foldprint.simulation import robust
+    from foldprint.simulation.costs import check_mechanics_samples
+    from foldprint.simulation.jamtest.scales import jam_test, jam_tests
+    from foldprint.simulation.simulate import simulate
+
+    d = load_design(ROOT / "templates" / "miura_3x3.toml")
+    nom = simulate(d, dt=CHECK_DT_S, mechanics="bar-hinge")
+    est = check_mechanics_samples(nom, 64, 1, d.name)  # under the default budget: not refused
+
+    def boom(*a, **k):
+        raise AssertionError("a sample was folded despite the refusal")
+
+    monkeypatch.setattr(robust, "run_samples", boom)
+    monkeypatch.setattr("foldprint.simulation.jamtest.scales.run_samples", boom)
+    monkeypatch.setattr("foldprint.simulation.jamtest.scales.run_batch", boom)
+    guards.set_time_budget(est / 2)
+    pattern = (r"miura_3x3: --samples \d+ refused: estimated [0-9.e+]+ s \([0-9.e+]+ ms per sample estimated from "
+               r"the nominal fold's \d+ Newton iterations on \d+ nodes, on 1 worker\(s\)\).*FOLDPRINT_TIME_BUDGET")
+    with pytest.raises(guards.ResourceError, match=pattern):
+        if stage == "robust":
+            robust.jam_probability(d, 64, nominal=nom, dt=CHECK_DT_S, workers=1, mechanics="bar-hinge")
+        else:
+            jam_tests(d, jam_test(0.05, 0.2, 64), (1.0,), nominal=nom, dt=CHECK_DT_S, workers=1,
+                      mechanics="bar-hinge")
+
+
+def _materials_csv(n: int) -> str:
+    """``n`` new materials, each with its Tg and three ratio rows at 80 C."""
+    rows = []
+    for k in range(n):
+        m = f"M{k + 1}"
+        rows += [f"tg,{m},,,,,,,{35 + 30 * k / max(n - 1, 1):.2f},,,DMA", f"ratio,{m},,80,,,2,,0.2,,,",
+                 f"ratio,{m},,80,,,5,,0.7,,0.03,", f"ratio,{m},,80,0.8,10,10,,0.97,,,"]
+    return HEAD + "\n".join(rows) + "\n"
+
+
+def test_300_new_materials_are_refused_at_once_under_the_default_budget(monkeypatch):
+    """300 new materials (7.9 min estimated; 30 of them took 35 CPU-s against 48 s
+    estimated) ran under a 15 min budget: the default budget refuses them before the
+    first curve, naming the estimate and how to lift the budget; 10 materials fit."""
+    from foldprint.apps import calibrate as cal
+    from foldprint.io.hinge_data import parse_hinge_data
+    from foldprint.model.materials import default_library
+    from foldprint.physics.calibration.fit import Problem
+
+    real = Problem.curves
+
+    def boom(*a, **k):
+        raise AssertionError("a curve was made despite the refusal")
+
+    monkeypatch.setattr(Problem, "curves", boom)
+    t0 = time.process_time()
+    with pytest.raises(guards.ResourceError, match=r"m.csv: calibrate refused: 900 rows on 300 curves .*take about "
+                                                   r"[0-9.]+ min, over the 1 min time budget.*FOLDPRINT_TIME_BUDGET"):
+        cal.calibrate(parse_hinge_data(_materials_csv(300), "m.csv"), default_library())
+    assert time.process_time() - t0 < 10
+    monkeypatch.setattr(Problem, "curves", real)
+    assert _fit_estimate(parse_hinge_data(_materials_csv(10), "m.csv"))["seconds"] < guards.time_budget()
+
+
+def _fit_estimate(data) -> dict:
+    """The estimate calibrate's guard makes of ``data``'s fit (its held parameters, its starts)."""
+    from foldprint.apps.calibrate import FITTABLE, holds
+    from foldprint.model.materials import default_library
+    from foldprint.physics.calibration.fit import Problem
+    from foldprint.physics.calibration.fit_cost import fit_estimate
+
+    held_by = holds(None, ())
+    names = {h.name for h in held_by}
+    pb = Problem(data, default_library(), free=tuple(n for n in FITTABLE if n not in names),
+                 fixed={h.name: h.value for h in held_by if h.value is not None})
+    return fit_estimate(pb, pb.config.starts)
+
+
+def test_the_default_budget_holds_every_shipped_template_and_data_set():
+    """What the default budget must not refuse (docs/input-safety.md): each template's
+    bar-and-hinge run and the shipped calibration data's fit, estimated, with a margin of
+    2x under the budget."""
+    from foldprint.io.hinge_data import parse_hinge_data
+    from foldprint.io.load import load_design
+    from foldprint.physics.barhinge.solve_cost import mechanics_estimate
+
+    budget = guards.time_budget()
+    assert budget == guards.DEFAULT_TIME_BUDGET_S == 60.0
+    for path in sorted((ROOT / "templates").glob("*.toml")):
+        assert mechanics_estimate(load_design(path))["seconds"] < budget / 2, path.name
+    data = parse_hinge_data((ROOT / "foldprint" / "data" / "paper_hinge_data.csv").read_text(), "paper.csv")
+    assert _fit_estimate(data)["seconds"] < budget / 2

@@ -213,7 +213,7 @@ def test_the_sample_count_guard_extrapolates_the_first_chunks_time_per_sample(mo
     from foldprint.simulation.robust import CHUNK
 
     ticks = iter([0.0, float(CHUNK)] * 2)
-    monkeypatch.setattr(robust, "time", types.SimpleNamespace(perf_counter=lambda: next(ticks)))
+    monkeypatch.setattr(robust, "time", types.SimpleNamespace(process_time=lambda: next(ticks)))
     d = strip("g", [15, 15], [90], ["H-7"])
     n = 2 * CHUNK + 1
     monkeypatch.setenv("FOLDPRINT_TIME_BUDGET", str(n - 1))

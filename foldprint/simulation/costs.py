@@ -23,7 +23,7 @@ from typing import Callable
 from ..core.guards import (BASE_BYTES, enforce, fmt_bytes, fmt_seconds, held_elsewhere, lift_hint, max_memory,
                            source_of, time_budget, LIFT_TIME)
 from ..core.modes import Method
-from ..physics.barhinge.solve_cost import check_mechanics  # noqa: F401 (the bar-and-hinge drive's guard, for callers)
+from ..physics.barhinge.solve_cost import check_mechanics, solve_seconds  # noqa: F401 (check_mechanics: for callers)
 
 # Cost model. Measured on the 2-core sandbox with benchmarks/bench_scale.py (strips of 100
 # to 1000 panels, 2001 steps; peak RSS of fresh processes, docs/input-safety.md):
@@ -232,16 +232,34 @@ def check_sample_memory(design, samples: float, what: str = "the Monte-Carlo jam
                     "variable FOLDPRINT_MAX_MEMORY"))
 
 
-def check_samples(samples: int, seconds_per_sample: float, workers: int, name: str = "") -> float:
+def check_samples(samples: int, seconds_per_sample: float, workers: int, name: str = "",
+                  basis: str = "measured on the first samples") -> float:
     """Refuse ``samples`` Monte-Carlo samples when their estimated wall time (the measured
     seconds per sample of the first chunk x samples / workers) exceeds the time budget.
     Returns the estimate (s). Memory does not grow with the count (samples are streamed in
-    chunks); only time does."""
+    chunks); only time does. ``basis``: where the rate comes from, as the message says it."""
     workers = max(1, int(workers))
     est = float(samples) * max(0.0, seconds_per_sample) / workers
     fits = max(1, int(time_budget() * workers / max(seconds_per_sample, 1e-9)))
     enforce({"seconds": est}, f"{name + ': ' if name else ''}--samples {samples}", time=(
-        f"estimated {est:.3g} s ({seconds_per_sample * 1e3:.3g} ms per sample measured on the first samples, "
+        f"estimated {est:.3g} s ({seconds_per_sample * 1e3:.3g} ms per sample {basis}, "
         f"on {workers} worker(s))", f"use at most about {fits} samples, or raise the budget with the environment "
         "variable FOLDPRINT_TIME_BUDGET (seconds)"))
     return est
+
+
+def check_mechanics_samples(nominal, samples: int, workers: int, name: str = "") -> float | None:
+    """Refuse ``samples`` bar-and-hinge Monte-Carlo folds before the first is folded: each
+    solves its own equilibrium path, about as many Newton iterations as the nominal fold's
+    (``nominal.compliant``), at :func:`~foldprint.physics.barhinge.solve_cost.solve_seconds`
+    each, plus the rigid part of a run (collision check). A first chunk of such samples
+    takes minutes (16 folds of octagon_stack), so its measured rate comes too late to
+    refuse early. None (nothing checked) for a rigid nominal fold."""
+    sol = getattr(nominal, "compliant", None)
+    if sol is None or samples < 1:
+        return None
+    d = nominal.design
+    per = (solve_seconds(sol.model, max(sol.iterations, 1))
+           + simulation_estimate(len(d.panels), len(d.hinges), len(nominal.trajectory.times), False)["seconds"])
+    return check_samples(samples, per, workers, name, basis=f"estimated from the nominal fold's {sol.iterations} "
+                         f"Newton iterations on {len(sol.model.nodes)} nodes")

@@ -58,6 +58,13 @@ def model_size(design) -> dict:
     return {"nodes": nodes, "bars": bars, "springs": springs, "entries": 36 * bars + 144 * springs}
 
 
+def solve_seconds(model, iterations: float) -> float:
+    """CPU seconds of ``iterations`` Newton iterations on a built ``model`` (its bars and
+    springs): what a Monte-Carlo sample costs once the nominal fold has counted them."""
+    entries = 36.0 * len(model.bars) + 144.0 * len(model.springs)
+    return float(iterations) * (S_PER_ITERATION + S_PER_ENTRY * entries)
+
+
 def mechanics_estimate(design) -> dict:
     """Peak bytes and CPU seconds of a bar-and-hinge run on ``design`` (:func:`model_size`)."""
     size = model_size(design)
