@@ -345,7 +345,7 @@ def _curves(p: RecoveryParams, slab: _Slab, ref: np.ndarray, bath: np.ndarray, i
     if table is not None and use_kernels():  # the compiled path (batch_kernels): the same model
         from .batch_kernels import curves_table
 
-        return curves_table(slab.alpha, slab.half2, slab.nsq, slab.shape, tg, bath, float(initial_c), t, dt, w, wm,
+        return curves_table(slab.alpha, slab.half2, slab.nsq, slab.shape, ref, bath, float(initial_c), t, dt, w, wm,
                             float(p.c1), float(p.c2), CUT, table.y0, table.step, table.nodes)
     tau, g = spectrum(p)
     ratio, mean_t = np.empty((n, len(t))), np.empty((n, len(t)))
