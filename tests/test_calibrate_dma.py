@@ -153,6 +153,7 @@ def test_recovery_rows_beside_dma_fit_the_heat_transfer_and_keep_the_dma_model()
     text = "kind,material,temperature_c,frequency_hz,time_s,value,sigma,bath_c\n" + "\n".join(dma) + "\n" + ratio
     c = cal.calibrate(parse_hinge_data(text, "both.csv"), LIB, with_profile=False)
     assert [p.name for p in c.problem.params] == ["h_w_m2k"]
+    assert c.held_values() == {}  # the holds (universal WLF, ...) do not apply to a DMA-measured material
     assert c.fit.x[0] == pytest.approx(400.0, rel=0.15)
     written = {e.material.name: e.material for e in cal.entries(c)}["MyResin"]
     assert written.recovery.c1 == c.dma[0].material.recovery.c1

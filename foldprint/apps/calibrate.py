@@ -53,9 +53,10 @@ class Calibration:
         ``--fix NAME`` gave none); the materials a DMA measured keep their own shift and
         spectrum."""
         pb = self.problem
-        if pb is None:
+        own = [m for m in pb.materials if not pb.locked.get(m)] if pb is not None else []
+        if not own:  # no material whose parameters the holds apply to (DMA-measured ones keep their own)
             return {}
-        rec = pb.base[pb.materials[0]].recovery
+        rec = pb.base[own[0]].recovery
         return {h.name: (getattr(rec, h.name) if h.value is None else h.value, h.source) for h in self.holds}
 
     @property
