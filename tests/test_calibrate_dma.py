@@ -224,3 +224,18 @@ def test_dynamic_moduli_stay_finite_deep_in_the_glass_and_the_rubber():
     e1, e2 = ve.dynamic_mpa(1.0, np.array([ve.tg_c - 250.0, ve.tg_c + 250.0]))
     assert np.all(np.isfinite(e1)) and np.all(np.isfinite(e2)) and np.all(e2 >= 0.0)
     assert e1[0] == pytest.approx(TRUE["glassy_mpa"]) and e1[1] == pytest.approx(TRUE["rubbery_mpa"])
+
+
+@pytest.mark.parametrize("table, needle", [
+    ("glassy_mpa = 4.0\nrubbery_mpa = 1500.0", "rubbery_mpa: must be below glassy_mpa (4 MPa)"),
+    ("glassy_mpa = -1.0", "glassy_mpa: must be"),
+    ("rubbery_mpa = nan", "rubbery_mpa: must be"),
+])
+def test_a_materials_file_with_bad_moduli_is_refused_naming_the_field(tmp_path, table, needle):
+    from foldprint.core.errors import MaterialError
+
+    f = tmp_path / "m.toml"
+    f.write_text(f"[materials.H-1]\n{table}\n")
+    with pytest.raises(MaterialError) as ei:
+        load_library(f)
+    assert needle in str(ei.value) and "materials.H-1" in str(ei.value), str(ei.value)
