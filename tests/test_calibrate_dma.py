@@ -102,6 +102,7 @@ def test_the_written_file_loads_back_with_the_dma_model_and_the_library_unchange
     data_path = tmp_path / "dma.csv"
     data_path.write_text(sweep_csv(true_model(), 3))
     c = cal.run(data_path, LIB, with_profile=False)
+    assert not [f for f in c.findings if f["code"] == "tg_row"]
     out = tmp_path / "mine.toml"
     cal.write(c, out, data_path, "test")
     raw = tomllib.loads(out.read_text())["materials"]["MyResin"]
@@ -151,7 +152,10 @@ def test_recovery_rows_beside_dma_fit_the_heat_transfer_and_keep_the_dma_model()
     head, *rows = sweep_csv(ve, 5).splitlines()
     dma = ["{},{},{},{},,{},{},".format(*r.split(",")[:6]) for r in rows]  # no source; time_s, bath_c blank
     text = "kind,material,temperature_c,frequency_hz,time_s,value,sigma,bath_c\n" + "\n".join(dma) + "\n" + ratio
+    text += "tg,MyResin,,,,45.0,,\n"
     c = cal.calibrate(parse_hinge_data(text, "both.csv"), LIB, with_profile=False)
+    assert [f["message"][:40] for f in c.findings if f["code"] == "tg_row"] == \
+        ["MyResin: its tg row (45 C) is not fitted"]
     assert [p.name for p in c.problem.params] == ["h_w_m2k"]
     assert c.held_values() == {}  # the holds (universal WLF, ...) do not apply to a DMA-measured material
     assert c.fit.x[0] == pytest.approx(400.0, rel=0.15)
