@@ -211,7 +211,8 @@ def to_json(cal: Calibration) -> dict:
              **_reading(o, float(m), float(s))}
             for o, m, s, r in zip(pb.data.observations, f.predictions, pb.sigmas, f.residuals)]
     delta = cal.start_chi2 - f.chi2
-    return {"data": pb.data.source, "materials": list(dict.fromkeys(pb.materials + [d.problem.material for d in cal.dma])),
+    names = list(dict.fromkeys(pb.materials + [d.problem.material for d in cal.dma]))
+    return {"data": pb.data.source, "materials": names,
             "parameters": params,
             "fixed": {k: float(v) for k, v in pb.fixed.items()},
             "held": [{"name": k, "value": float(v), "source": s} for k, (v, s) in cal.held_values().items()],
