@@ -4,6 +4,7 @@ peak, the written file loads back, and bad cells are refused in one line."""
 
 from __future__ import annotations
 
+import json
 import time
 import tomllib
 from dataclasses import replace
@@ -101,6 +102,7 @@ def test_the_written_file_loads_back_with_the_dma_model_and_the_library_unchange
     data_path = tmp_path / "dma.csv"
     data_path.write_text(sweep_csv(true_model(), 3))
     c = cal.run(data_path, LIB, with_profile=False)
+    assert not [f for f in c.findings if f["code"] == "tg_row"]
     out = tmp_path / "mine.toml"
     cal.write(c, out, data_path, "test")
     raw = tomllib.loads(out.read_text())["materials"]["MyResin"]
@@ -119,14 +121,19 @@ def test_the_written_file_loads_back_with_the_dma_model_and_the_library_unchange
     assert [ch["material"] for ch in cal.changes(c)] == ["MyResin"]
 
 
-def test_simulate_runs_a_design_of_the_dma_material(tmp_path):
-    """``simulate`` folds a helix whose nine hinges are the DMA-calibrated resin (exit 0)."""
+def test_simulate_runs_a_design_of_the_dma_material(tmp_path, capsys):
+    """``calibrate --json --plot`` on a DMA-only sweep, then ``simulate`` folds a helix whose
+    nine hinges are the DMA-calibrated resin (exit 0)."""
     from pathlib import Path
 
     data_path = tmp_path / "dma.csv"
     data_path.write_text(sweep_csv(true_model(), 4))
     mats = tmp_path / "mine.toml"
-    assert main(["calibrate", str(data_path), "--no-profile", "--out", str(mats)]) == 0
+    png = tmp_path / "fit.png"
+    assert main(["calibrate", str(data_path), "--no-profile", "--out", str(mats), "--json", "--plot", str(png)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["fit"] is None and [d["material"] for d in out["dma"]] == ["MyResin"]
+    assert abs(out["dma"][0]["tg_c"] - TRUE["tg_c"]) < 0.5 and png.stat().st_size > 1000
     design = tmp_path / "helix.toml"
     tpl = Path(__file__).resolve().parents[1] / "templates" / "helix_uniform.toml"
     design.write_text(tpl.read_text().replace('"H-3"', '"MyResin"'))
@@ -145,8 +152,12 @@ def test_recovery_rows_beside_dma_fit_the_heat_transfer_and_keep_the_dma_model()
     head, *rows = sweep_csv(ve, 5).splitlines()
     dma = ["{},{},{},{},,{},{},".format(*r.split(",")[:6]) for r in rows]  # no source; time_s, bath_c blank
     text = "kind,material,temperature_c,frequency_hz,time_s,value,sigma,bath_c\n" + "\n".join(dma) + "\n" + ratio
+    text += "tg,MyResin,,,,45.0,,\n"
     c = cal.calibrate(parse_hinge_data(text, "both.csv"), LIB, with_profile=False)
+    assert [f["message"][:40] for f in c.findings if f["code"] == "tg_row"] == \
+        ["MyResin: its tg row (45 C) is not fitted"]
     assert [p.name for p in c.problem.params] == ["h_w_m2k"]
+    assert c.held_values() == {}  # the holds (universal WLF, ...) do not apply to a DMA-measured material
     assert c.fit.x[0] == pytest.approx(400.0, rel=0.15)
     written = {e.material.name: e.material for e in cal.entries(c)}["MyResin"]
     assert written.recovery.c1 == c.dma[0].material.recovery.c1
@@ -208,3 +219,27 @@ def test_the_dma_estimate_bounds_a_measured_fit_and_refuses_over_the_budget():
             cal.calibrate(data, LIB, with_profile=False)
     finally:
         dma_mod.DmaProblem.predict = real
+
+
+def test_dynamic_moduli_stay_finite_deep_in_the_glass_and_the_rubber():
+    """A steep shift 250 K below Tg puts (w tau)^2 past 1e308: E' is still the glassy
+    modulus and E'' a finite non-negative number; far above Tg E' is the rubbery modulus."""
+    ve = true_model(c1=20.0, c2=15.0)
+    e1, e2 = ve.dynamic_mpa(1.0, np.array([ve.tg_c - 250.0, ve.tg_c + 250.0]))
+    assert np.all(np.isfinite(e1)) and np.all(np.isfinite(e2)) and np.all(e2 >= 0.0)
+    assert e1[0] == pytest.approx(TRUE["glassy_mpa"]) and e1[1] == pytest.approx(TRUE["rubbery_mpa"])
+
+
+@pytest.mark.parametrize("table, needle", [
+    ("glassy_mpa = 4.0\nrubbery_mpa = 1500.0", "rubbery_mpa: must be below glassy_mpa (4 MPa)"),
+    ("glassy_mpa = -1.0", "glassy_mpa: must be"),
+    ("rubbery_mpa = nan", "rubbery_mpa: must be"),
+])
+def test_a_materials_file_with_bad_moduli_is_refused_naming_the_field(tmp_path, table, needle):
+    from foldprint.core.errors import MaterialError
+
+    f = tmp_path / "m.toml"
+    f.write_text(f"[materials.H-1]\n{table}\n")
+    with pytest.raises(MaterialError) as ei:
+        load_library(f)
+    assert needle in str(ei.value) and "materials.H-1" in str(ei.value), str(ei.value)

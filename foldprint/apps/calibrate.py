@@ -53,9 +53,10 @@ class Calibration:
         ``--fix NAME`` gave none); the materials a DMA measured keep their own shift and
         spectrum."""
         pb = self.problem
-        if pb is None:
+        own = [m for m in pb.materials if not pb.locked.get(m)] if pb is not None else []
+        if not own:  # no material whose parameters the holds apply to (DMA-measured ones keep their own)
             return {}
-        rec = pb.base[pb.materials[0]].recovery
+        rec = pb.base[own[0]].recovery
         return {h.name: (getattr(rec, h.name) if h.value is None else h.value, h.source) for h in self.holds}
 
     @property
@@ -106,9 +107,13 @@ def calibrate(data: HingeData, library: MaterialLibrary, fixed: dict | None = No
     dma = tuple(fit_dma(pb, library, with_profile) for pb in dma_pbs)
     for d in dma:
         log.info("DMA fit of %s: chi2 %.3f, Tg %.2f C", d.problem.material, d.fit.chi2, d.material.tg_c)
+    tg_notes = [{"code": "tg_row", "material": d.problem.material, "message":
+                 f"{d.problem.material}: its tg row ({data.tg(d.problem.material):g} C) is not fitted: the DMA's 1 Hz "
+                 f"tan-delta peak, {d.material.tg_c:.2f} C, is its Tg"} for d in dma
+                if data.tg(d.problem.material) is not None]
     if not data.observations:
-        return Calibration(None, None, (), [], [fd for d in dma for fd in d.findings], 0.0, held_by, dma, library,
-                           data.source)
+        return Calibration(None, None, (), [], [fd for d in dma for fd in d.findings] + tg_notes, 0.0, held_by, dma,
+                           library, data.source)
     problem = Problem(data, library, free=free, per_material=tuple(per_material), fixed=held,
                       measured={d.problem.material: d.material for d in dma}, locked=DMA_LOCKED)
     check_fit(problem, problem.config.starts, with_profile)  # refuse before the first curve is made
@@ -116,7 +121,7 @@ def calibrate(data: HingeData, library: MaterialLibrary, fixed: dict | None = No
     result = fit_best(problem)
     log.info("fit: chi2 %.3f after %d evaluations (%s)", result.chi2, result.nfev, result.message)
     intervals = profile(problem, result) if with_profile else ()
-    found = findings(problem, result, intervals) + [fd for d in dma for fd in d.findings]
+    found = findings(problem, result, intervals) + [fd for d in dma for fd in d.findings] + tg_notes
     return Calibration(problem, result, intervals, curve_residuals(problem, result), found, float(r0 @ r0),
                        held_by, dma, library, data.source)
 
@@ -206,7 +211,8 @@ def to_json(cal: Calibration) -> dict:
              **_reading(o, float(m), float(s))}
             for o, m, s, r in zip(pb.data.observations, f.predictions, pb.sigmas, f.residuals)]
     delta = cal.start_chi2 - f.chi2
-    return {"data": pb.data.source, "materials": list(dict.fromkeys(pb.materials + [d.problem.material for d in cal.dma])),
+    names = list(dict.fromkeys(pb.materials + [d.problem.material for d in cal.dma]))
+    return {"data": pb.data.source, "materials": names,
             "parameters": params,
             "fixed": {k: float(v) for k, v in pb.fixed.items()},
             "held": [{"name": k, "value": float(v), "source": s} for k, (v, s) in cal.held_values().items()],

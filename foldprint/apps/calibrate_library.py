@@ -80,7 +80,8 @@ def entries(cal) -> list[Entry]:
         if name in dma:
             notes += _dma_notes(dma[name])
         else:
-            notes.append(f"tg_c: {'measured, ' + pb.data.property_source('tg', name) if tg is not None else 'the library'}")
+            notes.append("tg_c: " + ("measured, " + pb.data.property_source("tg", name) if tg is not None
+                                     else "the library"))
         if name not in library:
             notes.append("blend = false: the data do not say it is a VeroWhite/TangoBlack digital material")
         for p, v in zip(pb.params if pb else (), cal.fit.x if pb else ()):

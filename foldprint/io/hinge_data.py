@@ -20,7 +20,8 @@ does not use the column), ``#`` starts a comment line. Kinds:
   at ``temperature_c``.
 
 ``sigma`` is the row's standard uncertainty in its own unit (blank: the kind's default in
-``foldprint/data/calibration.toml``); on the DMA kinds a relative one (a fraction of the value); ``source`` is free text (where the number comes from).
+``foldprint/data/calibration.toml``); on the DMA kinds a relative one (a fraction of the
+value); ``source`` is free text (where the number comes from).
 
 Every file the command line reads goes through :func:`read_text` (one place: file type,
 size limit, encoding).

@@ -192,7 +192,8 @@ class Viscoelastic:
     def _taus(self, temp_c) -> tuple[np.ndarray, np.ndarray]:
         """tau_b(T) (..., n_branches) s and the weights g_b (n_branches,)."""
         tau, g = spectrum(self.params)
-        a = 10.0 ** self.log10_shift(temp_c)
+        with np.errstate(over="ignore"):  # a_T = inf deep in the glass: every branch frozen
+            a = 10.0 ** self.log10_shift(temp_c)
         return a[..., None] * tau, g
 
     def relaxation_mpa(self, t_s, temp_c) -> np.ndarray:
