@@ -225,7 +225,8 @@ def earliest(memo: Memo, poses: np.ndarray, s: Searched, before: Searched | None
     else the library's scan whole."""
     best, _pair, k = s.best
     within = float(best) + tol.length
-    prev = None if before is None or before.earliest is None or s.split is None or s.best is not before.best         else before.earliest
+    taken = s.split is not None and before is not None and s.best is before.best
+    prev = before.earliest if taken else None
     m_prev = -1 if prev is None else row_of(memo.pairs, prev[1])
     if m_prev < 0 or s.split[m_prev]:
         return earliest_within(memo.checker, poses[:k + 1], within)
