@@ -2,7 +2,8 @@
 
 1. **An edit of one hinge** (``PATCH /api/design`` changing one hinge's material, the
    answer being the nominal fold, the clearance and its curve, the design rules): for
-   every shipped template and a 100-panel staircase, the edit's work in the session
+   every shipped template and a 100-panel staircase (and there, edits of the bath, which
+   change every hinge's fold: nothing of the clearance search is taken over), the edit's work in the session
    (:meth:`Session.apply` and :meth:`Session.nominal`, what the route runs in its thread),
    after one edit that warmed the process; the median and min of ``--edits`` edits, each
    to a material the design has not had (nothing cached), and the median CPU time (the
@@ -12,7 +13,8 @@
 2. **The verdict over HTTP** on a live ``foldprint studio helix_graded`` (uvicorn, the
    background jam test in its process pool): an edit away and one back to helix_graded's
    materials; from the second PATCH sent, the time to its answer, to the first verdict
-   state of its revision on the event stream, and to the decided verdict. Targets: first
+   state of its revision on the event stream, to its first running state with samples (the
+   running estimate and interval), and to the decided verdict. Targets: first
    state < 0.5 s, decided < 5 s.
 
 ``python benchmarks/bench_studio.py [--edits 5] [--json] [--write docs/data/bench_studio.json]
@@ -48,8 +50,10 @@ def staircase(n: int = 100):
                  ["H-3"] * (n - 1), depth=6.0, radius=3.0, thickness=0.8, hinge_thickness=0.8)
 
 
-def edits(design, n_edits: int) -> dict:
-    """The edit's work in a session: ``n_edits`` edits of the first hinge, each to another grade."""
+def edits(design, n_edits: int, bath: bool = False) -> dict:
+    """The edit's work in a session: ``n_edits`` edits of the first hinge, each to another
+    grade (with ``bath``: of the bath temperature instead, which changes every hinge's fold,
+    so the next revision takes over no clearance bound, ``apps.studio_reuse``)."""
     from foldprint.apps.studio_session import Session
     from foldprint.model.materials import default_library
     from foldprint.model.printers import default_printer_key, load_printers
@@ -61,12 +65,13 @@ def edits(design, n_edits: int) -> dict:
     times, cpu = [], []
     for k in range(n_edits):
         mat = [g for g in GRADES if g != h.material][k % 6]
+        edit = {"process": {"bath_c": 80.0 + k}} if bath else {"hinges": {h.id: {"material": mat}}}
         t0, c0 = time.perf_counter(), time.process_time()
-        rev, entry = s.apply({"hinges": {h.id: {"material": mat}}})
+        rev, entry = s.apply(edit)
         s.nominal(rev, entry)
         times.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
-    return {"design": design.name, "panels": len(design.panels), "edits": n_edits,
+    return {"design": design.name + (" (bath edits)" if bath else ""), "panels": len(design.panels), "edits": n_edits,
             "median_s": round(statistics.median(times), 4), "min_s": round(min(times), 4),
             "cpu_median_s": round(statistics.median(cpu), 4)}
 
@@ -121,6 +126,9 @@ def live_verdict(tmp: Path) -> dict:
             reader.join(300)
             mine = [(t, v) for t, v in seen if v["design_revision"] == rev]
             out["first_state_s"] = round(mine[0][0] - t0, 4)
+            est = [(t, v) for t, v in mine if v["state"] == "running" and v.get("interval")]
+            out["first_estimate_s"] = round(est[0][0] - t0, 4) if est else None  # samples, estimate, interval
+            out["running_states"] = len(est)
             t, v = next((t, v) for t, v in mine if v["state"] == "decided")
             out.update(decided_s=round(t - t0, 4), verdict=v["verdict"], samples=v["samples"])
         return out
@@ -145,14 +153,17 @@ def table(out: dict) -> str:
              + (" (a shared machine: the load inflates the wall times, not the CPU column)"
                 if la[0] > out["cores"] else "") + ":", "",
              "| design | panels | edit, median wall | edit, CPU | `simulate --json` (CLI) | ratio |", "|---|---|---|---|---|---|"]
-    for r in out["edits"] + [out["edit_100_panels"]]:
+    for r in out["edits"] + [out["edit_100_panels"]] + ([out["bath_100_panels"]] if "bath_100_panels" in out else []):
         cli = r.get("cli_simulate_s")
         lines.append(f"| {r['design']} | {r['panels']} | {r['median_s']:.3f} s | {r['cpu_median_s']:.3f} s | "
                      + (f"{cli:.2f} s | {r['ratio_to_cli']:.3f} |" if cli else "- | - |"))
     lv = out["live_helix_graded"]
+    est = lv.get("first_estimate_s")
     lines += ["", f"Live `foldprint studio helix_graded`, from the PATCH sent: answer {lv['patch_s']:.2f} s, first "
-              f"verdict state {lv['first_state_s']:.2f} s, decided ({lv['verdict']}, {lv['samples']} samples) "
-              f"{lv['decided_s']:.2f} s."]
+              f"verdict state {lv['first_state_s']:.2f} s, "
+              + (f"first running estimate and interval {est:.2f} s ({lv['running_states']} running states with "
+                 f"samples), " if est is not None else "")
+              + f"decided ({lv['verdict']}, {lv['samples']} samples) {lv['decided_s']:.2f} s."]
     return "\n".join(lines)
 
 
@@ -189,9 +200,10 @@ def main(argv=None) -> int:
         r["ratio_to_cli"] = round(r["median_s"] / r["cli_simulate_s"], 3)
         rows.append(r)
     big = edits(staircase(100), a.edits)
+    big_bath = edits(staircase(100), a.edits, bath=True)
     with tempfile.TemporaryDirectory() as tmp:
         live = live_verdict(Path(tmp))
-    out = {"edits": rows, "edit_100_panels": big, "live_helix_graded": live,
+    out = {"edits": rows, "edit_100_panels": big, "bath_100_panels": big_bath, "live_helix_graded": live,
            "targets_s": {"patch_templates": TARGET_PATCH_S, "patch_100_panels": TARGET_PATCH_100_S,
                          "first_state": TARGET_FIRST_STATE_S, "decided": TARGET_DECIDED_S},
            "load_average": [round(x, 2) for x in (*load0, *os.getloadavg())], "cores": os.cpu_count()}
@@ -202,7 +214,7 @@ def main(argv=None) -> int:
     if a.json:
         print(json.dumps(out, indent=1))
     else:
-        for r in rows + [big]:
+        for r in rows + [big, big_bath]:
             print(f"{r['design']:<22} {r['panels']:>4} panels  edit {r['median_s']:.3f} s (min {r['min_s']:.3f}, "
                   f"CPU {r['cpu_median_s']:.3f})"
                   + (f"  cli simulate {r['cli_simulate_s']:.2f} s" if "cli_simulate_s" in r else ""))

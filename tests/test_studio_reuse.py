@@ -191,3 +191,26 @@ def test_a_changed_pair_first_within_the_minimum_is_found():
     whole = studio_reuse.earliest_within(memo.checker, traj.poses[ks][:old.best[2] + 1],
                                          float(old.best[0]) + studio_reuse.tol.length)
     assert found == whole and found != old.earliest and split[studio_reuse.row_of(memo.pairs, found[1])]
+
+
+def test_two_revisions_of_one_geometry_searched_at_once():
+    """Two edits of the same revision (the second after an undo), their nominal results
+    computed in two threads at once: they share the parent's checker, one search at a time,
+    and each answers what a fresh evaluation does."""
+    import threading
+
+    s = session(staircase(16))
+    s.nominal(*s.current())
+    first = s.apply({"hinges": {"h1": {"material": "H-6"}}})
+    s.undo()
+    second = s.apply({"hinges": {"h8": {"material": "H-1"}}})
+    got = {}
+    threads = [threading.Thread(target=lambda r=r: got.__setitem__(r[0], s.nominal(*r))) for r in (first, second)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert first[1].memo.checker is second[1].memo.checker
+    for rev, entry in (first, second):
+        want = fresh(entry)
+        assert all(got[rev][key] == want[key] for key in KEYS), rev

@@ -33,6 +33,7 @@ previous minimum was reached by a changed pair: then it is check's search, whole
 from __future__ import annotations
 
 import dataclasses
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,6 +79,7 @@ class Memo:
 
     key: bytes
     checker: SweptChecker
+    lock: threading.Lock  # the checker's: its FCL objects take each pose in turn (one search at a time)
     pairs: np.ndarray
     printed: tuple  # (printer, pieces or None, printed gaps, printed crossings)
     clearance: Searched | None = None
@@ -99,14 +101,14 @@ def memo_for(ev, before: Memo | None) -> Memo:
     key = geometry_key(ev.design, ev.options.hinge_model)
     same = before is not None and before.key == key
     if same:
-        checker, pairs = before.checker, before.pairs
-    else:
-        checker = ev.clearance_checker
+        checker, lock, pairs = before.checker, before.lock, before.pairs
+    else:  # the memos' own (the evaluation's may be in use in another thread: an export)
+        checker, lock = SweptChecker(ev.design, ev.options.hinge_model, None), threading.Lock()
         pairs = np.array(non_adjacent_pairs(ev.design), dtype=np.int64).reshape(-1, 2)
     printed = before.printed if same and before.printed[0] is ev.printer else (ev.printer, None, None, None)
     if not (same and ev.options.mechanics == Mechanics.RIGID and not spanning_tree(ev.design)[1]):
-        return Memo(key, checker, pairs, printed)
-    return Memo(key, checker, pairs, printed, before.clearance, before.curve)
+        return Memo(key, checker, lock, pairs, printed)
+    return Memo(key, checker, lock, pairs, printed, before.clearance, before.curve)
 
 
 def printed_part(ev, memo: Memo) -> tuple[Memo, tuple]:
@@ -225,7 +227,8 @@ def earliest(memo: Memo, poses: np.ndarray, s: Searched, before: Searched | None
     else the library's scan whole."""
     best, _pair, k = s.best
     within = float(best) + tol.length
-    prev = None if before is None or before.earliest is None or s.split is None or s.best is not before.best         else before.earliest
+    taken = s.split is not None and before is not None and s.best is before.best
+    prev = before.earliest if taken else None
     m_prev = -1 if prev is None else row_of(memo.pairs, prev[1])
     if m_prev < 0 or s.split[m_prev]:
         return earliest_within(memo.checker, poses[:k + 1], within)

@@ -267,8 +267,9 @@ def nominal_json(entry: Entry, before: studio_reuse.Memo | None = None) -> dict:
     sim = ev.simulation
     with ev.cache.active():
         memo, (asm, err, gaps, crossings) = studio_reuse.printed_part(ev, studio_reuse.memo_for(ev, before))
-        clear, searched = studio_reuse.nominal_clearance(ev, memo)
-        curve, curve_searched = studio_reuse.curve(ev, memo, CURVE_POSES)
+        with memo.lock:  # revisions of one geometry share its checker: one search at a time
+            clear, searched = studio_reuse.nominal_clearance(ev, memo)
+            curve, curve_searched = studio_reuse.curve(ev, memo, CURVE_POSES)
         findings = run_checks(CheckContext(ev.design, ev.library, ev.printer, sim, asm, err, gaps, clear, None,
                                            ev.options.thresholds, (), ()))
     entry.memo = replace(memo, clearance=searched, curve=curve_searched)
