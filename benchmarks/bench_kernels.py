@@ -70,6 +70,16 @@ def _counted():
                    mock.patch.object(SweptChecker, "gap", g))
 
 
+def _fold(d, samples):
+    """``run_samples`` on ``samples`` as ``check`` folds them."""
+    from foldprint.core.constants import CHECK_DT_S
+    from foldprint.core.modes import VERDICT_METHOD, HingeModel
+    from foldprint.model.materials import default_library
+    from foldprint.simulation import robust
+
+    return robust.run_samples((d, default_library(), samples, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD))
+
+
 def _chunk(d, samples) -> dict:
     from foldprint.core.constants import CHECK_DT_S
     from foldprint.core.modes import VERDICT_METHOD, HingeModel
@@ -103,10 +113,10 @@ def sample_cost(name: str, repeat: int) -> dict:
         for path in (PATHS if r % 2 else PATHS[::-1]):
             with mock.patch.dict(os.environ, {"FOLDPRINT_KERNELS": path}):
                 got = _chunk(d, samples)
-                if r == 0:
+                if r == 0:  # the work of run_samples alone
                     count, patches = _counted()
                     with patches[0], patches[1], patches[2]:
-                        _chunk(d, samples)
+                        _fold(d, samples)
                     work[path] = {k: v / CHUNK for k, v in count.items()}
             if r:
                 runs[path].append(got)

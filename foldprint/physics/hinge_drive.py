@@ -253,7 +253,8 @@ def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_
     give round-off; docs/loops.md)."""
     angles = np.atleast_2d(np.asarray(angles, float))
     moved = _held(angles)  # a held configuration has the gap it had
-    angles, poses = angles[moved], (forward(design, angles[moved], model) if poses is None else poses[moved])
+    angles, poses = angles[moved], (forward(design, angles[moved], model, compiled=True) if poses is None
+                                    else poses[moved])
     gap = 0.0
     for f in hinge_frames(design):
         if f.tree:
