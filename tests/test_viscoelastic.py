@@ -140,3 +140,15 @@ def test_offset_for_peak_at_tg_puts_the_peak_at_tg(log10_tau):
     assert moved.tan_delta_peak_c == pytest.approx(v.tg_c, abs=1e-6)
     T = np.arange(v.tg_c - 5, v.tg_c + 5, 0.001)
     assert T[np.argmax(moved.tan_delta(1.0, T))] == pytest.approx(v.tg_c, abs=0.002)
+
+
+def test_the_grades_moduli_agree_with_the_composition_models_stiffness_ratio():
+    """composition.toml's stiffness_ratio (graded hinges' strips) is E_g / E_r of the same
+    grades: the two data files must not drift apart, and the default fixity follows."""
+    from foldprint.model.composition import composition_model
+    from foldprint.model.materials import default_fixity
+
+    r = composition_model().stiffness_ratio
+    for m in default_library().hinges():
+        assert m.glassy_mpa / m.rubbery_mpa == pytest.approx(r, rel=1e-12)
+        assert m.shape_fixity == pytest.approx(default_fixity(), rel=1e-12)

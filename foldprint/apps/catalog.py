@@ -9,8 +9,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
-import numpy as np
-
 from ..core.constants import DEFAULT_THICKNESS_MM, JSON_DECIMALS
 
 if TYPE_CHECKING:
@@ -72,6 +70,8 @@ def model_curves(lib: "MaterialLibrary", bath_c: float, thickness: float = DEFAU
     """Each hinge material's DMA sweep at 1 Hz (E'(T), tan delta(T) from Tg - 60 to Tg + 80 C,
     every 0.5 C) and its hinge's recovery ratio R(t) at ``bath_c`` (the model's grid to 600 s):
     what :func:`foldprint.render.material_figure.material_model_figure` draws."""
+    import numpy as np  # here, not at the top: `foldprint templates` starts without numpy
+
     from ..physics.recovery.curve import recovery_curve
     from ..physics.viscoelastic import DMA_FREQUENCY_HZ, viscoelastic
 

@@ -32,9 +32,10 @@ def materials(
     materials_file: Optional[List[Path]] = typer.Option(None, "--materials", help="Extra material TOML file(s)."),
     thickness: float = typer.Option(DEFAULT_THICKNESS_MM, "--thickness", help="Hinge thickness in mm."),
 ):
-    """Each material's Tg and its hinge fold time (98 % recovery) at each bath temperature.
+    """Each material's Tg, its viscoelastic model (moduli, the temperature of the model's tan
+    delta peak at 1 Hz) and its hinge fold time (98 % recovery) at each bath temperature.
 
-    Example: foldprint materials --temperature 80 90 100 --json
+    Example: foldprint materials --temperature 80 90 100 --plot-model model.png
     """
     from ..apps.catalog import fig1b_paper_lines, fold_time_chart, material_rows, model_chart, tg_note
 
