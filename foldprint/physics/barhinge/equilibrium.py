@@ -27,6 +27,7 @@ from scipy.sparse.linalg import MatrixRankWarning, spsolve
 
 from ...core.errors import DesignError
 from ...model.design import Design
+from ...core.guards import narrow_deadline, source_of
 from ...model.materials import MaterialLibrary
 from .model import BarHinge, build
 from .energy import stretch
@@ -288,10 +289,16 @@ def solve_path(design: Design, drive: HingeDrive, times, model: BarHinge | None 
     x = initial_positions(design, model, rest[0])
     xs, iters, splits, bad = [], 0, 0, []
     prev = (rest[0], kk[0])
+    # its cost is estimated ahead (solve_cost) for steps that converge; steps that split
+    # are known only as they come (a 4-panel strip with a 0.01 mm panel folded to 179.99
+    # deg: 3,112 Newton iterations, 47 splits, 38 CPU-s): bounded here, at the time budget
+    tick = narrow_deadline(f"{source_of(design)}the bar-and-hinge equilibrium path", "use --mechanics rigid")
     for n in range(len(grid)):
         if bad:  # the path stopped: the structure holds where the last solve left it
             xs.append(x)
             continue
+        tick(f"solved to {float(grid[n - 1]) if n else 0.0:.3g} s of {float(grid[-1]):.3g} s, {iters} Newton "
+             f"iterations, {splits} split steps")
         x, it, sp_, ok = _step(model, x, prev, (rest[n], kk[n]))
         iters, splits = iters + it, splits + sp_
         if not ok:
