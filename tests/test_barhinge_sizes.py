@@ -228,3 +228,23 @@ def test_the_rigid_margin_screen_is_left_out_of_a_compliant_loop_pattern_only():
     assert "--mechanics bar-hinge" in left_out(miura, "bar-hinge")
     assert left_out(miura, "rigid") is None and left_out(miura) is None
     assert left_out(helix, "bar-hinge") is None
+
+
+def test_the_equilibrium_path_is_bounded_at_the_time_budget(guard_defaults):
+    """Steps that split are known only as they come (a 4-panel strip with a 0.01 mm panel
+    folded to 179.99 deg took 38 CPU-s): past the time budget the path is refused, saying
+    how far it got; under it the same path is solved to the end."""
+    from pathlib import Path
+
+    from foldprint.core import guards
+
+    d = load_design(Path(__file__).resolve().parents[1] / "templates" / "miura_3x3.toml")
+    guards.set_time_budget(1e-6)
+    with pytest.raises(guards.ResourceError, match=r"miura_3x3.toml: the bar-and-hinge equilibrium path refused after "
+                                                   r"[0-9.e+-]+ \w+ of CPU, over the 1e-06 s time budget \(solved to "
+                                                   r"[0-9.e-]+ s of 20 s, \d+ Newton iterations, \d+ split steps before it\); "
+                                                   r"use --mechanics rigid, or lift the budget"):
+        bs.CompliantDrive(d).solve()
+    guards.set_time_budget(None)
+    sol = bs.CompliantDrive(d).solve()
+    assert not sol.unconverged and sol.iterations > 0

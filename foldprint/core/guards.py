@@ -186,11 +186,12 @@ def holding(nbytes: float, owner=None):
             _HOLDERS[key] = before
 
 
-def narrow_deadline(what: str = "the 3D swept check"):
+def narrow_deadline(what: str = "the 3D swept check", fix: str = "raise --dt, shorten --duration"):
     """A callable ``tick(progress)`` for a long loop: refuses (ResourceError) once the
-    loop has spent more CPU than the time budget, naming how far it got. The narrow phase's
-    work depends on how close the panels come, known only while it runs: it is bounded
-    here, at the budget, not estimated ahead."""
+    loop has spent more CPU than the time budget, naming how far it got and ``fix``. The
+    narrow phase's work depends on how close the panels come, and a bar-and-hinge path's
+    on how many steps split, known only while they run: they are bounded here, at the
+    budget, not estimated ahead."""
     import time
 
     budget = time_budget()
@@ -200,7 +201,6 @@ def narrow_deadline(what: str = "the 3D swept check"):
         spent = time.process_time() - t0
         if spent > budget:
             raise ResourceError(f"{what} refused after {fmt_seconds(spent)} of CPU, over the {fmt_seconds(budget)} time "
-                                f"budget{' (' + progress + ')' if progress else ''}; raise --dt, shorten "
-                                f"--duration, or {LIFT_TIME}")
+                                f"budget{' (' + progress + ')' if progress else ''}; {fix}, or {LIFT_TIME}")
 
     return tick

@@ -234,7 +234,7 @@ def check_sample_memory(design, samples: float, what: str = "the Monte-Carlo jam
 
 def check_samples(samples: int, seconds_per_sample: float, workers: int, name: str = "",
                   basis: str = "measured on the first samples") -> float:
-    """Refuse ``samples`` Monte-Carlo samples when their estimated wall time (the measured
+    """Refuse ``samples`` Monte-Carlo samples when their estimated time (the measured CPU
     seconds per sample of the first chunk x samples / workers) exceeds the time budget.
     Returns the estimate (s). Memory does not grow with the count (samples are streamed in
     chunks); only time does. ``basis``: where the rate comes from, as the message says it."""
