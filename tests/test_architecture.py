@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ast
 import re
+from functools import lru_cache
 from pathlib import Path
 
 import pytest
@@ -132,10 +133,17 @@ def edges_of(mod: str, is_package: bool, src: str, modules) -> list[tuple[str, s
 
 
 def imports() -> list[tuple[str, str]]:
-    """(importing module, imported foldprint module) for every import in the package."""
+    """(importing module, imported foldprint module) for every import in the package.
+    Walked once per test session (the tree does not change while the tests run; ten
+    tests in three files read it, ~0.7 CPU-s a walk); each caller gets its own list."""
+    return list(_import_edges())
+
+
+@lru_cache(maxsize=1)
+def _import_edges() -> tuple[tuple[str, str], ...]:
     modules = _modules()
-    return [e for mod, path in modules.items()
-            for e in edges_of(mod, path.name == "__init__.py", path.read_text(encoding="utf-8"), modules)]
+    return tuple(e for mod, path in modules.items()
+                 for e in edges_of(mod, path.name == "__init__.py", path.read_text(encoding="utf-8"), modules))
 
 
 def _layer_of(mod: str, table) -> int:

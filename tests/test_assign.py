@@ -149,11 +149,15 @@ def test_bad_assign_options_exit_2(tmp_path, capsys, args, needle):
 
 
 @pytest.mark.parametrize("command", [["assign"], ["robust", "--samples", "2"]])
-def test_unreachable_scheduler_exit_2_names_the_address(capsys, command):
+def test_unreachable_scheduler_exit_2_names_the_address(capsys, monkeypatch, command):
+    import foldprint.apps.distributed as dist
+
+    # the refusal is the same at any wait; 0.5 s instead of the 5 s default keeps the suite quick
+    monkeypatch.setattr(dist, "CONNECT_TIMEOUT_S", 0.5)
     addr = "tcp://127.0.0.1:9"  # discard port: nothing listens there
     assert main([command[0], "helix_graded", *command[1:], "--scheduler", addr]) == 2
     err = capsys.readouterr().err
-    assert addr in err and "scheduler" in err and err.count("\n") == 1
+    assert addr in err and "scheduler" in err and "within 0.5 s" in err and err.count("\n") == 1
 
 
 class _Cluster:

@@ -37,7 +37,7 @@ def _blocks(kind: str) -> list[tuple[int, str]]:
 def test_the_two_set_up_commands_come_first_and_ci_runs_the_second():
     (l1, install), (l2, tests) = _blocks("bash")[:2]
     assert install.strip() == "pip install -e . && foldprint gallery"
-    assert tests.strip() == 'pip install -e ".[test]" && python -m pytest'
+    assert tests.strip() == 'pip install -e ".[test]" && python -m pytest -n 2 --dist loadfile'
     assert l2 < 30, "the test command must be on the first screen"
     ci = (ROOT / ".ci" / "run").read_text().strip().splitlines()
     assert ci[-1].strip() == tests.strip()

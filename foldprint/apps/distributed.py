@@ -57,10 +57,11 @@ def client_mapper(client) -> Callable:
 
 
 @contextlib.contextmanager
-def cluster_mapper(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Iterator[Callable]:
+def cluster_mapper(address: str, timeout: float | None = None) -> Iterator[Callable]:
     """Connect to the scheduler at ``address`` (``tcp://HOST:PORT``) for the duration of
-    the block; raises :class:`SchedulerError` (exit 2 on the CLI) if it cannot."""
-    client = _client(address, timeout)
+    the block (waiting ``timeout`` s, default :data:`CONNECT_TIMEOUT_S`, read at the call);
+    raises :class:`SchedulerError` (exit 2 on the CLI) if it cannot."""
+    client = _client(address, CONNECT_TIMEOUT_S if timeout is None else timeout)
     try:
         yield client_mapper(client)
     finally:
