@@ -26,9 +26,10 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
     if k_start >= len(times):
         return None, []
     runs = candidate_runs(checker, angles, poses, k_start, skip, times)
+    # what the runs hold open, before the screen gathers their paths and before stepping
+    check_narrow(checker, runs, poses.nbytes + angles.nbytes)
     if len(runs) and use_kernels():
         runs = screen(checker, runs, angles, poses)
-    check_narrow(checker, runs, poses.nbytes + angles.nbytes)  # what the runs hold open, before stepping
     best, initial = None, []
     # advance every candidate pair together in time (a heap on the sample each has
     # certified): once the earliest open pair is past the best contact, stop
