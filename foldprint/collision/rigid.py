@@ -100,11 +100,13 @@ def convex_pieces(poly) -> list[np.ndarray]:
     """Split a polygon (with holes) into convex pieces, each (k, 2) counter-clockwise.
 
     Constrained Delaunay triangles merged by Hertel-Mehlhorn: one pass over the diagonals
-    (longest first) removes each whose two pieces stay convex at both of its ends. A piece
-    only grows, so a diagonal that cannot go once cannot go later: one pass is maximal
-    (at most 4x the fewest convex pieces). Linear in the triangles: the 200-hole panel of
-    ``tests/test_barhinge_sizes.py`` splits in 0.03 CPU-s (a restarting pairwise merge
-    took 97 CPU-s). A convex polygon without holes is returned as is.
+    removes each whose two pieces stay convex at both of its ends. A piece only grows, so
+    a diagonal that cannot go once cannot go later: one pass is maximal (at most 4x the
+    fewest convex pieces). The pass runs twice, in the triangulation's order and longest
+    diagonal first, and the fewer pieces are kept: on random holed polygons 1.5 % fewer
+    than the pairwise merge this replaced, which restarted after every merge (cubic: the
+    200-hole panel of ``tests/test_barhinge_sizes.py`` took 25.9 CPU-s, now 0.06 CPU-s,
+    the same 203 pieces). A convex polygon without holes is returned as is.
     """
     if poly.is_empty:
         return []
@@ -116,8 +118,10 @@ def convex_pieces(poly) -> list[np.ndarray]:
     if not tris:
         return []
     xy, org, twin = _half_edges(tris)
-    nxt, prv = _merge_diagonals(xy, org, twin)
-    return _faces(xy, org, nxt)
+    diag = [h for h in range(len(org)) if twin[h] > h]
+    longest = sorted(diag, key=lambda h: -float(np.hypot(*(xy[org[twin[h]]] - xy[org[h]]))))
+    tries = [_faces(xy, org, _merge_diagonals(xy, org, twin, order)) for order in (diag, longest)]
+    return min(tries, key=len)
 
 
 def _half_edges(tris) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -147,27 +151,56 @@ def _left_turn(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> bool:
     return cross >= -_TURN_TOL * scale and float(a @ b) > 0
 
 
-def _merge_diagonals(xy, org, twin) -> tuple[list[int], list[int]]:
-    """Hertel-Mehlhorn on the half-edges: the next/previous links of each piece's boundary
-    after removing every diagonal whose removal keeps both ends convex."""
+def _merge_diagonals(xy, org, twin, order) -> list[int]:
+    """Hertel-Mehlhorn on the half-edges: the next links of each piece's boundary after
+    removing, in ``order``, every diagonal whose removal keeps both ends convex. Two pieces
+    may share a straight chain of sides (holes' corners in line): it goes as a whole."""
     n = len(org)
     nxt = [h - h % 3 + (h + 1) % 3 for h in range(n)]
     prv = [h - h % 3 + (h + 2) % 3 for h in range(n)]
-    diag = [h for h in range(n) if twin[h] > h]
-    length = [float(np.hypot(*(xy[org[twin[h]]] - xy[org[h]]))) for h in diag]
-    for _, h in sorted(zip(length, diag), reverse=True):
-        g = int(twin[h])  # h: u -> v in one piece, g: v -> u in the other
-        u, v = org[h], org[g]
-        p1, n1, p2, n2 = prv[h], nxt[h], prv[g], nxt[g]
-        if p1 == g or n1 == g:  # both sides are one piece already (a spike): never for convex pieces
+    for h in order:
+        if nxt[h] < 0:
+            continue  # gone with a chain
+        first, last = _shared_chain(h, nxt, prv, twin)
+        if first < 0:
             continue
-        if not (_left_turn(xy[org[p1]], xy[u], xy[org[nxt[n2]]]) and
-                _left_turn(xy[org[p2]], xy[v], xy[org[nxt[n1]]])):
+        gf, gl = twin[first], twin[last]  # the chain in the other piece, reversed
+        s, e = org[first], org[gf]  # its ends: s (start in this piece), e
+        x, w = org[prv[first]], org[nxt[nxt[gf]]]
+        z, y = org[prv[gl]], org[nxt[nxt[last]]]
+        if not (_left_turn(xy[x], xy[s], xy[w]) and _left_turn(xy[z], xy[e], xy[y])):
             continue
+        p1, n2, p2, n1 = prv[first], nxt[gf], prv[gl], nxt[last]
+        k = first
+        while True:  # drop the chain's half-edges
+            nk = nxt[k]
+            nxt[k] = nxt[twin[k]] = -1
+            if k == last:
+                break
+            k = nk
         nxt[p1], prv[n2] = n2, p1
         nxt[p2], prv[n1] = n1, p2
-        nxt[h] = nxt[g] = -1
-    return nxt, prv
+    return nxt
+
+
+def _shared_chain(h, nxt, prv, twin) -> tuple[int, int]:
+    """The first and last half-edge of the run of sides around ``h`` that its piece shares
+    with the piece across ``h`` (-1, -1 when both sides are one piece: never for convex
+    pieces, a guard)."""
+    first = last = h
+    for _ in range(len(nxt)):
+        t = twin[nxt[last]]
+        if t < 0 or t != prv[twin[last]]:
+            break
+        last = nxt[last]
+    for _ in range(len(nxt)):
+        t = twin[prv[first]]
+        if t < 0 or t != nxt[twin[first]]:
+            break
+        first = prv[first]
+    if nxt[last] == first or twin[first] in (first, last) or nxt[twin[first]] == twin[last]:
+        return -1, -1
+    return first, last
 
 
 def _faces(xy, org, nxt) -> list[np.ndarray]:
