@@ -92,8 +92,8 @@ def test_random_holed_polygons_are_partitioned_into_convex_pieces(poly):
 
 
 def _grid_holes(nx: int, ny: int, half: float, dx: float = 4.6, dy: float = 9.5):
-    """A 100 mm square with nx x ny square holes in rows (their corners in line: the
-    pieces share straight runs of sides), the perforated panel of test_barhinge_sizes."""
+    """A 100 mm square with nx x ny square holes in rows (their corners in line: pieces
+    with straight corners), the perforated panel of test_barhinge_sizes."""
     holes = [((cx - half, cy - half), (cx - half, cy + half), (cx + half, cy + half), (cx + half, cy - half))
              for cx in (4 + dx * i for i in range(nx)) for cy in (5 + dy * j for j in range(ny))]
     return Polygon(((0, 0), (100, 0), (100, 100), (0, 100)), holes)
@@ -153,10 +153,10 @@ def test_small_shapes_get_the_fewest_pieces(poly, fewest):
     assert len(rings) == fewest == len(_reference_pieces(poly))
 
 
-def test_holes_with_corners_in_line_share_straight_runs():
-    """Two holes in a strip, their sides on the lines y = 0.5 and 1.5: the pieces above and
-    below them run the strip's length (5 pieces: 2 strips and 3 between), as the
-    reference's unions of pieces along a straight run."""
+def test_holes_with_corners_in_line():
+    """Two holes in a strip, their sides on the lines y = 0.5 and 1.5: corners in line make
+    straight corners and sides in line; no more pieces than the reference's (which unites
+    pieces along any shared run)."""
     poly = Polygon([(0, 0), (6, 0), (6, 2), (0, 2)], [[(1, 0.5), (1, 1.5), (2, 1.5), (2, 0.5)],
                                                       [(4, 0.5), (4, 1.5), (5, 1.5), (5, 0.5)]])
     rings = convex_pieces(poly)

@@ -153,54 +153,24 @@ def _left_turn(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> bool:
 
 def _merge_diagonals(xy, org, twin, order) -> list[int]:
     """Hertel-Mehlhorn on the half-edges: the next links of each piece's boundary after
-    removing, in ``order``, every diagonal whose removal keeps both ends convex. Two pieces
-    may share a straight chain of sides (holes' corners in line): it goes as a whole."""
+    removing, in ``order``, every diagonal whose removal keeps both ends convex."""
     n = len(org)
     nxt = [h - h % 3 + (h + 1) % 3 for h in range(n)]
     prv = [h - h % 3 + (h + 2) % 3 for h in range(n)]
     for h in order:
-        if nxt[h] < 0:
-            continue  # gone with a chain
-        first, last = _shared_chain(h, nxt, prv, twin)
-        if first < 0:
+        g = int(twin[h])  # h: u -> v in one piece, g: v -> u in the other
+        p1, n1, p2, n2 = prv[h], nxt[h], prv[g], nxt[g]
+        if twin[n1] == p2 or twin[p1] == n2:
+            # the pieces share the side before or after this one too (in line: the turn
+            # there goes back) or are one piece (never for convex pieces): kept apart
             continue
-        gf, gl = twin[first], twin[last]  # the chain in the other piece, reversed
-        s, e = org[first], org[gf]  # its ends: s (start in this piece), e
-        x, w = org[prv[first]], org[nxt[nxt[gf]]]
-        z, y = org[prv[gl]], org[nxt[nxt[last]]]
-        if not (_left_turn(xy[x], xy[s], xy[w]) and _left_turn(xy[z], xy[e], xy[y])):
+        if not (_left_turn(xy[org[p1]], xy[org[h]], xy[org[nxt[n2]]]) and
+                _left_turn(xy[org[p2]], xy[org[g]], xy[org[nxt[n1]]])):
             continue
-        p1, n2, p2, n1 = prv[first], nxt[gf], prv[gl], nxt[last]
-        k = first
-        while True:  # drop the chain's half-edges
-            nk = nxt[k]
-            nxt[k] = nxt[twin[k]] = -1
-            if k == last:
-                break
-            k = nk
-        nxt[p1], prv[n2] = n2, p1
-        nxt[p2], prv[n1] = n1, p2
+        nxt[p1], prv[n2] = n2, p1  # at u: into u in the one, out of u in the other
+        nxt[p2], prv[n1] = n1, p2  # at v
+        nxt[h] = nxt[g] = -1
     return nxt
-
-
-def _shared_chain(h, nxt, prv, twin) -> tuple[int, int]:
-    """The first and last half-edge of the run of sides around ``h`` that its piece shares
-    with the piece across ``h`` (-1, -1 when both sides are one piece: never for convex
-    pieces, a guard)."""
-    first = last = h
-    for _ in range(len(nxt)):
-        t = twin[nxt[last]]
-        if t < 0 or t != prv[twin[last]]:
-            break
-        last = nxt[last]
-    for _ in range(len(nxt)):
-        t = twin[prv[first]]
-        if t < 0 or t != nxt[twin[first]]:
-            break
-        first = prv[first]
-    if nxt[last] == first or twin[first] in (first, last) or nxt[twin[first]] == twin[last]:
-        return -1, -1
-    return first, last
 
 
 def _faces(xy, org, nxt) -> list[np.ndarray]:
