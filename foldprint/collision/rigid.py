@@ -105,8 +105,8 @@ def convex_pieces(poly) -> list[np.ndarray]:
     fewest convex pieces). The pass runs twice, in the triangulation's order and longest
     diagonal first, and the fewer pieces are kept: on random holed polygons 1.5 % fewer
     than the pairwise merge this replaced, which restarted after every merge (cubic: the
-    200-hole panel of ``tests/test_barhinge_sizes.py`` took 25.9 CPU-s, now 0.06 CPU-s,
-    the same 203 pieces). A convex polygon without holes is returned as is.
+    200-hole panel of ``tests/test_barhinge_sizes.py`` took 26-30 CPU-s, now 0.06 CPU-s,
+    the same 203 pieces; 2 cores at load 3-7). A convex polygon without holes is returned as is.
     """
     if poly.is_empty:
         return []
