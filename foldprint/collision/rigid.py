@@ -88,11 +88,25 @@ def _is_convex(ring: np.ndarray) -> bool:
     return bool(np.all(cross >= -1e-9) or np.all(cross <= 1e-9))
 
 
+# A corner of a merged piece counts as convex when it turns left by more than -1e-12 rad
+# (our choice: round-off of the cross product of input coordinates, not a design tolerance)
+_TURN_TOL = 1e-12
+# Collinear corners closer than this to their neighbours' chord are dropped from a piece
+# (mm; our choice, the old merge's ``shapely.simplify(u, 1e-9)``)
+_COLLINEAR_MM = 1e-9
+
+
 def convex_pieces(poly) -> list[np.ndarray]:
     """Split a polygon (with holes) into convex pieces, each (k, 2) counter-clockwise.
 
-    Constrained Delaunay triangles merged greedily while the union stays convex
-    (Hertel-Mehlhorn); a convex polygon without holes is returned as is.
+    Constrained Delaunay triangles merged by Hertel-Mehlhorn: one pass over the diagonals
+    removes each whose two pieces stay convex at both of its ends. A piece only grows, so
+    a diagonal that cannot go once cannot go later: one pass is maximal (at most 4x the
+    fewest convex pieces). The pass runs twice, in the triangulation's order and longest
+    diagonal first, and the fewer pieces are kept: on random holed polygons 1.5 % fewer
+    than the pairwise merge this replaced, which restarted after every merge (cubic: the
+    200-hole panel of ``tests/test_barhinge_sizes.py`` took 26-30 CPU-s, now 0.06 CPU-s,
+    the same 203 pieces; 2 cores at load 3-7). A convex polygon without holes is returned as is.
     """
     if poly.is_empty:
         return []
@@ -101,25 +115,87 @@ def convex_pieces(poly) -> list[np.ndarray]:
         if _is_convex(ring):
             return [ring]
     tris = [t for t in shapely.constrained_delaunay_triangles(poly).geoms if t.area > 1e-12]
-    pieces = [Polygon(t.exterior.coords) for t in tris]
-    merged = True
-    while merged:
-        merged = False
-        for i in range(len(pieces)):
-            for j in range(i + 1, len(pieces)):
-                if pieces[i].touches(pieces[j]) and pieces[i].intersection(pieces[j]).length > 1e-9:
-                    u = pieces[i].union(pieces[j])
-                    if u.geom_type == "Polygon" and not u.interiors:
-                        u = shapely.simplify(u, 1e-9)
-                        ring = np.asarray(u.exterior.coords)[:-1]
-                        if _is_convex(ring):
-                            pieces[i] = u
-                            pieces.pop(j)
-                            merged = True
-                            break
-            if merged:
-                break
-    return [np.asarray(shapely.orient_polygons(p).exterior.coords)[:-1] for p in pieces]
+    if not tris:
+        return []
+    xy, org, twin = _half_edges(tris)
+    diag = [h for h in range(len(org)) if twin[h] > h]
+    longest = sorted(diag, key=lambda h: -float(np.hypot(*(xy[org[twin[h]]] - xy[org[h]]))))
+    tries = [_faces(xy, org, _merge_diagonals(xy, org, twin, order)) for order in (diag, longest)]
+    return min(tries, key=len)
+
+
+def _half_edges(tris) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The triangles as half-edges: vertex coordinates, each half-edge's origin vertex
+    (3 per triangle, counter-clockwise) and its twin across a shared side (-1 on the
+    boundary). Vertices are matched by exact coordinates (the triangulation's corners are
+    the polygon's); a side whose ends do not match stays a boundary, never merged."""
+    coords = np.array([t.exterior.coords[:3] for t in tris], dtype=float)  # (n, 3, 2)
+    e1, e2 = coords[:, 1] - coords[:, 0], coords[:, 2] - coords[:, 0]
+    cw = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] < 0
+    coords[cw] = coords[cw][:, ::-1]
+    xy, org = np.unique(coords.reshape(-1, 2), axis=0, return_inverse=True)
+    org = org.reshape(-1)
+    dst = org.reshape(-1, 3)[:, [1, 2, 0]].reshape(-1)
+    index = {(int(a), int(b)): h for h, (a, b) in enumerate(zip(org, dst))}
+    twin = np.array([index.get((int(b), int(a)), -1) for a, b in zip(org, dst)], dtype=np.int64)
+    return xy, org, twin
+
+
+def _left_turn(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> bool:
+    """Whether p -> q -> r turns left or goes straight on (not back)."""
+    a, b = q - p, r - q
+    cross = a[0] * b[1] - a[1] * b[0]
+    scale = float(np.hypot(*a) * np.hypot(*b))
+    if cross > _TURN_TOL * scale:
+        return True
+    return cross >= -_TURN_TOL * scale and float(a @ b) > 0
+
+
+def _merge_diagonals(xy, org, twin, order) -> list[int]:
+    """Hertel-Mehlhorn on the half-edges: the next links of each piece's boundary after
+    removing, in ``order``, every diagonal whose removal keeps both ends convex."""
+    n = len(org)
+    nxt = [h - h % 3 + (h + 1) % 3 for h in range(n)]
+    prv = [h - h % 3 + (h + 2) % 3 for h in range(n)]
+    for h in order:
+        g = int(twin[h])  # h: u -> v in one piece, g: v -> u in the other
+        p1, n1, p2, n2 = prv[h], nxt[h], prv[g], nxt[g]
+        if twin[n1] == p2 or twin[p1] == n2:
+            # the pieces share the side before or after this one too (in line: the turn
+            # there goes back) or are one piece (never for convex pieces): kept apart
+            continue
+        if not (_left_turn(xy[org[p1]], xy[org[h]], xy[org[nxt[n2]]]) and
+                _left_turn(xy[org[p2]], xy[org[g]], xy[org[nxt[n1]]])):
+            continue
+        nxt[p1], prv[n2] = n2, p1  # at u: into u in the one, out of u in the other
+        nxt[p2], prv[n1] = n1, p2  # at v
+        nxt[h] = nxt[g] = -1
+    return nxt
+
+
+def _faces(xy, org, nxt) -> list[np.ndarray]:
+    """Each piece's ring (counter-clockwise), collinear corners dropped."""
+    seen = [h < 0 for h in nxt]
+    out = []
+    for h0 in range(len(nxt)):
+        if seen[h0]:
+            continue
+        ring, h = [], h0
+        while not seen[h]:
+            seen[h] = True
+            ring.append(org[h])
+            h = nxt[h]
+        out.append(_drop_collinear(xy[ring]))
+    return out
+
+
+def _drop_collinear(ring: np.ndarray) -> np.ndarray:
+    """``ring`` without corners within ``_COLLINEAR_MM`` of the chord of their neighbours."""
+    prev, after = np.roll(ring, 1, axis=0), np.roll(ring, -1, axis=0)
+    chord = after - prev
+    off = np.abs(chord[:, 0] * (ring[:, 1] - prev[:, 1]) - chord[:, 1] * (ring[:, 0] - prev[:, 0]))
+    keep = off > _COLLINEAR_MM * np.hypot(chord[:, 0], chord[:, 1])
+    return ring[keep] if keep.sum() >= 3 else ring
 
 
 def prism(ring: np.ndarray, thickness: float) -> tuple[np.ndarray, np.ndarray]:
