@@ -127,7 +127,7 @@ def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 19
                                       pairs[m % n_p, 1].tolist(), k[m // n_p].tolist()):
                 if bound >= best[0]:
                     break
-                d, _ = checker.distance(i, j, poses[t, i], poses[t, j])
+                d = checker.gap(i, j, poses[t, i], poses[t, j])  # the distance's value, no point
                 if d < best[0]:
                     best = (d, (i, j), t)
             else:

@@ -200,6 +200,13 @@ class LoopSolver:
         self._p_onto = np.zeros((m, L, self.n + 1))  # place -> signed hinge column of J
         self._p_onto[np.arange(m)[:, None], np.arange(L)[None], self._pk] = self._ps
         self._p_onto = self._p_onto[..., :self.n]
+        # the same map as a scatter where no hinge is twice in a cycle: J's entries of place
+        # (c, l) are its column of cols6 times its sign, at J's flat index of (c, row, hinge)
+        c_v, l_v = np.nonzero(self._ps)
+        k_v = self._pk[c_v, l_v]
+        once = len(np.unique(c_v * (self.n + 1) + k_v)) == len(c_v)
+        self._scatter = (c_v, l_v, self._ps[c_v, l_v, None],
+                         ((6 * c_v[:, None] + np.arange(6)) * self.n + k_v[:, None]).ravel()) if once else None
 
     def residual(self, x: np.ndarray, jacobian: bool = True):
         """C (6 m,) and J (6 m, n) of the m cycles at angles x (:meth:`residuals` of one)."""
@@ -239,7 +246,12 @@ class LoopSolver:
             return c, None
         # d C / d x_k: the twist of place k moved by its prefix, (w, (q - p) x w), signed
         cols6[..., 3:] = _cross3(q - gt[:, :, None], w)
-        return c, (cols6.transpose(0, 1, 3, 2) @ self._p_onto).reshape(S, 6 * m, self.n)
+        if self._scatter is None:
+            return c, (cols6.transpose(0, 1, 3, 2) @ self._p_onto).reshape(S, 6 * m, self.n)
+        c_v, l_v, sg, flat = self._scatter  # the product above without its zero terms (bit for
+        jac = np.zeros((S, 6 * m * self.n))  # bit: + 0.0 makes a zero times -1 the product's +0)
+        jac[:, flat] = (cols6[:, c_v, l_v] * sg + 0.0).reshape(S, -1)
+        return c, jac.reshape(S, 6 * m, self.n)
 
     def closure(self, x: np.ndarray) -> float:
         return float(np.abs(self.residual(x, False)[0]).max(initial=0.0))
