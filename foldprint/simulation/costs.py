@@ -242,6 +242,10 @@ def check_samples(samples: int, seconds_per_sample: float, workers: int, name: s
     seconds per sample of the first chunk x samples / workers) exceeds the time budget.
     Returns the estimate (s). Memory does not grow with the count (samples are streamed in
     chunks); only time does. ``basis``: where the rate comes from, as the message says it."""
+    return _rate_guard(samples, seconds_per_sample, workers, name, basis)
+
+
+def _rate_guard(samples: int, seconds_per_sample: float, workers: int, name: str, basis: str) -> float:
     workers = max(1, int(workers))
     est = float(samples) * max(0.0, seconds_per_sample) / workers
     fits = max(1, int(time_budget() * workers / max(seconds_per_sample, 1e-9)))
@@ -281,5 +285,5 @@ def check_swept_samples(nominal, samples: int, workers: int, name: str = "") -> 
     nodes = int(getattr(nominal, "broad_nodes", 0) or 0)
     if nodes < 1 or samples < 1:
         return None
-    return check_samples(samples, nodes * BROAD_S_PER_NODE, workers, name,
-                         basis=f"estimated from the nominal fold's {nodes} broad-phase nodes of its 3D check")
+    return _rate_guard(samples, nodes * BROAD_S_PER_NODE, workers, name,
+                       f"estimated from the nominal fold's {nodes} broad-phase nodes of its 3D check")
