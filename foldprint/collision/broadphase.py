@@ -229,6 +229,7 @@ def _descend(checker, P, C, excl, a, b, ka, kb, refine: bool):
     table = _pair_table(checker, excl)
     out, pend = [], [[], [], []]
     while len(a):
+        checker.n_broad_nodes += len(a)  # its work: what a Monte-Carlo sample's cost is estimated from
         selfp = a == b
         nxt = []
         s = a[selfp]

@@ -119,6 +119,7 @@ class SweptChecker:
     time_tol_s: float = 1e-3
     pieces: list = field(default_factory=list)
     n_distance_calls: int = 0
+    n_broad_nodes: int = 0  # (group pair, interval)s the broad phase's descent examined
 
     def __post_init__(self):
         with scope():  # its panels' rigid polygons share one relief of the design, not one each
@@ -157,7 +158,7 @@ class SweptChecker:
         levers: a function of the design and hinge model only) for another drive, with
         its own per-run state (pose cache, distance count)."""
         other = copy.copy(self)
-        other.drive, other._world, other.n_distance_calls = drive, {}, 0
+        other.drive, other._world, other.n_distance_calls, other.n_broad_nodes = drive, {}, 0, 0
         return other
 
     # -- geometry ---------------------------------------------------------------------

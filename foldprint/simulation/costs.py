@@ -42,6 +42,10 @@ DRIVE_BYTES_PER_HINGE = 15_400 * 8
 KIN_S_PER_HINGE_STEP = 1.5e-6
 #: broad phase per panel and step, s
 BROAD_S_PER_PANEL_STEP = 0.6e-6
+#: the 3D broad phase's descent per (group pair, interval) it examines, s: a lower bound of the
+#: 0.66-0.77 CPU-us measured on 300-panel coiling strips (7.8 to 19 million such nodes a fold,
+#: 6 to 12 CPU-s; a template's fold examines under 500); 0.5 us is our choice below them
+BROAD_S_PER_NODE = 0.5e-6
 #: memory one Monte-Carlo sample holds to the end: its Outcome (5 fields), measured at most
 #: 510 B deep size on helix samples (jammed ones carry a pair and a reason), doubled
 SAMPLE_BYTES = 1024
@@ -238,6 +242,10 @@ def check_samples(samples: int, seconds_per_sample: float, workers: int, name: s
     seconds per sample of the first chunk x samples / workers) exceeds the time budget.
     Returns the estimate (s). Memory does not grow with the count (samples are streamed in
     chunks); only time does. ``basis``: where the rate comes from, as the message says it."""
+    return _rate_guard(samples, seconds_per_sample, workers, name, basis)
+
+
+def _rate_guard(samples: int, seconds_per_sample: float, workers: int, name: str, basis: str) -> float:
     workers = max(1, int(workers))
     est = float(samples) * max(0.0, seconds_per_sample) / workers
     fits = max(1, int(time_budget() * workers / max(seconds_per_sample, 1e-9)))
@@ -263,3 +271,19 @@ def check_mechanics_samples(nominal, samples: int, workers: int, name: str = "")
            + simulation_estimate(len(d.panels), len(d.hinges), len(nominal.trajectory.times), False)["seconds"])
     return check_samples(samples, per, workers, name, basis=f"estimated from the nominal fold's {sol.iterations} "
                          f"Newton iterations on {len(sol.model.nodes)} nodes")
+
+
+def check_swept_samples(nominal, samples: int, workers: int, name: str = "") -> float | None:
+    """Refuse ``samples`` rigid Monte-Carlo folds before the first is folded when the
+    nominal fold's 3D broad phase alone (``nominal.broad_nodes``, to its first contact, x
+    :data:`BROAD_S_PER_NODE`, a lower bound) already puts them over the time budget: each
+    sample repeats that search, and a first chunk of 16 such folds (a 300-panel coiling
+    strip: 6 to 12 CPU-s each) runs minutes before its measured rate is checked. The
+    estimate is a lower bound, so it refuses only what the first chunk's rate would
+    (:func:`check_samples`); cheaper folds are left to that. None (nothing checked)
+    without a 3D check's work."""
+    nodes = int(getattr(nominal, "broad_nodes", 0) or 0)
+    if nodes < 1 or samples < 1:
+        return None
+    return _rate_guard(samples, nodes * BROAD_S_PER_NODE, workers, name,
+                       f"estimated from the nominal fold's {nodes} broad-phase nodes of its 3D check")

@@ -346,6 +346,9 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
     if mech == Mechanics.BAR_HINGE and samples > 1:  # minutes before a first chunk of compliant folds is timed
         costs.check_mechanics_samples(nominal, samples, default_workers() if workers is None else max(1, int(workers)),
                                       design.name)
+    if mech == Mechanics.RIGID and samples > CHUNK:  # a fold whose search alone puts them over: refused before
+        costs.check_swept_samples(nominal, samples, default_workers() if workers is None else max(1, int(workers)),
+                                  design.name)
     stream = iter_samples(design, scatter, samples, seed)
     chunks = ((design, lib, chunk, model, dt, exact, method, mech)
               for chunk in iter(lambda: list(islice(stream, CHUNK)), []))

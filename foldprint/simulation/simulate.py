@@ -42,6 +42,9 @@ class SimulationResult:
     arrested: dict = field(default_factory=dict)  # hinge id -> time frozen
     notes: tuple[str, ...] = ()  # what the run left out and why (e.g. the 2D index over the memory limit)
     compliant: CompliantSolution | None = None  # --mechanics bar-hinge: the equilibrium path
+    #: the 3D broad phase's work on the first round (to the first contact): (group pair,
+    #: interval)s its descent examined; a Monte-Carlo sample's cost is estimated from it
+    broad_nodes: int = 0
 
     @property
     def first_collision(self) -> Contact | None:
@@ -248,6 +251,7 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     checker = checker_for(design, hinge_model, drive) if use3d else None
     t_start = 0.0
     idx2d = None
+    nodes = 0
     for _round in range(len(design.hinges) + 1):
         traj = simulate_kinematics(design, bath_c=drive.bath_c, model=hinge_model, dt=dt,
                                    duration=duration, drive=drive)
@@ -259,7 +263,7 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
         if use3d:
             c3, init = swept_first_contact(checker, traj.times, traj.angles, traj.poses, t_start, skip)
             if _round == 0:
-                initial = init
+                initial, nodes = init, checker.n_broad_nodes
                 skip |= {c.pair for c in init}
             if c3:
                 found.append(c3)
@@ -279,4 +283,4 @@ def simulate(design: Design, *, bath_c: float | None = None, duration: float | N
     arrested = {design.hinges[k].id: t for k, t in drive.frozen_at.items()}
     return SimulationResult(design, traj, method, after_contact, tuple(contacts), idx2d, tuple(goals),
                             tuple(initial), arrested, tuple(notes),
-                            drive.solve(traj.times) if drive.compliant else None)
+                            drive.solve(traj.times) if drive.compliant else None, nodes)

@@ -149,6 +149,9 @@ def jam_tests_of(design: Design, test: JamTest | Mapping[str, JamTest], models: 
     if mech == Mechanics.BAR_HINGE and missing:  # minutes before a first chunk of compliant folds is timed
         costs.check_mechanics_samples(nominal, sum(tests[name].max_samples for name in missing), n_workers,
                                       design.name)
+    most = max((tests[name].max_samples for name in missing), default=0)
+    if mech == Mechanics.RIGID and most > CHUNK:  # as the first chunk's rate would, before it is folded
+        costs.check_swept_samples(nominal, most, n_workers, design.name)
     if missing and (mapper is None or lookup is not None):
         jobs = [MonteCarloJob(design, tests[name].max_samples, seed, (1.0,), models[name], model, dt, method,
                               tests[name], mech) for name in missing]
