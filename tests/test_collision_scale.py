@@ -395,13 +395,38 @@ def test_a_contact_names_where_the_panels_touch():
     np.testing.assert_array_equal(ch.cumulative_motion((1, 1), coarse.angles), np.zeros(len(coarse.times)))
 
 
+def _coplanar_case(sides, gap, lift, shift):
+    """(FCL's distance, the analytic one) for the prisms of the test below."""
+    from shapely.affinity import translate
+    from shapely.geometry import Polygon
+
+    ang = np.linspace(0.0, 2 * np.pi, sides, endpoint=False)
+    disc = np.column_stack([5.0 + 4.0 * np.cos(ang), 5.0 + 4.0 * np.sin(ang)])
+    d = strip("a", [10.0, 10.0, 10.0], [90.0, 90.0], ["H-1", "H-1"])
+    d = replace(d, panels=(d.panels[0], d.panels[1], replace(d.panels[2], outline=disc + [20.0, -2.0])))
+    move = np.eye(4)
+    move[:3, 3] = [gap, shift, lift]
+    ref = math.hypot(Polygon(d.panels[0].outline).distance(translate(Polygon(d.panels[2].outline), gap, shift)),
+                     max(0.0, lift - d.panels[0].thickness))
+    return SweptChecker(d, "point", None).distance(0, 2, np.eye(4), move)[0], ref
+
+
+@pytest.mark.xfail(strict=True, reason="python-fcl 0.7's GJK distance between prisms whose faces are exactly "
+                   "coplanar (the same z range) comes out high: 12.37 mm for 12 (sides 4, gap 1), "
+                   "and 14.037 for 14.012 with a triangle lifted 1 mm and shifted 7 mm")
+def test_coplanar_prisms_distance_is_the_analytic_one():
+    got, ref = _coplanar_case(4, 1.0, 0.0, 0.0)
+    assert got == pytest.approx(ref, abs=1e-6)
+
+
 @settings(max_examples=25, deadline=None, derandomize=True, database=None)
 @given(sides=st.integers(3, 40), gap=st.floats(0.5, 20.0), lift=st.floats(0.0, 15.0),
        shift=st.floats(-10.0, 10.0))
 def test_panel_distances_match_an_analytic_reference(sides, gap, lift, shift):
     """The FCL distance between two panels' prisms (convex pieces with up to 80 vertices),
     the second moved by a translation: sqrt(d_xy^2 + max(0, |dz| - t)^2), with d_xy the
-    outlines' distance in the plane (shapely) after the in-plane shift."""
+    outlines' distance in the plane (shapely) after the in-plane shift. (FCL is not exact
+    on every such pair: the coplanar case above.)"""
     from shapely.affinity import translate
     from shapely.geometry import Polygon
 
