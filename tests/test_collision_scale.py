@@ -395,8 +395,9 @@ def test_a_contact_names_where_the_panels_touch():
     np.testing.assert_array_equal(ch.cumulative_motion((1, 1), coarse.angles), np.zeros(len(coarse.times)))
 
 
-def _coplanar_case(sides, gap, lift, shift):
-    """(FCL's distance, the analytic one) for the prisms of the test below."""
+def _prisms_case(sides, gap, lift, shift):
+    """(FCL's distance, the analytic one): a strip's first panel and a regular polygon put
+    in place of its third, the polygon moved by (gap, shift, lift)."""
     from shapely.affinity import translate
     from shapely.geometry import Polygon
 
@@ -411,11 +412,20 @@ def _coplanar_case(sides, gap, lift, shift):
     return SweptChecker(d, "point", None).distance(0, 2, np.eye(4), move)[0], ref
 
 
-@pytest.mark.xfail(strict=True, reason="python-fcl 0.7's GJK distance between prisms whose faces are exactly "
-                   "coplanar (the same z range) comes out high: 12.37 mm for 12 (sides 4, gap 1), "
-                   "and 14.037 for 14.012 with a triangle lifted 1 mm and shifted 7 mm")
-def test_coplanar_prisms_distance_is_the_analytic_one():
-    got, ref = _coplanar_case(4, 1.0, 0.0, 0.0)
+#: FCL's distance between two prisms, measured against the analytic one (python-fcl 0.7,
+#: GJK through libccd or its own solver alike): exact within 1e-6 on most poses, never
+#: below it, and up to 12 % above it (0.71 mm at 6 mm) where a face of one prism and an
+#: edge of the other are the nearest features and their faces are coplanar; near contact
+#: (under 2 mm) no miss was found. The misses below are pinned as strict xfails, so they
+#: fail the day FCL is exact there; the property holds FCL to the bound it meets.
+FCL_OVER = 0.12
+KNOWN_MISSES = [(4, 1.0, 0.0, 0.0), (3, 1.0, 1.0, 7.0), (4, -5.0, 0.0, 0.0)]
+
+
+@pytest.mark.xfail(strict=True, reason="python-fcl 0.7 overestimates these prisms' distance (FCL_OVER)")
+@pytest.mark.parametrize("case", KNOWN_MISSES)
+def test_known_fcl_distance_misses(case):
+    got, ref = _prisms_case(*case)
     assert got == pytest.approx(ref, abs=1e-6)
 
 
@@ -424,26 +434,20 @@ def test_coplanar_prisms_distance_is_the_analytic_one():
        shift=st.floats(-10.0, 10.0))
 def test_panel_distances_match_an_analytic_reference(sides, gap, lift, shift):
     """The FCL distance between two panels' prisms (convex pieces with up to 80 vertices),
-    the second moved by a translation: sqrt(d_xy^2 + max(0, |dz| - t)^2), with d_xy the
-    outlines' distance in the plane (shapely) after the in-plane shift. (FCL is not exact
-    on every such pair: the coplanar case above.)"""
-    from shapely.affinity import translate
-    from shapely.geometry import Polygon
+    the second moved by a translation, against sqrt(d_xy^2 + max(0, |dz| - t)^2), with d_xy
+    the outlines' distance in the plane (shapely) after the in-plane shift: never below
+    it, and above it by at most FCL_OVER (the misses above)."""
+    got, ref = _prisms_case(sides, gap, lift, shift)
+    assert ref - 1e-6 <= got <= ref * (1.0 + FCL_OVER) + 1e-6
 
-    ang = np.linspace(0.0, 2 * np.pi, sides, endpoint=False)
-    disc = np.column_stack([5.0 + 4.0 * np.cos(ang), 5.0 + 4.0 * np.sin(ang)])
-    # a strip whose third panel is a regular polygon beyond the second's far edge
-    d = strip("a", [10.0, 10.0, 10.0], [90.0, 90.0], ["H-1", "H-1"])
-    d = replace(d, panels=(d.panels[0], d.panels[1], replace(d.panels[2], outline=disc + [20.0, -2.0])))
-    ch = SweptChecker(d, "point", None)
-    move = np.eye(4)
-    move[:3, 3] = [gap, shift, lift]
-    t = d.panels[0].thickness
-    a = Polygon(d.panels[0].outline)
-    b = translate(Polygon(d.panels[2].outline), gap, shift)
-    ref = math.hypot(a.distance(b), max(0.0, lift - t))
-    assert ch.distance(0, 2, np.eye(4), move)[0] == pytest.approx(ref, abs=1e-6)
 
+@settings(max_examples=25, deadline=None, derandomize=True, database=None)
+@given(sides=st.integers(3, 40), gap=st.floats(-10.5, -9.0), lift=st.floats(0.0, 1.0),
+       shift=st.floats(-1.0, 1.0))
+def test_near_contact_distances_are_exact(sides, gap, lift, shift):
+    """Under 2 mm, where contacts are decided, FCL matches the analytic distance."""
+    got, ref = _prisms_case(sides, gap, lift, shift)
+    assert got == pytest.approx(ref, abs=1e-6)
 
 CORNER = """
 schema = 1
