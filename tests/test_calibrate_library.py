@@ -147,3 +147,17 @@ def test_the_command_prints_what_it_added(tmp_path, capsys):
     said = text.out + text.err
     assert "added MyResin" in said and "not a VeroWhite/TangoBlack blend" in said
     assert load_library(out)["MyResin"].color in said
+
+
+def test_change_lines_name_the_first_few_and_count_the_rest():
+    """Thirty new materials print LIST_FIRST lines and one count, not thirty lines."""
+    from foldprint.apps.calibrate_library import change_lines
+    from foldprint.core.display import LIST_FIRST
+
+    items = [{"material": f"M{i}", "status": "added", "color": "#123456",
+              "moved": [{"name": "tg_c", "before": None, "after": 40.0 + i}]} for i in range(30)]
+    lines = change_lines(items)
+    assert len(lines) == LIST_FIRST + 1
+    assert lines[0].startswith("added M0 ") and "tg_c 40" in lines[0]
+    assert lines[-1].startswith(f"... and {30 - LIST_FIRST} more material(s)")
+    assert change_lines(items[:LIST_FIRST]) == lines[:LIST_FIRST]  # a short list is whole

@@ -14,6 +14,7 @@ import colorsys
 import hashlib
 from dataclasses import fields, replace
 
+from ..core.display import LIST_FIRST
 from ..exchange.materials_file import Entry
 from ..model.materials import Material, MaterialLibrary
 from ..physics.calibration.fit import fitted_materials
@@ -147,7 +148,9 @@ def changes(cal) -> list[dict]:
 
 
 def change_lines(items: list[dict]) -> list[str]:
-    """:func:`changes` in words, one line per material."""
+    """:func:`changes` in words, one line per material, the first
+    :data:`~foldprint.core.display.LIST_FIRST` of them and then a count of the rest (every
+    material is in ``--json`` and the written file)."""
     lines = []
     for c in items:
         if c["status"] == "added":
@@ -159,4 +162,7 @@ def change_lines(items: list[dict]) -> list[str]:
             lines.append(f"changed {c['material']}: {vals}")
         else:
             lines.append(f"{c['material']}: measured, no parameter moved")
+    if len(lines) > LIST_FIRST:
+        rest = len(lines) - LIST_FIRST
+        lines = lines[:LIST_FIRST] + [f"... and {rest} more material(s): each in --json and the written file"]
     return lines
