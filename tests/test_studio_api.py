@@ -399,3 +399,19 @@ def test_the_command_serves_over_http_and_stops_on_ctrl_c(tmp_path):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_shutdown_stops_the_running_verdict(tmp_path):
+    """Leaving the server while helix_graded's jam test runs cancels the run and waits for
+    its thread: after shutdown nothing of the studio keeps folding samples."""
+    inputs = resolve_inputs("helix_graded", out=tmp_path)
+    guarded = create_app(inputs, TOKEN, PORT)
+    studio = guarded.app.state.studio
+    with TestClient(guarded, base_url=BASE) as c:
+        t0 = time.monotonic()
+        while c.get("/api/verdict", headers=H).json()["state"] != "running" and time.monotonic() - t0 < 60:
+            time.sleep(0.02)
+        job = studio.verdict
+        assert job is not None and job.read()["state"] == "running"
+    assert not job.thread.is_alive()
+    assert job.read()["state"] in ("cancelled", "decided")

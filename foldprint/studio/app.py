@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import asyncio
 import json
+import logging
 import threading
+import time
 from contextlib import asynccontextmanager
 from importlib import resources
 
@@ -33,6 +35,9 @@ from .guard import BodyTooLarge, Guard, cookie_name
 PAGE_FILES = {"studio.js": "text/javascript", "studio.css": "text/css"}
 #: seconds between the event stream's keep-alive comments (our choice)
 HEARTBEAT_S = 15.0
+CLOSE_WAIT_S = 10.0  # our choice: how long shutdown waits for cancelled runs to stop, in all
+
+log = logging.getLogger(__name__)
 
 
 class Studio:
@@ -65,11 +70,20 @@ class Studio:
             self.verdict = verdict_job(self.session, revision, entry, self.notify, self.verdict)
         self.notify("design", self.session.state())
 
-    def close(self) -> None:
+    def close(self, wait_s: float = CLOSE_WAIT_S) -> None:
+        """Cancel the background runs and wait for them, at most ``wait_s`` in all: a
+        cancelled run stops at its next progress report and lets go of what it holds (its
+        pool's workers, its evaluation's memory). A run still alive after that is left to
+        the interpreter's exit (its thread is a daemon) and logged."""
         self.closing = True
-        for job in (self.verdict, self.assign):
-            if job is not None:
-                job.cancel()
+        jobs = [job for job in (self.verdict, self.assign) if job is not None]
+        for job in jobs:
+            job.cancel()
+        end = time.monotonic() + wait_s
+        for job in jobs:
+            job.join(max(end - time.monotonic(), 0.0))
+            if job.thread is not None and job.thread.is_alive():
+                log.warning("studio: the %s run did not stop within %.0f s of shutdown", job.kind, wait_s)
         with self.lock:
             listeners = list(self.listeners)
         for loop, event, _ in listeners:
