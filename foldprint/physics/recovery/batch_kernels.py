@@ -27,6 +27,12 @@ _LN10 = math.log(10.0)
 _LN2_HI = 6.93147180369123816490e-01  # ln 2 in two parts (fdlibm's): k ln 2 exact in the high part
 _LN2_LO = 1.90821492927058770002e-10
 _INV_LN2 = 1.44269504088896338700e+00
+#: Times of one block of a hinge's curve: our choice (its working arrays, 8 x 4 layer pairs x
+#: this many doubles, stay in the L1/L2 cache).
+TIME_BLOCK = 256
+#: Layer pairs through the thickness (the model's 8 Gauss points, symmetric:
+#: :func:`foldprint.physics.recovery.batch._layers`): a constant, so the loops over them unroll.
+NZ = 4
 
 
 @njit
@@ -62,44 +68,112 @@ def vexp(x, out, bits):  # pragma: no cover - compiled
         out[i] *= scale[i]
 
 
-@njit
-def _slab_theta(tk, alpha, half2, nsq, shape, cut, theta, fo, xs, e, bits_n):  # pragma: no cover - compiled
-    """Excess temperature theta (n * n_z,) of every hinge and layer at time ``tk``: the
-    slab series term by term, each exactly 0 where Fo zeta^2 > ``cut`` (and so is every
-    later term: zeta rises with the term); 1 at t = 0, where the series converges slowly."""
-    n, n_terms, n_z = nsq.shape[0], nsq.shape[1], shape.shape[2]
-    if tk <= 0.0:
-        theta[:] = 1.0
-        return
-    theta[:] = 0.0
-    for i in range(n):
-        fo[i] = (alpha * tk) / half2[i]
-    for j in range(n_terms):
-        alive = 0
-        for i in range(n):
-            x = fo[i] * nsq[i, j]
-            alive += x >= -cut
-            xs[i] = max(x, -cut)
-        if alive == 0:
-            break
-        vexp(xs, e, bits_n)
-        for i in range(n):
-            ei = e[i] if fo[i] * nsq[i, j] >= -cut else 0.0
-            for z in range(n_z):
-                theta[i * n_z + z] += shape[j, i, z] * ei
+_LG1 = 6.666666666666735130e-01  # fdlibm's e_log.c: log(1+f) = f - f^2/2 + s (f^2/2 + R(s^2))
+_LG2 = 3.999999999940941908e-01
+_LG3 = 2.857142874366239149e-01
+_LG4 = 2.222219843214978396e-01
+_LG5 = 1.818357216161805012e-01
+_LG6 = 1.531383769920937332e-01
+_LG7 = 1.479819860511658591e-01
+_SQRT2_M1_BITS = 0x95F64 << 32  # fdlibm: mantissa bits at or past sqrt(2) - 1 ...
+_BIT52 = 1 << 52  # ... carry into bit 52: the mantissa is halved, k raised by one
+_MANT = (1 << 52) - 1
+_ONE_BITS = 0x3FF << 52
+_RCP0, _RCP1, _RCP2 = 1.4694704, -0.71547883, 0.11544257  # our least-squares fit of 1 / y on
+# [1.707, 2.414], relative error 2.2e-3: three Newton steps square it to below 1e-21
 
 
 @njit
-def _unrecovered(x, y0, step, nodes):  # pragma: no cover - compiled
-    """U(xi) read from the relaxation table: linear in ln xi between its nodes, the first
-    node's value below it (and at xi = 0), the last's past it."""
-    last = nodes.shape[0] - 2
-    y = 0.0
-    if x > 0.0:
-        y = min(max((math.log(x) - y0) * (1.0 / step), 0.0), last)
-    fl = math.floor(y)
-    b = int(fl)
-    return nodes[b, 1] * (y - fl) + nodes[b, 0]
+def vlog(x, out, bits):  # pragma: no cover - compiled
+    """ln of every element of ``x`` (finite, >= 0; each held at DBL_MIN = 2.2e-308 first, so
+    0 and subnormals give ln DBL_MIN = -708.4) into ``out`` (``bits``: int64 scratch of the
+    same length). fdlibm's e_log.c without its branches: x = 2^k (1 + f), 1 + f in
+    [sqrt(2)/2, sqrt(2)), s = f / (2 + f), ln(1 + f) = f - f^2/2 + s (f^2/2 + R(s^2)) with
+    fdlibm's degree-14 R (error < 2^-58.45), k ln 2 in two parts. Within 2.2e-16 relative of
+    numpy's log (measured, ``tests/test_kernels.py``), and plain arithmetic the compiler
+    vectorises (numba's math.log is a scalar libm call)."""
+    xb = x.view(np.int64)  # x >= 0: its bits rise with it, DBL_MIN's are 2^52
+    for i in range(x.shape[0]):
+        hx = max(xb[i], _BIT52)
+        m = hx & _MANT
+        c = (m + _SQRT2_M1_BITS) & _BIT52
+        bits[i] = m | (_ONE_BITS ^ c)
+        out[i] = np.float64(((hx >> 52) - 1023) + (c >> 52))  # k
+    f1 = bits.view(np.float64)
+    for i in range(x.shape[0]):
+        f = f1[i] - 1.0
+        dk = out[i]
+        y = 2.0 + f  # in [1.707, 2.414]: 1 / y by Newton's method from a quadratic (no division:
+        r = _RCP0 + y * (_RCP1 + y * _RCP2)  # numba's checks it for zero, which stops vectorising)
+        r = r * (2.0 - y * r)
+        r = r * (2.0 - y * r)
+        s = f * (r * (2.0 - y * r))
+        z = s * s
+        w = z * z
+        t1 = w * (_LG2 + w * (_LG4 + w * _LG6))
+        t2 = z * (_LG1 + w * (_LG3 + w * (_LG5 + w * _LG7)))
+        hfsq = 0.5 * f * f
+        out[i] = s * (hfsq + t1 + t2) + dk * _LN2_LO - hfsq + f + dk * _LN2_HI
+
+
+@njit
+def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, xs, e, bits, ends, terms):  # pragma: no cover - compiled
+    """Excess temperature theta (m x NZ, time-major) of hinge ``i``'s layers at the m times
+    ``t`` (``half2``: L^2): the slab series term by term, each exactly 0 where
+    Fo zeta^2 > ``cut`` (and so is every later term: zeta rises with the term); 1 at
+    t = 0, where the series converges slowly. Every alive term's exponent in ``xs``, one
+    :func:`vexp` for all. Returns the terms alive at the first time (a term cut there
+    stays cut at every later time)."""
+    m = t.shape[0]
+    fo_end = np.divide(alpha * t[m - 1], half2)  # Fo = alpha t / L^2 (np.divide: vectorises)
+    n_e = 0
+    alive = 0
+    for j in range(terms):
+        c = nsq_i[j]
+        if fo_end * c >= -cut:  # alive at every time of the block
+            last = m
+        else:  # the times alive, Fo zeta^2 <= cut, are a prefix (Fo rises with t)
+            lo, last = 0, m
+            while lo < last:
+                mid = (lo + last) // 2
+                if np.divide(alpha * t[mid], half2) * c < -cut:
+                    last = mid
+                else:
+                    lo = mid + 1
+            if last == 0:
+                break
+        alive = j + 1
+        for k in range(last):
+            xs[n_e + k] = np.divide(alpha * t[k], half2) * c
+        n_e += last
+        ends[j] = n_e
+    vexp(xs[:n_e], e[:n_e], bits[:n_e])
+    start = 0
+    for j in range(alive):
+        s0, s1, s2, s3 = shape[j, i, 0], shape[j, i, 1], shape[j, i, 2], shape[j, i, 3]
+        last = ends[j] - start
+        if j == 0:
+            for k in range(last):
+                q = k * NZ
+                ek = e[k]
+                theta[q], theta[q + 1], theta[q + 2], theta[q + 3] = s0 * ek, s1 * ek, s2 * ek, s3 * ek
+            theta[last * NZ: m * NZ] = 0.0
+        else:
+            for k in range(last):
+                q = k * NZ
+                ek = e[start + k]
+                theta[q] += s0 * ek
+                theta[q + 1] += s1 * ek
+                theta[q + 2] += s2 * ek
+                theta[q + 3] += s3 * ek
+        start = ends[j]
+    if alive == 0:
+        theta[: m * NZ] = 0.0
+    if t[0] <= 0.0:
+        for k in range(m):
+            if t[k] <= 0.0:
+                theta[k * NZ: k * NZ + NZ] = 1.0
+    return alive
 
 
 @njit
@@ -107,48 +181,89 @@ def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, dt, w, wm, c1
                  nodes):  # pragma: no cover - compiled
     """Ratio and mean temperature (n, m) of n hinges at the m times ``t`` (``dt``: each
     time's step from the previous, 0 at the first). ``half2`` (n,) half-thickness squared,
-    ``nsq`` (n, terms) -zeta^2, ``shape`` (terms, n, n_z) each term's coefficient at the
-    layers, ``w`` / ``wm`` (n_z,) the layer pairs' bending and plain weights, ``nodes``
+    ``nsq`` (n, terms) -zeta^2, ``shape`` (terms, n, NZ) each term's coefficient at the
+    layers, ``w`` / ``wm`` (NZ,) the layer pairs' bending and plain weights, ``nodes``
     (N, 2) the relaxation table (U and its change to the next node), read at
-    (ln xi - ``y0``) / ``step``. Time by time, every hinge and layer at once (the
-    exponentials in vectorised loops, :func:`vexp`; the log is numba's scalar one: a
-    search of the nodes instead cost more)."""
-    n, m, n_z = tg.shape[0], t.shape[0], w.shape[0]
-    lanes = n * n_z
+    (ln xi - ``y0``) / ``step`` (``y0`` > ln DBL_MIN: :func:`vlog` holds 0 there).
+
+    Hinge by hinge, blocks of :data:`TIME_BLOCK` times, every layer of the block at once
+    (the exponentials and logs in vectorised loops, :func:`vexp` and :func:`vlog`); the
+    reduced time one step after the other. Once a hinge's running maximum is exactly 1
+    its ratio is 1 at every later time: from the next block on only its mean temperature
+    is computed."""
+    n, m = tg.shape[0], t.shape[0]
+    if w.shape[0] != NZ or wm.shape[0] != NZ or shape.shape[2] != NZ:
+        raise ValueError("curves_table: the layer pairs are not NZ")
     ratio, mean_t = np.empty((n, m)), np.empty((n, m))
-    xi, rate_prev = np.zeros(lanes), np.zeros(lanes)
-    rate, lg, theta = np.empty(lanes), np.empty(lanes), np.empty(lanes)
-    bits = np.empty(lanes, np.int64)
-    fo, xs, e, bits_n = np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int64)
-    top = np.zeros(n)
-    tgk = tg + 273.15
-    arr_k = (c1 / c2) * tgk ** 2
-    inv_tgk = 1.0 / tgk
-    span = bath - initial_c
-    for k in range(m):
-        _slab_theta(t[k], alpha, half2, nsq, shape, cut, theta, fo, xs, e, bits_n)
-        for i in range(n):
-            mean = 0.0
-            for z in range(n_z):
-                q = i * n_z + z
-                temp = bath[i] - min(max(theta[q], 0.0), 1.0) * span[i]
-                mean += temp * wm[z]
-                d = temp - tg[i]
-                if d < 0.0:  # 1 / a_T: Arrhenius below Tg, WLF above
-                    lg[q] = ((1.0 / (temp + 273.15) - inv_tgk[i]) * arr_k[i]) * -_LN10
-                else:
-                    lg[q] = ((d * -c1) / (d + c2)) * -_LN10
-            mean_t[i, k] = mean
-        vexp(lg, rate, bits)
-        for q in range(lanes):  # the reduced time: a trapezoid sum
-            xi[q] += (rate[q] + rate_prev[q]) * 0.5 * dt[k]
-            rate_prev[q] = rate[q]
-        for i in range(n):
-            uw = 0.0
-            for z in range(n_z):
-                uw += _unrecovered(xi[i * n_z + z], y0, step, nodes) * w[z]
-            r = min(max(1.0 - uw, 0.0), 1.0)
-            if r > top[i]:
-                top[i] = r
-            ratio[i, k] = top[i]
+    size = TIME_BLOCK * NZ
+    theta, lg, rate, xiv = np.empty(size), np.empty(size), np.empty(size), np.empty(size)
+    bits = np.empty(size, np.int64)
+    h = np.empty(TIME_BLOCK)
+    xs, e = np.empty(TIME_BLOCK * nsq.shape[1]), np.empty(TIME_BLOCK * nsq.shape[1])
+    sbits, ends = np.empty(TIME_BLOCK * nsq.shape[1], np.int64), np.empty(nsq.shape[1], np.int64)
+    w0, w1, w2, w3 = w[0], w[1], w[2], w[3]
+    m0, m1, m2, m3 = wm[0], wm[1], wm[2], wm[3]
+    last = float(nodes.shape[0] - 2)
+    inv_step = 1.0 / step
+    for i in range(n):
+        tgi = tg[i]
+        arr_k = (c1 / c2) * (tgi + 273.15) * _LN10
+        wlf = c1 * _LN10
+        bi = bath[i]
+        mrow = mean_t[i]
+        span = bi - initial_c
+        terms = nsq.shape[1]
+        x0 = x1 = x2 = x3 = 0.0  # each layer pair's reduced time and rate at the last time
+        r0 = r1 = r2 = r3 = 0.0
+        top = 0.0
+        for a in range(0, m, TIME_BLOCK):
+            b = min(a + TIME_BLOCK, m)
+            mb = b - a
+            lanes = mb * NZ
+            terms = _slab_theta(t[a:b], alpha, half2[i], nsq[i], shape, i, cut, theta, xs, e, sbits, ends, terms)
+            for q in range(lanes):  # the temperature, in place of theta
+                theta[q] = bi - min(max(theta[q], 0.0), 1.0) * span
+            for k in range(mb):
+                q = k * NZ
+                mrow[a + k] = theta[q] * m0 + theta[q + 1] * m1 + theta[q + 2] * m2 + theta[q + 3] * m3
+            if top == 1.0:  # the ratio is 1 from here on: only the mean temperature
+                ratio[i, a:b] = 1.0
+                continue
+            # ln(1 / a_T) = -ln 10 log10 a_T, d = T - Tg: Arrhenius below Tg,
+            # (c1 / c2) Tg d / T ln 10 (T, Tg in K), WLF above, c1 d / (c2 + d) ln 10: one
+            # division (np.divide: numba's `/` checks for a zero divisor, which stops a loop
+            # vectorising)
+            for q in range(lanes):
+                temp = theta[q]
+                d = temp - tgi
+                below = d < 0.0
+                lg[q] = np.divide(d * (arr_k if below else wlf), (temp + 273.15) if below else (d + c2))
+            vexp(lg[:lanes], rate[:lanes], bits[:lanes])
+            for k in range(mb):
+                h[k] = 0.5 * dt[a + k]
+            for k in range(mb):  # the reduced time: a trapezoid sum, one step after the other
+                q = k * NZ
+                hk = h[k]
+                x0 += (rate[q] + r0) * hk
+                x1 += (rate[q + 1] + r1) * hk
+                x2 += (rate[q + 2] + r2) * hk
+                x3 += (rate[q + 3] + r3) * hk
+                r0, r1, r2, r3 = rate[q], rate[q + 1], rate[q + 2], rate[q + 3]
+                xiv[q], xiv[q + 1], xiv[q + 2], xiv[q + 3] = x0, x1, x2, x3
+            vlog(xiv[:lanes], lg[:lanes], bits[:lanes])
+            for q in range(lanes):  # U(xi) from the table, linear in ln xi: where (vectorised) ...
+                y = min(max((lg[q] - y0) * inv_step, 0.0), last)
+                fl = math.floor(y)
+                bits[q] = int(fl)
+                lg[q] = y - fl
+            for q in range(lanes):  # ... and the read (a gather, which stays scalar)
+                nb = bits[q]
+                rate[q] = nodes[nb, 1] * lg[q] + nodes[nb, 0]
+            for k in range(mb):
+                q = k * NZ
+                uw = rate[q] * w0 + rate[q + 1] * w1 + rate[q + 2] * w2 + rate[q + 3] * w3
+                lg[k] = min(max(1.0 - uw, 0.0), 1.0)
+            for k in range(mb):
+                top = max(top, lg[k])
+                ratio[i, a + k] = top
     return ratio, mean_t
