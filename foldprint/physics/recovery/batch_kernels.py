@@ -117,6 +117,39 @@ def vlog(x, out, bits):  # pragma: no cover - compiled
 
 
 @njit
+def slab_series(hw, th, k_w, alpha, zg, n_terms, cut):  # pragma: no cover - compiled
+    """The slab series of hinges with heat-transfer coefficients ``hw`` and thicknesses
+    ``th`` (mm), as :func:`foldprint.physics.recovery.batch._slab` (the reference) computes
+    it: half-thickness squared (n,), -zeta^2 (n, terms), each term's coefficient at the
+    layers ``zg`` (terms, n, n_z) and each term's last time alive in any hinge (terms,).
+    The roots of zeta tan zeta = Bi by the same Newton steps from the same start, each
+    root stopped at its own round-off (the reference stops when all are): equal to
+    round-off."""
+    n, n_z = hw.shape[0], zg.shape[0]
+    half2, nsq = np.empty(n), np.empty((n, n_terms))
+    shape, t_cut = np.empty((n_terms, n, n_z)), np.zeros(n_terms)
+    for i in range(n):
+        half = th[i] * 1e-3 / 2.0
+        half2[i] = half * half
+        biot = hw[i] * half / k_w
+        for j in range(n_terms):
+            kp = j * math.pi
+            z = kp + math.atan(biot / (kp + math.pi / 2)) if j > 0 else math.atan(math.sqrt(biot))
+            for _ in range(60):
+                q = biot / z
+                step = (z - kp - math.atan(q)) / (1.0 + q / (z * (1.0 + q * q)))
+                z -= step
+                if abs(step) <= 4e-16 * z:
+                    break
+            nsq[i, j] = -z * z
+            coef = 4.0 * math.sin(z) / (2.0 * z + math.sin(2.0 * z))
+            for l in range(n_z):
+                shape[j, i, l] = math.cos(zg[l] * z) * coef
+            t_cut[j] = max(t_cut[j], cut * half2[i] / (alpha * z * z))
+    return half2, nsq, shape, t_cut
+
+
+@njit
 def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, xs, e, bits, ends, terms):  # pragma: no cover - compiled
     """Excess temperature theta (m x NZ, time-major) of hinge ``i``'s layers at the m times
     ``t`` (``half2``: L^2): the slab series term by term, each exactly 0 where
@@ -177,10 +210,9 @@ def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, xs, e, bits, ends,
 
 
 @njit
-def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, dt, w, wm, c1, c2, cut, y0, step,
+def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, w, wm, c1, c2, cut, y0, step,
                  nodes):  # pragma: no cover - compiled
-    """Ratio and mean temperature (n, m) of n hinges at the m times ``t`` (``dt``: each
-    time's step from the previous, 0 at the first). ``half2`` (n,) half-thickness squared,
+    """Ratio and mean temperature (n, m) of n hinges at the m times ``t``. ``half2`` (n,) half-thickness squared,
     ``nsq`` (n, terms) -zeta^2, ``shape`` (terms, n, NZ) each term's coefficient at the
     layers, ``w`` / ``wm`` (NZ,) the layer pairs' bending and plain weights, ``nodes``
     (N, 2) the relaxation table (U and its change to the next node), read at
@@ -221,11 +253,14 @@ def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, dt, w, wm, c1
             mb = b - a
             lanes = mb * NZ
             terms = _slab_theta(t[a:b], alpha, half2[i], nsq[i], shape, i, cut, theta, xs, e, sbits, ends, terms)
-            for q in range(lanes):  # the temperature, in place of theta
-                theta[q] = bi - min(max(theta[q], 0.0), 1.0) * span
-            for k in range(mb):
+            for k in range(mb):  # the temperature, in place of theta, and its mean
                 q = k * NZ
-                mrow[a + k] = theta[q] * m0 + theta[q + 1] * m1 + theta[q + 2] * m2 + theta[q + 3] * m3
+                u0 = bi - min(max(theta[q], 0.0), 1.0) * span
+                u1 = bi - min(max(theta[q + 1], 0.0), 1.0) * span
+                u2 = bi - min(max(theta[q + 2], 0.0), 1.0) * span
+                u3 = bi - min(max(theta[q + 3], 0.0), 1.0) * span
+                theta[q], theta[q + 1], theta[q + 2], theta[q + 3] = u0, u1, u2, u3
+                mrow[a + k] = u0 * m0 + u1 * m1 + u2 * m2 + u3 * m3
             if top == 1.0:  # the ratio is 1 from here on: only the mean temperature
                 ratio[i, a:b] = 1.0
                 continue
@@ -239,8 +274,8 @@ def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, dt, w, wm, c1
                 below = d < 0.0
                 lg[q] = np.divide(d * (arr_k if below else wlf), (temp + 273.15) if below else (d + c2))
             vexp(lg[:lanes], rate[:lanes], bits[:lanes])
-            for k in range(mb):
-                h[k] = 0.5 * dt[a + k]
+            for k in range(mb):  # half of each time's step from the previous (0 at the first)
+                h[k] = 0.5 * (t[a + k] - t[a + k - 1]) if a + k > 0 else 0.0
             for k in range(mb):  # the reduced time: a trapezoid sum, one step after the other
                 q = k * NZ
                 hk = h[k]
