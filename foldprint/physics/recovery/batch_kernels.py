@@ -35,7 +35,7 @@ TIME_BLOCK = 256
 NZ = 4
 
 
-@njit
+@njit(contract=True)
 def vexp(x, out, bits):  # pragma: no cover - compiled
     """exp of every element of ``x`` (each <= 709) into ``out`` (``bits``: int64 scratch
     of the same length): x = k ln 2 + r, |r| <= ln 2 / 2, exp(r) by its Taylor series to
@@ -83,7 +83,7 @@ _RCP0, _RCP1, _RCP2 = 1.4694704, -0.71547883, 0.11544257  # our least-squares fi
 # [1.707, 2.414], relative error 2.2e-3: three Newton steps square it to below 1e-21
 
 
-@njit
+@njit(contract=True)
 def vlog(x, out, bits):  # pragma: no cover - compiled
     """ln of every element of ``x`` (finite, >= 0; each held at DBL_MIN = 2.2e-308 first, so
     0 and subnormals give ln DBL_MIN = -708.4) into ``out`` (``bits``: int64 scratch of the
@@ -116,7 +116,7 @@ def vlog(x, out, bits):  # pragma: no cover - compiled
         out[i] = s * (hfsq + t1 + t2) + dk * _LN2_LO - hfsq + f + dk * _LN2_HI
 
 
-@njit
+@njit(contract=True)
 def slab_series(hw, th, k_w, alpha, zg, n_terms, cut):  # pragma: no cover - compiled
     """The slab series of hinges with heat-transfer coefficients ``hw`` and thicknesses
     ``th`` (mm), as :func:`foldprint.physics.recovery.batch._slab` (the reference) computes
@@ -149,8 +149,8 @@ def slab_series(hw, th, k_w, alpha, zg, n_terms, cut):  # pragma: no cover - com
     return half2, nsq, shape, t_cut
 
 
-@njit
-def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, xs, e, bits, ends, terms):  # pragma: no cover - compiled
+@njit(contract=True)
+def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, fo, xs, e, bits, ends, terms):  # pragma: no cover - compiled
     """Excess temperature theta (m x NZ, time-major) of hinge ``i``'s layers at the m times
     ``t`` (``half2``: L^2): the slab series term by term, each exactly 0 where
     Fo zeta^2 > ``cut`` (and so is every later term: zeta rises with the term); 1 at
@@ -158,7 +158,9 @@ def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, xs, e, bits, ends,
     :func:`vexp` for all. Returns the terms alive at the first time (a term cut there
     stays cut at every later time)."""
     m = t.shape[0]
-    fo_end = np.divide(alpha * t[m - 1], half2)  # Fo = alpha t / L^2 (np.divide: vectorises)
+    for k in range(m):  # Fo = alpha t / L^2 (np.divide: numba's `/` checks for a zero divisor,
+        fo[k] = np.divide(alpha * t[k], half2)  # which stops a loop vectorising)
+    fo_end = fo[m - 1]
     n_e = 0
     alive = 0
     for j in range(terms):
@@ -169,15 +171,16 @@ def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, xs, e, bits, ends,
             lo, last = 0, m
             while lo < last:
                 mid = (lo + last) // 2
-                if np.divide(alpha * t[mid], half2) * c < -cut:
+                if fo[mid] * c < -cut:
                     last = mid
                 else:
                     lo = mid + 1
             if last == 0:
                 break
         alive = j + 1
+        xj = xs[n_e:n_e + last]  # a slice: its index is known >= 0, so the stores are contiguous
         for k in range(last):
-            xs[n_e + k] = np.divide(alpha * t[k], half2) * c
+            xj[k] = fo[k] * c
         n_e += last
         ends[j] = n_e
     vexp(xs[:n_e], e[:n_e], bits[:n_e])
@@ -192,9 +195,10 @@ def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, xs, e, bits, ends,
                 theta[q], theta[q + 1], theta[q + 2], theta[q + 3] = s0 * ek, s1 * ek, s2 * ek, s3 * ek
             theta[last * NZ: m * NZ] = 0.0
         else:
+            ej = e[start:start + last]
             for k in range(last):
                 q = k * NZ
-                ek = e[start + k]
+                ek = ej[k]
                 theta[q] += s0 * ek
                 theta[q + 1] += s1 * ek
                 theta[q + 2] += s2 * ek
@@ -209,7 +213,7 @@ def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, xs, e, bits, ends,
     return alive
 
 
-@njit
+@njit(contract=True)
 def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, w, wm, c1, c2, cut, y0, step,
                  nodes):  # pragma: no cover - compiled
     """Ratio and mean temperature (n, m) of n hinges at the m times ``t``. ``half2`` (n,) half-thickness squared,
@@ -230,12 +234,13 @@ def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, w, wm, c1, c2
     size = TIME_BLOCK * NZ
     theta, lg, rate, xiv = np.empty(size), np.empty(size), np.empty(size), np.empty(size)
     bits = np.empty(size, np.int64)
-    h = np.empty(TIME_BLOCK)
+    h, fo = np.empty(TIME_BLOCK), np.empty(TIME_BLOCK)
     xs, e = np.empty(TIME_BLOCK * nsq.shape[1]), np.empty(TIME_BLOCK * nsq.shape[1])
     sbits, ends = np.empty(TIME_BLOCK * nsq.shape[1], np.int64), np.empty(nsq.shape[1], np.int64)
     w0, w1, w2, w3 = w[0], w[1], w[2], w[3]
     m0, m1, m2, m3 = wm[0], wm[1], wm[2], wm[3]
     last = float(nodes.shape[0] - 2)
+    flat = np.ascontiguousarray(nodes).reshape(nodes.size)  # U and its change, node after node
     inv_step = 1.0 / step
     for i in range(n):
         tgi = tg[i]
@@ -252,7 +257,8 @@ def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, w, wm, c1, c2
             b = min(a + TIME_BLOCK, m)
             mb = b - a
             lanes = mb * NZ
-            terms = _slab_theta(t[a:b], alpha, half2[i], nsq[i], shape, i, cut, theta, xs, e, sbits, ends, terms)
+            terms = _slab_theta(t[a:b], alpha, half2[i], nsq[i], shape, i, cut, theta, fo, xs, e, sbits, ends, terms)
+            mv, rv = mrow[a:b], ratio[i, a:b]  # slices: indices known >= 0, contiguous stores
             for k in range(mb):  # the temperature, in place of theta, and its mean
                 q = k * NZ
                 u0 = bi - min(max(theta[q], 0.0), 1.0) * span
@@ -260,9 +266,9 @@ def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, w, wm, c1, c2
                 u2 = bi - min(max(theta[q + 2], 0.0), 1.0) * span
                 u3 = bi - min(max(theta[q + 3], 0.0), 1.0) * span
                 theta[q], theta[q + 1], theta[q + 2], theta[q + 3] = u0, u1, u2, u3
-                mrow[a + k] = u0 * m0 + u1 * m1 + u2 * m2 + u3 * m3
+                mv[k] = u0 * m0 + u1 * m1 + u2 * m2 + u3 * m3
             if top == 1.0:  # the ratio is 1 from here on: only the mean temperature
-                ratio[i, a:b] = 1.0
+                rv[:] = 1.0
                 continue
             # ln(1 / a_T) = -ln 10 log10 a_T, d = T - Tg: Arrhenius below Tg,
             # (c1 / c2) Tg d / T ln 10 (T, Tg in K), WLF above, c1 d / (c2 + d) ln 10: one
@@ -291,14 +297,14 @@ def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, w, wm, c1, c2
                 fl = math.floor(y)
                 bits[q] = int(fl)
                 lg[q] = y - fl
-            for q in range(lanes):  # ... and the read (a gather, which stays scalar)
-                nb = bits[q]
-                rate[q] = nodes[nb, 1] * lg[q] + nodes[nb, 0]
+            for q in range(lanes):  # ... and the read (a gather; unsigned: no wraparound test)
+                nb = np.uint64(bits[q]) * np.uint64(2)
+                rate[q] = flat[nb + np.uint64(1)] * lg[q] + flat[nb]
             for k in range(mb):
                 q = k * NZ
                 uw = rate[q] * w0 + rate[q + 1] * w1 + rate[q + 2] * w2 + rate[q + 3] * w3
                 lg[k] = min(max(1.0 - uw, 0.0), 1.0)
             for k in range(mb):
                 top = max(top, lg[k])
-                ratio[i, a + k] = top
+                rv[k] = top
     return ratio, mean_t
