@@ -214,97 +214,111 @@ def _slab_theta(t, alpha, half2, nsq_i, shape, i, cut, theta, fo, xs, e, bits, e
 
 
 @njit(contract=True)
+def _temperature(theta, mv, bi, span, wm):  # pragma: no cover - compiled
+    """The layers' temperature bath - (bath - T0) clip(theta, 0, 1), in place of ``theta``
+    (len(mv) x NZ), and its plain-weighted mean into ``mv``."""
+    m0, m1, m2, m3 = wm[0], wm[1], wm[2], wm[3]
+    for k in range(mv.shape[0]):
+        q = k * NZ
+        u0 = bi - min(max(theta[q], 0.0), 1.0) * span
+        u1 = bi - min(max(theta[q + 1], 0.0), 1.0) * span
+        u2 = bi - min(max(theta[q + 2], 0.0), 1.0) * span
+        u3 = bi - min(max(theta[q + 3], 0.0), 1.0) * span
+        theta[q], theta[q + 1], theta[q + 2], theta[q + 3] = u0, u1, u2, u3
+        mv[k] = u0 * m0 + u1 * m1 + u2 * m2 + u3 * m3
+
+
+@njit(contract=True)
+def _ratio_block(temp, tv, t_prev, tg, shift, flat, w, carry, rv, top, work, bits):  # pragma: no cover - compiled
+    """The running maximum of the ratio (into ``rv``) at the block's times ``tv`` from the
+    layers' temperatures ``temp`` (len(tv) x NZ), continuing the reduced time and rate of
+    ``carry`` (x0..x3, r0..r3: updated) and the maximum ``top`` (returned). ``t_prev``: the
+    time before the block (``tv[0]`` at the first); ``shift`` = (Arrhenius and WLF factors,
+    c2, y0, 1 / step, last node)."""
+    mb = tv.shape[0]
+    lanes = mb * NZ
+    arr_k, wlf, c2, y0, inv_step, last = shift[0], shift[1], shift[2], shift[3], shift[4], shift[5]
+    lg, rate, xiv, h = work[0, :lanes], work[1, :lanes], work[2, :lanes], work[3, :mb]
+    b = bits[:lanes]
+    # ln(1 / a_T) = -ln 10 log10 a_T, d = T - Tg: Arrhenius below Tg, (c1 / c2) Tg d / T ln 10
+    # (T, Tg in K), WLF above, c1 d / (c2 + d) ln 10: one division (np.divide: numba's `/`
+    # checks for a zero divisor, which stops a loop vectorising)
+    for q in range(lanes):
+        d = temp[q] - tg
+        below = d < 0.0
+        lg[q] = np.divide(d * (arr_k if below else wlf), (temp[q] + 273.15) if below else (d + c2))
+    vexp(lg, rate, b)
+    h[0] = 0.5 * (tv[0] - t_prev)  # half of each time's step from the previous (0 at the first)
+    for k in range(1, mb):
+        h[k] = 0.5 * (tv[k] - tv[k - 1])
+    x0, x1, x2, x3, r0, r1, r2, r3 = carry[0], carry[1], carry[2], carry[3], carry[4], carry[5], carry[6], carry[7]
+    for k in range(mb):  # the reduced time: a trapezoid sum, one step after the other
+        q = k * NZ
+        hk = h[k]
+        x0 += (rate[q] + r0) * hk
+        x1 += (rate[q + 1] + r1) * hk
+        x2 += (rate[q + 2] + r2) * hk
+        x3 += (rate[q + 3] + r3) * hk
+        r0, r1, r2, r3 = rate[q], rate[q + 1], rate[q + 2], rate[q + 3]
+        xiv[q], xiv[q + 1], xiv[q + 2], xiv[q + 3] = x0, x1, x2, x3
+    carry[0], carry[1], carry[2], carry[3], carry[4], carry[5], carry[6], carry[7] = x0, x1, x2, x3, r0, r1, r2, r3
+    vlog(xiv, lg, b)
+    for q in range(lanes):  # U(xi) from the table, linear in ln xi: where (vectorised) ...
+        y = min(max((lg[q] - y0) * inv_step, 0.0), last)
+        fl = math.floor(y)
+        b[q] = int(fl)
+        lg[q] = y - fl
+    for q in range(lanes):  # ... and the read (a gather; unsigned: no wraparound test)
+        nb = np.uint64(b[q]) * np.uint64(2)
+        rate[q] = flat[nb + np.uint64(1)] * lg[q] + flat[nb]
+    w0, w1, w2, w3 = w[0], w[1], w[2], w[3]
+    for k in range(mb):
+        q = k * NZ
+        lg[k] = min(max(1.0 - (rate[q] * w0 + rate[q + 1] * w1 + rate[q + 2] * w2 + rate[q + 3] * w3), 0.0), 1.0)
+    for k in range(mb):
+        top = max(top, lg[k])
+        rv[k] = top
+    return top
+
+
+@njit(contract=True)
 def curves_table(alpha, half2, nsq, shape, tg, bath, initial_c, t, w, wm, c1, c2, cut, y0, step,
                  nodes):  # pragma: no cover - compiled
-    """Ratio and mean temperature (n, m) of n hinges at the m times ``t``. ``half2`` (n,) half-thickness squared,
-    ``nsq`` (n, terms) -zeta^2, ``shape`` (terms, n, NZ) each term's coefficient at the
-    layers, ``w`` / ``wm`` (NZ,) the layer pairs' bending and plain weights, ``nodes``
-    (N, 2) the relaxation table (U and its change to the next node), read at
-    (ln xi - ``y0``) / ``step`` (``y0`` > ln DBL_MIN: :func:`vlog` holds 0 there).
+    """Ratio and mean temperature (n, m) of n hinges at the m times ``t``. ``half2`` (n,)
+    half-thickness squared, ``nsq`` (n, terms) -zeta^2, ``shape`` (terms, n, NZ) each
+    term's coefficient at the layers, ``w`` / ``wm`` (NZ,) the layer pairs' bending and
+    plain weights, ``nodes`` (N, 2) the relaxation table (U and its change to the next
+    node), read at (ln xi - ``y0``) / ``step`` (``y0`` > ln DBL_MIN: :func:`vlog` holds 0
+    there).
 
     Hinge by hinge, blocks of :data:`TIME_BLOCK` times, every layer of the block at once
     (the exponentials and logs in vectorised loops, :func:`vexp` and :func:`vlog`); the
     reduced time one step after the other. Once a hinge's running maximum is exactly 1
     its ratio is 1 at every later time: from the next block on only its mean temperature
     is computed."""
-    n, m = tg.shape[0], t.shape[0]
+    n, m, n_terms = tg.shape[0], t.shape[0], nsq.shape[1]
     if w.shape[0] != NZ or wm.shape[0] != NZ or shape.shape[2] != NZ:
         raise ValueError("curves_table: the layer pairs are not NZ")
     ratio, mean_t = np.empty((n, m)), np.empty((n, m))
-    size = TIME_BLOCK * NZ
-    theta, lg, rate, xiv = np.empty(size), np.empty(size), np.empty(size), np.empty(size)
-    bits = np.empty(size, np.int64)
-    h, fo = np.empty(TIME_BLOCK), np.empty(TIME_BLOCK)
-    xs, e = np.empty(TIME_BLOCK * nsq.shape[1]), np.empty(TIME_BLOCK * nsq.shape[1])
-    sbits, ends = np.empty(TIME_BLOCK * nsq.shape[1], np.int64), np.empty(nsq.shape[1], np.int64)
-    w0, w1, w2, w3 = w[0], w[1], w[2], w[3]
-    m0, m1, m2, m3 = wm[0], wm[1], wm[2], wm[3]
-    last = float(nodes.shape[0] - 2)
+    theta, work, bits = np.empty(TIME_BLOCK * NZ), np.empty((4, TIME_BLOCK * NZ)), np.empty(TIME_BLOCK * NZ, np.int64)
+    fo, xs, e = np.empty(TIME_BLOCK), np.empty(TIME_BLOCK * n_terms), np.empty(TIME_BLOCK * n_terms)
+    sbits, ends = np.empty(TIME_BLOCK * n_terms, np.int64), np.empty(n_terms, np.int64)
     flat = np.ascontiguousarray(nodes).reshape(nodes.size)  # U and its change, node after node
-    inv_step = 1.0 / step
+    shift = np.array([0.0, c1 * _LN10, c2, y0, 1.0 / step, float(nodes.shape[0] - 2)])
+    carry = np.empty(2 * NZ)  # each layer pair's reduced time and rate at the last time
     for i in range(n):
-        tgi = tg[i]
-        arr_k = (c1 / c2) * (tgi + 273.15) * _LN10
-        wlf = c1 * _LN10
-        bi = bath[i]
-        mrow = mean_t[i]
-        span = bi - initial_c
-        terms = nsq.shape[1]
-        x0 = x1 = x2 = x3 = 0.0  # each layer pair's reduced time and rate at the last time
-        r0 = r1 = r2 = r3 = 0.0
+        shift[0] = (c1 / c2) * (tg[i] + 273.15) * _LN10
+        span = bath[i] - initial_c
+        terms = n_terms
+        carry[:] = 0.0
         top = 0.0
         for a in range(0, m, TIME_BLOCK):
             b = min(a + TIME_BLOCK, m)
-            mb = b - a
-            lanes = mb * NZ
             terms = _slab_theta(t[a:b], alpha, half2[i], nsq[i], shape, i, cut, theta, fo, xs, e, sbits, ends, terms)
-            mv, rv = mrow[a:b], ratio[i, a:b]  # slices: indices known >= 0, contiguous stores
-            for k in range(mb):  # the temperature, in place of theta, and its mean
-                q = k * NZ
-                u0 = bi - min(max(theta[q], 0.0), 1.0) * span
-                u1 = bi - min(max(theta[q + 1], 0.0), 1.0) * span
-                u2 = bi - min(max(theta[q + 2], 0.0), 1.0) * span
-                u3 = bi - min(max(theta[q + 3], 0.0), 1.0) * span
-                theta[q], theta[q + 1], theta[q + 2], theta[q + 3] = u0, u1, u2, u3
-                mv[k] = u0 * m0 + u1 * m1 + u2 * m2 + u3 * m3
+            _temperature(theta, mean_t[i, a:b], bath[i], span, wm)
             if top == 1.0:  # the ratio is 1 from here on: only the mean temperature
-                rv[:] = 1.0
-                continue
-            # ln(1 / a_T) = -ln 10 log10 a_T, d = T - Tg: Arrhenius below Tg,
-            # (c1 / c2) Tg d / T ln 10 (T, Tg in K), WLF above, c1 d / (c2 + d) ln 10: one
-            # division (np.divide: numba's `/` checks for a zero divisor, which stops a loop
-            # vectorising)
-            for q in range(lanes):
-                temp = theta[q]
-                d = temp - tgi
-                below = d < 0.0
-                lg[q] = np.divide(d * (arr_k if below else wlf), (temp + 273.15) if below else (d + c2))
-            vexp(lg[:lanes], rate[:lanes], bits[:lanes])
-            for k in range(mb):  # half of each time's step from the previous (0 at the first)
-                h[k] = 0.5 * (t[a + k] - t[a + k - 1]) if a + k > 0 else 0.0
-            for k in range(mb):  # the reduced time: a trapezoid sum, one step after the other
-                q = k * NZ
-                hk = h[k]
-                x0 += (rate[q] + r0) * hk
-                x1 += (rate[q + 1] + r1) * hk
-                x2 += (rate[q + 2] + r2) * hk
-                x3 += (rate[q + 3] + r3) * hk
-                r0, r1, r2, r3 = rate[q], rate[q + 1], rate[q + 2], rate[q + 3]
-                xiv[q], xiv[q + 1], xiv[q + 2], xiv[q + 3] = x0, x1, x2, x3
-            vlog(xiv[:lanes], lg[:lanes], bits[:lanes])
-            for q in range(lanes):  # U(xi) from the table, linear in ln xi: where (vectorised) ...
-                y = min(max((lg[q] - y0) * inv_step, 0.0), last)
-                fl = math.floor(y)
-                bits[q] = int(fl)
-                lg[q] = y - fl
-            for q in range(lanes):  # ... and the read (a gather; unsigned: no wraparound test)
-                nb = np.uint64(bits[q]) * np.uint64(2)
-                rate[q] = flat[nb + np.uint64(1)] * lg[q] + flat[nb]
-            for k in range(mb):
-                q = k * NZ
-                uw = rate[q] * w0 + rate[q + 1] * w1 + rate[q + 2] * w2 + rate[q + 3] * w3
-                lg[k] = min(max(1.0 - uw, 0.0), 1.0)
-            for k in range(mb):
-                top = max(top, lg[k])
-                rv[k] = top
+                ratio[i, a:b] = 1.0
+            else:
+                top = _ratio_block(theta, t[a:b], t[a - 1] if a > 0 else t[0], tg[i], shift, flat, w, carry,
+                                   ratio[i, a:b], top, work, bits)
     return ratio, mean_t
