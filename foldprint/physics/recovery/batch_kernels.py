@@ -1,16 +1,26 @@
 """Compiled kernel of :mod:`foldprint.physics.recovery.batch`: the recovery curves of many
 hinges of one material with the relaxation sum read from its table (the Monte-Carlo's
-path, ``table=True``), one time at a time, every hinge and layer at once.
+path, ``table=True``), and the slab series they start from (:func:`slab_series`).
 
 The numbers are those of :func:`foldprint.physics.recovery.batch._curves` (the reference),
 element by element: the slab series term by term, each exactly 0 past Fo zeta^2 = CUT
 (and every later term with it: Fo zeta^2 rises with the term), the temperature clipped,
 1 / a_T by WLF above Tg and Arrhenius below it, the reduced time as a trapezoid sum, the
 relaxation sum by linear interpolation in ln xi, the ratio clipped and its running
-maximum. What differs: the reduced time is summed one step after the other (the reference
-sums groups of eight) and the exponentials are :func:`vexp`'s (within 2.2e-16 relative of
-numpy's), so xi differs by round-off and the ratio by less than 1e-12
-(``tests/test_kernels.py``).
+maximum. What differs, all round-off: the reduced time is summed one step after the
+other (the reference sums groups of eight), the shift takes one division where the
+reference takes two, the exponentials and logs are :func:`vexp`'s and :func:`vlog`'s
+(within one unit in the last place of numpy's), multiply-adds may be fused
+(``njit(contract=True)``), and the slab's roots stop each at its own round-off. Measured:
+ratios within 2e-15, mean temperatures within 5e-14 degC of the reference; asserted 1e-12
+and 1e-9 (``tests/test_kernels.py``, ``tests/test_recovery_kernels.py``).
+
+How it is fast (docs/kernels.md): hinge by hinge, in blocks of :data:`TIME_BLOCK` times
+with the :data:`NZ` layer pairs of a time side by side, every loop over a block is plain
+arithmetic the compiler vectorises (numba's own exp and log are scalar libm calls, and
+its ``/`` tests for a zero divisor, which stops a loop vectorising: ``np.divide``
+does not); a hinge whose running maximum is exactly 1 keeps that ratio, so from its next
+block on only its mean temperature is computed.
 
 Imported only after :func:`foldprint.core.jit.use_kernels` said yes.
 """
@@ -42,8 +52,8 @@ def vexp(x, out, bits):  # pragma: no cover - compiled
     r^13 (truncation < 2e-17 relative), times 2^k built from its bits. Within 2.2e-16
     relative of numpy's exp (measured over -60..5), and plain arithmetic, so the
     compiler vectorises the loop (numba's own exp is a scalar libm call here, three
-    times slower per element than numpy's SIMD exp). 0 below -708 (the callers clamp
-    their arguments to -CUT = -50 first)."""
+    times slower per element than numpy's SIMD exp). Held at exp(-708) below -708 (the
+    slab's arguments are >= -CUT = -50, the shift's ln(1 / a_T) tens)."""
     for i in range(x.shape[0]):
         v = min(max(x[i], -708.0), 709.0)
         kf = math.floor(v * _INV_LN2 + 0.5)
