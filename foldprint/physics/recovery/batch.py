@@ -319,7 +319,14 @@ def batch_ratios(p: RecoveryParams, tg_c, h_w_m2k, thickness_mm, bath_c, initial
 def _batch(p: RecoveryParams, ref: np.ndarray, hw: np.ndarray, th: np.ndarray, bath: np.ndarray,
            initial_c: float, t: np.ndarray, table: bool) -> tuple[np.ndarray, np.ndarray]:
     """One batch of :func:`batch_ratios`, the shift's reference temperatures ``ref`` given."""
-    return _curves(p, _slab(p, hw, th), ref, bath, initial_c, t, relaxation_table(p) if table else None)
+    if table and use_kernels():  # the compiled path (batch_kernels) from the slab series on
+        from .batch_kernels import slab_series
+
+        alpha = p.k_w_mk / (p.rho_kg_m3 * p.c_j_kgk)
+        slab = _Slab(alpha, *slab_series(hw, th, float(p.k_w_mk), alpha, _layers()[0], N_TERMS, CUT))
+    else:
+        slab = _slab(p, hw, th)
+    return _curves(p, slab, ref, bath, initial_c, t, relaxation_table(p) if table else None)
 
 
 def _slab(p: RecoveryParams, hw: np.ndarray, th: np.ndarray) -> _Slab:
@@ -341,12 +348,12 @@ def _curves(p: RecoveryParams, slab: _Slab, ref: np.ndarray, bath: np.ndarray, i
     axis at a time (:data:`BLOCK_ELEMENTS`)."""
     n = len(ref)
     _, w, wm = _layers()
-    dt = np.diff(t, prepend=t[:1])  # each time's step from the previous one (0 at the first)
     if table is not None and use_kernels():  # the compiled path (batch_kernels): the same model
         from .batch_kernels import curves_table
 
-        return curves_table(slab.alpha, slab.half2, slab.nsq, slab.shape, ref, bath, float(initial_c), t, dt, w, wm,
+        return curves_table(slab.alpha, slab.half2, slab.nsq, slab.shape, ref, bath, float(initial_c), t, w, wm,
                             float(p.c1), float(p.c2), CUT, table.y0, table.step, table.nodes)
+    dt = np.diff(t, prepend=t[:1])  # each time's step from the previous one (0 at the first)
     tau, g = spectrum(p)
     ratio, mean_t = np.empty((n, len(t))), np.empty((n, len(t)))
     bt = max(1, BLOCK_ELEMENTS // (n * len(w) * SUM_GROUP)) * SUM_GROUP
