@@ -36,6 +36,7 @@ from .corrector import CLOSURE_TOL, MAX_STEP, OPT_TOL, solve  # noqa: F401
 from .drive_state import FOLLOW_TOL, NEAR_FLAT, SKIP_TOL  # noqa: F401
 from .tracker import JUMP, track as track_all  # noqa: F401
 from .closure_cost import check_loops
+from ...core.jit import use_kernels
 
 
 def _hat(w: np.ndarray) -> np.ndarray:
@@ -175,6 +176,7 @@ class LoopSolver:
         # twists [w; v] of the point hinges: rotation about the fold line through origin
         self.evaluations = 0  # configurations C and J were evaluated at, in ...
         self.rounds = 0  # ... this many array evaluations (:meth:`track_many`)
+        self._kernel = None  # the compiled closure, made when first tracked (:meth:`_compiled`)
         self.twist = np.hstack([self.axis, -np.cross(self.axis, self.point)])
         self._k = np.array([_hat(a) for a in self.axis]).reshape(self.n, 3, 3)
         self._k2 = self._k @ self._k
@@ -280,10 +282,20 @@ class LoopSolver:
         if not drivens:
             return []
         check_loops(self.n, len(self.cycles), self._pk.shape[1], len(drivens))
-        got = track_all(self._evaluate, times, np.stack(drivens))
+        got = track_all(self._compiled() or self._evaluate, times, np.stack(drivens))
         self.rounds += got.rounds
         return [self._solution(times, got.angles[i], d, float(got.closure[i]), got.locked_at[i], int(got.dof[i]))
                 for i, d in enumerate(drivens)]
+
+    def _compiled(self):
+        """The compiled closure and corrector round where :func:`foldprint.core.jit.use_kernels`
+        (:mod:`foldprint.physics.loops.closure_kernels`), else None (the numpy path)."""
+        if not use_kernels():
+            return None
+        if self._kernel is None:
+            from .closure_kernels import CompiledClosure
+            self._kernel = CompiledClosure(self)
+        return self._kernel
 
     def _solution(self, times, out, driven, worst, locked_at, dof) -> LoopSolution:
         """The report of one tracked drive: the first time each hinge's closed angle is more
