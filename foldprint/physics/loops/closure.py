@@ -39,6 +39,12 @@ from .closure_cost import check_loops
 from ...core.jit import use_kernels
 
 
+#: drives tracked at once from which :meth:`LoopSolver.track_many` takes the compiled round by
+#: default (our choice: a Monte-Carlo chunk; one drive is the nominal fold, whose closure
+#: residual and angles the reports print, kept the reference's to the bit)
+COMPILED_FROM = 2
+
+
 def _hat(w: np.ndarray) -> np.ndarray:
     return np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
 
@@ -273,16 +279,22 @@ class LoopSolver:
         """Follow the driven angles (n_t, n) on the closure manifold from the flat sheet."""
         return self.track_many(times, [driven])[0]
 
-    def track_many(self, times: np.ndarray, drivens) -> list[LoopSolution]:
+    def track_many(self, times: np.ndarray, drivens, compiled: bool | None = None) -> list[LoopSolution]:
         """:meth:`track` of several drives (each (n_t, n), on the same times) at once
         (:func:`foldprint.physics.loops.tracker.track`: every round evaluates C and J at all
-        the drives' unfinished solves in one array pass)."""
+        the drives' unfinished solves in one array pass). ``compiled``: each round in one
+        compiled call (:mod:`foldprint.physics.loops.closure_kernels`) where
+        :func:`foldprint.core.jit.use_kernels`; None: for COMPILED_FROM drives or more (a
+        Monte-Carlo chunk), so one drive, the nominal fold ``simulate`` and ``check``
+        report, is the numpy reference's to the bit."""
         times = np.asarray(times, float)
         drivens = [np.asarray(d, float) for d in drivens]
         if not drivens:
             return []
         check_loops(self.n, len(self.cycles), self._pk.shape[1], len(drivens))
-        got = track_all(self._compiled() or self._evaluate, times, np.stack(drivens))
+        if compiled is None:
+            compiled = len(drivens) >= COMPILED_FROM
+        got = track_all((compiled and self._compiled()) or self._evaluate, times, np.stack(drivens))
         self.rounds += got.rounds
         return [self._solution(times, got.angles[i], d, float(got.closure[i]), got.locked_at[i], int(got.dof[i]))
                 for i, d in enumerate(drivens)]

@@ -125,19 +125,22 @@ def residuals(xs, pk, ln, sg, kk, kk2, kq, k2q, axis, point):  # pragma: no cove
 
 @njit
 def _normal(jac, c, gram, g):  # pragma: no cover - compiled
-    """J^T J into ``gram`` (symmetric to the bit) and J^T C into ``g``."""
+    """J^T J into ``gram`` (symmetric to the bit) and J^T C into ``g``, row by row of J."""
     k, n = jac.shape
+    gram[:, :] = 0.0
+    g[:] = 0.0
+    for r in range(k):
+        cr = c[r]
+        for a in range(n):
+            ja = jac[r, a]
+            if ja == 0.0:
+                continue
+            g[a] += ja * cr
+            for b in range(a, n):
+                gram[a, b] += ja * jac[r, b]
     for a in range(n):
-        acc = 0.0
-        for r in range(k):
-            acc += jac[r, a] * c[r]
-        g[a] = acc
-        for b in range(a, n):
-            acc = 0.0
-            for r in range(k):
-                acc += jac[r, a] * jac[r, b]
-            gram[a, b] = acc
-            gram[b, a] = acc
+        for b in range(a + 1, n):
+            gram[b, a] = gram[a, b]
 
 
 @njit
@@ -202,6 +205,40 @@ def _gn_svd(jac, c, d, step, vec, fr):  # pragma: no cover - compiled
 
 
 @njit
+def _lu_solve(a, b):  # pragma: no cover - compiled
+    """``np.linalg.solve(a, b)`` for a small square ``a`` (n, n) and b (n, r), both
+    overwritten: LU with partial pivoting (LAPACK getrf's pivot, the first largest in its
+    column), forward and back substitution; returns b. A zero pivot gives inf or nan, where
+    LAPACK raises (J^T J + t t^T is positive definite wherever the line solve runs)."""
+    n, nr = b.shape
+    for j in range(n):
+        p, big = j, abs(a[j, j])
+        for i in range(j + 1, n):
+            if abs(a[i, j]) > big:
+                p, big = i, abs(a[i, j])
+        if p != j:
+            for q in range(n):
+                a[j, q], a[p, q] = a[p, q], a[j, q]
+            for q in range(nr):
+                b[j, q], b[p, q] = b[p, q], b[j, q]
+        inv = 1.0 / a[j, j]
+        for i in range(j + 1, n):
+            f = a[i, j] * inv
+            a[i, j] = f
+            for q in range(j + 1, n):
+                a[i, q] -= f * a[j, q]
+            for q in range(nr):
+                b[i, q] -= f * b[j, q]
+    for q in range(nr):
+        for i in range(n - 1, -1, -1):
+            acc = b[i, q]
+            for k in range(i + 1, n):
+                acc -= a[i, k] * b[k, q]
+            b[i, q] = acc / a[i, i]
+    return b
+
+
+@njit
 def _gn_line(gram, g, d, guide, step, w):  # pragma: no cover - compiled
     """corrector._gn_line of one point: the step, and the null line into ``w``."""
     n = gram.shape[0]
@@ -212,7 +249,7 @@ def _gn_line(gram, g, d, guide, step, w):  # pragma: no cover - compiled
             a[i, j] = gram[i, j] + guide[i] * guide[j]
         rhs[i, 0] = guide[i]
         rhs[i, 1] = g[i]
-    sol = np.linalg.solve(a, rhs)
+    sol = _lu_solve(a, rhs)
     nrm = 0.0
     for i in range(n):
         nrm += sol[i, 0] * sol[i, 0]
