@@ -286,7 +286,9 @@ class LoopSolver:
         compiled call (:mod:`foldprint.physics.loops.closure_kernels`) where
         :func:`foldprint.core.jit.use_kernels`; None: for COMPILED_FROM drives or more (a
         Monte-Carlo chunk), so one drive, the nominal fold ``simulate`` and ``check``
-        report, is the numpy reference's to the bit."""
+        report, is the numpy reference's to the bit (it loads, or on a cold cache compiles,
+        the kernel all the same: a run's chunks, in this process or a pool forked after it,
+        are then timed at the kernel's speed, not the compiler's)."""
         times = np.asarray(times, float)
         drivens = [np.asarray(d, float) for d in drivens]
         if not drivens:
@@ -294,6 +296,8 @@ class LoopSolver:
         check_loops(self.n, len(self.cycles), self._pk.shape[1], len(drivens))
         if compiled is None:
             compiled = len(drivens) >= COMPILED_FROM
+            if not compiled and self._compiled() is not None:
+                self._kernel.warm()  # the chunks to come (a pool forked after this) find it loaded
         got = track_all((compiled and self._compiled()) or self._evaluate, times, np.stack(drivens))
         self.rounds += got.rounds
         return [self._solution(times, got.angles[i], d, float(got.closure[i]), got.locked_at[i], int(got.dof[i]))

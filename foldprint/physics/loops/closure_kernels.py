@@ -412,7 +412,7 @@ class CompiledClosure:
 
     def __init__(self, solver):
         m = len(solver.cycles)
-        self.solver = solver
+        self.solver, self._warm = solver, False
         pk = np.zeros((m, max(solver._pk.shape[1], 1)), np.intp)
         ln = np.zeros(m, np.intp)
         sg = np.zeros(pk.shape)
@@ -428,6 +428,14 @@ class CompiledClosure:
     def __call__(self, xs):
         self.solver.evaluations += len(xs)
         return residuals(np.ascontiguousarray(xs, dtype=float), *self.tables)
+
+    def warm(self) -> None:
+        """Load the compiled round (compile it on a cold cache) without a point to evaluate."""
+        if not self._warm:
+            from .corrector import Pool
+
+            self.fused(Pool(self.solver.n, 1))
+            self._warm = True
 
     def fused(self, pool) -> int:
         """One round of every live point of ``pool``; returns how many were evaluated."""
