@@ -126,9 +126,9 @@ def test_one_round_makes_the_numpy_rounds_decisions(monkeypatch):
         for pool in filter(None, pools):
             a, b = copy.deepcopy(pool), copy.deepcopy(pool)
             live = pool.alive.nonzero()[0]
-            near = np.abs(pool.x[live]).max(axis=1) < corrector.SVD_BELOW
-            kinds += [np.count_nonzero(pool.line[live]), np.count_nonzero(~pool.line[live] & ~(near & pool.plain[live])),
-                      np.count_nonzero(~pool.line[live] & near & pool.plain[live])]
+            line = pool.line[live]
+            svd = ~line & pool.plain[live] & (np.abs(pool.x[live]).max(axis=1) < corrector.SVD_BELOW)
+            kinds += [np.count_nonzero(line), np.count_nonzero(~line & ~svd), np.count_nonzero(svd)]
             a.round(solver._evaluate)
             b.round(fused)
             for f in ("alive", "it", "line", "done", "null"):

@@ -413,17 +413,21 @@ class CompiledClosure:
     def __init__(self, solver):
         m = len(solver.cycles)
         self.solver, self._warm = solver, False
-        pk = np.zeros((m, max(solver._pk.shape[1], 1)), np.intp)
+        pk = np.zeros((m, max((len(c) for c in solver.cycles), default=1)), np.intp)
         ln = np.zeros(m, np.intp)
         sg = np.zeros(pk.shape)
         for ci, cyc in enumerate(solver.cycles):
             ln[ci] = len(cyc)
             for l, (h, s) in enumerate(cyc):
                 pk[ci, l], sg[ci, l] = h, s
-        kq = np.einsum("nij,nj->ni", solver._k, solver.point)
-        k2q = np.einsum("nij,nj->ni", solver._k2, solver.point)
-        self.tables = tuple(np.ascontiguousarray(a) for a in (pk, ln, sg, solver._k, solver._k2, kq, k2q,
-                                                              solver.axis, solver.point))
+        a = solver.axis  # each axis's cross-product matrix K and K^2, as LoopSolver makes them
+        zero = np.zeros(len(a))
+        k = np.stack([np.stack([zero, -a[:, 2], a[:, 1]], 1), np.stack([a[:, 2], zero, -a[:, 0]], 1),
+                      np.stack([-a[:, 1], a[:, 0], zero], 1)], 1)
+        k2 = k @ k
+        kq = np.einsum("nij,nj->ni", k, solver.point)
+        k2q = np.einsum("nij,nj->ni", k2, solver.point)
+        self.tables = tuple(np.ascontiguousarray(t) for t in (pk, ln, sg, k, k2, kq, k2q, a, solver.point))
 
     def __call__(self, xs):
         self.solver.evaluations += len(xs)
