@@ -13,7 +13,10 @@ choice between branches equally near the drive may go either way on round-off (t
 from __future__ import annotations
 
 import copy
+import functools
+import os
 from itertools import islice
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -33,8 +36,15 @@ from foldprint.physics.loops.closure import CLOSURE_TOL, OPT_TOL, LoopSolver
 from foldprint.simulation.robust import sample_drives
 from foldprint.simulation.scatter import default_scatter, iter_samples
 
-pytestmark = pytest.mark.skipif(not jit.use_kernels(), reason="numba cannot load (or the numpy path was asked "
-                                "for): nothing compiled to compare")
+
+
+def _numba():
+    """The compiled path asked for (whatever FOLDPRINT_KERNELS the run has)."""
+    return mock.patch.dict(os.environ, {jit.ENV: "numba"})
+
+
+with _numba():
+    pytestmark = pytest.mark.skipif(not jit.use_kernels(), reason="numba cannot load here: nothing compiled to compare")
 
 #: closed angles of the two paths away from the flat sheet (rad): both stop a solve when a
 #: step moves no angle more than OPT_TOL (measured: within 1e-10 on the check drives)
@@ -69,8 +79,19 @@ def loop_patterns(draw):
     return design_from_fold(fold)
 
 
+def on_numba(fn):
+    """Run the test with the compiled path asked for (``compiled=True`` would otherwise
+    fall back to the numpy round under FOLDPRINT_KERNELS=numpy, and compare it with itself)."""
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        with _numba():
+            return fn(*args, **kwargs)
+    return run
+
+
 @settings(max_examples=20, deadline=None, derandomize=True, database=None)
 @given(design=loop_patterns(), seed=st.integers(0, 2**32 - 1), scale=st.floats(0.0, 3.0))
+@on_numba
 def test_residuals_and_jacobian_match_the_numpy_path(design, seed, scale):
     from foldprint.physics.loops.closure_kernels import CompiledClosure
 
@@ -97,6 +118,7 @@ def _projector(basis, free):
     return n @ n.T
 
 
+@on_numba
 def test_one_round_makes_the_numpy_rounds_decisions(monkeypatch):
     """Pools met while tracking miura_3x3's and cross_lock_uniform's check drives (points of
     every kind: line solves and their certification, eigen-decompositions, SVDs near the flat
@@ -158,6 +180,7 @@ def _assert_same_track(a, b, drive):
 
 
 @pytest.mark.parametrize("name", TEMPLATES)
+@on_numba
 def test_tracks_of_the_check_drives_match(name):
     d, grid, drivens = _check_drives(name, 16)
     solver = _solver(d)
@@ -168,6 +191,7 @@ def test_tracks_of_the_check_drives_match(name):
 
 @settings(max_examples=10, deadline=None, derandomize=True, database=None)
 @given(design=loop_patterns(), data=st.data())
+@on_numba
 def test_tracks_match_on_random_loop_patterns(design, data):
     """Random patterns, each hinge's drive scaled by its own factor (0.5-1.5: off the
     folding path, so hinges cannot follow and drives lock), two drives in lockstep."""
@@ -181,6 +205,7 @@ def test_tracks_match_on_random_loop_patterns(design, data):
         _assert_same_track(a, b, drive)
 
 
+@on_numba
 def test_one_drive_is_the_reference_and_a_chunk_is_compiled(monkeypatch):
     """By default one drive (the nominal fold the reports print) takes the numpy round, bit
     for bit, and only loads the compiled one; two or more (a Monte-Carlo chunk) use it."""
