@@ -36,6 +36,13 @@ from .corrector import CLOSURE_TOL, MAX_STEP, OPT_TOL, solve  # noqa: F401
 from .drive_state import FOLLOW_TOL, NEAR_FLAT, SKIP_TOL  # noqa: F401
 from .tracker import JUMP, track as track_all  # noqa: F401
 from .closure_cost import check_loops
+from ...core.jit import use_kernels
+
+
+#: drives tracked at once from which :meth:`LoopSolver.track_many` takes the compiled round by
+#: default (our choice: a Monte-Carlo chunk; one drive is the nominal fold, whose closure
+#: residual and angles the reports print, kept the reference's to the bit)
+COMPILED_FROM = 2
 
 
 def _hat(w: np.ndarray) -> np.ndarray:
@@ -175,6 +182,7 @@ class LoopSolver:
         # twists [w; v] of the point hinges: rotation about the fold line through origin
         self.evaluations = 0  # configurations C and J were evaluated at, in ...
         self.rounds = 0  # ... this many array evaluations (:meth:`track_many`)
+        self._kernel = None  # the compiled closure, made when first tracked (:meth:`_compiled`)
         self.twist = np.hstack([self.axis, -np.cross(self.axis, self.point)])
         self._k = np.array([_hat(a) for a in self.axis]).reshape(self.n, 3, 3)
         self._k2 = self._k @ self._k
@@ -271,19 +279,39 @@ class LoopSolver:
         """Follow the driven angles (n_t, n) on the closure manifold from the flat sheet."""
         return self.track_many(times, [driven])[0]
 
-    def track_many(self, times: np.ndarray, drivens) -> list[LoopSolution]:
+    def track_many(self, times: np.ndarray, drivens, compiled: bool | None = None) -> list[LoopSolution]:
         """:meth:`track` of several drives (each (n_t, n), on the same times) at once
         (:func:`foldprint.physics.loops.tracker.track`: every round evaluates C and J at all
-        the drives' unfinished solves in one array pass)."""
+        the drives' unfinished solves in one array pass). ``compiled``: each round in one
+        compiled call (:mod:`foldprint.physics.loops.closure_kernels`) where
+        :func:`foldprint.core.jit.use_kernels`; None: for COMPILED_FROM drives or more (a
+        Monte-Carlo chunk), so one drive, the nominal fold ``simulate`` and ``check``
+        report, is the numpy reference's to the bit (it loads, or on a cold cache compiles,
+        the kernel all the same: a run's chunks, in this process or a pool forked after it,
+        are then timed at the kernel's speed, not the compiler's)."""
         times = np.asarray(times, float)
         drivens = [np.asarray(d, float) for d in drivens]
         if not drivens:
             return []
         check_loops(self.n, len(self.cycles), self._pk.shape[1], len(drivens))
-        got = track_all(self._evaluate, times, np.stack(drivens))
+        if compiled is None:
+            compiled = len(drivens) >= COMPILED_FROM
+            if not compiled and self._compiled() is not None:
+                self._kernel.warm()  # the chunks to come (a pool forked after this) find it loaded
+        got = track_all((compiled and self._compiled()) or self._evaluate, times, np.stack(drivens))
         self.rounds += got.rounds
         return [self._solution(times, got.angles[i], d, float(got.closure[i]), got.locked_at[i], int(got.dof[i]))
                 for i, d in enumerate(drivens)]
+
+    def _compiled(self):
+        """The compiled closure and corrector round where :func:`foldprint.core.jit.use_kernels`
+        (:mod:`foldprint.physics.loops.closure_kernels`), else None (the numpy path)."""
+        if not use_kernels():
+            return None
+        if self._kernel is None:
+            from .closure_kernels import CompiledClosure
+            self._kernel = CompiledClosure(self)
+        return self._kernel
 
     def _solution(self, times, out, driven, worst, locked_at, dof) -> LoopSolution:
         """The report of one tracked drive: the first time each hinge's closed angle is more

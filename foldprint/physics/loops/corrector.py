@@ -149,7 +149,13 @@ class Pool:
         when closed and its step is below OPT_TOL (converged) or past GN_STEPS, and after
         GN_STEPS + NEWTON_STEPS steps with the residual as it is and no tangent space.
         The live points are taken in the order line solves, eigen-decompositions, SVDs (near
-        the flat sheet), so each kernel works on a slice."""
+        the flat sheet), so each kernel works on a slice. An ``evaluate`` with a ``fused``
+        method (:class:`foldprint.physics.loops.closure_kernels.CompiledClosure`) takes the
+        whole round itself, point by point, compiled."""
+        fused = getattr(evaluate, "fused", None)
+        if fused is not None:
+            fused(self)
+            return
         act = self.alive.nonzero()[0]
         x0 = self.x[act]
         line0 = self.line[act]

@@ -62,6 +62,12 @@ class _Counted:
 
     def __init__(self, evaluate):
         self.evaluate, self.evaluations, self.rounds = evaluate, 0, 0
+        if hasattr(evaluate, "fused"):  # a compiled round (corrector.Pool.round)
+            self.fused = self._fused
+
+    def _fused(self, pool):
+        self.evaluations += self.evaluate.fused(pool)
+        self.rounds += 1
 
     def __call__(self, xs):
         self.evaluations += len(xs)
