@@ -248,7 +248,7 @@ def test_a_chunk_is_sized_to_the_earliest_stop():
     """A stream's next chunk holds the samples after which an unbroken run could stop its
     test (the fewest of all-clean and all-jammed), at least MIN_CHUNK, at most CHUNK; with a
     chunk in flight, or without a test, a whole CHUNK."""
-    from foldprint.simulation.jamtest import pool as batch
+    from foldprint.simulation.jamtest import streams
     from foldprint.simulation.robust import CHUNK, Outcome
     from foldprint.simulation.jamtest.verdict import decide, jam_test
 
@@ -263,18 +263,18 @@ def test_a_chunk_is_sized_to_the_earliest_stop():
 
     for prefix in ([], [False] * 3, [True] * 2, [False, True] * 5, [True] * 4 + [False] * 30):
         need = min(first_stop(prefix, False), first_stop(prefix, True))
-        assert batch.to_decision(prefix, test, 1000) == need
-        assert batch.to_decision(prefix, test, need - 1) == need - 1
-        s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 200, SEED, test=test), default_scatter(), test)
+        assert streams.to_decision(prefix, test, 1000) == need
+        assert streams.to_decision(prefix, test, need - 1) == need - 1
+        s = streams.Stream(0, 1.0, MonteCarloJob(_designs()[0], 200, SEED, test=test), default_scatter(), test)
         s.outcomes = [jam if x else clean for x in prefix]
         s.next = len(prefix)
-        assert s.size() == min(CHUNK, max(batch.MIN_CHUNK, need)), prefix
+        assert s.size() == min(CHUNK, max(streams.MIN_CHUNK, need)), prefix
         assert s.take() == (len(prefix), s.next - len(prefix)) and s.size() == CHUNK  # one in flight
     # a loop pattern keeps whole chunks (its closure tracking is cheaper a sample in them)
     miura = load_design(templates_dir() / "miura_3x3.toml")
-    s = batch._Stream(0, 1.0, MonteCarloJob(miura, 200, SEED, test=test), default_scatter(), test)
-    assert batch.to_decision([], test, CHUNK) < CHUNK and s.size() == CHUNK
-    fixed = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED), default_scatter(), None)
+    s = streams.Stream(0, 1.0, MonteCarloJob(miura, 200, SEED, test=test), default_scatter(), test)
+    assert streams.to_decision([], test, CHUNK) < CHUNK and s.size() == CHUNK
+    fixed = streams.Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED), default_scatter(), None)
     assert [fixed.take() for _ in range(2)] == [(0, CHUNK), (CHUNK, 20 - CHUNK)] and not fixed.wants
 
 
@@ -282,7 +282,7 @@ def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
     """Chunks that come back out of order wait for their predecessors: the outcomes are
     the stream's in order and the stop is counted over them, whatever the arrival order
     (chunks of 4 here: jams only from sample 8 on, so a pass-or-not hinges on the order)."""
-    from foldprint.simulation.jamtest import pool as batch
+    from foldprint.simulation.jamtest import streams
     from foldprint.simulation.robust import Outcome
     from foldprint.simulation.jamtest.verdict import decide, jam_test
 
@@ -291,7 +291,7 @@ def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
     test = jam_test(max_samples=20)
     want = decide([o.jammed for o in stream], test)
     for order in ([0, 1, 2, 3, 4], [4, 3, 2, 1, 0], [2, 0, 4, 1, 3]):
-        s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED, test=test), default_scatter(), test)
+        s = streams.Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED, test=test), default_scatter(), test)
         assert [s.take(4) for _ in range(5)] == [(4 * c, 4) for c in range(5)] and not s.wants
         for c in order:
             s.add(4 * c, stream[4 * c:4 * c + 4])
