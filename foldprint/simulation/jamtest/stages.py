@@ -23,8 +23,8 @@ from .. import costs
 from ...core.modes import Mechanics, parse
 from ...model.design import Design
 from ...model.materials import MaterialLibrary
-from ..robust import CHUNK
-from ..scatter import Scatter
+from ..robust import CHUNK, warm_kernels
+from ..scatter import Scatter, samples_between
 from ..simulate import SimulationResult
 from .pool import MonteCarloJob, Precomputed, run_batch
 from .streams import StreamStatus
@@ -85,6 +85,11 @@ def check_pool(design: Design, test: JamTest, scales: Sequence[float], seed: int
     costs.check_sample_memory(design, test.max_samples)
     if test.max_samples > CHUNK:
         costs.check_swept_samples(nominal, test.max_samples, n_workers, design.name)
+    # the kernels a sample needs, loaded (on a cold cache: compiled) here, before the workers
+    # fork: they inherit them, and the first chunk, which the time guard extrapolates, is
+    # timed at the kernels' speed (the nominal fold does not load the curves' kernel)
+    warm_kernels((design, library, samples_between(design, scatter, seed, 0, 1), hinge_model, dt, False, method,
+                  Mechanics.RIGID))
     jobs = [MonteCarloJob(design, test.max_samples, seed, (1.0,), scatter, hinge_model, dt, method, test)]
     pre, _, _ = run_batch(jobs, library=library, workers=n_workers, follow=check_follow(jobs, scales),
                           progress=_reporter(progress))
