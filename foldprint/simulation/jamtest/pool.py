@@ -136,7 +136,8 @@ def _chunk_task(j: int, scatter: Scatter, start: int, size: int) -> tuple[list[O
 def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None = None, workers: int = 1,
               after: Callable[[int, Precomputed], tuple] | None = None, tasks: Sequence[tuple] = (),
               progress: Callable[..., None] | None = None,
-              follow: Callable[[int, Precomputed], Mapping] | None = None) -> tuple[list[Precomputed], list, list]:
+              follow: Callable[[int, Precomputed], Mapping] | None = None,
+              meanwhile: Callable[[], None] | None = None) -> tuple[list[Precomputed], list, list]:
     """Fold every job's streams (one per scale) in one pool of ``workers`` processes.
 
     ``follow(i, pre)`` -> ``{name: (scatter, test)}``: more streams of job ``i`` (the same
@@ -149,9 +150,12 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
     run in the pool beside them. ``progress(kind, what, out)`` is called as a follow-up
     (``"after"``, job index, its result) or independent task (``"task"``, its index, its
     result) finishes, and as a stream consumes samples (``"samples"``, a
-    :class:`StreamStatus`, None). Returns the Precomputed per job, the follow-ups' results
-    and the tasks' results (in input order)."""
+    :class:`StreamStatus`, None). ``meanwhile()``: work of this process for after the run
+    (loading what its next stages import), done in a thread while the workers fold, once
+    they are forked (with one worker: not at all). Returns the Precomputed per job, the
+    follow-ups' results and the tasks' results (in input order)."""
     batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress, follow)
+    batch.meanwhile = meanwhile
     for s in batch.streams:  # every stream, at 0 of its maximum, before the first chunk
         batch.report("samples", s.status())
     if workers <= 1 or sum(n_chunks(s.max_samples) for s in batch.streams if not s.done) + len(batch.tasks) <= 1:  # no pool for one task
@@ -173,6 +177,7 @@ class _Batch:
         self.streams = []
         self.add_streams([Stream(j, float(k), job, job.scatter_at(float(k)), job.test)
                           for j, job in enumerate(jobs) for k in job.scales])
+        self.meanwhile = None  # this process's work while the workers fold (run_batch)
         self.ready: list[int] = []  # jobs whose streams are all finished, follow-up not yet run
         self.pre: list[Precomputed | None] = [None] * len(jobs)
         self.after_out: list = [None] * len(jobs)
@@ -301,8 +306,22 @@ class _Batch:
         from concurrent.futures import FIRST_COMPLETED, wait
 
         self.fill(pool, pending)
+        aside = None
+        if self.meanwhile is not None:  # the workers are forked by now: a thread is safe
+            import threading
+
+            aside = threading.Thread(target=self.meanwhile, name="foldprint-meanwhile", daemon=True)
+            aside.start()
+        try:
+            self.drain_all(pool, pending, wait, FIRST_COMPLETED)
+        finally:
+            if aside is not None:
+                aside.join()
+
+    def drain_all(self, pool, pending: dict, wait, first_completed) -> None:
+        """Take results back and start more work until nothing is in flight."""
         while any(kind != "stale" for kind, *_ in pending.values()):
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            done, _ = wait(pending, return_when=first_completed)
             for fut in done:
                 kind, *key = pending.pop(fut)
                 if kind == "chunk":

@@ -30,7 +30,7 @@ from .pool import MonteCarloJob, Precomputed, run_batch
 from .streams import StreamStatus
 from .flip_drivers import flipping, probe_runs
 from .scales import JamCounts, StageProgress, scale_label
-from .verdict import JamTest, decide, sweep_question
+from .verdict import JamTest, decide, load_interval_solver, sweep_question
 
 
 def check_follow(jobs: Sequence[MonteCarloJob], scales: Sequence[float]) -> Callable[[int, Precomputed], dict]:
@@ -92,7 +92,7 @@ def check_pool(design: Design, test: JamTest, scales: Sequence[float], seed: int
                   Mechanics.RIGID))
     jobs = [MonteCarloJob(design, test.max_samples, seed, (1.0,), scatter, hinge_model, dt, method, test)]
     pre, _, _ = run_batch(jobs, library=library, workers=n_workers, follow=check_follow(jobs, scales),
-                          progress=_reporter(progress))
+                          progress=_reporter(progress), meanwhile=load_interval_solver)
     return pre[0]
 
 
