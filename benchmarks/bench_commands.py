@@ -49,18 +49,18 @@ COMMANDS = {
     "robust_helix_graded": (["robust", "helix_graded", "--samples", "{n}", "--json"], 30.0, "wall s"),
 }
 
-#: Runs the command in this interpreter and appends its own and its children's CPU seconds
-#: to a file when it exits (the workers are joined by then).
+#: Runs the command in this interpreter (as ``foldprint`` does, ``cli.commands.main``),
+#: then writes its own and its children's CPU seconds (the workers are joined by then) and
+#: ends as ``foldprint`` ends (``cli.commands.leave``: no interpreter teardown).
 _WRAP = """
-import atexit, json, resource, runpy, sys
-_OUT = sys.argv[1]
-def _cpu():
-    s, c = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    with open(_OUT, "w") as f:
-        json.dump({"parent": s.ru_utime + s.ru_stime, "workers": c.ru_utime + c.ru_stime}, f)
-atexit.register(_cpu)
-sys.argv = ["foldprint", *sys.argv[2:]]
-runpy.run_module("foldprint", run_name="__main__", alter_sys=True)
+import json, resource, sys
+from foldprint.cli.commands import leave, main
+out = sys.argv[1]
+code = main(sys.argv[2:])
+s, c = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+with open(out, "w") as f:
+    json.dump({"parent": s.ru_utime + s.ru_stime, "workers": c.ru_utime + c.ru_stime}, f)
+leave(code)
 """
 
 #: JSON fields that are timings (not answers): left out of the comparison.

@@ -84,11 +84,11 @@ def leave(code: int) -> None:
     teardown: collecting every module of numba, llvmlite, scipy and FCL took 0.25 CPU-s
     after ``check`` had printed (0.5-0.8 s wall on a loaded machine). Nothing of foldprint
     waits for it: a command has closed its pools and files, and its workers end with it
-    (:func:`foldprint.core.parallel.die_with_parent`). Under coverage (which writes its
-    data at exit) the interpreter exits as usual."""
+    (:func:`foldprint.core.parallel.die_with_parent`). Under coverage, a profiler or a
+    tracer (which write their data at exit) the interpreter exits as usual."""
     import os
 
-    if "coverage" in sys.modules:
+    if "coverage" in sys.modules or sys.getprofile() is not None or sys.gettrace() is not None:
         sys.exit(code)
     import logging
 

@@ -32,8 +32,10 @@ class StreamStatus:
 
 #: The smallest chunk a sequential test's strip stream is given when its test could stop
 #: sooner than :data:`~foldprint.simulation.robust.CHUNK` samples on. Our choice: a strip's
-#: sample costs about the same in chunks of 4 as of 16 (measured on helix_graded: 26.9
-#: against 26.6 CPU-ms), one of 1 about 1.5x.
+#: sample costs about the same in chunks of 4 as of 16 (measured on helix_graded, numpy
+#: path: 26.9 against 26.6 CPU-ms), one of 1 about 1.5x; on the compiled kernels 8.2
+#: against 7.0 CPU-ms, one of 1 14 (about 5 ms a chunk: its draws, one curve call per
+#: material): the smaller chunk still folds fewer samples past a stop than it costs.
 MIN_CHUNK = 4
 
 
