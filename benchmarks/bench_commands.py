@@ -15,7 +15,9 @@ alternating, on the same machine in the same run:
 For each: wall seconds; CPU seconds of the command's own process (the parent: imports, the
 nominal fold, the findings, the output) and of its worker processes; the load average
 before and after; whether the two paths printed the same (JSON, timing fields aside; the
-gallery's ``check.json`` and ``samples.json`` of every design). Wall seconds mean little on a
+gallery's ``check.json`` and ``samples.json`` of every design): identical, or the same within
+1e-9 relative on every number (the paths' contact and fold times may differ in the last
+bits), else where they differ. Wall seconds mean little on a
 shared machine: the **idle estimate** is parent CPU + worker CPU / 2 (the parent's work is
 serial, the workers' shared by two cores: a lower bound when the pool's work is balanced).
 A robust run of fewer samples than the target's is also extrapolated to the target's count
@@ -108,10 +110,28 @@ def _run(args: list[str], kernels: str) -> dict:
             "_answer": answer}
 
 
+#: Relative difference within which two numbers of the two paths' answers count as the same
+#: (kernels.md: contact and fold times agree within one simulation step, poses to 1e-11).
+REL = 1e-9
+
+
+def _differ(a, b, where: str = "") -> list[str]:
+    """Where two answers differ (numbers beyond :data:`REL`), as JSON paths."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return [w for k in sorted(set(a) | set(b)) for w in _differ(a.get(k), b.get(k), f"{where}/{k}")]
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        return [w for k, (x, y) in enumerate(zip(a, b)) for w in _differ(x, y, f"{where}[{k}]")]
+    if isinstance(a, float) and isinstance(b, float):
+        return [] if abs(a - b) <= REL * max(abs(a), abs(b), 1e-300) else [where]
+    return [] if a == b else [where]
+
+
 def _row(name: str, runs: dict, target: float, unit: str, samples: int) -> dict:
     nb, npy = runs["numba"], runs["numpy"]
     figure = nb["cpu_s"] if unit == "CPU s" else nb["idle_wall_estimate_s"]
-    row = {"command": name, "target": target, "target_unit": unit, "same_answers": nb["_answer"] == npy["_answer"],
+    diff = _differ(nb["_answer"], npy["_answer"])
+    row = {"command": name, "target": target, "target_unit": unit, "identical_answers": nb["_answer"] == npy["_answer"],
+           "same_answers": not diff, "differences": diff[:10],
            "numpy": {k: v for k, v in npy.items() if not k.startswith("_")},
            "numba": {k: v for k, v in nb.items() if not k.startswith("_")},
            "cpu_ratio_numpy_over_numba": round(npy["cpu_s"] / nb["cpu_s"], 2) if nb["cpu_s"] else None,
@@ -145,7 +165,7 @@ def main() -> None:
               f"{nb['cpu_s']:7.2f} CPU-s (parent {nb['parent_cpu_s']:.2f}, workers {nb['worker_cpu_s']:.2f}) "
               f"idle ~{nb['idle_wall_estimate_s']:.2f} s | ratio {row['cpu_ratio_numpy_over_numba']} | "
               f"target {target:g} {unit}: {row['figure_for_target']} ({'met' if row['meets_target'] else 'not met'}) | "
-              f"same answers: {row['same_answers']} | load {nb['load_before']}-{nb['load_after']}", flush=True)
+              f"same answers: {row['same_answers']} (identical: {row['identical_answers']}) | load {nb['load_before']}-{nb['load_after']}", flush=True)
     if args.json:
         DATA.parent.mkdir(parents=True, exist_ok=True)
         DATA.write_text(json.dumps({"cpus": os.cpu_count(), "python": sys.version.split()[0], "rows": rows},
