@@ -39,7 +39,7 @@ from typing import Callable, Mapping, Sequence
 from .. import costs
 from ...core.constants import DEFAULT_DT_S
 from ...core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
-from ...model.design import Design
+from ...model.design import Design, has_loops
 from ...model.materials import MaterialLibrary, default_library
 from ..robust import CHUNK, Outcome, n_chunks, run_samples
 from ..scatter import Scatter, default_scatter, samples_between
@@ -178,6 +178,10 @@ class _Batch:
         self.add_streams([Stream(j, float(k), job, job.scatter_at(float(k)), job.test)
                           for j, job in enumerate(jobs) for k in job.scales])
         self.meanwhile = None  # this process's work while the workers fold (run_batch)
+        self.pending: dict = {}  # the pool's work in flight (run_pool)
+        # (job, follow-up name) -> a first chunk folded before the follow-up asked for it:
+        # ("flying", start, size) or ("back", start, (outcomes, seconds per sample))
+        self.early: dict[tuple[int, str], tuple] = {}
         self.ready: list[int] = []  # jobs whose streams are all finished, follow-up not yet run
         self.pre: list[Precomputed | None] = [None] * len(jobs)
         self.after_out: list = [None] * len(jobs)
@@ -208,6 +212,48 @@ class _Batch:
             self.report("samples", s.status())
         if all(s.done for s in new):  # nothing to fold (no samples)
             self.finished(j)
+            return
+        back = [got for s in new if (got := self.adopt(s)) is not None]
+        for s, start, result in back:
+            self.chunk_done(s, start, *result)
+
+    def adopt(self, s: Stream) -> tuple | None:
+        """Give a new follow-up stream the first chunk folded ahead for it: in flight, it
+        becomes the stream's; back already, returned ``(stream, start, (outcomes, seconds
+        per sample))`` to be consumed."""
+        e = self.early.pop((s.j, s.k), None)
+        if e is None or s.done:
+            return None
+        s.flying += 1
+        if e[0] == "flying":
+            _, start, size = e
+            s.next = start + size
+            fut = next(f for f, v in self.pending.items() if v[:3] == ("early", s.j, s.k))
+            self.pending[fut] = ("chunk", s, start)
+            return None
+        _, start, result = e
+        s.next = start + len(result[0])
+        return s, start, result
+
+    def ahead(self) -> tuple | None:
+        """A first chunk of a stream that a job's next follow-up will ask for whatever its
+        streams now decide (``follow.ahead(j)`` -> ``{name: scatter}``: check's sweep while
+        the test at 1x runs), its smallest chunk: folded on a worker that would otherwise
+        fold a chunk that may be discarded; None when there is none."""
+        ahead = getattr(self.follow, "ahead", None)
+        if ahead is None:
+            return None
+        for j in dict.fromkeys(s.j for s in self.streams if not s.done):
+            job = self.jobs[j]
+            for name, sc in ahead(j).items():
+                if (j, name) in self.early or any(t.j == j and t.k == name for t in self.streams):
+                    continue
+                size = min(job.samples, CHUNK if has_loops(job.design) else MIN_CHUNK)
+                if size < 1:
+                    continue
+                self.early[(j, name)] = ("flying", 0, size)
+                return ("early", j, name, sc, (0, size))
+        return None
 
     def report(self, kind: str, what) -> None:
         if self.progress:
@@ -252,8 +298,9 @@ class _Batch:
 
     def next_work(self) -> tuple | None:
         """What to submit to a free worker: a chunk whose outcome will be used (costliest
-        stream first), else a finished job's follow-up, else a chunk that may be folded
-        past its stream's stop; None when there is nothing left to start."""
+        stream first), else a finished job's follow-up, else the first chunk of a stream a
+        follow-up will ask for (:meth:`ahead`), else a chunk that may be folded past its
+        stream's stop; None when there is nothing left to start."""
         for s in self.streams:
             if s.wants and s.sure:
                 return ("chunk", s, s.take())
@@ -262,6 +309,9 @@ class _Batch:
             if self.after is not None:
                 fn, args = self.after(j, self.pre[j])
                 return ("after", j, fn, args)
+        early = self.ahead()
+        if early is not None:
+            return early
         open_ = [s for s in self.streams if s.wants]
         if open_:
             s = min(open_, key=lambda t: t.flying)  # stable: the costliest among the least fed
@@ -276,7 +326,7 @@ class _Batch:
         ctx = mp.get_context("fork") if sys.platform.startswith("linux") else None
         pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_init,
                                    initargs=(self.jobs, self.lib))
-        pending: dict = {}
+        pending: dict = self.pending
         try:
             for i, (fn, args) in enumerate(self.tasks):  # short, independent: first, off the critical path
                 pending[pool.submit(fn, *args)] = ("task", i)
@@ -298,6 +348,9 @@ class _Batch:
             if work[0] == "chunk":
                 _, s, (start, size) = work
                 pending[pool.submit(_chunk_task, s.j, s.scatter, start, size)] = ("chunk", s, start)
+            elif work[0] == "early":
+                _, j, name, sc, (start, size) = work
+                pending[pool.submit(_chunk_task, j, sc, start, size)] = ("early", j, name, start)
             else:
                 _, j, fn, args = work
                 pending[pool.submit(fn, *args)] = ("after", j)
@@ -327,6 +380,8 @@ class _Batch:
                 if kind == "chunk":
                     self.chunk_done(key[0], key[1], *fut.result())
                     self.cancel_stale(pending)
+                elif kind == "early":  # its stream not asked for yet: kept until it is
+                    self.early[(key[0], key[1])] = ("back", key[2], fut.result())
                 elif kind == "after":
                     self.after_out[key[0]] = fut.result()
                     self.report("after", key[0])

@@ -60,6 +60,16 @@ def check_follow(jobs: Sequence[MonteCarloJob], scales: Sequence[float]) -> Call
             return {name: (run.scatter, run.test) for name, run in runs.items() if not run.scatter.is_zero}
         return {}
 
+    def ahead(j: int) -> dict:
+        """The streams job ``j``'s next follow-up asks for whatever its streams decide:
+        the sweep's scales, before the test at 1x is done (a probe depends on the sweep)."""
+        job = jobs[j]
+        if stage.get(j, 0) or job.test is None or not job.samples:
+            return {}
+        sc1 = job.scatter_at(1.0)
+        return {scale_label(k): sc1.scaled(k) for k in ks if not sc1.scaled(k).is_zero}
+
+    follow.ahead = ahead  # type: ignore[attr-defined]  # what the pool may fold early
     return follow
 
 
