@@ -346,3 +346,57 @@ def test_jam_tests_refuse_a_bad_seed_or_mechanics_by_name():
         jam_tests(d, jam_test(max_samples=MAX), (1.0,), -1)
     with pytest.raises(DesignError, match=r"^mechanics: 'wobbly' is not one of"):
         jam_tests(d, jam_test(max_samples=MAX), (1.0,), SEED, mechanics="wobbly")
+
+
+def test_the_sweep_is_folded_ahead_and_handed_to_its_stream():
+    """While the test at 1x runs, a worker with no chunk sure to be used gets the first
+    chunk of a sweep scale (the sweep asks for it whatever the verdict at 1x), once; when
+    the sweep starts, its stream consumes that chunk's outcomes first and folds on after it."""
+    from foldprint.model.materials import default_library
+    from foldprint.simulation.jamtest import pool as batch
+    from foldprint.simulation.jamtest.stages import check_follow
+    from foldprint.simulation.jamtest.streams import MIN_CHUNK
+    from foldprint.simulation.jamtest.verdict import decide, jam_test
+    from foldprint.simulation.robust import Outcome
+
+    clean = Outcome(False, None, None, None, 1.0)
+    name = "jam test at 2x"
+    jobs = [MonteCarloJob(_designs()[0], 400, SEED, (1.0,), test=jam_test(max_samples=400))]
+    b = batch._Batch(jobs, default_library(), 2, None, [], None, check_follow(jobs, (2.0,)))
+    (one,) = b.streams
+    start, size = one.take(57)  # in flight: nothing else of the test at 1x is sure to be used
+    work = b.next_work()
+    assert work[:3] == ("early", 0, name) and work[3] == default_scatter().scaled(2.0) and work[4] == (0, MIN_CHUNK)
+    assert b.next_work()[:2] == ("chunk", one)  # the scale's first chunk once; then one that may be discarded
+    early = [clean] * (MIN_CHUNK - 1) + [Outcome(True, None, None, None, None)]
+    b.early[(0, name)] = ("back", 0, (early, 0.001))
+    b.chunk_done(one, start, [clean] * size, 0.001)  # 57 clean samples: a pass, the sweep starts
+    assert decide([o.jammed for o in one.outcomes], one.test).verdict == "pass"
+    (two,) = [s for s in b.streams if s.k == name]
+    assert two.outcomes == early and two.next == MIN_CHUNK and two.flying == 0 and not b.early
+    assert two.take()[0] == MIN_CHUNK  # it folds on after the chunk folded ahead
+
+
+def test_a_chunk_folded_ahead_still_in_flight_becomes_its_streams():
+    """A sweep chunk folded ahead and not yet back when the sweep starts is handed to the
+    new stream: in flight as its first chunk (its outcomes go to that stream), not folded again."""
+    from foldprint.model.materials import default_library
+    from foldprint.simulation.jamtest import pool as batch
+    from foldprint.simulation.jamtest.stages import check_follow
+    from foldprint.simulation.jamtest.streams import MIN_CHUNK
+    from foldprint.simulation.jamtest.verdict import jam_test
+    from foldprint.simulation.robust import Outcome
+
+    clean = Outcome(False, None, None, None, 1.0)
+    name = "jam test at 2x"
+    jobs = [MonteCarloJob(_designs()[0], 400, SEED, (1.0,), test=jam_test(max_samples=400))]
+    b = batch._Batch(jobs, default_library(), 2, None, [], None, check_follow(jobs, (2.0,)))
+    (one,) = b.streams
+    start, size = one.take(57)
+    assert b.next_work()[:3] == ("early", 0, name)
+    fut = object()  # the pool's future of that chunk, still running
+    b.pending[fut] = ("early", 0, name, 0)
+    b.chunk_done(one, start, [clean] * size, 0.001)
+    (two,) = [s for s in b.streams if s.k == name]
+    assert b.pending[fut] == ("chunk", two, 0) and two.flying == 1 and two.next == MIN_CHUNK and not two.outcomes
+    assert two.add(0, [clean] * MIN_CHUNK) is False and len(two.outcomes) == MIN_CHUNK and two.flying == 0
