@@ -248,7 +248,7 @@ def test_a_chunk_is_sized_to_the_earliest_stop():
     """A stream's next chunk holds the samples after which an unbroken run could stop its
     test (the fewest of all-clean and all-jammed), at least MIN_CHUNK, at most CHUNK; with a
     chunk in flight, or without a test, a whole CHUNK."""
-    from foldprint.simulation.jamtest import pool as batch
+    from foldprint.simulation.jamtest import streams
     from foldprint.simulation.robust import CHUNK, Outcome
     from foldprint.simulation.jamtest.verdict import decide, jam_test
 
@@ -263,18 +263,18 @@ def test_a_chunk_is_sized_to_the_earliest_stop():
 
     for prefix in ([], [False] * 3, [True] * 2, [False, True] * 5, [True] * 4 + [False] * 30):
         need = min(first_stop(prefix, False), first_stop(prefix, True))
-        assert batch.to_decision(prefix, test, 1000) == need
-        assert batch.to_decision(prefix, test, need - 1) == need - 1
-        s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 200, SEED, test=test), default_scatter(), test)
+        assert streams.to_decision(prefix, test, 1000) == need
+        assert streams.to_decision(prefix, test, need - 1) == need - 1
+        s = streams.Stream(0, 1.0, MonteCarloJob(_designs()[0], 200, SEED, test=test), default_scatter(), test)
         s.outcomes = [jam if x else clean for x in prefix]
         s.next = len(prefix)
-        assert s.size() == min(CHUNK, max(batch.MIN_CHUNK, need)), prefix
+        assert s.size() == min(CHUNK, max(streams.MIN_CHUNK, need)), prefix
         assert s.take() == (len(prefix), s.next - len(prefix)) and s.size() == CHUNK  # one in flight
     # a loop pattern keeps whole chunks (its closure tracking is cheaper a sample in them)
     miura = load_design(templates_dir() / "miura_3x3.toml")
-    s = batch._Stream(0, 1.0, MonteCarloJob(miura, 200, SEED, test=test), default_scatter(), test)
-    assert batch.to_decision([], test, CHUNK) < CHUNK and s.size() == CHUNK
-    fixed = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED), default_scatter(), None)
+    s = streams.Stream(0, 1.0, MonteCarloJob(miura, 200, SEED, test=test), default_scatter(), test)
+    assert streams.to_decision([], test, CHUNK) < CHUNK and s.size() == CHUNK
+    fixed = streams.Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED), default_scatter(), None)
     assert [fixed.take() for _ in range(2)] == [(0, CHUNK), (CHUNK, 20 - CHUNK)] and not fixed.wants
 
 
@@ -282,7 +282,7 @@ def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
     """Chunks that come back out of order wait for their predecessors: the outcomes are
     the stream's in order and the stop is counted over them, whatever the arrival order
     (chunks of 4 here: jams only from sample 8 on, so a pass-or-not hinges on the order)."""
-    from foldprint.simulation.jamtest import pool as batch
+    from foldprint.simulation.jamtest import streams
     from foldprint.simulation.robust import Outcome
     from foldprint.simulation.jamtest.verdict import decide, jam_test
 
@@ -291,7 +291,7 @@ def test_a_stream_consumes_its_chunks_in_stream_order(monkeypatch):
     test = jam_test(max_samples=20)
     want = decide([o.jammed for o in stream], test)
     for order in ([0, 1, 2, 3, 4], [4, 3, 2, 1, 0], [2, 0, 4, 1, 3]):
-        s = batch._Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED, test=test), default_scatter(), test)
+        s = streams.Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED, test=test), default_scatter(), test)
         assert [s.take(4) for _ in range(5)] == [(4 * c, 4) for c in range(5)] and not s.wants
         for c in order:
             s.add(4 * c, stream[4 * c:4 * c + 4])
@@ -346,3 +346,57 @@ def test_jam_tests_refuse_a_bad_seed_or_mechanics_by_name():
         jam_tests(d, jam_test(max_samples=MAX), (1.0,), -1)
     with pytest.raises(DesignError, match=r"^mechanics: 'wobbly' is not one of"):
         jam_tests(d, jam_test(max_samples=MAX), (1.0,), SEED, mechanics="wobbly")
+
+
+def test_the_sweep_is_folded_ahead_and_handed_to_its_stream():
+    """While the test at 1x runs, a worker with no chunk sure to be used gets the first
+    chunk of a sweep scale (the sweep asks for it whatever the verdict at 1x), once; when
+    the sweep starts, its stream consumes that chunk's outcomes first and folds on after it."""
+    from foldprint.model.materials import default_library
+    from foldprint.simulation.jamtest import pool as batch
+    from foldprint.simulation.jamtest.stages import check_follow
+    from foldprint.simulation.jamtest.streams import MIN_CHUNK
+    from foldprint.simulation.jamtest.verdict import decide, jam_test
+    from foldprint.simulation.robust import Outcome
+
+    clean = Outcome(False, None, None, None, 1.0)
+    name = "jam test at 2x"
+    jobs = [MonteCarloJob(_designs()[0], 400, SEED, (1.0,), test=jam_test(max_samples=400))]
+    b = batch._Batch(jobs, default_library(), 2, None, [], None, check_follow(jobs, (2.0,)))
+    (one,) = b.streams
+    start, size = one.take(57)  # in flight: nothing else of the test at 1x is sure to be used
+    work = b.next_work()
+    assert work[:3] == ("early", 0, name) and work[3] == default_scatter().scaled(2.0) and work[4] == (0, MIN_CHUNK)
+    assert b.next_work()[:2] == ("chunk", one)  # the scale's first chunk once; then one that may be discarded
+    early = [clean] * (MIN_CHUNK - 1) + [Outcome(True, None, None, None, None)]
+    b.early[(0, name)] = ("back", 0, (early, 0.001))
+    b.chunk_done(one, start, [clean] * size, 0.001)  # 57 clean samples: a pass, the sweep starts
+    assert decide([o.jammed for o in one.outcomes], one.test).verdict == "pass"
+    (two,) = [s for s in b.streams if s.k == name]
+    assert two.outcomes == early and two.next == MIN_CHUNK and two.flying == 0 and not b.early
+    assert two.take()[0] == MIN_CHUNK  # it folds on after the chunk folded ahead
+
+
+def test_a_chunk_folded_ahead_still_in_flight_becomes_its_streams():
+    """A sweep chunk folded ahead and not yet back when the sweep starts is handed to the
+    new stream: in flight as its first chunk (its outcomes go to that stream), not folded again."""
+    from foldprint.model.materials import default_library
+    from foldprint.simulation.jamtest import pool as batch
+    from foldprint.simulation.jamtest.stages import check_follow
+    from foldprint.simulation.jamtest.streams import MIN_CHUNK
+    from foldprint.simulation.jamtest.verdict import jam_test
+    from foldprint.simulation.robust import Outcome
+
+    clean = Outcome(False, None, None, None, 1.0)
+    name = "jam test at 2x"
+    jobs = [MonteCarloJob(_designs()[0], 400, SEED, (1.0,), test=jam_test(max_samples=400))]
+    b = batch._Batch(jobs, default_library(), 2, None, [], None, check_follow(jobs, (2.0,)))
+    (one,) = b.streams
+    start, size = one.take(57)
+    assert b.next_work()[:3] == ("early", 0, name)
+    fut = object()  # the pool's future of that chunk, still running
+    b.pending[fut] = ("early", 0, name, 0)
+    b.chunk_done(one, start, [clean] * size, 0.001)
+    (two,) = [s for s in b.streams if s.k == name]
+    assert b.pending[fut] == ("chunk", two, 0) and two.flying == 1 and two.next == MIN_CHUNK and not two.outcomes
+    assert two.add(0, [clean] * MIN_CHUNK) is False and len(two.outcomes) == MIN_CHUNK and two.flying == 0

@@ -8,26 +8,25 @@ stage of the evaluation (computed on first use, kept: ``Evaluation._stage``).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Iterable
+from typing import TYPE_CHECKING, Iterable
 
 from ..checks.rules import Printer
-from ..exchange import voxel_cost
 from ..geometry import build_cost
 from ..core.constants import ANIMATION_DT_S
 from ..core.errors import ExportError, GeometryError
 from ..core.modes import HingeModel, State, parse
-from ..exchange.export import TRAJECTORY_FORMATS, check_formats, export_assembly
-from ..exchange.fem import PlacedState, check_strip
-from ..exchange.recipe import check_summary
-from ..exchange.voxel_regions import Pitch, VoxelPart
 from ..geometry import Assembly, build_assembly, state_angles
-from ..geometry.surfaces import Frames, fold_frames
 from ..model.printers import find_printer, tool_fit
 from ..physics.kinematics import forward, hinge_frames
 from ..physics.recovery.curve import hinge_fold_times
 from ..simulation.simulate import SimulationResult, simulate
 from .replay import Replay, replay_sample, worst_sample
 from .voxel_part import voxel_part, voxel_pitch
+
+if TYPE_CHECKING:  # the writers load when a stage needs them: check and robust write no files
+    from ..exchange.fem import PlacedState
+    from ..exchange.voxel_regions import Pitch, VoxelPart
+    from ..geometry.surfaces import Frames
 
 
 class ExportStages:
@@ -45,6 +44,8 @@ class ExportStages:
     def frames(self) -> Frames:
         """The fold's surfaces placed at every step of :attr:`animation`: what the xdmf
         and glb writers draw (:func:`foldprint.geometry.surfaces.fold_frames`)."""
+        from ..geometry.surfaces import fold_frames
+
         return self._stage("frames", lambda: fold_frames(self.design, self.animation.trajectory,
                                                          self.animation.compliant))
 
@@ -57,6 +58,8 @@ class ExportStages:
     def placed_state(self, state: State | str) -> PlacedState:
         """``state`` placed by the kinematics (arc hinges): its angles, hinge frames and panel
         poses, what the inp writer meshes (refused first when the design is not a strip)."""
+        from ..exchange.fem import PlacedState, check_strip
+
         st = parse(State, state, "state")
 
         def run():
@@ -94,6 +97,9 @@ class ExportStages:
         the slicer 3MFs describe it when it is an FDM printer; the voxel stack
         (``voxels``) is rasterised at its pitch (default: the J750). The recipe gets the
         check's findings when this evaluation has computed them."""
+        from ..exchange.export import TRAJECTORY_FORMATS, check_formats, export_assembly
+        from ..exchange.recipe import check_summary
+
         st = parse(State, self.options.state if state is None else state, "state")
         fmts = check_formats(self.options.formats if formats is None else formats)  # before the (slower) build
         profile = find_printer(printer) if isinstance(printer, str) else printer
@@ -121,6 +127,8 @@ class ExportStages:
 
     def _voxels(self, assembly: Assembly, pitch: Pitch) -> VoxelPart:
         """The part's voxel regions at ``pitch``, after the voxel grid's guard."""
+        from ..exchange import voxel_cost
+
         d = self.design
         voxels = voxel_part(d, assembly, self.library, pitch)
         voxel_cost.check_part(voxels, f"{d.source}: " if d.source else f"{d.name}: ")

@@ -10,11 +10,12 @@ from __future__ import annotations
 from typing import Callable
 
 from ..checks.rules import CheckContext, Finding, run_checks
-from ..core.modes import SampleRule
+from ..core.modes import VERDICT_METHOD, SampleRule
 from ..simulation.jamtest.flip_drivers import FlipDrivers, flip_drivers, flips_of
-from ..simulation.robust import RobustResult, jam_probability
+from ..simulation.robust import RobustResult, default_scatter, jam_probability
 from ..simulation.sensitivity import Contributions, SweepPoint, contributions, sweep
 from ..simulation.jamtest.scales import jam_test, jam_tests
+from ..simulation.jamtest.stages import check_pool
 
 
 class VerdictStages:
@@ -29,7 +30,29 @@ class VerdictStages:
         return self._stage("jam_tests", lambda: jam_tests(
             self.design, jam_test(th.warning, th.error, o.samples), (1.0, *o.scales), o.seed, scatter=self.scatter,
             library=self.library, hinge_model=o.hinge_model, dt=o.dt, nominal=sim, workers=o.workers,
-            mapper=self.mapper, progress=self.progress, mechanics=o.mechanics))
+            mapper=self.jam_mapper, progress=self.progress, mechanics=o.mechanics))
+
+    @property
+    def jam_mapper(self):
+        """What the jam test's stages fold with: the evaluation's ``mapper``, else the
+        outcomes of :meth:`fold_check_stages` once it ran, else None (each stage its pool)."""
+        return self.mapper if self.mapper is not None else self._stages.get("check_pool")
+
+    def fold_check_stages(self) -> None:
+        """Fold every stage of check's jam test (1x, the sweep, a flip's probes) in one pool
+        before they are asked (:func:`~foldprint.simulation.jamtest.stages.check_pool`), when
+        this evaluation has no mapper of its own and runs check's sequential test; the
+        stages then decide from those outcomes: the same answers, one pool's start-up."""
+        o = self.options
+        if (self.mapper is not None or not o.samples or o.sample_rule != SampleRule.SEQUENTIAL
+                or "jam_tests" in self._stages or "check_pool" in self._stages):
+            return
+        sim, th = self.simulation, o.thresholds
+        self.guard(2, samples=True)  # the nominal fold held while a sample folds in this process
+        self._stage("check_pool", lambda: check_pool(
+            self.design, jam_test(th.warning, th.error, o.samples), o.scales, o.seed,
+            scatter=self.scatter or default_scatter(), library=self.library, hinge_model=o.hinge_model, dt=o.dt,
+            method=VERDICT_METHOD, nominal=sim, workers=o.workers, progress=self.progress, mechanics=o.mechanics))
 
     def run_robust(self, progress: Callable[[int, int], None] | None = None) -> RobustResult | None:
         """:attr:`robust`, reporting to ``progress(done, total)`` if it is computed now."""
@@ -80,7 +103,7 @@ class VerdictStages:
                 return ()
             points = flips_of(r, self.sweep)
             return flip_drivers(self.design, r, points, library=self.library, dt=o.dt, workers=o.workers,
-                                mapper=self.mapper, progress=self.progress) if points else ()
+                                mapper=self.jam_mapper, progress=self.progress) if points else ()
 
         return self._stage("flip_drivers", run)
 
@@ -104,6 +127,7 @@ class VerdictStages:
             sim = self.simulation
             asm, err = self.assembly, self.assembly_error
             gaps, clear = self.printed_gaps, self.clearance
+            self.fold_check_stages()
             robust = self.robust
             ctx = CheckContext(self.design, self.library, self.printer, sim, asm, err, gaps, clear, robust,
                                self.options.thresholds, self.sweep, self.flip_drivers)

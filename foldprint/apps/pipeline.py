@@ -29,11 +29,11 @@ from ..core import guards
 from ..simulation import costs
 from ..checks.rules import Printer, Thresholds, default_printer_key, load_printers
 # what ``check`` runs by default, defined once (the command line and the gallery read it too)
+from ..core.constants import EXPORT_FORMATS as DEFAULT_FORMATS  # the export's default (exchange.export loads on export)
 from ..core.constants import (ANIMATION_DT_S, CHECK_DT_S, CHECK_SAMPLES, CHECK_SCALES, CHECK_SEED, DEFAULT_DT_S,  # noqa: F401 (re-exported)
                               CLEARANCE_SAMPLES, MARGIN_SAMPLES)
 from ..model.derived import DerivedCache
 from ..model.design import Design
-from ..exchange.export import DEFAULT_FORMATS
 from ..geometry import Assembly, build_assembly
 from ..physics.hinge_drive import HingeDrive
 from ..model.materials import MaterialLibrary, default_library

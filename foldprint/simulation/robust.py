@@ -61,6 +61,25 @@ CHUNK = 16
 CURVE_BATCH_BYTES = 128 * 2 ** 20
 
 
+#: Chunks per task of a fixed-size run after its first chunk (:func:`jam_probability`): a
+#: task pays about 5 ms beside its samples (its draws, one curve call per hinge material;
+#: measured on helix_graded with the compiled kernels: 7.0 CPU-ms a sample in chunks of 16,
+#: 14 in chunks of 1), a tenth of a chunk of 16 strip samples at 2-3 ms each; four chunks a
+#: task pay it once in 40. Our choice; a task folds its chunks as separate chunks would
+#: (its curves in batches of at most a chunk), so the answer does not depend on it.
+TASK_CHUNKS = 4
+
+
+def task_chunks(design: Design, dt: float, samples: int, workers: int) -> int:
+    """Chunks per task of a fixed-size run of ``samples`` after its first chunk: up to
+    :data:`TASK_CHUNKS`, fewer when that would leave a worker of ``workers`` without two
+    tasks, one when a chunk's curves are made in more than one batch (a large design: its
+    tasks keep the chunks' batches, and a chunk's overhead is small beside its samples)."""
+    if curve_batch(design, dt)[0] < CHUNK:
+        return 1
+    return max(1, min(TASK_CHUNKS, n_chunks(max(0, samples - CHUNK)) // (2 * max(1, workers))))
+
+
 def n_chunks(samples: int) -> int:
     """How many chunks of :data:`CHUNK` hold ``samples`` samples (the last may be short)."""
     return -(-samples // CHUNK)
@@ -350,9 +369,11 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
         costs.check_swept_samples(nominal, samples, default_workers() if workers is None else max(1, int(workers)),
                                   design.name)
     stream = iter_samples(design, scatter, samples, seed)
+    n_workers = default_workers() if workers is None else max(1, int(workers))
+    task = CHUNK * task_chunks(design, dt, samples, n_workers)  # after the first chunk, which times the run
     chunks = ((design, lib, chunk, model, dt, exact, method, mech)
-              for chunk in iter(lambda: list(islice(stream, CHUNK)), []))
-    chunks_total = n_chunks(samples)
+              for chunk in iter(lambda: list(islice(stream, task)), []))
+    chunks_total = 1 + -(-max(0, samples - CHUNK) // task)
     done = [0]
 
     def report(n: int) -> None:
@@ -360,15 +381,14 @@ def jam_probability(design: Design, samples: int = ROBUST_SAMPLES, seed: int = D
         if progress:
             progress(done[0], samples)
 
-    head = next(chunks)
+    head = (design, lib, list(islice(stream, CHUNK)), model, dt, exact, method, mech)
     warm_kernels(head)  # the guard times kernels, not the compiler
     start = time.process_time()  # CPU: the budget is work, not the load of a shared machine
     first = run_samples(head)  # here: it times the run before the rest is started
     report(len(first))
     if chunks_total > 1:
-        n_workers = default_workers() if workers is None else max(1, int(workers))
         costs.check_samples(samples, (time.process_time() - start) / len(first), n_workers, design.name)
-        chunk_done = lambda _d, _n: report(CHUNK)  # noqa: E731 - progress in samples, not chunks
+        chunk_done = lambda _d, _n: report(task)  # noqa: E731 - progress in samples, not tasks
         if mapper is None:
             rest = map_ordered(run_samples, chunks, workers=workers, progress=chunk_done, total=chunks_total - 1)
         else:

@@ -60,7 +60,7 @@ from .waves import hinge_adjacency
 from .result import AssignResult, Choice
 from .surrogate import (BATH_STEP_C, BATH_TOL_C, canonical_tg, material_name, optimise_bath,
                                optimise_levels, tg_bounds, timing_table)
-from .tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_materials
+from .tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_local_pool, with_materials
 
 #: Spacing (C) of the Tg grid of the timing table the surrogate interpolates.
 TG_GRID_STEP_C = 0.5
@@ -177,6 +177,7 @@ def find_chains(design: Design, lib: MaterialLibrary, ledger: Ledger, bath_c: fl
     return done[:want]
 
 
+@with_local_pool
 def assign_continuous(design: Design, *, library: MaterialLibrary | None = None,
                       bath_range: tuple[float, float] | None = None, top: int = 3, budget: int = DEFAULT_BUDGET,
                       samples: int = 40, seed: int = 0, scatter: Scatter | None = None, dt: float = 0.01,

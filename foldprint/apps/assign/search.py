@@ -55,7 +55,7 @@ from ...simulation.robust import Scatter, default_scatter, draw_samples
 from ...simulation.timing import order_risk
 # the results and the tasks, importable from here as before
 from .result import AssignResult, Choice, Verdict, choice_from  # noqa: F401
-from .tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_materials  # noqa: F401
+from .tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_local_pool, with_materials  # noqa: F401
 from .ledger import Ledger
 from .waves import connected_waves, growing_waves, hinge_adjacency
 
@@ -296,6 +296,7 @@ class _Search:
         return good
 
 
+@with_local_pool
 def assign(design: Design, *, library: MaterialLibrary | None = None, materials: Sequence[str] | None = None,
            temperatures: Sequence[float] | None = None, fixed: Mapping[str, str] | None = None,
            objective: Objective | str = DEFAULT_OBJECTIVE, top: int = ASSIGN_TOP, budget: int = DEFAULT_BUDGET, beam: int = DEFAULT_BEAM,

@@ -11,8 +11,8 @@ already has a chunk in flight a second chunk of one (it may be discarded). A str
 with a sequential test (:class:`~foldprint.simulation.jamtest.verdict.JamTest`) stops being fed
 once its test decides; the chunks folded beyond the stop are discarded. Its chunks are
 sized to the test: never more than the samples after which an unbroken run of clean (or
-of jammed) samples would stop it (:func:`to_decision`; at least
-:data:`MIN_CHUNK`, at most
+of jammed) samples would stop it (:func:`~foldprint.simulation.jamtest.streams.to_decision`; at least
+:data:`~foldprint.simulation.jamtest.streams.MIN_CHUNK`, at most
 :data:`~foldprint.simulation.robust.CHUNK`), so a clear strip's stream folds the samples
 its test uses and no more (a loop pattern keeps whole chunks: its closure tracking is
 cheaper a sample in bigger ones).
@@ -43,7 +43,8 @@ from ...model.design import Design, has_loops
 from ...model.materials import MaterialLibrary, default_library
 from ..robust import CHUNK, Outcome, n_chunks, run_samples
 from ..scatter import Scatter, default_scatter, samples_between
-from .verdict import JamTest, decide
+from .streams import MIN_CHUNK, Stream, StreamStatus, sample_cost, to_decision  # noqa: F401 (re-exported)
+from .verdict import JamTest
 
 
 @dataclass(frozen=True)
@@ -110,26 +111,6 @@ class Precomputed:
         return out
 
 
-@dataclass(frozen=True)
-class StreamStatus:
-    """Where one (job, scale) stream is: samples consumed in order so far, its maximum,
-    whether it is finished (its test decided, or every sample of a fixed job in), and the
-    jams among the samples consumed (what a running estimate and its interval need)."""
-
-    job: int
-    scale: float
-    samples: int
-    max_samples: int
-    done: bool
-    jams: int = 0
-
-
-#: The smallest chunk a sequential test's strip stream is given when its test could stop
-#: sooner than :data:`~foldprint.simulation.robust.CHUNK` samples on. Our choice: a strip's
-#: sample costs about the same in chunks of 4 as of 16 (measured on helix_graded: 26.9
-#: against 26.6 CPU-ms), one of 1 about 1.5x.
-MIN_CHUNK = 4
-
 _STATE: dict = {}
 
 
@@ -152,98 +133,11 @@ def _chunk_task(j: int, scatter: Scatter, start: int, size: int) -> tuple[list[O
     return out, (time.process_time() - t0) / max(1, len(samples))
 
 
-def to_decision(jammed: Sequence[bool], test: JamTest, limit: int) -> int:
-    """The fewest further samples after ``jammed`` with which ``test`` can decide when they
-    all come out alike (all clean or all jammed), at most ``limit``: a chunk of that many
-    cannot be folded past the stop by an unbroken run, the way a test ends most often."""
-    jammed = list(jammed)
-    best = limit
-    for more in (False, True):
-        d = decide(jammed + [more] * limit, test)
-        if d.decided:
-            best = min(best, d.samples - len(jammed))
-    return max(1, best)
-
-
-def _cost(design: Design) -> float:
-    """Relative cost of one sample, for the order only (costliest first): the hinges,
-    times 50 for a pattern with loops (its fold tracks the closure at every step;
-    measured: miura_3x3's sample about 50x a helix strip's)."""
-    return len(design.hinges) * (50.0 if has_loops(design) else 1.0)
-
-
-class _Stream:
-    """One stream of a job: a scale of it (``k``), or a follow-up (``k`` its name), with its
-    scatter model and test; the chunks submitted (by first sample), in flight and back, and
-    the outcomes consumed in stream order (cut at the test's stop)."""
-
-    def __init__(self, j: int, k, job: MonteCarloJob, scatter: Scatter, test: JamTest | None):
-        self.j, self.k, self.job, self.scatter, self.test = j, k, job, scatter, test
-        self.max_samples = job.samples if test is None else test.max_samples  # a probe's may be lower
-        self.next = 0  # the first sample of the next chunk to submit
-        self.flying = 0
-        self.back: dict[int, list[Outcome]] = {}  # chunks back out of order, by first sample
-        self.outcomes: list[Outcome] = []
-        self.done = self.max_samples == 0
-        self.timed = False
-        # a loop pattern's closure is tracked for a chunk's samples together: in chunks of 4
-        # a miura_3x3 sample cost 145 CPU-ms, in chunks of 16 87 (17 % of it curves)
-        self.floor = CHUNK if has_loops(job.design) else MIN_CHUNK
-
-    @property
-    def wants(self) -> bool:
-        return not self.done and self.next < self.max_samples
-
-    @property
-    def sure(self) -> bool:
-        """Its next chunk will be used: a fixed job, or nothing of it in flight."""
-        return self.test is None or self.flying == 0
-
-    def size(self) -> int:
-        """The next chunk's size: :data:`CHUNK`, or with a test and nothing in flight the
-        samples its test needs at least before it can stop (:func:`to_decision`), not below
-        :data:`MIN_CHUNK` (a whole chunk for a loop pattern): a strip whose test stops after
-        6 clean samples folds 6, not 16."""
-        left = self.max_samples - self.next
-        if self.test is None or self.flying:
-            return min(CHUNK, left)
-        need = to_decision([o.jammed for o in self.outcomes], self.test, CHUNK)
-        return min(left, CHUNK, max(need, self.floor))
-
-    def take(self, size: int | None = None) -> tuple[int, int]:
-        """The next chunk, (first sample, size), now in flight."""
-        size = self.size() if size is None else size
-        start = self.next
-        self.next += size
-        self.flying += 1
-        return start, size
-
-    def add(self, start: int, out: list[Outcome]) -> bool:
-        """A chunk came back; consume what is in order; True when this finished the stream."""
-        self.flying -= 1
-        if self.done:
-            return False  # folded past the stop: discarded
-        self.back[start] = out
-        while len(self.outcomes) in self.back:
-            self.outcomes.extend(self.back.pop(len(self.outcomes)))
-        if self.test is not None:
-            d = decide([o.jammed for o in self.outcomes], self.test)
-            if d.decided:
-                del self.outcomes[d.samples:]
-                self.done = True
-        if len(self.outcomes) >= self.max_samples:
-            self.done = True
-        return self.done
-
-    def status(self) -> StreamStatus:
-        return StreamStatus(self.j, self.k, len(self.outcomes), self.max_samples, self.done,
-                            sum(o.jammed for o in self.outcomes))
-
-
 def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None = None, workers: int = 1,
               after: Callable[[int, Precomputed], tuple] | None = None, tasks: Sequence[tuple] = (),
               progress: Callable[..., None] | None = None,
-              follow: Callable[[int, Precomputed], Mapping] | None = None) -> tuple[list[Precomputed], list, list]:
+              follow: Callable[[int, Precomputed], Mapping] | None = None,
+              meanwhile: Callable[[], None] | None = None) -> tuple[list[Precomputed], list, list]:
     """Fold every job's streams (one per scale) in one pool of ``workers`` processes.
 
     ``follow(i, pre)`` -> ``{name: (scatter, test)}``: more streams of job ``i`` (the same
@@ -256,9 +150,12 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
     run in the pool beside them. ``progress(kind, what, out)`` is called as a follow-up
     (``"after"``, job index, its result) or independent task (``"task"``, its index, its
     result) finishes, and as a stream consumes samples (``"samples"``, a
-    :class:`StreamStatus`, None). Returns the Precomputed per job, the follow-ups' results
-    and the tasks' results (in input order)."""
+    :class:`StreamStatus`, None). ``meanwhile()``: work of this process for after the run
+    (loading what its next stages import), done in a thread while the workers fold, once
+    they are forked (with one worker: not at all). Returns the Precomputed per job, the
+    follow-ups' results and the tasks' results (in input order)."""
     batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress, follow)
+    batch.meanwhile = meanwhile
     for s in batch.streams:  # every stream, at 0 of its maximum, before the first chunk
         batch.report("samples", s.status())
     if workers <= 1 or sum(n_chunks(s.max_samples) for s in batch.streams if not s.done) + len(batch.tasks) <= 1:  # no pool for one task
@@ -278,17 +175,22 @@ class _Batch:
         self.jobs, self.lib, self.workers, self.after, self.tasks = jobs, lib, workers, after, tasks
         self.progress, self.follow = progress, follow
         self.streams = []
-        self.add_streams([_Stream(j, float(k), job, job.scatter_at(float(k)), job.test)
+        self.add_streams([Stream(j, float(k), job, job.scatter_at(float(k)), job.test)
                           for j, job in enumerate(jobs) for k in job.scales])
+        self.meanwhile = None  # this process's work while the workers fold (run_batch)
+        self.pending: dict = {}  # the pool's work in flight (run_pool)
+        # (job, follow-up name) -> a first chunk folded before the follow-up asked for it:
+        # ("flying", start, size) or ("back", start, (outcomes, seconds per sample))
+        self.early: dict[tuple[int, str], tuple] = {}
         self.ready: list[int] = []  # jobs whose streams are all finished, follow-up not yet run
         self.pre: list[Precomputed | None] = [None] * len(jobs)
         self.after_out: list = [None] * len(jobs)
         self.task_out: list = [None] * len(tasks)
 
-    def add_streams(self, new: list[_Stream]) -> None:
+    def add_streams(self, new: list[Stream]) -> None:
         """Streams to fold, kept in order of cost (costliest design first; stable: job,
         scale and follow-up order kept)."""
-        self.streams = sorted(self.streams + new, key=lambda s: -_cost(self.jobs[s.j].design))
+        self.streams = sorted(self.streams + new, key=lambda s: -sample_cost(self.jobs[s.j].design))
 
     def precomputed(self, j: int) -> Precomputed:
         job = self.jobs[j]
@@ -304,19 +206,61 @@ class _Batch:
             self.pre[j] = pre
             self.ready.append(j)
             return
-        new = [_Stream(j, name, self.jobs[j], sc, test) for name, (sc, test) in more.items()]
+        new = [Stream(j, name, self.jobs[j], sc, test) for name, (sc, test) in more.items()]
         self.add_streams(new)
         for s in new:
             self.report("samples", s.status())
         if all(s.done for s in new):  # nothing to fold (no samples)
             self.finished(j)
+            return
+        back = [got for s in new if (got := self.adopt(s)) is not None]
+        for s, start, result in back:
+            self.chunk_done(s, start, *result)
+
+    def adopt(self, s: Stream) -> tuple | None:
+        """Give a new follow-up stream the first chunk folded ahead for it: in flight, it
+        becomes the stream's; back already, returned ``(stream, start, (outcomes, seconds
+        per sample))`` to be consumed."""
+        e = self.early.pop((s.j, s.k), None)
+        if e is None or s.done:
+            return None
+        s.flying += 1
+        if e[0] == "flying":
+            _, start, size = e
+            s.next = start + size
+            fut = next(f for f, v in self.pending.items() if v[:3] == ("early", s.j, s.k))
+            self.pending[fut] = ("chunk", s, start)
+            return None
+        _, start, result = e
+        s.next = start + len(result[0])
+        return s, start, result
+
+    def ahead(self) -> tuple | None:
+        """A first chunk of a stream that a job's next follow-up will ask for whatever its
+        streams now decide (``follow.ahead(j)`` -> ``{name: scatter}``: check's sweep while
+        the test at 1x runs), its smallest chunk: folded on a worker that would otherwise
+        fold a chunk that may be discarded; None when there is none."""
+        ahead = getattr(self.follow, "ahead", None)
+        if ahead is None:
+            return None
+        for j in dict.fromkeys(s.j for s in self.streams if not s.done):
+            job = self.jobs[j]
+            for name, sc in ahead(j).items():
+                if (j, name) in self.early or any(t.j == j and t.k == name for t in self.streams):
+                    continue
+                size = min(job.samples, CHUNK if has_loops(job.design) else MIN_CHUNK)
+                if size < 1:
+                    continue
+                self.early[(j, name)] = ("flying", 0, size)
+                return ("early", j, name, sc, (0, size))
+        return None
 
     def report(self, kind: str, what) -> None:
         if self.progress:
             out = self.after_out[what] if kind == "after" else self.task_out[what] if kind == "task" else None
             self.progress(kind, what, out)
 
-    def chunk_done(self, s: _Stream, start: int, out: list[Outcome], per_sample: float) -> None:
+    def chunk_done(self, s: Stream, start: int, out: list[Outcome], per_sample: float) -> None:
         """Record a folded chunk (the first back of each stream times the run, refused as
         jam_probability would refuse it); a job whose streams are all finished is ready."""
         if not s.timed:
@@ -354,8 +298,9 @@ class _Batch:
 
     def next_work(self) -> tuple | None:
         """What to submit to a free worker: a chunk whose outcome will be used (costliest
-        stream first), else a finished job's follow-up, else a chunk that may be folded
-        past its stream's stop; None when there is nothing left to start."""
+        stream first), else a finished job's follow-up, else the first chunk of a stream a
+        follow-up will ask for (:meth:`ahead`), else a chunk that may be folded past its
+        stream's stop; None when there is nothing left to start."""
         for s in self.streams:
             if s.wants and s.sure:
                 return ("chunk", s, s.take())
@@ -364,6 +309,9 @@ class _Batch:
             if self.after is not None:
                 fn, args = self.after(j, self.pre[j])
                 return ("after", j, fn, args)
+        early = self.ahead()
+        if early is not None:
+            return early
         open_ = [s for s in self.streams if s.wants]
         if open_:
             s = min(open_, key=lambda t: t.flying)  # stable: the costliest among the least fed
@@ -378,7 +326,7 @@ class _Batch:
         ctx = mp.get_context("fork") if sys.platform.startswith("linux") else None
         pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=_init,
                                    initargs=(self.jobs, self.lib))
-        pending: dict = {}
+        pending: dict = self.pending
         try:
             for i, (fn, args) in enumerate(self.tasks):  # short, independent: first, off the critical path
                 pending[pool.submit(fn, *args)] = ("task", i)
@@ -400,6 +348,9 @@ class _Batch:
             if work[0] == "chunk":
                 _, s, (start, size) = work
                 pending[pool.submit(_chunk_task, s.j, s.scatter, start, size)] = ("chunk", s, start)
+            elif work[0] == "early":
+                _, j, name, sc, (start, size) = work
+                pending[pool.submit(_chunk_task, j, sc, start, size)] = ("early", j, name, start)
             else:
                 _, j, fn, args = work
                 pending[pool.submit(fn, *args)] = ("after", j)
@@ -408,13 +359,29 @@ class _Batch:
         from concurrent.futures import FIRST_COMPLETED, wait
 
         self.fill(pool, pending)
+        aside = None
+        if self.meanwhile is not None:  # the workers are forked by now: a thread is safe
+            import threading
+
+            aside = threading.Thread(target=self.meanwhile, name="foldprint-meanwhile", daemon=True)
+            aside.start()
+        try:
+            self.drain_all(pool, pending, wait, FIRST_COMPLETED)
+        finally:
+            if aside is not None:
+                aside.join()
+
+    def drain_all(self, pool, pending: dict, wait, first_completed) -> None:
+        """Take results back and start more work until nothing is in flight."""
         while any(kind != "stale" for kind, *_ in pending.values()):
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            done, _ = wait(pending, return_when=first_completed)
             for fut in done:
                 kind, *key = pending.pop(fut)
                 if kind == "chunk":
                     self.chunk_done(key[0], key[1], *fut.result())
                     self.cancel_stale(pending)
+                elif kind == "early":  # its stream not asked for yet: kept until it is
+                    self.early[(key[0], key[1])] = ("back", key[2], fut.result())
                 elif kind == "after":
                     self.after_out[key[0]] = fut.result()
                     self.report("after", key[0])

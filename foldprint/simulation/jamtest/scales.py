@@ -25,7 +25,8 @@ from ...core.errors import DesignError
 from ...core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
 from ...model.design import Design
 from ...model.materials import MaterialLibrary, default_library
-from .pool import MonteCarloJob, StreamStatus, run_batch
+from .pool import MonteCarloJob, run_batch
+from .streams import StreamStatus
 from ..robust import CHUNK, Outcome, RobustResult, outcome_of, run_samples, warm_kernels
 from ..scatter import Scatter, default_scatter, iter_samples
 from ..simulate import SimulationResult, simulate
