@@ -31,7 +31,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.jit import use_kernels
-from .rigid import convex_pieces, rigid_polygons
 
 #: Absolute part of the certificate's tolerance, mm (our choice: a thousandth of a micron,
 #: far below any printer's resolution, far above double round-off at sheet sizes).
@@ -63,12 +62,13 @@ class PrismSet:
 
 
 def prism_set(checker) -> PrismSet:
-    """The prisms of ``checker``'s design under its hinge model (built once per checker)."""
+    """The prisms of ``checker``'s design under its hinge model, from its panels' convex
+    pieces (``SweptChecker.rings``, the pieces it gives FCL), built once per checker."""
     hit = checker.__dict__.get("_prism_set")
     if hit is None:
         rings, piece_off, panel_off, cen, rad = [], [0], [0], [], []
-        for p, poly in zip(checker.design.panels, rigid_polygons(checker.design, checker.model)):
-            for ring in convex_pieces(poly):
+        for p, pieces in zip(checker.design.panels, checker.rings):
+            for ring in pieces:
                 ring = np.asarray(ring, float)
                 if _area2(ring) < 0:
                     ring = ring[::-1]
