@@ -61,16 +61,15 @@ _SHIFT = st.tuples(*[st.floats(-500.0, 500.0)] * 3)
        rot=_ROT, shift=_SHIFT)
 def test_boxes_at_a_known_distance(size, half, gap, rot, shift):
     """Two boxes, the second beside the first by ``gap`` along each axis (negative: their
-    ranges overlap on it; dz = 0: coplanar faces, FCL's worst case), both moved by one
-    rigid motion: the distance is the norm of the positive per-axis gaps, exactly."""
+    ranges may overlap on it; dz = 0: coplanar faces, FCL's worst case), both moved by one
+    rigid motion: the distance is the norm of the per-axis gaps between their ranges."""
     wa, ha, wb, hb = size
     move = _pose(rot, shift)
     pb = move @ _pose((0.0, 0.0, 0.0), (wa + gap[0], ha + gap[1], half[0] + half[1] + gap[2]))
-    a_lo, a_hi = np.zeros(2), np.array([wa, ha])
-    b_lo = np.array([wa + gap[0], ha + gap[1]])
-    b_hi = b_lo + [wb, hb]
-    sep = np.maximum(0.0, np.maximum(b_lo - a_hi, a_lo - b_hi))
-    want = float(np.linalg.norm([*sep, max(0.0, gap[2])]))
+    a_lo, a_hi = np.array([0.0, 0.0, -half[0]]), np.array([wa, ha, half[0]])
+    b_lo = np.array([wa + gap[0], ha + gap[1], half[0] + gap[2]])
+    b_hi = b_lo + [wb, hb, 2 * half[1]]
+    want = float(np.linalg.norm(np.maximum(0.0, np.maximum(b_lo - a_hi, a_lo - b_hi))))
     scale = float(np.abs(np.vstack([_world(_box(wa, ha), half[0], move), _world(_box(wb, hb), half[1], pb)])).max())
     for path in PATHS:
         ub, lb, qa, qb = path(move, _box(wa, ha), half[0], pb, _box(wb, hb), half[1])
