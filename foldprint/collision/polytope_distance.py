@@ -136,6 +136,21 @@ def _seeds(checker, s: PrismSet):
     return hit
 
 
+def warm_kernel() -> None:
+    """Load (on a cold numba cache: compile, ~7 CPU-s once per install) the compiled
+    distance, so that a timed run does not pay it in its first chunk: a fold whose pairs the
+    screen certifies asks for no distance, so folding a sample does not always load it.
+    Nothing where the numpy path runs."""
+    if use_kernels():
+        from .polytope_distance_kernels import panel_bounds as kernel
+
+        ring = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]] * 2)
+        far = np.eye(4)
+        far[0, 3] = 3.0
+        kernel(np.eye(4), far, 0, 1, ring, np.array([0, 3, 6]), np.array([0, 1, 2]), np.full(2, 0.5),
+               np.zeros((2, 3)), np.ones(2), CERT_ABS, CERT_REL)
+
+
 def _prepared(checker):
     """(the compiled ``panel_bounds`` or None for the numpy path, the prisms), once per
     checker: a distance is asked for thousands of times per search."""
