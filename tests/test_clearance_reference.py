@@ -1,6 +1,8 @@
 """The smallest clearance along a fold (what ``check``, ``simulate`` and the gallery report)
-against a brute-force sweep: every non-adjacent pair's FCL distance at every pose of the
-trajectory, no pre-filter, no branch and bound.
+against a brute-force sweep: every non-adjacent pair's distance at every pose of the
+trajectory, no pre-filter, no branch and bound (the exact distance of
+:mod:`foldprint.collision.polytope_distance`, itself held to analytic and brute-force
+references in ``tests/test_polytope_distance.py``).
 
 * ``min_clearance`` with every pose sampled must give the brute-force minimum exactly: its
   value, its pair and the earliest time it occurs;
@@ -24,6 +26,7 @@ from foldprint.apps.pipeline import EvalOptions, Evaluation
 from foldprint.collision.clearance import Gap, earliest_within, gaps_in_pose, min_clearance, permanent_crossings
 from foldprint.core.constants import tol
 from foldprint.collision.broadphase import non_adjacent_pairs
+from foldprint.collision.polytope_distance import panel_distance
 from foldprint.collision.swept3d import SweptChecker
 from foldprint.collision.swept_search import min_clearance as swept_min_clearance
 from foldprint.io.templates import resolve_design_path
@@ -39,7 +42,7 @@ TIE_MM = tol.length  # gaps this close are one gap (folds rest on plateaus: a li
 def _brute(checker, times, poses, pairs):
     """(distance, earliest time, all distances (n_t, n_pairs)) of the smallest gap over
     every pose and pair."""
-    d = np.array([[checker.distance(i, j, poses[k, i], poses[k, j])[0] for i, j in pairs]
+    d = np.array([[panel_distance(checker, i, j, poses[k, i], poses[k, j])[0] for i, j in pairs]
                   for k in range(len(times))])
     d = np.maximum(d, 0.0)
     best = d.min()
@@ -84,13 +87,13 @@ def test_every_pose_sampled_gives_the_brute_force_minimum(folded):
 
 def test_gaps_in_a_pose_are_every_pair_brute_force_finds_within_the_distance(folded):
     """In the pose of the smallest gap and in the last pose: the box prefilter drops no
-    pair FCL puts within the distance, nearest first, each named by its indices and ids."""
+    pair the exact distance puts within it, nearest first, each named by its indices and ids."""
     name, _, times, poses, checker, pairs = folded
     design = checker.design
-    k_min = int(np.argmin([min(checker.distance(i, j, poses[k, i], poses[k, j])[0] for i, j in pairs)
+    k_min = int(np.argmin([min(panel_distance(checker, i, j, poses[k, i], poses[k, j])[0] for i, j in pairs)
                            for k in range(0, len(times), max(1, len(times) // 40))])) * max(1, len(times) // 40)
     for k in (k_min, len(times) - 1):
-        d = {(i, j): max(float(checker.distance(i, j, poses[k, i], poses[k, j])[0]), 0.0) for i, j in pairs}
+        d = {(i, j): max(float(panel_distance(checker, i, j, poses[k, i], poses[k, j])[0]), 0.0) for i, j in pairs}
         for within in (min(d.values()) + 0.5, 3.0, 20.0):
             got = gaps_in_pose(checker, poses[k], within, time=float(times[k]))
             assert [g.pair for g in got] == sorted((p for p in d if d[p] < within), key=d.get), (name, k, within)
@@ -160,6 +163,6 @@ def test_branch_and_bound_finds_the_brute_force_minimum_on_any_poses(frames):
     poses = np.array([[_pose(*p) for p in frame] for frame in frames])
     pairs = non_adjacent_pairs(_SMALL)
     dist, pair, k = swept_min_clearance(checker, poses)
-    brute = min(checker.distance(i, j, poses[t, i], poses[t, j])[0] for t in range(len(poses)) for i, j in pairs)
+    brute = min(panel_distance(checker, i, j, poses[t, i], poses[t, j])[0] for t in range(len(poses)) for i, j in pairs)
     assert dist == pytest.approx(brute, abs=1e-9)
-    assert checker.distance(*pair, poses[k, pair[0]], poses[k, pair[1]])[0] == pytest.approx(dist, abs=1e-9)
+    assert panel_distance(checker, *pair, poses[k, pair[0]], poses[k, pair[1]])[0] == pytest.approx(dist, abs=1e-9)

@@ -20,7 +20,7 @@ those pairs). The same holds pose by pose for the clearance curve the page draws
 
 What is taken over is a bound, never a reported number: the clearance's pair, moment and
 distance are then found and measured on the new fold as ``min_clearance`` does (the
-earliest pose within the minimum plus ``tol.length``, its FCL distance). An unchanged
+earliest pose within the minimum plus ``tol.length``, its exact distance). An unchanged
 pair's distance on the new poses equals the old one up to floating round-off (its world
 poses differ in the last bits), far below ``tol.length``. Nothing is taken over when the
 geometry changed (a target angle, the hinge model), the sampled moments moved (an earlier
@@ -40,6 +40,7 @@ import numpy as np
 
 from ..collision.broadphase import non_adjacent_pairs, panel_centres
 from ..collision.clearance import Gap, earliest_within, sampled_poses
+from ..collision.polytope_distance import panel_distance
 from ..collision.swept3d import SweptChecker
 from ..collision.swept_search import min_clearance as swept_min_clearance
 from ..core.constants import tol
@@ -142,7 +143,7 @@ def changed_pairs(design: Design, pairs: np.ndarray, changed: np.ndarray) -> np.
 
 
 def search_pairs(checker: SweptChecker, poses: np.ndarray, pairs: np.ndarray, bound: float):
-    """The smallest FCL distance below ``bound`` of ``pairs`` over ``poses``:
+    """The smallest (exact) distance below ``bound`` of ``pairs`` over ``poses``:
     ``(distance, (i, j), pose index)``, or None when none is below it (branch and bound on
     sphere lower bounds, in time chunks, as :func:`~foldprint.collision.swept_search.min_clearance`)."""
     if len(pairs) == 0:
@@ -162,7 +163,7 @@ def search_pairs(checker: SweptChecker, poses: np.ndarray, pairs: np.ndarray, bo
             if lb[m] >= best[0]:
                 break
             i, j, t = int(pairs[m % n_p, 0]), int(pairs[m % n_p, 1]), int(k[m // n_p])
-            d, _ = checker.distance(i, j, poses[t, i], poses[t, j])
+            d, _ = panel_distance(checker, i, j, poses[t, i], poses[t, j])
             if d < best[0]:
                 best = (d, (i, j), t)
     return best if best[1] is not None else None
@@ -205,7 +206,7 @@ def nominal_clearance(ev, memo: Memo) -> tuple[Gap | None, Searched]:
     best, (i, j), k = s.best
     k, (i, j) = earliest(memo, poses, s, memo.clearance) or (k, (i, j))
     s = dataclasses.replace(s, split=None, earliest=(k, (i, j)))
-    dist, point = checker.distance(i, j, poses[k][i], poses[k][j])
+    dist, point = panel_distance(checker, i, j, poses[k][i], poses[k][j])
     panels = ev.design.panels
     return Gap(max(float(dist), 0.0), (i, j), (panels[i].id, panels[j].id), float(traj.times[ks[k]]),
                None if point is None else tuple(float(x) for x in point)), s
@@ -247,7 +248,7 @@ def earliest(memo: Memo, poses: np.ndarray, s: Searched, before: Searched | None
                 if t == k_prev and rows[m] > m_prev:
                     break
                 i, j = (int(x) for x in pairs[m])
-                if memo.checker.distance(i, j, poses[t][i], poses[t][j])[0] <= within:
+                if panel_distance(memo.checker, i, j, poses[t][i], poses[t][j])[0] <= within:
                     return t, (i, j)
     return prev
 

@@ -14,6 +14,7 @@ from ..core.jit import use_kernels
 from ..model.design import Design
 from .broadphase import candidate_runs, pair_bounds
 from .narrow_cost import check_narrow
+from .polytope_distance import panel_gap
 from .swept3d import Contact, SweptChecker
 
 
@@ -92,8 +93,9 @@ def screen(checker: SweptChecker, runs: np.ndarray, angles: np.ndarray, poses: n
 
 
 def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 19, block: int = 4096):
-    """Smallest FCL distance between non-adjacent panels over the given poses
-    (n_t, n, 4, 4): ``(distance, (i, j), time index)``, or None without pairs. Exact:
+    """Smallest distance between non-adjacent panels over the given poses (n_t, n, 4, 4):
+    ``(distance, (i, j), time index)``, or None without pairs. Exact (the distances are
+    :func:`~foldprint.collision.polytope_distance.panel_gap`'s, not FCL's):
     sphere lower bounds order the candidates and end the search (branch and bound).
 
     Streamed over time in chunks of about ``chunk`` (pose, pair) bounds: a chunk keeps only
@@ -127,7 +129,7 @@ def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 19
                                       pairs[m % n_p, 1].tolist(), k[m // n_p].tolist()):
                 if bound >= best[0]:
                     break
-                d = checker.gap(i, j, poses[t, i], poses[t, j])  # the distance's value, no point
+                d = panel_gap(checker, i, j, poses[t, i], poses[t, j])  # exact, no point
                 if d < best[0]:
                     best = (d, (i, j), t)
             else:

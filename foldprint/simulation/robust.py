@@ -204,6 +204,9 @@ def warm_kernels(args) -> None:
     the kernels' speed and not at the compiler's. Nothing where the numpy path runs."""
     if use_kernels() and len(args[2]):
         run_samples((args[0], args[1], list(args[2])[:1], *args[3:]))
+        from ..collision.polytope_distance import warm_kernel
+
+        warm_kernel()  # the narrow phase's distance: a sample the screen certifies never asks for it
 
 
 def run_samples(args) -> list[Outcome]:
