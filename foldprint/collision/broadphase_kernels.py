@@ -11,6 +11,8 @@ Imported only after :func:`foldprint.core.jit.use_kernels` said yes.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..core.jit import njit
@@ -28,3 +30,130 @@ def centres(poses, centroid):  # pragma: no cover - compiled
                 out[t, p, a] = (poses[t, p, a, 0] * centroid[p, 0] + poses[t, p, a, 1] * centroid[p, 1]
                                 + poses[t, p, a, 2] * centroid[p, 2]) + poses[t, p, a, 3]
     return out
+
+
+@njit
+def prefix_sums(angles, hinge, parent, child, n, y, yw):  # pragma: no cover - compiled
+    """:meth:`foldprint.physics.motion.TreeBounds.prefix`: A, B, W (n_t, n) over each
+    panel's root path of |rho_h(t) - rho_h(t_0)|, weighted by 1, ``y`` and ``yw`` (= y + w),
+    tree hinges (``hinge``, ``parent``, ``child``) root outward; the same sums."""
+    n_t = angles.shape[0]
+    A = np.zeros((n_t, n))
+    B = np.zeros((n_t, n))
+    W = np.zeros((n_t, n))
+    for t in range(n_t):
+        for f in range(hinge.shape[0]):
+            h, p, c = hinge[f], parent[f], child[f]
+            tf = abs(angles[t, h] - angles[0, h])
+            A[t, c] = A[t, p] + tf
+            B[t, c] = B[t, p] + tf * y[h]
+            W[t, c] = W[t, p] + tf * yw[h]
+    return A, B, W
+
+
+@njit
+def _sphere_gap(C, k, ra, rb, rsum):  # pragma: no cover - compiled
+    """|c_ra - c_rb| - rsum at grid index k, summed as ``np.linalg.norm`` sums."""
+    x = C[k, ra, 0] - C[k, rb, 0]
+    y = C[k, ra, 1] - C[k, rb, 1]
+    z = C[k, ra, 2] - C[k, rb, 2]
+    return math.sqrt((x * x + y * y) + z * z) - rsum
+
+
+@njit
+def _motion_at(A, B, W, k, near, far, xn, xf, qpl2, s, l):  # pragma: no cover - compiled
+    """:meth:`foldprint.physics.motion.TreeBounds.pair_motion` of one pair at grid index k."""
+    t1 = xn * (A[k, near] - A[k, s]) - (B[k, near] - B[k, s])
+    t2 = (xf - qpl2) * (A[k, s] - A[k, l]) + (W[k, s] - W[k, l])
+    t3 = xf * (A[k, far] - A[k, l]) - (B[k, far] - B[k, l])
+    return t1 + t2 + t3
+
+
+@njit
+def descend(A, B, W, C, ref, rad, left, right, xc, qp, t_l, t_sp, t_on_a, t_drop, a0, b0, ka0, kb0,
+            refine, margin):  # pragma: no cover - compiled
+    """The hierarchy descent of :func:`foldprint.collision.broadphase._descend`, depth first
+    (the same tests on the same numbers, one (group pair, interval) at a time: the same
+    set of rows and pending pairs, in another order). ``t_*``: the node pairs' static data
+    (lca, split panel, side, dropped) in dense (m * m) tables. Returns narrow rows (r, 4:
+    i, j, ka, kb), pending (p, 3: a, b, k) and the (group pair, interval)s examined."""
+    m = ref.shape[0]
+    cap = 64
+    rows = np.empty((cap, 4), np.int64)
+    nr = 0
+    pend = np.empty((cap, 3), np.int64)
+    npend = 0
+    stack = np.empty((max(cap, 4 * a0.shape[0]), 4), np.int64)
+    top = 0
+    for q in range(a0.shape[0]):
+        stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = a0[q], b0[q], ka0[q], kb0[q]
+        top += 1
+    nodes = 0
+    scale = 1 + 1e-9
+    while top > 0:
+        top -= 1
+        a, b, ka, kb = stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3]
+        nodes += 1
+        if top + 3 >= stack.shape[0]:
+            grown = np.empty((2 * stack.shape[0], 4), np.int64)
+            grown[:top] = stack[:top]
+            stack = grown
+        if a == b:
+            if left[a] >= 0:
+                L, R = left[a], right[a]
+                for x, y in ((L, L), (R, R), (L, R)):
+                    stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = x, y, ka, kb
+                    top += 1
+            continue
+        ra, rb = ref[a], ref[b]
+        code = a * m + b
+        l, s, on_a = t_l[code], t_sp[code], t_on_a[code]
+        rsum = rad[a] + rad[b]
+        da = _sphere_gap(C, ka, ra, rb, rsum)
+        db = _sphere_gap(C, kb, ra, rb, rsum)
+        xa, xb = xc[ra], xc[rb]
+        if on_a:
+            near, far, xn, xf = ra, rb, xa, xb
+        else:
+            near, far, xn, xf = rb, ra, xb, xa
+        qpl2 = 2 * qp[l]
+        dF = (_motion_at(A, B, W, kb, near, far, xn, xf, qpl2, s, l)
+              - _motion_at(A, B, W, ka, near, far, xn, xf, qpl2, s, l))
+        keep = not (da + db > dF * scale + margin) and not t_drop[code]
+        if not keep:
+            continue
+        leaf_a, leaf_b = left[a] < 0, left[b] < 0
+        both = leaf_a and leaf_b
+        span = kb - ka
+        dmin = min(da, db)
+        rmax = max(0.0 if leaf_a else rad[a], 0.0 if leaf_b else rad[b])
+        far_apart = dmin > 0 and (both or dmin > rmax)
+        if refine and far_apart and span == 1:
+            if npend == pend.shape[0]:
+                g = np.empty((2 * npend, 3), np.int64)
+                g[:npend] = pend[:npend]
+                pend = g
+            pend[npend, 0], pend[npend, 1], pend[npend, 2] = a, b, ka
+            npend += 1
+            continue
+        if far_apart and span > 1:
+            km = (ka + kb) // 2
+            stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = a, b, ka, km
+            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2], stack[top + 1, 3] = a, b, km, kb
+            top += 2
+        elif both:
+            if nr == rows.shape[0]:
+                g = np.empty((2 * nr, 4), np.int64)
+                g[:nr] = rows[:nr]
+                rows = g
+            rows[nr, 0], rows[nr, 1], rows[nr, 2], rows[nr, 3] = min(ra, rb), max(ra, rb), ka, kb
+            nr += 1
+        else:
+            if not leaf_a and (leaf_b or rad[a] >= rad[b]):
+                x, y = a, b
+            else:
+                x, y = b, a
+            stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = left[x], y, ka, kb
+            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2], stack[top + 1, 3] = right[x], y, ka, kb
+            top += 2
+    return rows[:nr].copy(), pend[:npend].copy(), nodes
