@@ -14,6 +14,7 @@ import numpy as np
 
 from ..core.constants import DEFAULT_DT_S
 from ..core.errors import DesignError
+from ..core.jit import use_kernels
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
 from ..model.design import Design, has_loops
 from ..model.materials import MaterialLibrary, default_library
@@ -44,10 +45,14 @@ class HingeDrive:
     compliant = False
 
     def __init__(self, design: Design, bath_c: float | None = None,
-                 library: MaterialLibrary | None = None, curves=None):
+                 library: MaterialLibrary | None = None, curves=None, *, stack: np.ndarray | None = None,
+                 statics: tuple[np.ndarray, np.ndarray] | None = None):
         """Nominal recovery curves of each hinge's material, thickness and the bath, or
         the given ``curves`` (one :class:`~foldprint.physics.recovery.curve.RecoveryCurve` per hinge, in
-        ``design.hinges`` order: e.g. a scattered sample from :mod:`foldprint.simulation.robust`)."""
+        ``design.hinges`` order: e.g. a scattered sample from :mod:`foldprint.simulation.robust`).
+        ``stack``: the curves' ratios already stacked (n_grid, n_hinges) on their common
+        grid, ``statics``: (target angles, fixities) of this design and library (a
+        Monte-Carlo chunk's drives share them, :meth:`statics`)."""
         self.design = design
         self.bath_c = float(design.process.bath_temperature_c if bath_c is None else bath_c)
         lib = library or default_library()
@@ -58,8 +63,8 @@ class HingeDrive:
         elif len(curves) != len(design.hinges):
             raise DesignError(f"{len(curves)} recovery curves for {len(design.hinges)} hinges")
         self.curves = list(curves)
-        self.target = target_angles(design)
-        self.fixity = hinge_fixities(design, lib)
+        self.target, self.fixity = statics if statics is not None else (target_angles(design),
+                                                                          hinge_fixities(design, lib))
         self.frozen_at: dict[int, float] = {}  # hinge index -> time it was arrested
         # loops (rigid origami): angles() gives the closed angles nearest the drive
         self.loops = LoopSolver(hinge_frames(design), [h.id for h in design.hinges]) \
@@ -69,10 +74,19 @@ class HingeDrive:
 
         # every curve lives on the same internal grid: stack them for one fused lookup
         self._grid = self.curves[0].t if self.curves else np.zeros(1)
-        if all(c.t is self._grid or np.array_equal(c.t, self._grid) for c in self.curves):
+        if stack is not None:
+            if stack.shape != (len(self._grid), len(self.curves)):
+                raise DesignError(f"a stack of ratios {stack.shape} for {len(self.curves)} curves "
+                                  f"on {len(self._grid)} grid times")
+            self._stack = stack
+        elif all(c.t is self._grid or np.array_equal(c.t, self._grid) for c in self.curves):
             self._stack = np.stack([c.ratio for c in self.curves], axis=1) if self.curves else None
         else:  # pragma: no cover - custom horizons
             self._stack = None
+
+    def statics(self) -> tuple[np.ndarray, np.ndarray]:
+        """(target angles, fixities): what another drive of this design and library shares."""
+        return self.target, self.fixity
 
     def copy(self) -> "HingeDrive":
         """The same drive with no hinge arrested (shares the curves and the loop solver)."""
@@ -101,6 +115,10 @@ class HingeDrive:
         """The stacked curves interpolated at times ``tt``: (n_t,), the same for every hinge,
         or (n_t, n_hinges), a time per hinge (the same numbers either way); R = 0 before 0."""
         g = self._grid
+        if tt.ndim == 1 and use_kernels():
+            from .kinematics_kernels import stacked_at
+
+            return stacked_at(g, self._stack, np.ascontiguousarray(tt, float))
         tc = np.clip(tt, g[0], g[-1])
         k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
         f = (tc - g[k]) / (g[k + 1] - g[k])
@@ -217,8 +235,8 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         with np.errstate(divide="ignore", invalid="ignore"):
             ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
         ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
-    else:
-        angles = drive.angles(times)
+    else:  # drive.driven(times) on the ratios just read (the same numbers, read once)
+        angles = drive.target[None] * (1.0 - (1.0 - ratios) * drive.fixity[None])
     poses = forward(design, angles, model, compiled=True) if loop is None else _held_forward(design, angles, model)
     if loop is not None and model == HingeModel.ARC:
         loop = _with_arc_gap(design, loop, angles, poses)

@@ -32,30 +32,41 @@ def chain_poses(angles, hinge, parent, child, root, n_panels, k, kk, q, start, n
     cross-product matrix ``k`` (and ``kk`` = K^2), fold-line point ``q``, strip start,
     in-plane normal ``nrm``, child's edge ``line``, flat width ``w`` and whether it is
     ``centred``; ``point``: the point hinge model (else arc). Panels off the tree are
-    the identity with ``fill_eye``, else 0 (as ``forward`` leaves them)."""
+    the identity with ``fill_eye``, else 0 (as ``forward`` leaves them). The rotation and
+    translation are held in scalars (registers), the bottom row written, not multiplied."""
     n_t = angles.shape[0]
     nh = hinge.shape[0]
-    poses = np.zeros((n_t, n_panels, 4, 4))
-    rot = np.empty((3, 3))
-    tr = np.empty(3)
+    poses = np.empty((n_t, n_panels, 4, 4))
+    on_tree = np.zeros(n_panels, np.bool_)
+    on_tree[root] = True
+    for h in range(nh):
+        on_tree[child[h]] = True
     for t in range(n_t):
         P = poses[t]
-        if fill_eye:
-            for p in range(n_panels):
+        for p in range(n_panels):
+            if not on_tree[p] or p == root:  # the root and panels off the tree
+                d = 1.0 if (fill_eye or p == root) else 0.0
                 for a in range(4):
-                    P[p, a, a] = 1.0
-        for a in range(4):
-            P[root, a, a] = 1.0
+                    for b in range(4):
+                        P[p, a, b] = d if a == b else 0.0
         for h in range(nh):
             ang = angles[t, hinge[h]]
             s = math.sin(ang)
             c1 = 1.0 - math.cos(ang)
-            for a in range(3):
-                for b in range(3):
-                    rot[a, b] = ((1.0 if a == b else 0.0) + s * k[h, a, b]) + c1 * kk[h, a, b]
+            r00 = (1.0 + s * k[h, 0, 0]) + c1 * kk[h, 0, 0]
+            r01 = (0.0 + s * k[h, 0, 1]) + c1 * kk[h, 0, 1]
+            r02 = (0.0 + s * k[h, 0, 2]) + c1 * kk[h, 0, 2]
+            r10 = (0.0 + s * k[h, 1, 0]) + c1 * kk[h, 1, 0]
+            r11 = (1.0 + s * k[h, 1, 1]) + c1 * kk[h, 1, 1]
+            r12 = (0.0 + s * k[h, 1, 2]) + c1 * kk[h, 1, 2]
+            r20 = (0.0 + s * k[h, 2, 0]) + c1 * kk[h, 2, 0]
+            r21 = (0.0 + s * k[h, 2, 1]) + c1 * kk[h, 2, 1]
+            r22 = (1.0 + s * k[h, 2, 2]) + c1 * kk[h, 2, 2]
             if point:
-                for a in range(3):
-                    tr[a] = q[h, a] - (rot[a, 0] * q[h, 0] + rot[a, 1] * q[h, 1] + rot[a, 2] * q[h, 2])
+                q0, q1, q2 = q[h, 0], q[h, 1], q[h, 2]
+                t0 = q0 - (r00 * q0 + r01 * q1 + r02 * q2)
+                t1 = q1 - (r10 * q0 + r11 * q1 + r12 * q2)
+                t2 = q2 - (r20 * q0 + r21 * q1 + r22 * q2)
             else:
                 if abs(ang) < 1e-6:
                     sc = 1.0 - ang ** 2 / 6.0
@@ -70,13 +81,44 @@ def chain_poses(angles, hinge, parent, child, root, n_panels, k, kk, q, start, n
                         arc = w[h] * (1.0 - half ** 2 / 3.0)
                     else:
                         arc = w[h] * (half / math.tan(min(half, math.pi / 2 - 1e-12)))
-                for a in range(3):
-                    turned = rot[a, 0] * line[h, 0] + rot[a, 1] * line[h, 1] + rot[a, 2] * line[h, 2]
-                    tip = start[h, a] + (arc * sc) * nrm[h, a] + ((arc * cc) if a == 2 else 0.0)
-                    tr[a] = tip - turned
+                l0, l1, l2 = line[h, 0], line[h, 1], line[h, 2]
+                t0 = (start[h, 0] + (arc * sc) * nrm[h, 0] + 0.0) - (r00 * l0 + r01 * l1 + r02 * l2)
+                t1 = (start[h, 1] + (arc * sc) * nrm[h, 1] + 0.0) - (r10 * l0 + r11 * l1 + r12 * l2)
+                t2 = (start[h, 2] + (arc * sc) * nrm[h, 2] + (arc * cc)) - (r20 * l0 + r21 * l1 + r22 * l2)
             pa, ch = parent[h], child[h]
-            for a in range(4):
-                for b in range(3):
-                    P[ch, a, b] = P[pa, a, 0] * rot[0, b] + P[pa, a, 1] * rot[1, b] + P[pa, a, 2] * rot[2, b]
-                P[ch, a, 3] = P[pa, a, 0] * tr[0] + P[pa, a, 1] * tr[1] + P[pa, a, 2] * tr[2] + P[pa, a, 3]
+            for a in range(3):
+                p0, p1, p2 = P[pa, a, 0], P[pa, a, 1], P[pa, a, 2]
+                P[ch, a, 0] = p0 * r00 + p1 * r10 + p2 * r20
+                P[ch, a, 1] = p0 * r01 + p1 * r11 + p2 * r21
+                P[ch, a, 2] = p0 * r02 + p1 * r12 + p2 * r22
+                P[ch, a, 3] = p0 * t0 + p1 * t1 + p2 * t2 + P[pa, a, 3]
+            P[ch, 3, 0] = 0.0
+            P[ch, 3, 1] = 0.0
+            P[ch, 3, 2] = 0.0
+            P[ch, 3, 3] = 1.0
     return poses
+
+
+@njit
+def stacked_at(grid, stack, t):  # pragma: no cover - compiled
+    """:meth:`foldprint.physics.hinge_drive.HingeDrive._stacked` at one time per row: the
+    columns of ``stack`` (n_grid, n) interpolated at times ``t`` (n_t,), 0 before 0; the
+    same index (``searchsorted(side="right") - 1``, clipped), fraction and sums."""
+    n_t, n, ng = t.shape[0], stack.shape[1], grid.shape[0]
+    out = np.empty((n_t, n))
+    g0, g1 = grid[0], grid[ng - 1]
+    for r in range(n_t):
+        tc = min(max(t[r], g0), g1)
+        lo, hi = 0, ng  # first index with grid > tc
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if grid[mid] <= tc:
+                lo = mid + 1
+            else:
+                hi = mid
+        k = min(max(lo - 1, 0), ng - 2)
+        f = (tc - grid[k]) / (grid[k + 1] - grid[k])
+        for c in range(n):
+            a = stack[k, c]
+            out[r, c] = 0.0 if t[r] < 0 else a + (stack[k + 1, c] - a) * f
+    return out
