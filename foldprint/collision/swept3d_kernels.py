@@ -108,20 +108,20 @@ def _reach(angles, k, kb, k0, idx, lev, limit):  # pragma: no cover - compiled
 
 
 @njit
-def screen_runs(runs, angles, poses, pts, poff, idx, lev, loff, tol, margin):  # pragma: no cover - compiled
+def screen_runs(runs, angles, poses, pts, poff, idx, lev, lo, hi, tol, margin):  # pragma: no cover - compiled
     """The first sample of each run (m, 4: i, j, ka, kb) the screen cannot certify (kb when
     it certifies the whole run). ``pts`` / ``poff``: every panel's prism vertices (panel
-    frame) and their offsets; ``idx`` / ``lev`` / ``loff``: each run's path hinges, levers
-    and offsets; ``tol``: the contact tolerance; ``margin``: added to every motion bound
-    (round-off of the bound and of the motion sums)."""
+    frame) and their offsets; ``idx`` / ``lev``: path hinges and levers, run r's from
+    ``lo[r]`` to ``hi[r]``; ``tol``: the contact tolerance; ``margin``: added to every
+    motion bound (round-off of the bound and of the motion sums)."""
     m = runs.shape[0]
     out = np.empty(m, np.int64)
     for r in range(m):
         i, j, ka, kb = runs[r, 0], runs[r, 1], runs[r, 2], runs[r, 3]
         pi = pts[poff[i]:poff[i + 1]]
         pj = pts[poff[j]:poff[j + 1]]
-        ri = idx[loff[r]:loff[r + 1]]
-        rl = lev[loff[r]:loff[r + 1]]
+        ri = idx[lo[r]:hi[r]]
+        rl = lev[lo[r]:hi[r]]
         k = ka
         d = lower_bound(poses[k, i], poses[k, j], pi, pj)
         fk = 0.0

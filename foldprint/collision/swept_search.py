@@ -76,15 +76,23 @@ def screen(checker: SweptChecker, runs: np.ndarray, angles: np.ndarray, poses: n
     FCL; the narrow phase walks them as it walked the whole run."""
     from .swept3d_kernels import screen_runs
 
-    idx, lev, off = [], [], [0]
-    for i, j in runs[:, :2].tolist():
-        a, b = checker.levers((i, j))
-        idx.append(np.asarray(a, np.int64))
-        lev.append(np.asarray(b, float))
-        off.append(off[-1] + len(a))
+    table = checker.lever_table()
+    if table is not None:  # every pair's levers, tabled once per design
+        idx, lev, first = table
+        code = runs[:, 0] * len(checker.design.panels) + runs[:, 1]
+        lo, hi = first[code], first[code + 1]
+    else:  # a large design: its runs' levers gathered here
+        idx, lev, off = [], [], [0]
+        for i, j in runs[:, :2].tolist():
+            a, b = checker.levers((i, j))
+            idx.append(np.asarray(a, np.int64))
+            lev.append(np.asarray(b, float))
+            off.append(off[-1] + len(a))
+        idx, lev, off = np.concatenate(idx), np.concatenate(lev), np.array(off, np.int64)
+        lo, hi = off[:-1], off[1:]
     start = screen_runs(runs, np.ascontiguousarray(angles, float), np.ascontiguousarray(poses, float),
-                        checker.hull_pts, checker.hull_off, np.concatenate(idx), np.concatenate(lev),
-                        np.array(off, np.int64), float(checker.tol), 1e-9 * (checker.extent + 1.0))
+                        checker.hull_pts, checker.hull_off, idx, lev, np.ascontiguousarray(lo),
+                        np.ascontiguousarray(hi), float(checker.tol), 1e-9 * (checker.extent + 1.0))
     out = runs.copy()
     out[:, 2] = start
     out = out[start < runs[:, 3]]
