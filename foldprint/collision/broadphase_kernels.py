@@ -70,13 +70,46 @@ def _motion_at(A, B, W, k, near, far, xn, xf, qpl2, s, l):  # pragma: no cover -
 
 
 @njit
-def descend(A, B, W, C, ref, rad, left, right, xc, qp, t_l, t_sp, t_on_a, t_drop, a0, b0, ka0, kb0,
-            refine, margin):  # pragma: no cover - compiled
+def _ensure_row(k, done, angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, A, B, W, C):  # pragma: no cover
+    """Fill row k of the prefix sums (as :func:`prefix_sums`, turning from ``ang_ref``) and of
+    the centres (as :func:`centres`) the first time the descent reads it."""
+    if done[k]:
+        return
+    done[k] = True
+    n = A.shape[1]
+    for v in range(n):
+        A[k, v] = 0.0
+        B[k, v] = 0.0
+        W[k, v] = 0.0
+        for a in range(3):
+            C[k, v, a] = (poses[k, v, a, 0] * centroid[v, 0] + poses[k, v, a, 1] * centroid[v, 1]
+                          + poses[k, v, a, 2] * centroid[v, 2]) + poses[k, v, a, 3]
+    for f in range(hinge.shape[0]):
+        h, p, c = hinge[f], parent[f], child[f]
+        tf = abs(angles[k, h] - ang_ref[h])
+        A[k, c] = A[k, p] + tf
+        B[k, c] = B[k, p] + tf * y[h]
+        W[k, c] = W[k, p] + tf * yw[h]
+
+
+@njit
+def descend(angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, ref, rad, left, right, xc, qp,
+            t_l, t_sp, t_on_a, t_drop, a0, b0, ka0, kb0, refine, margin):  # pragma: no cover - compiled
     """The hierarchy descent of :func:`foldprint.collision.broadphase._descend`, depth first
     (the same tests on the same numbers, one (group pair, interval) at a time: the same
-    set of rows and pending pairs, in another order). ``t_*``: the node pairs' static data
+    set of rows and pending pairs, in another order). The centres (world centroids at
+    ``poses``, sheet centroids ``centroid``) and the prefix sums A, B, W (turning from
+    ``ang_ref``, tree hinges ``hinge``, ``parent``, ``child`` root outward, weights ``y``
+    and ``yw``) are computed only at the grid indices the descent reads, with the same
+    sums as :func:`centres` and :func:`prefix_sums`. ``t_*``: the node pairs' static data
     (lca, split panel, side, dropped) in dense (m * m) tables. Returns narrow rows (r, 4:
     i, j, ka, kb), pending (p, 3: a, b, k) and the (group pair, interval)s examined."""
+    n_t, n = poses.shape[0], poses.shape[1]
+    A = np.empty((n_t, n))
+    B = np.empty((n_t, n))
+    W = np.empty((n_t, n))
+    C = np.empty((n_t, n, 3))
+    done = np.zeros(n_t, np.bool_)
     m = ref.shape[0]
     cap = 64
     rows = np.empty((cap, 4), np.int64)
@@ -101,12 +134,14 @@ def descend(A, B, W, C, ref, rad, left, right, xc, qp, t_l, t_sp, t_on_a, t_drop
         if a == b:
             if left[a] >= 0:
                 L, R = left[a], right[a]
-                for x, y in ((L, L), (R, R), (L, R)):
-                    stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = x, y, ka, kb
+                for u, v in ((L, L), (R, R), (L, R)):
+                    stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = u, v, ka, kb
                     top += 1
             continue
         ra, rb = ref[a], ref[b]
         code = a * m + b
+        _ensure_row(ka, done, angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, A, B, W, C)
+        _ensure_row(kb, done, angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, A, B, W, C)
         l, s, on_a = t_l[code], t_sp[code], t_on_a[code]
         rsum = rad[a] + rad[b]
         da = _sphere_gap(C, ka, ra, rb, rsum)
@@ -150,10 +185,10 @@ def descend(A, B, W, C, ref, rad, left, right, xc, qp, t_l, t_sp, t_on_a, t_drop
             nr += 1
         else:
             if not leaf_a and (leaf_b or rad[a] >= rad[b]):
-                x, y = a, b
+                u, v = a, b
             else:
-                x, y = b, a
-            stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = left[x], y, ka, kb
-            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2], stack[top + 1, 3] = right[x], y, ka, kb
+                u, v = b, a
+            stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = left[u], v, ka, kb
+            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2], stack[top + 1, 3] = right[u], v, ka, kb
             top += 2
     return rows[:nr].copy(), pend[:npend].copy(), nodes
