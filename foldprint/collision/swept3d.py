@@ -191,7 +191,7 @@ class SweptChecker:
         if hit is None:
             if len(self._world) >= 64:
                 self._world.pop(next(iter(self._world)))
-            ang = self.drive.angles([t])
+            ang = self.drive.angles_at(t) if hasattr(self.drive, "angles_at") else self.drive.angles([t])
             hit = self._world[key] = (self.transforms.poses(ang)[0], self.bound_coords([t], ang))
         return hit
 

@@ -122,3 +122,15 @@ def stacked_at(grid, stack, t):  # pragma: no cover - compiled
             a = stack[k, c]
             out[r, c] = 0.0 if t[r] < 0 else a + (stack[k + 1, c] - a) * f
     return out
+
+
+@njit
+def driven_at(grid, stack, t, target, fixity):  # pragma: no cover - compiled
+    """:meth:`foldprint.physics.hinge_drive.HingeDrive.driven` at one time ``t``, (1, n):
+    target (1 - (1 - R) fixity), R the stacked curves at t (:func:`stacked_at`)."""
+    tt = np.empty(1)
+    tt[0] = t
+    r = stacked_at(grid, stack, tt)
+    for c in range(r.shape[1]):
+        r[0, c] = target[c] * (1.0 - (1.0 - r[0, c]) * fixity[c])
+    return r
