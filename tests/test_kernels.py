@@ -147,6 +147,81 @@ def test_the_screens_bound_is_never_above_fcls_distance(data):
         assert lb <= max(dist, 0.0) + 1e-9 * (1 + _size(d)), (i, j, lb, dist)
 
 
+# -- the broad phase's compiled descent and the screen against FCL ---------------------------
+
+def _folded(d, dt=0.05):
+    from foldprint.collision.swept3d import SweptChecker
+    from foldprint.physics.hinge_drive import HingeDrive, simulate_kinematics
+
+    drive = HingeDrive(d)
+    return SweptChecker(d, "arc", drive), simulate_kinematics(d, model=HingeModel.ARC, dt=dt, drive=drive)
+
+
+def _runs_both(ch, traj):
+    from foldprint.collision.broadphase import candidate_runs
+
+    def runs():
+        ch.n_broad_nodes = 0
+        return candidate_runs(ch, traj.angles, traj.poses, 0, None, traj.times), ch.n_broad_nodes
+
+    (r0, n0), (r1, n1) = _both(runs)
+    assert np.array_equal(r0, r1) and n0 == n1, (len(r0), len(r1), n0, n1)
+    return r1
+
+
+@settings(max_examples=10, deadline=None, derandomize=True, database=None)
+@given(data=st.data())
+def test_the_compiled_descent_leaves_the_numpy_descents_runs(data):
+    """The same candidate runs (and node count) on both paths: the compiled descent tests
+    the same (group pair, interval)s on the same numbers, depth first."""
+    _runs_both(*_folded(random_strip(data, 3, 16)))
+
+
+def test_the_compiled_descent_refines_as_the_numpy_one():
+    """A 30-panel strip whose far pairs are re-tested between samples (the refinement's
+    descents run, on both paths) leaves the same runs."""
+    from foldprint.collision import broadphase
+
+    rng = np.random.default_rng(0)
+    d = strip("long", list(rng.uniform(6, 30, 30)), list(rng.choice([-170, -120, 90, 150, 170], 29)),
+              ["H-2"] * 29, radius=2.0)
+    calls = []
+    refine = broadphase._refine  # noqa: SLF001 -- counted, not replaced
+    with mock.patch.object(broadphase, "_refine", lambda *a, **k: calls.append(1) or refine(*a, **k)):
+        _runs_both(*_folded(d))
+    assert len(calls) >= 2  # on each path
+
+
+def _fcl_contacts_kept(d) -> int:
+    """Every (pair, sample) FCL finds within the contact tolerance (every 5th sample) lies in
+    a run the broad phase leaves and the screen starts at or before; returns how many."""
+    from foldprint.collision.broadphase import candidate_runs, non_adjacent_pairs
+    from foldprint.collision.swept_search import screen
+
+    ch, tr = _folded(d)
+    runs = candidate_runs(ch, tr.angles, tr.poses, 0, None, tr.times)
+    left = screen(ch, runs, tr.angles, tr.poses).tolist() if len(runs) else []
+    touching = 0
+    for i, j in non_adjacent_pairs(d):
+        for k in range(0, len(tr.times), 5):
+            if ch.gap(i, j, tr.poses[k, i], tr.poses[k, j]) <= ch.tol:
+                touching += 1
+                assert any(r[:2] == [i, j] and r[2] <= k <= r[3] for r in left), (i, j, k)
+    return touching
+
+
+@settings(max_examples=8, deadline=None, derandomize=True, database=None)
+@given(data=st.data())
+def test_broad_phase_and_screen_never_certify_an_fcl_contact(data):
+    _fcl_contacts_kept(random_strip(data, 3, 8))
+
+
+@pytest.mark.parametrize("lengths, angles", [([30, 10, 30, 10, 30], [170] * 4), ([20] * 4, [170] * 3)])
+def test_a_strip_folding_onto_itself_keeps_its_fcl_contacts(lengths, angles):
+    """The same on strips that fold onto themselves (so the check has contacts to keep)."""
+    assert _fcl_contacts_kept(strip("coil", lengths, angles, ["H-2"] * len(angles), radius=2.0)) > 0
+
+
 # -- panel centres --------------------------------------------------------------------------
 
 @pytest.mark.parametrize("name", ["miura_3x3", "mailbox"])
