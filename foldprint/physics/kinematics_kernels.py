@@ -8,8 +8,8 @@ tip, start + u sinc(rho) n + u (1 - cos rho) / rho z (u the arc length: the flat
 for a ``centred`` frame the width times (rho/2) / tan(rho/2)), less R times the child's
 edge line. The pose of a child is its parent's pose times that transform, as
 :func:`~foldprint.physics.kinematics.forward` takes it; the products are summed in the same
-order, the sines and cosines are the compiler's (LLVM's libm against numpy's own), so the
-poses agree with the reference to round-off (measured up to 3.4e-13 mm on the templates'
+order, the sines and cosines a vectorised polynomial within 1 ulp of libm (:func:`sincos`),
+so the poses agree with the reference to round-off (measured up to 3.4e-13 mm on the templates'
 100 mm helices, asserted below 1e-11 of the sheet's size in ``tests/test_kernels.py``).
 
 Imported only after :func:`foldprint.core.jit.use_kernels` said yes.
@@ -22,6 +22,53 @@ import math
 import numpy as np
 
 from ..core.jit import njit
+
+
+#: fdlibm's minimax polynomials of sin and cos on [-pi/4, pi/4] (k_sin.c, k_cos.c; Sun
+#: Microsystems 1993, the kernels of glibc's and numpy's scalar sin and cos)
+_S = (-1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04,
+      2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10)
+_C = (4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05,
+      -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11)
+#: 2/pi and pi/2 in three parts (fdlibm's e_rem_pio2.c: Cody and Waite's reduction)
+_INV_PIO2 = 6.36619772367581382433e-01
+_PIO2 = (1.57079632673412561417e+00, 6.07710050630396597660e-11, 2.02226624871116645580e-21)
+#: angles (rad) past which the scalar libm takes over (the three-part reduction keeps
+#: full precision to |k| ~ 2**20 quarter turns; fold angles are within a turn)
+SINCOS_REDUCED = 1e5
+
+
+@njit
+def sincos(angles):  # pragma: no cover - compiled
+    """sin(a) and 1 - cos(a) of every angle, (same shape each): one reduction by pi/2 and
+    fdlibm's polynomials, branch-free, so the compiler vectorises the loop (libm's scalar
+    sin and cos were half a pose's cost); within 1 ulp of libm (``tests/test_kernels.py``).
+    Angles past :data:`SINCOS_REDUCED` or not finite go to libm."""
+    x = np.ascontiguousarray(angles).reshape(-1)
+    n = x.shape[0]
+    s = np.empty(n)
+    c1 = np.empty(n)
+    s1, s2, s3, s4, s5, s6 = _S
+    q1, q2, q3, q4, q5, q6 = _C
+    p1, p2, p3 = _PIO2
+    for i in range(n):
+        v = x[i]
+        k = np.floor(v * _INV_PIO2 + 0.5)
+        r = ((v - k * p1) - k * p2) - k * p3
+        z = r * r
+        sn = r + (z * r) * (s1 + z * (s2 + z * (s3 + z * (s4 + z * (s5 + z * s6)))))
+        cs = 1.0 - (0.5 * z - z * (z * (q1 + z * (q2 + z * (q3 + z * (q4 + z * (q5 + z * q6)))))))
+        q = np.int64(k)
+        odd = (q & 1) != 0
+        sv = cs if odd else sn
+        cv = sn if odd else cs
+        s[i] = -sv if (q & 2) != 0 else sv
+        c1[i] = 1.0 - (-cv if ((q + 1) & 2) != 0 else cv)
+    for i in range(n):  # the rare angle the reduction does not hold: libm
+        if not abs(x[i]) <= SINCOS_REDUCED:
+            s[i] = math.sin(x[i])
+            c1[i] = 1.0 - math.cos(x[i])
+    return s.reshape(angles.shape), c1.reshape(angles.shape)
 
 
 @njit
@@ -37,6 +84,7 @@ def chain_poses(angles, hinge, parent, child, root, n_panels, k, kk, q, start, n
     n_t = angles.shape[0]
     nh = hinge.shape[0]
     poses = np.empty((n_t, n_panels, 4, 4))
+    sin_a, cos1_a = sincos(angles)
     on_tree = np.zeros(n_panels, np.bool_)
     on_tree[root] = True
     for h in range(nh):
@@ -51,8 +99,8 @@ def chain_poses(angles, hinge, parent, child, root, n_panels, k, kk, q, start, n
                         P[p, a, b] = d if a == b else 0.0
         for h in range(nh):
             ang = angles[t, hinge[h]]
-            s = math.sin(ang)
-            c1 = 1.0 - math.cos(ang)
+            s = sin_a[t, hinge[h]]
+            c1 = cos1_a[t, hinge[h]]
             r00 = (1.0 + s * k[h, 0, 0]) + c1 * kk[h, 0, 0]
             r01 = (0.0 + s * k[h, 0, 1]) + c1 * kk[h, 0, 1]
             r02 = (0.0 + s * k[h, 0, 2]) + c1 * kk[h, 0, 2]
