@@ -93,6 +93,36 @@ def _ensure_row(k, done, angles, ang_ref, poses, centroid, hinge, parent, child,
 
 
 @njit
+def _put(arr, k, v0, v1, v2, v3):  # pragma: no cover - compiled
+    """``arr`` (cap, 4) with row k set to (v0, v1, v2, v3), doubled first when full."""
+    if k >= arr.shape[0]:
+        grown = np.empty((2 * arr.shape[0], 4), np.int64)
+        grown[:k] = arr[:k]
+        arr = grown
+    arr[k, 0], arr[k, 1], arr[k, 2], arr[k, 3] = v0, v1, v2, v3
+    return arr
+
+
+@njit
+def _gaps(C, A, B, W, a, b, ka, kb, ref, rad, xc, qp, l, s, on_a):  # pragma: no cover - compiled
+    """Group pair (a, b) over [ka, kb]: the sphere gaps at both ends and the growth of the
+    centre motion bound between them (``TreeBounds.pair_motion``), as ``_descend`` takes them."""
+    ra, rb = ref[a], ref[b]
+    rsum = rad[a] + rad[b]
+    da = _sphere_gap(C, ka, ra, rb, rsum)
+    db = _sphere_gap(C, kb, ra, rb, rsum)
+    xa, xb = xc[ra], xc[rb]
+    if on_a:
+        near, far, xn, xf = ra, rb, xa, xb
+    else:
+        near, far, xn, xf = rb, ra, xb, xa
+    qpl2 = 2 * qp[l]
+    dF = (_motion_at(A, B, W, kb, near, far, xn, xf, qpl2, s, l)
+          - _motion_at(A, B, W, ka, near, far, xn, xf, qpl2, s, l))
+    return da, db, dF
+
+
+@njit
 def descend(angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, ref, rad, left, right, xc, qp,
             t_l, t_sp, t_on_a, t_drop, a0, b0, ka0, kb0, refine, margin):  # pragma: no cover - compiled
     """The hierarchy descent of :func:`foldprint.collision.broadphase._descend`, depth first
@@ -105,90 +135,48 @@ def descend(angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, ref, 
     (lca, split panel, side, dropped) in dense (m * m) tables. Returns narrow rows (r, 4:
     i, j, ka, kb), pending (p, 3: a, b, k) and the (group pair, interval)s examined."""
     n_t, n = poses.shape[0], poses.shape[1]
-    A = np.empty((n_t, n))
-    B = np.empty((n_t, n))
-    W = np.empty((n_t, n))
+    A, B, W = np.empty((n_t, n)), np.empty((n_t, n)), np.empty((n_t, n))
     C = np.empty((n_t, n, 3))
     done = np.zeros(n_t, np.bool_)
     m = ref.shape[0]
-    cap = 64
-    rows = np.empty((cap, 4), np.int64)
-    nr = 0
-    pend = np.empty((cap, 3), np.int64)
-    npend = 0
-    stack = np.empty((max(cap, 4 * a0.shape[0]), 4), np.int64)
-    top = 0
+    rows, pend, stack = np.empty((64, 4), np.int64), np.empty((64, 4), np.int64), np.empty((64, 4), np.int64)
+    nr = npend = top = nodes = 0
     for q in range(a0.shape[0]):
-        stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = a0[q], b0[q], ka0[q], kb0[q]
+        stack = _put(stack, top, a0[q], b0[q], ka0[q], kb0[q])
         top += 1
-    nodes = 0
-    scale = 1 + 1e-9
     while top > 0:
         top -= 1
         a, b, ka, kb = stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3]
         nodes += 1
-        if top + 3 >= stack.shape[0]:
-            grown = np.empty((2 * stack.shape[0], 4), np.int64)
-            grown[:top] = stack[:top]
-            stack = grown
         if a == b:
             if left[a] >= 0:
                 L, R = left[a], right[a]
-                for u, v in ((L, L), (R, R), (L, R)):
-                    stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = u, v, ka, kb
-                    top += 1
+                stack = _put(_put(_put(stack, top, L, L, ka, kb), top + 1, R, R, ka, kb), top + 2, L, R, ka, kb)
+                top += 3
             continue
-        ra, rb = ref[a], ref[b]
         code = a * m + b
         _ensure_row(ka, done, angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, A, B, W, C)
         _ensure_row(kb, done, angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, A, B, W, C)
-        l, s, on_a = t_l[code], t_sp[code], t_on_a[code]
-        rsum = rad[a] + rad[b]
-        da = _sphere_gap(C, ka, ra, rb, rsum)
-        db = _sphere_gap(C, kb, ra, rb, rsum)
-        xa, xb = xc[ra], xc[rb]
-        if on_a:
-            near, far, xn, xf = ra, rb, xa, xb
-        else:
-            near, far, xn, xf = rb, ra, xb, xa
-        qpl2 = 2 * qp[l]
-        dF = (_motion_at(A, B, W, kb, near, far, xn, xf, qpl2, s, l)
-              - _motion_at(A, B, W, ka, near, far, xn, xf, qpl2, s, l))
-        keep = not (da + db > dF * scale + margin) and not t_drop[code]
-        if not keep:
-            continue
+        da, db, dF = _gaps(C, A, B, W, a, b, ka, kb, ref, rad, xc, qp, t_l[code], t_sp[code], t_on_a[code])
+        if da + db > dF * (1 + 1e-9) + margin or t_drop[code]:
+            continue  # certified apart, or a pair not checked
         leaf_a, leaf_b = left[a] < 0, left[b] < 0
         both = leaf_a and leaf_b
-        span = kb - ka
         dmin = min(da, db)
-        rmax = max(0.0 if leaf_a else rad[a], 0.0 if leaf_b else rad[b])
-        far_apart = dmin > 0 and (both or dmin > rmax)
-        if refine and far_apart and span == 1:
-            if npend == pend.shape[0]:
-                g = np.empty((2 * npend, 3), np.int64)
-                g[:npend] = pend[:npend]
-                pend = g
-            pend[npend, 0], pend[npend, 1], pend[npend, 2] = a, b, ka
+        far_apart = dmin > 0 and (both or dmin > max(0.0 if leaf_a else rad[a], 0.0 if leaf_b else rad[b]))
+        if refine and far_apart and kb - ka == 1:
+            pend = _put(pend, npend, a, b, ka, 0)
             npend += 1
-            continue
-        if far_apart and span > 1:
+        elif far_apart and kb - ka > 1:
             km = (ka + kb) // 2
-            stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = a, b, ka, km
-            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2], stack[top + 1, 3] = a, b, km, kb
+            stack = _put(_put(stack, top, a, b, ka, km), top + 1, a, b, km, kb)
             top += 2
         elif both:
-            if nr == rows.shape[0]:
-                g = np.empty((2 * nr, 4), np.int64)
-                g[:nr] = rows[:nr]
-                rows = g
-            rows[nr, 0], rows[nr, 1], rows[nr, 2], rows[nr, 3] = min(ra, rb), max(ra, rb), ka, kb
+            ra, rb = ref[a], ref[b]
+            rows = _put(rows, nr, min(ra, rb), max(ra, rb), ka, kb)
             nr += 1
         else:
-            if not leaf_a and (leaf_b or rad[a] >= rad[b]):
-                u, v = a, b
-            else:
-                u, v = b, a
-            stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = left[u], v, ka, kb
-            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2], stack[top + 1, 3] = right[u], v, ka, kb
+            u, v = (a, b) if not leaf_a and (leaf_b or rad[a] >= rad[b]) else (b, a)
+            stack = _put(_put(stack, top, left[u], v, ka, kb), top + 1, right[u], v, ka, kb)
             top += 2
-    return rows[:nr].copy(), pend[:npend].copy(), nodes
+    return rows[:nr].copy(), pend[:npend, :3].copy(), nodes

@@ -135,6 +135,16 @@ class HingeDrive:
         r = self.ratios(t)
         return self.target[None] * (1.0 - (1.0 - r) * self.fixity[None])
 
+    def ratios_and_driven(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`ratios`, :meth:`driven`) at times ``t``, the ratios read once: one
+        compiled pass for a plain drive with no arrest (the same numbers)."""
+        plain = type(self).ratios is HingeDrive.ratios and type(self).driven is HingeDrive.driven
+        if plain and not self.frozen_at and self._stack is not None and len(self.curves) and use_kernels():
+            return kernels().ratios_driven(self._grid, self._stack, np.ascontiguousarray(t, float), self.target,
+                                           self.fixity)
+        r = self.ratios(t)
+        return r, (self.target[None] * (1.0 - (1.0 - r) * self.fixity[None]) if plain else self.driven(t))
+
     def angles_at(self, t: float) -> np.ndarray:
         """:meth:`angles` at one time, (1, n_hinges): the same numbers, by one compiled call
         for a hinge tree's plain drive (no arrest), where the narrow phase asks for the
@@ -233,7 +243,8 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
     if times is None:
         times = run_times(design, dt, duration)
     times = np.asarray(times, float)
-    ratios = drive.ratios(times)
+    tree = drive.loops is None and not drive.compliant
+    ratios, driven = drive.ratios_and_driven(times) if tree else (drive.ratios(times), None)
     loop = None
     if drive.loops is not None or drive.compliant:
         if drive.loops is not None:
@@ -243,8 +254,8 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         with np.errstate(divide="ignore", invalid="ignore"):
             ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
         ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
-    else:  # drive.driven(times) on the ratios just read (the same numbers, read once)
-        angles = drive.target[None] * (1.0 - (1.0 - ratios) * drive.fixity[None])
+    else:  # a hinge tree's angles are what its hinges ask for: drive.driven(times)
+        angles = driven
     poses = forward(design, angles, model, compiled=True) if loop is None else _held_forward(design, angles, model)
     if loop is not None and model == HingeModel.ARC:
         loop = _with_arc_gap(design, loop, angles, poses)

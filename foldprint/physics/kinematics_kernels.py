@@ -182,3 +182,15 @@ def driven_at(grid, stack, t, target, fixity):  # pragma: no cover - compiled
     for c in range(r.shape[1]):
         r[0, c] = target[c] * (1.0 - (1.0 - r[0, c]) * fixity[c])
     return r
+
+
+@njit
+def ratios_driven(grid, stack, t, target, fixity):  # pragma: no cover - compiled
+    """(ratios, driven angles) at times ``t``: :func:`stacked_at` and target (1 - (1 - R)
+    fixity) of each, in one pass (the same numbers as the two apart)."""
+    r = stacked_at(grid, stack, t)
+    a = np.empty_like(r)
+    for i in range(r.shape[0]):
+        for c in range(r.shape[1]):
+            a[i, c] = target[c] * (1.0 - (1.0 - r[i, c]) * fixity[c])
+    return r, a
