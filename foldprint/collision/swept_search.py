@@ -30,6 +30,8 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
     check_narrow(checker, runs, poses.nbytes + angles.nbytes)
     if len(runs) and use_kernels():
         runs = screen(checker, runs, angles, poses)
+    if not len(runs):  # every run certified (a strip sample's usual case): no narrow phase to set up
+        return None, []
     best, initial = None, []
     # advance every candidate pair together in time (a heap on the sample each has
     # certified): once the earliest open pair is past the best contact, stop
