@@ -93,14 +93,21 @@ def _ensure_row(k, done, angles, ang_ref, poses, centroid, hinge, parent, child,
 
 
 @njit
-def _put(arr, k, v0, v1, v2, v3):  # pragma: no cover - compiled
-    """``arr`` (cap, 4) with row k set to (v0, v1, v2, v3), doubled first when full."""
-    if k >= arr.shape[0]:
-        grown = np.empty((2 * arr.shape[0], 4), np.int64)
-        grown[:k] = arr[:k]
-        arr = grown
-    arr[k, 0], arr[k, 1], arr[k, 2], arr[k, 3] = v0, v1, v2, v3
-    return arr
+def _room(arr, k):  # pragma: no cover - compiled
+    """``arr`` (cap, 4), doubled (its first k rows kept) when fewer than 3 rows are free past k."""
+    if k + 3 <= arr.shape[0]:
+        return arr
+    grown = np.empty((2 * arr.shape[0] + 3, 4), np.int64)
+    grown[:k] = arr[:k]
+    return grown
+
+
+@njit
+def _set(arr, k, v0, v1, v2, v3):  # pragma: no cover - compiled
+    arr[k, 0] = v0
+    arr[k, 1] = v1
+    arr[k, 2] = v2
+    arr[k, 3] = v3
 
 
 @njit
@@ -142,16 +149,20 @@ def descend(angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, ref, 
     rows, pend, stack = np.empty((64, 4), np.int64), np.empty((64, 4), np.int64), np.empty((64, 4), np.int64)
     nr = npend = top = nodes = 0
     for q in range(a0.shape[0]):
-        stack = _put(stack, top, a0[q], b0[q], ka0[q], kb0[q])
+        stack = _room(stack, top)
+        _set(stack, top, a0[q], b0[q], ka0[q], kb0[q])
         top += 1
     while top > 0:
         top -= 1
         a, b, ka, kb = stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3]
         nodes += 1
+        stack = _room(stack, top)  # room for the three pairs a step can push
         if a == b:
             if left[a] >= 0:
                 L, R = left[a], right[a]
-                stack = _put(_put(_put(stack, top, L, L, ka, kb), top + 1, R, R, ka, kb), top + 2, L, R, ka, kb)
+                _set(stack, top, L, L, ka, kb)
+                _set(stack, top + 1, R, R, ka, kb)
+                _set(stack, top + 2, L, R, ka, kb)
                 top += 3
             continue
         code = a * m + b
@@ -165,18 +176,22 @@ def descend(angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, ref, 
         dmin = min(da, db)
         far_apart = dmin > 0 and (both or dmin > max(0.0 if leaf_a else rad[a], 0.0 if leaf_b else rad[b]))
         if refine and far_apart and kb - ka == 1:
-            pend = _put(pend, npend, a, b, ka, 0)
+            pend = _room(pend, npend)
+            _set(pend, npend, a, b, ka, ka)
             npend += 1
         elif far_apart and kb - ka > 1:
             km = (ka + kb) // 2
-            stack = _put(_put(stack, top, a, b, ka, km), top + 1, a, b, km, kb)
+            _set(stack, top, a, b, ka, km)
+            _set(stack, top + 1, a, b, km, kb)
             top += 2
         elif both:
-            ra, rb = ref[a], ref[b]
-            rows = _put(rows, nr, min(ra, rb), max(ra, rb), ka, kb)
+            rows = _room(rows, nr)
+            _set(rows, nr, min(ref[a], ref[b]), max(ref[a], ref[b]), ka, kb)
             nr += 1
         else:
-            u, v = (a, b) if not leaf_a and (leaf_b or rad[a] >= rad[b]) else (b, a)
-            stack = _put(_put(stack, top, left[u], v, ka, kb), top + 1, right[u], v, ka, kb)
+            u = a if not leaf_a and (leaf_b or rad[a] >= rad[b]) else b
+            v = b if u == a else a
+            _set(stack, top, left[u], v, ka, kb)
+            _set(stack, top + 1, right[u], v, ka, kb)
             top += 2
     return rows[:nr].copy(), pend[:npend, :3].copy(), nodes
