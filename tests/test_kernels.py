@@ -142,6 +142,21 @@ def test_forward_kinematics_match_on_random_strips(data):
     _check_poses(d, ang)
 
 
+@pytest.mark.parametrize("name", ["helix_graded", "miura_3x3", "self_lock"])
+def test_the_drives_fold_and_onset_times_are_its_curves(name):
+    """``HingeDrive.level_times`` (one compiled call a level on the stacked curves) gives
+    each curve's own ``fold_time`` and ``onset_time``, exactly, for sampled and nominal drives."""
+    from foldprint.physics.hinge_drive import HingeDrive
+
+    d = load_design(templates_dir() / f"{name}.toml")
+    samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), 6))
+    drives = robust.sample_drives(d, default_library(), samples, until_s=robust.run_end(d, CHECK_DT_S))
+    for dr in drives + [HingeDrive(d)]:
+        ref = (tuple(c.fold_time for c in dr.curves), tuple(c.onset_time for c in dr.curves))
+        assert dr.level_times() == ref
+        assert any(t is not None for t in ref[0])
+
+
 # -- the swept check's screen ---------------------------------------------------------------
 
 @settings(max_examples=15, deadline=None, derandomize=True, database=None)

@@ -8,11 +8,12 @@ model's loop gap). The hinge frames, maps and forward kinematics it folds are in
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 import numpy as np
 
-from ..core.constants import DEFAULT_DT_S
+from ..core.constants import DEFAULT_DT_S, FOLD_LEVEL, ONSET_LEVEL
 from ..core.errors import DesignError
 from ..core.jit import use_kernels
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
@@ -21,7 +22,7 @@ from ..model.materials import MaterialLibrary, default_library
 from .kinematics import (HINGE_MODELS, Trajectory, forward, hinge_frames, kernels, local_transforms,
                          target_angles)
 from .loops.closure import LoopSolution, LoopSolver
-from .recovery.curve import recovery_curve
+from .recovery.curve import RecoveryCurve, recovery_curve
 
 #: time step of the loop solver's continuation grid (s)
 LOOP_DT = 0.01
@@ -145,6 +146,17 @@ class HingeDrive:
         r = self.ratios(t)
         return r, (self.target[None] * (1.0 - (1.0 - r) * self.fixity[None]) if plain else self.driven(t))
 
+    def level_times(self) -> tuple[tuple[float | None, ...], tuple[float | None, ...]]:
+        """Each curve's (fold times, onset times) (:attr:`RecoveryCurve.fold_time`,
+        ``onset_time``): read from the stacked curves by one compiled call for each level
+        where the curves are plain :class:`RecoveryCurve` s (the same index, test and sums)."""
+        if self._stack is not None and self.curves and use_kernels() and \
+                all(type(c) is RecoveryCurve for c in self.curves):
+            k = kernels()
+            return tuple(tuple(None if math.isnan(x) else x for x in k.crossings(self._grid, self._stack, lv).tolist())
+                         for lv in (FOLD_LEVEL, ONSET_LEVEL))
+        return tuple(c.fold_time for c in self.curves), tuple(c.onset_time for c in self.curves)
+
     def angles_at(self, t: float) -> np.ndarray:
         """:meth:`angles` at one time, (1, n_hinges): the same numbers, by one compiled call
         for a hinge tree's plain drive (no arrest), where the narrow phase asks for the
@@ -261,9 +273,7 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         loop = _with_arc_gap(design, loop, angles, poses)
     for a in (times, ratios, angles, poses):
         a.setflags(write=False)
-    return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c,
-                      tuple(c.fold_time for c in drive.curves), tuple(c.onset_time for c in drive.curves),
-                      loop)
+    return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c, *drive.level_times(), loop)
 
 
 def _held(angles: np.ndarray) -> np.ndarray:

@@ -194,3 +194,28 @@ def ratios_driven(grid, stack, t, target, fixity):  # pragma: no cover - compile
         for c in range(r.shape[1]):
             a[i, c] = target[c] * (1.0 - (1.0 - r[i, c]) * fixity[c])
     return r, a
+
+
+@njit
+def crossings(grid, stack, level):  # pragma: no cover - compiled
+    """:meth:`foldprint.physics.recovery.curve.RecoveryCurve.time_to` of every column of
+    ``stack`` (n_grid, n) on ``grid`` at ``level``: the first time its ratio reaches it,
+    linear between that grid time and the one before, 0 at the first; NaN where it does
+    not (the same index, test and sums)."""
+    n = stack.shape[1]
+    out = np.empty(n)
+    for c in range(n):
+        idx = 0
+        for k in range(grid.shape[0]):
+            if stack[k, c] >= level:
+                idx = k
+                break
+        if stack[idx, c] < level:
+            out[c] = np.nan
+        elif idx == 0:
+            out[c] = 0.0
+        else:
+            r0, r1 = stack[idx - 1, c], stack[idx, c]
+            t0, t1 = grid[idx - 1], grid[idx]
+            out[c] = t0 + (level - r0) / (r1 - r0) * (t1 - t0)
+    return out
