@@ -151,24 +151,37 @@ def chain_poses(angles, hinge, parent, child, root, n_panels, k, kk, q, start, n
 def stacked_at(grid, stack, t):  # pragma: no cover - compiled
     """:meth:`foldprint.physics.hinge_drive.HingeDrive._stacked` at one time per row: the
     columns of ``stack`` (n_grid, n) interpolated at times ``t`` (n_t,), 0 before 0; the
-    same index (``searchsorted(side="right") - 1``, clipped), fraction and sums."""
+    same index (``searchsorted(side="right") - 1``, clipped: found by walking on from the
+    previous time's where times rise, else by bisection), fraction and sums. Column by
+    column: a sample's stack is hinge-major (its transposed rows), read in order."""
     n_t, n, ng = t.shape[0], stack.shape[1], grid.shape[0]
     out = np.empty((n_t, n))
+    ks = np.empty(n_t, np.int64)
+    fs = np.empty(n_t)
     g0, g1 = grid[0], grid[ng - 1]
+    j, prev = 0, np.inf
     for r in range(n_t):
         tc = min(max(t[r], g0), g1)
-        lo, hi = 0, ng  # first index with grid > tc
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if grid[mid] <= tc:
-                lo = mid + 1
-            else:
-                hi = mid
-        k = min(max(lo - 1, 0), ng - 2)
-        f = (tc - grid[k]) / (grid[k + 1] - grid[k])
-        for c in range(n):
+        if not tc >= prev:  # bisection: the last grid index at or below tc
+            lo, hi = 0, ng
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if grid[mid] <= tc:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            j = lo - 1
+        while j + 1 < ng and grid[j + 1] <= tc:
+            j += 1
+        prev = tc
+        k = min(max(j, 0), ng - 2)
+        ks[r] = k
+        fs[r] = (tc - grid[k]) / (grid[k + 1] - grid[k])
+    for c in range(n):
+        for r in range(n_t):
+            k = ks[r]
             a = stack[k, c]
-            out[r, c] = 0.0 if t[r] < 0 else a + (stack[k + 1, c] - a) * f
+            out[r, c] = 0.0 if t[r] < 0 else a + (stack[k + 1, c] - a) * fs[r]
     return out
 
 
