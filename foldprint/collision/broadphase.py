@@ -133,10 +133,6 @@ def candidate_runs(checker: SweptChecker, angles: np.ndarray, poses: np.ndarray,
     if not out:
         return np.zeros((0, 4), dtype=np.int64)
     rows = np.concatenate(out).astype(np.int64)
-    if use_kernels():
-        from .broadphase_kernels import merge_runs
-
-        return merge_runs(rows, n, n_t)
     return _merge_runs(rows, n)
 
 

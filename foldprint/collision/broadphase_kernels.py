@@ -195,29 +195,3 @@ def descend(angles, ang_ref, poses, centroid, hinge, parent, child, y, yw, ref, 
             _set(stack, top + 1, right[u], v, ka, kb)
             top += 2
     return rows[:nr].copy(), pend[:npend, :3].copy(), nodes
-
-
-@njit
-def merge_runs(rows, n, n_t):  # pragma: no cover - compiled
-    """:func:`foldprint.collision.broadphase._merge_runs`: rows (i, j, ka, kb) sorted by pair
-    and first sample (stably), a new run where the pair changes or a row starts past the
-    running largest end, each run to its rows' largest end, sorted (stably) by first sample."""
-    m = rows.shape[0]
-    key = np.empty(m, np.int64)
-    for r in range(m):
-        key[r] = (rows[r, 0] * n + rows[r, 1]) * (n_t + 1) + rows[r, 2]
-    o = np.argsort(key, kind="mergesort")
-    runs = np.empty((m, 4), np.int64)
-    nr = 0
-    top = -1
-    for q in range(m):
-        r = o[q]
-        code = rows[r, 0] * n + rows[r, 1]
-        if q == 0 or code != rows[o[q - 1], 0] * n + rows[o[q - 1], 1] or rows[r, 2] > top:
-            runs[nr, 0], runs[nr, 1], runs[nr, 2], runs[nr, 3] = rows[r, 0], rows[r, 1], rows[r, 2], rows[r, 3]
-            nr += 1
-        else:
-            runs[nr - 1, 3] = max(runs[nr - 1, 3], rows[r, 3])
-        top = max(top, rows[r, 3])
-    runs = runs[:nr]
-    return runs[np.argsort(runs[:, 2], kind="mergesort")].copy()
