@@ -82,7 +82,11 @@ class HingeDrive:
                                   f"on {len(self._grid)} grid times")
             self._stack = stack
         elif all(c.t is self._grid or np.array_equal(c.t, self._grid) for c in self.curves):
-            self._stack = np.stack([c.ratio for c in self.curves], axis=1) if self.curves else None
+            # hinge-major and read-only, as a Monte-Carlo chunk's stacks are: one compiled
+            # signature of the drive's kernels for both (each costs compilation once)
+            self._stack = np.stack([c.ratio for c in self.curves], axis=0).T if self.curves else None
+            if self._stack is not None:
+                self._stack.setflags(write=False)
         else:  # pragma: no cover - custom horizons
             self._stack = None
 
