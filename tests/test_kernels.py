@@ -106,6 +106,24 @@ def _check_poses(d, ang):
         assert np.abs(p1 - ref[:7]).max() <= scale * 10
 
 
+def test_sincos_is_within_one_ulp_of_libm():
+    """The kinematics kernel's vectorised sin and 1 - cos (fdlibm's polynomials after one
+    reduction by pi/2) against numpy's, over several turns and at the special angles."""
+    from foldprint.physics.kinematics_kernels import sincos
+
+    x = np.concatenate([np.linspace(-20.0, 20.0, 400_001), np.pi * np.arange(-8, 9) / 4,
+                        [0.0, 1e-8, -1e-300, 2e5, -3e7, 1e300]]).reshape(-1, 1)
+    s, c1 = sincos(x)
+    assert s.shape == c1.shape == x.shape
+    assert np.abs(s - np.sin(x)).max() <= np.spacing(1.0) / 2  # 1 ulp of the largest values
+    assert np.abs(c1 - (1.0 - np.cos(x))).max() <= np.spacing(2.0) / 2
+    big = np.abs(np.sin(x)) > 1e-3
+    assert (np.abs(s - np.sin(x))[big] <= np.spacing(np.abs(np.sin(x)))[big]).all()
+    with np.errstate(invalid="ignore"):
+        s, c1 = sincos(np.array([[np.inf, np.nan]]))
+    assert np.isnan(s).all() and np.isnan(c1).all()
+
+
 @pytest.mark.parametrize("name", TEMPLATES)
 def test_forward_kinematics_match_on_every_template(name):
     d = load_design(templates_dir() / f"{name}.toml")
@@ -122,6 +140,21 @@ def test_forward_kinematics_match_on_random_strips(data):
     ang = np.array(data.draw(st.lists(st.lists(st.floats(-3.1, 3.1), min_size=len(d.hinges),
                                                 max_size=len(d.hinges)), min_size=1, max_size=5)))
     _check_poses(d, ang)
+
+
+@pytest.mark.parametrize("name", ["helix_graded", "miura_3x3", "self_lock"])
+def test_the_drives_fold_and_onset_times_are_its_curves(name):
+    """``HingeDrive.level_times`` (one compiled call a level on the stacked curves) gives
+    each curve's own ``fold_time`` and ``onset_time``, exactly, for sampled and nominal drives."""
+    from foldprint.physics.hinge_drive import HingeDrive
+
+    d = load_design(templates_dir() / f"{name}.toml")
+    samples = list(islice(iter_samples(d, default_scatter(), CHECK_SAMPLES, CHECK_SEED), 6))
+    drives = robust.sample_drives(d, default_library(), samples, until_s=robust.run_end(d, CHECK_DT_S))
+    for dr in drives + [HingeDrive(d)]:
+        ref = (tuple(c.fold_time for c in dr.curves), tuple(c.onset_time for c in dr.curves))
+        assert dr.level_times() == ref
+        assert any(t is not None for t in ref[0])
 
 
 # -- the swept check's screen ---------------------------------------------------------------
@@ -145,6 +178,81 @@ def test_the_screens_bound_is_never_above_fcls_distance(data):
         lb = lower_bound(poses[i], poses[j], ch.hull_pts[off[i]:off[i + 1]], ch.hull_pts[off[j]:off[j + 1]])
         dist, _ = ch.distance(i, j, poses[i], poses[j])
         assert lb <= max(dist, 0.0) + 1e-9 * (1 + _size(d)), (i, j, lb, dist)
+
+
+# -- the broad phase's compiled descent and the screen against FCL ---------------------------
+
+def _folded(d, dt=0.05):
+    from foldprint.collision.swept3d import SweptChecker
+    from foldprint.physics.hinge_drive import HingeDrive, simulate_kinematics
+
+    drive = HingeDrive(d)
+    return SweptChecker(d, "arc", drive), simulate_kinematics(d, model=HingeModel.ARC, dt=dt, drive=drive)
+
+
+def _runs_both(ch, traj):
+    from foldprint.collision.broadphase import candidate_runs
+
+    def runs():
+        ch.n_broad_nodes = 0
+        return candidate_runs(ch, traj.angles, traj.poses, 0, None, traj.times), ch.n_broad_nodes
+
+    (r0, n0), (r1, n1) = _both(runs)
+    assert np.array_equal(r0, r1) and n0 == n1, (len(r0), len(r1), n0, n1)
+    return r1
+
+
+@settings(max_examples=10, deadline=None, derandomize=True, database=None)
+@given(data=st.data())
+def test_the_compiled_descent_leaves_the_numpy_descents_runs(data):
+    """The same candidate runs (and node count) on both paths: the compiled descent tests
+    the same (group pair, interval)s on the same numbers, depth first."""
+    _runs_both(*_folded(random_strip(data, 3, 16)))
+
+
+def test_the_compiled_descent_refines_as_the_numpy_one():
+    """A 30-panel strip whose far pairs are re-tested between samples (the refinement's
+    descents run, on both paths) leaves the same runs."""
+    from foldprint.collision import broadphase
+
+    rng = np.random.default_rng(0)
+    d = strip("long", list(rng.uniform(6, 30, 30)), list(rng.choice([-170, -120, 90, 150, 170], 29)),
+              ["H-2"] * 29, radius=2.0)
+    calls = []
+    refine = broadphase._refine  # noqa: SLF001 -- counted, not replaced
+    with mock.patch.object(broadphase, "_refine", lambda *a, **k: calls.append(1) or refine(*a, **k)):
+        _runs_both(*_folded(d))
+    assert len(calls) >= 2  # on each path
+
+
+def _fcl_contacts_kept(d) -> int:
+    """Every (pair, sample) FCL finds within the contact tolerance (every 5th sample) lies in
+    a run the broad phase leaves and the screen starts at or before; returns how many."""
+    from foldprint.collision.broadphase import candidate_runs, non_adjacent_pairs
+    from foldprint.collision.swept_search import screen
+
+    ch, tr = _folded(d)
+    runs = candidate_runs(ch, tr.angles, tr.poses, 0, None, tr.times)
+    left = screen(ch, runs, tr.angles, tr.poses).tolist() if len(runs) else []
+    touching = 0
+    for i, j in non_adjacent_pairs(d):
+        for k in range(0, len(tr.times), 5):
+            if ch.gap(i, j, tr.poses[k, i], tr.poses[k, j]) <= ch.tol:
+                touching += 1
+                assert any(r[:2] == [i, j] and r[2] <= k <= r[3] for r in left), (i, j, k)
+    return touching
+
+
+@settings(max_examples=8, deadline=None, derandomize=True, database=None)
+@given(data=st.data())
+def test_broad_phase_and_screen_never_certify_an_fcl_contact(data):
+    _fcl_contacts_kept(random_strip(data, 3, 8))
+
+
+@pytest.mark.parametrize("lengths, angles", [([30, 10, 30, 10, 30], [170] * 4), ([20] * 4, [170] * 3)])
+def test_a_strip_folding_onto_itself_keeps_its_fcl_contacts(lengths, angles):
+    """The same on strips that fold onto themselves (so the check has contacts to keep)."""
+    assert _fcl_contacts_kept(strip("coil", lengths, angles, ["H-2"] * len(angles), radius=2.0)) > 0
 
 
 # -- panel centres --------------------------------------------------------------------------

@@ -66,6 +66,31 @@ def panel_centres(checker: SweptChecker, poses: np.ndarray) -> np.ndarray:
     return R[..., 0] * c[:, 0, None] + R[..., 1] * c[:, 1, None] + R[..., 2] * c[:, 2, None] + poses[..., :3, 3]
 
 
+def prefix(tb, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:meth:`foldprint.physics.motion.TreeBounds.prefix` (the compiled kernel of
+    :mod:`foldprint.collision.broadphase_kernels` where :func:`~foldprint.core.jit.use_kernels`:
+    the same sums in the same order)."""
+    if not use_kernels():
+        return tb.prefix(angles)
+    from .broadphase_kernels import prefix_sums
+
+    h, p, c, y, yw = _prefix_arrays(tb)
+    return prefix_sums(np.ascontiguousarray(angles, float), h, p, c, tb.n, y, yw)
+
+
+def _prefix_arrays(tb):
+    """The tree's hinges root outward, as :meth:`TreeBounds.prefix` walks them (index,
+    parent, child), and the weights y and y + w: kept with the tree bounds."""
+    arrays = tb.__dict__.get("_prefix_arrays")
+    if arrays is None:
+        fr = tb.frames
+        arrays = tb.__dict__["_prefix_arrays"] = (
+            np.array([f.index for f in fr], np.int64), np.array([f.parent for f in fr], np.int64),
+            np.array([f.child for f in fr], np.int64), np.ascontiguousarray(tb.y, float),
+            np.ascontiguousarray(tb.y + tb.widths, float))
+    return arrays
+
+
 #: Sub-intervals per sample interval at each refinement level of the broad phase, and
 #: the levels: a far-apart group pair the motion bound cannot certify over one sample step
 #: (long tree paths: the bound grows with the square of the path length) is re-tested on
@@ -91,12 +116,9 @@ def candidate_runs(checker: SweptChecker, angles: np.ndarray, poses: np.ndarray,
     if skip:
         excl = np.union1d(excl, [min(p) * n + max(p) for p in skip]).astype(np.int64)
     angles = np.asarray(angles)
-    P = tb.prefix(angles)
-    C = panel_centres(checker, poses)
     refine = times is not None
-    out, pend = _descend(checker, P, C, excl, np.array([H.root]), np.array([H.root]),
+    out, pend = _descend(checker, (angles, angles[0], poses), excl, np.array([H.root]), np.array([H.root]),
                          np.array([k_start]), np.array([n_t - 1]), refine)
-    del P, C
     if refine and len(pend[0]):
         times = np.asarray(times, float)
         a, b, ka = pend[0], pend[1], pend[2]
@@ -134,11 +156,9 @@ def _refine(checker, ang0, excl, a, b, t0, t1, korig, refine: bool):
         ivc = iv[c0:c0 + per]
         tg = (ivc[:, :1] + (ivc[:, 1:] - ivc[:, :1]) * frac[None]).ravel()
         coords = checker.bound_coords(tg)
-        P = checker.tree.prefix(np.vstack([ang0[None], coords]))
-        P = tuple(x[1:] for x in P)
-        C = panel_centres(checker, checker.transforms.poses(checker.drive.angles(tg)))
+        src = (coords, ang0, checker.transforms.poses(checker.drive.angles(tg)))
         base = (inv[sel] - c0) * (sub + 1)
-        out, pend = _descend(checker, P, C, excl, a[sel], b[sel], base, base + sub, refine)
+        out, pend = _descend(checker, src, excl, a[sel], b[sel], base, base + sub, refine)
         ko = korig[sel]
         # local grid index -> interval (block) -> the original sample interval
         blk_k = np.full(len(ivc), -1, dtype=np.int64)
@@ -204,6 +224,13 @@ class _PairTable:
             self.done[miss] = True
         return self.l[code], self.sp[code], self.on_a[code], self.dropped[code]
 
+    def dense(self):
+        """The four tables filled for every node pair (the compiled descent reads them)."""
+        if not self.done.all():
+            m = self.m
+            self.get(np.repeat(np.arange(m), m), np.tile(np.arange(m), m))
+        return self.l, self.sp, self.on_a, self.dropped
+
 
 def _pair_table(checker, excl) -> _PairTable:
     """The checker's :class:`_PairTable` for these exclusions, kept with its geometry (the
@@ -218,15 +245,22 @@ def _pair_table(checker, excl) -> _PairTable:
     return hit
 
 
-def _descend(checker, P, C, excl, a, b, ka, kb, refine: bool):
-    """The hierarchy descent over grid indices of P and C: certified (group pair,
-    interval)s are dropped, others split the interval or the bigger group. Returns narrow
-    rows (i, j, ka, kb) and, with ``refine``, the pairs (a, b, k) that are far apart but
-    uncertified over one grid step (else they are split down to panel pairs)."""
+def _descend(checker, src, excl, a, b, ka, kb, refine: bool):
+    """The hierarchy descent over the grid of ``src`` = (bound coordinates (n_t, n_hinges),
+    the coordinates the motion is counted from (n_hinges,), world poses (n_t, n, 4, 4)):
+    certified (group pair, interval)s are dropped, others split the interval or the bigger
+    group. Returns narrow rows (i, j, ka, kb) and, with ``refine``, the pairs (a, b, k) that
+    are far apart but uncertified over one grid step (else they are split down to panel
+    pairs)."""
     tb, H = checker.tree, checker.hier
     xc = tb.qp + tb.cen
     margin = 1e-9 * float(H.rad[H.root] + 1.0)
     table = _pair_table(checker, excl)
+    if table.on and use_kernels():
+        return _descend_compiled(checker, src, table, a, b, ka, kb, refine, xc, margin)
+    coords, ref0, poses = src
+    P = tuple(x[1:] for x in prefix(tb, np.vstack([np.asarray(ref0)[None], coords])))
+    C = panel_centres(checker, poses)
     out, pend = [], [[], [], []]
     while len(a):
         checker.n_broad_nodes += len(a)  # its work: what a Monte-Carlo sample's cost is estimated from
@@ -285,6 +319,24 @@ def _descend(checker, P, C, excl, a, b, ka, kb, refine: bool):
         kb = np.concatenate([t[3] for t in nxt])
     pend = [np.concatenate(x) if x else np.zeros(0, dtype=np.int64) for x in pend]
     return out, pend
+
+
+def _descend_compiled(checker, src, table, a, b, ka, kb, refine, xc, margin):
+    """:func:`_descend` by the compiled kernel (:func:`foldprint.collision.broadphase_kernels.descend`,
+    centres and prefix sums at the grid indices it reads): the same rows and pending pairs."""
+    from .broadphase_kernels import descend
+
+    H, tb = checker.hier, checker.tree
+    coords, ref0, poses = src
+    hinge, parent, child, y, yw = _prefix_arrays(tb)
+    l, sp, on_a, dropped = table.dense()
+    f64 = lambda x: np.ascontiguousarray(x, float)  # noqa: E731
+    i64 = lambda x: np.ascontiguousarray(x, np.int64)  # noqa: E731
+    rows, pend, nodes = descend(f64(coords), f64(ref0), f64(poses), f64(tb.centroid), hinge, parent, child, y, yw,
+                                H.ref, H.rad, H.left, H.right, f64(xc), f64(tb.qp), l, sp, on_a, dropped,
+                                i64(a), i64(b), i64(ka), i64(kb), bool(refine), float(margin))
+    checker.n_broad_nodes += int(nodes)
+    return ([rows] if len(rows) else []), [pend[:, 0], pend[:, 1], pend[:, 2]]
 
 
 def _merge_runs(rows: np.ndarray, n: int) -> np.ndarray:

@@ -77,6 +77,10 @@ FCL_REL = 0.02
 #: needs 3 array passes for a 2000-sample run where doubling needed 6; a pair stopped
 #: early computes at most 8 times the samples it reached).
 BOUND_GROW = 8
+#: Panels up to which every pair's levers are tabled once per design for the compiled
+#: screen (our choice: 2,016 pairs, at most 63 hinges a path, <= 2 MB); larger designs
+#: gather the levers of their candidate runs at each screen.
+LEVER_TABLE_PANELS = 64
 
 
 @dataclass(frozen=True)
@@ -134,6 +138,7 @@ class SweptChecker:
         self.tol = max(self.contact_tol_mm, REL_TOL * extent)
         self.extent = extent
         self._pairs: dict = {}
+        self._lever_table: list = []  # every pair's levers at once (lever_table), shared by with_drive
         self.transforms = TreeTransforms(d, self.model, self.frames)
         self._world: dict = {}  # time -> world poses of every panel (bounded cache)
         self.pair_tables: dict = {}  # the broad phase's static data of group pairs (shared by with_drive)
@@ -171,7 +176,7 @@ class SweptChecker:
         if hit is None:
             if len(self._world) >= 64:
                 self._world.pop(next(iter(self._world)))
-            ang = self.drive.angles([t])
+            ang = self.drive.angles_at(t) if hasattr(self.drive, "angles_at") else self.drive.angles([t])
             hit = self._world[key] = (self.transforms.poses(ang)[0], self.bound_coords([t], ang))
         return hit
 
@@ -209,6 +214,28 @@ class SweptChecker:
         """The hinges on ``pair``'s tree path and their levers (the motion bound's terms:
         F = sum lever |rho - rho_0|), computed once per pair."""
         return self._path(pair)[3:]
+
+    def lever_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Every panel pair's path hinges and levers (:meth:`levers`) concatenated, and
+        where pair (i, j), i < j, starts in them (entry i * n + j, ends at the next
+        entry): computed once per design and hinge model, for the compiled screen. None
+        past :data:`LEVER_TABLE_PANELS` panels (the screen then gathers its runs' levers)."""
+        n = len(self.design.panels)
+        if n > LEVER_TABLE_PANELS:
+            return None
+        if not self._lever_table:
+            idx, lev, start = [], [], np.zeros(n * n + 1, np.int64)
+            for i in range(n):
+                for j in range(n):
+                    start[i * n + j] = sum(len(x) for x in idx)
+                    if i < j:
+                        a, b = self.levers((i, j))
+                        idx.append(np.asarray(a, np.int64))
+                        lev.append(np.asarray(b, float))
+            start[n * n] = sum(len(x) for x in idx)
+            self._lever_table.append((np.concatenate(idx) if idx else np.zeros(0, np.int64),
+                                      np.concatenate(lev) if lev else np.zeros(0), start))
+        return self._lever_table[0]
 
     def _bound(self, pair, ang0: np.ndarray, ang: np.ndarray) -> np.ndarray:
         _, _, _, idx, lev = self._path(pair)

@@ -32,45 +32,57 @@ from ..core.jit import njit
 def lower_bound(pose_i, pose_j, pi, pj):  # pragma: no cover - compiled
     """A lower bound of the distance between the convex hulls of the vertices ``pi`` (a,
     3) at ``pose_i`` and ``pj`` (b, 3) at ``pose_j`` (panel frames, (4, 4) poses)."""
-    na, nb = pi.shape[0], pj.shape[0]
-    wi = np.empty((na, 3))
-    wj = np.empty((nb, 3))
-    ci = np.zeros(3)
-    cj = np.zeros(3)
+    return _bound(pose_i, pose_j, pi, pj, np.empty((pi.shape[0], 3)), np.empty((pj.shape[0], 3)))
+
+
+@njit
+def _world(pose, pts, out):  # pragma: no cover - compiled
+    """``pts`` (a, 3) at ``pose`` into ``out``; returns their mean (summed as x / a)."""
+    na = pts.shape[0]
+    c0 = c1 = c2 = 0.0
     for v in range(na):
-        for a in range(3):
-            x = pose_i[a, 0] * pi[v, 0] + pose_i[a, 1] * pi[v, 1] + pose_i[a, 2] * pi[v, 2] + pose_i[a, 3]
-            wi[v, a] = x
-            ci[a] += x / na
-    for v in range(nb):
-        for a in range(3):
-            x = pose_j[a, 0] * pj[v, 0] + pose_j[a, 1] * pj[v, 1] + pose_j[a, 2] * pj[v, 2] + pose_j[a, 3]
-            wj[v, a] = x
-            cj[a] += x / nb
+        x0 = pose[0, 0] * pts[v, 0] + pose[0, 1] * pts[v, 1] + pose[0, 2] * pts[v, 2] + pose[0, 3]
+        x1 = pose[1, 0] * pts[v, 0] + pose[1, 1] * pts[v, 1] + pose[1, 2] * pts[v, 2] + pose[1, 3]
+        x2 = pose[2, 0] * pts[v, 0] + pose[2, 1] * pts[v, 1] + pose[2, 2] * pts[v, 2] + pose[2, 3]
+        out[v, 0], out[v, 1], out[v, 2] = x0, x1, x2
+        c0 += x0 / na
+        c1 += x1 / na
+        c2 += x2 / na
+    return c0, c1, c2
+
+
+@njit
+def _extent(w, n, u0, u1, u2, norm):  # pragma: no cover - compiled
+    """The smallest and largest projection of the first ``n`` points of ``w`` on u / norm."""
+    lo, hi = np.inf, -np.inf
+    for v in range(n):
+        x = (w[v, 0] * u0 + w[v, 1] * u1 + w[v, 2] * u2) / norm
+        lo = min(lo, x)
+        hi = max(hi, x)
+    return lo, hi
+
+
+@njit
+def _bound(pose_i, pose_j, pi, pj, wi, wj):  # pragma: no cover - compiled
+    """:func:`lower_bound` with scratch ``wi`` and ``wj`` for the world vertices (no
+    allocation: the screen calls it hundreds of times a sample): the largest gap between
+    the two sets' projections on the centroids' direction and on each panel's normal."""
+    na, nb = pi.shape[0], pj.shape[0]
+    ci0, ci1, ci2 = _world(pose_i, pi, wi)
+    cj0, cj1, cj2 = _world(pose_j, pj, wj)
     best = -np.inf
-    u = np.empty(3)
     for axis in range(3):
         if axis == 0:
-            for a in range(3):
-                u[a] = cj[a] - ci[a]
+            u0, u1, u2 = cj0 - ci0, cj1 - ci1, cj2 - ci2
         elif axis == 1:
-            for a in range(3):
-                u[a] = pose_i[a, 2]
+            u0, u1, u2 = pose_i[0, 2], pose_i[1, 2], pose_i[2, 2]
         else:
-            for a in range(3):
-                u[a] = pose_j[a, 2]
-        norm = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+            u0, u1, u2 = pose_j[0, 2], pose_j[1, 2], pose_j[2, 2]
+        norm = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
         if norm == 0.0:
             continue
-        lo_i, hi_i, lo_j, hi_j = np.inf, -np.inf, np.inf, -np.inf
-        for v in range(na):
-            x = (wi[v, 0] * u[0] + wi[v, 1] * u[1] + wi[v, 2] * u[2]) / norm
-            lo_i = min(lo_i, x)
-            hi_i = max(hi_i, x)
-        for v in range(nb):
-            x = (wj[v, 0] * u[0] + wj[v, 1] * u[1] + wj[v, 2] * u[2]) / norm
-            lo_j = min(lo_j, x)
-            hi_j = max(hi_j, x)
+        lo_i, hi_i = _extent(wi, na, u0, u1, u2, norm)
+        lo_j, hi_j = _extent(wj, nb, u0, u1, u2, norm)
         best = max(best, lo_j - hi_i, lo_i - hi_j)
     return best
 
@@ -108,22 +120,27 @@ def _reach(angles, k, kb, k0, idx, lev, limit):  # pragma: no cover - compiled
 
 
 @njit
-def screen_runs(runs, angles, poses, pts, poff, idx, lev, loff, tol, margin):  # pragma: no cover - compiled
+def screen_runs(runs, angles, poses, pts, poff, idx, lev, lo, hi, tol, margin):  # pragma: no cover - compiled
     """The first sample of each run (m, 4: i, j, ka, kb) the screen cannot certify (kb when
     it certifies the whole run). ``pts`` / ``poff``: every panel's prism vertices (panel
-    frame) and their offsets; ``idx`` / ``lev`` / ``loff``: each run's path hinges, levers
-    and offsets; ``tol``: the contact tolerance; ``margin``: added to every motion bound
-    (round-off of the bound and of the motion sums)."""
+    frame) and their offsets; ``idx`` / ``lev``: path hinges and levers, run r's from
+    ``lo[r]`` to ``hi[r]``; ``tol``: the contact tolerance; ``margin``: added to every
+    motion bound (round-off of the bound and of the motion sums)."""
     m = runs.shape[0]
     out = np.empty(m, np.int64)
+    big = 0
+    for p in range(poff.shape[0] - 1):
+        big = max(big, poff[p + 1] - poff[p])
+    wi = np.empty((big, 3))
+    wj = np.empty((big, 3))
     for r in range(m):
         i, j, ka, kb = runs[r, 0], runs[r, 1], runs[r, 2], runs[r, 3]
         pi = pts[poff[i]:poff[i + 1]]
         pj = pts[poff[j]:poff[j + 1]]
-        ri = idx[loff[r]:loff[r + 1]]
-        rl = lev[loff[r]:loff[r + 1]]
+        ri = idx[lo[r]:hi[r]]
+        rl = lev[lo[r]:hi[r]]
         k = ka
-        d = lower_bound(poses[k, i], poses[k, j], pi, pj)
+        d = _bound(poses[k, i], poses[k, j], pi, pj, wi, wj)
         fk = 0.0
         while k < kb and d > tol:
             k2 = _reach(angles, k, kb, ka, ri, rl, fk + d - tol - margin)
@@ -133,9 +150,9 @@ def screen_runs(runs, angles, poses, pts, poff, idx, lev, loff, tol, margin):  #
             if k2 > k:
                 k = k2
                 fk = _motion(angles, k, ka, ri, rl)
-                d = lower_bound(poses[k, i], poses[k, j], pi, pj)
+                d = _bound(poses[k, i], poses[k, j], pi, pj, wi, wj)
                 continue
-            d1 = lower_bound(poses[k + 1, i], poses[k + 1, j], pi, pj)
+            d1 = _bound(poses[k + 1, i], poses[k + 1, j], pi, pj, wi, wj)
             f1 = _motion(angles, k + 1, ka, ri, rl)
             if d1 > tol and d + d1 - (f1 - fk) - margin > 2.0 * tol:
                 k, d, fk = k + 1, d1, f1

@@ -31,6 +31,8 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
     check_narrow(checker, runs, poses.nbytes + angles.nbytes)
     if len(runs) and use_kernels():
         runs = screen(checker, runs, angles, poses)
+    if not len(runs):  # every run certified (a strip sample's usual case): no narrow phase to set up
+        return None, []
     best, initial = None, []
     # advance every candidate pair together in time (a heap on the sample each has
     # certified): once the earliest open pair is past the best contact, stop
@@ -77,15 +79,23 @@ def screen(checker: SweptChecker, runs: np.ndarray, angles: np.ndarray, poses: n
     FCL; the narrow phase walks them as it walked the whole run."""
     from .swept3d_kernels import screen_runs
 
-    idx, lev, off = [], [], [0]
-    for i, j in runs[:, :2].tolist():
-        a, b = checker.levers((i, j))
-        idx.append(np.asarray(a, np.int64))
-        lev.append(np.asarray(b, float))
-        off.append(off[-1] + len(a))
+    table = checker.lever_table()
+    if table is not None:  # every pair's levers, tabled once per design
+        idx, lev, first = table
+        code = runs[:, 0] * len(checker.design.panels) + runs[:, 1]
+        lo, hi = first[code], first[code + 1]
+    else:  # a large design: its runs' levers gathered here
+        idx, lev, off = [], [], [0]
+        for i, j in runs[:, :2].tolist():
+            a, b = checker.levers((i, j))
+            idx.append(np.asarray(a, np.int64))
+            lev.append(np.asarray(b, float))
+            off.append(off[-1] + len(a))
+        idx, lev, off = np.concatenate(idx), np.concatenate(lev), np.array(off, np.int64)
+        lo, hi = off[:-1], off[1:]
     start = screen_runs(runs, np.ascontiguousarray(angles, float), np.ascontiguousarray(poses, float),
-                        checker.hull_pts, checker.hull_off, np.concatenate(idx), np.concatenate(lev),
-                        np.array(off, np.int64), float(checker.tol), 1e-9 * (checker.extent + 1.0))
+                        checker.hull_pts, checker.hull_off, idx, lev, np.ascontiguousarray(lo),
+                        np.ascontiguousarray(hi), float(checker.tol), 1e-9 * (checker.extent + 1.0))
     out = runs.copy()
     out[:, 2] = start
     out = out[start < runs[:, 3]]

@@ -37,8 +37,14 @@ class Kernels(Mode):
 
 
 def requested() -> Kernels:
-    """The path asked for by ``FOLDPRINT_KERNELS`` (default: numba)."""
-    text = os.environ.get(ENV, Kernels.NUMBA.value).strip().lower() or Kernels.NUMBA.value
+    """The path asked for by ``FOLDPRINT_KERNELS`` (default: numba), read at every call
+    (tests switch it), parsed once per value (the narrow phase asks thousands of times)."""
+    return _parse(os.environ.get(ENV))
+
+
+@lru_cache(maxsize=8)
+def _parse(raw: str | None) -> Kernels:
+    text = (raw if raw is not None else Kernels.NUMBA.value).strip().lower() or Kernels.NUMBA.value
     try:
         return Kernels(text)
     except ValueError:

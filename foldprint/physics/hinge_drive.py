@@ -8,18 +8,21 @@ model's loop gap). The hinge frames, maps and forward kinematics it folds are in
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 import numpy as np
 
-from ..core.constants import DEFAULT_DT_S
+from ..core.constants import DEFAULT_DT_S, FOLD_LEVEL, ONSET_LEVEL
 from ..core.errors import DesignError
+from ..core.jit import use_kernels
 from ..core.modes import DEFAULT_HINGE_MODEL, HingeModel
 from ..model.design import Design, has_loops
 from ..model.materials import MaterialLibrary, default_library
-from .kinematics import HINGE_MODELS, Trajectory, forward, hinge_frames, local_transforms, target_angles
+from .kinematics import (HINGE_MODELS, Trajectory, forward, hinge_frames, kernels, local_transforms,
+                         target_angles)
 from .loops.closure import LoopSolution, LoopSolver
-from .recovery.curve import recovery_curve
+from .recovery.curve import RecoveryCurve, recovery_curve
 
 #: time step of the loop solver's continuation grid (s)
 LOOP_DT = 0.01
@@ -44,10 +47,14 @@ class HingeDrive:
     compliant = False
 
     def __init__(self, design: Design, bath_c: float | None = None,
-                 library: MaterialLibrary | None = None, curves=None):
+                 library: MaterialLibrary | None = None, curves=None, *, stack: np.ndarray | None = None,
+                 statics: tuple[np.ndarray, np.ndarray] | None = None):
         """Nominal recovery curves of each hinge's material, thickness and the bath, or
         the given ``curves`` (one :class:`~foldprint.physics.recovery.curve.RecoveryCurve` per hinge, in
-        ``design.hinges`` order: e.g. a scattered sample from :mod:`foldprint.simulation.robust`)."""
+        ``design.hinges`` order: e.g. a scattered sample from :mod:`foldprint.simulation.robust`).
+        ``stack``: the curves' ratios already stacked (n_grid, n_hinges) on their common
+        grid, ``statics``: (target angles, fixities) of this design and library (a
+        Monte-Carlo chunk's drives share them, :meth:`statics`)."""
         self.design = design
         self.bath_c = float(design.process.bath_temperature_c if bath_c is None else bath_c)
         lib = library or default_library()
@@ -58,8 +65,8 @@ class HingeDrive:
         elif len(curves) != len(design.hinges):
             raise DesignError(f"{len(curves)} recovery curves for {len(design.hinges)} hinges")
         self.curves = list(curves)
-        self.target = target_angles(design)
-        self.fixity = hinge_fixities(design, lib)
+        self.target, self.fixity = statics if statics is not None else (target_angles(design),
+                                                                          hinge_fixities(design, lib))
         self.frozen_at: dict[int, float] = {}  # hinge index -> time it was arrested
         # loops (rigid origami): angles() gives the closed angles nearest the drive
         self.loops = LoopSolver(hinge_frames(design), [h.id for h in design.hinges]) \
@@ -69,10 +76,23 @@ class HingeDrive:
 
         # every curve lives on the same internal grid: stack them for one fused lookup
         self._grid = self.curves[0].t if self.curves else np.zeros(1)
-        if all(c.t is self._grid or np.array_equal(c.t, self._grid) for c in self.curves):
-            self._stack = np.stack([c.ratio for c in self.curves], axis=1) if self.curves else None
+        if stack is not None:
+            if stack.shape != (len(self._grid), len(self.curves)):
+                raise DesignError(f"a stack of ratios {stack.shape} for {len(self.curves)} curves "
+                                  f"on {len(self._grid)} grid times")
+            self._stack = stack
+        elif all(c.t is self._grid or np.array_equal(c.t, self._grid) for c in self.curves):
+            # hinge-major and read-only, as a Monte-Carlo chunk's stacks are: one compiled
+            # signature of the drive's kernels for both (each costs compilation once)
+            self._stack = np.stack([c.ratio for c in self.curves], axis=0).T if self.curves else None
+            if self._stack is not None:
+                self._stack.setflags(write=False)
         else:  # pragma: no cover - custom horizons
             self._stack = None
+
+    def statics(self) -> tuple[np.ndarray, np.ndarray]:
+        """(target angles, fixities): what another drive of this design and library shares."""
+        return self.target, self.fixity
 
     def copy(self) -> "HingeDrive":
         """The same drive with no hinge arrested (shares the curves and the loop solver)."""
@@ -101,6 +121,8 @@ class HingeDrive:
         """The stacked curves interpolated at times ``tt``: (n_t,), the same for every hinge,
         or (n_t, n_hinges), a time per hinge (the same numbers either way); R = 0 before 0."""
         g = self._grid
+        if tt.ndim == 1 and use_kernels():
+            return kernels().stacked_at(g, self._stack, np.ascontiguousarray(tt, float))
         tc = np.clip(tt, g[0], g[-1])
         k = np.clip(np.searchsorted(g, tc, side="right") - 1, 0, len(g) - 2)
         f = (tc - g[k]) / (g[k + 1] - g[k])
@@ -117,6 +139,36 @@ class HingeDrive:
         material asks for on its own."""
         r = self.ratios(t)
         return self.target[None] * (1.0 - (1.0 - r) * self.fixity[None])
+
+    def ratios_and_driven(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`ratios`, :meth:`driven`) at times ``t``, the ratios read once: one
+        compiled pass for a plain drive with no arrest (the same numbers)."""
+        plain = type(self).ratios is HingeDrive.ratios and type(self).driven is HingeDrive.driven
+        if plain and not self.frozen_at and self._stack is not None and len(self.curves) and use_kernels():
+            return kernels().ratios_driven(self._grid, self._stack, np.ascontiguousarray(t, float), self.target,
+                                           self.fixity)
+        r = self.ratios(t)
+        return r, (self.target[None] * (1.0 - (1.0 - r) * self.fixity[None]) if plain else self.driven(t))
+
+    def level_times(self) -> tuple[tuple[float | None, ...], tuple[float | None, ...]]:
+        """Each curve's (fold times, onset times) (:attr:`RecoveryCurve.fold_time`,
+        ``onset_time``): read from the stacked curves by one compiled call for each level
+        where the curves are plain :class:`RecoveryCurve` s (the same index, test and sums)."""
+        if self._stack is not None and self.curves and use_kernels() and \
+                all(type(c) is RecoveryCurve for c in self.curves):
+            k = kernels()
+            return tuple(tuple(None if math.isnan(x) else x for x in k.crossings(self._grid, self._stack, lv).tolist())
+                         for lv in (FOLD_LEVEL, ONSET_LEVEL))
+        return tuple(c.fold_time for c in self.curves), tuple(c.onset_time for c in self.curves)
+
+    def angles_at(self, t: float) -> np.ndarray:
+        """:meth:`angles` at one time, (1, n_hinges): the same numbers, by one compiled call
+        for a hinge tree's plain drive (no arrest), where the narrow phase asks for the
+        poses of one split time after another."""
+        if (self.loops is None and not self.frozen_at and self._stack is not None and type(self).angles is
+                HingeDrive.angles and type(self).driven is HingeDrive.driven and use_kernels()):
+            return kernels().driven_at(self._grid, self._stack, float(t), self.target, self.fixity)
+        return self.angles([t])
 
     def angles(self, t) -> np.ndarray:
         """Fold angles (n_t, n_hinges) rad: the driven angles for a hinge tree; with loops
@@ -207,7 +259,8 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
     if times is None:
         times = run_times(design, dt, duration)
     times = np.asarray(times, float)
-    ratios = drive.ratios(times)
+    tree = drive.loops is None and not drive.compliant
+    ratios, driven = drive.ratios_and_driven(times) if tree else (drive.ratios(times), None)
     loop = None
     if drive.loops is not None or drive.compliant:
         if drive.loops is not None:
@@ -217,16 +270,14 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         with np.errstate(divide="ignore", invalid="ignore"):
             ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
         ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
-    else:
-        angles = drive.angles(times)
+    else:  # a hinge tree's angles are what its hinges ask for: drive.driven(times)
+        angles = driven
     poses = forward(design, angles, model, compiled=True) if loop is None else _held_forward(design, angles, model)
     if loop is not None and model == HingeModel.ARC:
         loop = _with_arc_gap(design, loop, angles, poses)
     for a in (times, ratios, angles, poses):
         a.setflags(write=False)
-    return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c,
-                      tuple(c.fold_time for c in drive.curves), tuple(c.onset_time for c in drive.curves),
-                      loop)
+    return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c, *drive.level_times(), loop)
 
 
 def _held(angles: np.ndarray) -> np.ndarray:

@@ -82,6 +82,22 @@ def _hinge_frames(design: Design) -> list[HingeFrame]:
     return frames
 
 
+_KERNELS = None
+
+
+def kernels():
+    """The compiled kernels of this subpackage's hot paths (:mod:`foldprint.physics.kinematics_kernels`),
+    imported on first use and kept (the narrow phase asks for one pose after another: an
+    import statement per call cost more than the kernel). Call only after
+    :func:`~foldprint.core.jit.use_kernels` said yes."""
+    global _KERNELS
+    if _KERNELS is None:
+        from . import kinematics_kernels
+
+        _KERNELS = kinematics_kernels
+    return _KERNELS
+
+
 _EYE3 = np.eye(3)
 _EYE4 = np.eye(4)
 #: Working memory of :func:`forward` beside its result (bytes; our choice: 8 MiB, the whole
@@ -266,9 +282,7 @@ class TreeTransforms:
     def compiled_poses(self, angles: np.ndarray, root: int, fill_eye: bool = True) -> np.ndarray:
         """World poses (m, n_panels, 4, 4) by the compiled kernel
         (:mod:`foldprint.physics.kinematics_kernels`): one product per hinge root outward."""
-        from .kinematics_kernels import chain_poses
-
-        return chain_poses(np.ascontiguousarray(np.atleast_2d(np.asarray(angles, float))), self.hinge,
+        return kernels().chain_poses(np.ascontiguousarray(np.atleast_2d(np.asarray(angles, float))), self.hinge,
                            self.parent, self.child, int(root), self.n, self.k, self.kk, self.q, self.start,
                            self.nrm, self.line, self.w, self.centred, self.model == HingeModel.POINT, fill_eye)
 

@@ -163,6 +163,11 @@ class TreeBounds:
     def _w(self) -> np.ndarray:
         return self.__dict__["_wvec"]
 
+    @property
+    def widths(self) -> np.ndarray:
+        """Each hinge's flat width w (n_hinges,) as the bounds take it (0 under the point model)."""
+        return self._w
+
 
 def tree_bounds(design: Design, model: HingeModel, frames: list[HingeFrame] | None = None) -> TreeBounds:
     frames = frames if frames is not None else [f for f in hinge_frames(design) if f.tree]

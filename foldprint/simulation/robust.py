@@ -138,6 +138,7 @@ def sample_drives(design: Design, library: MaterialLibrary, samples: Sequence[Sa
     if np.any(thick <= 0):
         raise MaterialError(f"{design.name}: a drawn hinge thickness is <= 0 mm")
     curves: list[list] = [[None] * n_h for _ in range(n_s)]
+    stacks = np.empty((n_s, n_h, len(t)))  # each sample's ratios, a row per hinge: its drive's lookup
     by_material: dict[str, list[int]] = {}
     for k, h in enumerate(design.hinges):
         by_material.setdefault(h.material, []).append(k)
@@ -155,11 +156,15 @@ def sample_drives(design: Design, library: MaterialLibrary, samples: Sequence[Sa
         ratio, mean_t = material_batch_ratios(mat, tg, hw, th, tb, fix_c, t, table=True)
         ratio.setflags(write=False)
         mean_t.setflags(write=False)
+        stacks[:, cols] = ratio.reshape(n_s, len(ks), len(t))
         for j in range(len(tg)):
             s, k = divmod(j, len(ks))
             curves[s][ks[k]] = RecoveryCurve(name, float(tg[j]), float(tb[j]), float(th[j]), fix_c, t,
                                              ratio[j], mean_t[j])
-    return [HingeDrive(design, smp.bath_c, library, curves=c) for smp, c in zip(samples, curves)]
+    stacks.setflags(write=False)
+    first = HingeDrive(design, samples[0].bath_c, library, curves=curves[0], stack=stacks[0].T)
+    return [first] + [HingeDrive(design, smp.bath_c, library, curves=c, stack=st.T, statics=first.statics())
+                      for smp, c, st in zip(samples[1:], curves[1:], stacks[1:])]
 
 
 @dataclass(frozen=True)
