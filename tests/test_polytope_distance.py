@@ -223,3 +223,22 @@ def test_panel_distances_agree_on_every_path_over_a_fold(name):
                 assert got[0] == pytest.approx(plain[0], abs=tol)
             seeded += fast[0] > 0
     assert seeded > 0
+
+
+@pytest.mark.parametrize("ulps", [0, 1])
+@settings(max_examples=40, deadline=None, derandomize=True, database=None)
+@given(rot=_ROT, shift=st.tuples(*[st.floats(-5.0, 5.0)] * 3), gap=st.floats(0.0, 6.0))
+def test_a_repeated_ring_vertex_is_the_same_prism(ulps, rot, shift, gap):
+    """A convex piece can hold a vertex twice, exactly or one ulp apart (the waterbomb's
+    reliefs made one): in the world its two ends can coincide, an edge of length 0. The
+    distance is that of the ring without the repeat, on every path (no division by zero)."""
+    ring = np.array([[-14.4, 20.0], [-4.69, 10.25], [-3.9269908169872414, 10.56172152977031], [-3.93, 20.0]])
+    twice = np.insert(ring, 3, ring[2] + [ulps * np.spacing(ring[2, 0]), 0.0], axis=0)
+    pa = _pose(rot, shift)
+    pb = pa @ _pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.8 + gap))
+    for path in PATHS:
+        want = path(pa, ring, 0.4, pb, ring, 0.4)[0]
+        for a, b in ((twice, ring), (ring, twice), (twice, twice)):
+            ub, lb, qa, qb = path(pa, a, 0.4, pb, b, 0.4)
+            assert ub == pytest.approx(want, abs=1e-9) and ub == pytest.approx(gap, abs=1e-9), path
+            _check_certificate(ub, lb, qa, qb, 30.0)

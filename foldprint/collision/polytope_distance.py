@@ -253,8 +253,9 @@ def vertex_face(p: np.ndarray, ring: np.ndarray, half: float) -> tuple[float, in
     z = p[:, 2]
     cap = np.where((cross >= 0).all(axis=1), np.abs(np.abs(z) - half), np.inf)
     ee = (e * e).sum(axis=1)
-    s = (rel * e[None]).sum(axis=2) / ee
-    side = np.where((s >= 0) & (s <= 1) & (np.abs(z) <= half)[:, None], np.abs(cross) / np.sqrt(ee), np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a repeated ring vertex: no side (NaN fails the test)
+        s = (rel * e[None]).sum(axis=2) / ee
+        side = np.where((s >= 0) & (s <= 1) & (np.abs(z) <= half)[:, None], np.abs(cross) / np.sqrt(ee), np.inf)
     m_side = np.unravel_index(np.argmin(side), side.shape)
     v_cap = int(np.argmin(cap))
     if cap[v_cap] <= side[m_side]:
@@ -280,7 +281,10 @@ def segment_pairs(p1, q1, p2, q2):
         s = np.where(den > 1e-14 * a * e, np.clip((b * f - c * e) / den, 0.0, 1.0), 0.0)
         t = (b * s + f) / e
         s = np.where(t < 0, np.clip(-c / a, 0.0, 1.0), np.where(t > 1, np.clip((b - c) / a, 0.0, 1.0), s))
-    t = np.clip(t, 0.0, 1.0)
+        t = np.clip(t, 0.0, 1.0)
+        # an edge whose ends coincide is a point (Ericson's degenerate cases)
+        s, t = np.where(e > 0, s, np.clip(-c / a, 0.0, 1.0)), np.where(e > 0, t, 0.0)
+        s, t = np.where(a > 0, s, 0.0), np.where(a > 0, t, np.where(e > 0, np.clip(f / e, 0.0, 1.0), 0.0))
     return p1[:, None] + s[..., None] * d1, p2[None] + t[..., None] * d2
 
 

@@ -48,6 +48,8 @@ def _vertex_face(w, pose, ring, half, best, pa, pb, flip):  # pragma: no cover -
             if cross < 0:
                 inside = False
             ee = ex * ex + ey * ey
+            if ee <= 0.0:  # a repeated ring vertex: no side (its neighbours are the sides)
+                continue
             s = (rx * ex + ry * ey) / ee
             if s >= 0 and s <= 1 and abs(z) <= half:
                 ds = abs(cross) / math.sqrt(ee)
@@ -95,13 +97,20 @@ def _edge_edge(wa, ka, wb, kb, best, pa, pb):  # pragma: no cover - compiled
                 b += d1 * d2
                 c += d1 * r
                 f += d2 * r
-            den = a * e - b * b
-            s = min(1.0, max(0.0, (b * f - c * e) / den)) if den > 1e-14 * a * e else 0.0
-            t = (b * s + f) / e
-            if t < 0:
-                t, s = 0.0, min(1.0, max(0.0, -c / a))
-            elif t > 1:
-                t, s = 1.0, min(1.0, max(0.0, (b - c) / a))
+            if a <= 0.0 and e <= 0.0:  # both edges a point (ends that coincide in the world)
+                s = t = 0.0
+            elif a <= 0.0:
+                s, t = 0.0, min(1.0, max(0.0, f / e))
+            elif e <= 0.0:
+                s, t = min(1.0, max(0.0, -c / a)), 0.0
+            else:
+                den = a * e - b * b
+                s = min(1.0, max(0.0, (b * f - c * e) / den)) if den > 1e-14 * a * e else 0.0
+                t = (b * s + f) / e
+                if t < 0:
+                    t, s = 0.0, min(1.0, max(0.0, -c / a))
+                elif t > 1:
+                    t, s = 1.0, min(1.0, max(0.0, (b - c) / a))
             dd = 0.0
             for x in range(3):
                 q = (wa[i0, x] + s * (wa[i1, x] - wa[i0, x])) - (wb[j0, x] + t * (wb[j1, x] - wb[j0, x]))
