@@ -53,8 +53,26 @@ TEMPLATES = ["miura_3x3", "cross_lock_uniform"]
 #: one round's new angles (rad): the eigen-decomposition of J^T J resolves a singular value
 #: only to ~1e-8 of the largest (docs/loops.md), so a step along a direction with a small
 #: kept singular value carries that round-off on either path (measured: up to 3.9e-7 rad on
-#: points of miura_3x3 between 0.01 and 0.2 rad from flat; the tracks' answers agree to 1e-10)
+#: points of miura_3x3 between 0.01 and 0.2 rad from flat; the tracks' answers agree to 1e-10).
+#: A point past it must be one where the reference's own step moves that far when its angles
+#: move by 1e-14 of themselves (within 10 times that: measured 7.3e-6 rad against 2.9e-6 at a
+#: point 0.036 rad from flat whose J^T J has an eigenvalue of 2.2e-4 beside its null space)
 STEP_TOL = 1e-6
+
+
+def _round_off_spread(pool, solver, live, rel=1e-14, draws=3):
+    """How far the numpy round's new angles move when the pool's angles move by ``rel``
+    of themselves (a few ulps): what round-off alone does to a step at each live point."""
+    ref = copy.deepcopy(pool)
+    ref.round(solver._evaluate)
+    rng = np.random.default_rng(7)
+    spread = np.zeros(len(live))
+    for _ in range(draws):
+        c = copy.deepcopy(pool)
+        c.x = c.x * (1.0 + rel * rng.standard_normal(c.x.shape))
+        c.round(solver._evaluate)
+        spread = np.maximum(spread, np.abs(ref.x[live] - c.x[live]).max(axis=1))
+    return spread
 
 
 def _solver(design) -> LoopSolver:
@@ -155,8 +173,11 @@ def test_one_round_makes_the_numpy_rounds_decisions(monkeypatch):
             b.round(fused)
             for f in ("alive", "it", "line", "done", "null"):
                 assert np.array_equal(getattr(a, f)[live], getattr(b, f)[live]), (name, f)
-            worst[0] = max(worst[0], np.abs(a.x[live] - b.x[live]).max())
-            assert worst[0] <= STEP_TOL
+            dx = np.abs(a.x[live] - b.x[live]).max(axis=1)
+            worst[0] = max(worst[0], dx.max())
+            over = dx > STEP_TOL
+            if over.any():  # is the reference itself that sensitive to round-off there?
+                assert (dx[over] <= 10 * _round_off_spread(pool, solver, live)[over]).all(), (name, dx[over])
             stop = live[~a.alive[live]]
             assert np.abs(a.res[stop] - b.res[stop]).max(initial=0.0) <= 1e-12
             for i in stop:

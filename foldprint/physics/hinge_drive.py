@@ -76,7 +76,9 @@ class HingeDrive:
 
         # every curve lives on the same internal grid: stack them for one fused lookup
         self._grid = self.curves[0].t if self.curves else np.zeros(1)
-        if stack is not None:
+        if stack is not None and not self.curves and stack.shape[-1] == 0:
+            self._stack = None  # a design without hinges: a chunk's empty stack holds nothing
+        elif stack is not None:
             if stack.shape != (len(self._grid), len(self.curves)):
                 raise DesignError(f"a stack of ratios {stack.shape} for {len(self.curves)} curves "
                                   f"on {len(self._grid)} grid times")
