@@ -242,3 +242,25 @@ def test_a_repeated_ring_vertex_is_the_same_prism(ulps, rot, shift, gap):
             ub, lb, qa, qb = path(pa, a, 0.4, pb, b, 0.4)
             assert ub == pytest.approx(want, abs=1e-9) and ub == pytest.approx(gap, abs=1e-9), path
             _check_certificate(ub, lb, qa, qb, 30.0)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True, database=None)
+@given(size=st.tuples(st.floats(1.0, 30.0), st.floats(1.0, 30.0), st.floats(0.1, 2.0)), gap=st.floats(0.01, 5.0),
+       rot=_ROT, shift=_SHIFT)
+def test_a_contact_face_reports_its_centre(size, gap, rot, shift):
+    """Two equal boxes side by side, face to face: every point of the facing faces is
+    nearest. The reported point is the centre between the faces, wherever the rigid motion
+    puts them (a first-found nearest pair would be a corner, and which corner depends on
+    round-off and on the path)."""
+    w, h, half = size
+    move = _pose(rot, shift)
+    ring = _box(w, h)
+    s = ref.PrismSet(np.vstack([ring, ring]), np.array([0, 4, 8]), np.array([0, 1, 2]), np.array([half, half]),
+                     np.array([[w / 2, h / 2, 0.0]] * 2), np.array([np.hypot(w, h) / 2 + half] * 2))
+    pb = move @ _pose((0.0, 0.0, 0.0), (w + gap, 0.0, 0.0))
+    for path in PATHS:
+        dist = path(move, ring, half, pb, ring, half)[0]
+        assert dist == pytest.approx(gap, abs=1e-9)
+        point = ref.nearest_centre(s, 0, 1, move, pb, dist)
+        want = move[:3, :3] @ [w + gap / 2, h / 2, 0.0] + move[:3, 3]
+        assert np.abs(point - want).max() <= 1e-9 * max(1.0, np.abs(want).max())

@@ -101,14 +101,104 @@ def _area2(ring: np.ndarray) -> float:
     return float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
+#: Nearest-point pairs within this fraction of the coordinates of the smallest distance
+#: count as nearest for :func:`nearest_centre` (our choice: faces parallel to 1e-7 rad
+#: along a 100 mm contact line tie; a contact point is shown, not computed with).
+TIE_REL = 1e-7
+
+
 def panel_distance(checker, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
     """Exact distance (mm, 0 when the solids touch or overlap) between panels ``i`` and
-    ``j`` at world poses (4, 4), and the midpoint of the nearest points (world; None when
-    a panel has no rigid solid: the distance is then inf)."""
+    ``j`` at world poses (4, 4), and a nearest point (world; None when a panel has no
+    rigid solid: the distance is then inf): the centre of the nearest-point pairs
+    (:func:`nearest_centre`) when the solids are apart, the certified pair's midpoint
+    when they touch."""
     ub, _lb, pa, pb = panel_bounds(checker, i, j, pose_i, pose_j)
     if not np.isfinite(ub):
         return float(ub), None
+    if ub > 0.0:
+        return float(ub), nearest_centre(prism_set(checker), i, j, pose_i, pose_j, ub)
     return float(ub), 0.5 * (pa + pb)
+
+
+def nearest_centre(s: PrismSet, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray, dist: float) -> np.ndarray:
+    """One nearest point of panels ``i`` and ``j`` (apart by ``dist``), whichever path and
+    round-off found the distance: the centroid of the region of nearest points. Where two
+    faces or a face and an edge are nearest, every point of a polygon or segment is, and
+    which pair an enumeration meets first depends on round-off (the compiled and numpy
+    paths reported points 3 mm apart on one contact line). The candidates (vertex-face,
+    edge-edge) within ``dist`` + :data:`TIE_REL` of the coordinates hold that region's
+    corners; their midpoints' convex hull, in the plane across the nearest direction, is
+    the region, and its centroid the point. Numpy on either path; a reported contact's
+    point only."""
+    mids, gaps = [], []
+    ci = s.cen[s.panel_off[i]:s.panel_off[i + 1]] @ pose_i[:3, :3].T + pose_i[:3, 3]
+    cj = s.cen[s.panel_off[j]:s.panel_off[j + 1]] @ pose_j[:3, :3].T + pose_j[:3, 3]
+    for a in range(s.panel_off[i], s.panel_off[i + 1]):
+        for b in range(s.panel_off[j], s.panel_off[j + 1]):
+            far = np.linalg.norm(ci[a - s.panel_off[i]] - cj[b - s.panel_off[j]]) - s.rad[a] - s.rad[b]
+            if far > dist * (1.0 + 1e-6) + CERT_ABS:  # no point of these pieces is that near
+                continue
+            ra, rb = s.ring[s.piece_off[a]:s.piece_off[a + 1]], s.ring[s.piece_off[b]:s.piece_off[b + 1]]
+            wa = prism_vertices(ra, s.half[i]) @ pose_i[:3, :3].T + pose_i[:3, 3]
+            wb = prism_vertices(rb, s.half[j]) @ pose_j[:3, :3].T + pose_j[:3, 3]
+            tie = dist + CERT_ABS + TIE_REL * max(np.abs(wa).max(), np.abs(wb).max())
+            for w, pose, ring, half, sign in ((wa, pose_j, rb, s.half[j], 1.0), (wb, pose_i, ra, s.half[i], -1.0)):
+                d, foot = _vertex_feet(w, pose, ring, half)
+                near = d <= tie
+                mids.append(0.5 * (w[near] + foot[near]))
+                gaps.append(sign * (foot[near] - w[near]))
+            c1, c2 = segment_pairs(*_edges(wa, len(ra)), *_edges(wb, len(rb)))
+            c1, c2 = c1.reshape(-1, 3), c2.reshape(-1, 3)
+            near = np.linalg.norm(c1 - c2, axis=-1) <= tie
+            mids.append(0.5 * (c1[near] + c2[near]))
+            gaps.append(c2[near] - c1[near])
+    mids, gaps = np.vstack(mids), np.vstack(gaps)
+    if not len(mids):
+        return np.full(3, np.nan)
+    return _hull_centroid(mids, gaps[np.linalg.norm(gaps, axis=1).argmax()])
+
+
+def _hull_centroid(points: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """The centroid of the convex hull of ``points`` (n, 3), which lie in one plane across
+    ``normal`` (to round-off): a polygon's area centroid, a segment's midpoint, a point."""
+    import shapely
+
+    n = np.linalg.norm(normal)
+    if n <= 0.0:
+        return points.mean(axis=0)
+    u = normal / n
+    e1 = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(u, e1)
+    origin = points[0]
+    flat = (points - origin) @ np.column_stack([e1, e2])
+    c = shapely.MultiPoint(flat).convex_hull.centroid
+    return origin + c.x * e1 + c.y * e2 + float(((points - origin) @ u).mean()) * u
+
+
+def _vertex_feet(w: np.ndarray, pose: np.ndarray, ring: np.ndarray, half: float):
+    """Each world point's distance to the prism at ``pose`` over the faces holding its foot
+    (inf where none does) and that foot (world): :func:`vertex_face` for every point."""
+    p = (w - pose[:3, 3]) @ pose[:3, :3]
+    e = np.roll(ring, -1, axis=0) - ring
+    rel = p[:, None, :2] - ring[None]
+    cross = e[None, :, 0] * rel[..., 1] - e[None, :, 1] * rel[..., 0]
+    z = p[:, 2]
+    cap = np.where((cross >= 0).all(axis=1), np.abs(np.abs(z) - half), np.inf)
+    ee = (e * e).sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (rel * e[None]).sum(axis=2) / ee
+        side = np.where((s >= 0) & (s <= 1) & (np.abs(z) <= half)[:, None], np.abs(cross) / np.sqrt(ee), np.inf)
+    f = side.argmin(axis=1)
+    rows = np.arange(len(p))
+    d = np.minimum(cap, side[rows, f])
+    on_side = side[rows, f] < cap
+    sf = np.nan_to_num(s[rows, f])
+    foot = np.column_stack([np.where(on_side, ring[f, 0] + sf * e[f, 0], p[:, 0]),
+                            np.where(on_side, ring[f, 1] + sf * e[f, 1], p[:, 1]),
+                            np.where(on_side, z, np.copysign(half, z))])
+    return d, foot @ pose[:3, :3].T + pose[:3, 3]
 
 
 def panel_gap(checker, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray) -> float:
