@@ -114,7 +114,7 @@ def _dense_first_touch(ch, d, model, times):
     first = {}
     for i, j in non_adjacent_pairs(d):
         for k in range(len(times)):
-            if ch.distance(i, j, dense.poses[k, i], dense.poses[k, j])[0] <= 0:
+            if ch.gap(i, j, dense.poses[k, i], dense.poses[k, j]) <= 0:
                 first[(i, j)] = float(times[k])
                 break
     return first
@@ -144,7 +144,7 @@ def _assert_no_contact_missed(d, model):
         assert contact.time <= min(later.values()) + 1e-3
     if contact is not None:
         pose = forward(d, HingeDrive(d).angles([contact.time]), model)[0]
-        assert ch.distance(*contact.pair, pose[contact.pair[0]], pose[contact.pair[1]])[0] <= ch.tol + 1e-9
+        assert ch.gap(*contact.pair, pose[contact.pair[0]], pose[contact.pair[1]]) <= ch.tol + 1e-9
     return later
 
 
@@ -355,7 +355,7 @@ def test_min_clearance_matches_brute_force():
     tr = simulate_kinematics(d, dt=0.25, model="arc")
     ch = SweptChecker(d, "arc", None)
     dist, pair, k = min_clearance(ch, tr.poses)
-    brute = min((ch.distance(i, j, tr.poses[t, i], tr.poses[t, j])[0], (i, j), t)
+    brute = min((ch.gap(i, j, tr.poses[t, i], tr.poses[t, j]), (i, j), t)
                 for t in range(len(tr.times)) for i, j in non_adjacent_pairs(d))
     assert dist == brute[0]  # exact: the search asks for the same values (SweptChecker.gap)
     assert ch.distance(*pair, tr.poses[k, pair[0]], tr.poses[k, pair[1]])[0] == pytest.approx(dist)

@@ -246,7 +246,7 @@ def test_no_false_contact_for_graded_helix_against_dense_sampling():
     assert res.first_collision is None
     dense = simulate_kinematics(d, dt=0.002, duration=8.0, model="point")
     checker = SweptChecker(d, "point", HingeDrive(d))
-    worst = min(checker.distance(i, j, dense.poses[k][i], dense.poses[k][j])[0]
+    worst = min(checker.gap(i, j, dense.poses[k][i], dense.poses[k][j])
                 for k in range(0, len(dense.times), 25) for i, j in non_adjacent_pairs(d))
     assert worst > 0.0
 

@@ -40,7 +40,7 @@ import numpy as np
 
 from ..collision.broadphase import non_adjacent_pairs, panel_centres
 from ..collision.clearance import Gap, earliest_within, sampled_poses
-from ..collision.polytope_distance import panel_distance
+from ..collision.polytope_distance import panel_distance, panel_gap
 from ..collision.swept3d import SweptChecker
 from ..collision.swept_search import min_clearance as swept_min_clearance
 from ..core.constants import tol
@@ -163,7 +163,7 @@ def search_pairs(checker: SweptChecker, poses: np.ndarray, pairs: np.ndarray, bo
             if lb[m] >= best[0]:
                 break
             i, j, t = int(pairs[m % n_p, 0]), int(pairs[m % n_p, 1]), int(k[m // n_p])
-            d, _ = panel_distance(checker, i, j, poses[t, i], poses[t, j])
+            d = panel_gap(checker, i, j, poses[t, i], poses[t, j])
             if d < best[0]:
                 best = (d, (i, j), t)
     return best if best[1] is not None else None
@@ -248,7 +248,7 @@ def earliest(memo: Memo, poses: np.ndarray, s: Searched, before: Searched | None
                 if t == k_prev and rows[m] > m_prev:
                     break
                 i, j = (int(x) for x in pairs[m])
-                if panel_distance(memo.checker, i, j, poses[t][i], poses[t][j])[0] <= within:
+                if panel_gap(memo.checker, i, j, poses[t][i], poses[t][j]) <= within:
                     return t, (i, j)
     return prev
 

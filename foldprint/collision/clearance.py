@@ -26,7 +26,7 @@ from ..core.constants import CLEARANCE_SAMPLES, tol
 from ..model.derived import scoped
 from .broadphase import pair_bounds
 from .broadphase import non_adjacent_pairs
-from .polytope_distance import panel_distance
+from .polytope_distance import panel_distance, panel_gap
 from .swept3d import SweptChecker
 from .swept_search import min_clearance as swept_min_clearance
 from .rigid import rigid_polygons
@@ -152,7 +152,7 @@ def earliest_within(checker: SweptChecker, poses: np.ndarray, within_mm: float, 
             k = k0 + dk
             for m in np.nonzero(row <= within_mm)[0]:
                 i, j = (int(x) for x in pairs[m])
-                if panel_distance(checker, i, j, poses[k][i], poses[k][j])[0] <= within_mm:
+                if panel_gap(checker, i, j, poses[k][i], poses[k][j]) <= within_mm:
                     return k, (i, j)
     return None
 
