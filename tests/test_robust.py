@@ -206,14 +206,12 @@ def test_the_sample_count_guard_extrapolates_the_first_chunks_time_per_sample(mo
     """A clock on which the first chunk of CHUNK samples takes CHUNK seconds: 1 s a sample,
     so 2 CHUNK + 1 samples on one worker are estimated at 2 CHUNK + 1 s, refused under a
     budget one second shorter and run under one that holds them."""
-    import types
-
     from foldprint.core.guards import ResourceError
     from foldprint.simulation import robust
     from foldprint.simulation.robust import CHUNK
 
     ticks = iter([0.0, float(CHUNK)] * 2)
-    monkeypatch.setattr(robust, "time", types.SimpleNamespace(process_time=lambda: next(ticks)))
+    monkeypatch.setattr(robust, "work_cpu_s", lambda: next(ticks))
     d = strip("g", [15, 15], [90], ["H-7"])
     n = 2 * CHUNK + 1
     monkeypatch.setenv("FOLDPRINT_TIME_BUDGET", str(n - 1))

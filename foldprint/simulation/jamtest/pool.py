@@ -32,12 +32,12 @@ sample count) as ``jam_probability`` would refuse it.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
 from .. import costs
 from ...core.constants import DEFAULT_DT_S
+from ...core.jit import work_cpu_s
 from ...core.modes import DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, VERDICT_METHOD, HingeModel, Mechanics, Method, parse
 from ...model.design import Design, has_loops
 from ...model.materials import MaterialLibrary, default_library
@@ -127,10 +127,10 @@ def _chunk_task(j: int, scatter: Scatter, start: int, size: int) -> tuple[list[O
     (in a worker); their outcomes and the seconds per sample it took."""
     job: MonteCarloJob = _STATE["jobs"][j]
     samples = samples_between(job.design, scatter, job.seed, start, min(start + size, job.samples))
-    t0 = time.process_time()  # this worker's CPU, as jam_probability times its first chunk
+    t0 = work_cpu_s()  # this worker's CPU, as jam_probability times its first chunk
     out = run_samples((job.design, _STATE["library"], samples, job.hinge_model, job.dt, False, job.method,
                        job.mechanics))
-    return out, (time.process_time() - t0) / max(1, len(samples))
+    return out, (work_cpu_s() - t0) / max(1, len(samples))
 
 
 def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None = None, workers: int = 1,
