@@ -155,6 +155,27 @@ def _normal(jac, c, gram, g, nz):  # pragma: no cover - compiled
 
 
 @njit
+def _along(basis, j, x):  # pragma: no cover - compiled
+    """``basis[:, j] . x``, summed in index order."""
+    acc = 0.0
+    for a in range(x.shape[0]):
+        acc += basis[a, j] * x[a]
+    return acc
+
+
+@njit
+def _combine(basis, coef, vec, step):  # pragma: no cover - compiled
+    """``vec`` = ``basis`` (its columns the directions) and ``step`` = ``basis @ coef``."""
+    n = coef.shape[0]
+    for a in range(n):
+        acc = 0.0
+        for j in range(n):
+            vec[a, j] = basis[a, j]
+            acc += basis[a, j] * coef[j]
+        step[a] = acc
+
+
+@njit
 def _gn_eigh(gram, g, d, stiff, step, vec, fr):  # pragma: no cover - compiled
     """corrector._gn_eigh of one point: step, eigenvectors into ``vec``, null directions
     into ``fr``."""
@@ -165,21 +186,8 @@ def _gn_eigh(gram, g, d, stiff, step, vec, fr):  # pragma: no cover - compiled
     for j in range(n):
         keep = lam[j] > thr
         fr[j] = not keep
-        acc = 0.0
-        if keep:
-            for a in range(n):
-                acc += v[a, j] * g[a]
-            coef[j] = -acc / lam[j]
-        else:
-            for a in range(n):
-                acc += v[a, j] * d[a]
-            coef[j] = acc
-    for a in range(n):
-        acc = 0.0
-        for j in range(n):
-            vec[a, j] = v[a, j]
-            acc += v[a, j] * coef[j]
-        step[a] = acc
+        coef[j] = -_along(v, j, g) / lam[j] if keep else _along(v, j, d)
+    _combine(v, coef, vec, step)
 
 
 @njit
@@ -191,28 +199,15 @@ def _gn_svd(jac, c, d, step, vec, fr):  # pragma: no cover - compiled
     uc = np.zeros(n)
     for j in range(min(k, n)):
         s[j] = sv[j]
-        acc = 0.0
-        for r in range(k):
-            acc += u[r, j] * c[r]
-        uc[j] = acc
+        uc[j] = _along(u, j, c)
     thr = RANK_TOL * max(1.0, s[0])
     coef = np.empty(n)
+    v = vt.T  # the right singular vectors as columns
     for j in range(n):
         keep = s[j] > thr
         fr[j] = not keep
-        if keep:
-            coef[j] = -uc[j] / s[j]
-        else:
-            acc = 0.0
-            for a in range(n):
-                acc += vt[j, a] * d[a]
-            coef[j] = acc
-    for a in range(n):
-        acc = 0.0
-        for j in range(n):
-            vec[a, j] = vt[j, a]
-            acc += vt[j, a] * coef[j]
-        step[a] = acc
+        coef[j] = -uc[j] / s[j] if keep else _along(v, j, d)
+    _combine(v, coef, vec, step)
 
 
 @njit
