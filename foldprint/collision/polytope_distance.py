@@ -178,26 +178,8 @@ def _hull_centroid(points: np.ndarray, normal: np.ndarray) -> np.ndarray:
 
 
 def _vertex_feet(w: np.ndarray, pose: np.ndarray, ring: np.ndarray, half: float):
-    """Each world point's distance to the prism at ``pose`` over the faces holding its foot
-    (inf where none does) and that foot (world): :func:`vertex_face` for every point."""
-    p = (w - pose[:3, 3]) @ pose[:3, :3]
-    e = np.roll(ring, -1, axis=0) - ring
-    rel = p[:, None, :2] - ring[None]
-    cross = e[None, :, 0] * rel[..., 1] - e[None, :, 1] * rel[..., 0]
-    z = p[:, 2]
-    cap = np.where((cross >= 0).all(axis=1), np.abs(np.abs(z) - half), np.inf)
-    ee = (e * e).sum(axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = (rel * e[None]).sum(axis=2) / ee
-        side = np.where((s >= 0) & (s <= 1) & (np.abs(z) <= half)[:, None], np.abs(cross) / np.sqrt(ee), np.inf)
-    f = side.argmin(axis=1)
-    rows = np.arange(len(p))
-    d = np.minimum(cap, side[rows, f])
-    on_side = side[rows, f] < cap
-    sf = np.nan_to_num(s[rows, f])
-    foot = np.column_stack([np.where(on_side, ring[f, 0] + sf * e[f, 0], p[:, 0]),
-                            np.where(on_side, ring[f, 1] + sf * e[f, 1], p[:, 1]),
-                            np.where(on_side, z, np.copysign(half, z))])
+    """:func:`vertex_feet` of world points ``w`` on the prism at ``pose``, feet in the world."""
+    d, foot = vertex_feet((w - pose[:3, 3]) @ pose[:3, :3], ring, half)
     return d, foot @ pose[:3, :3].T + pose[:3, 3]
 
 
@@ -333,10 +315,11 @@ def _edges(w: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     return (np.vstack([w[lo], w[k + lo], w[lo]]), np.vstack([w[nxt], w[k + nxt], w[k + lo]]))
 
 
-def vertex_face(p: np.ndarray, ring: np.ndarray, half: float) -> tuple[float, int, np.ndarray]:
-    """The nearest (distance, vertex index, foot) over points ``p`` (m, 3, in the prism's
-    frame) and the prism's faces whose plane holds the point's foot inside the face (caps:
-    foot inside the ring; sides: between the side's ends and the caps)."""
+def vertex_feet(p: np.ndarray, ring: np.ndarray, half: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each point of ``p`` (m, 3, in the prism's frame): its distance to the prism's faces
+    whose plane holds its foot inside the face (caps: foot inside the ring; sides: between
+    the side's ends and the caps; inf where none does) and that foot (m, 3). Ties go as in
+    the compiled kernel: the first side, a cap before a side at the same distance."""
     e = np.roll(ring, -1, axis=0) - ring  # (k, 2) side vectors, counter-clockwise
     rel = p[:, None, :2] - ring[None]  # (m, k, 2)
     cross = e[None, :, 0] * rel[..., 1] - e[None, :, 1] * rel[..., 0]  # >= 0 left of every side: inside
@@ -346,13 +329,22 @@ def vertex_face(p: np.ndarray, ring: np.ndarray, half: float) -> tuple[float, in
     with np.errstate(divide="ignore", invalid="ignore"):  # a repeated ring vertex: no side (NaN fails the test)
         s = (rel * e[None]).sum(axis=2) / ee
         side = np.where((s >= 0) & (s <= 1) & (np.abs(z) <= half)[:, None], np.abs(cross) / np.sqrt(ee), np.inf)
-    m_side = np.unravel_index(np.argmin(side), side.shape)
-    v_cap = int(np.argmin(cap))
-    if cap[v_cap] <= side[m_side]:
-        return float(cap[v_cap]), v_cap, np.array([p[v_cap, 0], p[v_cap, 1], np.copysign(half, z[v_cap])])
-    v, f = (int(x) for x in m_side)
-    foot = ring[f] + s[v, f] * e[f]
-    return float(side[v, f]), v, np.array([foot[0], foot[1], z[v]])
+    rows = np.arange(len(p))
+    f = side.argmin(axis=1)
+    on_side = side[rows, f] < cap
+    sf = np.nan_to_num(s[rows, f])
+    foot = np.column_stack([np.where(on_side, ring[f, 0] + sf * e[f, 0], p[:, 0]),
+                            np.where(on_side, ring[f, 1] + sf * e[f, 1], p[:, 1]),
+                            np.where(on_side, z, np.copysign(half, z))])
+    return np.minimum(cap, side[rows, f]), foot
+
+
+def vertex_face(p: np.ndarray, ring: np.ndarray, half: float) -> tuple[float, int, np.ndarray]:
+    """The nearest (distance, vertex index, foot) of :func:`vertex_feet` (the first
+    nearest point)."""
+    d, foot = vertex_feet(p, ring, half)
+    v = int(np.argmin(d))
+    return float(d[v]), v, foot[v]
 
 
 def segment_pairs(p1, q1, p2, q2):
