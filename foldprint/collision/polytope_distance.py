@@ -121,6 +121,16 @@ def panel_distance(checker, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarr
     return float(ub), 0.5 * (pa + pb)
 
 
+def _piece_pairs(s: PrismSet, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
+    """Every pair of convex pieces (a of panel i, b of panel j) at the world poses, with the
+    distance below which they cannot come (their holding spheres': ``far``)."""
+    ci = s.cen[s.panel_off[i]:s.panel_off[i + 1]] @ pose_i[:3, :3].T + pose_i[:3, 3]
+    cj = s.cen[s.panel_off[j]:s.panel_off[j + 1]] @ pose_j[:3, :3].T + pose_j[:3, 3]
+    for a in range(s.panel_off[i], s.panel_off[i + 1]):
+        for b in range(s.panel_off[j], s.panel_off[j + 1]):
+            yield a, b, np.linalg.norm(ci[a - s.panel_off[i]] - cj[b - s.panel_off[j]]) - s.rad[a] - s.rad[b]
+
+
 def nearest_centre(s: PrismSet, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray, dist: float) -> np.ndarray:
     """One nearest point of panels ``i`` and ``j`` (apart by ``dist``), whichever path and
     round-off found the distance: the centroid of the region of nearest points. Where two
@@ -132,27 +142,23 @@ def nearest_centre(s: PrismSet, i: int, j: int, pose_i: np.ndarray, pose_j: np.n
     the region, and its centroid the point. Numpy on either path; a reported contact's
     point only."""
     mids, gaps = [], []
-    ci = s.cen[s.panel_off[i]:s.panel_off[i + 1]] @ pose_i[:3, :3].T + pose_i[:3, 3]
-    cj = s.cen[s.panel_off[j]:s.panel_off[j + 1]] @ pose_j[:3, :3].T + pose_j[:3, 3]
-    for a in range(s.panel_off[i], s.panel_off[i + 1]):
-        for b in range(s.panel_off[j], s.panel_off[j + 1]):
-            far = np.linalg.norm(ci[a - s.panel_off[i]] - cj[b - s.panel_off[j]]) - s.rad[a] - s.rad[b]
-            if far > dist * (1.0 + 1e-6) + CERT_ABS:  # no point of these pieces is that near
-                continue
-            ra, rb = s.ring[s.piece_off[a]:s.piece_off[a + 1]], s.ring[s.piece_off[b]:s.piece_off[b + 1]]
-            wa = prism_vertices(ra, s.half[i]) @ pose_i[:3, :3].T + pose_i[:3, 3]
-            wb = prism_vertices(rb, s.half[j]) @ pose_j[:3, :3].T + pose_j[:3, 3]
-            tie = dist + CERT_ABS + TIE_REL * max(np.abs(wa).max(), np.abs(wb).max())
-            for w, pose, ring, half, sign in ((wa, pose_j, rb, s.half[j], 1.0), (wb, pose_i, ra, s.half[i], -1.0)):
-                d, foot = _vertex_feet(w, pose, ring, half)
-                near = d <= tie
-                mids.append(0.5 * (w[near] + foot[near]))
-                gaps.append(sign * (foot[near] - w[near]))
-            c1, c2 = segment_pairs(*_edges(wa, len(ra)), *_edges(wb, len(rb)))
-            c1, c2 = c1.reshape(-1, 3), c2.reshape(-1, 3)
-            near = np.linalg.norm(c1 - c2, axis=-1) <= tie
-            mids.append(0.5 * (c1[near] + c2[near]))
-            gaps.append(c2[near] - c1[near])
+    for a, b, far in _piece_pairs(s, i, j, pose_i, pose_j):
+        if far > dist * (1.0 + 1e-6) + CERT_ABS:  # no point of these pieces is that near
+            continue
+        ra, rb = s.ring[s.piece_off[a]:s.piece_off[a + 1]], s.ring[s.piece_off[b]:s.piece_off[b + 1]]
+        wa = prism_vertices(ra, s.half[i]) @ pose_i[:3, :3].T + pose_i[:3, 3]
+        wb = prism_vertices(rb, s.half[j]) @ pose_j[:3, :3].T + pose_j[:3, 3]
+        tie = dist + CERT_ABS + TIE_REL * max(np.abs(wa).max(), np.abs(wb).max())
+        for w, pose, ring, half, sign in ((wa, pose_j, rb, s.half[j], 1.0), (wb, pose_i, ra, s.half[i], -1.0)):
+            d, foot = _vertex_feet(w, pose, ring, half)
+            near = d <= tie
+            mids.append(0.5 * (w[near] + foot[near]))
+            gaps.append(sign * (foot[near] - w[near]))
+        c1, c2 = segment_pairs(*_edges(wa, len(ra)), *_edges(wb, len(rb)))
+        c1, c2 = c1.reshape(-1, 3), c2.reshape(-1, 3)
+        near = np.linalg.norm(c1 - c2, axis=-1) <= tie
+        mids.append(0.5 * (c1[near] + c2[near]))
+        gaps.append(c2[near] - c1[near])
     mids, gaps = np.vstack(mids), np.vstack(gaps)
     if not len(mids):
         return np.full(3, np.nan)
@@ -241,23 +247,19 @@ def _panel_bounds(pose_i, pose_j, i, j, s: PrismSet, seeds=None):
     """The numpy path's panel loop; ``seeds``: the checker's FCL pieces (each panel's list)
     and every piece's :func:`piece_data`, FCL's nearest points tried first (:func:`seeded_bounds`)."""
     best = (np.inf, np.inf, np.full(3, np.nan), np.full(3, np.nan))
-    ci = s.cen[s.panel_off[i]:s.panel_off[i + 1]] @ pose_i[:3, :3].T + pose_i[:3, 3]
-    cj = s.cen[s.panel_off[j]:s.panel_off[j + 1]] @ pose_j[:3, :3].T + pose_j[:3, 3]
-    for a in range(s.panel_off[i], s.panel_off[i + 1]):
-        for b in range(s.panel_off[j], s.panel_off[j + 1]):
-            far = np.linalg.norm(ci[a - s.panel_off[i]] - cj[b - s.panel_off[j]]) - s.rad[a] - s.rad[b]
-            if far >= best[0]:
-                continue
-            got = None if seeds is None else seeded_bounds(
-                seeds[0][i][a - s.panel_off[i]], seeds[0][j][b - s.panel_off[j]], pose_i, seeds[1][a], pose_j, seeds[1][b])
-            got = got or prism_bounds(pose_i, s.ring[s.piece_off[a]:s.piece_off[a + 1]], s.half[i],
-                                      pose_j, s.ring[s.piece_off[b]:s.piece_off[b + 1]], s.half[j])
-            if got[0] < best[0]:
-                best = (got[0], min(best[1], got[1]), got[2], got[3])
-            else:
-                best = (best[0], min(best[1], got[1]), best[2], best[3])
-            if best[0] <= 0.0:
-                return best
+    for a, b, far in _piece_pairs(s, i, j, pose_i, pose_j):
+        if far >= best[0]:
+            continue
+        got = None if seeds is None else seeded_bounds(
+            seeds[0][i][a - s.panel_off[i]], seeds[0][j][b - s.panel_off[j]], pose_i, seeds[1][a], pose_j, seeds[1][b])
+        got = got or prism_bounds(pose_i, s.ring[s.piece_off[a]:s.piece_off[a + 1]], s.half[i],
+                                  pose_j, s.ring[s.piece_off[b]:s.piece_off[b + 1]], s.half[j])
+        if got[0] < best[0]:
+            best = (got[0], min(best[1], got[1]), got[2], got[3])
+        else:
+            best = (best[0], min(best[1], got[1]), best[2], best[3])
+        if best[0] <= 0.0:
+            return best
     return best
 
 
