@@ -247,7 +247,9 @@ def test_no_chunk_is_folded_past_a_decided_stop(monkeypatch):
 def test_a_chunk_is_sized_to_the_earliest_stop():
     """A stream's next chunk holds the samples after which an unbroken run could stop its
     test (the fewest of all-clean and all-jammed), at least MIN_CHUNK, at most CHUNK; with a
-    chunk in flight, or without a test, a whole CHUNK."""
+    chunk in flight, the samples after it to such a stop; without a test, a whole CHUNK. A
+    loop pattern's chunk is cut only where a clean run would stop, at least LOOP_MIN_CHUNK;
+    a chunk past what a clean run of the submitted samples would stop is not speculated on."""
     from foldprint.simulation.jamtest import streams
     from foldprint.simulation.robust import CHUNK, Outcome
     from foldprint.simulation.jamtest.verdict import decide, jam_test
@@ -269,11 +271,20 @@ def test_a_chunk_is_sized_to_the_earliest_stop():
         s.outcomes = [jam if x else clean for x in prefix]
         s.next = len(prefix)
         assert s.size() == min(CHUNK, max(streams.MIN_CHUNK, need)), prefix
-        assert s.take() == (len(prefix), s.next - len(prefix)) and s.size() == CHUNK  # one in flight
-    # a loop pattern keeps whole chunks (its closure tracking is cheaper a sample in them)
+        m = s.take()[1]  # one in flight: the next ends where a run after it would stop
+        assert m == min(CHUNK, max(streams.MIN_CHUNK, need))
+        assert s.size() == min(CHUNK, max(streams.MIN_CHUNK, need - m)), prefix
+        assert s.open_past_clean_run == (first_stop(prefix, False) > m), prefix
+    # a loop pattern's chunks are cut only where a clean run would stop
     miura = load_design(templates_dir() / "miura_3x3.toml")
     s = streams.Stream(0, 1.0, MonteCarloJob(miura, 200, SEED, test=test), default_scatter(), test)
     assert streams.to_decision([], test, CHUNK) < CHUNK and s.size() == CHUNK
+    clean_stop = first_stop([], False)
+    assert [s.take() for _ in range(4)] == [(0, CHUNK), (CHUNK, CHUNK), (2 * CHUNK, CHUNK),
+                                            (3 * CHUNK, clean_stop - 3 * CHUNK)]
+    assert not s.open_past_clean_run and s.size() == streams.LOOP_MIN_CHUNK
+    s.add(0, [jam] + [clean] * (CHUNK - 1))  # a jam: a clean run of the rest no longer stops it
+    assert s.open_past_clean_run
     fixed = streams.Stream(0, 1.0, MonteCarloJob(_designs()[0], 20, SEED), default_scatter(), None)
     assert [fixed.take() for _ in range(2)] == [(0, CHUNK), (CHUNK, 20 - CHUNK)] and not fixed.wants
 
@@ -350,7 +361,8 @@ def test_jam_tests_refuse_a_bad_seed_or_mechanics_by_name():
 
 def test_the_sweep_is_folded_ahead_and_handed_to_its_stream():
     """While the test at 1x runs, a worker with no chunk sure to be used gets the first
-    chunk of a sweep scale (the sweep asks for it whatever the verdict at 1x), once; when
+    chunk of a sweep scale (the sweep asks for it whatever the verdict at 1x), once, and no
+    chunk past where a clean run of the samples in flight would stop the test; when
     the sweep starts, its stream consumes that chunk's outcomes first and folds on after it."""
     from foldprint.model.materials import default_library
     from foldprint.simulation.jamtest import pool as batch
@@ -367,7 +379,9 @@ def test_the_sweep_is_folded_ahead_and_handed_to_its_stream():
     start, size = one.take(57)  # in flight: nothing else of the test at 1x is sure to be used
     work = b.next_work()
     assert work[:3] == ("early", 0, name) and work[3] == default_scatter().scaled(2.0) and work[4] == (0, MIN_CHUNK)
-    assert b.next_work()[:2] == ("chunk", one)  # the scale's first chunk once; then one that may be discarded
+    # the scale's first chunk once; then none: a clean run of the 57 in flight stops the
+    # test at 1x, so a chunk after them would be thrown away (one jam among them and it is not)
+    assert b.next_work() is None
     early = [clean] * (MIN_CHUNK - 1) + [Outcome(True, None, None, None, None)]
     b.early[(0, name)] = ("back", 0, (early, 0.001))
     b.chunk_done(one, start, [clean] * size, 0.001)  # 57 clean samples: a pass, the sweep starts

@@ -158,6 +158,29 @@ def test_confidence_sequence_ends_solve_the_mixture_equation(k, n):
         assert _g(k, n, hi + eps) > math.log(20) > _g(k, n, hi - eps)
 
 
+def test_brent_roots_are_scipys_bit_for_bit():
+    """The interval's root finder is scipy's brentq step for step: the same ends on check's
+    (k, n) (every k of every 7th n up to the maximum), and on a few other functions."""
+    from scipy.optimize import brentq as scipy_brentq
+    from scipy.special import betaln
+
+    from foldprint.simulation.jamtest.interval import brentq
+
+    for n in range(1, 401, 7):
+        for k in range(1, n + 1):
+            c = math.log(1.0 - 0.95) + float(betaln(k + 1, n - k + 1))
+
+            def g(p, k=k, n=n, c=c):
+                return k * math.log(p) + ((n - k) * math.log1p(-p) if k < n else 0.0) - c
+            assert brentq(g, 1e-300, k / n, 1e-14, 1e-12) == scipy_brentq(g, 1e-300, k / n, xtol=1e-14, rtol=1e-12)
+            assert confidence_sequence(k, n)[0] == scipy_brentq(g, 1e-300, k / n, xtol=1e-14, rtol=1e-12)
+    for f, a, b in ((math.cos, 0.0, 3.0), (lambda x: x ** 3 - 2 * x - 5, 2.0, 3.0), (math.expm1, -1.0, 2.0),
+                    (lambda x: math.atan(x - 1e-3), -5.0, 7.0)):
+        assert brentq(f, a, b, 2e-12, 4 * 2.220446049250313e-16) == scipy_brentq(f, a, b)
+    with pytest.raises(ValueError):
+        brentq(math.cos, 0.0, 1.0, 1e-12, 1e-12)
+
+
 def test_confidence_sequence_by_hand():
     # k = 0: B(1, n + 1) = 1 / (n + 1), so the upper end solves (1 - p)^n = 0.05 / (n + 1)
     n = 57

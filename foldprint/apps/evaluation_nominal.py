@@ -15,7 +15,6 @@ from ..core.modes import HingeModel, Mechanics, Method, State, parse
 from ..collision.clearance import Gap, gaps_in_pose, min_clearance, permanent_crossings
 from ..collision.swept3d import SweptChecker
 from ..geometry import Assembly, build_assembly
-from ..physics.barhinge.equilibrium import CompliantDrive
 from ..physics.kinematics import forward, target_angles
 from ..physics.hinge_drive import HingeDrive, run_times, solve_loops_many
 from ..simulation.margin import ScatterMargin, scatter_margin
@@ -67,6 +66,8 @@ class NominalStages:
         if self._nominal_drive is None:
             o = self.options
             if o.mechanics == Mechanics.BAR_HINGE:  # its own equilibrium path, solved on first use
+                from ..physics.barhinge.equilibrium import CompliantDrive  # scipy.sparse: loaded when asked for
+
                 costs.check_mechanics(self.design)
                 d = CompliantDrive(self.design, o.bath_c, self.library)
             else:

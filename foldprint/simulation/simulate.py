@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,7 +24,9 @@ from ..model.materials import MaterialLibrary
 from ..core.modes import (DEFAULT_AFTER_CONTACT, DEFAULT_HINGE_MODEL, DEFAULT_MECHANICS, DEFAULT_METHOD, AfterContact,
                           HingeModel, Mechanics, Method, parse)
 from ..physics.barhinge import solve_cost as barhinge_cost
-from ..physics.barhinge.equilibrium import CompliantDrive, CompliantSolution
+
+if TYPE_CHECKING:  # the bar-and-hinge model (scipy.sparse, 0.3 CPU-s to import) loads when a run asks for it
+    from ..physics.barhinge.equilibrium import CompliantSolution
 
 METHODS = tuple(m.value for m in Method)
 AFTER = tuple(m.value for m in AfterContact)
@@ -200,6 +203,8 @@ def _run_drive(design: Design, bath_c, library, drive: HingeDrive | None, mechan
     """This run's own drive: the nominal one, a copy of the given one (arrests go to the
     copy), or for ``bar-hinge`` a compliant drive (on the given drive's curves)."""
     if mechanics == Mechanics.BAR_HINGE and not (drive is not None and drive.compliant):
+        from ..physics.barhinge.equilibrium import CompliantDrive
+
         barhinge_cost.check_mechanics(design)
         drive = CompliantDrive(design, bath_c if drive is None else drive.bath_c, library,
                                None if drive is None else drive.curves)

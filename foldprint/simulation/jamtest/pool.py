@@ -300,7 +300,9 @@ class _Batch:
         """What to submit to a free worker: a chunk whose outcome will be used (costliest
         stream first), else a finished job's follow-up, else the first chunk of a stream a
         follow-up will ask for (:meth:`ahead`), else a chunk that may be folded past its
-        stream's stop; None when there is nothing left to start."""
+        stream's stop, unless a clean run of the samples in flight would stop it
+        (:attr:`~foldprint.simulation.jamtest.streams.Stream.open_past_clean_run`: the worker
+        waits for them instead); None when there is nothing left to start."""
         for s in self.streams:
             if s.wants and s.sure:
                 return ("chunk", s, s.take())
@@ -312,7 +314,7 @@ class _Batch:
         early = self.ahead()
         if early is not None:
             return early
-        open_ = [s for s in self.streams if s.wants]
+        open_ = [s for s in self.streams if s.wants and s.open_past_clean_run]
         if open_:
             s = min(open_, key=lambda t: t.flying)  # stable: the costliest among the least fed
             return ("chunk", s, s.take())

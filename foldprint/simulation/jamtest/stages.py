@@ -98,7 +98,7 @@ def check_pool(design: Design, test: JamTest, scales: Sequence[float], seed: int
     # the kernels a sample needs, loaded (on a cold cache: compiled) here, before the workers
     # fork: they inherit them, and the first chunk, which the time guard extrapolates, is
     # timed at the kernels' speed (the nominal fold does not load the curves' kernel)
-    warm_kernels((design, library, samples_between(design, scatter, seed, 0, 1), hinge_model, dt, False, method,
+    warm_kernels((design, library, samples_between(design, scatter, seed, 0, 2), hinge_model, dt, False, method,
                   Mechanics.RIGID))
     jobs = [MonteCarloJob(design, test.max_samples, seed, (1.0,), scatter, hinge_model, dt, method, test)]
     pre, _, _ = run_batch(jobs, library=library, workers=n_workers, follow=check_follow(jobs, scales),

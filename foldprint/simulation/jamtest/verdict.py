@@ -365,7 +365,8 @@ def confidence_sequence(jams: int, samples: int, level: float = JAM_INTERVAL_LEV
     """The anytime-valid interval for p after ``samples`` samples with ``jams`` jams: the
     p at which the Beta(1, 1) mixture martingale B(k + 1, n - k + 1) / (p^k (1 - p)^(n - k))
     stays below 1 / (1 - level) (Robbins 1970; by Ville's inequality it covers the true p at
-    every n at once with probability >= level). Its ends solve the equality (scipy's brentq).
+    every n at once with probability >= level). Its ends solve the equality (Brent's method,
+    :mod:`.interval`).
 
     >>> [round(x, 4) for x in confidence_sequence(0, 57)]
     [0.0, 0.1164]
@@ -379,26 +380,16 @@ def confidence_sequence(jams: int, samples: int, level: float = JAM_INTERVAL_LEV
 
 
 def load_interval_solver() -> None:
-    """Import the root finder and the Beta function :func:`confidence_sequence` uses
-    (scipy.optimize: 0.3-0.4 CPU-s on first import), e.g. while a pool folds the samples."""
-    from scipy.optimize import brentq  # noqa: F401
+    """Import the Beta function :func:`confidence_sequence` uses (scipy.special), e.g.
+    while a pool folds the samples."""
     from scipy.special import betaln  # noqa: F401
 
 
 def _lower_end(k: int, n: int, level: float) -> float:
-    """The interval's lower end (0 when k = 0)."""
-    if k == 0:
-        return 0.0
-    from scipy.optimize import brentq
-    from scipy.special import betaln
+    """The interval's lower end (0 when k = 0): :func:`.interval.lower_end`."""
+    from .interval import lower_end
 
-    c = math.log(1.0 - level) + betaln(k + 1, n - k + 1)
-
-    def g(p: float) -> float:  # > 0 inside the interval
-        return k * math.log(p) + ((n - k) * math.log1p(-p) if k < n else 0.0) - c
-
-    p_hat = k / n
-    return float(brentq(g, 1e-300, p_hat, xtol=1e-14, rtol=1e-12))
+    return lower_end(k, n, level)
 
 
 @dataclass(frozen=True)
