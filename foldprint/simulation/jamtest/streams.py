@@ -107,19 +107,21 @@ class Stream:
         return to_decision([o.jammed for o in self.outcomes], self.test, unconsumed + 1, (False,)) > unconsumed
 
     def size(self) -> int:
-        """The next chunk's size: :data:`CHUNK`, or with a test the samples after those
-        already submitted that its test needs at least before it can stop
-        (:func:`to_decision` on the outcomes consumed, less the samples in flight or back
-        out of order), not below :data:`MIN_CHUNK`: a strip whose test stops after 6 clean
-        samples folds 6, not 16, and a chunk started while others are in flight ends where
-        the test would stop if they all came out alike. A loop pattern's chunk is cut only
-        where a clean run would stop, not below :data:`LOOP_MIN_CHUNK`."""
+        """The next chunk's size: :data:`CHUNK`, or with a test and nothing in flight the
+        samples its test needs at least before it can stop (:func:`to_decision`), not below
+        :data:`MIN_CHUNK`: a strip whose test stops after 6 clean samples folds 6, not 16.
+        A loop pattern's chunk ends where a clean run after the samples already submitted
+        would stop its test (a jammed run does not cut it), not below :data:`LOOP_MIN_CHUNK`:
+        a clean stream that stops after 57 folds 16 + 16 + 16 + 9."""
         left = self.max_samples - self.next
-        if self.test is None:
+        if self.test is None or (self.flying and not self.loops):
             return min(CHUNK, left)
-        unconsumed = self.next - len(self.outcomes)
-        need = to_decision([o.jammed for o in self.outcomes], self.test, CHUNK + unconsumed,
-                           (False,) if self.loops else (False, True)) - unconsumed
+        jammed = [o.jammed for o in self.outcomes]
+        if self.loops:
+            unconsumed = self.next - len(self.outcomes)
+            need = to_decision(jammed, self.test, CHUNK + unconsumed, (False,)) - unconsumed
+        else:
+            need = to_decision(jammed, self.test, CHUNK)
         return min(left, CHUNK, max(need, self.floor))
 
     def take(self, size: int | None = None) -> tuple[int, int]:
