@@ -413,3 +413,25 @@ def test_a_chunk_folded_ahead_still_in_flight_becomes_its_streams():
     (two,) = [s for s in b.streams if s.k == name]
     assert b.pending[fut] == ("chunk", two, 0) and two.flying == 1 and two.next == MIN_CHUNK and not two.outcomes
     assert two.add(0, [clean] * MIN_CHUNK) is False and len(two.outcomes) == MIN_CHUNK and two.flying == 0
+
+
+def test_kernels_are_warmed_on_two_samples_of_a_loop_pattern(monkeypatch):
+    """Before the workers fork, a strip folds its first sample and a pattern with loops its
+    first two (one drive would take the reference tracker, not the compiled round the
+    workers use); nothing on the numpy path."""
+    from foldprint.model.materials import default_library
+    from foldprint.simulation import robust
+    from foldprint.simulation.scatter import samples_between
+
+    folded = []
+    monkeypatch.setattr(robust, "run_samples", lambda args: folded.append(len(args[2])) or [])
+    import foldprint.collision.polytope_distance as pd
+    monkeypatch.setattr(pd, "warm_kernel", lambda: None)
+    miura = load_design(templates_dir() / "miura_3x3.toml")
+    for design, want in ((_designs()[0], 1), (miura, 2)):
+        head = samples_between(design, default_scatter(), SEED, 0, 16)
+        for kernels, n in ((True, want), (False, None)):
+            monkeypatch.setattr(robust, "use_kernels", lambda k=kernels: k)
+            folded.clear()
+            robust.warm_kernels((design, default_library(), head, "arc", 0.01, False))
+            assert folded == ([n] if n else []), (design.name, kernels)
