@@ -7,15 +7,17 @@ nothing in flight first (the costliest design first: a loop pattern's sample cos
 of strip samples), then the follow-up work of a design whose streams are all decided
 (the gallery's per-design build, which then answers its check from the
 :class:`Precomputed` outcomes instead of folding again), and only when every open stream
-already has a chunk in flight a second chunk of one (it may be discarded). A stream
+already has a chunk in flight a second chunk of one (it may be discarded; not past where
+a clean run of the samples in flight would stop its test). A stream
 with a sequential test (:class:`~foldprint.simulation.jamtest.verdict.JamTest`) stops being fed
 once its test decides; the chunks folded beyond the stop are discarded. Its chunks are
 sized to the test: never more than the samples after which an unbroken run of clean (or
 of jammed) samples would stop it (:func:`~foldprint.simulation.jamtest.streams.to_decision`; at least
 :data:`~foldprint.simulation.jamtest.streams.MIN_CHUNK`, at most
 :data:`~foldprint.simulation.robust.CHUNK`), so a clear strip's stream folds the samples
-its test uses and no more (a loop pattern keeps whole chunks: its closure tracking is
-cheaper a sample in bigger ones).
+its test uses and no more (a loop pattern's chunks are cut only where a clean run would
+stop it, at least :data:`~foldprint.simulation.jamtest.streams.LOOP_MIN_CHUNK`: its closure
+tracking is cheaper a sample in bigger ones).
 
 The samples are the ones :func:`~foldprint.simulation.robust.jam_probability` draws
 (:func:`~foldprint.simulation.scatter.iter_samples`, same seed; a chunk draws its own with

@@ -1,6 +1,7 @@
 """One Monte-Carlo stream of the adaptive pool (:mod:`foldprint.simulation.jamtest.pool`):
 where it is (:class:`StreamStatus`, what progress reports), what it has folded and consumed
-in stream order, and how big its next chunk is (:func:`to_decision`, :data:`MIN_CHUNK`).
+in stream order, and how big its next chunk is (:func:`to_decision`, :data:`MIN_CHUNK`,
+:data:`LOOP_MIN_CHUNK`).
 The pool decides which stream a free worker serves (costliest design first,
 :func:`sample_cost`); a stream decides how much it is given and what it keeps.
 """
