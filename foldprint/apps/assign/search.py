@@ -55,7 +55,8 @@ from ...simulation.robust import Scatter, default_scatter, draw_samples
 from ...simulation.timing import order_risk
 # the results and the tasks, importable from here as before
 from .result import AssignResult, Choice, Verdict, choice_from  # noqa: F401
-from .tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_local_pool, with_materials  # noqa: F401
+from .tasks import (SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, map_tasks, run_task,  # noqa: F401
+                    with_local_pool, with_materials)
 from .ledger import Ledger
 from .waves import connected_waves, growing_waves, hinge_adjacency
 
@@ -352,7 +353,7 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
         _p, t, mt, _v = unique[i]
         for smp in draw_samples(with_materials(design, mt, t, lib), scatter, n_s, seed):
             tasks.append(Task(design, lib, mt, t, method, dt, duration, 0, smp))
-    verdicts = mapper(run_task, tasks, progress)
+    verdicts = map_tasks(mapper, tasks, progress, group=n_s)
     jams = {i: sum(not v.completed for v in verdicts[j * n_s:(j + 1) * n_s]) for j, i in enumerate(order)}
     ranked = sorted(order, key=lambda i: (jams[i], risk[i], i))
     n_robust = len(tasks)

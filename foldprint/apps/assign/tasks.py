@@ -19,7 +19,9 @@ from ...model.design import Design
 from ...model.materials import MaterialLibrary
 from ...physics.hinge_drive import HingeDrive
 from ...physics.recovery.curve import recovery_curve
-from ...simulation.robust import CHUNK, Sample, Scatter, draw_samples, run_end, run_samples, sample_drive, wilson
+from ...model.derived import DerivedCache, current, design_scope
+from ...simulation.robust import (CHUNK, Sample, Scatter, curves_at_once, draw_samples, run_end, run_samples,
+                                  sample_drives, wilson)
 from .result import Choice, Verdict
 
 #: Screening runs stop this long after the slowest active hinge reaches 98 % (s).
@@ -52,23 +54,68 @@ def with_materials(design: Design, materials: Sequence[str], bath_c: float | Non
     return design.replace(library, hinges=hinges, process=proc)
 
 
-def _drive(task: Task) -> HingeDrive:
-    d, lib = task.design, task.library
-    if task.sample is not None:
-        return sample_drive(with_materials(d, task.materials, task.bath_c, lib), lib, task.sample,
-                            until_s=run_end(d, task.dt, task.duration))
+def _nominal_drive(task: Task) -> HingeDrive:
+    """The drive of a task without a scatter draw: each active hinge's cached nominal
+    curve (:func:`recovery_curve` keeps one per material, bath and thickness, so the
+    candidates that share a hinge's material share its curve), a held hinge's at zero."""
+    d = task.design
     curves = []
     for h, m in zip(d.hinges, task.materials):
-        c = recovery_curve(lib[m or h.material], task.bath_c, h.thickness, d.process.fix_temperature_c)
+        c = recovery_curve(task.library[m or h.material], task.bath_c, h.thickness, d.process.fix_temperature_c)
         curves.append(c if m is not None else replace(c, ratio=np.zeros_like(c.ratio)))
-    return HingeDrive(d, task.bath_c, lib, curves=curves)
+    return HingeDrive(d, task.bath_c, task.library, curves=curves)
+
+
+def _drives(tasks: Sequence[Task]) -> list[HingeDrive]:
+    """Every task's drive. The scatter draws of one assignment (materials, bath, step and
+    run) get their curves in one array pass (:func:`sample_drives`: each curve equal, bit
+    for bit, to its draw's own pass) and share the variant design and its statics."""
+    out: list[HingeDrive | None] = [None] * len(tasks)
+    groups: dict[tuple, list[int]] = {}
+    for i, t in enumerate(tasks):
+        if t.sample is None:
+            out[i] = _nominal_drive(t)
+        else:
+            groups.setdefault((id(t.design), t.materials, t.bath_c, t.dt, t.duration), []).append(i)
+    for idx in groups.values():
+        t = tasks[idx[0]]
+        variant = with_materials(t.design, t.materials, t.bath_c, t.library)
+        until = run_end(t.design, t.dt, t.duration)
+        per = curves_at_once(variant, until, len(idx))[0]
+        for a in range(0, len(idx), per):
+            part = idx[a:a + per]
+            for i, drv in zip(part, sample_drives(variant, t.library, [tasks[i].sample for i in part], until_s=until)):
+                out[i] = drv
+    return out  # type: ignore[return-value]
 
 
 def run_task(task: Task) -> Verdict:
     """Fold one (partial) assignment; a module-level function so processes and Dask
-    workers can run it."""
+    workers can run it (:func:`run_tasks` of one task)."""
+    return run_tasks([task])[0]
+
+
+def run_tasks(tasks: Sequence[Task]) -> list[Verdict]:
+    """Fold a batch of tasks (a module-level function for the mappers), in order. The
+    tasks of one design share its derived data (hinge frames, reliefs, rigid polygons and
+    the side view: geometry, which no material changes), kept per process and design
+    content (:func:`~foldprint.model.derived.design_scope`), and the scatter draws of one
+    assignment share their curves' pass (:func:`_drives`); each verdict is the one the
+    task gets alone."""
+    tasks = list(tasks)
+    if not tasks:
+        return []
+    first = tasks[0].design
+    with design_scope(first) as kept:
+        cache = current()
+        tasks = [replace(t, design=kept) if t.design is first else t for t in tasks]
+        return [_fold(t, drv, cache if t.design is kept else None) for t, drv in zip(tasks, _drives(tasks))]
+
+
+def _fold(task: Task, drive: HingeDrive, cache: DerivedCache | None) -> Verdict:
+    """One task's verdict: its simulation (and clearance) through an
+    :class:`~foldprint.apps.pipeline.Evaluation` whose derived data is ``cache`` (when given)."""
     d = task.design
-    drive = _drive(task)
     duration = task.duration
     if task.sample is not None:
         times = [c.time_to(0.98) for c in drive.curves]
@@ -79,6 +126,8 @@ def run_task(task: Task) -> Verdict:
     opts = EvalOptions(hinge_model=HingeModel.ARC, method=task.method, dt=task.dt, bath_c=task.bath_c,
                        duration=duration, samples=0, clearance_samples=task.clearance_samples or CLEARANCE_SAMPLES)
     ev = Evaluation(d, opts, library=task.library, drive=drive)
+    if cache is not None:
+        ev.cache = cache
     res = ev.simulation
     c = res.first_collision
     partial = any(m is None for m in task.materials)
@@ -108,6 +157,37 @@ def local_mapper(workers: int | None = None) -> Mapper:
         return map_ordered(fn, items, workers=workers, progress=progress)
 
     return mapper
+
+
+#: Tasks a batch of :func:`map_tasks` holds at most: a batch pays one message to a worker
+#: and shares its design's derived data and its draws' curves; our choice, a dozen
+#: screening folds (about 0.1 CPU-s) per message.
+BATCH_MAX = 16
+#: Batches per worker at least, so that the last ones still spread over the workers (our choice).
+BATCHES_PER_WORKER = 3
+#: Workers assumed of a mapper that does not say (a Dask cluster's): our choice.
+WORKERS_UNKNOWN = 4
+
+
+def map_tasks(mapper: Mapper, tasks: Sequence[Task], progress: Callable[[int, int], None] | None = None,
+              group: int = 1) -> list[Verdict]:
+    """The verdicts of ``tasks`` in order, run by ``mapper`` in batches of consecutive
+    tasks (:func:`run_tasks`): at most BATCH_MAX, at least BATCHES_PER_WORKER batches per
+    worker (``mapper.workers``, else WORKERS_UNKNOWN), a multiple of ``group`` tasks (the
+    draws of one assignment) when that fits. ``progress(tasks done, tasks)``. The answer
+    does not depend on the batches."""
+    tasks = list(tasks)
+    if not tasks:
+        return []
+    workers = getattr(mapper, "workers", None) or WORKERS_UNKNOWN
+    size = max(1, min(BATCH_MAX, -(-len(tasks) // (BATCHES_PER_WORKER * workers))))
+    if group > 1:
+        size = max(1, size // group) * group if size >= group else size
+    batches = [tasks[a:a + size] for a in range(0, len(tasks), size)]
+    cb = None
+    if progress is not None:
+        cb = lambda done, _n: progress(min(len(tasks), done * size), len(tasks))  # noqa: E731
+    return [v for part in mapper(run_tasks, batches, cb) for v in part]
 
 
 def _worker_start() -> None:
