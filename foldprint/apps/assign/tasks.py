@@ -26,6 +26,11 @@ from .result import Choice, Verdict
 
 #: Screening runs stop this long after the slowest active hinge reaches 98 % (s).
 SCREEN_TAIL_S = 0.5
+#: A screening draw's curves are made first up to this many times the nominal slowest
+#: fold of its assignment (+ SCREEN_TAIL_S); a draw slower than that gets the whole run's
+#: (the same curves and folds: only the cost depends on it). Our choice: 1.5 covers the
+#: draws of the shipped scatter model (robust helix search: none of 768 needs a second pass).
+SAMPLE_HORIZON_FACTOR = 1.5
 
 
 @dataclass(frozen=True)
@@ -68,8 +73,7 @@ def _nominal_drive(task: Task) -> HingeDrive:
 
 def _drives(tasks: Sequence[Task]) -> list[HingeDrive]:
     """Every task's drive. The scatter draws of one assignment (materials, bath, step and
-    run) get their curves in one array pass (:func:`sample_drives`: each curve equal, bit
-    for bit, to its draw's own pass) and share the variant design and its statics."""
+    run) get their curves together (:func:`_draw_drives`) and share the variant design."""
     out: list[HingeDrive | None] = [None] * len(tasks)
     groups: dict[tuple, list[int]] = {}
     for i, t in enumerate(tasks):
@@ -78,15 +82,53 @@ def _drives(tasks: Sequence[Task]) -> list[HingeDrive]:
         else:
             groups.setdefault((id(t.design), t.materials, t.bath_c, t.dt, t.duration), []).append(i)
     for idx in groups.values():
-        t = tasks[idx[0]]
-        variant = with_materials(t.design, t.materials, t.bath_c, t.library)
-        until = run_end(t.design, t.dt, t.duration)
-        per = curves_at_once(variant, until, len(idx))[0]
-        for a in range(0, len(idx), per):
-            part = idx[a:a + per]
-            for i, drv in zip(part, sample_drives(variant, t.library, [tasks[i].sample for i in part], until_s=until)):
-                out[i] = drv
+        for i, drv in zip(idx, _draw_drives(tasks[idx[0]], [tasks[i].sample for i in idx])):
+            out[i] = drv
     return out  # type: ignore[return-value]
+
+
+def _draw_drives(task: Task, samples: list[Sample]) -> list[HingeDrive]:
+    """The drives of the scatter draws ``samples`` of ``task``'s assignment, in array
+    passes of :func:`sample_drives` (each curve equal, bit for bit, to its draw's own
+    pass, and on a shorter grid to the first points of the longer one). A screening fold
+    of a draw stops SCREEN_TAIL_S after its slowest hinge reaches 98 %, so the curves are
+    first made up to SAMPLE_HORIZON_FACTOR times the nominal slowest fold (+ the tail);
+    a draw that does not reach 98 % everywhere by then, or whose run would outlast its
+    curves, gets them up to the whole run, as before: the same folds, a third of the curves."""
+    d, lib = task.design, task.library
+    variant = with_materials(d, task.materials, task.bath_c, lib)
+    full = run_end(d, task.dt, task.duration)
+    nominal = [recovery_curve(lib[m], task.bath_c, h.thickness, d.process.fix_temperature_c).time_to(0.98)
+               for h, m in zip(d.hinges, task.materials)]
+    first = full if None in nominal else min(full, SAMPLE_HORIZON_FACTOR * max(nominal) + SCREEN_TAIL_S)
+    out = _curves_upto(variant, lib, samples, first)
+    if first < full:
+        redo = [j for j, drv in enumerate(out) if not _covers(drv, task)]
+        for j, drv in zip(redo, _curves_upto(variant, lib, [samples[j] for j in redo], full)):
+            out[j] = drv
+    return out
+
+
+def _curves_upto(variant: Design, lib: MaterialLibrary, samples: list[Sample], until: float) -> list[HingeDrive]:
+    """:func:`sample_drives` up to ``until``, as many draws a pass as the memory bound allows."""
+    per = curves_at_once(variant, until, max(1, len(samples)))[0]
+    return [drv for a in range(0, len(samples), per) for drv in sample_drives(variant, lib, samples[a:a + per],
+                                                                              until_s=until)]
+
+
+def _covers(drive: HingeDrive, task: Task) -> bool:
+    """Whether ``drive``'s curves hold every hinge's 98 % and the whole screening run of its draw."""
+    times = [c.time_to(0.98) for c in drive.curves]
+    if None in times or not drive.curves:
+        return False
+    return run_end(task.design, task.dt, _screen_end(task, times)) <= drive.curves[0].t[-1]
+
+
+def _screen_end(task: Task, times: Sequence[float | None]) -> float | None:
+    """How long a draw's screening fold runs: SCREEN_TAIL_S after its slowest hinge reaches 98 %."""
+    if all(x is not None for x in times):
+        return min(task.duration or task.design.process.duration_s, max(times) + SCREEN_TAIL_S)
+    return task.duration
 
 
 def run_task(task: Task) -> Verdict:
@@ -118,9 +160,7 @@ def _fold(task: Task, drive: HingeDrive, cache: DerivedCache | None) -> Verdict:
     d = task.design
     duration = task.duration
     if task.sample is not None:
-        times = [c.time_to(0.98) for c in drive.curves]
-        if all(x is not None for x in times):
-            duration = min(duration or d.process.duration_s, max(times) + SCREEN_TAIL_S)
+        duration = _screen_end(task, [c.time_to(0.98) for c in drive.curves])
     from ..pipeline import EvalOptions, Evaluation
 
     opts = EvalOptions(hinge_model=HingeModel.ARC, method=task.method, dt=task.dt, bath_c=task.bath_c,
