@@ -286,6 +286,18 @@ class LocalPool:
             self.pool = None
 
 
+def warm_workers(mapper: Mapper, tasks: Callable[[], Sequence[Task]]) -> None:
+    """Fold ``tasks()`` here and throw the verdicts away, when ``mapper`` is a
+    :class:`LocalPool` of several workers that has not forked them yet and the compiled
+    kernels are used: its workers then inherit every kernel those folds loaded (numba
+    and its cache, about 0.5 CPU-s a worker) instead of each loading them again. Give a
+    task of each kind the search runs (a screen, a 3D fold, a scatter draw)."""
+    from ...core.jit import use_kernels
+
+    if isinstance(mapper, LocalPool) and mapper.pool is None and mapper.workers > 1 and use_kernels():
+        run_tasks(tasks())
+
+
 def with_local_pool(fn):
     """Run a search ``fn(..., mapper=None, workers=None, ...)`` with a :class:`LocalPool` of
     ``workers`` as its mapper when it is given none, closed when it returns."""
