@@ -295,10 +295,14 @@ def warm_workers(mapper: Mapper, tasks: Callable[[], Sequence[Task]]) -> None:
     kernels are used: its workers then inherit every kernel those folds loaded (numba
     and its cache, about 0.5 CPU-s a worker) instead of each loading them again. Give a
     task of each kind the search runs (a screen, a 3D fold, a scatter draw)."""
+    from ...core.errors import FoldprintError
     from ...core.jit import use_kernels
 
     if isinstance(mapper, LocalPool) and mapper.pool is None and mapper.workers > 1 and use_kernels():
-        run_tasks(tasks())
+        try:
+            run_tasks(tasks())
+        except FoldprintError:  # a refusal (a guard's): the search meets it, or not, where it would have
+            pass
 
 
 def with_local_pool(fn):
