@@ -63,7 +63,13 @@ def _largest_polygon(geom):
 def side_segments(design: Design, model: HingeModel, y: float | None = None) -> list[np.ndarray]:
     """Side view (xz) of a planar strip: for each panel, the sheet-frame segments
     (k, 2, 2) where its rigid part crosses the line y = ``y`` (default: mid-depth).
-    Holes split a panel into several segments."""
+    Holes split a panel into several segments. Once per active derived-data cache (a
+    fold's 2D index and its bisection, and every fold of a batch of ``assign``'s, read
+    the same)."""
+    return derived(design, ("side_segments", str(model), y), lambda: _side_segments(design, model, y))
+
+
+def _side_segments(design: Design, model: HingeModel, y: float | None) -> list[np.ndarray]:
     if y is None:
         y = design.depth / 2 if design.depth else float(design.panels[0].outline[:, 1].mean())
     xs = np.concatenate([p.outline[:, 0] for p in design.panels])

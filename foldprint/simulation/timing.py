@@ -18,9 +18,18 @@ from ..physics.recovery.curve import recovery_curve
 from .scatter import Scatter
 
 
+#: The curves of :func:`_log_times` are made up to this horizon (s) first: their points
+#: are the first of the whole horizon's, bit for bit, so the times read are the same, and
+#: a third of the points. Only a curve that has not reached 98 % by then is made to the
+#: whole horizon. Our choice: a bath run's 20 s.
+FIRST_HORIZON_S = 20.0
+
+
 def _log_times(material, bath_c: float, thickness: float, fix_c: float) -> np.ndarray:
     """ln of the times (s) to half and to full (98 %) recovery (inf when not reached)."""
-    c = recovery_curve(material, bath_c, thickness, fix_c)
+    c = recovery_curve(material, bath_c, thickness, fix_c, horizon_s=FIRST_HORIZON_S)
+    if c.time_to(0.98) is None:
+        c = recovery_curve(material, bath_c, thickness, fix_c)
     return np.array([math.log(x) if x else math.inf for x in (c.time_to(0.5), c.time_to(0.98))])
 
 

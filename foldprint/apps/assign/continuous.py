@@ -60,7 +60,8 @@ from .waves import hinge_adjacency
 from .result import AssignResult, Choice
 from .surrogate import (BATH_STEP_C, BATH_TOL_C, canonical_tg, material_name, optimise_bath,
                                optimise_levels, tg_bounds, timing_table)
-from .tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_local_pool, with_materials
+from .tasks import (SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, map_tasks,  # noqa: F401
+                    with_local_pool, with_materials)
 
 #: Spacing (C) of the Tg grid of the timing table the surrogate interpolates.
 TG_GRID_STEP_C = 0.5
@@ -295,7 +296,7 @@ def _screen(design: Design, lib: MaterialLibrary, scatter: Scatter, good: list, 
     for _chain, lv, c in good:
         for smp in draw_samples(with_materials(design, c.materials, c.bath_c), scatter, n_s, seed):
             tasks.append(Task(design, lib, c.materials, c.bath_c, method, dt, duration, 0, smp))
-    verdicts = mapper(run_task, tasks, progress)
+    verdicts = map_tasks(mapper, tasks, progress, group=n_s)
     jams = [sum(not v.completed for v in verdicts[j * n_s:(j + 1) * n_s]) for j in range(len(good))]
     order = sorted(range(len(good)), key=lambda j: (jams[j], good[j][1].risk, j))
     return [good[j] for j in order[:max(FINALISTS, top)]], len(tasks)

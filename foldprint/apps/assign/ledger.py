@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from .result import Verdict
-from .tasks import Mapper, Task, run_task
+from .tasks import Mapper, Task, map_tasks
 
 
 @dataclass
@@ -37,7 +37,7 @@ class Ledger:
         if todo:
             base = self.evaluated
             cb = (lambda done, _n: self.progress(base + done, self.budget)) if self.progress else None
-            results = self.mapper(run_task, [t for _, t in todo], cb)
+            results = map_tasks(self.mapper, [t for _, t in todo], cb)
             for (key, t), v in zip(todo, results):
                 self.cache[key] = v
                 self.evaluated += 1

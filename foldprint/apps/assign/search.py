@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from dataclasses import replace
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
@@ -55,7 +56,8 @@ from ...simulation.robust import Scatter, default_scatter, draw_samples
 from ...simulation.timing import order_risk
 # the results and the tasks, importable from here as before
 from .result import AssignResult, Choice, Verdict, choice_from  # noqa: F401
-from .tasks import SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, run_task, with_local_pool, with_materials  # noqa: F401
+from .tasks import (SCREEN_TAIL_S, Mapper, Task, jam_estimates, local_mapper, map_tasks, run_task,  # noqa: F401
+                    warm_workers, with_local_pool, with_materials)
 from .ledger import Ledger
 from .waves import connected_waves, growing_waves, hinge_adjacency
 
@@ -185,6 +187,17 @@ class _Search:
         dur = self.duration if confirm else self.screen_duration(active, ft)
         return Task(self.design, self.lib, mat_tuple, t, Method.FCL if confirm else self.method, self.dt, dur,
                     clearance)
+
+    def warm_tasks(self, ranked: list[str], ft: dict, t: float, scatter: Scatter, seed: int) -> list[Task]:
+        """A task of each kind the search maps (:func:`warm_workers`): the fastest material
+        everywhere, screened with a prefix's clearance, folded in 3D, and one scatter draw
+        (``robust``)."""
+        mt = self.materials_for((frozenset(self.free),), [0], ranked, True)
+        out = [self.task(mt, t, ft, PREFIX_CLEARANCE_SAMPLES), replace(self.task(mt, t, ft), method=Method.FCL)]
+        if self.objective is Objective.ROBUST:
+            draw = draw_samples(with_materials(self.design, mt, t, self.lib), scatter, 1, seed)[0]
+            out.append(replace(self.task(mt, t, ft), duration=self.duration, sample=draw))
+        return out
 
     def patterns(self, ranked: list[str], ft_ref: dict, t_ref: float) -> list[tuple[frozenset, ...]]:
         """Phase 1: the feasible patterns (waves of hinges), wave i played by the i-th
@@ -322,6 +335,7 @@ def assign(design: Design, *, library: MaterialLibrary | None = None, materials:
     ranked, ft_ref = s.usable(t_ref)
     if not ranked:
         raise DesignError(f"{design.name}: none of {', '.join(mats)} folds within {s.duration:g} s at {t_ref:g} C")
+    warm_workers(mapper, lambda: s.warm_tasks(ranked, ft_ref, t_ref, scatter or default_scatter(), seed))
     patterns = s.patterns(ranked, ft_ref, t_ref)
     unique = s.screened(s.candidates(patterns))
     good = s.confirm(unique)
@@ -352,7 +366,7 @@ def _robust_finalists(design, lib, unique, ledger, task, *, top, samples, seed, 
         _p, t, mt, _v = unique[i]
         for smp in draw_samples(with_materials(design, mt, t, lib), scatter, n_s, seed):
             tasks.append(Task(design, lib, mt, t, method, dt, duration, 0, smp))
-    verdicts = mapper(run_task, tasks, progress)
+    verdicts = map_tasks(mapper, tasks, progress, group=n_s)
     jams = {i: sum(not v.completed for v in verdicts[j * n_s:(j + 1) * n_s]) for j, i in enumerate(order)}
     ranked = sorted(order, key=lambda i: (jams[i], risk[i], i))
     n_robust = len(tasks)
