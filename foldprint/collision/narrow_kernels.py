@@ -19,8 +19,6 @@ Imported only after :func:`foldprint.core.jit.use_kernels` said yes.
 
 from __future__ import annotations
 
-import heapq
-
 import numpy as np
 
 from ..core.jit import njit
@@ -97,9 +95,13 @@ def _split(ta, da, fa, tb, db, fb, i, j, ang0, idx, lev, drv, kin, geo, tol, tim
            calls):  # pragma: no cover - compiled
     """``SweptChecker._split`` without recursion (a stack, the earlier half first):
     (found, contact time, distance, nearest-point time) in [ta, tb]."""
-    stack = [(ta, da, fa, tb, db, fb)]
-    while len(stack):
-        ta, da, fa, tb, db, fb = stack.pop()
+    stack = np.empty((16, 6))  # the intervals still to look at, the earlier half on top
+    stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3], stack[0, 4], stack[0, 5] = ta, da, fa, tb, db, fb
+    top = 1
+    while top:
+        top -= 1
+        ta, da, fa = stack[top, 0], stack[top, 1], stack[top, 2]
+        tb, db, fb = stack[top, 3], stack[top, 4], stack[top, 5]
         if da <= tol:
             t, d, lo = _refine(ta, da, i, j, drv, kin, geo, time_tol, calls)
             return True, t, d, lo
@@ -113,8 +115,15 @@ def _split(ta, da, fa, tb, db, fb, i, j, ang0, idx, lev, drv, kin, geo, tol, tim
         dm, ang = _gap_at(tm, i, j, drv, kin, geo)
         fm = _motion(ang, ang0, idx, lev)
         dm = min(dm, da + fm - fa, db + fb - fm)
-        stack.append((tm, dm, fm, tb, db, fb))
-        stack.append((ta, da, fa, tm, dm, fm))
+        if top + 2 > stack.shape[0]:
+            more = np.empty((2 * stack.shape[0], 6))
+            more[:top] = stack[:top]
+            stack = more
+        stack[top, 0], stack[top, 1], stack[top, 2] = tm, dm, fm
+        stack[top, 3], stack[top, 4], stack[top, 5] = tb, db, fb
+        stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = ta, da, fa
+        stack[top + 1, 3], stack[top + 1, 4], stack[top + 1, 5] = tm, dm, fm
+        top += 2
     return False, 0.0, 0.0, 0.0
 
 
@@ -197,6 +206,39 @@ def _step(r, i, j, k0, k1, k, d, times, angles, poses, idx, lev, drv, kin, geo, 
 
 
 @njit
+def _push(heap, n, key):  # pragma: no cover - compiled
+    """``key`` into the binary min-heap ``heap[:n]``; returns the new size."""
+    c = n
+    heap[c] = key
+    while c > 0:
+        p = (c - 1) // 2
+        if heap[p] <= heap[c]:
+            break
+        heap[p], heap[c] = heap[c], heap[p]
+        c = p
+    return n + 1
+
+
+@njit
+def _pop(heap, n):  # pragma: no cover - compiled
+    """The smallest key of the heap ``heap[:n]``, removed (the heap is then ``heap[:n - 1]``)."""
+    key = heap[0]
+    n -= 1
+    heap[0] = heap[n]
+    c = 0
+    while True:
+        a, b, m = 2 * c + 1, 2 * c + 2, c
+        if a < n and heap[a] < heap[m]:
+            m = a
+        if b < n and heap[b] < heap[m]:
+            m = b
+        if m == c:
+            return key
+        heap[m], heap[c] = heap[c], heap[m]
+        c = m
+
+
+@njit
 def walk_runs(budget, runs, times, angles, poses, idx, lev, lo, hi, drv, kin, geo, tol, time_tol, rel,
               at, dist, status, out, best):  # pragma: no cover - compiled
     """Advance the runs (m, 4: i, j, ka, kb; ``idx`` / ``lev``: path hinges and levers,
@@ -209,14 +251,13 @@ def walk_runs(budget, runs, times, angles, poses, idx, lev, lo, hi, drv, kin, ge
     (finished: no run left to advance, distances computed)."""
     m = runs.shape[0]
     calls = np.zeros(1, np.int64)
-    heap = [np.int64(0)]
-    heap.pop()
+    heap, n = np.empty(m, np.int64), 0  # (sample, run) keys: sample * m + run
     for r in range(m):
         if status[r] == NONE and (at[r] < 0 or at[r] < runs[r, 3]):
-            heap.append(max(at[r], runs[r, 2]) * m + r)
-    heapq.heapify(heap)
-    while len(heap) and calls[0] < budget:
-        key = heapq.heappop(heap)
+            n = _push(heap, n, max(at[r], runs[r, 2]) * m + r)
+    while n and calls[0] < budget:
+        key = _pop(heap, n)
+        n -= 1
         k, r = key // m, key % m
         if best[0] >= 0 and times[k] > best[1]:
             return True, calls[0]
@@ -232,5 +273,5 @@ def walk_runs(budget, runs, times, angles, poses, idx, lev, lo, hi, drv, kin, ge
             if best[0] < 0 or out[r, 0] < best[1]:
                 best[0], best[1] = r, out[r, 0]
         elif status[r] == NONE and at[r] < k1:
-            heapq.heappush(heap, at[r] * m + r)
-    return len(heap) == 0, calls[0]
+            n = _push(heap, n, at[r] * m + r)
+    return n == 0, calls[0]

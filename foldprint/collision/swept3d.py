@@ -395,7 +395,8 @@ class SweptChecker:
         pose = self.poses_at(lo)  # world point: nearest points at the last safe time
         if hi is not None:
             t, d = hi, 0.0
-        return Contact(float(t), pair, self.panel_ids(pair), self.point_of(i, j, pose[i], pose[j]), float(d), Method.FCL)
+        return Contact(float(t), pair, self.panel_ids(pair), self.point_of(i, j, pose[i], pose[j]), float(d),
+                       Method.FCL)
 
     def point_of(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
         """A function giving the nearest point of panels i and j at these poses (a
