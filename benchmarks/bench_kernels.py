@@ -64,10 +64,19 @@ def _counted():
         count["fcl_calls"] += 1
         return gap(self, *a)
 
+    from foldprint.collision import swept_search
     from foldprint.physics import hinge_drive
 
+    walk = swept_search.walk
+
+    def w(checker, *a):  # the compiled narrow phase's distances (its kernel counts them)
+        before = checker.n_distance_calls
+        out = walk(checker, *a)
+        count["fcl_calls"] += checker.n_distance_calls - before
+        return out
+
     return count, (mock.patch.object(batch, "_curves", b), mock.patch.object(hinge_drive, "forward", f),
-                   mock.patch.object(SweptChecker, "gap", g))
+                   mock.patch.object(SweptChecker, "gap", g), mock.patch.object(swept_search, "walk", w))
 
 
 def _fold(d, samples):
@@ -115,7 +124,7 @@ def sample_cost(name: str, repeat: int) -> dict:
                 got = _chunk(d, samples)
                 if r == 0:  # the work of run_samples alone
                     count, patches = _counted()
-                    with patches[0], patches[1], patches[2]:
+                    with patches[0], patches[1], patches[2], patches[3]:
                         _fold(d, samples)
                     work[path] = {k: v / CHUNK for k, v in count.items()}
             if r:

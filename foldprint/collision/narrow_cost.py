@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.guards import BASE_BYTES, enforce, fmt_bytes, held_elsewhere, lift_hint, source_of
+from ..core.guards import BASE_BYTES, enforce, fmt_bytes, held_elsewhere, lift_hint, max_memory, source_of
 
 #: bytes an open run holds whatever its path (generator frame and closure, the heap entry,
 #: the motion bound's 64 Python floats, the pair cache's tuple, lists and arrays headers):
@@ -47,9 +47,14 @@ def narrow_estimate(checker, runs: np.ndarray, held: float = 0.0) -> dict:
             "path_hinges": path}
 
 
-def check_narrow(checker, runs: np.ndarray, held: float = 0.0) -> dict:
+def check_narrow(checker, runs: np.ndarray, held: float = 0.0) -> dict | None:
     """Refuse the narrow phase over ``runs`` when :func:`narrow_estimate` is over the
-    memory limit, before any run is stepped."""
+    memory limit, before any run is stepped. None (nothing estimated) when even every
+    run's path through every hinge fits: a Monte-Carlo sample's few runs, checked in
+    microseconds instead of a tree search per run."""
+    most = len(runs) * (RUN_BYTES + PATH_BYTES_PER_HINGE * len(checker.design.hinges))
+    if BASE_BYTES + held + held_elsewhere() + most <= max_memory():
+        return None
     est = narrow_estimate(checker, runs, held)
     mean = est["path_hinges"] / max(est["runs"], 1.0)
     return enforce(est, f"{source_of(checker.design)}the 3D swept check", (

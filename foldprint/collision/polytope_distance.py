@@ -73,8 +73,9 @@ class PrismSet:
 
 def prism_set(checker) -> PrismSet:
     """The prisms of ``checker``'s design under its hinge model, from its panels' convex
-    pieces (``SweptChecker.rings``, the pieces it gives FCL), built once per checker."""
-    hit = checker.__dict__.get("_prism_set")
+    pieces (``SweptChecker.rings``, the pieces it gives FCL), built once per design
+    checker (:func:`_store`)."""
+    hit = _store(checker).get("_prism_set")
     if hit is None:
         rings, piece_off, panel_off, cen, rad = [], [0], [0], [], []
         for p, pieces in zip(checker.design.panels, checker.rings):
@@ -92,8 +93,17 @@ def prism_set(checker) -> PrismSet:
                        np.array(piece_off, np.int64), np.array(panel_off, np.int64),
                        np.array([p.thickness / 2 for p in checker.design.panels], float),
                        np.array(cen, float).reshape(-1, 3), np.array(rad, float))
-        checker.__dict__["_prism_set"] = hit
+        _store(checker)["_prism_set"] = hit
     return hit
+
+
+def _store(checker) -> dict:
+    """Where a checker's prisms and distance kernel are kept: ``SweptChecker.shared``,
+    which its :meth:`~foldprint.collision.swept3d.SweptChecker.with_drive` copies share
+    (each Monte-Carlo sample's checker is one; built per copy, the prisms cost about
+    0.3 ms a sample that asks for a distance), else the object's own attributes."""
+    shared = getattr(checker, "shared", None)
+    return shared if isinstance(shared, dict) else checker.__dict__
 
 
 def _area2(ring: np.ndarray) -> float:
@@ -208,10 +218,10 @@ def panel_bounds(checker, i, j, pose_i, pose_j):
 
 def _seeds(checker, s: PrismSet):
     """The checker's FCL pieces and every piece's :func:`piece_data` (numpy path), once."""
-    hit = checker.__dict__.get("_prism_seeds")
+    hit = _store(checker).get("_prism_seeds")
     if hit is None:
         owner = np.repeat(np.arange(len(s.half)), np.diff(s.panel_off))
-        hit = checker.__dict__["_prism_seeds"] = (checker.pieces, [
+        hit = _store(checker)["_prism_seeds"] = (checker.pieces, [
             piece_data(s.ring[s.piece_off[a]:s.piece_off[a + 1]], s.half[owner[a]]) for a in range(len(owner))])
     return hit
 

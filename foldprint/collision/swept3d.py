@@ -83,9 +83,31 @@ BOUND_GROW = 8
 LEVER_TABLE_PANELS = 64
 
 
+class _Lazy:
+    """A field given as a value or as a function of nothing that makes it, called on first
+    read and its value kept: :attr:`Contact.point` (the centre of the nearest points costs
+    more than the narrow phase's walk, and a Monte-Carlo sample's outcome never reads it).
+    Equality, ``repr`` and pickling read the value."""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        v = obj.__dict__[self.name]
+        if callable(v):
+            v = obj.__dict__[self.name] = v()
+        return v
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.name] = value
+
+
 @dataclass(frozen=True)
 class Contact:
-    """First contact of a panel pair: time (s), panel indices and ids, a point (mm, world)."""
+    """First contact of a panel pair: time (s), panel indices and ids, a point (mm, world;
+    may be given as a function that computes it, called when first read)."""
 
     time: float
     pair: tuple[int, int]
@@ -93,6 +115,13 @@ class Contact:
     point: tuple[float, float, float]
     distance: float
     method: Method = Method.FCL
+
+    def __getstate__(self):
+        return {**self.__dict__, "point": self.point}
+
+
+Contact.point = _Lazy()  # after the dataclass made its fields (the field has no default)
+Contact.point.__set_name__(Contact, "point")
 
 
 @dataclass
@@ -142,6 +171,7 @@ class SweptChecker:
         self.transforms = TreeTransforms(d, self.model, self.frames)
         self._world: dict = {}  # time -> world poses of every panel (bounded cache)
         self.pair_tables: dict = {}  # the broad phase's static data of group pairs (shared by with_drive)
+        self.shared: dict = {}  # the exact distance's prisms (polytope_distance; shared by with_drive)
 
     def with_drive(self, drive) -> "SweptChecker":
         """This checker's geometry (FCL pieces, tree bounds, hierarchy, transforms, pair
@@ -291,7 +321,7 @@ class SweptChecker:
         if d <= self.tol:
             if at_start:
                 point = self.distance(i, j, poses[k][i], poses[k][j])[1]
-                return Contact(float(times[k]), pair, self._ids(pair), _pt(point), d, "initial")
+                return Contact(float(times[k]), pair, self.panel_ids(pair), _pt(point), d, "initial")
             return self._refine(pair, float(times[k]), d)
         while k < k1:
             yield k
@@ -363,12 +393,18 @@ class SweptChecker:
                     else:
                         lo = mid
         pose = self.poses_at(lo)  # world point: nearest points at the last safe time
-        _, point = self.distance(i, j, pose[i], pose[j])
         if hi is not None:
             t, d = hi, 0.0
-        return Contact(float(t), pair, self._ids(pair), _pt(point), float(d), Method.FCL)
+        return Contact(float(t), pair, self.panel_ids(pair), self.point_of(i, j, pose[i], pose[j]), float(d),
+                       Method.FCL)
 
-    def _ids(self, pair):
+    def point_of(self, i: int, j: int, pose_i: np.ndarray, pose_j: np.ndarray):
+        """A function giving the nearest point of panels i and j at these poses (a
+        :class:`Contact`'s point, computed when read)."""
+        pose_i, pose_j = np.array(pose_i, float), np.array(pose_j, float)
+        return lambda: _pt(self.distance(i, j, pose_i, pose_j)[1])
+
+    def panel_ids(self, pair):
         return (self.design.panels[pair[0]].id, self.design.panels[pair[1]].id)
 
 

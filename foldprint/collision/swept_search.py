@@ -11,11 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.jit import use_kernels
+from ..core.modes import HingeModel, Method
 from ..model.design import Design
 from .broadphase import candidate_runs, pair_bounds
 from .narrow_cost import check_narrow
 from .polytope_distance import panel_gap
-from .swept3d import Contact, SweptChecker
+from .swept3d import FCL_REL, Contact, SweptChecker
 
 
 def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: float = 0.0,
@@ -33,6 +34,9 @@ def swept_first_contact(checker: SweptChecker, times, angles, poses, t_start: fl
         runs = screen(checker, runs, angles, poses)
     if not len(runs):  # every run certified (a strip sample's usual case): no narrow phase to set up
         return None, []
+    tables = walk_tables(checker)
+    if tables is not None:  # a hinge tree's plain drive: the walk compiled, every run in one call
+        return walk(checker, runs, times, angles, poses, tables)
     best, initial = None, []
     # advance every candidate pair together in time (a heap on the sample each has
     # certified): once the earliest open pair is past the best contact, stop
@@ -79,20 +83,7 @@ def screen(checker: SweptChecker, runs: np.ndarray, angles: np.ndarray, poses: n
     FCL; the narrow phase walks them as it walked the whole run."""
     from .swept3d_kernels import screen_runs
 
-    table = checker.lever_table()
-    if table is not None:  # every pair's levers, tabled once per design
-        idx, lev, first = table
-        code = runs[:, 0] * len(checker.design.panels) + runs[:, 1]
-        lo, hi = first[code], first[code + 1]
-    else:  # a large design: its runs' levers gathered here
-        idx, lev, off = [], [], [0]
-        for i, j in runs[:, :2].tolist():
-            a, b = checker.levers((i, j))
-            idx.append(np.asarray(a, np.int64))
-            lev.append(np.asarray(b, float))
-            off.append(off[-1] + len(a))
-        idx, lev, off = np.concatenate(idx), np.concatenate(lev), np.array(off, np.int64)
-        lo, hi = off[:-1], off[1:]
+    idx, lev, lo, hi = run_levers(checker, runs)
     start = screen_runs(runs, np.ascontiguousarray(angles, float), np.ascontiguousarray(poses, float),
                         checker.hull_pts, checker.hull_off, idx, lev, np.ascontiguousarray(lo),
                         np.ascontiguousarray(hi), float(checker.tol), 1e-9 * (checker.extent + 1.0))
@@ -100,6 +91,88 @@ def screen(checker: SweptChecker, runs: np.ndarray, angles: np.ndarray, poses: n
     out[:, 2] = start
     out = out[start < runs[:, 3]]
     return out[np.argsort(out[:, 2], kind="stable")]
+
+
+def run_levers(checker: SweptChecker, runs: np.ndarray):
+    """(path hinges, levers, where run r's start, where they end): every pair's levers
+    tabled once per design (:meth:`SweptChecker.lever_table`), or for a large design its
+    runs' levers gathered here."""
+    table = checker.lever_table()
+    if table is not None:
+        idx, lev, first = table
+        code = runs[:, 0] * len(checker.design.panels) + runs[:, 1]
+        return idx, lev, np.ascontiguousarray(first[code]), np.ascontiguousarray(first[code + 1])
+    idx, lev, off = [], [], [0]
+    for i, j in runs[:, :2].tolist():
+        a, b = checker.levers((i, j))
+        idx.append(np.asarray(a, np.int64))
+        lev.append(np.asarray(b, float))
+        off.append(off[-1] + len(a))
+    off = np.array(off, np.int64)
+    return np.concatenate(idx), np.concatenate(lev), off[:-1].copy(), off[1:].copy()
+
+
+def walk_tables(checker: SweptChecker):
+    """The drive's tables the compiled walk reads (:meth:`~foldprint.physics.hinge_drive.HingeDrive.compiled_tables`),
+    or None: the kernels do not run, or the drive has loops, arrests or angles of its own
+    (the reference walk, :meth:`SweptChecker.steps`, then runs)."""
+    if not use_kernels():
+        return None
+    return getattr(checker.drive, "compiled_tables", lambda: None)()
+
+
+#: distances one call of the compiled walk computes before the time guard is asked
+#: (our choice: about 40 ms of distances; the reference asks every 512 steps)
+WALK_BUDGET = 4096
+
+
+def walk(checker: SweptChecker, runs: np.ndarray, times, angles, poses, tables):
+    """:func:`swept_first_contact`'s narrow phase compiled
+    (:func:`foldprint.collision.narrow_kernels.walk_runs`), for a drive whose angles the
+    kernels read (``tables``: :meth:`~foldprint.physics.hinge_drive.HingeDrive.compiled_tables`):
+    the same earliest contact (the earliest time; between equal times, the run the
+    reference's heap finishes first) and the same initial contacts."""
+    from ..core.guards import narrow_deadline
+    from .narrow_kernels import INITIAL, walk_runs
+    from .polytope_distance import CERT_ABS, CERT_REL, prism_set
+
+    idx, lev, lo, hi = run_levers(checker, runs)
+    tr, s = checker.transforms, prism_set(checker)
+    kin = (tr.hinge, tr.parent, tr.child, int(tr.root), tr.n, tr.k, tr.kk, tr.q, tr.start, tr.nrm, tr.line, tr.w,
+           tr.centred, tr.model == HingeModel.POINT)
+    geo = (s.ring, s.piece_off, s.panel_off, s.half, s.cen, s.rad, CERT_ABS, CERT_REL)
+    m = len(runs)
+    at, dist, status, out = np.full(m, -1, np.int64), np.zeros(m), np.zeros(m, np.int64), np.zeros((m, 3))
+    best = np.array([-1.0, np.inf])  # the earliest contact's run and time
+    times, poses = np.ascontiguousarray(times, float), np.ascontiguousarray(poses, float)
+    angles = np.ascontiguousarray(angles, float)
+    tick = narrow_deadline()
+    while True:
+        done, calls = walk_runs(WALK_BUDGET, runs, times, angles, poses, idx, lev, lo, hi, tables, kin, geo,
+                                float(checker.tol), float(checker.time_tol_s), FCL_REL, at, dist, status, out, best)
+        checker.n_distance_calls += int(calls)
+        if done:
+            break
+        tick(f"{m} panel-pair runs left by the broad phase, {int(np.sum((status == 0) & (at < runs[:, 3])))} open")
+    initial = [_contact(checker, runs[q], poses[runs[q, 2]], float(times[runs[q, 2]]), out[q, 1], "initial")
+               for q in np.flatnonzero(status == INITIAL).tolist()]
+    if best[0] < 0:
+        return None, initial
+    q = int(best[0])
+    i, j, at_t = int(runs[q, 0]), int(runs[q, 1]), float(out[q, 2])
+
+    def point():  # the nearest points at the last safe time, when read (a sample's outcome never does)
+        from ..physics.kinematics import kernels
+
+        pose = checker.transforms.poses(kernels().driven_at(*tables[:2], at_t, *tables[2:]))[0]
+        return checker.point_of(i, j, pose[i], pose[j])()
+
+    return Contact(float(out[q, 0]), (i, j), checker.panel_ids((i, j)), point, float(out[q, 1]), Method.FCL), initial
+
+
+def _contact(checker: SweptChecker, run, pose, t: float, d: float, method) -> Contact:
+    i, j = int(run[0]), int(run[1])
+    return Contact(t, (i, j), checker.panel_ids((i, j)), checker.point_of(i, j, pose[i], pose[j]), float(d), method)
 
 
 def min_clearance(checker: SweptChecker, poses: np.ndarray, chunk: int = 1 << 19, block: int = 4096):

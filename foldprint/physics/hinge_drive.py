@@ -167,10 +167,19 @@ class HingeDrive:
         """:meth:`angles` at one time, (1, n_hinges): the same numbers, by one compiled call
         for a hinge tree's plain drive (no arrest), where the narrow phase asks for the
         poses of one split time after another."""
+        tables = self.compiled_tables()
+        if tables is not None:
+            return kernels().driven_at(*tables[:2], float(t), *tables[2:])
+        return self.angles([t])
+
+    def compiled_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """(grid, stacked ratios, target angles, fixities): what the compiled ``driven_at``
+        reads to give :meth:`angles` at any time, for a hinge tree's plain drive with no
+        arrest where the kernels run; else None (the angles need this object's methods)."""
         if (self.loops is None and not self.frozen_at and self._stack is not None and type(self).angles is
                 HingeDrive.angles and type(self).driven is HingeDrive.driven and use_kernels()):
-            return kernels().driven_at(self._grid, self._stack, float(t), self.target, self.fixity)
-        return self.angles([t])
+            return self._grid, self._stack, self.target, self.fixity
+        return None
 
     def angles(self, t) -> np.ndarray:
         """Fold angles (n_t, n_hinges) rad: the driven angles for a hinge tree; with loops

@@ -22,8 +22,11 @@ its table: within 2e-8 of the per-curve model); a run whose estimated time excee
 
 from __future__ import annotations
 
+import ctypes
 import math
+import sys
 from dataclasses import dataclass, replace
+from functools import lru_cache
 from itertools import islice
 from typing import Callable, Sequence
 
@@ -216,6 +219,29 @@ def warm_kernels(args) -> None:
         warm_kernel()  # the narrow phase's distance: a sample the screen certifies never asks for it
 
 
+#: glibc's malloc: blocks up to this size come from the heap, not from fresh mappings
+#: (its largest setting on 64 bits), and up to ``HEAP_KEEP_BYTES`` freed at the heap's top
+#: stay with the process (our choice: a chunk's curves and trajectories are ~20 MB)
+MMAP_BYTES = 32 * 2 ** 20
+HEAP_KEEP_BYTES = 64 * 2 ** 20
+
+
+@lru_cache(maxsize=1)
+def keep_heap() -> bool:
+    """Keep the memory a sample frees for the next one (glibc's ``mallopt``; True where it
+    took). By default glibc maps a large block afresh or gives the heap's freed top back,
+    so a jamming strip sample touched ~165 new pages (its trajectory's 2.5 MB of poses
+    among them) and spent 0.5 ms of its ~2.5 in the kernel's page faults; the next sample's
+    arrays now reuse them. Other C libraries: nothing (False)."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        return bool(libc.mallopt(-3, MMAP_BYTES) and libc.mallopt(-1, HEAP_KEEP_BYTES))  # M_MMAP_, M_TRIM_THRESHOLD
+    except (OSError, AttributeError):
+        return False
+
+
 def run_samples(args) -> list[Outcome]:
     """Fold a chunk of samples: their curves in one pass (:func:`sample_drives`), the
     closure of a pattern with loops tracked for all of them in lockstep
@@ -225,6 +251,7 @@ def run_samples(args) -> list[Outcome]:
     each sample folds the bar-and-hinge model on its own curves). The design's derived data
     (hinge frames, spanning tree, rigid polygons) and FCL geometry are made once per
     process and design content (:func:`foldprint.model.derived.design_scope`), not per chunk."""
+    keep_heap()
     with design_scope(args[0]) as design:
         return _run_samples((design, *args[1:]))
 
