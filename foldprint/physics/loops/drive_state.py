@@ -48,6 +48,18 @@ SKIP_FAR = OPT_TOL
 #: evaluations, 51.5, 38.7, 35.9, 36.6 CPU-ms a sample of tracking)
 WINDOW = 32
 
+#: how much farther than the continued answer a restart from the drive may land (rad)
+JUMP = 0.05
+#: a solve that ends with a residual above this lost the manifold (the configuration is held)
+LOST_TOL = 1e-7
+#: near the flat sheet, restarts from the drive of this many next grid steps run ahead (our
+#: choice: on miura_3x3's check chunk 784 rounds without, 389 with)
+PREFETCH = 8
+#: a window's answer is kept when the step-by-step predictor lands within this of it (rad,
+#: our choice: about 40 times the largest such distance on the first 64 check samples of the
+#: loop templates, 2.3e-4 rad on miura_3x3)
+ACCEPT = 0.01
+
 
 class DriveState:
     """Per drive: the last answer and its tangent space, the grid step to solve next and

@@ -25,20 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .corrector import OPT_TOL, Pool, Solves, norms, predict
-from .drive_state import FOLLOW_TOL, NEAR_FLAT, WINDOW, DriveState
-
-#: how much farther than the continued answer a restart from the drive may land (rad)
-JUMP = 0.05
-#: a solve that ends with a residual above this lost the manifold (the configuration is held)
-LOST_TOL = 1e-7
-#: near the flat sheet, restarts from the drive of this many next grid steps run ahead (our
-#: choice: on miura_3x3's check chunk 784 rounds without, 389 with)
-PREFETCH = 8
-#: a window's answer is kept when the step-by-step predictor lands within this of it (rad,
-#: our choice: about 40 times the largest such distance on the first 64 check samples of the
-#: loop templates, 2.3e-4 rad on miura_3x3)
-ACCEPT = 0.01
-
+from .drive_state import ACCEPT, FOLLOW_TOL, JUMP, LOST_TOL, NEAR_FLAT, PREFETCH, WINDOW, DriveState
 
 @dataclass(frozen=True)
 class Tracks:
@@ -206,11 +193,18 @@ def _starts(st: DriveState, live, near, x, ys):
     return start, taken, pred
 
 
-def track(evaluate, times, driven) -> Tracks:
+def track(evaluate, times, driven, compiled: bool | None = None) -> Tracks:
     """Follow S drives ``driven`` (S, n_t, n) rad on the grid ``times`` (n_t,) s on the
-    closure manifold from the flat sheet, all at once (module docstring)."""
+    closure manifold from the flat sheet, all at once (module docstring). ``compiled``: the
+    bookkeeping between rounds in one compiled call a round
+    (:mod:`foldprint.physics.loops.tracker_kernels`, the same answers bit for bit); None:
+    where ``evaluate`` takes compiled rounds (a ``fused`` method)."""
     st = DriveState(np.asarray(times, float), np.asarray(driven, float))
     s, _, n = st.driven.shape
+    if compiled is None:
+        compiled = hasattr(evaluate, "fused")
+    if compiled:
+        return _track_compiled(st, _Counted(evaluate))
     pool, req, ev = Pool(n, 4 * s), _Requests(s, n), _Counted(evaluate)
     todo = np.arange(s)
     while True:
@@ -227,6 +221,26 @@ def track(evaluate, times, driven) -> Tracks:
         todo = req.stopped(pool)
         if todo.size:
             _ended(st, pool, req, todo)
+    return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
+
+
+def _track_compiled(st: DriveState, ev: _Counted) -> Tracks:
+    """:func:`track`'s loop with its bookkeeping compiled (``tracker_kernels.between``):
+    the pool holds every point the drives can have at once (a main solve, a restart, a
+    window and PREFETCH restarts ahead each), so the kernel never grows it."""
+    from .tracker_kernels import between
+
+    s, _, n = st.driven.shape
+    pool, req = Pool(n, s * (WINDOW + PREFETCH + 2)), _Requests(s, n)
+    sts = (st.times, st.driven, st.x, st.basis, st.free, st.tangent, st.plain, st.settled, st.xmax, st.line, st.prev,
+           st.k, st.sub, st.nsub, st.locked, st.dof, st.worst, st.res_x, st.width, st.out, st.restarts, st.run)
+    rq = (req.open, req.main, req.restart, req.window, req.w, req.y, req.ys, req.early, req.early_k)
+    pl = (pool.x, pool.target, pool.it, pool.spec, pool.far, pool.plain, pool.res, pool.null, pool.done, pool.basis,
+          pool.free, pool.alive, pool.line, pool.guide, pool.tag, pool.stack, np.array([pool.nfree]))
+    first = True
+    while between(first, sts, rq, pl):
+        first = False
+        pool.round(ev)
     return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
 
 
