@@ -112,6 +112,6 @@ def test_predictor_is_numpys_bits():
         basis = np.linalg.qr(rng.standard_normal((50, n, n)))[0]
         free = rng.random((50, n)) < 0.4
         want = corrector.predict(x, target, basis, free)
-        got = np.array([_predict(x[i], target[i], basis[i], free[i]) for i in range(50)])
+        got = np.array([_predict(x[i], target[i], basis[i], free[i], np.empty((3, n))).copy() for i in range(50)])
         assert np.array_equal(got, want)
         assert not np.array_equal(got, x)  # the predictor moved

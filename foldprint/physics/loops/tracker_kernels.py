@@ -75,6 +75,8 @@ def _pairwise(a):  # pragma: no cover - compiled
     """numpy's pairwise sum of a (its order of additions, so its bits): blocks of at most
     128 summed by :func:`_block`, longer runs halved (at a multiple of 8), the halves added;
     the halving walked with an explicit stack (a cached compiled function must not recurse)."""
+    if a.shape[0] <= 128:
+        return _block(a, 0, a.shape[0])
     los, ns, part = np.zeros(64, np.int64), np.zeros(64, np.int64), np.zeros(64)
     state = np.zeros(64, np.int64)  # 0: not begun, 1: left half summed into part
     los[0], ns[0], top, out = 0, a.shape[0], 0, 0.0
@@ -111,21 +113,20 @@ def _norm(a, b):  # pragma: no cover - compiled
 
 
 @njit
-def _predict(x, target, basis, free):  # pragma: no cover - compiled
-    """corrector.predict of one point."""
+def _predict(x, target, basis, free, work):  # pragma: no cover - compiled
+    """corrector.predict of one point, into work[2] (work: (3, n) scratch rows)."""
     n = x.shape[0]
-    v = np.empty(n)
+    v, t, out = work[0], work[1], work[2]
     for j in range(n):
         v[j] = target[j] - x[j]
-    t = np.dot(basis.T, v)
+    np.dot(basis.T, v, t)
     for j in range(n):
         t[j] = (1.0 if free[j] else 0.0) * t[j]
-    step = np.dot(basis, t)
-    big = _amax(step)
+    np.dot(basis, t, v)  # the step
+    big = _amax(v)
     f = big if big != big else min(1.0, MAX_STEP / max(big, 1e-300))
-    out = np.empty(n)
     for j in range(n):
-        out[j] = x[j] + step[j] * f
+        out[j] = x[j] + v[j] * f
     return out
 
 
@@ -239,17 +240,17 @@ def _after_main(st, rq, pl, i, r):  # pragma: no cover - compiled
 
 
 @njit
-def _acceptable(pl, prev, row, y):  # pragma: no cover - compiled
+def _acceptable(pl, prev, row, y, work):  # pragma: no cover - compiled
     """tracker._acceptable of one window point."""
     px, res, null, done, basis, free = pl[0], pl[6], pl[7], pl[8], pl[9], pl[10]
     if not (done[prev] and done[row] and res[row] <= LOST_TOL and _amax(px[prev]) >= NEAR_FLAT
             and null[row] == null[prev]):
         return False
-    return _amax_diff(_predict(px[prev], y, basis[prev], free[prev]), px[row]) <= ACCEPT
+    return _amax_diff(_predict(px[prev], y, basis[prev], free[prev], work), px[row]) <= ACCEPT
 
 
 @njit
-def _keep(st, rq, pl, i, w, ok, main):  # pragma: no cover - compiled
+def _keep(st, rq, pl, i, w, ok, main, work):  # pragma: no cover - compiled
     """tracker._window and _keep of drive i (window width w > 1, its step's answer in pool
     row ``main``, ``ok`` that step converged): the accepted prefix of its window's answers
     ends their steps; widths double while whole windows are kept, else shrink."""
@@ -259,7 +260,8 @@ def _keep(st, rq, pl, i, w, ok, main):  # pragma: no cover - compiled
     nacc = 0
     if ok:
         for o in range(1, w):
-            if not _acceptable(pl, main if o == 1 else window[i, o - 2], window[i, o - 1], driven[i, k0 + o - 1]):
+            if not _acceptable(pl, main if o == 1 else window[i, o - 2], window[i, o - 1], driven[i, k0 + o - 1],
+                               work):
                 break
             nacc += 1
     width[i] = min(2 * width[i], WINDOW) if nacc == w - 1 else max(2, nacc + 1)
@@ -286,13 +288,13 @@ def _keep(st, rq, pl, i, w, ok, main):  # pragma: no cover - compiled
 
 
 @njit
-def _ended(st, rq, pl, i):  # pragma: no cover - compiled
+def _ended(st, rq, pl, i, work):  # pragma: no cover - compiled
     """tracker._ended of drive i: its points have all stopped."""
     main, b, w, window = rq[1][i], rq[2][i], rq[4][i], rq[3]
     chosen = main if b < 0 else _choose(st, rq, pl, i, main, b)
     ok = _after_main(st, rq, pl, i, chosen)
     if w > 1:
-        _keep(st, rq, pl, i, w, ok, chosen)
+        _keep(st, rq, pl, i, w, ok, chosen, work)
     _release(pl, main)
     if b >= 0:
         _release(pl, b)
@@ -359,7 +361,7 @@ def _restarts(st, rq, pl, i, ys):  # pragma: no cover - compiled
 
 
 @njit
-def _post(st, rq, pl, i):  # pragma: no cover - compiled
+def _post(st, rq, pl, i, work):  # pragma: no cover - compiled
     """tracker._Requests.post of drive i: its next points into the pool."""
     driven, x, basis, free, tangent, plain, xmax, line, prev = st[1], st[2], st[3], st[4], st[5], st[6], st[8], st[9], st[10]
     k, sub, nsub, width, restarts, run = st[11], st[12], st[13], st[18], st[20], st[21]
@@ -377,9 +379,9 @@ def _post(st, rq, pl, i):  # pragma: no cover - compiled
     first = near and tangent[i] and plain[i]
     start, taken = x[i].copy(), 0
     if pred or first:  # tracker._starts
-        p = _predict(x[i], ys, basis[i], free[i])
+        p = _predict(x[i], ys, basis[i], free[i], work)
         if pred or _amax_diff(p, x[i]) >= OPT_TOL:
-            start, taken = p, 1 if first else 0
+            start[:], taken = p, 1 if first else 0
     w = min(1 + min(run[i, kk], WINDOW), width[i]) if pred and nsub[i] == 1 else 1
     col = 0  # the first free direction: the line's, where the tangent space is one
     while col < n - 1 and not free[i, col]:
@@ -393,8 +395,8 @@ def _post(st, rq, pl, i):  # pragma: no cover - compiled
     if not flat:
         _forget(rq, pl, i)
     for o in range(1, w):
-        rq[3][i, o - 1] = _add(pl, _predict(x[i], driven[i, kk + o], basis[i], free[i]), driven[i, kk + o], True, True,
-                               0, line[i], guide, i)
+        rq[3][i, o - 1] = _add(pl, _predict(x[i], driven[i, kk + o], basis[i], free[i], work), driven[i, kk + o],
+                               True, True, 0, line[i], guide, i)
     rq[4][i], rq[5][i], rq[6][i], rq[0][i] = w, y, ys, True
 
 
@@ -405,6 +407,7 @@ def between(first, st, rq, pl):  # pragma: no cover - compiled
     (every drive on the first call); those drives skip idle steps, drop their restarts
     ahead when done, else post their next points. Returns the number of live points."""
     s, n_t = st[2].shape[0], st[1].shape[1]
+    work = np.empty((3, st[2].shape[1]))
     if first:
         todo = np.arange(s)
     else:
@@ -421,13 +424,13 @@ def between(first, st, rq, pl):  # pragma: no cover - compiled
                 m += 1
         todo = todo[:m]
         for i in todo:
-            _ended(st, rq, pl, i)
+            _ended(st, rq, pl, i, work)
     for i in todo:
         _skip(st, i)
         if st[11][i] >= n_t:
             _forget(rq, pl, i)
         else:
-            _post(st, rq, pl, i)
+            _post(st, rq, pl, i, work)
     count = 0
     for r in range(pl[11].shape[0]):
         count += 1 if pl[11][r] else 0
