@@ -2,8 +2,9 @@
 row per drive: the last answer and its tangent space, the grid step to solve next, what
 was met on the way (locks, the null-space dimension, the worst closure), the tables made
 once per track (which steps restart from the drive, how many steps from each one move),
-and the tolerances that decide when a drive is held, restarted or solved ahead
-(``docs/loops.md``).
+and the tolerances that decide when a drive is held, restarted or solved ahead, which answer
+it takes and which of a window's it keeps (``docs/loops.md``; here so that the tracker and its
+compiled bookkeeping, :mod:`foldprint.physics.loops.tracker_kernels`, read the same ones).
 """
 
 from __future__ import annotations

@@ -16,11 +16,15 @@ the stacked normal matrices ``J^T J`` (:mod:`foldprint.physics.loops.corrector`)
 converged (or ran out of steps) leaves the pool, and a drive whose points have all left ends
 its step and puts its next ones in, while the other drives go on iterating. Each drive's
 state between rounds is a row of :class:`~foldprint.physics.loops.drive_state.DriveState`.
+Where the rounds are compiled (a Monte-Carlo chunk), everything between two rounds is one
+compiled call too (:mod:`foldprint.physics.loops.tracker_kernels`, the same answers bit for
+bit); this module's array code is its reference and the one-drive path.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -225,11 +229,21 @@ def track(evaluate, times, driven, compiled: bool | None = None) -> Tracks:
 
 
 def _track_compiled(st: DriveState, ev: _Counted) -> Tracks:
-    """:func:`track`'s loop with its bookkeeping compiled (``tracker_kernels.between``):
-    the pool holds every point the drives can have at once (a main solve, a restart, a
-    window and PREFETCH restarts ahead each), so the kernel never grows it."""
+    """:func:`track`'s loop with its bookkeeping compiled (``tracker_kernels.between``)."""
     from .tracker_kernels import between
 
+    pool, arrays = _compiled_state(st)
+    first = True
+    while between(first, *arrays):
+        first = False
+        pool.round(ev)
+    return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
+
+
+def _compiled_state(st: DriveState):
+    """A pool for the drives of ``st`` and the arrays the compiled bookkeeping reads, as its
+    three tuples: the pool holds every point the drives can have at once (a main solve, a
+    restart, a window and PREFETCH restarts ahead each), so the kernel never grows it."""
     s, _, n = st.driven.shape
     pool, req = Pool(n, s * (WINDOW + PREFETCH + 2)), _Requests(s, n)
     sts = (st.times, st.driven, st.x, st.basis, st.free, st.tangent, st.plain, st.settled, st.xmax, st.line, st.prev,
@@ -237,11 +251,17 @@ def _track_compiled(st: DriveState, ev: _Counted) -> Tracks:
     rq = (req.open, req.main, req.restart, req.window, req.w, req.y, req.ys, req.early, req.early_k)
     pl = (pool.x, pool.target, pool.it, pool.spec, pool.far, pool.plain, pool.res, pool.null, pool.done, pool.basis,
           pool.free, pool.alive, pool.line, pool.guide, pool.tag, pool.stack, np.array([pool.nfree]))
-    first = True
-    while between(first, sts, rq, pl):
-        first = False
-        pool.round(ev)
-    return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
+    return pool, (sts, rq, pl)
+
+
+@lru_cache(maxsize=None)
+def warm_compiled(n: int) -> None:
+    """Load the compiled bookkeeping (compile it on a cold cache) for drives of ``n``
+    hinges without tracking anything (no drive has points to end or post), so a pool of
+    workers forked after this finds it loaded (once per process and size)."""
+    from .tracker_kernels import between
+
+    between(False, *_compiled_state(DriveState(np.zeros(2), np.zeros((1, 2, n))))[1])
 
 
 def _ended(st: DriveState, pool: Pool, req: _Requests, live):
