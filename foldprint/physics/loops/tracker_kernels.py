@@ -306,7 +306,8 @@ def _ended(st, rq, pl, i, work):  # pragma: no cover - compiled
 @njit
 def _skip(st, i):  # pragma: no cover - compiled
     """DriveState.skip of drive i."""
-    driven, x, tangent, settled, xmax, prev, k, sub, out = st[1], st[2], st[5], st[7], st[8], st[10], st[11], st[12], st[19]
+    driven, x, tangent, settled, xmax, prev = st[1], st[2], st[5], st[7], st[8], st[10]
+    k, sub, out = st[11], st[12], st[19]
     kk, n_t = k[i], driven.shape[1]
     if not (kk > 0 and kk < n_t and settled[i] and sub[i] == 0):
         return
@@ -363,7 +364,8 @@ def _restarts(st, rq, pl, i, ys):  # pragma: no cover - compiled
 @njit
 def _post(st, rq, pl, i, work):  # pragma: no cover - compiled
     """tracker._Requests.post of drive i: its next points into the pool."""
-    driven, x, basis, free, tangent, plain, xmax, line, prev = st[1], st[2], st[3], st[4], st[5], st[6], st[8], st[9], st[10]
+    driven, x, basis, free, tangent, plain = st[1], st[2], st[3], st[4], st[5], st[6]
+    xmax, line, prev = st[8], st[9], st[10]
     k, sub, nsub, width, restarts, run = st[11], st[12], st[13], st[18], st[20], st[21]
     kk, n = k[i], x.shape[1]
     y = driven[i, kk]
