@@ -131,6 +131,13 @@ def _predict(x, target, basis, free, work):  # pragma: no cover - compiled
 
 
 @njit
+def _put(dst, src):  # pragma: no cover - compiled
+    """dst[:] = src (1-D), as a loop: numba's generic slice assignment is large code."""
+    for j in range(src.shape[0]):
+        dst[j] = src[j]
+
+
+@njit
 def _add(pl, x, target, spec, far, taken, line, guide, tag):  # pragma: no cover - compiled
     """Pool.add of one point; returns its row."""
     px, ptarget, it, pspec, pfar, plain, res, null, done, _, _, alive, pline, pguide, ptag, stack, nf = pl
@@ -138,11 +145,12 @@ def _add(pl, x, target, spec, far, taken, line, guide, tag):  # pragma: no cover
         raise RuntimeError("loop tracker: pool rows exhausted")
     nf[0] -= 1
     r = stack[nf[0]]
-    px[r], ptarget[r] = x, target
+    _put(px[r], x)
+    _put(ptarget[r], target)
     it[r], pspec[r], pfar[r], alive[r], plain[r] = taken, spec, far, True, not far
     res[r], done[r], null[r], ptag[r], pline[r] = np.inf, False, 0, tag, line
     if line:
-        pguide[r] = guide
+        _put(pguide[r], guide)
     return r
 
 
@@ -169,14 +177,14 @@ def _settle(st, pl, i, r):  # pragma: no cover - compiled
     """DriveState.settle of drive i with the answer of pool row r."""
     x, basis, free, tangent, plain, settled, xmax, line, dof, res_x = (st[2], st[3], st[4], st[5], st[6], st[7], st[8],
                                                                         st[9], st[15], st[17])
-    x[i], res_x[i] = pl[0][r], pl[6][r]
+    _put(x[i], pl[0][r])
+    res_x[i] = pl[6][r]
     settled[i] = pl[8][r]
     tangent[i] = pl[8][r]
-    basis[i], free[i] = pl[9][r], pl[10][r]
-    nfree = 0
-    for j in range(free.shape[1]):
-        nfree += 1 if free[i, j] else 0
-    line[i] = nfree == 1
+    for a in range(basis.shape[1]):
+        _put(basis[i, a], pl[9][r, a])
+    _put(free[i], pl[10][r])
+    line[i] = np.count_nonzero(free[i]) == 1
     plain[i] = pl[5][r]
     xmax[i] = big = _amax(x[i])
     if dof[i] < 0 and big > 1e-3:
@@ -199,8 +207,8 @@ def _finish(st, i, y, x, res, null):  # pragma: no cover - compiled
     if null == 0 and locked[i] != locked[i] and _amax_diff(x, y) > FOLLOW_TOL:
         locked[i] = times[kk]
     worst[i] = _worse(worst[i], res)
-    prev[i] = y
-    out[i, kk] = x
+    _put(prev[i], y)
+    _put(out[i, kk], x)
     k[i] = kk + 1
     sub[i] = 0
 
@@ -271,7 +279,7 @@ def _keep(st, rq, pl, i, w, ok, main, work):  # pragma: no cover - compiled
     for o in range(1, nacc + 1):
         r, kk = window[i, o - 1], k0 + o - 1
         x = px[r]
-        out[i, kk] = x
+        _put(out[i, kk], x)
         if null[r] == 0 and _amax_diff(x, driven[i, kk]) > FOLLOW_TOL:
             first_stop = min(first_stop, times[kk])
         worst[i] = _worse(worst[i], res[r])
@@ -283,7 +291,7 @@ def _keep(st, rq, pl, i, w, ok, main, work):  # pragma: no cover - compiled
         dof[i] = null[folded]
     last = window[i, nacc - 1]
     _settle(st, pl, i, last)
-    st[10][i] = driven[i, k0 + nacc - 1]
+    _put(st[10][i], driven[i, k0 + nacc - 1])
     k[i] = k0 + nacc
 
 
@@ -320,7 +328,7 @@ def _skip(st, i):  # pragma: no cover - compiled
             nxt = m
             break
     for m in range(kk, nxt):
-        out[i, m] = x[i]
+        _put(out[i, m], x[i])
     k[i] = nxt
 
 
@@ -383,7 +391,8 @@ def _post(st, rq, pl, i, work):  # pragma: no cover - compiled
     if pred or first:  # tracker._starts
         p = _predict(x[i], ys, basis[i], free[i], work)
         if pred or _amax_diff(p, x[i]) >= OPT_TOL:
-            start[:], taken = p, 1 if first else 0
+            _put(start, p)
+            taken = 1 if first else 0
     w = min(1 + min(run[i, kk], WINDOW), width[i]) if pred and nsub[i] == 1 else 1
     col = 0  # the first free direction: the line's, where the tangent space is one
     while col < n - 1 and not free[i, col]:
@@ -399,7 +408,9 @@ def _post(st, rq, pl, i, work):  # pragma: no cover - compiled
     for o in range(1, w):
         rq[3][i, o - 1] = _add(pl, _predict(x[i], driven[i, kk + o], basis[i], free[i], work), driven[i, kk + o],
                                True, True, 0, line[i], guide, i)
-    rq[4][i], rq[5][i], rq[6][i], rq[0][i] = w, y, ys, True
+    _put(rq[5][i], y)
+    _put(rq[6][i], ys)
+    rq[4][i], rq[0][i] = w, True
 
 
 @njit
@@ -433,7 +444,4 @@ def between(first, st, rq, pl):  # pragma: no cover - compiled
             _forget(rq, pl, i)
         else:
             _post(st, rq, pl, i, work)
-    count = 0
-    for r in range(pl[11].shape[0]):
-        count += 1 if pl[11][r] else 0
-    return count
+    return np.count_nonzero(pl[11])
