@@ -104,9 +104,13 @@ class DriveState:
         since the last solve (their answer is the last one)."""
         k = self.k[i]
         ready = (k > 0) & (k < self.n_t) & self.settled[i] & (self.sub[i] == 0)
+        if not ready.any():
+            return
         i, k = i[ready], k[ready]
         tol = self.skip_tol(i)
         idle = np.abs(self.driven[i, k] - self.prev[i]).max(axis=1, initial=0.0) <= tol
+        if not idle.any():
+            return
         for i, t in zip(i[idle], tol[idle]):
             nxt = self._moving(i, t)
             self.out[i, self.k[i]:nxt] = self.x[i]

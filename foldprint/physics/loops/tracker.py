@@ -102,6 +102,8 @@ class _Requests:
 
     def forget(self, pool: Pool, i):
         """Drop the restarts drives ``i`` started ahead."""
+        if not len(i):
+            return
         e = self.early[i]
         some = e >= 0
         if some.any():
@@ -157,11 +159,14 @@ class _Requests:
         line = pred & st.line[live]
         self.main[live] = pool.add(start, ys, far=pred, taken=taken, line=line, guide=_line(st, live[line]), tag=live)
         self.restart[live] = -1
-        flat = near & (np.abs(ys).max(axis=1, initial=0.0) < NEAR_FLAT)  # the drive too
-        again = flat & st.restarts[live, st.k[live]]
-        if again.any():
-            self.restart[live[again]] = self._restarts(st, pool, live[again], ys[again])
-        self.forget(pool, live[~flat])
+        if near.any():
+            flat = near & (np.abs(ys).max(axis=1, initial=0.0) < NEAR_FLAT)  # the drive too
+            again = flat & st.restarts[live, st.k[live]]
+            if again.any():
+                self.restart[live[again]] = self._restarts(st, pool, live[again], ys[again])
+            self.forget(pool, live[~flat])
+        else:
+            self.forget(pool, live)
         if w.max() > 1:
             owner, offset = _blocks(w)
             d = live[owner]
@@ -215,8 +220,11 @@ def track(evaluate, times, driven, compiled: bool | None = None) -> Tracks:
         if todo.size:
             st.skip(todo)
             over = st.k[todo] >= st.n_t
-            req.forget(pool, todo[over])
-            live = todo[~over]
+            if over.any():
+                req.forget(pool, todo[over])
+                live = todo[~over]
+            else:
+                live = todo
             if live.size:
                 req.post(st, pool, live)
         if not pool.alive.any():
