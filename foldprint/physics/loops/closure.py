@@ -34,7 +34,7 @@ import numpy as np
 
 from .corrector import CLOSURE_TOL, MAX_STEP, OPT_TOL, solve  # noqa: F401
 from .drive_state import FOLLOW_TOL, NEAR_FLAT, SKIP_TOL  # noqa: F401
-from .tracker import JUMP, track as track_all  # noqa: F401
+from .tracker import JUMP, track as track_all, warm_compiled  # noqa: F401
 from .closure_cost import check_loops
 from ...core.jit import use_kernels
 
@@ -298,6 +298,7 @@ class LoopSolver:
             compiled = len(drivens) >= COMPILED_FROM
             if not compiled and self._compiled() is not None:
                 self._kernel.warm()  # the chunks to come (a pool forked after this) find it loaded
+                warm_compiled(self.n)  # ... and the tracker's compiled bookkeeping
         got = track_all((compiled and self._compiled()) or self._evaluate, times, np.stack(drivens))
         self.rounds += got.rounds
         return [self._solution(times, got.angles[i], d, float(got.closure[i]), got.locked_at[i], int(got.dof[i]))

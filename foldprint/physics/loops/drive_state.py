@@ -2,8 +2,9 @@
 row per drive: the last answer and its tangent space, the grid step to solve next, what
 was met on the way (locks, the null-space dimension, the worst closure), the tables made
 once per track (which steps restart from the drive, how many steps from each one move),
-and the tolerances that decide when a drive is held, restarted or solved ahead
-(``docs/loops.md``).
+and the tolerances that decide when a drive is held, restarted or solved ahead, which answer
+it takes and which of a window's it keeps (``docs/loops.md``; here so that the tracker and its
+compiled bookkeeping, :mod:`foldprint.physics.loops.tracker_kernels`, read the same ones).
 """
 
 from __future__ import annotations
@@ -48,6 +49,18 @@ SKIP_FAR = OPT_TOL
 #: evaluations, 51.5, 38.7, 35.9, 36.6 CPU-ms a sample of tracking)
 WINDOW = 32
 
+#: how much farther than the continued answer a restart from the drive may land (rad)
+JUMP = 0.05
+#: a solve that ends with a residual above this lost the manifold (the configuration is held)
+LOST_TOL = 1e-7
+#: near the flat sheet, restarts from the drive of this many next grid steps run ahead (our
+#: choice: on miura_3x3's check chunk 784 rounds without, 389 with)
+PREFETCH = 8
+#: a window's answer is kept when the step-by-step predictor lands within this of it (rad,
+#: our choice: about 40 times the largest such distance on the first 64 check samples of the
+#: loop templates, 2.3e-4 rad on miura_3x3)
+ACCEPT = 0.01
+
 
 class DriveState:
     """Per drive: the last answer and its tangent space, the grid step to solve next and
@@ -91,9 +104,13 @@ class DriveState:
         since the last solve (their answer is the last one)."""
         k = self.k[i]
         ready = (k > 0) & (k < self.n_t) & self.settled[i] & (self.sub[i] == 0)
+        if not ready.any():
+            return
         i, k = i[ready], k[ready]
         tol = self.skip_tol(i)
         idle = np.abs(self.driven[i, k] - self.prev[i]).max(axis=1, initial=0.0) <= tol
+        if not idle.any():
+            return
         for i, t in zip(i[idle], tol[idle]):
             nxt = self._moving(i, t)
             self.out[i, self.k[i]:nxt] = self.x[i]

@@ -16,29 +16,20 @@ the stacked normal matrices ``J^T J`` (:mod:`foldprint.physics.loops.corrector`)
 converged (or ran out of steps) leaves the pool, and a drive whose points have all left ends
 its step and puts its next ones in, while the other drives go on iterating. Each drive's
 state between rounds is a row of :class:`~foldprint.physics.loops.drive_state.DriveState`.
+Where the rounds are compiled (a Monte-Carlo chunk), everything between two rounds is one
+compiled call too (:mod:`foldprint.physics.loops.tracker_kernels`, the same answers bit for
+bit); this module's array code is its reference and the one-drive path.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from .corrector import OPT_TOL, Pool, Solves, norms, predict
-from .drive_state import FOLLOW_TOL, NEAR_FLAT, WINDOW, DriveState
-
-#: how much farther than the continued answer a restart from the drive may land (rad)
-JUMP = 0.05
-#: a solve that ends with a residual above this lost the manifold (the configuration is held)
-LOST_TOL = 1e-7
-#: near the flat sheet, restarts from the drive of this many next grid steps run ahead (our
-#: choice: on miura_3x3's check chunk 784 rounds without, 389 with)
-PREFETCH = 8
-#: a window's answer is kept when the step-by-step predictor lands within this of it (rad,
-#: our choice: about 40 times the largest such distance on the first 64 check samples of the
-#: loop templates, 2.3e-4 rad on miura_3x3)
-ACCEPT = 0.01
-
+from .drive_state import ACCEPT, FOLLOW_TOL, JUMP, LOST_TOL, NEAR_FLAT, PREFETCH, WINDOW, DriveState
 
 @dataclass(frozen=True)
 class Tracks:
@@ -111,6 +102,8 @@ class _Requests:
 
     def forget(self, pool: Pool, i):
         """Drop the restarts drives ``i`` started ahead."""
+        if not len(i):
+            return
         e = self.early[i]
         some = e >= 0
         if some.any():
@@ -166,11 +159,14 @@ class _Requests:
         line = pred & st.line[live]
         self.main[live] = pool.add(start, ys, far=pred, taken=taken, line=line, guide=_line(st, live[line]), tag=live)
         self.restart[live] = -1
-        flat = near & (np.abs(ys).max(axis=1, initial=0.0) < NEAR_FLAT)  # the drive too
-        again = flat & st.restarts[live, st.k[live]]
-        if again.any():
-            self.restart[live[again]] = self._restarts(st, pool, live[again], ys[again])
-        self.forget(pool, live[~flat])
+        if near.any():
+            flat = near & (np.abs(ys).max(axis=1, initial=0.0) < NEAR_FLAT)  # the drive too
+            again = flat & st.restarts[live, st.k[live]]
+            if again.any():
+                self.restart[live[again]] = self._restarts(st, pool, live[again], ys[again])
+            self.forget(pool, live[~flat])
+        else:
+            self.forget(pool, live)
         if w.max() > 1:
             owner, offset = _blocks(w)
             d = live[owner]
@@ -206,19 +202,29 @@ def _starts(st: DriveState, live, near, x, ys):
     return start, taken, pred
 
 
-def track(evaluate, times, driven) -> Tracks:
+def track(evaluate, times, driven, compiled: bool | None = None) -> Tracks:
     """Follow S drives ``driven`` (S, n_t, n) rad on the grid ``times`` (n_t,) s on the
-    closure manifold from the flat sheet, all at once (module docstring)."""
+    closure manifold from the flat sheet, all at once (module docstring). ``compiled``: the
+    bookkeeping between rounds in one compiled call a round
+    (:mod:`foldprint.physics.loops.tracker_kernels`, the same answers bit for bit); None:
+    where ``evaluate`` takes compiled rounds (a ``fused`` method)."""
     st = DriveState(np.asarray(times, float), np.asarray(driven, float))
     s, _, n = st.driven.shape
+    if compiled is None:
+        compiled = hasattr(evaluate, "fused")
+    if compiled:
+        return _track_compiled(st, _Counted(evaluate))
     pool, req, ev = Pool(n, 4 * s), _Requests(s, n), _Counted(evaluate)
     todo = np.arange(s)
     while True:
         if todo.size:
             st.skip(todo)
             over = st.k[todo] >= st.n_t
-            req.forget(pool, todo[over])
-            live = todo[~over]
+            if over.any():
+                req.forget(pool, todo[over])
+                live = todo[~over]
+            else:
+                live = todo
             if live.size:
                 req.post(st, pool, live)
         if not pool.alive.any():
@@ -228,6 +234,42 @@ def track(evaluate, times, driven) -> Tracks:
         if todo.size:
             _ended(st, pool, req, todo)
     return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
+
+
+def _track_compiled(st: DriveState, ev: _Counted) -> Tracks:
+    """:func:`track`'s loop with its bookkeeping compiled (``tracker_kernels.between``)."""
+    from .tracker_kernels import between
+
+    pool, arrays = _compiled_state(st)
+    first = True
+    while between(first, *arrays):
+        first = False
+        pool.round(ev)
+    return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
+
+
+def _compiled_state(st: DriveState):
+    """A pool for the drives of ``st`` and the arrays the compiled bookkeeping reads, as its
+    three tuples: the pool holds every point the drives can have at once (a main solve, a
+    restart, a window and PREFETCH restarts ahead each), so the kernel never grows it."""
+    s, _, n = st.driven.shape
+    pool, req = Pool(n, s * (WINDOW + PREFETCH + 2)), _Requests(s, n)
+    sts = (st.times, st.driven, st.x, st.basis, st.free, st.tangent, st.plain, st.settled, st.xmax, st.line, st.prev,
+           st.k, st.sub, st.nsub, st.locked, st.dof, st.worst, st.res_x, st.width, st.out, st.restarts, st.run)
+    rq = (req.open, req.main, req.restart, req.window, req.w, req.y, req.ys, req.early, req.early_k)
+    pl = (pool.x, pool.target, pool.it, pool.spec, pool.far, pool.plain, pool.res, pool.null, pool.done, pool.basis,
+          pool.free, pool.alive, pool.line, pool.guide, pool.tag, pool.stack, np.array([pool.nfree]))
+    return pool, (sts, rq, pl)
+
+
+@lru_cache(maxsize=None)
+def warm_compiled(n: int) -> None:
+    """Load the compiled bookkeeping (compile it on a cold cache) for drives of ``n``
+    hinges without tracking anything (no drive has points to end or post), so a pool of
+    workers forked after this finds it loaded (once per process and size)."""
+    from .tracker_kernels import between
+
+    between(False, *_compiled_state(DriveState(np.zeros(2), np.zeros((1, 2, n))))[1])
 
 
 def _ended(st: DriveState, pool: Pool, req: _Requests, live):
