@@ -201,13 +201,14 @@ def svd_small(jac, c, s, vec, uc, work):  # pragma: no cover - compiled
     ct, vs, r1, at, q2, vt, fv, iv = work
     b, qb, fs, nrm, dots, cs, sn = fv[0], fv[1], fv[2], fv[3], fv[4], fv[5], fv[6]
     perm, order, ids = iv[0, :n], iv[1, :n], iv[2]
+    pivot = k > 0  # True, known at run time only (literal flags would compile house twice)
     qb[:] = 0.0
     if k >= n:
         for j in range(n):
             for i in range(k):
                 ct[j, i] = jac[i, j]
         b[:k] = c
-        house(ct, b[:k], True, perm, vs, fs, r1)
+        house(ct, b[:k], pivot, perm, vs, fs, r1)
         qb[:n] = b[:n]
     else:  # fewer equations than angles: J with zero rows below
         r1[:, :] = 0.0
@@ -215,7 +216,7 @@ def svd_small(jac, c, s, vec, uc, work):  # pragma: no cover - compiled
         qb[:k] = c
         for j in range(n):
             perm[j] = j
-    house(r1, qb[:0], False, order, vt, fs, at)  # R1^T = Q2 R2: L = R2^T, its columns R2's rows
+    house(r1, qb[:0], not pivot, order, vt, fs, at)  # R1^T = Q2 R2: L = R2^T, its columns R2's rows
     form_q(vt, fs, q2)
     for i in range(n):
         for j in range(n):
