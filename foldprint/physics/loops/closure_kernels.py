@@ -11,7 +11,8 @@ SVD_BELOW of the flat sheet (:func:`~foldprint.physics.loops.corrector._gn_svd`)
 eigen-decomposition of J^T J otherwise (:func:`~foldprint.physics.loops.corrector._gn_eigh`);
 then the stop, drop and step rules, written into the pool's rows. The points are
 independent, so the loop over them gives what the numpy round's slices give, to round-off
-(the same LAPACK drivers: ``gesdd``, ``syevd``, ``gesv``; the sums in another order).
+(the same LAPACK drivers ``syevd`` and ``gesv``, the SVD hand-written in
+:mod:`~foldprint.physics.loops.decomp_kernels`; the sums in another order).
 
 Imported only after :func:`foldprint.core.jit.use_kernels` said yes.
 """

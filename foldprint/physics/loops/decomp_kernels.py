@@ -10,9 +10,10 @@ well, so Q1 is never formed), a QR of R1^T, ``R1^T = Q2 R2``, then one-sided Jac
 rotations (Hestenes) on the columns of ``L = R2^T``, accumulated into ``V = P Q2``, until
 every pair of columns is orthogonal to EPS of their norms: ``L W = U_L S``, so ``J = (Q1
 U_L) S (P Q2 W)^T``. The two QRs leave L's columns nearly orthogonal and strongly graded,
-so the rotations converge in 3-5 sweeps where J itself takes 9-10. The pairs are taken in
-round-robin order (n/2 disjoint pairs at a time): their inner products and rotation angles
-are independent, so the processor overlaps them instead of waiting on each square root.
+so the rotations converge in 4-5 sweeps where J itself takes 9-10 (``miura_3x3``). The
+pairs are taken in round-robin order (n/2 disjoint pairs at a time): their inner products
+and rotation angles are independent, so the processor overlaps them instead of waiting on
+each square root.
 One-sided Jacobi resolves small singular values at least as well as LAPACK's ``gesdd``
 (whose error is round-off of the largest; Jacobi's, for a graded matrix as L, round-off of
 each), which is what the rank rule near the flat sheet needs (``docs/loops.md``).
@@ -36,7 +37,7 @@ EPS = 2.0 ** -52
 #: against another (our choice: far below the rank rule's 1e-7; without it, two columns
 #: of pure round-off can take rotations forever)
 TINY = 1e-30
-#: sweeps of the rotations at most (our choice: the tracker's Jacobians take 3-5; one that
+#: sweeps of the rotations at most (our choice: the tracker's Jacobians take 2-5; one that
 #: has not converged keeps what it has, orthogonal to round-off)
 SWEEPS = 30
 #: the last sweep: one whose rotations were all below LAST (the cosine of the pair's angle)
