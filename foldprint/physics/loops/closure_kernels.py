@@ -11,7 +11,8 @@ SVD_BELOW of the flat sheet (:func:`~foldprint.physics.loops.corrector._gn_svd`)
 eigen-decomposition of J^T J otherwise (:func:`~foldprint.physics.loops.corrector._gn_eigh`);
 then the stop, drop and step rules, written into the pool's rows. The points are
 independent, so the loop over them gives what the numpy round's slices give, to round-off
-(the same LAPACK drivers: ``gesdd``, ``syevd``, ``gesv``; the sums in another order).
+(the same LAPACK drivers ``syevd`` and ``gesv``, the SVD hand-written in
+:mod:`~foldprint.physics.loops.decomp_kernels`; the sums in another order).
 
 Imported only after :func:`foldprint.core.jit.use_kernels` said yes.
 """
@@ -24,6 +25,7 @@ import numpy as np
 
 from ...core.jit import njit
 from .corrector import CLOSURE_TOL, GN_STEPS, MAX_STEP, NEWTON_STEPS, OPT_TOL, RANK_RES, RANK_TOL, SVD_BELOW
+from .decomp_kernels import svd_small, svd_work
 
 #: hinges up to which the line solve takes the hand-written LU (:func:`_lu_solve`), LAPACK's
 #: above (our choice: a 12-hinge solve costs 0.5 us by hand against 1.4 us through LAPACK;
@@ -191,23 +193,20 @@ def _gn_eigh(gram, g, d, stiff, step, vec, fr):  # pragma: no cover - compiled
 
 
 @njit
-def _gn_svd(jac, c, d, step, vec, fr):  # pragma: no cover - compiled
-    """corrector._gn_svd of one point (the rank rule alone)."""
-    k, n = jac.shape
-    u, sv, vt = np.linalg.svd(jac, full_matrices=k < n)
-    s = np.zeros(n)
-    uc = np.zeros(n)
-    for j in range(min(k, n)):
-        s[j] = sv[j]
-        uc[j] = _along(u, j, c)
+def _gn_svd(jac, c, d, step, vec, fr, work):  # pragma: no cover - compiled
+    """corrector._gn_svd of one point (the rank rule alone), by :func:`svd_small` (``work``
+    its scratch)."""
+    n = jac.shape[1]
+    s = np.empty(n)
+    uc = np.empty(n)
+    svd_small(jac, c, s, vec, uc, work)
     thr = RANK_TOL * max(1.0, s[0])
     coef = np.empty(n)
-    v = vt.T  # the right singular vectors as columns
     for j in range(n):
         keep = s[j] > thr
         fr[j] = not keep
-        coef[j] = -uc[j] / s[j] if keep else _along(v, j, d)
-    _combine(v, coef, vec, step)
+        coef[j] = -uc[j] / s[j] if keep else _along(vec, j, d)
+    _combine(vec, coef, vec, step)
 
 
 @njit
@@ -336,6 +335,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
     fr = np.zeros(n, np.bool_)
     w = np.empty(n)
     nz = np.empty(n, np.intp)
+    work = svd_work(k, n)
     count = 0
     for i in range(size):
         if not alive[i]:
@@ -364,7 +364,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
             nul = 1
         else:
             if plain[i] and xmax < SVD_BELOW:
-                _gn_svd(jac, c, d, step, vec, fr)
+                _gn_svd(jac, c, d, step, vec, fr, work)
             else:
                 _normal(jac, c, gram, g, nz)
                 _gn_eigh(gram, g, d, RANK_RES * r * (1.0 if far[i] else 0.0), step, vec, fr)
