@@ -4,7 +4,9 @@ The scene (:mod:`foldprint.render.scene`) is projected orthographically by the d
 fixed camera and drawn as 2D paths, back to front (painter's order, per panel and per
 ribbon quad), on a plain matplotlib Agg canvas: no mplot3d, no pyplot state, no display.
 The view's size comes from the projected vertices, so nothing is drawn twice to measure
-it; a scale bar replaces axes. Functions return a :class:`matplotlib.figure.Figure`;
+it, and the figure is the drawing with a fixed white border (:data:`PAD_IN`): saved as it
+is, without a tight crop (which would draw it once more to measure it); a scale bar
+replaces axes. Functions return a :class:`matplotlib.figure.Figure`;
 output is deterministic. The fold animation lives in :mod:`foldprint.render.anim`.
 """
 
@@ -29,6 +31,10 @@ TITLE_IN = 0.32  # title band above a view (in)
 _BAR_IN = 0.3  # scale-bar band below a view (in)
 _HEAD_IN = 0.4  # figure title band above a frame grid (in)
 _MARGIN = 0.04  # fraction of the projected extent left free around the drawing
+#: White border (in) left, right and below a still's drawing; above it the title band
+#: leaves as much. Our choice: matplotlib's pad of a tight crop (``pad_inches``), so a
+#: still saved as it is looks as one cropped tight did.
+PAD_IN = 0.1
 
 
 def new_figure(figsize: tuple[float, float], dpi: float):
@@ -184,9 +190,9 @@ def render_state(design: Design, poses, title_text: str, *, model: HingeModel = 
     cam = camera_for(design)
     view = View.fit(bounds([sc], cam), max_size_in)
     cw, ch = view.cell
-    fig = new_figure((cw, ch + TITLE_IN), dpi)
-    Painter(fig, view, cam, (0.0, 0.0), 9.0).draw(sc)
-    title(fig, cw / 2, ch + 0.06, title_text, 10.0)
+    fig = new_figure((cw + 2 * PAD_IN, ch + TITLE_IN + PAD_IN), dpi)
+    Painter(fig, view, cam, (PAD_IN, PAD_IN), 9.0).draw(sc)
+    title(fig, PAD_IN + cw / 2, PAD_IN + ch + 0.06, title_text, 10.0)
     return fig
 
 
@@ -218,12 +224,12 @@ def render_frames(result, n: int = 4, *, library: MaterialLibrary | None = None,
     view = View.fit(b, box)
     cw, ch = view.cell
     row_h = ch + TITLE_IN
-    fig = new_figure((cw * ncols, row_h * nrows + _HEAD_IN), dpi)
+    fig = new_figure((cw * ncols + 2 * PAD_IN, row_h * nrows + _HEAD_IN + PAD_IN), dpi)
     for k, (sc, text) in enumerate(zip(scenes, titles)):
         r, c = divmod(k, ncols)
-        y0 = (nrows - 1 - r) * row_h
-        Painter(fig, view, cam, (c * cw, y0)).draw(sc)
-        title(fig, (c + 0.5) * cw, y0 + ch + 0.04, text, 9.0)
-    title(fig, cw * ncols / 2, row_h * nrows + 0.08,
+        y0 = PAD_IN + (nrows - 1 - r) * row_h
+        Painter(fig, view, cam, (PAD_IN + c * cw, y0)).draw(sc)
+        title(fig, PAD_IN + (c + 0.5) * cw, y0 + ch + 0.04, text, 9.0)
+    title(fig, PAD_IN + cw * ncols / 2, PAD_IN + row_h * nrows + 0.08,
           f"{design.name}: folding at {result.trajectory.bath_c:g} \u00b0C ({model} hinges)", 11.0)
     return fig
