@@ -12,6 +12,7 @@ output is deterministic. The fold animation lives in :mod:`foldprint.render.anim
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -113,32 +114,59 @@ class Painter:
                      fontsize=fontsize * 0.85, color="0.25")
 
     def draw(self, sc: Scene) -> None:
+        """Replace the collection's paths by ``sc``'s, back to front (depth of a polygon's
+        outline or a line's centre toward the eye; ties in scene order)."""
         from matplotlib.path import Path
 
         right, up, eye = self.camera.axes()
         proj = np.stack([right, up]).T
-        items = []  # (depth, order, path, face, edge, width)
-        for k, (rings, face, edge, lw) in enumerate(zip(sc.polys, sc.face_colors, sc.edge_colors,
-                                                         sc.edge_widths)):
-            verts, codes = [], []
-            for r in rings:
-                p = r @ proj
-                verts.append(np.vstack([p, p[:1]]))
-                codes.append([Path.MOVETO] + [Path.LINETO] * (len(p) - 1) + [Path.CLOSEPOLY])
-            depth = float(rings[0].mean(axis=0) @ eye)
-            rgba = (*face, 1.0)
-            items.append((depth, k, Path(np.concatenate(verts), np.concatenate(codes)), rgba,
-                          rgba if edge is None else (*edge, 1.0), lw))
-        n = len(items)
-        for k, (line, color, lw) in enumerate(zip(sc.lines, sc.line_colors, sc.line_widths)):
-            depth = float(line.mean(axis=0) @ eye) + 1e-6  # over the faces they bound
-            items.append((depth, n + k, Path(line @ proj), (0.0, 0.0, 0.0, 0.0),
-                          (*color, 1.0), lw))
-        items.sort(key=lambda it: (it[0], it[1]))
-        self.coll.set_paths([it[2] for it in items])
-        self.coll.set_facecolors([it[3] for it in items])
-        self.coll.set_edgecolors([it[4] for it in items])
-        self.coll.set_linewidths([it[5] for it in items])
+        n = len(sc.polys)
+        depth = np.empty(n + len(sc.lines))
+        paths = []
+        for k, rings in enumerate(sc.polys):
+            if len(rings) == 1:  # most polygons (ribbon quads): no concatenation
+                verts = _closed(rings[0] @ proj)
+                codes = _ring_codes(len(rings[0]))
+            else:
+                verts = np.concatenate([_closed(r @ proj) for r in rings])
+                codes = np.concatenate([_ring_codes(len(r)) for r in rings])
+            paths.append(Path(verts, codes))
+            depth[k] = rings[0].mean(axis=0) @ eye
+        for k, line in enumerate(sc.lines):
+            depth[n + k] = line.mean(axis=0) @ eye + 1e-6  # over the faces they bound
+            paths.append(Path(line @ proj))
+        faces = np.ones((len(depth), 4))
+        faces[:n, :3] = sc.face_colors
+        faces[n:, 3] = 0.0  # lines: no fill
+        edges = faces.copy()
+        for k, edge in enumerate(sc.edge_colors):
+            if edge is not None:
+                edges[k, :3] = edge
+        edges[n:, :3] = sc.line_colors if sc.lines else np.zeros((0, 3))
+        edges[n:, 3] = 1.0
+        order = np.argsort(depth, kind="stable")
+        self.coll.set_paths([paths[i] for i in order])
+        self.coll.set_facecolors(faces[order])
+        self.coll.set_edgecolors(edges[order])
+        self.coll.set_linewidths(np.concatenate([sc.edge_widths, sc.line_widths])[order])
+
+
+def _closed(p: np.ndarray) -> np.ndarray:
+    """The ring ``p`` (k, 2) with its first point repeated at the end."""
+    out = np.empty((len(p) + 1, 2))
+    out[:-1] = p
+    out[-1] = p[0]
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _ring_codes(k: int) -> np.ndarray:
+    """Path codes of a closed ring of ``k`` points (read-only: shared by every path)."""
+    from matplotlib.path import Path
+
+    codes = np.array([Path.MOVETO] + [Path.LINETO] * (k - 1) + [Path.CLOSEPOLY], dtype=Path.code_type)
+    codes.flags.writeable = False
+    return codes
 
 
 def title(fig, x_in: float, y_in: float, text: str, fontsize: float, **kw):
