@@ -89,7 +89,7 @@ def _frames(scenes, view: View, cam, dpi: float) -> list[np.ndarray]:
     for sc, text in scenes:
         painter.draw(sc)
         fig.canvas.restore_region(background)
-        painter.ax.draw_artist(painter.coll)
+        fig.draw_artist(painter.coll)
         im = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3])
         # centred, its bottom (descent included) 0.06 in above the view, as stills.title places it
         ImageDraw.Draw(im).text((cw / 2 * dpi, im.height - (ch + 0.06) * dpi), text, font=font,

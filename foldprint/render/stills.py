@@ -4,10 +4,11 @@ The scene (:mod:`foldprint.render.scene`) is projected orthographically by the d
 fixed camera and drawn as 2D paths, back to front (painter's order, per panel and per
 ribbon quad), on a plain matplotlib Agg canvas: no mplot3d, no pyplot state, no display.
 The view's size comes from the projected vertices, so nothing is drawn twice to measure
-it, and the figure is the drawing with a fixed white border (:data:`PAD_IN`): saved as it
-is, without a tight crop (which would draw it once more to measure it); a scale bar
-replaces axes. Functions return a :class:`matplotlib.figure.Figure`;
-output is deterministic. The fold animation lives in :mod:`foldprint.render.anim`.
+it; the scenes are drawn without axes, through a fixed affine map from screen mm to
+figure pixels, and a scale bar replaces axes. The figure is the drawing with a fixed
+white border (:data:`PAD_IN`), saved as it is, without a tight crop (which would draw it
+once more to measure it). Functions return a :class:`matplotlib.figure.Figure`; output
+is deterministic. The fold animation lives in :mod:`foldprint.render.anim`.
 """
 
 from __future__ import annotations
@@ -88,30 +89,35 @@ def _nice(x: float) -> float:
 
 
 class Painter:
-    """One axes that draws scenes through a fixed camera and view; reused frame after frame
-    (only the paths and colours of its one collection change)."""
+    """Draws scenes through a fixed camera and view into a figure, no axes (a fixed affine
+    map from screen mm to figure pixels); reused frame after frame (only the paths and
+    colours of its one collection change)."""
 
     def __init__(self, fig, view: View, camera: Camera, origin_in: tuple[float, float],
                  fontsize: float = 8.0):
         from matplotlib.collections import PathCollection
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Rectangle
+        from matplotlib.text import Text
+        from matplotlib.transforms import Affine2D
 
-        fw, fh = fig.get_size_inches()
-        cw, ch = view.cell
-        self.ax = fig.add_axes((origin_in[0] / fw, origin_in[1] / fh, cw / fw, ch / fh))
-        self.ax.set_axis_off()
         x0, x1, y0, y1 = view.bounds
         mm_per_in = (x1 - x0) / view.width
         ybar = y0 - _BAR_IN * mm_per_in
-        self.ax.set_xlim(x0, x1)
-        self.ax.set_ylim(ybar, y1)
+        # screen mm -> figure inches (the view's one scale, the scale-bar band below) -> pixels
+        to_fig = Affine2D().translate(-x0, -ybar).scale(1.0 / mm_per_in).translate(*origin_in) + fig.dpi_scale_trans
         self.camera = camera
-        self.coll = PathCollection([], transform=self.ax.transData, joinstyle="round", capstyle="round")
-        self.ax.add_collection(self.coll)
+        self.coll = PathCollection([], transform=to_fig, joinstyle="round", capstyle="round")
+        self.coll.set_in_layout(False)  # a tight crop measures the view by its cell, below
+        fig.add_artist(self.coll)
+        cw, ch = view.cell
+        fig.add_artist(Rectangle(origin_in, cw, ch, transform=fig.dpi_scale_trans, fill=False, linewidth=0.0))
         bar = _nice(0.25 * (x1 - x0))
         yb = ybar + 0.55 * _BAR_IN * mm_per_in
-        self.ax.plot([x0, x0 + bar], [yb, yb], color="0.25", lw=1.5, solid_capstyle="butt")
-        self.ax.text(x0 + bar + 0.08 * mm_per_in, yb, f"{bar:g} mm", va="center", ha="left",
-                     fontsize=fontsize * 0.85, color="0.25")
+        fig.add_artist(Line2D([x0, x0 + bar], [yb, yb], color="0.25", lw=1.5, solid_capstyle="butt",
+                              transform=to_fig))
+        fig.add_artist(Text(x0 + bar + 0.08 * mm_per_in, yb, f"{bar:g} mm", va="center", ha="left",
+                            fontsize=fontsize * 0.85, color="0.25", transform=to_fig))
 
     def draw(self, sc: Scene) -> None:
         """Replace the collection's paths by ``sc``'s, back to front (depth of a polygon's
