@@ -90,7 +90,8 @@ def _frames(scenes, view: View, cam, dpi: float) -> list[np.ndarray]:
         painter.draw(sc)
         fig.canvas.restore_region(background)
         fig.draw_artist(painter.coll)
-        im = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3])
+        buf = np.asarray(fig.canvas.buffer_rgba())
+        im = Image.frombuffer("RGBA", (buf.shape[1], buf.shape[0]), buf, "raw", "RGBA", 0, 1).convert("RGB")
         # centred, its bottom (descent included) 0.06 in above the view, as stills.title places it
         ImageDraw.Draw(im).text((cw / 2 * dpi, im.height - (ch + 0.06) * dpi), text, font=font,
                                 fill=(0, 0, 0), anchor="md")

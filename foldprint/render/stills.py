@@ -137,9 +137,9 @@ class Painter:
                 verts = np.concatenate([_closed(r @ proj) for r in rings])
                 codes = np.concatenate([_ring_codes(len(r)) for r in rings])
             paths.append(Path(verts, codes))
-            depth[k] = rings[0].mean(axis=0) @ eye
+            depth[k] = rings[0].sum(axis=0) / len(rings[0]) @ eye  # the mean, without np.mean's overhead
         for k, line in enumerate(sc.lines):
-            depth[n + k] = line.mean(axis=0) @ eye + 1e-6  # over the faces they bound
+            depth[n + k] = line.sum(axis=0) / len(line) @ eye + 1e-6  # over the faces they bound
             paths.append(Path(line @ proj))
         faces = np.ones((len(depth), 4))
         faces[:n, :3] = sc.face_colors
