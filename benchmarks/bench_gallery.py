@@ -4,14 +4,16 @@ samples per scale), against
 the same gallery without the Monte-Carlo (0 samples: what the gallery did before it ran
 the check), and the material chart's fold-time table against one recovery curve per point.
 
-    python benchmarks/bench_gallery.py [--jobs N] [--in-process] [--one-process] [--phases] [--json]
+    python benchmarks/bench_gallery.py [--jobs N] [--in-process] [--one-process] [--phases] [--pages] [--json]
 
 Prints wall and CPU times and ratios measured in the same run: the cost of the
 Monte-Carlo (the gallery against the one without it), the fold of a chunk of
 miura_3x3 samples with their closures tracked in lockstep
 (:func:`foldprint.physics.hinge_drive.solve_loops_many`, what the Monte-Carlo does) against
 the same chunk tracked drive by drive (same outcomes), optionally (``--in-process``) the
-gallery built in this process, optionally (``--one-process``) the
+gallery built in this process, optionally (``--pages``) the CPU of each template's page
+built in this process without its Monte-Carlo (the evaluation, renders, GIF, plots, viewer
+and print files) and of its GIF alone, optionally (``--one-process``) the
 speed-up of ``--jobs`` worker processes (default: the CPU count) over one, and of the
 vectorised, cached :func:`foldprint.physics.recovery.table.fold_times` over the loop a user would
 write (``recovery_curve(m, T).fold_time`` per material and bath; each curve computed
@@ -138,6 +140,34 @@ def _phases(n: int = 16) -> list[dict]:
     return out
 
 
+def _pages() -> list[dict]:
+    """Per template, CPU seconds of its gallery page built in this process with 0 samples
+    (:func:`foldprint.apps.gallery.build.build_design`: the check's nominal folds and
+    rules, the JSON, the viewer, the renders, the GIF, the plots, the print files), and of
+    its fold GIF alone; after one page built first, so imports and caches are warm."""
+    from pathlib import Path
+
+    from foldprint.apps.gallery.build import GIF_DPI, GIF_FRAMES, build_design
+    from foldprint.core.constants import CHECK_DT_S
+    from foldprint.core.modes import Method
+    from foldprint.render.anim import fold_animation_gif
+    from foldprint.simulation.simulate import simulate
+
+    lib, out, pt = default_library(), [], time.process_time
+    designs = [load_design(t["path"]) for t in list_templates()]
+    with tempfile.TemporaryDirectory() as tmp:
+        build_design(designs[0], Path(tmp), "warm-up", lib, CHECK_DT_S, GIF_FRAMES, 0)
+        for d in designs:
+            c0 = pt()
+            build_design(d, Path(tmp), d.name, lib, CHECK_DT_S, GIF_FRAMES, 0)
+            c1 = pt()
+            res = simulate(d, dt=CHECK_DT_S, method=Method.BOTH)
+            c2 = pt()
+            fold_animation_gif(res, GIF_FRAMES, dpi=GIF_DPI, library=lib)
+            out.append({"design": d.name, "page_cpu_s": round(c1 - c0, 3), "gif_cpu_s": round(pt() - c2, 3)})
+    return out
+
+
 def _chart() -> tuple[float, float, float]:
     lib = default_library()
     baths = np.linspace(70.0, 100.0, 16)
@@ -159,6 +189,7 @@ def main() -> None:
     ap.add_argument("--in-process", action="store_true", help="Also build the gallery in this process.")
     ap.add_argument("--one-process", action="store_true", help="Also build the gallery in one process.")
     ap.add_argument("--phases", action="store_true", help="Also time a chunk of each template by phase.")
+    ap.add_argument("--pages", action="store_true", help="Also time each template's page in this process.")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     load = os.getloadavg()[0]
@@ -186,6 +217,8 @@ def main() -> None:
                     "parallel_speedup": round(t_one / t_par, 2)})
     if args.phases:
         res["phases"] = _phases()
+    if args.pages:
+        res["pages"] = _pages()
     if args.json:
         print(json.dumps(res))
         return
@@ -209,6 +242,8 @@ def main() -> None:
               f"{p['later_chunk_ms']:6.1f} (setup kept: {p['setup_ms_per_chunk']:5.0f} ms a chunk); curves "
               f"{p['curves_ms']:5.1f}, loops {p['loops_ms']:6.1f}, folds {p['folds_ms']:5.1f}; "
               f"same outcomes {p['same_outcomes']}")
+    for p in res.get("pages", []):
+        print(f"  {p['design']:22s} page without samples {p['page_cpu_s']:.2f} CPU-s, its GIF {p['gif_cpu_s']:.2f}")
     print(f"chart fold times, 7 materials x 16 baths: {t_loop:.2f} s one curve each, {t_table:.2f} s "
           f"as one table (x{t_loop / t_table:.1f}), largest difference {worst:.2e} s")
 

@@ -68,9 +68,12 @@ def bed_report(assembly: Assembly) -> list[dict]:
             hi = probe.reshape(-1, 3).max(axis=0)
             eps = 1e-6 * (1.0 + float(np.abs(boxes).max()))
             near = np.nonzero(np.all(boxes[:, :3] <= hi + eps, axis=1) & np.all(boxes[:, 3:] >= lo - eps, axis=1))[0]
-            sol = [assembly.units[k].solid for k in near]
-            part = sol[0] if len(sol) == 1 else mf.Manifold.batch_boolean(sol, mf.OpType.Add)
-            resting = (_prisms(probe, SUPPORT_PROBE_MM) ^ part).volume() / SUPPORT_PROBE_MM
+            # the probe's part in the union of those units is the union of its parts in each
+            # (small solids: cheaper than uniting the units first: mailbox 0.15 to 0.09 CPU-s)
+            prism = _prisms(probe, SUPPORT_PROBE_MM)
+            cut = [prism ^ assembly.units[k].solid for k in near]
+            part = cut[0] if len(cut) == 1 else mf.Manifold.batch_boolean(cut, mf.OpType.Add)
+            resting = part.volume() / SUPPORT_PROBE_MM
             area = max(0.0, area - resting)
         out.append({"kind": u.kind, "id": u.owner, "material": u.material, "z_min_mm": round(z_min, 6),
                     "on_bed": z_min <= BED_TOL, "unsupported_area_mm2": round(area, 3),

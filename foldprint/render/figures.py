@@ -32,11 +32,14 @@ def pyplot():
     return _plt()
 
 
-def figure_bytes(fig, fmt: str = "png", dpi: int = 110) -> bytes:
-    """Render a figure to bytes (deterministic metadata) and close it."""
+def figure_bytes(fig, fmt: str = "png", dpi: int = 110, *, crop: bool = True) -> bytes:
+    """Render a figure to bytes (deterministic metadata) and close it. ``crop``: cut it to
+    its drawing plus 0.1 in (``bbox_inches="tight"``, which draws the figure twice: once
+    to measure it); False saves the figure as it is, for a figure whose layout already
+    fits (``tight_layout``, the stills of :mod:`foldprint.render.stills`)."""
     buf = io.BytesIO()
     meta = {"Software": None} if fmt == "png" else {}
-    fig.savefig(buf, format=fmt, dpi=dpi, metadata=meta, bbox_inches="tight")
+    fig.savefig(buf, format=fmt, dpi=dpi, metadata=meta, **({"bbox_inches": "tight"} if crop else {}))
     _plt().close(fig)
     return buf.getvalue()
 

@@ -171,11 +171,10 @@ def scene(design: Design, poses: np.ndarray, model: HingeModel, lib: MaterialLib
         nn = np.linalg.norm(nrm, axis=1, keepdims=True)
         nrm = np.where(nn > 0, nrm / np.where(nn > 0, nn, 1.0), np.array([0.0, 0.0, 1.0]))
         k_shade = 0.55 + 0.45 * np.abs(nrm @ _LIGHT)
-        for quad, k in zip(quads, k_shade):
-            sc.polys.append([quad])
-            sc.face_colors.append(np.clip(color * k, 0.0, 1.0))
-            sc.edge_colors.append(None)
-            sc.edge_widths.append(0.3)
+        sc.polys.extend([q] for q in quads)
+        sc.face_colors.extend(np.clip(color[None] * k_shade[:, None], 0.0, 1.0))  # one clip, not one a quad
+        sc.edge_colors.extend([None] * len(quads))
+        sc.edge_widths.extend([0.3] * len(quads))
         for c in curves:
             sc.lines.append(c)
             sc.line_colors.append(color * 0.4)

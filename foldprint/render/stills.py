@@ -4,12 +4,16 @@ The scene (:mod:`foldprint.render.scene`) is projected orthographically by the d
 fixed camera and drawn as 2D paths, back to front (painter's order, per panel and per
 ribbon quad), on a plain matplotlib Agg canvas: no mplot3d, no pyplot state, no display.
 The view's size comes from the projected vertices, so nothing is drawn twice to measure
-it; a scale bar replaces axes. Functions return a :class:`matplotlib.figure.Figure`;
-output is deterministic. The fold animation lives in :mod:`foldprint.render.anim`.
+it; the scenes are drawn without axes, through a fixed affine map from screen mm to
+figure pixels, and a scale bar replaces axes. The figure is the drawing with a fixed
+white border (:data:`PAD_IN`), saved as it is, without a tight crop (which would draw it
+once more to measure it). Functions return a :class:`matplotlib.figure.Figure`; output
+is deterministic. The fold animation lives in :mod:`foldprint.render.anim`.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -29,6 +33,10 @@ TITLE_IN = 0.32  # title band above a view (in)
 _BAR_IN = 0.3  # scale-bar band below a view (in)
 _HEAD_IN = 0.4  # figure title band above a frame grid (in)
 _MARGIN = 0.04  # fraction of the projected extent left free around the drawing
+#: White border (in) left, right and below a still's drawing; above it the title band
+#: leaves as much. Our choice: matplotlib's pad of a tight crop (``pad_inches``), so a
+#: still saved as it is looks as one cropped tight did.
+PAD_IN = 0.1
 
 
 def new_figure(figsize: tuple[float, float], dpi: float):
@@ -81,58 +89,90 @@ def _nice(x: float) -> float:
 
 
 class Painter:
-    """One axes that draws scenes through a fixed camera and view; reused frame after frame
-    (only the paths and colours of its one collection change)."""
+    """Draws scenes through a fixed camera and view into a figure, no axes (a fixed affine
+    map from screen mm to figure pixels); reused frame after frame (only the paths and
+    colours of its one collection change)."""
 
     def __init__(self, fig, view: View, camera: Camera, origin_in: tuple[float, float],
                  fontsize: float = 8.0):
         from matplotlib.collections import PathCollection
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Rectangle
+        from matplotlib.text import Text
+        from matplotlib.transforms import Affine2D
 
-        fw, fh = fig.get_size_inches()
-        cw, ch = view.cell
-        self.ax = fig.add_axes((origin_in[0] / fw, origin_in[1] / fh, cw / fw, ch / fh))
-        self.ax.set_axis_off()
         x0, x1, y0, y1 = view.bounds
         mm_per_in = (x1 - x0) / view.width
         ybar = y0 - _BAR_IN * mm_per_in
-        self.ax.set_xlim(x0, x1)
-        self.ax.set_ylim(ybar, y1)
+        # screen mm -> figure inches (the view's one scale, the scale-bar band below) -> pixels
+        to_fig = Affine2D().translate(-x0, -ybar).scale(1.0 / mm_per_in).translate(*origin_in) + fig.dpi_scale_trans
         self.camera = camera
-        self.coll = PathCollection([], transform=self.ax.transData, joinstyle="round", capstyle="round")
-        self.ax.add_collection(self.coll)
+        self.coll = PathCollection([], transform=to_fig, joinstyle="round", capstyle="round")
+        self.coll.set_in_layout(False)  # a tight crop measures the view by its cell, below
+        fig.add_artist(self.coll)
+        cw, ch = view.cell
+        fig.add_artist(Rectangle(origin_in, cw, ch, transform=fig.dpi_scale_trans, fill=False, linewidth=0.0))
         bar = _nice(0.25 * (x1 - x0))
         yb = ybar + 0.55 * _BAR_IN * mm_per_in
-        self.ax.plot([x0, x0 + bar], [yb, yb], color="0.25", lw=1.5, solid_capstyle="butt")
-        self.ax.text(x0 + bar + 0.08 * mm_per_in, yb, f"{bar:g} mm", va="center", ha="left",
-                     fontsize=fontsize * 0.85, color="0.25")
+        fig.add_artist(Line2D([x0, x0 + bar], [yb, yb], color="0.25", lw=1.5, solid_capstyle="butt",
+                              transform=to_fig))
+        fig.add_artist(Text(x0 + bar + 0.08 * mm_per_in, yb, f"{bar:g} mm", va="center", ha="left",
+                            fontsize=fontsize * 0.85, color="0.25", transform=to_fig))
 
     def draw(self, sc: Scene) -> None:
+        """Replace the collection's paths by ``sc``'s, back to front (depth of a polygon's
+        outline or a line's centre toward the eye; ties in scene order)."""
         from matplotlib.path import Path
 
         right, up, eye = self.camera.axes()
         proj = np.stack([right, up]).T
-        items = []  # (depth, order, path, face, edge, width)
-        for k, (rings, face, edge, lw) in enumerate(zip(sc.polys, sc.face_colors, sc.edge_colors,
-                                                         sc.edge_widths)):
-            verts, codes = [], []
-            for r in rings:
-                p = r @ proj
-                verts.append(np.vstack([p, p[:1]]))
-                codes.append([Path.MOVETO] + [Path.LINETO] * (len(p) - 1) + [Path.CLOSEPOLY])
-            depth = float(rings[0].mean(axis=0) @ eye)
-            rgba = (*face, 1.0)
-            items.append((depth, k, Path(np.concatenate(verts), np.concatenate(codes)), rgba,
-                          rgba if edge is None else (*edge, 1.0), lw))
-        n = len(items)
-        for k, (line, color, lw) in enumerate(zip(sc.lines, sc.line_colors, sc.line_widths)):
-            depth = float(line.mean(axis=0) @ eye) + 1e-6  # over the faces they bound
-            items.append((depth, n + k, Path(line @ proj), (0.0, 0.0, 0.0, 0.0),
-                          (*color, 1.0), lw))
-        items.sort(key=lambda it: (it[0], it[1]))
-        self.coll.set_paths([it[2] for it in items])
-        self.coll.set_facecolors([it[3] for it in items])
-        self.coll.set_edgecolors([it[4] for it in items])
-        self.coll.set_linewidths([it[5] for it in items])
+        n = len(sc.polys)
+        depth = np.empty(n + len(sc.lines))
+        paths = []
+        for k, rings in enumerate(sc.polys):
+            if len(rings) == 1:  # most polygons (ribbon quads): no concatenation
+                verts = _closed(rings[0] @ proj)
+                codes = _ring_codes(len(rings[0]))
+            else:
+                verts = np.concatenate([_closed(r @ proj) for r in rings])
+                codes = np.concatenate([_ring_codes(len(r)) for r in rings])
+            paths.append(Path(verts, codes))
+            depth[k] = rings[0].sum(axis=0) / len(rings[0]) @ eye  # the mean, without np.mean's overhead
+        for k, line in enumerate(sc.lines):
+            depth[n + k] = line.sum(axis=0) / len(line) @ eye + 1e-6  # over the faces they bound
+            paths.append(Path(line @ proj))
+        faces = np.ones((len(depth), 4))
+        faces[:n, :3] = sc.face_colors
+        faces[n:, 3] = 0.0  # lines: no fill
+        edges = faces.copy()
+        for k, edge in enumerate(sc.edge_colors):
+            if edge is not None:
+                edges[k, :3] = edge
+        edges[n:, :3] = sc.line_colors if sc.lines else np.zeros((0, 3))
+        edges[n:, 3] = 1.0
+        order = np.argsort(depth, kind="stable")
+        self.coll.set_paths([paths[i] for i in order])
+        self.coll.set_facecolors(faces[order])
+        self.coll.set_edgecolors(edges[order])
+        self.coll.set_linewidths(np.concatenate([sc.edge_widths, sc.line_widths])[order])
+
+
+def _closed(p: np.ndarray) -> np.ndarray:
+    """The ring ``p`` (k, 2) with its first point repeated at the end."""
+    out = np.empty((len(p) + 1, 2))
+    out[:-1] = p
+    out[-1] = p[0]
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _ring_codes(k: int) -> np.ndarray:
+    """Path codes of a closed ring of ``k`` points (read-only: shared by every path)."""
+    from matplotlib.path import Path
+
+    codes = np.array([Path.MOVETO] + [Path.LINETO] * (k - 1) + [Path.CLOSEPOLY], dtype=Path.code_type)
+    codes.flags.writeable = False
+    return codes
 
 
 def title(fig, x_in: float, y_in: float, text: str, fontsize: float, **kw):
@@ -184,9 +224,9 @@ def render_state(design: Design, poses, title_text: str, *, model: HingeModel = 
     cam = camera_for(design)
     view = View.fit(bounds([sc], cam), max_size_in)
     cw, ch = view.cell
-    fig = new_figure((cw, ch + TITLE_IN), dpi)
-    Painter(fig, view, cam, (0.0, 0.0), 9.0).draw(sc)
-    title(fig, cw / 2, ch + 0.06, title_text, 10.0)
+    fig = new_figure((cw + 2 * PAD_IN, ch + TITLE_IN + PAD_IN), dpi)
+    Painter(fig, view, cam, (PAD_IN, PAD_IN), 9.0).draw(sc)
+    title(fig, PAD_IN + cw / 2, PAD_IN + ch + 0.06, title_text, 10.0)
     return fig
 
 
@@ -218,12 +258,12 @@ def render_frames(result, n: int = 4, *, library: MaterialLibrary | None = None,
     view = View.fit(b, box)
     cw, ch = view.cell
     row_h = ch + TITLE_IN
-    fig = new_figure((cw * ncols, row_h * nrows + _HEAD_IN), dpi)
+    fig = new_figure((cw * ncols + 2 * PAD_IN, row_h * nrows + _HEAD_IN + PAD_IN), dpi)
     for k, (sc, text) in enumerate(zip(scenes, titles)):
         r, c = divmod(k, ncols)
-        y0 = (nrows - 1 - r) * row_h
-        Painter(fig, view, cam, (c * cw, y0)).draw(sc)
-        title(fig, (c + 0.5) * cw, y0 + ch + 0.04, text, 9.0)
-    title(fig, cw * ncols / 2, row_h * nrows + 0.08,
+        y0 = PAD_IN + (nrows - 1 - r) * row_h
+        Painter(fig, view, cam, (PAD_IN + c * cw, y0)).draw(sc)
+        title(fig, PAD_IN + (c + 0.5) * cw, y0 + ch + 0.04, text, 9.0)
+    title(fig, PAD_IN + cw * ncols / 2, PAD_IN + row_h * nrows + 0.08,
           f"{design.name}: folding at {result.trajectory.bath_c:g} \u00b0C ({model} hinges)", 11.0)
     return fig

@@ -38,6 +38,15 @@ STATE_DPI = 100
 PLOT_DPI = 90
 
 
+def _png(fig, dpi: int) -> bytes:
+    """A gallery figure's PNG, saved as it is: every one is laid out to fit its figure
+    (``tight_layout``, or a still cut to its drawing), so a tight crop, which draws the
+    figure a second time to measure it, would only trim a few pixels of margin."""
+    from ...render import figures as render
+
+    return render.figure_bytes(fig, "png", dpi, crop=False)
+
+
 def _evaluate(design: Design, lib: MaterialLibrary, dt: float = CHECK_DT_S, samples: int = CHECK_SAMPLES,
               seed: int = CHECK_SEED, mapper=None):
     """The design's :class:`~foldprint.apps.pipeline.Evaluation` with check's options (its
@@ -59,7 +68,7 @@ def _evaluate(design: Design, lib: MaterialLibrary, dt: float = CHECK_DT_S, samp
 def chart_task(out: Path, lib: MaterialLibrary) -> Image:
     from ...render import figures as render
 
-    chart = render.figure_bytes(render.fold_time_chart(lib, MATERIAL_TEMPERATURES), "png", PLOT_DPI)
+    chart = _png(render.fold_time_chart(lib, MATERIAL_TEMPERATURES), PLOT_DPI)
     temps = ", ".join(f"{t:g}" for t in MATERIAL_TEMPERATURES)
     return write_image(
         out, "materials.png", chart,
@@ -146,13 +155,13 @@ def _pictures(entry: Entry, ev, out: Path, dirname: str, gif_frames: int) -> Non
         fig = render3d.render_state(design, render3d.state_poses(design, state, model),
                                     f"{name}: {state} state", model=model, library=lib)
         entry.images.append(write_image(
-            out, f"{dirname}/{state}.png", render.figure_bytes(fig, "png", STATE_DPI),
+            out, f"{dirname}/{state}.png", _png(fig, STATE_DPI),
             f"3D view of {name} in the {state} state", f"The {what}."))
     times = render3d.frame_times(result, 4)
     fig = render3d.render_frames(result, 4, library=lib)
     t_list = ", ".join(seconds(t) for t in times)
     entry.images.append(write_image(
-        out, f"{dirname}/frames.png", render.figure_bytes(fig, "png", PLOT_DPI),
+        out, f"{dirname}/frames.png", _png(fig, PLOT_DPI),
         f"Four 3D views of {name} while folding, at {t_list}",
         f"Mid-fold frames at {t_list} (same camera and scale); panels in contact in red.",
         wide=True))
@@ -173,13 +182,13 @@ def _plots(entry: Entry, result, robust, out: Path, dirname: str) -> None:
     name = result.design.name
     entry.images.append(write_image(
         out, f"{dirname}/hinge_angles.png",
-        render.figure_bytes(render.hinge_angle_figure(result), "png", PLOT_DPI),
+        _png(render.hinge_angle_figure(result), PLOT_DPI),
         f"Fold angle of each hinge of {name} against time",
         "Hinge angles against time (paper Fig. 3b style); dashed red lines mark contacts."))
     if result.design.is_planar_strip and result.index2d is not None:
         entry.images.append(write_image(
             out, f"{dirname}/collision_index.png",
-            render.figure_bytes(render.collision_index_figure(result), "png", PLOT_DPI),
+            _png(render.collision_index_figure(result), PLOT_DPI),
             f"Collision index of every non-adjacent panel pair of {name} against time",
             "The paper's collision index S_ij (Fig. 4 style): contact where it enters the shaded "
             "band (0, 1); red points are contacts."))
@@ -187,7 +196,7 @@ def _plots(entry: Entry, result, robust, out: Path, dirname: str) -> None:
         robust, None if entry.worst is None else entry.worst["sample"])
     if fig is not None:  # None: no sample completes or collides, nothing to draw (the text says so)
         entry.images.append(write_image(
-            out, f"{dirname}/samples.png", render.figure_bytes(fig, "png", PLOT_DPI),
+            out, f"{dirname}/samples.png", _png(fig, PLOT_DPI),
             f"Histogram of the fold times and first-contact times of the {robust.samples} scatter samples of "
             f"{name}, and how often each panel pair collides first",
             f"The {robust.samples} Monte-Carlo samples (seed {robust.seed}) of the jam probability: when each "

@@ -244,6 +244,9 @@ def _build_pool(designs: Sequence[Design], out: Path, dirnames: list[str], lib: 
     from ... import geometry  # noqa: F401
     from ...render import figures as render, anim as render_anim, viewer  # noqa: F401
     from ...simulation import simulate  # noqa: F401
+    from ...exchange import export  # noqa: F401 - the printable files (trimesh, meshio, gltf)
+    from .. import pipeline  # noqa: F401 - each design's Evaluation
+    render.pyplot()  # matplotlib is imported lazily: once here, not in every worker
 
     # one pool for everything: every design's jam test at 1x, then its sweep, then the probes
     # of a flip (check's stages: foldprint.simulation.jamtest.stages; chunks submitted as
