@@ -55,13 +55,17 @@ def is_cached(module: str, name: str) -> bool:
 
 def cold_groups(loops: bool) -> list[str]:
     """The groups a run needs (``loops``: a design with closed loops among its jobs) whose
-    kernels numba's cache lacks; none where the numpy path runs."""
+    kernels numba's cache lacks, when there are two or more to split across workers; none
+    where the numpy path runs. One cold group alone is left to the chunks that meet its
+    kernels: warmed ahead, it would hold every other worker idle while it compiles, and
+    for kernels a run may never need (the narrow phase of a design that never jams)."""
     from ...core.jit import use_kernels
 
     if not use_kernels():
         return []
     need = ["strips", "loops"] if loops else ["strips"]
-    return [g for g in need if not all(is_cached(m, f) for m, f in PROBES[g])]
+    cold = [g for g in need if not all(is_cached(m, f) for m, f in PROBES[g])]
+    return cold if len(cold) >= 2 else []
 
 
 def warm_group(name: str) -> str:
