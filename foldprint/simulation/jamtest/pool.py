@@ -155,7 +155,9 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
     result) finishes, and as a stream consumes samples (``"samples"``, a
     :class:`StreamStatus`, None). ``meanwhile()``: work of this process for after the run
     (loading what its next stages import), done in a thread while the workers fold, once
-    they are forked (with one worker: not at all). Returns the Precomputed per job, the
+    they are forked (with one worker: not at all). On a cold numba cache each group of
+    kernels is first compiled by one worker, the groups in parallel, before any chunk
+    (:mod:`~foldprint.simulation.jamtest.warmup`). Returns the Precomputed per job, the
     follow-ups' results and the tasks' results (in input order)."""
     batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress, follow)
     batch.meanwhile = meanwhile

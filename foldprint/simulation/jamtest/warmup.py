@@ -85,7 +85,9 @@ def warm_group(name: str) -> str:
 
 
 def _warm_strips() -> None:
+    from ...collision.clearance import min_clearance
     from ...collision.polytope_distance import warm_kernel
+    from ...collision.swept3d import SweptChecker
     from ...core.constants import CHECK_DT_S
     from ...core.modes import VERDICT_METHOD, HingeModel
     from ...io.load import load_design
@@ -94,6 +96,7 @@ def _warm_strips() -> None:
     from ...model.materials import default_library
     from ..robust import run_samples
     from ..scatter import default_scatter, samples_between
+    from ..simulate import simulate
 
     coil = strip("coil", [30, 10, 30, 10, 30], [170] * 4, ["H-2"] * 4, radius=2.0)  # jams: its panels meet
     stack = load_design(templates_dir() / "octagon_stack.toml")  # a hinge tree: its trajectory read-only
@@ -102,6 +105,9 @@ def _warm_strips() -> None:
         samples = samples_between(design, default_scatter(), 0, 0, n)
         run_samples((design, default_library(), samples, HingeModel.ARC, CHECK_DT_S, False, VERDICT_METHOD))
     warm_kernel()
+    # a design's build (the gallery's, after its tests): the nominal fold and its clearance
+    traj = simulate(coil, dt=CHECK_DT_S, method=VERDICT_METHOD, hinge_model=HingeModel.ARC).trajectory
+    min_clearance(SweptChecker(coil, HingeModel.ARC, None), traj.times, traj.poses)
 
 
 def _warm_loops() -> None:
