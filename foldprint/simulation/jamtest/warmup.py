@@ -71,10 +71,11 @@ def cold_groups(loops: bool) -> list[str]:
 def warm_group(name: str) -> str:
     """Compile (or load) every kernel of group ``name`` in this process, on the inputs the
     Monte-Carlo passes them (the same types, so the same compiled signatures); returns the
-    name. ``strips``: two samples of a small coil that jams (its sweep reaches the narrow
-    phase and the exact distance); ``loops``: the closure round and the tracker's
-    bookkeeping on a small loop pattern, through their own warm functions (folding it would
-    compile the strips' kernels too)."""
+    name. ``strips``: samples of a small coil that jams (its sweep reaches the narrow phase
+    and the exact distance), of a hinge tree and of ``helix_uniform``, and the coil's
+    nominal fold and clearance; ``loops``: the closure round and the tracker's bookkeeping
+    on ``miura_3x3`` through their own warm functions, then two of its samples (by then the
+    other worker has written most of the strips' kernels: they load)."""
     if name == "strips":
         _warm_strips()
     elif name == "loops":
