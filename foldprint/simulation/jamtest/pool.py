@@ -47,6 +47,7 @@ from ..robust import CHUNK, Outcome, n_chunks, run_samples
 from ..scatter import Scatter, default_scatter, samples_between
 from .streams import MIN_CHUNK, Stream, StreamStatus, sample_cost, to_decision  # noqa: F401 (re-exported)
 from .verdict import JamTest
+from .warmup import cold_groups, warm_group
 
 
 @dataclass(frozen=True)
@@ -154,7 +155,9 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
     result) finishes, and as a stream consumes samples (``"samples"``, a
     :class:`StreamStatus`, None). ``meanwhile()``: work of this process for after the run
     (loading what its next stages import), done in a thread while the workers fold, once
-    they are forked (with one worker: not at all). Returns the Precomputed per job, the
+    they are forked (with one worker: not at all). On a cold numba cache each group of
+    kernels is first compiled by one worker, the groups in parallel, before any chunk
+    (:mod:`~foldprint.simulation.jamtest.warmup`). Returns the Precomputed per job, the
     follow-ups' results and the tasks' results (in input order)."""
     batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress, follow)
     batch.meanwhile = meanwhile
@@ -332,6 +335,8 @@ class _Batch:
                                    initargs=(self.jobs, self.lib))
         pending: dict = self.pending
         try:
+            for g in cold_groups(any(has_loops(job.design) for job in self.jobs)):  # first: one worker each
+                pending[pool.submit(warm_group, g)] = ("warm", g)
             for i, (fn, args) in enumerate(self.tasks):  # short, independent: first, off the critical path
                 pending[pool.submit(fn, *args)] = ("task", i)
             for j in range(len(self.jobs)):
@@ -345,6 +350,8 @@ class _Batch:
 
     def fill(self, pool, pending: dict) -> None:
         """Start work until every worker has some (or nothing is left to start)."""
+        if any(kind == "warm" for kind, *_ in pending.values()):  # a chunk now would compile a cold kernel again
+            return
         while sum(1 for kind, *_ in pending.values() if kind != "stale") < self.workers:
             work = self.next_work()
             if work is None:
@@ -389,6 +396,8 @@ class _Batch:
                 elif kind == "after":
                     self.after_out[key[0]] = fut.result()
                     self.report("after", key[0])
+                elif kind == "warm":
+                    fut.result()
                 elif kind == "task":
                     self.task_out[key[0]] = fut.result()
                     self.report("task", key[0])
