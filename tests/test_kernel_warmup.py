@@ -135,7 +135,10 @@ def test_the_pool_warms_each_cold_group_on_its_own_worker_before_any_chunk(tmp_p
     monkeypatch.setattr(pool, "cold_groups", lambda loops: ["strips", "loops"])
     monkeypatch.setattr(pool, "warm_group", _fake_warm)
     monkeypatch.setattr(pool, "_chunk_task", _logged_chunk)
-    got, _, _ = run_batch(jobs, workers=2)
+    news = []
+    got, _, _ = run_batch(jobs, workers=2, progress=lambda kind, what, _out: news.append((kind, what)))
+    assert news.count(("warm", ("strips", "loops"))) == 1  # the user is told what the wait is
+    assert [k for k, _ in news if k != "samples"] == ["warm"]
     warm = [tuple(map(float, (tmp_path / f"warm-{g}").read_text().split())) for g in ("strips", "loops")]
     assert warm[0][0] != warm[1][0]  # one worker each
     assert warm[0][1] < warm[1][2] and warm[1][1] < warm[0][2]  # at the same time

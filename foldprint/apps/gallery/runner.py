@@ -263,6 +263,9 @@ def _build_pool(designs: Sequence[Design], out: Path, dirnames: list[str], lib: 
     def report(kind, what, out=None):
         if kind == "samples":
             tests(what)
+        elif kind == "warm":  # a cold numba cache: the first run after an install
+            if activity is not None:
+                activity(f"compiling the kernels, once after an install ({len(what)} groups in parallel, ~30 s)")
         else:
             step("material chart" if kind == "task" else entry_done(out))
 

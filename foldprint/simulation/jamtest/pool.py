@@ -157,7 +157,8 @@ def run_batch(jobs: Sequence[MonteCarloJob], *, library: MaterialLibrary | None 
     (loading what its next stages import), done in a thread while the workers fold, once
     they are forked (with one worker: not at all). On a cold numba cache each group of
     kernels is first compiled by one worker, the groups in parallel, before any chunk
-    (:mod:`~foldprint.simulation.jamtest.warmup`). Returns the Precomputed per job, the
+    (:mod:`~foldprint.simulation.jamtest.warmup`; reported as ``"warm"``, the groups' names,
+    None). Returns the Precomputed per job, the
     follow-ups' results and the tasks' results (in input order)."""
     batch = _Batch(list(jobs), library or default_library(), workers, after, list(tasks), progress, follow)
     batch.meanwhile = meanwhile
@@ -335,8 +336,11 @@ class _Batch:
                                    initargs=(self.jobs, self.lib))
         pending: dict = self.pending
         try:
-            for g in cold_groups(any(has_loops(job.design) for job in self.jobs)):  # first: one worker each
+            cold = cold_groups(any(has_loops(job.design) for job in self.jobs))
+            for g in cold:  # first: one worker each
                 pending[pool.submit(warm_group, g)] = ("warm", g)
+            if cold:
+                self.report("warm", tuple(cold))
             for i, (fn, args) in enumerate(self.tasks):  # short, independent: first, off the critical path
                 pending[pool.submit(fn, *args)] = ("task", i)
             for j in range(len(self.jobs)):

@@ -158,7 +158,8 @@ def jam_tests_of(design: Design, test: JamTest | Mapping[str, JamTest], models: 
                               tests[name], mech) for name in missing]
         order = [labels.index(name) for name in missing]
         pre, _, _ = run_batch(jobs, library=lib, workers=n_workers,
-                              progress=(lambda kind, st, _out: report(replace(st, job=order[st.job]))) if report else None)
+                              progress=(lambda kind, st, _out: kind == "samples" and report(replace(st, job=order[st.job])))
+                              if report else None)
         found.update((name, p.outcomes[0][1]) for name, p in zip(missing, pre))
     for name in missing if mapper is not None and lookup is None else ():
         j = labels.index(name)

@@ -113,7 +113,9 @@ def _reporter(progress: StageProgress | None):
         return None
     counts = isinstance(progress, JamCounts)
 
-    def report(_kind: str, st: StreamStatus, _out) -> None:
+    def report(kind: str, st: StreamStatus, _out) -> None:
+        if kind != "samples":  # the pool's other news (a cold cache's kernels compiling)
+            return
         label = st.scale if isinstance(st.scale, str) else scale_label(st.scale)
         total = st.samples if st.done else st.max_samples
         if counts:
