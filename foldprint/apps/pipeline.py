@@ -231,3 +231,23 @@ def run_simulation(design: Design, *, library: MaterialLibrary | None = None, ba
 def printed_crossings(design: Design) -> list[tuple[str, str]]:
     """:attr:`Evaluation.printed_crossings` of ``design``."""
     return Evaluation(design).printed_crossings
+
+
+#: what compiling the kernels costs on a cold cache, as the note says it (docs/kernels.md:
+#: ``check helix_uniform`` 43-49 s wall, ``check miura_3x3`` 55-56 s on two cores, load 1-2)
+COMPILE_WALL = {False: "about 45 s", True: "about a minute"}
+
+
+def compile_note(design: Design) -> str | None:
+    """One line for the user when folding ``design`` will compile kernels first (numba's
+    cache lacks those every fold of it compiles: the first command after an install), else
+    None (a warm cache, or the numpy path). Reading the cache costs about a millisecond
+    once numba is imported, which any command that folds does anyway."""
+    from ..model.hinge_graph import has_loops
+    from ..simulation.jamtest.warmup import cold_kernels
+
+    loops = has_loops(design)
+    if not cold_kernels(loops, sure=True):
+        return None
+    return (f"compiling the kernels, once after an install ({COMPILE_WALL[loops]}); "
+            "later runs load them from the cache")

@@ -84,7 +84,8 @@ def export(
     if bad or not fmts:
         raise FoldprintError(f"--format: unknown format(s) {bad or formats!r}; choose from {', '.join(known)}")
     out = check_out_dir(out)
-    d, lib = noted(load_input(design, materials_file, scale, crease_materials, scale_what="--scale"))
+    # the part's files fold nothing (xdmf and glb fold it nominally: a part of the kernels)
+    d, lib = noted(load_input(design, materials_file, scale, crease_materials, scale_what="--scale"), folds=False)
     out_dir = out if out is not None else Path("output") / d.name
     published = _plan_out(out_dir, force, "export").publish
     profile = None if printer is None else load_printer(printer, printers_file)[1]

@@ -13,21 +13,25 @@ from ..core.display import clipped, first_few, hinge_lines, seconds
 
 #: --quiet and --verbose of this run (set by the root's callback).
 OUTPUT_STATE = {"quiet": False, "verbose": False}
-#: whether this process has said that the compiled kernels cannot load (said once)
-_KERNELS = {"noted": False}
+#: whether this process has said that the compiled kernels cannot load, and that they are
+#: compiling (each said once)
+_KERNELS = {"noted": False, "compiling": False}
 
 
 def echo_json(obj) -> None:
     echo(json.dumps(obj, indent=2, allow_nan=False))
 
 
-def noted(loaded):
+def noted(loaded, folds: bool = True):
     """A loaded ``(design, library)`` after its reader's notes are printed (a stray
-    crease dropped, rounded loop angles closed within a tolerance)."""
+    crease dropped, rounded loop angles closed within a tolerance), and the kernels' notes
+    (``folds``: the command folds the design, so a cold cache compiles them first)."""
     d, lib = loaded
     for note in d.notes:
         echo_note(f"note: {d.source or d.name}: {note}")
     note_kernels()
+    if folds:
+        note_compiling(d)
     return d, lib
 
 
@@ -41,6 +45,21 @@ def note_kernels() -> None:
     from ..core.jit import fallback_note
 
     msg = fallback_note()
+    if msg:
+        echo_note(f"note: {msg}")
+
+
+def note_compiling(design) -> None:
+    """One note, once per process, when folding ``design`` will first compile the kernels
+    (numba's cache is empty: the first command after an install;
+    :func:`foldprint.apps.pipeline.compile_note`), so a long silent start has its reason.
+    Silenced by --quiet, as every note; not read then (nothing to say)."""
+    if _KERNELS["compiling"] or OUTPUT_STATE["quiet"]:
+        return
+    _KERNELS["compiling"] = True
+    from ..apps.pipeline import compile_note
+
+    msg = compile_note(design)
     if msg:
         echo_note(f"note: {msg}")
 
