@@ -82,17 +82,22 @@ def test_a_pattern_with_loops_is_said_to_take_longer(cache):
     assert pipeline.compile_note(miura) is None
 
 
-def test_every_fold_compiles_all_but_the_narrow_walk(monkeypatch):
-    """A cache written by runs that never reached the narrow phase lacks its walk: the
-    note (``sure``) reads it warm, the pool's warm-up cold."""
+def test_the_note_reads_only_what_every_fold_compiles(monkeypatch):
+    """A cache written by runs that never reached the narrow phase, a clearance or
+    scattered samples lacks their kernels: the note (``sure``) reads it warm, the pool's
+    warm-up cold; a cache lacking a nominal fold's kernel is cold for both."""
     monkeypatch.setenv("FOLDPRINT_KERNELS", "numba")
     if not jit.use_kernels():
         pytest.skip("numba cannot load here")
-    monkeypatch.setattr(warmup, "is_cached", lambda module, name: name != "walk_runs")
-    assert warmup.cold_kernels(True) == ["strips"]
-    assert warmup.cold_kernels(True, sure=True) == []
+    for some in ("walk_runs", "panel_bounds", "curves_table"):
+        monkeypatch.setattr(warmup, "is_cached", lambda module, name, some=some: name != some)
+        assert warmup.cold_kernels(True) == ["strips"]
+        assert warmup.cold_kernels(True, sure=True) == []
+    monkeypatch.setattr(warmup, "is_cached", lambda module, name: name != "screen_runs")
+    assert warmup.cold_kernels(False, sure=True) == ["strips"]
     monkeypatch.setattr(warmup, "is_cached", lambda module, name: name != "between")
     assert warmup.cold_kernels(True, sure=True) == ["loops"] and warmup.cold_kernels(False, sure=True) == []
+    assert {g for g, probes in warmup.PROBES.items() for p in probes if p in warmup.EVERY_FOLD} == {"strips", "loops"}
 
 
 def _cold(tmp_path, loops: bool, kernels: str) -> list[str]:

@@ -53,23 +53,29 @@ def is_cached(module: str, name: str) -> bool:
         return True
 
 
-#: probes a fold may never compile: the narrow phase's walk is compiled by the first sample
-#: (or nominal fold) that reaches it, and a design that never jams leaves it cold
-SOMETIMES: frozenset[tuple[str, str]] = frozenset({("foldprint.collision.narrow_kernels", "walk_runs")})
+#: the probes every command that folds a design compiles: its nominal fold's (the swept
+#: screen; with loops the closure's round and the tracker's bookkeeping). The others are
+#: compiled by some folds only: the narrow phase's walk by one that reaches it, the exact
+#: distance by a clearance, the recovery curves' table by scattered samples (`assign`'s
+#: default search folds none)
+EVERY_FOLD: frozenset[tuple[str, str]] = frozenset({
+    ("foldprint.collision.swept3d_kernels", "screen_runs"),
+    ("foldprint.physics.loops.closure_kernels", "round_pool"),
+    ("foldprint.physics.loops.tracker_kernels", "between")})
 
 
 def cold_kernels(loops: bool, *, sure: bool = False) -> list[str]:
     """The groups a fold of a design (``loops``: with closed loops) needs whose kernels
     numba's cache lacks (any number of them); none where the numpy path runs. ``sure``:
-    only groups that every fold compiles, read without the probes of :data:`SOMETIMES`
-    (so a cache written by runs that never reached the narrow phase reads warm)."""
+    read only the probes of :data:`EVERY_FOLD`, so a group is cold when the next command
+    that folds the design compiles it, whatever the commands before it folded."""
     from ...core.jit import use_kernels
 
     if not use_kernels():
         return []
     need = ["strips", "loops"] if loops else ["strips"]
     return [g for g in need
-            if not all(is_cached(m, f) for m, f in PROBES[g] if not (sure and (m, f) in SOMETIMES))]
+            if not all(is_cached(m, f) for m, f in PROBES[g] if not sure or (m, f) in EVERY_FOLD)]
 
 
 def cold_groups(loops: bool) -> list[str]:
