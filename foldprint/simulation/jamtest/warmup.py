@@ -11,7 +11,9 @@ worker (:func:`warm_group`) before any chunk: each kernel is compiled by one pro
 writes it to the cache, and the others load it from there when they meet it.
 
 Whether a group is cold is read from numba's cache index of its costliest kernels
-(:data:`PROBES`; milliseconds), so a warm cache runs no warm-up at all.
+(:data:`PROBES`; milliseconds), so a warm cache runs no warm-up at all. The command line
+reads the same index (:func:`cold_kernels`, the probes of :data:`EVERY_FOLD`) to say, before
+a fold, that the kernels are compiling.
 """
 
 from __future__ import annotations
