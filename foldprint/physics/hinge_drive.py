@@ -302,10 +302,7 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
             angles = loop.angles.copy() if on_grid(loop, times) else loop.at(times)
         else:
             angles = drive.angles(times)
-        # the ratio a hinge actually reached: a hinge held back by its loops is not done
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
-        ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
+        ratios = _reached(angles, ratios, drive.target, drive.fixity)
     else:  # a hinge tree's angles are what its hinges ask for: drive.driven(times)
         angles = driven
     poses = forward(design, angles, model, compiled=True) if loop is None else _held_forward(design, angles, model)
@@ -314,6 +311,24 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
     for a in (times, ratios, angles, poses):
         a.setflags(write=False)
     return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c, *drive.level_times(), loop)
+
+
+def _reached(angles: np.ndarray, ratios: np.ndarray, target: np.ndarray, fixity: np.ndarray) -> np.ndarray:
+    """The ratio each hinge actually reached (n_t, n_hinges): a hinge held back by its loops
+    is not done. 1 - (1 - angle / target) / fixity, at most the drive's ratio, in [0, 1];
+    the drive's ratio where the target is 0. One working array, the operations in place
+    (the same numbers as the expression written out)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.divide(angles, target[None])
+        np.subtract(1.0, a, out=a)
+        np.divide(a, np.where(fixity > 0, fixity, 1.0)[None], out=a)
+        np.subtract(1.0, a, out=a)
+    np.minimum(a, ratios, out=a)
+    np.clip(a, 0.0, 1.0, out=a)
+    flat = target == 0
+    if flat.any():
+        a[:, flat] = ratios[:, flat]
+    return a
 
 
 def _held(angles: np.ndarray) -> np.ndarray:
@@ -328,7 +343,7 @@ def _held_forward(design: Design, angles: np.ndarray, model: HingeModel) -> np.n
     drive stopped moving: the poses of each distinct configuration computed once (the
     same numbers)."""
     moved = _held(angles)
-    return forward(design, angles[moved], model, compiled=True)[np.cumsum(moved) - 1]
+    return np.take(forward(design, angles[moved], model, compiled=True), np.cumsum(moved) - 1, axis=0)
 
 
 def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HINGE_MODEL,
