@@ -213,6 +213,31 @@ def test_solve_loops_many_solves_every_group_of_grids():
     np.testing.assert_array_equal(fresh.angles(times), alone.angles(times))
 
 
+def test_a_loop_solution_read_on_its_own_grid_is_its_interpolation():
+    """At a simulation's times (the loop grid holds them exactly) the drive's angles and
+    total variation are the grid's own rows: bit for bit what the piecewise-linear read
+    gives; off the grid the read interpolates (and moves off the grid rows)."""
+    from dataclasses import replace
+
+    from foldprint.physics.hinge_drive import loop_dt, on_grid, solve_loops_many
+
+    d = design_from_fold(cp.miura())
+    d = replace(d, process=replace(d.process, duration_s=1.5))
+    times = np.linspace(0.0, 1.5, 151)
+    drives = [HingeDrive(d, bath_c=c) for c in (85.0, 90.0)]
+    solve_loops_many(drives, times)
+    for drive in drives:
+        sol = drive.solve_loops(times, loop_dt(times))
+        assert on_grid(sol, times) and np.array_equal(sol.times, times)
+        np.testing.assert_array_equal(drive.angles(times), sol.at(times))
+        np.testing.assert_array_equal(drive.variation(times), sol.total_variation(times))
+        off = times[:-1] + 0.004
+        assert not on_grid(sol, off)
+        np.testing.assert_array_equal(drive.angles(off), sol.at(off))
+        assert not np.array_equal(drive.angles(off), sol.angles[:-1])
+    assert not np.array_equal(drives[0].angles(times), drives[1].angles(times))
+
+
 def test_tree_keeps_exact_forward_kinematics():
     d = strip("s", [10, 10, 10], [90, -60], ["H-1", "H-3"])
     traj = simulate_kinematics(d, model="point", duration=2.0)

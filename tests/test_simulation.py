@@ -359,3 +359,39 @@ def test_mailbox_folds_in_sequence_without_collision(model):
 def test_mailbox_reversed_jams():
     r = simulate(template("mailbox_reversed"), method="fcl")
     assert not r.completed and r.first_collision is not None
+
+
+def _crossings_column_by_column(times, ratios, level):
+    """The first step at or above ``level`` and the linear crossing time, one column at a
+    time in plain Python floats: the reference the array pass must match bit for bit."""
+    steps, out = [], []
+    for col in np.asarray(ratios).T.tolist():
+        j = next((k for k, r in enumerate(col) if r >= level), -1)
+        steps.append(j)
+        if j < 0:
+            out.append(math.nan)
+        elif j == 0:
+            out.append(float(times[0]))
+        else:
+            f = (level - col[j - 1]) / (col[j] - col[j - 1])
+            out.append(float(times[j - 1]) + f * (float(times[j]) - float(times[j - 1])))
+    return steps, out
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(1, 40), st.integers(0, 7))
+def test_level_crossings_match_a_column_by_column_reference(seed, n_t, n):
+    """Columns that reach the level at the first step, later, never, or hold NaN: the same
+    steps and the same crossing times (NaN where never) as the scalar reference."""
+    from foldprint.simulation.simulate import level_crossings
+
+    rng = np.random.default_rng(seed)
+    times = np.cumsum(rng.uniform(0.001, 0.1, n_t))
+    ratios = np.sort(rng.uniform(0.0, 1.05, (n_t, n)), axis=0)
+    if n and n_t > 2:
+        ratios[:, 0] = np.where(rng.random(n_t) < 0.2, np.nan, ratios[:, 0])
+    for level in (0.98, 0.5, float(ratios[0, 0]) if n else 0.5):
+        steps, got = level_crossings(times, ratios, level)
+        ref_steps, ref = _crossings_column_by_column(times, ratios, level)
+        assert steps == ref_steps
+        assert [repr(x) for x in got] == [repr(x) for x in ref]

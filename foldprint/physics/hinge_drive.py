@@ -188,7 +188,8 @@ class HingeDrive:
         if self.loops is None:
             return self.driven(t)
         t = np.atleast_1d(np.asarray(t, float))
-        return self.solve_loops(t).at(t)
+        sol = self.solve_loops(t)
+        return sol.angles.copy() if on_grid(sol, t) else sol.at(t)
 
     def variation(self, t) -> np.ndarray:
         """Cumulative total variation of each angle from 0 to t, (n_t, n_hinges) rad (the
@@ -196,7 +197,10 @@ class HingeDrive:
         if self.loops is None:
             return np.abs(self.driven(t) - self.driven([0.0]))
         t = np.atleast_1d(np.asarray(t, float))
-        return self.solve_loops(t).total_variation(t)
+        sol = self.solve_loops(t)
+        if on_grid(sol, t):  # k is each grid index, the angles there the grid's: the same sums
+            return sol.variation + np.abs(sol.angles - sol.angles)
+        return sol.total_variation(t)
 
     def solve_loops(self, times=None, dt: float = LOOP_DT) -> LoopSolution:
         """The loop solution on a grid of step ``dt`` covering ``times`` (and holding
@@ -238,6 +242,14 @@ def run_times(design: Design, dt: float = DEFAULT_DT_S, duration: float | None =
     return np.linspace(0.0, (n - 1) * dt, n)
 
 
+def on_grid(sol: LoopSolution, t: np.ndarray) -> bool:
+    """Whether times ``t`` are the loop solution's grid times themselves (a simulation's
+    times are: :meth:`HingeDrive._loop_grid` holds them exactly), where reading the
+    solution at ``t`` (:meth:`LoopSolution.at`) gives its grid angles unchanged."""
+    g = sol.times
+    return t.ndim == 1 and len(t) == len(g) and (t is g or np.array_equal(t, g))
+
+
 def loop_dt(times: np.ndarray) -> float:
     """The loop grid's step for a simulation at ``times``."""
     return min(LOOP_DT, float(np.diff(times).min(initial=LOOP_DT)))
@@ -248,12 +260,22 @@ def solve_loops_many(drives: Sequence[HingeDrive], times: np.ndarray) -> None:
     ``times``, their closures tracked in lockstep (:meth:`LoopSolver.track_many`: one
     array evaluation per round for all of them): what ``simulate_kinematics`` would then
     solve drive by drive, and the same answers. Drives without loops are left alone."""
-    todo = [(d, *d._loop_grid(times, loop_dt(times))) for d in drives if d.loops is not None]
+    dt, fresh = loop_dt(times), {}
+    todo = []
+    for d in drives:
+        if d.loops is None:
+            continue
+        if d._solution is None and not d.frozen_at:  # its grid: a function of the times and the duration
+            dur = float(d.design.process.duration_s)
+            todo.append((d, *(fresh[dur] if dur in fresh else fresh.setdefault(dur, d._loop_grid(times, dt)))))
+        else:
+            todo.append((d, *d._loop_grid(times, dt)))
     todo = [(d, g, k) for d, g, k in todo if g is not None]
     while todo:
         d0, g0, _ = todo[0]
-        same = [(d, g, k) for d, g, k in todo if d.loops.n == d0.loops.n and np.array_equal(g, g0)]
-        for (d, _, k), sol in zip(same, d0.loops.track_many(g0, [d.driven(g0) for d, _, _ in same])):
+        same = [(d, g, k) for d, g, k in todo if d.loops.n == d0.loops.n and (g is g0 or np.array_equal(g, g0))]
+        drives_at = [d.ratios_and_driven(g0)[1] for d, _, _ in same]  # d.driven(g0), one compiled pass
+        for (d, _, k), sol in zip(same, d0.loops.track_many(g0, drives_at)):
             d._solution, d._solved_for = sol, k
         todo = [t for t in todo if not any(t[0] is d for d, _, _ in same)]
 
@@ -276,11 +298,11 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
     if drive.loops is not None or drive.compliant:
         if drive.loops is not None:
             loop = drive.solve_loops(times, loop_dt(times))
-        angles = loop.at(times) if loop is not None else drive.angles(times)
-        # the ratio a hinge actually reached: a hinge held back by its loops is not done
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ach = 1.0 - (1.0 - angles / drive.target[None]) / np.where(drive.fixity > 0, drive.fixity, 1.0)[None]
-        ratios = np.where(drive.target[None] != 0, np.clip(np.minimum(ach, ratios), 0.0, 1.0), ratios)
+        if loop is not None:  # on its own grid (a simulation's times): the grid angles, read as they are
+            angles = loop.angles.copy() if on_grid(loop, times) else loop.at(times)
+        else:
+            angles = drive.angles(times)
+        ratios = _reached(angles, ratios, drive.target, drive.fixity)
     else:  # a hinge tree's angles are what its hinges ask for: drive.driven(times)
         angles = driven
     poses = forward(design, angles, model, compiled=True) if loop is None else _held_forward(design, angles, model)
@@ -289,6 +311,24 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
     for a in (times, ratios, angles, poses):
         a.setflags(write=False)
     return Trajectory(design, times, ratios, angles, poses, model, drive.bath_c, *drive.level_times(), loop)
+
+
+def _reached(angles: np.ndarray, ratios: np.ndarray, target: np.ndarray, fixity: np.ndarray) -> np.ndarray:
+    """The ratio each hinge actually reached (n_t, n_hinges): a hinge held back by its loops
+    is not done. 1 - (1 - angle / target) / fixity, at most the drive's ratio, in [0, 1];
+    the drive's ratio where the target is 0. One working array, the operations in place
+    (the same numbers as the expression written out)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.divide(angles, target[None])
+        np.subtract(1.0, a, out=a)
+        np.divide(a, np.where(fixity > 0, fixity, 1.0)[None], out=a)
+        np.subtract(1.0, a, out=a)
+    np.minimum(a, ratios, out=a)
+    np.clip(a, 0.0, 1.0, out=a)
+    flat = target == 0
+    if flat.any():
+        a[:, flat] = ratios[:, flat]
+    return a
 
 
 def _held(angles: np.ndarray) -> np.ndarray:
@@ -303,7 +343,7 @@ def _held_forward(design: Design, angles: np.ndarray, model: HingeModel) -> np.n
     drive stopped moving: the poses of each distinct configuration computed once (the
     same numbers)."""
     moved = _held(angles)
-    return forward(design, angles[moved], model, compiled=True)[np.cumsum(moved) - 1]
+    return np.take(forward(design, angles[moved], model, compiled=True), np.cumsum(moved) - 1, axis=0)
 
 
 def loop_gap_mm(design: Design, angles: np.ndarray, model: HingeModel = DEFAULT_HINGE_MODEL,

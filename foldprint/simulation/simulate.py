@@ -107,22 +107,22 @@ class SimulationResult:
 def level_crossings(times: np.ndarray, ratios: np.ndarray, level: float) -> tuple[list[int], list[float]]:
     """Per column of ``ratios`` (n_t, n): the first step at which it reaches ``level`` (-1
     where it never does) and the crossing time, linear between that step and the one
-    before (the first time where the first step already holds it; NaN where never)."""
-    steps, out = [], []
-    for i in range(ratios.shape[1]):
-        k = np.nonzero(ratios[:, i] >= level)[0]
-        if len(k) == 0:
-            steps.append(-1)
-            out.append(float("nan"))
-            continue
-        j = int(k[0])
-        steps.append(j)
-        if j == 0:
-            out.append(float(times[0]))
-        else:
-            f = (level - ratios[j - 1, i]) / (ratios[j, i] - ratios[j - 1, i])
-            out.append(float(times[j - 1] + f * (times[j] - times[j - 1])))
-    return steps, out
+    before (the first time where the first step already holds it; NaN where never). Every
+    column in one array pass: the same steps and, element by element, the same sums."""
+    times, ratios = np.asarray(times, float), np.asarray(ratios)
+    n = ratios.shape[1]
+    if len(times) == 0 or n == 0:
+        return [-1] * n, [float("nan")] * n
+    hit = ratios >= level
+    j = hit.argmax(axis=0)
+    reached = hit[j, np.arange(n)]
+    i = np.maximum(j - 1, 0)
+    r0, r1 = ratios[i, np.arange(n)], ratios[j, np.arange(n)]
+    with np.errstate(divide="ignore", invalid="ignore"):  # the columns that never reach it, or reach it at 0
+        f = (level - r0) / (r1 - r0)
+        t = times[i] + f * (times[j] - times[i])
+    t = np.where(j == 0, times[0], t)
+    return (np.where(reached, j, -1).tolist(), np.where(reached, t, np.nan).tolist())
 
 
 def crossing_times(result: SimulationResult, level: float) -> np.ndarray:
