@@ -24,10 +24,8 @@ from hypothesis import given, settings, strategies as st
 
 from foldprint.core import jit
 from foldprint.core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
-from foldprint.io.fold_format import design_from_fold
 from foldprint.io.load import load_design
 from foldprint.io.templates import templates_dir
-from foldprint.model import crease_patterns as cp
 from foldprint.model.materials import default_library
 from foldprint.physics.hinge_drive import HingeDrive, loop_dt, run_times
 from foldprint.physics.kinematics import hinge_frames
@@ -35,6 +33,8 @@ from foldprint.physics.loops import corrector, drive_state
 from foldprint.physics.loops.closure import CLOSURE_TOL, OPT_TOL, LoopSolver
 from foldprint.simulation.robust import sample_drives
 from foldprint.simulation.scatter import default_scatter, iter_samples
+
+from loop_patterns import loop_patterns
 
 
 
@@ -77,24 +77,6 @@ def _round_off_spread(pool, solver, live, rel=1e-14, draws=3):
 
 def _solver(design) -> LoopSolver:
     return LoopSolver(hinge_frames(design), [h.id for h in design.hinges])
-
-
-@st.composite
-def loop_patterns(draw):
-    """A random crease pattern with loops: a Miura-ori patch (1-3 x 1-3 panels, random
-    panel shape), a flat-foldable degree-4 vertex (random sector angles) or a waterbomb
-    base (random drive)."""
-    kind = draw(st.sampled_from(["miura", "degree4", "waterbomb"]))
-    if kind == "miura":
-        nx, ny = draw(st.integers(2, 3)), draw(st.integers(2, 3))
-        fold = cp.miura(nx, ny, width=draw(st.floats(12.0, 30.0)), height=draw(st.floats(10.0, 25.0)),
-                        shift=draw(st.floats(2.0, 9.0)), zigzag_deg=draw(st.floats(60.0, 150.0)))
-    elif kind == "degree4":
-        a = draw(st.floats(30.0, 80.0))
-        fold = cp.degree4(a, draw(st.floats(a + 10.0, 150.0)), rho1_deg=draw(st.floats(-150.0, -30.0)))
-    else:
-        fold = cp.waterbomb(diagonal_deg=draw(st.floats(30.0, 120.0)))
-    return design_from_fold(fold)
 
 
 def on_numba(fn):

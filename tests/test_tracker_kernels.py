@@ -16,10 +16,8 @@ from hypothesis import given, settings, strategies as st
 
 from foldprint.core import jit
 from foldprint.core.constants import CHECK_DT_S, CHECK_SAMPLES, CHECK_SEED
-from foldprint.io.fold_format import design_from_fold
 from foldprint.io.load import load_design
 from foldprint.io.templates import templates_dir
-from foldprint.model import crease_patterns as cp
 from foldprint.model.materials import default_library
 from foldprint.physics.hinge_drive import HingeDrive, loop_dt, run_times
 from foldprint.physics.kinematics import hinge_frames
@@ -27,6 +25,8 @@ from foldprint.physics.loops import corrector, tracker
 from foldprint.physics.loops.closure import LoopSolver
 from foldprint.simulation.robust import sample_drives
 from foldprint.simulation.scatter import default_scatter, iter_samples
+
+from loop_patterns import loop_patterns
 
 with mock.patch.dict(os.environ, {jit.ENV: "numba"}):
     pytestmark = pytest.mark.skipif(not jit.use_kernels(), reason="numba cannot load here: nothing compiled to compare")
@@ -60,22 +60,6 @@ def test_check_drives_tracked_bit_for_bit(name):
     a, b = _both(LoopSolver(hinge_frames(d), [h.id for h in d.hinges]), grid, [x.driven(grid) for x in drives])
     assert np.isfinite(a.locked_at).any() or (a.dof > 0).all()  # the drives folded (or locked): work was done
     _assert_identical(a, b)
-
-
-@st.composite
-def loop_patterns(draw):
-    """A random Miura-ori patch, flat-foldable degree-4 vertex or waterbomb base."""
-    kind = draw(st.sampled_from(["miura", "degree4", "waterbomb"]))
-    if kind == "miura":
-        fold = cp.miura(draw(st.integers(2, 3)), draw(st.integers(2, 3)), width=draw(st.floats(12.0, 30.0)),
-                        height=draw(st.floats(10.0, 25.0)), shift=draw(st.floats(2.0, 9.0)),
-                        zigzag_deg=draw(st.floats(60.0, 150.0)))
-    elif kind == "degree4":
-        a = draw(st.floats(30.0, 80.0))
-        fold = cp.degree4(a, draw(st.floats(a + 10.0, 150.0)), rho1_deg=draw(st.floats(-150.0, -30.0)))
-    else:
-        fold = cp.waterbomb(diagonal_deg=draw(st.floats(30.0, 120.0)))
-    return design_from_fold(fold)
 
 
 @settings(max_examples=10, deadline=None, derandomize=True, database=None)
