@@ -117,17 +117,21 @@ def fallback_note() -> str | None:
     return f"compiled kernels unavailable ({err}); using the numpy path, which gives the same results more slowly"
 
 
-def njit(fn: F | None = None, *, contract: bool = False):
+def njit(fn: F | None = None, *, contract: bool = False, inline: bool = False):
     """Compile ``fn`` with numba (``nopython``, cached on disk, no GIL held). Call only
     from a kernel module imported after :func:`use_kernels` said yes. ``contract``
     (``@njit(contract=True)``): the compiler may fuse a multiply and an add into one
     fused multiply-add (one rounding instead of two, half the instructions of a
-    polynomial), so results move by round-off: for kernels whose stated tolerance allows it."""
+    polynomial), so results move by round-off: for kernels whose stated tolerance allows it.
+    ``inline``: numba inlines the function into each kernel that calls it (a small helper
+    called in an inner loop, where a call would cost more than its arithmetic)."""
     import numba
 
     options = {"cache": True, "nogil": True}
     if contract:
         options["fastmath"] = {"contract"}
+    if inline:
+        options["inline"] = "always"
     if fn is None:
         return numba.njit(**options)
     return numba.njit(**options)(fn)

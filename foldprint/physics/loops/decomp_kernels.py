@@ -46,6 +46,18 @@ SWEEPS = 30
 LAST = 1e-8
 
 
+@njit(contract=True, inline=True)
+def reflect(v, f, x, lo):  # pragma: no cover - compiled
+    """``x`` (m,) times the reflector ``I - f v v^T`` whose vector ``v`` (m,) is zero
+    before ``lo``: x[lo:] -= f (v[lo:] . x[lo:]) v[lo:], in place."""
+    dot = 0.0
+    for i in range(lo, x.shape[0]):
+        dot += v[i] * x[i]
+    dot *= f
+    for i in range(lo, x.shape[0]):
+        x[i] -= dot * v[i]
+
+
 @njit(contract=True)
 def house(ct, b, pivot, perm, vs, fs, r):  # pragma: no cover - compiled
     """Householder QR of the m x n matrix (m >= n) whose columns are the rows of ``ct``
@@ -80,23 +92,12 @@ def house(ct, b, pivot, perm, vs, fs, r):  # pragma: no cover - compiled
             vs[j, j] -= alpha
             fs[j] = 1.0 / (nrm * (nrm + abs(ct[j, j])))  # 2 / |v|^2
             r[j, j] = alpha
-        f = fs[j]
         for q in range(j + 1, n):
-            dot = 0.0
-            for i in range(j, m):
-                dot += vs[j, i] * ct[q, i]
-            dot *= f
-            for i in range(j, m):
-                ct[q, i] -= dot * vs[j, i]
+            reflect(vs[j], fs[j], ct[q], j)
             r[j, q] = ct[q, j]
             r[q, j] = 0.0
         if b.shape[0]:
-            dot = 0.0
-            for i in range(j, m):
-                dot += vs[j, i] * b[i]
-            dot *= f
-            for i in range(j, m):
-                b[i] -= dot * vs[j, i]
+            reflect(vs[j], fs[j], b, j)
 
 
 @njit(contract=True)
@@ -107,16 +108,10 @@ def form_q(vs, fs, q):  # pragma: no cover - compiled
         for j in range(n):
             q[i, j] = 1.0 if i == j else 0.0
     for j in range(n - 1, -1, -1):
-        f = fs[j]
-        if f == 0.0:
+        if fs[j] == 0.0:
             continue
         for c in range(j, n):
-            dot = 0.0
-            for i in range(j, n):
-                dot += vs[j, i] * q[i, c]
-            dot *= f
-            for i in range(j, n):
-                q[i, c] -= dot * vs[j, i]
+            reflect(vs[j], fs[j], q[:, c], j)
 
 
 @njit(contract=True)
