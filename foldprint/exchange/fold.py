@@ -23,9 +23,8 @@ from typing import Any
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, MultiLineString, Polygon
+from shapely.geometry import LineString, Polygon, box
 from shapely.geometry.polygon import orient
-from shapely.ops import split
 
 from ..core.version import __version__
 from ..core.constants import tol
@@ -62,14 +61,18 @@ def holeless_facets(panel) -> list[np.ndarray] | None:
     panel cut by a line x = const through the centroid of each hole. None when the cut
     leaves a hole inside a facet (then the panel keeps its holes as foldprint data)."""
     poly = orient(panel.polygon, 1.0)
-    lo_y, hi_y = poly.bounds[1] - 1.0, poly.bounds[3] + 1.0
+    x0, lo_y, x1, hi_y = poly.bounds
     xs = sorted({float(Polygon(h).centroid.x) for h in panel.holes})
-    pieces = split(poly, MultiLineString([[(x, lo_y), (x, hi_y)] for x in xs]))
+    edges = [x0 - 1.0, *xs, x1 + 1.0]
     out = []
-    for g in pieces.geoms:
-        if not isinstance(g, Polygon) or g.interiors or g.area <= tol.area:
-            return None
-        out.append(np.asarray(orient(g, 1.0).exterior.coords)[:-1])
+    for a, b in zip(edges, edges[1:]):  # one strip between two cuts at a time: shapely's split
+        strip = poly.intersection(box(a, lo_y - 1.0, b, hi_y + 1.0))  # by several lines can drop a piece
+        for g in getattr(strip, "geoms", [strip]):
+            if g.is_empty or not isinstance(g, Polygon):
+                continue  # a line or point where the strip only touches the panel
+            if g.interiors or g.area <= tol.area:
+                return None
+            out.append(np.asarray(orient(g, 1.0).exterior.coords)[:-1])
     total = sum(Polygon(r).area for r in out)
     return out if abs(total - poly.area) <= 1e-9 * max(poly.area, 1.0) else None
 
