@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .corrector import MAX_STEP, OPT_TOL, Solves
+from .corrector import MAX_STEP, OPT_TOL, SVD_BELOW, Solves
 
 #: a hinge whose closed angle stays this far from its driven angle "cannot follow" (rad)
 FOLLOW_TOL = np.radians(2.0)
@@ -56,6 +56,11 @@ LOST_TOL = 1e-7
 #: near the flat sheet, restarts from the drive of this many next grid steps run ahead (our
 #: choice: on miura_3x3's check chunk 784 rounds without, 389 with)
 PREFETCH = 8
+#: near the flat sheet too, a solve from a converged answer whose largest angle is at least this
+#: (rad) and whose tangent space is a line takes the line solve (corrector._gn_line; our choice:
+#: SVD_BELOW, below which the SVD resolves the small genuine singular values; docs/loops.md,
+#: "The line solve near the flat sheet")
+LINE_ABOVE = SVD_BELOW
 #: a window's answer is kept when the step-by-step predictor lands within this of it (rad,
 #: our choice: about 40 times the largest such distance on the first 64 check samples of the
 #: loop templates, 2.3e-4 rad on miura_3x3)

@@ -29,7 +29,7 @@ from functools import lru_cache
 import numpy as np
 
 from .corrector import OPT_TOL, Pool, Solves, norms, predict
-from .drive_state import ACCEPT, FOLLOW_TOL, JUMP, LOST_TOL, NEAR_FLAT, PREFETCH, WINDOW, DriveState
+from .drive_state import ACCEPT, FOLLOW_TOL, JUMP, LINE_ABOVE, LOST_TOL, NEAR_FLAT, PREFETCH, WINDOW, DriveState
 
 @dataclass(frozen=True)
 class Tracks:
@@ -156,7 +156,9 @@ class _Requests:
         near = st.xmax[live] < NEAR_FLAT
         start, taken, pred = _starts(st, live, near, x, ys)
         w = st.ahead(live, pred & (st.nsub[live] == 1))
-        line = pred & st.line[live]
+        # the line solve from an answer whose tangent space is a line: away from the flat sheet, and near it
+        # from LINE_ABOVE (its guide that line: docs/loops.md)
+        line = st.line[live] & (pred | (st.tangent[live] & (st.xmax[live] >= LINE_ABOVE)))
         self.main[live] = pool.add(start, ys, far=pred, taken=taken, line=line, guide=_line(st, live[line]), tag=live)
         self.restart[live] = -1
         if near.any():

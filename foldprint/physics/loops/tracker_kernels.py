@@ -22,7 +22,8 @@ import numpy as np
 
 from ...core.jit import njit
 from .corrector import MAX_STEP, OPT_TOL
-from .drive_state import ACCEPT, FOLLOW_TOL, JUMP, LOST_TOL, NEAR_FLAT, PREFETCH, SKIP_FAR, SKIP_TOL, WINDOW
+from .drive_state import (ACCEPT, FOLLOW_TOL, JUMP, LINE_ABOVE, LOST_TOL, NEAR_FLAT, PREFETCH, SKIP_FAR, SKIP_TOL,
+                          WINDOW)
 
 
 @njit
@@ -398,7 +399,8 @@ def _post(st, rq, pl, i, work):  # pragma: no cover - compiled
     while col < n - 1 and not free[i, col]:
         col += 1
     guide = basis[i, :, col]
-    rq[1][i] = _add(pl, start, ys, False, pred, taken, pred and line[i], guide, i)
+    lined = line[i] and (pred or (tangent[i] and xmax[i] >= LINE_ABOVE))  # tracker._Requests.post's line
+    rq[1][i] = _add(pl, start, ys, False, pred, taken, lined, guide, i)
     rq[2][i] = -1
     flat = near and _amax(ys) < NEAR_FLAT  # the drive too
     if flat and restarts[i, kk]:
