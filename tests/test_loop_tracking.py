@@ -442,6 +442,49 @@ def test_the_line_solve_takes_the_eigen_decompositions_step():
     assert abs(abs(vec[0, :, 0] @ w) - 1.0) < 1e-12
 
 
+def test_near_the_flat_sheet_a_line_tangent_takes_the_line_solve(monkeypatch):
+    """From converged answers of a Miura pattern 0.01-0.2 rad from flat (LINE_ABOVE to
+    NEAR_FLAT; a one-dimensional tangent space there) the next step's solve takes the line
+    solve, its guide the answer's tangent, and ends certified (still a line solve) at the
+    eigen-decomposition's answer within 1e-9 rad with the same tangent: the same equations
+    from the same start, the normal equations resolving J's small singular values (>= 0.18
+    of 123 there) to ~1e-10 (measured 6e-14). From an answer below LINE_ABOVE it does not."""
+    d, grid, drivens = _check_drives("miura_3x3", 1)
+    evaluate, drive = _solvers(d)[0].residuals, drivens[0]
+    angles = loop_tracking.track(evaluate, grid, drive[None]).angles[0]
+    big = np.abs(angles).max(axis=1)
+    near = ((big >= loop_state.LINE_ABOVE) & (big < loop_state.NEAR_FLAT)).nonzero()[0]
+    assert loop_state.LINE_ABOVE == loop_solve.SVD_BELOW and len(near) > 10
+
+    def next_step(k):
+        """The solve of step k + 1 from the answer of step k: whether it took the line solve,
+        how it ended (its angles, tangent, whether still a line solve) and its guide."""
+        sol = loop_solve.solve(evaluate, angles[k][None], drive[k][None])  # the answer's tangent space
+        state = loop_state.DriveState(grid, drive[None])
+        state.settle(np.array([0]), sol, np.array([0]))
+        state.k[0], state.prev[0] = k + 1, drive[k]
+        pool, req = loop_solve.Pool(drive.shape[1], 16), loop_tracking._Requests(1, drive.shape[1])
+        req.post(state, pool, np.array([0]))
+        m = req.main[0]
+        took, guide = pool.line[m], pool.guide[m].copy()
+        while pool.alive[m]:
+            pool.round(evaluate)
+        assert pool.done[m] and pool.res[m] < CLOSURE_TOL and pool.free[m].sum() == 1
+        return took, pool.x[m].copy(), pool.basis[m][:, pool.free[m]][:, 0], pool.line[m], guide, sol
+
+    for k in near[::4]:
+        took, x, t, certified, guide, sol = next_step(k)
+        assert took and certified and sol.plain[0] and sol.null[0] == 1
+        assert abs(abs(guide @ sol.basis[0][:, sol.free[0]][:, 0]) - 1.0) < 1e-12  # the answer's tangent
+        with monkeypatch.context() as m:
+            m.setattr(loop_tracking, "LINE_ABOVE", np.inf)  # the eigen-decomposition
+            took_e, x_e, t_e, _, _, _ = next_step(k)
+        assert not took_e
+        assert np.abs(x - x_e).max() < 1e-9 and abs(abs(t @ t_e) - 1.0) < 1e-9
+    below = (big < loop_state.LINE_ABOVE) & (big > 1e-3)
+    assert below.any() and not next_step(below.nonzero()[0][-1])[0]
+
+
 def test_away_from_the_flat_sheet_a_drive_that_barely_moved_keeps_its_answer(monkeypatch):
     """SKIP_FAR: a converged answer away from the flat sheet is kept while its drive moves
     less than SKIP_FAR (OPT_TOL); near the flat sheet (and after an unconverged answer) only
@@ -495,7 +538,7 @@ def test_near_the_flat_sheet_the_first_step_is_the_evaluated_one():
     again = loop_solve.Pool(2, 2)
     row = again.add(start[:1], ys[:1], taken=taken[:1])
     assert again.it[row].tolist() == [1]
-    state.plain[:] = False  # a tangent space by the far rank rule (RANK_RES, a line solve): evaluated again
+    state.plain[:] = False  # by the far rank rule (RANK_RES, a far line solve): evaluated again
     assert loop_tracking._starts(state, np.arange(2), near, x, ys)[1].tolist() == [0, 0]
     state.plain[:], state.tangent[:] = True, False  # an unconverged answer: no step from its tangent space
     start, taken, _ = loop_tracking._starts(state, np.arange(2), near, x, ys)

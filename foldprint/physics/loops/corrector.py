@@ -49,7 +49,7 @@ class Solves:
     below OPT_TOL at a closed point), ``basis`` (P, n, n) eigenvectors of J^T J and
     ``free`` (P, n) which of them span J's null space (the tangent space at ``x``);
     ``plain`` (P,) that space is by the rank rule alone (a point near the flat sheet: no
-    RANK_RES, no line solve; None: all)."""
+    RANK_RES; a line solve there is certified by that rule; None: all)."""
 
     x: np.ndarray
     res: np.ndarray

@@ -186,9 +186,10 @@ def _starts(st: DriveState, live, near, x, ys):
     Gauss-Newton steps that took (0 or 1): away from the flat sheet the predictor along the
     tangent space (:func:`predict`); near it, the first Gauss-Newton step from an answer
     whose basis is that of the evaluation it converged at (the rank rule a point near the
-    flat sheet takes), taken without evaluating C and J at x again (closed: the step is its
-    tangent space's part of the drive), where it moves an angle by OPT_TOL or more (below,
-    the solve stops at x in one evaluation). Returns the starts, the steps taken and which
+    flat sheet takes: an eigen-decomposition's, an SVD's or a certified line's), taken
+    without evaluating C and J at x again (closed: the step is its tangent space's part of
+    the drive), where it moves an angle by OPT_TOL or more (below, the solve stops at x in
+    one evaluation). Returns the starts, the steps taken and which
     drives predicted (away from the flat sheet, with a tangent)."""
     tangent = st.tangent[live]
     pred = ~near & tangent
