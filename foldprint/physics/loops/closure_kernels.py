@@ -131,26 +131,46 @@ def residuals(xs, pk, ln, sg, kk, kk2, kq, k2q, axis, point):  # pragma: no cove
 
 
 @njit
-def _normal(jac, c, gram, g, nz):  # pragma: no cover - compiled
-    """J^T J into ``gram`` (symmetric to the bit) and J^T C into ``g``, row by row of J over
-    its nonzero entries (a row is one cycle's: at most its length of them; ``nz`` (n,)
-    scratch for their columns)."""
-    k, n = jac.shape
+def cycle_columns(pk, ln, n):  # pragma: no cover - compiled
+    """Each cycle's hinges, ascending, each once: cycle ci's are ``cols[ci, :cn[ci]]``, the
+    only columns its six rows of J fill (:func:`closure_at`). Returns (cols, cn)."""
+    m = pk.shape[0]
+    cols = np.zeros((m, max(pk.shape[1], 1)), np.intp)
+    cn = np.zeros(m, np.intp)
+    seen = np.zeros(n, np.bool_)
+    for ci in range(m):
+        seen[:] = False
+        for l in range(ln[ci]):
+            seen[pk[ci, l]] = True
+        for a in range(n):
+            if seen[a]:
+                cols[ci, cn[ci]] = a
+                cn[ci] += 1
+    return cols, cn
+
+
+@njit
+def normal_eq(jac, c, gram, g, cols, cn):  # pragma: no cover - compiled
+    """J^T J into ``gram`` (symmetric to the bit) and J^T C into ``g``, cycle by cycle over
+    its 6 x cn block of J (:func:`cycle_columns`); each entry summed over J's rows in order
+    (what a sum over every row's nonzero entries gives, bit for bit)."""
     gram[:, :] = 0.0
     g[:] = 0.0
-    for r in range(k):
-        cnt = 0
-        for a in range(n):
-            if jac[r, a] != 0.0:
-                nz[cnt] = a
-                cnt += 1
-        cr = c[r]
-        for i in range(cnt):
-            a = nz[i]
-            ja = jac[r, a]
-            g[a] += ja * cr
-            for j in range(i, cnt):
-                gram[a, nz[j]] += ja * jac[r, nz[j]]
+    for ci in range(cols.shape[0]):
+        r0 = 6 * ci
+        for i in range(cn[ci]):
+            a = cols[ci, i]
+            acc = g[a]
+            for r in range(r0, r0 + 6):
+                acc += jac[r, a] * c[r]
+            g[a] = acc
+            for j in range(i, cn[ci]):
+                b = cols[ci, j]
+                acc = gram[a, b]
+                for r in range(r0, r0 + 6):
+                    acc += jac[r, a] * jac[r, b]
+                gram[a, b] = acc
+    n = g.shape[0]
     for a in range(n):
         for b in range(a + 1, n):
             gram[b, a] = gram[a, b]
@@ -334,7 +354,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
     vec = np.empty((n, n))
     fr = np.zeros(n, np.bool_)
     w = np.empty(n)
-    nz = np.empty(n, np.intp)
+    cols, cn = cycle_columns(pk, ln, n)
     work = svd_work(k, n)
     count = 0
     for i in range(size):
@@ -353,7 +373,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
             xmax = max(xmax, abs(xi[j]))
         isline = line[i]
         if isline:
-            _normal(jac, c, gram, g, nz)
+            normal_eq(jac, c, gram, g, cols, cn)
             _gn_line(gram, g, d, guide[i], step, w)
             vec[:, :] = 0.0
             fr[:] = False
@@ -366,7 +386,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
             if plain[i] and xmax < SVD_BELOW:
                 _gn_svd(jac, c, d, step, vec, fr, work)
             else:
-                _normal(jac, c, gram, g, nz)
+                normal_eq(jac, c, gram, g, cols, cn)
                 _gn_eigh(gram, g, d, RANK_RES * r * (1.0 if far[i] else 0.0), step, vec, fr)
             nul = 0
             for j in range(n):
