@@ -27,7 +27,7 @@ from ...core.jit import njit
 from .corrector import CLOSURE_TOL, GN_STEPS, MAX_STEP, NEWTON_STEPS, OPT_TOL, RANK_RES, RANK_TOL, SVD_BELOW
 from .decomp_kernels import svd_small, svd_work
 
-#: hinges up to which the line solve takes the hand-written LU (:func:`_lu_solve`), LAPACK's
+#: hinges up to which the line solve is hand-written (:func:`cholesky`), LAPACK's ``gesv``
 #: above (our choice: a 12-hinge solve costs 0.5 us by hand against 1.4 us through LAPACK;
 #: LAPACK's blocked factorisation wins on the large patterns' hundreds of hinges)
 SMALL = 32
@@ -234,7 +234,7 @@ def _lu_solve(a, b):  # pragma: no cover - compiled
     """``np.linalg.solve(a, b)`` for a small square ``a`` (n, n) and b (n, r), both
     overwritten: LU with partial pivoting (LAPACK getrf's pivot, the first largest in its
     column), forward and back substitution; returns b. A zero pivot gives inf or nan, where
-    LAPACK raises (J^T J + t t^T is positive definite wherever the line solve runs)."""
+    LAPACK raises. The line solve's fallback where :func:`cholesky` meets a pivot not positive."""
     n, nr = b.shape
     for j in range(n):
         p, big = j, abs(a[j, j])
@@ -264,17 +264,76 @@ def _lu_solve(a, b):  # pragma: no cover - compiled
 
 
 @njit
-def _gn_line(gram, g, d, guide, step, w):  # pragma: no cover - compiled
-    """corrector._gn_line of one point: the step, and the null line into ``w``."""
-    n = gram.shape[0]
-    a = np.empty((n, n))
-    rhs = np.empty((n, 2))
+def cholesky(a):  # pragma: no cover - compiled
+    """a = L L^T for a symmetric ``a`` (n, n), in place: L in its lower triangle, except that
+    each diagonal entry holds 1 / L_jj (:func:`cholesky_solve` multiplies by it). Returns
+    whether every pivot is positive (LAPACK potrf's test); where one is not, ``a`` is left
+    part-factored."""
+    n = a.shape[0]
+    for j in range(n):
+        s = a[j, j]
+        for p in range(j):
+            s -= a[j, p] * a[j, p]
+        if not s > 0.0:
+            return False
+        inv = 1.0 / math.sqrt(s)
+        a[j, j] = inv
+        for i in range(j + 1, n):
+            t = a[i, j]
+            for p in range(j):
+                t -= a[i, p] * a[j, p]
+            a[i, j] = t * inv
+    return True
+
+
+@njit
+def cholesky_solve(f, b):  # pragma: no cover - compiled
+    """Solve ``a x = b`` for two right-hand sides b (n, 2), overwritten with x, with a's
+    factor ``f`` from :func:`cholesky` (L y = b, then L^T x = y); returns b."""
+    n = b.shape[0]
+    for i in range(n):
+        acc0, acc1 = b[i, 0], b[i, 1]
+        for p in range(i):
+            acc0 -= f[i, p] * b[p, 0]
+            acc1 -= f[i, p] * b[p, 1]
+        b[i, 0], b[i, 1] = acc0 * f[i, i], acc1 * f[i, i]
+    for i in range(n - 1, -1, -1):
+        acc0, acc1 = b[i, 0], b[i, 1]
+        for p in range(i + 1, n):
+            acc0 -= f[p, i] * b[p, 0]
+            acc1 -= f[p, i] * b[p, 1]
+        b[i, 0], b[i, 1] = acc0 * f[i, i], acc1 * f[i, i]
+    return b
+
+
+@njit
+def _shifted(a, gram, u, shift):  # pragma: no cover - compiled
+    """``a`` = J^T J + u u^T - shift I."""
+    n = a.shape[0]
     for i in range(n):
         for j in range(n):
-            a[i, j] = gram[i, j] + guide[i] * guide[j]
+            a[i, j] = gram[i, j] + u[i] * u[j]
+        a[i, i] -= shift
+
+
+@njit
+def _gn_line(gram, g, d, guide, step, w, a, rhs):  # pragma: no cover - compiled
+    """corrector._gn_line of one point: the step, and the null line into ``w``; ``a`` (n, n)
+    and ``rhs`` (n, 2) scratch. J^T J + t t^T is positive definite wherever the line solve
+    runs: a Cholesky solve up to SMALL hinges (half the LU's arithmetic), the LU where a
+    pivot is not positive after all, LAPACK's ``gesv`` above SMALL."""
+    n = gram.shape[0]
+    _shifted(a, gram, guide, 0.0)
+    for i in range(n):
         rhs[i, 0] = guide[i]
         rhs[i, 1] = g[i]
-    sol = _lu_solve(a, rhs) if n <= SMALL else np.linalg.solve(a, rhs)
+    if n > SMALL:
+        sol = np.linalg.solve(a, rhs)
+    elif cholesky(a):
+        sol = cholesky_solve(a, rhs)
+    else:
+        _shifted(a, gram, guide, 0.0)
+        sol = _lu_solve(a, rhs)
     nrm = 0.0
     for i in range(n):
         nrm += sol[i, 0] * sol[i, 0]
@@ -290,30 +349,9 @@ def _gn_line(gram, g, d, guide, step, w):  # pragma: no cover - compiled
 
 
 @njit
-def _positive_definite(a):  # pragma: no cover - compiled
-    """Whether the Cholesky factorisation of the symmetric ``a`` succeeds (every pivot
-    positive, LAPACK potrf's test), on a copy."""
-    n = a.shape[0]
-    f = a.copy()
-    for j in range(n):
-        s = f[j, j]
-        for p in range(j):
-            s -= f[j, p] * f[j, p]
-        if not s > 0.0:
-            return False
-        s = math.sqrt(s)
-        f[j, j] = s
-        for i in range(j + 1, n):
-            t = f[i, j]
-            for p in range(j):
-                t -= f[i, p] * f[j, p]
-            f[i, j] = t / s
-    return True
-
-
-@njit
-def _certified(jac, gram, w):  # pragma: no cover - compiled
-    """corrector._certified of one point: J's null space is exactly the line w."""
+def _certified(jac, gram, w, a):  # pragma: no cover - compiled
+    """corrector._certified of one point: J's null space is exactly the line w (``a`` (n, n)
+    scratch)."""
     k, n = jac.shape
     tr = 0.0
     for i in range(n):
@@ -322,18 +360,15 @@ def _certified(jac, gram, w):  # pragma: no cover - compiled
     jw = 0.0
     for r in range(k):
         acc = 0.0
-        for a in range(n):
-            acc += jac[r, a] * w[a]
+        for b in range(n):
+            acc += jac[r, b] * w[b]
         jw += acc * acc
     if not math.sqrt(jw) <= thr:
         return False
-    a = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            a[i, j] = gram[i, j] + w[i] * w[j]
-        a[i, i] -= thr * thr
-    if _positive_definite(a):
+    _shifted(a, gram, w, thr * thr)
+    if cholesky(a):
         return True
+    _shifted(a, gram, w, thr * thr)
     return np.linalg.eigvalsh(a)[0] > 0.0
 
 
@@ -347,7 +382,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
     c = np.empty(k)
     jac = np.empty((k, n))
     wq = np.empty((max(pk.shape[1], 1), 6))
-    gram = np.empty((n, n))
+    gram, sq, rhs = np.empty((n, n)), np.empty((n, n)), np.empty((n, 2))
     g = np.empty(n)
     d = np.empty(n)
     step = np.empty(n)
@@ -374,7 +409,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
         isline = line[i]
         if isline:
             normal_eq(jac, c, gram, g, cols, cn)
-            _gn_line(gram, g, d, guide[i], step, w)
+            _gn_line(gram, g, d, guide[i], step, w, sq, rhs)
             vec[:, :] = 0.0
             fr[:] = False
             for j in range(n):
@@ -397,7 +432,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
         final = it[i] >= GN_STEPS + NEWTON_STEPS
         stop = (r < CLOSURE_TOL and (big < OPT_TOL or it[i] >= GN_STEPS)) or final
         moving = not stop
-        if isline and stop and not final and not _certified(jac, gram, w):
+        if isline and stop and not final and not _certified(jac, gram, w, sq):
             line[i] = False  # evaluated again, with the eigen-decomposition
             stop = False
             moving = False
