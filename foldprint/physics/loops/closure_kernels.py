@@ -34,67 +34,76 @@ SMALL = 32
 
 
 @njit
+def _turn(kk, kk2, kq, k2q, h, sn, c1):  # pragma: no cover - compiled
+    """Hinge h's rotation ``I + sn K + c1 K^2`` (a 9-tuple, row by row) and translation
+    ``-(sn K + c1 K^2) q`` (a 3-tuple), sn and c1 the sine and 1 - cosine of its angle."""
+    r = (sn * kk[h, 0, 0] + c1 * kk2[h, 0, 0] + 1.0, sn * kk[h, 0, 1] + c1 * kk2[h, 0, 1],
+         sn * kk[h, 0, 2] + c1 * kk2[h, 0, 2], sn * kk[h, 1, 0] + c1 * kk2[h, 1, 0],
+         sn * kk[h, 1, 1] + c1 * kk2[h, 1, 1] + 1.0, sn * kk[h, 1, 2] + c1 * kk2[h, 1, 2],
+         sn * kk[h, 2, 0] + c1 * kk2[h, 2, 0], sn * kk[h, 2, 1] + c1 * kk2[h, 2, 1],
+         sn * kk[h, 2, 2] + c1 * kk2[h, 2, 2] + 1.0)
+    return r, (-(sn * kq[h, 0] + c1 * k2q[h, 0]), -(sn * kq[h, 1] + c1 * k2q[h, 1]),
+               -(sn * kq[h, 2] + c1 * k2q[h, 2]))
+
+
+@njit
+def _mv3(g, v0, v1, v2):  # pragma: no cover - compiled
+    """The 3 x 3 ``g`` (a 9-tuple, row by row) times (v0, v1, v2), a 3-tuple."""
+    return (g[0] * v0 + g[1] * v1 + g[2] * v2, g[3] * v0 + g[4] * v1 + g[5] * v2,
+            g[6] * v0 + g[7] * v1 + g[8] * v2)
+
+
+@njit
+def _mm3(g, r):  # pragma: no cover - compiled
+    """The product of two 3 x 3 9-tuples (row by row), each entry summed left to right."""
+    return (g[0] * r[0] + g[1] * r[3] + g[2] * r[6], g[0] * r[1] + g[1] * r[4] + g[2] * r[7],
+            g[0] * r[2] + g[1] * r[5] + g[2] * r[8], g[3] * r[0] + g[4] * r[3] + g[5] * r[6],
+            g[3] * r[1] + g[4] * r[4] + g[5] * r[7], g[3] * r[2] + g[4] * r[5] + g[5] * r[8],
+            g[6] * r[0] + g[7] * r[3] + g[8] * r[6], g[6] * r[1] + g[7] * r[4] + g[8] * r[7],
+            g[6] * r[2] + g[7] * r[5] + g[8] * r[8])
+
+
+@njit
 def closure_at(x, pk, ln, sg, kk, kk2, kq, k2q, axis, point, c, jac, wq):  # pragma: no cover - compiled
     """C (6 m,) into ``c`` and J (6 m, n) into ``jac`` (zeroed here) at angles x (n,): cycle
     ci is the places l < ln[ci], hinge pk[ci, l] with sign sg[ci, l]; kk, kk2 (n, 3, 3)
     each hinge's axis cross-product matrix and its square, kq, k2q (n, 3) those times its
     point, ``axis`` and ``point`` (n, 3) its fold line; ``wq`` (L, 6) scratch: each place's
-    axis and point moved by its prefix."""
+    axis and point moved by its prefix. The prefix's rotation and translation are tuples
+    (kept in registers)."""
     m = pk.shape[0]
     jac[:, :] = 0.0
-    gr = np.empty((3, 3))
-    nr = np.empty((3, 3))
-    r = np.empty((3, 3))
-    gt = np.empty(3)
-    tl = np.empty(3)
     for ci in range(m):
         for l in range(ln[ci]):
             h = pk[ci, l]
             th = x[h] * (-1.0 if sg[ci, l] < 0 else 1.0)
-            sn = math.sin(th)
-            c1 = 1.0 - math.cos(th)
-            for a in range(3):
-                for b in range(3):
-                    r[a, b] = sn * kk[h, a, b] + c1 * kk2[h, a, b]
-                r[a, a] += 1.0
-                tl[a] = -(sn * kq[h, a] + c1 * k2q[h, a])
+            r, tl = _turn(kk, kk2, kq, k2q, h, math.sin(th), 1.0 - math.cos(th))
             if l == 0:
+                gr, gt = r, tl
                 for a in range(3):
                     wq[0, a] = axis[h, a]
                     wq[0, 3 + a] = point[h, a]
-                    gt[a] = tl[a]
-                    for b in range(3):
-                        gr[a, b] = r[a, b]
                 continue
-            for a in range(3):
-                wq[l, a] = gr[a, 0] * axis[h, 0] + gr[a, 1] * axis[h, 1] + gr[a, 2] * axis[h, 2]
-                wq[l, 3 + a] = (gr[a, 0] * point[h, 0] + gr[a, 1] * point[h, 1] + gr[a, 2] * point[h, 2]) + gt[a]
-            m0 = gr[0, 0] * tl[0] + gr[0, 1] * tl[1] + gr[0, 2] * tl[2]
-            m1 = gr[1, 0] * tl[0] + gr[1, 1] * tl[1] + gr[1, 2] * tl[2]
-            m2 = gr[2, 0] * tl[0] + gr[2, 1] * tl[1] + gr[2, 2] * tl[2]
-            gt[0] += m0
-            gt[1] += m1
-            gt[2] += m2
-            for a in range(3):
-                for b in range(3):
-                    nr[a, b] = gr[a, 0] * r[0, b] + gr[a, 1] * r[1, b] + gr[a, 2] * r[2, b]
-            for a in range(3):
-                for b in range(3):
-                    gr[a, b] = nr[a, b]
+            wq[l, 0], wq[l, 1], wq[l, 2] = _mv3(gr, axis[h, 0], axis[h, 1], axis[h, 2])
+            wp = _mv3(gr, point[h, 0], point[h, 1], point[h, 2])
+            wq[l, 3], wq[l, 4], wq[l, 5] = wp[0] + gt[0], wp[1] + gt[1], wp[2] + gt[2]
+            mt = _mv3(gr, tl[0], tl[1], tl[2])
+            gt = (gt[0] + mt[0], gt[1] + mt[1], gt[2] + mt[2])
+            gr = _mm3(gr, r)
         # the cycle's residual: rotation vector of gr (closure._rotvecs), translation gt
         row = 6 * ci
-        tr = (gr[0, 0] + gr[1, 1] + gr[2, 2] - 1.0) / 2.0
+        tr = (gr[0] + gr[4] + gr[8] - 1.0) / 2.0
         ang = math.acos(min(max(tr, -1.0), 1.0))
-        v0, v1, v2 = gr[2, 1] - gr[1, 2], gr[0, 2] - gr[2, 0], gr[1, 0] - gr[0, 1]
+        v0, v1, v2 = gr[7] - gr[5], gr[2] - gr[6], gr[3] - gr[1]
         if math.pi - ang < 1e-6:  # half-turn residuals never occur near closure (closure._rotvec)
             mk, best = 0, -1.0
             for a in range(3):
-                if (gr[a, a] + 1.0) / 2.0 > best:
-                    best, mk = (gr[a, a] + 1.0) / 2.0, a
+                if (gr[4 * a] + 1.0) / 2.0 > best:
+                    best, mk = (gr[4 * a] + 1.0) / 2.0, a
             nrm = math.sqrt(max(best, 1e-300))
-            v0 = ang * ((gr[0, mk] + (1.0 if mk == 0 else 0.0)) / 2.0 / nrm)
-            v1 = ang * ((gr[1, mk] + (1.0 if mk == 1 else 0.0)) / 2.0 / nrm)
-            v2 = ang * ((gr[2, mk] + (1.0 if mk == 2 else 0.0)) / 2.0 / nrm)
+            v0 = ang * ((gr[mk] + (1.0 if mk == 0 else 0.0)) / 2.0 / nrm)
+            v1 = ang * ((gr[3 + mk] + (1.0 if mk == 1 else 0.0)) / 2.0 / nrm)
+            v2 = ang * ((gr[6 + mk] + (1.0 if mk == 2 else 0.0)) / 2.0 / nrm)
         else:
             f = 0.5 if ang < 1e-6 else ang / (2.0 * math.sin(ang))
             v0, v1, v2 = v0 * f, v1 * f, v2 * f
