@@ -11,8 +11,9 @@ SVD_BELOW of the flat sheet (:func:`~foldprint.physics.loops.corrector._gn_svd`)
 eigen-decomposition of J^T J otherwise (:func:`~foldprint.physics.loops.corrector._gn_eigh`);
 then the stop, drop and step rules, written into the pool's rows. The points are
 independent, so the loop over them gives what the numpy round's slices give, to round-off
-(the same LAPACK drivers ``syevd`` and ``gesv``, the SVD hand-written in
-:mod:`~foldprint.physics.loops.decomp_kernels`; the sums in another order).
+(the same LAPACK driver ``syevd``; the line solve by Cholesky where numpy takes ``gesv``'s
+LU, J^T J over each cycle's block, :mod:`~foldprint.physics.loops.normal_kernels`; the SVD
+hand-written in :mod:`~foldprint.physics.loops.decomp_kernels`; the sums in another order).
 
 Imported only after :func:`foldprint.core.jit.use_kernels` said yes.
 """
@@ -26,6 +27,7 @@ import numpy as np
 from ...core.jit import njit
 from .corrector import CLOSURE_TOL, GN_STEPS, MAX_STEP, NEWTON_STEPS, OPT_TOL, RANK_RES, RANK_TOL, SVD_BELOW
 from .decomp_kernels import svd_small, svd_work
+from .normal_kernels import cholesky, cholesky_solve, cycle_columns, lu_solve, normal_eq, shifted
 
 #: hinges up to which the line solve is hand-written (:func:`cholesky`), LAPACK's ``gesv``
 #: above (our choice: a 12-hinge solve costs 0.5 us by hand against 1.4 us through LAPACK;
@@ -140,52 +142,6 @@ def residuals(xs, pk, ln, sg, kk, kk2, kq, k2q, axis, point):  # pragma: no cove
 
 
 @njit
-def cycle_columns(pk, ln, n):  # pragma: no cover - compiled
-    """Each cycle's hinges, ascending, each once: cycle ci's are ``cols[ci, :cn[ci]]``, the
-    only columns its six rows of J fill (:func:`closure_at`). Returns (cols, cn)."""
-    m = pk.shape[0]
-    cols = np.zeros((m, max(pk.shape[1], 1)), np.intp)
-    cn = np.zeros(m, np.intp)
-    seen = np.zeros(n, np.bool_)
-    for ci in range(m):
-        seen[:] = False
-        for l in range(ln[ci]):
-            seen[pk[ci, l]] = True
-        for a in range(n):
-            if seen[a]:
-                cols[ci, cn[ci]] = a
-                cn[ci] += 1
-    return cols, cn
-
-
-@njit
-def normal_eq(jac, c, gram, g, cols, cn):  # pragma: no cover - compiled
-    """J^T J into ``gram`` (symmetric to the bit) and J^T C into ``g``, cycle by cycle over
-    its 6 x cn block of J (:func:`cycle_columns`); each entry summed over J's rows in order
-    (what a sum over every row's nonzero entries gives, bit for bit)."""
-    gram[:, :] = 0.0
-    g[:] = 0.0
-    for ci in range(cols.shape[0]):
-        r0 = 6 * ci
-        for i in range(cn[ci]):
-            a = cols[ci, i]
-            acc = g[a]
-            for r in range(r0, r0 + 6):
-                acc += jac[r, a] * c[r]
-            g[a] = acc
-            for j in range(i, cn[ci]):
-                b = cols[ci, j]
-                acc = gram[a, b]
-                for r in range(r0, r0 + 6):
-                    acc += jac[r, a] * jac[r, b]
-                gram[a, b] = acc
-    n = g.shape[0]
-    for a in range(n):
-        for b in range(a + 1, n):
-            gram[b, a] = gram[a, b]
-
-
-@njit
 def _along(basis, j, x):  # pragma: no cover - compiled
     """``basis[:, j] . x``, summed in index order."""
     acc = 0.0
@@ -239,100 +195,13 @@ def _gn_svd(jac, c, d, step, vec, fr, work):  # pragma: no cover - compiled
 
 
 @njit
-def _lu_solve(a, b):  # pragma: no cover - compiled
-    """``np.linalg.solve(a, b)`` for a small square ``a`` (n, n) and b (n, r), both
-    overwritten: LU with partial pivoting (LAPACK getrf's pivot, the first largest in its
-    column), forward and back substitution; returns b. A zero pivot gives inf or nan, where
-    LAPACK raises. The line solve's fallback where :func:`cholesky` meets a pivot not positive."""
-    n, nr = b.shape
-    for j in range(n):
-        p, big = j, abs(a[j, j])
-        for i in range(j + 1, n):
-            if abs(a[i, j]) > big:
-                p, big = i, abs(a[i, j])
-        if p != j:
-            for q in range(n):
-                a[j, q], a[p, q] = a[p, q], a[j, q]
-            for q in range(nr):
-                b[j, q], b[p, q] = b[p, q], b[j, q]
-        inv = 1.0 / a[j, j]
-        for i in range(j + 1, n):
-            f = a[i, j] * inv
-            a[i, j] = f
-            for q in range(j + 1, n):
-                a[i, q] -= f * a[j, q]
-            for q in range(nr):
-                b[i, q] -= f * b[j, q]
-    for q in range(nr):
-        for i in range(n - 1, -1, -1):
-            acc = b[i, q]
-            for k in range(i + 1, n):
-                acc -= a[i, k] * b[k, q]
-            b[i, q] = acc / a[i, i]
-    return b
-
-
-@njit
-def cholesky(a):  # pragma: no cover - compiled
-    """a = L L^T for a symmetric ``a`` (n, n), in place: L in its lower triangle, except that
-    each diagonal entry holds 1 / L_jj (:func:`cholesky_solve` multiplies by it). Returns
-    whether every pivot is positive (LAPACK potrf's test); where one is not, ``a`` is left
-    part-factored."""
-    n = a.shape[0]
-    for j in range(n):
-        s = a[j, j]
-        for p in range(j):
-            s -= a[j, p] * a[j, p]
-        if not s > 0.0:
-            return False
-        inv = 1.0 / math.sqrt(s)
-        a[j, j] = inv
-        for i in range(j + 1, n):
-            t = a[i, j]
-            for p in range(j):
-                t -= a[i, p] * a[j, p]
-            a[i, j] = t * inv
-    return True
-
-
-@njit
-def cholesky_solve(f, b):  # pragma: no cover - compiled
-    """Solve ``a x = b`` for two right-hand sides b (n, 2), overwritten with x, with a's
-    factor ``f`` from :func:`cholesky` (L y = b, then L^T x = y); returns b."""
-    n = b.shape[0]
-    for i in range(n):
-        acc0, acc1 = b[i, 0], b[i, 1]
-        for p in range(i):
-            acc0 -= f[i, p] * b[p, 0]
-            acc1 -= f[i, p] * b[p, 1]
-        b[i, 0], b[i, 1] = acc0 * f[i, i], acc1 * f[i, i]
-    for i in range(n - 1, -1, -1):
-        acc0, acc1 = b[i, 0], b[i, 1]
-        for p in range(i + 1, n):
-            acc0 -= f[p, i] * b[p, 0]
-            acc1 -= f[p, i] * b[p, 1]
-        b[i, 0], b[i, 1] = acc0 * f[i, i], acc1 * f[i, i]
-    return b
-
-
-@njit
-def _shifted(a, gram, u, shift):  # pragma: no cover - compiled
-    """``a`` = J^T J + u u^T - shift I."""
-    n = a.shape[0]
-    for i in range(n):
-        for j in range(n):
-            a[i, j] = gram[i, j] + u[i] * u[j]
-        a[i, i] -= shift
-
-
-@njit
 def _gn_line(gram, g, d, guide, step, w, a, rhs):  # pragma: no cover - compiled
     """corrector._gn_line of one point: the step, and the null line into ``w``; ``a`` (n, n)
     and ``rhs`` (n, 2) scratch. J^T J + t t^T is positive definite wherever the line solve
     runs: a Cholesky solve up to SMALL hinges (half the LU's arithmetic), the LU where a
     pivot is not positive after all, LAPACK's ``gesv`` above SMALL."""
     n = gram.shape[0]
-    _shifted(a, gram, guide, 0.0)
+    shifted(a, gram, guide, 0.0)
     for i in range(n):
         rhs[i, 0] = guide[i]
         rhs[i, 1] = g[i]
@@ -341,8 +210,8 @@ def _gn_line(gram, g, d, guide, step, w, a, rhs):  # pragma: no cover - compiled
     elif cholesky(a):
         sol = cholesky_solve(a, rhs)
     else:
-        _shifted(a, gram, guide, 0.0)
-        sol = _lu_solve(a, rhs)
+        shifted(a, gram, guide, 0.0)
+        sol = lu_solve(a, rhs)
     nrm = 0.0
     for i in range(n):
         nrm += sol[i, 0] * sol[i, 0]
@@ -358,26 +227,27 @@ def _gn_line(gram, g, d, guide, step, w, a, rhs):  # pragma: no cover - compiled
 
 
 @njit
-def _certified(jac, gram, w, a):  # pragma: no cover - compiled
+def _certified(jac, gram, w, a, cols, cn):  # pragma: no cover - compiled
     """corrector._certified of one point: J's null space is exactly the line w (``a`` (n, n)
-    scratch)."""
-    k, n = jac.shape
+    scratch; J w over each cycle's columns, :func:`cycle_columns`: the same sums)."""
+    n = w.shape[0]
     tr = 0.0
     for i in range(n):
         tr += gram[i, i]
     thr = RANK_TOL * max(1.0, math.sqrt(tr))
     jw = 0.0
-    for r in range(k):
-        acc = 0.0
-        for b in range(n):
-            acc += jac[r, b] * w[b]
-        jw += acc * acc
+    for ci in range(cols.shape[0]):
+        for r in range(6 * ci, 6 * ci + 6):
+            acc = 0.0
+            for b in range(cn[ci]):
+                acc += jac[r, cols[ci, b]] * w[cols[ci, b]]
+            jw += acc * acc
     if not math.sqrt(jw) <= thr:
         return False
-    _shifted(a, gram, w, thr * thr)
+    shifted(a, gram, w, thr * thr)
     if cholesky(a):
         return True
-    _shifted(a, gram, w, thr * thr)
+    shifted(a, gram, w, thr * thr)
     return np.linalg.eigvalsh(a)[0] > 0.0
 
 
@@ -441,7 +311,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
         final = it[i] >= GN_STEPS + NEWTON_STEPS
         stop = (r < CLOSURE_TOL and (big < OPT_TOL or it[i] >= GN_STEPS)) or final
         moving = not stop
-        if isline and stop and not final and not _certified(jac, gram, w, sq):
+        if isline and stop and not final and not _certified(jac, gram, w, sq, cols, cn):
             line[i] = False  # evaluated again, with the eigen-decomposition
             stop = False
             moving = False
