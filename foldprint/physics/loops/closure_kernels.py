@@ -11,8 +11,9 @@ SVD_BELOW of the flat sheet (:func:`~foldprint.physics.loops.corrector._gn_svd`)
 eigen-decomposition of J^T J otherwise (:func:`~foldprint.physics.loops.corrector._gn_eigh`);
 then the stop, drop and step rules, written into the pool's rows. The points are
 independent, so the loop over them gives what the numpy round's slices give, to round-off
-(the same LAPACK drivers ``syevd`` and ``gesv``, the SVD hand-written in
-:mod:`~foldprint.physics.loops.decomp_kernels`; the sums in another order).
+(the same LAPACK driver ``syevd``; the line solve by Cholesky where numpy takes ``gesv``'s
+LU, J^T J over each cycle's block, :mod:`~foldprint.physics.loops.normal_kernels`; the SVD
+hand-written in :mod:`~foldprint.physics.loops.decomp_kernels`; the sums in another order).
 
 Imported only after :func:`foldprint.core.jit.use_kernels` said yes.
 """
@@ -26,11 +27,43 @@ import numpy as np
 from ...core.jit import njit
 from .corrector import CLOSURE_TOL, GN_STEPS, MAX_STEP, NEWTON_STEPS, OPT_TOL, RANK_RES, RANK_TOL, SVD_BELOW
 from .decomp_kernels import svd_small, svd_work
+from .normal_kernels import cholesky, cholesky_solve, cycle_columns, lu_solve, normal_eq, shifted
 
-#: hinges up to which the line solve takes the hand-written LU (:func:`_lu_solve`), LAPACK's
-#: above (our choice: a 12-hinge solve costs 0.5 us by hand against 1.4 us through LAPACK;
-#: LAPACK's blocked factorisation wins on the large patterns' hundreds of hinges)
+#: hinges up to which the line solve is hand-written (:func:`cholesky`), LAPACK's ``gesv``
+#: above (our choice: a 12-hinge solve with two right-hand sides costs 0.35 us by Cholesky,
+#: 0.85 us by the hand-written LU, 1.4 us through LAPACK, measured on miura_3x3's line
+#: points; LAPACK's blocked factorisation wins on the large patterns' hundreds of hinges)
 SMALL = 32
+
+
+@njit
+def _turn(kk, kk2, kq, k2q, h, sn, c1):  # pragma: no cover - compiled
+    """Hinge h's rotation ``I + sn K + c1 K^2`` (a 9-tuple, row by row) and translation
+    ``-(sn K + c1 K^2) q`` (a 3-tuple), sn and c1 the sine and 1 - cosine of its angle."""
+    r = (sn * kk[h, 0, 0] + c1 * kk2[h, 0, 0] + 1.0, sn * kk[h, 0, 1] + c1 * kk2[h, 0, 1],
+         sn * kk[h, 0, 2] + c1 * kk2[h, 0, 2], sn * kk[h, 1, 0] + c1 * kk2[h, 1, 0],
+         sn * kk[h, 1, 1] + c1 * kk2[h, 1, 1] + 1.0, sn * kk[h, 1, 2] + c1 * kk2[h, 1, 2],
+         sn * kk[h, 2, 0] + c1 * kk2[h, 2, 0], sn * kk[h, 2, 1] + c1 * kk2[h, 2, 1],
+         sn * kk[h, 2, 2] + c1 * kk2[h, 2, 2] + 1.0)
+    return r, (-(sn * kq[h, 0] + c1 * k2q[h, 0]), -(sn * kq[h, 1] + c1 * k2q[h, 1]),
+               -(sn * kq[h, 2] + c1 * k2q[h, 2]))
+
+
+@njit
+def _mv3(g, v0, v1, v2):  # pragma: no cover - compiled
+    """The 3 x 3 ``g`` (a 9-tuple, row by row) times (v0, v1, v2), a 3-tuple."""
+    return (g[0] * v0 + g[1] * v1 + g[2] * v2, g[3] * v0 + g[4] * v1 + g[5] * v2,
+            g[6] * v0 + g[7] * v1 + g[8] * v2)
+
+
+@njit
+def _mm3(g, r):  # pragma: no cover - compiled
+    """The product of two 3 x 3 9-tuples (row by row), each entry summed left to right."""
+    return (g[0] * r[0] + g[1] * r[3] + g[2] * r[6], g[0] * r[1] + g[1] * r[4] + g[2] * r[7],
+            g[0] * r[2] + g[1] * r[5] + g[2] * r[8], g[3] * r[0] + g[4] * r[3] + g[5] * r[6],
+            g[3] * r[1] + g[4] * r[4] + g[5] * r[7], g[3] * r[2] + g[4] * r[5] + g[5] * r[8],
+            g[6] * r[0] + g[7] * r[3] + g[8] * r[6], g[6] * r[1] + g[7] * r[4] + g[8] * r[7],
+            g[6] * r[2] + g[7] * r[5] + g[8] * r[8])
 
 
 @njit
@@ -39,62 +72,41 @@ def closure_at(x, pk, ln, sg, kk, kk2, kq, k2q, axis, point, c, jac, wq):  # pra
     ci is the places l < ln[ci], hinge pk[ci, l] with sign sg[ci, l]; kk, kk2 (n, 3, 3)
     each hinge's axis cross-product matrix and its square, kq, k2q (n, 3) those times its
     point, ``axis`` and ``point`` (n, 3) its fold line; ``wq`` (L, 6) scratch: each place's
-    axis and point moved by its prefix."""
+    axis and point moved by its prefix. The prefix's rotation and translation are tuples
+    (kept in registers)."""
     m = pk.shape[0]
     jac[:, :] = 0.0
-    gr = np.empty((3, 3))
-    nr = np.empty((3, 3))
-    r = np.empty((3, 3))
-    gt = np.empty(3)
-    tl = np.empty(3)
     for ci in range(m):
         for l in range(ln[ci]):
             h = pk[ci, l]
             th = x[h] * (-1.0 if sg[ci, l] < 0 else 1.0)
-            sn = math.sin(th)
-            c1 = 1.0 - math.cos(th)
-            for a in range(3):
-                for b in range(3):
-                    r[a, b] = sn * kk[h, a, b] + c1 * kk2[h, a, b]
-                r[a, a] += 1.0
-                tl[a] = -(sn * kq[h, a] + c1 * k2q[h, a])
+            r, tl = _turn(kk, kk2, kq, k2q, h, math.sin(th), 1.0 - math.cos(th))
             if l == 0:
+                gr, gt = r, tl
                 for a in range(3):
                     wq[0, a] = axis[h, a]
                     wq[0, 3 + a] = point[h, a]
-                    gt[a] = tl[a]
-                    for b in range(3):
-                        gr[a, b] = r[a, b]
                 continue
-            for a in range(3):
-                wq[l, a] = gr[a, 0] * axis[h, 0] + gr[a, 1] * axis[h, 1] + gr[a, 2] * axis[h, 2]
-                wq[l, 3 + a] = (gr[a, 0] * point[h, 0] + gr[a, 1] * point[h, 1] + gr[a, 2] * point[h, 2]) + gt[a]
-            m0 = gr[0, 0] * tl[0] + gr[0, 1] * tl[1] + gr[0, 2] * tl[2]
-            m1 = gr[1, 0] * tl[0] + gr[1, 1] * tl[1] + gr[1, 2] * tl[2]
-            m2 = gr[2, 0] * tl[0] + gr[2, 1] * tl[1] + gr[2, 2] * tl[2]
-            gt[0] += m0
-            gt[1] += m1
-            gt[2] += m2
-            for a in range(3):
-                for b in range(3):
-                    nr[a, b] = gr[a, 0] * r[0, b] + gr[a, 1] * r[1, b] + gr[a, 2] * r[2, b]
-            for a in range(3):
-                for b in range(3):
-                    gr[a, b] = nr[a, b]
+            wq[l, 0], wq[l, 1], wq[l, 2] = _mv3(gr, axis[h, 0], axis[h, 1], axis[h, 2])
+            wp = _mv3(gr, point[h, 0], point[h, 1], point[h, 2])
+            wq[l, 3], wq[l, 4], wq[l, 5] = wp[0] + gt[0], wp[1] + gt[1], wp[2] + gt[2]
+            mt = _mv3(gr, tl[0], tl[1], tl[2])
+            gt = (gt[0] + mt[0], gt[1] + mt[1], gt[2] + mt[2])
+            gr = _mm3(gr, r)
         # the cycle's residual: rotation vector of gr (closure._rotvecs), translation gt
         row = 6 * ci
-        tr = (gr[0, 0] + gr[1, 1] + gr[2, 2] - 1.0) / 2.0
+        tr = (gr[0] + gr[4] + gr[8] - 1.0) / 2.0
         ang = math.acos(min(max(tr, -1.0), 1.0))
-        v0, v1, v2 = gr[2, 1] - gr[1, 2], gr[0, 2] - gr[2, 0], gr[1, 0] - gr[0, 1]
+        v0, v1, v2 = gr[7] - gr[5], gr[2] - gr[6], gr[3] - gr[1]
         if math.pi - ang < 1e-6:  # half-turn residuals never occur near closure (closure._rotvec)
             mk, best = 0, -1.0
             for a in range(3):
-                if (gr[a, a] + 1.0) / 2.0 > best:
-                    best, mk = (gr[a, a] + 1.0) / 2.0, a
+                if (gr[4 * a] + 1.0) / 2.0 > best:
+                    best, mk = (gr[4 * a] + 1.0) / 2.0, a
             nrm = math.sqrt(max(best, 1e-300))
-            v0 = ang * ((gr[0, mk] + (1.0 if mk == 0 else 0.0)) / 2.0 / nrm)
-            v1 = ang * ((gr[1, mk] + (1.0 if mk == 1 else 0.0)) / 2.0 / nrm)
-            v2 = ang * ((gr[2, mk] + (1.0 if mk == 2 else 0.0)) / 2.0 / nrm)
+            v0 = ang * ((gr[mk] + (1.0 if mk == 0 else 0.0)) / 2.0 / nrm)
+            v1 = ang * ((gr[3 + mk] + (1.0 if mk == 1 else 0.0)) / 2.0 / nrm)
+            v2 = ang * ((gr[6 + mk] + (1.0 if mk == 2 else 0.0)) / 2.0 / nrm)
         else:
             f = 0.5 if ang < 1e-6 else ang / (2.0 * math.sin(ang))
             v0, v1, v2 = v0 * f, v1 * f, v2 * f
@@ -128,32 +140,6 @@ def residuals(xs, pk, ln, sg, kk, kk2, kq, k2q, axis, point):  # pragma: no cove
     for i in range(s_):
         closure_at(xs[i], pk, ln, sg, kk, kk2, kq, k2q, axis, point, c[i], jac[i], wq)
     return c, jac
-
-
-@njit
-def _normal(jac, c, gram, g, nz):  # pragma: no cover - compiled
-    """J^T J into ``gram`` (symmetric to the bit) and J^T C into ``g``, row by row of J over
-    its nonzero entries (a row is one cycle's: at most its length of them; ``nz`` (n,)
-    scratch for their columns)."""
-    k, n = jac.shape
-    gram[:, :] = 0.0
-    g[:] = 0.0
-    for r in range(k):
-        cnt = 0
-        for a in range(n):
-            if jac[r, a] != 0.0:
-                nz[cnt] = a
-                cnt += 1
-        cr = c[r]
-        for i in range(cnt):
-            a = nz[i]
-            ja = jac[r, a]
-            g[a] += ja * cr
-            for j in range(i, cnt):
-                gram[a, nz[j]] += ja * jac[r, nz[j]]
-    for a in range(n):
-        for b in range(a + 1, n):
-            gram[b, a] = gram[a, b]
 
 
 @njit
@@ -210,51 +196,23 @@ def _gn_svd(jac, c, d, step, vec, fr, work):  # pragma: no cover - compiled
 
 
 @njit
-def _lu_solve(a, b):  # pragma: no cover - compiled
-    """``np.linalg.solve(a, b)`` for a small square ``a`` (n, n) and b (n, r), both
-    overwritten: LU with partial pivoting (LAPACK getrf's pivot, the first largest in its
-    column), forward and back substitution; returns b. A zero pivot gives inf or nan, where
-    LAPACK raises (J^T J + t t^T is positive definite wherever the line solve runs)."""
-    n, nr = b.shape
-    for j in range(n):
-        p, big = j, abs(a[j, j])
-        for i in range(j + 1, n):
-            if abs(a[i, j]) > big:
-                p, big = i, abs(a[i, j])
-        if p != j:
-            for q in range(n):
-                a[j, q], a[p, q] = a[p, q], a[j, q]
-            for q in range(nr):
-                b[j, q], b[p, q] = b[p, q], b[j, q]
-        inv = 1.0 / a[j, j]
-        for i in range(j + 1, n):
-            f = a[i, j] * inv
-            a[i, j] = f
-            for q in range(j + 1, n):
-                a[i, q] -= f * a[j, q]
-            for q in range(nr):
-                b[i, q] -= f * b[j, q]
-    for q in range(nr):
-        for i in range(n - 1, -1, -1):
-            acc = b[i, q]
-            for k in range(i + 1, n):
-                acc -= a[i, k] * b[k, q]
-            b[i, q] = acc / a[i, i]
-    return b
-
-
-@njit
-def _gn_line(gram, g, d, guide, step, w):  # pragma: no cover - compiled
-    """corrector._gn_line of one point: the step, and the null line into ``w``."""
+def _gn_line(gram, g, d, guide, step, w, a, rhs):  # pragma: no cover - compiled
+    """corrector._gn_line of one point: the step, and the null line into ``w``; ``a`` (n, n)
+    and ``rhs`` (n, 2) scratch. J^T J + t t^T is positive definite wherever the line solve
+    runs: a Cholesky solve up to SMALL hinges (half the LU's arithmetic), the LU where a
+    pivot is not positive after all, LAPACK's ``gesv`` above SMALL."""
     n = gram.shape[0]
-    a = np.empty((n, n))
-    rhs = np.empty((n, 2))
+    shifted(a, gram, guide, 0.0)
     for i in range(n):
-        for j in range(n):
-            a[i, j] = gram[i, j] + guide[i] * guide[j]
         rhs[i, 0] = guide[i]
         rhs[i, 1] = g[i]
-    sol = _lu_solve(a, rhs) if n <= SMALL else np.linalg.solve(a, rhs)
+    if n > SMALL:
+        sol = np.linalg.solve(a, rhs)
+    elif cholesky(a):
+        sol = cholesky_solve(a, rhs)
+    else:
+        shifted(a, gram, guide, 0.0)
+        sol = lu_solve(a, rhs)
     nrm = 0.0
     for i in range(n):
         nrm += sol[i, 0] * sol[i, 0]
@@ -270,50 +228,27 @@ def _gn_line(gram, g, d, guide, step, w):  # pragma: no cover - compiled
 
 
 @njit
-def _positive_definite(a):  # pragma: no cover - compiled
-    """Whether the Cholesky factorisation of the symmetric ``a`` succeeds (every pivot
-    positive, LAPACK potrf's test), on a copy."""
-    n = a.shape[0]
-    f = a.copy()
-    for j in range(n):
-        s = f[j, j]
-        for p in range(j):
-            s -= f[j, p] * f[j, p]
-        if not s > 0.0:
-            return False
-        s = math.sqrt(s)
-        f[j, j] = s
-        for i in range(j + 1, n):
-            t = f[i, j]
-            for p in range(j):
-                t -= f[i, p] * f[j, p]
-            f[i, j] = t / s
-    return True
-
-
-@njit
-def _certified(jac, gram, w):  # pragma: no cover - compiled
-    """corrector._certified of one point: J's null space is exactly the line w."""
-    k, n = jac.shape
+def _certified(jac, gram, w, a, cols, cn):  # pragma: no cover - compiled
+    """corrector._certified of one point: J's null space is exactly the line w (``a`` (n, n)
+    scratch; J w over each cycle's columns, :func:`cycle_columns`: the same sums)."""
+    n = w.shape[0]
     tr = 0.0
     for i in range(n):
         tr += gram[i, i]
     thr = RANK_TOL * max(1.0, math.sqrt(tr))
     jw = 0.0
-    for r in range(k):
-        acc = 0.0
-        for a in range(n):
-            acc += jac[r, a] * w[a]
-        jw += acc * acc
+    for ci in range(cols.shape[0]):
+        for r in range(6 * ci, 6 * ci + 6):
+            acc = 0.0
+            for b in range(cn[ci]):
+                acc += jac[r, cols[ci, b]] * w[cols[ci, b]]
+            jw += acc * acc
     if not math.sqrt(jw) <= thr:
         return False
-    a = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            a[i, j] = gram[i, j] + w[i] * w[j]
-        a[i, i] -= thr * thr
-    if _positive_definite(a):
+    shifted(a, gram, w, thr * thr)
+    if cholesky(a):
         return True
+    shifted(a, gram, w, thr * thr)
     return np.linalg.eigvalsh(a)[0] > 0.0
 
 
@@ -327,14 +262,14 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
     c = np.empty(k)
     jac = np.empty((k, n))
     wq = np.empty((max(pk.shape[1], 1), 6))
-    gram = np.empty((n, n))
+    gram, sq, rhs = np.empty((n, n)), np.empty((n, n)), np.empty((n, 2))
     g = np.empty(n)
     d = np.empty(n)
     step = np.empty(n)
     vec = np.empty((n, n))
     fr = np.zeros(n, np.bool_)
     w = np.empty(n)
-    nz = np.empty(n, np.intp)
+    cols, cn = cycle_columns(pk, ln, n)
     work = svd_work(k, n)
     count = 0
     for i in range(size):
@@ -353,8 +288,8 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
             xmax = max(xmax, abs(xi[j]))
         isline = line[i]
         if isline:
-            _normal(jac, c, gram, g, nz)
-            _gn_line(gram, g, d, guide[i], step, w)
+            normal_eq(jac, c, gram, g, cols, cn)
+            _gn_line(gram, g, d, guide[i], step, w, sq, rhs)
             vec[:, :] = 0.0
             fr[:] = False
             for j in range(n):
@@ -366,7 +301,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
             if plain[i] and xmax < SVD_BELOW:
                 _gn_svd(jac, c, d, step, vec, fr, work)
             else:
-                _normal(jac, c, gram, g, nz)
+                normal_eq(jac, c, gram, g, cols, cn)
                 _gn_eigh(gram, g, d, RANK_RES * r * (1.0 if far[i] else 0.0), step, vec, fr)
             nul = 0
             for j in range(n):
@@ -377,7 +312,7 @@ def round_pool(x, target, it, spec, far, plain, res, null, done, basis, free, al
         final = it[i] >= GN_STEPS + NEWTON_STEPS
         stop = (r < CLOSURE_TOL and (big < OPT_TOL or it[i] >= GN_STEPS)) or final
         moving = not stop
-        if isline and stop and not final and not _certified(jac, gram, w):
+        if isline and stop and not final and not _certified(jac, gram, w, sq, cols, cn):
             line[i] = False  # evaluated again, with the eigen-decomposition
             stop = False
             moving = False
