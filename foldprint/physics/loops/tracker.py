@@ -24,8 +24,6 @@ bit); this module's array code is its reference and the one-drive path.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
-
 import numpy as np
 
 from .corrector import OPT_TOL, Pool, Solves, norms, predict
@@ -59,6 +57,11 @@ class _Counted:
     def _fused(self, pool):
         self.evaluations += self.evaluate.fused(pool)
         self.rounds += 1
+
+    def took(self, rounds: int, evaluations: int) -> None:
+        """Count a compiled track's rounds and evaluations (``track_kernels.track_pool``)."""
+        self.evaluations += self.evaluate.counted(evaluations)
+        self.rounds += rounds
 
     def __call__(self, xs):
         self.evaluations += len(xs)
@@ -236,15 +239,23 @@ def track(evaluate, times, driven, compiled: bool | None = None) -> Tracks:
     return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
 
 
-def _track_compiled(st: DriveState, ev: _Counted) -> Tracks:
-    """:func:`track`'s loop with its bookkeeping compiled (``tracker_kernels.between``)."""
-    from .tracker_kernels import between
-
+def _track_compiled(st: DriveState, ev: _Counted, fused: bool = True) -> Tracks:
+    """:func:`track`'s loop with its bookkeeping compiled (``tracker_kernels.between``), the
+    whole loop one compiled call (``track_kernels.track_pool``: a track is one dispatch, not
+    two a round). ``fused=False``: the loop in Python, a call of the bookkeeping and a
+    compiled round a turn, the same calls in the same order (the driver's reference in tests)."""
     pool, arrays = _compiled_state(st)
-    first = True
-    while between(first, *arrays):
-        first = False
-        pool.round(ev)
+    if fused:
+        from .track_kernels import track_pool
+
+        ev.took(*track_pool(True, *arrays, ev.evaluate.tables))
+    else:
+        from .tracker_kernels import between
+
+        first = True
+        while between(first, *arrays):
+            first = False
+            pool.round(ev)
     return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
 
 
@@ -262,14 +273,21 @@ def _compiled_state(st: DriveState):
     return pool, (sts, rq, pl)
 
 
-@lru_cache(maxsize=None)
-def warm_compiled(n: int) -> None:
-    """Load the compiled bookkeeping (compile it on a cold cache) for drives of ``n``
-    hinges without tracking anything (no drive has points to end or post), so a pool of
-    workers forked after this finds it loaded (once per process and size)."""
-    from .tracker_kernels import between
+_WARM = {"done": False}
 
-    between(False, *_compiled_state(DriveState(np.zeros(2), np.zeros((1, 2, n))))[1])
+
+def warm_compiled(evaluate) -> None:
+    """Load the compiled track (``track_kernels.track_pool``; on a cold cache compile it,
+    with the bookkeeping and the round it calls) for the compiled closure ``evaluate``
+    without tracking anything (no drive has points to post, so no round runs), so a pool of
+    workers forked after this finds it loaded. Once per process: its types are the same
+    whatever the pattern (one hinge here)."""
+    if _WARM["done"]:
+        return
+    from .track_kernels import track_pool
+
+    track_pool(False, *_compiled_state(DriveState(np.zeros(2), np.zeros((1, 2, 1))))[1], evaluate.tables)
+    _WARM["done"] = True
 
 
 def _ended(st: DriveState, pool: Pool, req: _Requests, live):
