@@ -18,7 +18,9 @@ its step and puts its next ones in, while the other drives go on iterating. Each
 state between rounds is a row of :class:`~foldprint.physics.loops.drive_state.DriveState`.
 Where the rounds are compiled (a Monte-Carlo chunk), everything between two rounds is one
 compiled call too (:mod:`foldprint.physics.loops.tracker_kernels`, the same answers bit for
-bit); this module's array code is its reference and the one-drive path.
+bit), and the loop of the two a compiled call of its own
+(:mod:`foldprint.physics.loops.track_kernels`): a whole track, one call; this module's array
+code is its reference and the one-drive path.
 """
 
 from __future__ import annotations
@@ -208,8 +210,8 @@ def _starts(st: DriveState, live, near, x, ys):
 def track(evaluate, times, driven, compiled: bool | None = None) -> Tracks:
     """Follow S drives ``driven`` (S, n_t, n) rad on the grid ``times`` (n_t,) s on the
     closure manifold from the flat sheet, all at once (module docstring). ``compiled``: the
-    bookkeeping between rounds in one compiled call a round
-    (:mod:`foldprint.physics.loops.tracker_kernels`, the same answers bit for bit); None:
+    bookkeeping between rounds compiled and the whole track one compiled call
+    (:mod:`foldprint.physics.loops.track_kernels`, the same answers bit for bit); None:
     where ``evaluate`` takes compiled rounds (a ``fused`` method)."""
     st = DriveState(np.asarray(times, float), np.asarray(driven, float))
     s, _, n = st.driven.shape

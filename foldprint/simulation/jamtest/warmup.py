@@ -24,7 +24,7 @@ import importlib
 #: forward kinematics, the broad phase and screen, the narrow phase and the exact distance),
 #: ``loops`` the closure's compiled round (with its small SVD), the tracker's bookkeeping and
 #: the compiled track that calls both.
-#: Compile CPU on a cold cache (docs/kernels.md): ~33 s and ~33 s.
+#: Compile CPU on a cold cache (docs/kernels.md): ~42 s and ~42 s.
 GROUPS: dict[str, tuple[str, ...]] = {
     "strips": ("foldprint.physics.recovery.batch_kernels", "foldprint.physics.kinematics_kernels",
                "foldprint.collision.broadphase_kernels", "foldprint.collision.swept3d_kernels",
