@@ -95,7 +95,7 @@ def test_the_note_reads_only_what_every_fold_compiles(monkeypatch):
         assert warmup.cold_kernels(True, sure=True) == []
     monkeypatch.setattr(warmup, "is_cached", lambda module, name: name != "screen_runs")
     assert warmup.cold_kernels(False, sure=True) == ["strips"]
-    monkeypatch.setattr(warmup, "is_cached", lambda module, name: name != "between")
+    monkeypatch.setattr(warmup, "is_cached", lambda module, name: name != "track_pool")
     assert warmup.cold_kernels(True, sure=True) == ["loops"] and warmup.cold_kernels(False, sure=True) == []
     assert {g for g, probes in warmup.PROBES.items() for p in probes if p in warmup.EVERY_FOLD} == {"strips", "loops"}
 

@@ -211,18 +211,25 @@ def test_tracks_match_on_random_loop_patterns(design, data):
 @on_numba
 def test_one_drive_is_the_reference_and_a_chunk_is_compiled(monkeypatch):
     """By default one drive (the nominal fold the reports print) takes the numpy round, bit
-    for bit, and only loads the compiled one; two or more (a Monte-Carlo chunk) use it."""
-    from foldprint.physics.loops import closure_kernels
+    for bit, and only loads the compiled track (rounds and bookkeeping); two or more (a
+    Monte-Carlo chunk) use it."""
+    from foldprint.physics.loops import track_kernels, tracker
 
     d, grid, drivens = _check_drives("miura_3x3", 2)
     solver = _solver(d)
-    calls = []
-    real = closure_kernels.CompiledClosure.fused
-    monkeypatch.setattr(closure_kernels.CompiledClosure, "fused",
-                        lambda self, pool: calls.append(pool.alive.any()) or real(self, pool))
+    calls = []  # each compiled track's (first call, rounds)
+    real = track_kernels.track_pool
+
+    def spy(first, *arrays):
+        got = real(first, *arrays)
+        calls.append((first, got[0]))
+        return got
+
+    monkeypatch.setattr(track_kernels, "track_pool", spy)
+    monkeypatch.setitem(tracker._WARM, "done", False)
     one = solver.track(grid[:300], drivens[0][:300])
-    assert calls == [False]  # loaded for the chunks to come (warm), not used
+    assert calls == [(False, 0)]  # loaded for the chunks to come (warm: no drive has points), not used
     ref = solver.track_many(grid[:300], [drivens[0][:300]], compiled=False)[0]
     assert np.array_equal(one.angles, ref.angles) and one.closure == ref.closure
     solver.track_many(grid[:300], [v[:300] for v in drivens])
-    assert len(calls) > 1 and all(calls[1:])
+    assert len(calls) == 2 and calls[1][0] and calls[1][1] > 0

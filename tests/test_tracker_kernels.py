@@ -7,6 +7,8 @@ numpy's."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from itertools import islice
 from unittest import mock
 
@@ -20,9 +22,10 @@ from foldprint.io.load import load_design
 from foldprint.io.templates import templates_dir
 from foldprint.model.materials import default_library
 from foldprint.physics.hinge_drive import HingeDrive, loop_dt, run_times
-from foldprint.physics.kinematics import hinge_frames
+from foldprint.physics.kinematics import hinge_frames, target_angles
 from foldprint.physics.loops import corrector, tracker
 from foldprint.physics.loops.closure import LoopSolver
+from foldprint.physics.loops.drive_state import DriveState
 from foldprint.simulation.robust import sample_drives
 from foldprint.simulation.scatter import default_scatter, iter_samples
 
@@ -34,12 +37,22 @@ with mock.patch.dict(os.environ, {jit.ENV: "numba"}):
 
 def _both(solver, grid, drivens):
     """The tracks of ``drivens`` with the compiled rounds, the bookkeeping in numpy and
-    compiled."""
+    compiled (the whole track one compiled call, ``track_kernels.track_pool``); the compiled
+    bookkeeping called from a Python loop, a round a turn, gives the same as the latter, and
+    each path counts in the solver the evaluations it reports."""
     from foldprint.physics.loops.closure_kernels import CompiledClosure
 
     kernel = CompiledClosure(solver)
     driven = np.stack(drivens)
-    return tracker.track(kernel, grid, driven, compiled=False), tracker.track(kernel, grid, driven, compiled=True)
+    got = []
+    for run in (lambda: tracker.track(kernel, grid, driven, compiled=False),
+                lambda: tracker.track(kernel, grid, driven, compiled=True),
+                lambda: tracker._track_compiled(DriveState(grid, driven), tracker._Counted(kernel), fused=False)):
+        before = solver.evaluations
+        got.append(run())
+        assert solver.evaluations - before == got[-1].evaluations > 0
+    _assert_identical(got[1], got[2])
+    return got[0], got[1]
 
 
 def _assert_identical(a: tracker.Tracks, b: tracker.Tracks):
@@ -99,3 +112,38 @@ def test_predictor_is_numpys_bits():
         got = np.array([_predict(x[i], target[i], basis[i], free[i], np.empty((3, n))).copy() for i in range(50)])
         assert np.array_equal(got, want)
         assert not np.array_equal(got, x)  # the predictor moved
+
+
+def test_the_warm_track_is_the_chunks_own(monkeypatch):
+    """The compiled track loaded before the workers fork (``tracker.warm_compiled``, no drive
+    tracked) has the types a chunk's track calls it with: the chunk compiles nothing more."""
+    from foldprint.physics.loops.closure_kernels import CompiledClosure
+    from foldprint.physics.loops.track_kernels import track_pool
+
+    d = load_design(templates_dir() / "miura_3x3.toml")
+    solver = LoopSolver(hinge_frames(d), [h.id for h in d.hinges])
+    monkeypatch.setitem(tracker._WARM, "done", False)
+    before = solver.evaluations
+    tracker.warm_compiled(CompiledClosure(solver))
+    assert solver.evaluations == before and len(track_pool.signatures) == 1  # loaded, nothing tracked
+    t = np.linspace(0.0, 1.0, 5)
+    drive = np.outer(t, 0.3 * target_angles(d))  # a third of the way: the loops stay open
+    solver.track_many(t, [drive, 0.9 * drive], compiled=True)
+    assert solver.evaluations > before and len(track_pool.signatures) == 1
+
+
+def test_a_change_to_a_compiled_in_module_makes_the_cache_stale(tmp_path):
+    """numba stamps a cached function with its own file only, while its cached code holds
+    the functions it calls: :func:`track_kernels.stale_with` adds their files' stamps, so an
+    edit of the callee alone is compiled again (the callee's size changes with the edit)."""
+    (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef g(x):\n    return x + 1\n")
+    (tmp_path / "caller.py").write_text(
+        "import callee\nfrom numba import njit\nfrom foldprint.physics.loops.track_kernels import stale_with\n\n"
+        "@njit(cache=True)\ndef f(x):\n    return callee.g(x) * 10\n\nstale_with(f, [callee.__file__])\n")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")]))
+    run = [sys.executable, "-c", "import caller; print(caller.f(1))"]
+    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.split() == ["20"]
+    assert list((tmp_path / "cache").rglob("caller.f-*.nbi"))  # cached
+    (tmp_path / "callee.py").write_text((tmp_path / "callee.py").read_text().replace("x + 1", "x + 12"))
+    assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.split() == ["130"]

@@ -297,8 +297,7 @@ class LoopSolver:
         if compiled is None:
             compiled = len(drivens) >= COMPILED_FROM
             if not compiled and self._compiled() is not None:
-                self._kernel.warm()  # the chunks to come (a pool forked after this) find it loaded
-                warm_compiled(self.n)  # ... and the tracker's compiled bookkeeping
+                warm_compiled(self._kernel)  # the chunks to come (a pool forked after this) find it loaded
         got = track_all((compiled and self._compiled()) or self._evaluate, times, np.stack(drivens))
         self.rounds += got.rounds
         return [self._solution(times, got.angles[i], d, float(got.closure[i]), got.locked_at[i], int(got.dof[i]))

@@ -342,7 +342,7 @@ class CompiledClosure:
 
     def __init__(self, solver):
         m = len(solver.cycles)
-        self.solver, self._warm = solver, False
+        self.solver = solver
         pk = np.zeros((m, max((len(c) for c in solver.cycles), default=1)), np.intp)
         ln = np.zeros(m, np.intp)
         sg = np.zeros(pk.shape)
@@ -363,17 +363,14 @@ class CompiledClosure:
         self.solver.evaluations += len(xs)
         return residuals(np.ascontiguousarray(xs, dtype=float), *self.tables)
 
-    def warm(self) -> None:
-        """Load the compiled round (compile it on a cold cache) without a point to evaluate."""
-        if not self._warm:
-            from .corrector import Pool
-
-            self.fused(Pool(self.solver.n, 1))
-            self._warm = True
-
     def fused(self, pool) -> int:
         """One round of every live point of ``pool``; returns how many were evaluated."""
         count = round_pool(pool.x, pool.target, pool.it, pool.spec, pool.far, pool.plain, pool.res, pool.null,
                            pool.done, pool.basis, pool.free, pool.alive, pool.line, pool.guide, *self.tables)
-        self.solver.evaluations += count
-        return count
+        return self.counted(count)
+
+    def counted(self, evaluations: int) -> int:
+        """Count ``evaluations`` (of a round, or of a whole compiled track:
+        :mod:`~foldprint.physics.loops.track_kernels`) in the solver's; returns them."""
+        self.solver.evaluations += evaluations
+        return evaluations

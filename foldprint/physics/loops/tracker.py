@@ -18,14 +18,14 @@ its step and puts its next ones in, while the other drives go on iterating. Each
 state between rounds is a row of :class:`~foldprint.physics.loops.drive_state.DriveState`.
 Where the rounds are compiled (a Monte-Carlo chunk), everything between two rounds is one
 compiled call too (:mod:`foldprint.physics.loops.tracker_kernels`, the same answers bit for
-bit); this module's array code is its reference and the one-drive path.
+bit), and the loop of the two a compiled call of its own
+(:mod:`foldprint.physics.loops.track_kernels`): a whole track, one call; this module's array
+code is its reference and the one-drive path.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
-
 import numpy as np
 
 from .corrector import OPT_TOL, Pool, Solves, norms, predict
@@ -59,6 +59,11 @@ class _Counted:
     def _fused(self, pool):
         self.evaluations += self.evaluate.fused(pool)
         self.rounds += 1
+
+    def took(self, rounds: int, evaluations: int) -> None:
+        """Count a compiled track's rounds and evaluations (``track_kernels.track_pool``)."""
+        self.evaluations += self.evaluate.counted(evaluations)
+        self.rounds += rounds
 
     def __call__(self, xs):
         self.evaluations += len(xs)
@@ -208,8 +213,8 @@ def _starts(st: DriveState, live, near, x, ys):
 def track(evaluate, times, driven, compiled: bool | None = None) -> Tracks:
     """Follow S drives ``driven`` (S, n_t, n) rad on the grid ``times`` (n_t,) s on the
     closure manifold from the flat sheet, all at once (module docstring). ``compiled``: the
-    bookkeeping between rounds in one compiled call a round
-    (:mod:`foldprint.physics.loops.tracker_kernels`, the same answers bit for bit); None:
+    bookkeeping between rounds compiled and the whole track one compiled call
+    (:mod:`foldprint.physics.loops.track_kernels`, the same answers bit for bit); None:
     where ``evaluate`` takes compiled rounds (a ``fused`` method)."""
     st = DriveState(np.asarray(times, float), np.asarray(driven, float))
     s, _, n = st.driven.shape
@@ -239,15 +244,23 @@ def track(evaluate, times, driven, compiled: bool | None = None) -> Tracks:
     return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
 
 
-def _track_compiled(st: DriveState, ev: _Counted) -> Tracks:
-    """:func:`track`'s loop with its bookkeeping compiled (``tracker_kernels.between``)."""
-    from .tracker_kernels import between
-
+def _track_compiled(st: DriveState, ev: _Counted, fused: bool = True) -> Tracks:
+    """:func:`track`'s loop with its bookkeeping compiled (``tracker_kernels.between``), the
+    whole loop one compiled call (``track_kernels.track_pool``: a track is one dispatch, not
+    two a round). ``fused=False``: the loop in Python, a call of the bookkeeping and a
+    compiled round a turn, the same calls in the same order (the driver's reference in tests)."""
     pool, arrays = _compiled_state(st)
-    first = True
-    while between(first, *arrays):
-        first = False
-        pool.round(ev)
+    if fused:
+        from .track_kernels import track_pool
+
+        ev.took(*track_pool(True, *arrays, ev.evaluate.tables))
+    else:
+        from .tracker_kernels import between
+
+        first = True
+        while between(first, *arrays):
+            first = False
+            pool.round(ev)
     return Tracks(st.out, st.worst, st.locked, st.dof, ev.evaluations, ev.rounds)
 
 
@@ -265,14 +278,21 @@ def _compiled_state(st: DriveState):
     return pool, (sts, rq, pl)
 
 
-@lru_cache(maxsize=None)
-def warm_compiled(n: int) -> None:
-    """Load the compiled bookkeeping (compile it on a cold cache) for drives of ``n``
-    hinges without tracking anything (no drive has points to end or post), so a pool of
-    workers forked after this finds it loaded (once per process and size)."""
-    from .tracker_kernels import between
+_WARM = {"done": False}
 
-    between(False, *_compiled_state(DriveState(np.zeros(2), np.zeros((1, 2, n))))[1])
+
+def warm_compiled(evaluate) -> None:
+    """Load the compiled track (``track_kernels.track_pool``; on a cold cache compile it,
+    with the bookkeeping and the round it calls) for the compiled closure ``evaluate``
+    without tracking anything (no drive has points to post, so no round runs), so a pool of
+    workers forked after this finds it loaded. Once per process: its types are the same
+    whatever the pattern (one hinge here)."""
+    if _WARM["done"]:
+        return
+    from .track_kernels import track_pool
+
+    track_pool(False, *_compiled_state(DriveState(np.zeros(2), np.zeros((1, 2, 1))))[1], evaluate.tables)
+    _WARM["done"] = True
 
 
 def _ended(st: DriveState, pool: Pool, req: _Requests, live):

@@ -22,14 +22,16 @@ import importlib
 
 #: kernel module -> its group: ``strips`` the path of every sample (the recovery curves,
 #: forward kinematics, the broad phase and screen, the narrow phase and the exact distance),
-#: ``loops`` the closure's compiled round (with its small SVD) and the tracker's bookkeeping.
-#: Compile CPU on a cold cache (docs/kernels.md): ~33 s and ~33 s.
+#: ``loops`` the closure's compiled round (with its small SVD), the tracker's bookkeeping and
+#: the compiled track that calls both.
+#: Compile CPU on a cold cache (docs/kernels.md): ~42 s and ~42 s.
 GROUPS: dict[str, tuple[str, ...]] = {
     "strips": ("foldprint.physics.recovery.batch_kernels", "foldprint.physics.kinematics_kernels",
                "foldprint.collision.broadphase_kernels", "foldprint.collision.swept3d_kernels",
                "foldprint.collision.narrow_kernels", "foldprint.collision.polytope_distance_kernels"),
     "loops": ("foldprint.physics.loops.decomp_kernels", "foldprint.physics.loops.closure_kernels",
-              "foldprint.physics.loops.tracker_kernels", "foldprint.physics.loops.normal_kernels"),
+              "foldprint.physics.loops.tracker_kernels", "foldprint.physics.loops.normal_kernels",
+              "foldprint.physics.loops.track_kernels"),
 }
 
 #: each group's kernels called from Python that take most of its compile time: the group is
@@ -39,8 +41,7 @@ PROBES: dict[str, tuple[tuple[str, str], ...]] = {
                ("foldprint.collision.polytope_distance_kernels", "panel_bounds"),
                ("foldprint.collision.swept3d_kernels", "screen_runs"),
                ("foldprint.physics.recovery.batch_kernels", "curves_table")),
-    "loops": (("foldprint.physics.loops.closure_kernels", "round_pool"),
-              ("foldprint.physics.loops.tracker_kernels", "between")),
+    "loops": (("foldprint.physics.loops.track_kernels", "track_pool"),),  # the round and bookkeeping in it
 }
 
 
@@ -56,14 +57,13 @@ def is_cached(module: str, name: str) -> bool:
 
 
 #: the probes every command that folds a design compiles: its nominal fold's (the swept
-#: screen; with loops the closure's round and the tracker's bookkeeping). The others are
-#: compiled by some folds only: the narrow phase's walk by one that reaches it, the exact
-#: distance by a clearance, the recovery curves' table by scattered samples (`assign`'s
-#: default search folds none)
+#: screen; with loops the compiled track, the closure's round and the tracker's bookkeeping
+#: in it). The others are compiled by some folds only: the narrow phase's walk by one that
+#: reaches it, the exact distance by a clearance, the recovery curves' table by scattered
+#: samples (`assign`'s default search folds none)
 EVERY_FOLD: frozenset[tuple[str, str]] = frozenset({
     ("foldprint.collision.swept3d_kernels", "screen_runs"),
-    ("foldprint.physics.loops.closure_kernels", "round_pool"),
-    ("foldprint.physics.loops.tracker_kernels", "between")})
+    ("foldprint.physics.loops.track_kernels", "track_pool")})
 
 
 def cold_kernels(loops: bool, *, sure: bool = False) -> list[str]:
@@ -95,9 +95,10 @@ def warm_group(name: str) -> str:
     Monte-Carlo passes them (the same types, so the same compiled signatures); returns the
     name. ``strips``: samples of a small coil that jams (its sweep reaches the narrow phase
     and the exact distance), of a hinge tree and of ``helix_uniform``, and the coil's
-    nominal fold and clearance; ``loops``: the closure round and the tracker's bookkeeping
-    on ``miura_3x3`` through their own warm functions, then two of its samples (by then the
-    other worker has written most of the strips' kernels: they load)."""
+    nominal fold and clearance; ``loops``: the compiled track (the closure round and the
+    tracker's bookkeeping in it) on ``miura_3x3`` through its warm function, then two of
+    its samples (by then the other worker has written most of the strips' kernels: they
+    load)."""
     if name == "strips":
         _warm_strips()
     elif name == "loops":
@@ -150,7 +151,7 @@ def _warm_loops() -> None:
     solver = LoopSolver(hinge_frames(design), [h.id for h in design.hinges])
     times = np.linspace(0.0, 1.0, 5)
     drive = np.outer(times, 0.3 * target_angles(design))  # a third of the way: the loops stay open
-    solver.track_many(times, [drive])  # one drive: the reference tracks it, the kernels' warm functions run
+    solver.track_many(times, [drive])  # one drive: the reference tracks it, the compiled track's warm function runs
     solver.track_many(times, [drive, 0.9 * drive], compiled=True)  # a chunk's path: every compiled call
     # then two samples: the strips' kernels on a loop pattern's read-only angles and poses
     # (their own compiled signatures); the rest the other worker has written by now
