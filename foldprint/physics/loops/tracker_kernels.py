@@ -309,8 +309,8 @@ def _restarts(st, rq, pl, i, ys):  # pragma: no cover - compiled
             if same:
                 row = e
                 early[i, own] = -1
-    for s in range(early.shape[1]):
-        if early_k[i, s] >= 0 and early_k[i, s] <= kk:
+    for s in range(early.shape[1]):  # each step's own restart (unless taken), older ones, those the margin covers
+        if early_k[i, s] >= 0 and (early_k[i, s] <= kk or early[i, s] >= 0 and _needless(st, i, target[early[i, s]])):
             if early[i, s] >= 0:
                 _release(pl, early[i, s])
             early_k[i, s], early[i, s] = -1, -1
