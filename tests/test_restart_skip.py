@@ -1,46 +1,39 @@
-"""Restarts from the drive that cannot be taken are not run (``drive_state.RESTART_SKIP``,
-docs/loops.md "Restarts that cannot be taken"): the margin a restart not taken left, the
-directions it covers, and, on the templates' check drives, that a restart skipped is one that,
-run, would not have been taken (the same answers bit for bit as running every restart),
-while a restart that switches branch is still run and taken."""
+"""Restarts from the drive that cannot be taken are not run (``drive_state.RESTART_SIDED``,
+docs/loops.md "Restarts that cannot be taken"): which drives and answers the rule covers, and,
+on the templates' check drives and on a sheet programmed flat, that a restart skipped is one
+that, run, would not have been taken (the same answers bit for bit as running every restart),
+while the restarts that switch branch still run and are taken."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+from itertools import islice
+
 import numpy as np
-import pytest
 
+from foldprint.core.constants import CHECK_DT_S, CHECK_SEED
+from foldprint.model.materials import default_library
+from foldprint.physics.hinge_drive import loop_dt, run_times
 from foldprint.physics.loops import drive_state as loop_state, tracker as loop_tracking
-from foldprint.physics.loops.corrector import SVD_BELOW
+from foldprint.physics.loops.corrector import OPT_TOL, SVD_BELOW
+from foldprint.simulation.robust import sample_drives
+from foldprint.simulation.scatter import default_scatter, iter_samples
 
-from test_loop_tracking import _check_drives, _solvers
-
-
-def _state(n_drives=1):
-    return loop_state.DriveState(np.arange(2.0), np.zeros((n_drives, 2, 2)))
+from test_loop_tracking import _check_drives, _design, _solvers
 
 
-def test_a_restart_not_taken_covers_the_directions_within_half_its_margin():
-    """Drive y = (0.1, 0): the continued answer on it, the restart's 0.05 off (margin 0.05,
-    over |y| 0.5): directions within 0.25 (chord of unit vectors) are covered, at any scale
-    (near flat the branches are cones); farther ones, and every drive after a restart that
-    was taken, not closed, nearer, or from a drive within SVD_BELOW of flat, are not."""
-    st = _state()
-    i = np.array([0])
-    y, xn, xb = np.array([[0.1, 0.0]]), np.array([[0.1, 0.0]]), np.array([[0.1, 0.05]])
-    st.restarted(i, y, xn, xb, np.array([True]))
-    assert st.margin[0] == pytest.approx(0.5) and np.array_equal(st.aside[0], [1.0, 0.0])
-    half = 0.5 * loop_state.RESTART_SKIP * 0.5
-    for scale in (0.05, 1.0, 3.0):
-        for angle, inside in ((0.9 * half, True), (1.1 * half, False)):
-            t = 2.0 * np.arcsin(angle / 2.0)  # the direction at chord ``angle`` from (1, 0)
-            drive = scale * np.array([[np.cos(t), np.sin(t)]])
-            assert st.needless(i, drive).tolist() == [inside], (scale, angle)
-    assert st.needless(i, np.zeros((1, 2))).tolist() == [False]  # no direction: run
-    for args in ((y, xn, xb, np.array([False])),  # taken (or not closed, not converged)
-                 (y, xb, xn, np.array([True])),  # the restart nearer: no margin
-                 (0.5 * SVD_BELOW * y / 0.1, xn, xb, np.array([True]))):  # a drive too near flat
-        st.restarted(i, *args)
-        assert st.margin[0] == 0.0 and st.needless(i, y).tolist() == [False]
+def test_a_restart_is_needless_only_where_every_hinge_is_folded_on_its_drives_side():
+    """Drive (0.1, -0.05): the last answer (0.02, -0.01), converged, covers it; not an answer
+    with a hinge on the other side of flat, one within OPT_TOL of flat, one not converged, nor
+    a drive within RESTART_SIDED (SVD_BELOW) of flat."""
+    assert loop_state.RESTART_SIDED == SVD_BELOW
+    st = loop_state.DriveState(np.arange(2.0), np.zeros((6, 2, 2)))
+    st.x[:] = [[0.02, -0.01], [0.02, 0.01], [0.02, -0.5 * OPT_TOL], [0.02, -2 * OPT_TOL], [0.02, -0.01],
+               [0.02, -0.01]]
+    st.tangent[:] = [True, True, True, True, False, True]
+    y = np.array([[0.1, -0.05]] * 5 + [[0.99 * SVD_BELOW, -0.5 * SVD_BELOW]])
+    assert st.needless(np.arange(6), y).tolist() == [True, False, False, True, False, False]
+    assert st.needless(np.array([0, 0]), np.array([[0.1, 0.05], [-0.1, -0.05]])).tolist() == [False, False]
 
 
 def _chosen(monkeypatch):
@@ -58,45 +51,53 @@ def _chosen(monkeypatch):
     return seen
 
 
-def _same(a, b):
-    assert np.array_equal(a.angles, b.angles) and np.array_equal(a.closure, b.closure)
-    assert np.array_equal(a.locked_at, b.locked_at, equal_nan=True) and np.array_equal(a.dof, b.dof)
-
-
-def test_a_skipped_restart_is_one_that_would_not_be_taken(monkeypatch):
-    """miura_3x3's check drives: with RESTART_SKIP, against running every restart (0): the
-    restarts not run are all ones that, run, are not taken, all from drives beyond SVD_BELOW;
-    every restart taken still runs; the same answers bit for bit in fewer evaluations."""
-    d, grid, drivens = _check_drives("miura_3x3", 4)
-    evaluate, driven = _solvers(d)[0].residuals, np.stack(drivens)
+def _against_every_restart(monkeypatch, design, grid, driven):
+    """Track with the rule and with every restart run (RESTART_SIDED infinite): the same
+    answers and events bit for bit; returns the restarts run by each, drive -> taken."""
+    evaluate = _solvers(design)[0].residuals
     seen = _chosen(monkeypatch)
     skip = loop_tracking.track(evaluate, grid, driven)
     ran = dict(seen)
     seen.clear()
-    monkeypatch.setattr(loop_state, "RESTART_SKIP", 0.0)
+    monkeypatch.setattr(loop_state, "RESTART_SIDED", np.inf)
     every = loop_tracking.track(evaluate, grid, driven)
-    skipped = set(seen) - set(ran)
-    assert len(skipped) >= 20 and set(ran) <= set(seen)
-    assert not any(seen[y] for y in skipped)
+    assert np.array_equal(skip.angles, every.angles) and np.array_equal(skip.closure, every.closure)
+    assert np.array_equal(skip.locked_at, every.locked_at, equal_nan=True) and np.array_equal(skip.dof, every.dof)
+    assert skip.evaluations <= every.evaluations
+    return ran, dict(seen), skip.evaluations / every.evaluations
+
+
+def _taken_beyond(seen, at):
+    return [np.abs(np.frombuffer(y)).max() for y, taken in seen.items() if taken and np.abs(np.frombuffer(y)).max() > at]
+
+
+def test_a_skipped_restart_is_one_that_would_not_be_taken(monkeypatch):
+    """miura_3x3's check drives: the restarts not run are all ones that, run, are not taken,
+    from drives beyond SVD_BELOW; every restart taken still runs; fewer evaluations."""
+    d, grid, drivens = _check_drives("miura_3x3", 4)
+    ran, every, ratio = _against_every_restart(monkeypatch, d, grid, np.stack(drivens))
+    skipped = set(every) - set(ran)
+    assert len(skipped) >= 40 and set(ran) <= set(every)
+    assert not any(every[y] for y in skipped)
     assert min(np.abs(np.frombuffer(y)).max() for y in skipped) >= SVD_BELOW
-    _same(skip, every)
-    assert skip.evaluations < 0.95 * every.evaluations
+    assert ratio < 0.93
 
 
 def test_a_restart_that_switches_branch_is_still_taken(monkeypatch):
     """cross_lock_uniform's check sample 41 switches branch through a restart at a drive of
-    0.061 rad, 1.56 times the margin of an earlier restart from it: run and taken, the same
-    answers as running every restart; with the margin doubled (beyond its bound) it is
-    skipped and the drive ends on the other branch."""
+    0.061 rad (its non-folding creases stay within OPT_TOL of flat), and a miura_3x3 sheet
+    programmed flat (fixity 1, 2x scatter, sample 23) returns to its branch through one at
+    0.158 rad (its answer had creases on the other side of flat): both still run and taken."""
     d, grid, drivens = _check_drives("cross_lock_uniform", 42)
-    evaluate, driven = _solvers(d)[0].residuals, np.stack(drivens[41:])
-    seen = _chosen(monkeypatch)
-    tracks, rule = {}, loop_state.RESTART_SKIP
-    for skip in (rule, 0.0, 2.0):
-        seen.clear()
-        monkeypatch.setattr(loop_state, "RESTART_SKIP", skip)
-        tracks[skip] = loop_tracking.track(evaluate, grid, driven)
-        switched = [np.abs(np.frombuffer(y)).max() for y, taken in seen.items() if taken]
-        assert (max(switched) > 0.05) == (skip < 2.0), skip
-    _same(tracks[rule], tracks[0.0])
-    assert np.abs(tracks[2.0].angles[0, -1] - tracks[0.0].angles[0, -1]).max() > 1.0  # the other branch
+    ran, _, _ = _against_every_restart(monkeypatch, d, grid, np.stack(drivens[41:]))
+    assert max(_taken_beyond(ran, 0.05)) > 0.06
+
+    monkeypatch.undo()
+    d = _design("miura_3x3")
+    d = replace(d, hinges=tuple(replace(h, fixity=1.0) for h in d.hinges))
+    sample = list(islice(iter_samples(d, default_scatter().scaled(2.0), 24, CHECK_SEED), 24))[23]
+    drive = sample_drives(d, default_library(), [sample])[0]
+    times = run_times(d, CHECK_DT_S)
+    grid = drive._loop_grid(times, loop_dt(times))[0]
+    ran, _, _ = _against_every_restart(monkeypatch, d, grid, drive.driven(grid)[None])
+    assert max(_taken_beyond(ran, 0.1)) > 0.15

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .corrector import MAX_STEP, OPT_TOL, SVD_BELOW, Solves, norms
+from .corrector import MAX_STEP, OPT_TOL, SVD_BELOW, Solves
 
 #: a hinge whose closed angle stays this far from its driven angle "cannot follow" (rad)
 FOLLOW_TOL = np.radians(2.0)
@@ -36,15 +36,16 @@ RESTART_EVERY = 3
 #: 1x and 2x change outcome against restarting at every step, without it 7; the templates'
 #: fixity starts their drives above it)
 RESTART_ALL = 0.003
-#: a restart that closed farther from its drive y than the continued answer, by m = |xb - y|
-#: - |xn - y| > 0, is not run again while the drive's direction y / |y| stays within
-#: RESTART_SKIP * (m / |y|) / 2 of its own (docs/loops.md, "Restarts that cannot be taken": near
-#: flat the branches are cones, so that margin over |y| is 2-Lipschitz in the direction and no
-#: restart there can close nearer; our choice 1, the bound itself; measured on the first check
-#: chunks of miura_3x3 and cross_lock_uniform: MEASURED). Only restarts whose drive is at
-#: least SVD_BELOW from flat set one: nearer, a restart at the same drive lands at different
-#: points (cross_lock_uniform at 0.005 rad: margins of 1e-4 to 8e-4 rad, then taken)
-RESTART_SKIP = 1.0
+#: from a drive this far from flat (rad, its largest angle) a restart is not run where the last
+#: answer converged with every hinge folded more than OPT_TOL on its drive's side (docs/loops.md,
+#: "Restarts that cannot be taken": a restart is taken only with every hinge on its drive's side,
+#: and near flat a branch is told by its mountain-valley assignment, so it could only land on
+#: the continued branch). Nearer flat restarts on the continued branch are taken at round-off
+#: (answers 3e-7 rad apart on miura_3x3), so they run there: SVD_BELOW, where the SVD starts
+#: to tell the branches apart. Measured on the first check chunk of miura_3x3: restarts 38.4
+#: to MEASURED a sample, evaluations 1773 to MEASURED; cross_lock_uniform's non-folding creases
+#: stay within OPT_TOL of flat, so its branch choices keep their restarts)
+RESTART_SIDED = SVD_BELOW
 #: a drive that moved less than this since the last solve (rad) is not re-solved
 SKIP_TOL = 1e-8
 #: away from the flat sheet (largest closed angle >= NEAR_FLAT), the same for a drive that moved
@@ -96,8 +97,6 @@ class DriveState:
         self.res_x = np.zeros(s)
         self.width = np.full(s, 2)
         self.out = np.zeros_like(driven)
-        self.aside = np.zeros((s, n))  # the direction of the drive of the last restart run not taken ...
-        self.margin = np.zeros(s)  # ... and how much farther it closed than the continued answer, over |drive|
         # per drive and grid step, fixed for the track: whether the step restarts from its drive
         # (near the flat sheet: every RESTART_EVERY-th step, every step while the drive is
         # within RESTART_ALL of flat), and how many steps from there on in a row move the
@@ -179,31 +178,15 @@ class DriveState:
         self.k[i] = k + 1
         self.sub[i] = 0
 
-    def restarted(self, i, y, xn, xb, far):
-        """Remember the restarts of drives ``i`` from their drives ``y`` (len(i), n): ``far``
-        where one was closed, converged and not taken, its answer ``xb`` then farther from the
-        drive than the continued answer ``xn`` by a margin (a drive at least SVD_BELOW from
-        flat: the margin over |y|, and y's direction; else none: 0)."""
-        m, r = norms(xb - y) - norms(xn - y), norms(y)
-        far = far & (m > 0.0) & (np.abs(y).max(axis=1, initial=0.0) >= SVD_BELOW)
-        self.margin[i] = 0.0
-        if far.any():
-            self.margin[i[far]] = m[far] / r[far]
-            self.aside[i[far]] = y[far] / r[far][:, None]
-
     def needless(self, i, y):
         """Whether restarts of drives ``i`` from drives ``y`` (len(i), n) cannot be taken: the
-        direction of y within RESTART_SKIP times half the margin of the last restart not taken
-        from the direction of its drive (:meth:`restarted`)."""
-        out = np.zeros(len(i), bool)
-        m = self.margin[i]
-        some = (m > 0.0).nonzero()[0]
-        if some.size:
-            r = norms(y[some])
-            ok = r > 0.0
-            some, r = some[ok], r[ok]
-            out[some] = norms(y[some] / r[:, None] - self.aside[i[some]]) < RESTART_SKIP * 0.5 * m[some]
-        return out
+        drive at least RESTART_SIDED from flat, the last answer converged with every hinge
+        folded more than OPT_TOL on its drive's side (a restart taken must keep every hinge on
+        its drive's side: near flat, on the continued branch, whose nearest point the solve
+        from the last answer finds)."""
+        x = self.x[i]
+        return (self.tangent[i] & (np.abs(y).max(axis=1, initial=0.0) >= RESTART_SIDED)
+                & ((x * y > 0.0) & (np.abs(x) > OPT_TOL)).all(axis=1))
 
     def settle(self, i, sol: Solves, rows):
         """Take the converged answers ``sol`` rows ``rows`` as the drives' ``i`` configuration."""

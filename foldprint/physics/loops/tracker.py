@@ -119,7 +119,7 @@ class _Requests:
         k, n_t, j = st.k[live], st.n_t, np.arange(len(live))
         ek, ei = self.early_k[live], self.early[live]  # a step's restart ahead sits in slot step % PREFETCH
         rows = np.full(len(live), -1)
-        run = ~st.needless(live, ys)  # inside: this step's restart is not run (nor kept from ahead)
+        run = ~st.needless(live, ys)  # else this step's restart is not run (nor kept from ahead)
         if PREFETCH:
             own = k % PREFETCH
             h = (run & (ek[j, own] == k) & (st.nsub[live] == 1) & (st.sub[live] == 1)).nonzero()[0]
@@ -128,7 +128,7 @@ class _Requests:
             ei[h, own[h]] = -1  # taken
         gone = (ek >= 0) & (ek <= k[:, None])  # each step's own restart (unless taken) and older ones ...
         r, c = ((ek > k[:, None]) & (ei >= 0)).nonzero()
-        if r.size:  # ... and those ahead that the last restart's margin now covers
+        if r.size:  # ... and those ahead that could now not be taken
             gone[r, c] = st.needless(live[r], pool.target[ei[r, c]])
         if gone.any():
             old = ei[gone]
@@ -148,7 +148,7 @@ class _Requests:
                 d, kk = live[mr], want[mr, mc]
                 y0 = st.driven[d, kk - 1]
                 y1 = y0 + (st.driven[d, kk] - y0)  # the step's target as begin() computes it
-                ok = ~st.needless(d, y1)  # not inside the last restart's margin
+                ok = ~st.needless(d, y1)  # those that could be taken
                 mr, mc, kk, y1 = mr[ok], mc[ok], kk[ok], y1[ok]
                 ids = pool.add(y1, y1)
                 ek[mr, slot[mr, mc]], ei[mr, slot[mr, mc]] = kk, ids
@@ -261,8 +261,7 @@ def _compiled_state(st: DriveState):
     s, _, n = st.driven.shape
     pool, req = Pool(n, s * (WINDOW + PREFETCH + 2)), _Requests(s, n)
     sts = (st.times, st.driven, st.x, st.basis, st.free, st.tangent, st.plain, st.settled, st.xmax, st.line, st.prev,
-           st.k, st.sub, st.nsub, st.locked, st.dof, st.worst, st.res_x, st.width, st.out, st.restarts, st.run,
-           st.aside, st.margin)
+           st.k, st.sub, st.nsub, st.locked, st.dof, st.worst, st.res_x, st.width, st.out, st.restarts, st.run)
     rq = (req.open, req.main, req.restart, req.window, req.w, req.y, req.ys, req.early, req.early_k)
     pl = (pool.x, pool.target, pool.it, pool.spec, pool.far, pool.plain, pool.res, pool.null, pool.done, pool.basis,
           pool.free, pool.alive, pool.line, pool.guide, pool.tag, pool.stack, np.array([pool.nfree]))
@@ -287,10 +286,6 @@ def _ended(st: DriveState, pool: Pool, req: _Requests, live):
     restart = req.restart[live[again]]
     sol = pool.solves()
     chosen = _choose(sol, main, st.x[live], req.ys[live], again, restart)
-    if again.size:
-        d, y = live[again], req.ys[live[again]]
-        far = (chosen[again] != restart) & sol.done[restart] & (sol.res[restart] <= LOST_TOL)
-        st.restarted(d, y, sol.x[main[again]], sol.x[restart], far)
     ok = _after_main(st, live, req.y[live], sol, chosen)
     rows = [main, restart]
     if w.max() > 1:

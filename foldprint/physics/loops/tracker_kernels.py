@@ -7,8 +7,9 @@ The numpy code of :mod:`foldprint.physics.loops.tracker` and
 :mod:`foldprint.physics.loops.drive_state` is the reference; this is the same arithmetic
 drive by drive, each rule a scalar loop, so a drive's answers are the same bits: the
 predictor's two matrix-vector products are ``np.dot``, the BLAS ``gemv`` numpy's ``matmul``
-calls, and a norm sums its squares in numpy's pairwise order (:mod:`~foldprint.physics.loops.pairwise_kernels`). Imported
-lazily, only where :func:`foldprint.core.jit.use_kernels` says yes.
+calls, and a norm sums its squares in numpy's pairwise order
+(:mod:`~foldprint.physics.loops.pairwise_kernels`). Imported lazily, only where
+:func:`foldprint.core.jit.use_kernels` says yes.
 
 The arrays travel as three tuples: ``st`` a :class:`~foldprint.physics.loops.drive_state.DriveState`'s,
 ``rq`` the tracker's requests', ``pl`` a :class:`~foldprint.physics.loops.corrector.Pool`'s
@@ -21,9 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.jit import njit
-from .pairwise_kernels import norm, pairwise
-from .corrector import MAX_STEP, OPT_TOL, SVD_BELOW
-from .drive_state import (ACCEPT, FOLLOW_TOL, JUMP, LOST_TOL, NEAR_FLAT, PREFETCH, RESTART_SKIP, SKIP_FAR, SKIP_TOL,
+from .pairwise_kernels import norm
+from .corrector import MAX_STEP, OPT_TOL
+from .drive_state import (ACCEPT, FOLLOW_TOL, JUMP, LOST_TOL, NEAR_FLAT, PREFETCH, RESTART_SIDED, SKIP_FAR, SKIP_TOL,
                           WINDOW)
 
 
@@ -154,35 +155,28 @@ def _finish(st, i, y, x, res, null):  # pragma: no cover - compiled
 
 @njit
 def _choose(st, rq, pl, i, rows, b):  # pragma: no cover - compiled
-    """tracker._choose of drive i: its main solve's row, or its restart's row b; and
-    DriveState.restarted of its restart."""
-    px, res, aside, margin = pl[0], pl[6], st[22], st[23]
+    """tracker._choose of drive i: its main solve's row, or its restart's row b."""
+    px, res = pl[0], pl[6]
     xn, xb, yb, x0 = px[rows], px[b], rq[6][i], st[2][i]
-    db, dn = norm(xb, yb), norm(xn, yb)
-    take = (_amax_diff(xn, yb) > OPT_TOL and res[b] <= LOST_TOL and db < dn - 1e-9
+    take = (_amax_diff(xn, yb) > OPT_TOL and res[b] <= LOST_TOL and norm(xb, yb) < norm(xn, yb) - 1e-9
             and _amax_diff(xb, x0) <= _amax_diff(xn, x0) + JUMP)
     if take:
         for j in range(xb.shape[0]):
             if xb[j] * yb[j] < 0.0:
                 take = False
-    m = db - dn
-    margin[i] = 0.0
-    if not take and pl[8][b] and res[b] <= LOST_TOL and m > 0.0 and _amax(yb) >= SVD_BELOW:
-        r = np.sqrt(pairwise(yb * yb))
-        margin[i] = m / r
-        for j in range(yb.shape[0]):
-            aside[i, j] = yb[j] / r
     return b if take else rows
 
 
 @njit
 def _needless(st, i, y):  # pragma: no cover - compiled
     """DriveState.needless of drive i's restart from drive y."""
-    m = st[23][i]
-    if not m > 0.0:
+    x = st[2][i]
+    if not (st[5][i] and _amax(y) >= RESTART_SIDED):
         return False
-    r = np.sqrt(pairwise(y * y))
-    return r > 0.0 and norm(y / r, st[22][i]) < RESTART_SKIP * 0.5 * m
+    for j in range(x.shape[0]):
+        if not (x[j] * y[j] > 0.0 and abs(x[j]) > OPT_TOL):
+            return False
+    return True
 
 
 @njit
@@ -309,8 +303,9 @@ def _restarts(st, rq, pl, i, ys):  # pragma: no cover - compiled
             if same:
                 row = e
                 early[i, own] = -1
-    for s in range(early.shape[1]):  # each step's own restart (unless taken), older ones, those the margin covers
-        if early_k[i, s] >= 0 and (early_k[i, s] <= kk or early[i, s] >= 0 and _needless(st, i, target[early[i, s]])):
+    for s in range(early.shape[1]):  # each step's own restart (unless taken), older ones, those that cannot be taken
+        e = early[i, s]
+        if early_k[i, s] >= 0 and (early_k[i, s] <= kk or e >= 0 and _needless(st, i, target[e])):
             if early[i, s] >= 0:
                 _release(pl, early[i, s])
             early_k[i, s], early[i, s] = -1, -1
