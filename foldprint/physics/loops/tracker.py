@@ -126,10 +126,7 @@ class _Requests:
             h = h[(pool.target[ei[h, own[h]]] == ys[h]).all(axis=1)]
             rows[h] = ei[h, own[h]]
             ei[h, own[h]] = -1  # taken
-        gone = (ek >= 0) & (ek <= k[:, None])  # each step's own restart (unless taken) and older ones ...
-        r, c = ((ek > k[:, None]) & (ei >= 0)).nonzero()
-        if r.size:  # ... and those ahead that could now not be taken
-            gone[r, c] = st.needless(live[r], pool.target[ei[r, c]])
+        gone = (ek >= 0) & (ek <= k[:, None])  # each step's own restart (unless taken) and older ones
         if gone.any():
             old = ei[gone]
             pool.release(old[old >= 0])

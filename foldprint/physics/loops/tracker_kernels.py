@@ -292,7 +292,7 @@ def _restarts(st, rq, pl, i, ys):  # pragma: no cover - compiled
     driven, k, sub, nsub, restarts = st[1], st[11], st[12], st[13], st[20]
     early, early_k, target = rq[7], rq[8], pl[1]
     kk, n_t, row = k[i], driven.shape[1], -1
-    run = not _needless(st, i, ys)  # inside: this step's restart is not run (nor kept from ahead)
+    run = not _needless(st, i, ys)  # else this step's restart is not run (nor kept from ahead)
     if PREFETCH:
         own = kk % PREFETCH
         if run and early_k[i, own] == kk and nsub[i] == 1 and sub[i] == 1:
@@ -303,9 +303,8 @@ def _restarts(st, rq, pl, i, ys):  # pragma: no cover - compiled
             if same:
                 row = e
                 early[i, own] = -1
-    for s in range(early.shape[1]):  # each step's own restart (unless taken), older ones, those that cannot be taken
-        e = early[i, s]
-        if early_k[i, s] >= 0 and (early_k[i, s] <= kk or e >= 0 and _needless(st, i, target[e])):
+    for s in range(early.shape[1]):
+        if early_k[i, s] >= 0 and early_k[i, s] <= kk:
             if early[i, s] >= 0:
                 _release(pl, early[i, s])
             early_k[i, s], early[i, s] = -1, -1
