@@ -89,15 +89,15 @@ def test_random_patterns_tracked_bit_for_bit(design, data):
 
 
 def test_pairwise_sum_and_norms_are_numpys_bits():
-    from foldprint.physics.loops.tracker_kernels import _norm, _pairwise
+    from foldprint.physics.loops.pairwise_kernels import norm, pairwise
 
     rng = np.random.default_rng(3)
     for n in [*range(1, 40), 127, 128, 129, 255, 256, 257, 1000, 3001]:
         for _ in range(5):
             v = rng.standard_normal(n) * 10.0 ** rng.uniform(-8, 3, n)
             u = rng.standard_normal(n)
-            assert _pairwise(v * v) == np.add.reduce((v * v)[None], axis=1)[0]
-            assert _norm(v, u) == corrector.norms((v - u)[None])[0]
+            assert pairwise(v * v) == np.add.reduce((v * v)[None], axis=1)[0]
+            assert norm(v, u) == corrector.norms((v - u)[None])[0]
 
 
 def test_predictor_is_numpys_bits():

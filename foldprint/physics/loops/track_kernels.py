@@ -22,12 +22,13 @@ from __future__ import annotations
 import os
 
 from ...core.jit import njit
-from . import closure_kernels, corrector, decomp_kernels, drive_state, normal_kernels, tracker_kernels
+from . import closure_kernels, corrector, decomp_kernels, drive_state, normal_kernels, pairwise_kernels, tracker_kernels
 from .closure_kernels import round_pool
 from .tracker_kernels import between
 
 #: the modules whose functions and constants :func:`track_pool`'s compiled code holds
-COMPILED_IN = (tracker_kernels, closure_kernels, decomp_kernels, normal_kernels, corrector, drive_state)
+COMPILED_IN = (tracker_kernels, pairwise_kernels, closure_kernels, decomp_kernels, normal_kernels, corrector,
+               drive_state)
 
 
 @njit

@@ -124,9 +124,10 @@ class _Requests:
         k, n_t, j = st.k[live], st.n_t, np.arange(len(live))
         ek, ei = self.early_k[live], self.early[live]  # a step's restart ahead sits in slot step % PREFETCH
         rows = np.full(len(live), -1)
+        run = ~st.needless(live, ys)  # else this step's restart is not run (nor kept from ahead)
         if PREFETCH:
             own = k % PREFETCH
-            h = ((ek[j, own] == k) & (st.nsub[live] == 1) & (st.sub[live] == 1)).nonzero()[0]
+            h = (run & (ek[j, own] == k) & (st.nsub[live] == 1) & (st.sub[live] == 1)).nonzero()[0]
             h = h[(pool.target[ei[h, own[h]]] == ys[h]).all(axis=1)]
             rows[h] = ei[h, own[h]]
             ei[h, own[h]] = -1  # taken
@@ -135,10 +136,10 @@ class _Requests:
             old = ei[gone]
             pool.release(old[old >= 0])
             ek[gone], ei[gone] = -1, -1
-        new = rows < 0
+        new = run & (rows < 0)
         if new.any():
             rows[new] = pool.add(ys[new], ys[new])
-        pool.tag[rows] = live
+        pool.tag[rows[run]] = live[run]
         if PREFETCH:  # the steps ahead whose drive is near the flat sheet and that have no restart yet
             want = k[:, None] + np.arange(1, PREFETCH + 1)
             slot = want % PREFETCH
@@ -149,6 +150,8 @@ class _Requests:
                 d, kk = live[mr], want[mr, mc]
                 y0 = st.driven[d, kk - 1]
                 y1 = y0 + (st.driven[d, kk] - y0)  # the step's target as begin() computes it
+                ok = ~st.needless(d, y1)  # those that could be taken
+                mr, mc, kk, y1 = mr[ok], mc[ok], kk[ok], y1[ok]
                 ids = pool.add(y1, y1)
                 ek[mr, slot[mr, mc]], ei[mr, slot[mr, mc]] = kk, ids
         self.early_k[live], self.early[live] = ek, ei

@@ -7,8 +7,9 @@ The numpy code of :mod:`foldprint.physics.loops.tracker` and
 :mod:`foldprint.physics.loops.drive_state` is the reference; this is the same arithmetic
 drive by drive, each rule a scalar loop, so a drive's answers are the same bits: the
 predictor's two matrix-vector products are ``np.dot``, the BLAS ``gemv`` numpy's ``matmul``
-calls, and a norm sums its squares in numpy's pairwise order (:func:`_norm`). Imported
-lazily, only where :func:`foldprint.core.jit.use_kernels` says yes.
+calls, and a norm sums its squares in numpy's pairwise order
+(:mod:`~foldprint.physics.loops.pairwise_kernels`). Imported lazily, only where
+:func:`foldprint.core.jit.use_kernels` says yes.
 
 The arrays travel as three tuples: ``st`` a :class:`~foldprint.physics.loops.drive_state.DriveState`'s,
 ``rq`` the tracker's requests', ``pl`` a :class:`~foldprint.physics.loops.corrector.Pool`'s
@@ -22,8 +23,9 @@ import numpy as np
 
 from ...core.jit import njit
 from .corrector import MAX_STEP, OPT_TOL
-from .drive_state import (ACCEPT, FOLLOW_TOL, JUMP, LINE_ABOVE, LOST_TOL, NEAR_FLAT, PREFETCH, SKIP_FAR, SKIP_TOL,
-                          WINDOW)
+from .drive_state import (ACCEPT, FOLLOW_TOL, JUMP, LINE_ABOVE, LOST_TOL, NEAR_FLAT, PREFETCH, RESTART_SIDED, SKIP_FAR,
+                          SKIP_TOL, WINDOW)
+from .pairwise_kernels import norm
 
 
 @njit
@@ -48,69 +50,6 @@ def _amax_diff(a, b):  # pragma: no cover - compiled
             return d
         m = max(m, d)
     return m
-
-
-@njit
-def _block(a, lo, n):  # pragma: no cover - compiled
-    """numpy's pairwise sum of a block a[lo:lo + n], n <= 128: eight running sums."""
-    if n < 8:
-        res = 0.0
-        for i in range(lo, lo + n):
-            res += a[i]
-        return res
-    r = a[lo:lo + 8].copy()
-    i = 8
-    while i < n - n % 8:
-        for j in range(8):
-            r[j] += a[lo + i + j]
-        i += 8
-    res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-    while i < n:
-        res += a[lo + i]
-        i += 1
-    return res
-
-
-@njit
-def _pairwise(a):  # pragma: no cover - compiled
-    """numpy's pairwise sum of a (its order of additions, so its bits): blocks of at most
-    128 summed by :func:`_block`, longer runs halved (at a multiple of 8), the halves added;
-    the halving walked with an explicit stack (a cached compiled function must not recurse)."""
-    if a.shape[0] <= 128:
-        return _block(a, 0, a.shape[0])
-    los, ns, part = np.zeros(64, np.int64), np.zeros(64, np.int64), np.zeros(64)
-    state = np.zeros(64, np.int64)  # 0: not begun, 1: left half summed into part
-    los[0], ns[0], top, out = 0, a.shape[0], 0, 0.0
-    while top >= 0:
-        lo, n = los[top], ns[top]
-        n2 = n // 2 - (n // 2) % 8
-        if n <= 128 or state[top] == 2:
-            v = _block(a, lo, n) if n <= 128 else part[top]
-            top -= 1
-            if top < 0:
-                out = v
-            elif state[top] == 0:
-                part[top], state[top] = v, 1
-            else:
-                part[top], state[top] = part[top] + v, 2
-            continue
-        if state[top] == 0:
-            los[top + 1], ns[top + 1] = lo, n2
-        else:
-            los[top + 1], ns[top + 1] = lo + n2, n - n2
-        state[top + 1] = 0
-        top += 1
-    return out
-
-
-@njit
-def _norm(a, b):  # pragma: no cover - compiled
-    """corrector.norms of the row a - b."""
-    sq = np.empty(a.shape[0])
-    for j in range(a.shape[0]):
-        d = a[j] - b[j]
-        sq[j] = d * d
-    return np.sqrt(_pairwise(sq))
 
 
 @njit
@@ -219,13 +158,25 @@ def _choose(st, rq, pl, i, rows, b):  # pragma: no cover - compiled
     """tracker._choose of drive i: its main solve's row, or its restart's row b."""
     px, res = pl[0], pl[6]
     xn, xb, yb, x0 = px[rows], px[b], rq[6][i], st[2][i]
-    take = (_amax_diff(xn, yb) > OPT_TOL and res[b] <= LOST_TOL and _norm(xb, yb) < _norm(xn, yb) - 1e-9
+    take = (_amax_diff(xn, yb) > OPT_TOL and res[b] <= LOST_TOL and norm(xb, yb) < norm(xn, yb) - 1e-9
             and _amax_diff(xb, x0) <= _amax_diff(xn, x0) + JUMP)
     if take:
         for j in range(xb.shape[0]):
             if xb[j] * yb[j] < 0.0:
                 take = False
     return b if take else rows
+
+
+@njit
+def _needless(st, i, y):  # pragma: no cover - compiled
+    """DriveState.needless of drive i's restart from drive y."""
+    x = st[2][i]
+    if not (st[5][i] and _amax(y) >= RESTART_SIDED):
+        return False
+    for j in range(x.shape[0]):
+        if not (x[j] * y[j] > 0.0 and abs(x[j]) > OPT_TOL):
+            return False
+    return True
 
 
 @njit
@@ -341,9 +292,10 @@ def _restarts(st, rq, pl, i, ys):  # pragma: no cover - compiled
     driven, k, sub, nsub, restarts = st[1], st[11], st[12], st[13], st[20]
     early, early_k, target = rq[7], rq[8], pl[1]
     kk, n_t, row = k[i], driven.shape[1], -1
+    run = not _needless(st, i, ys)  # else this step's restart is not run (nor kept from ahead)
     if PREFETCH:
         own = kk % PREFETCH
-        if early_k[i, own] == kk and nsub[i] == 1 and sub[i] == 1:
+        if run and early_k[i, own] == kk and nsub[i] == 1 and sub[i] == 1:
             e = early[i, own]
             same = True
             for j in range(ys.shape[0]):
@@ -356,17 +308,19 @@ def _restarts(st, rq, pl, i, ys):  # pragma: no cover - compiled
             if early[i, s] >= 0:
                 _release(pl, early[i, s])
             early_k[i, s], early[i, s] = -1, -1
-    if row < 0:
+    if run and row < 0:
         row = _add(pl, ys, ys, False, False, 0, False, ys, -1)
-    pl[14][row] = i
+    if row >= 0:
+        pl[14][row] = i
     for m in range(1, PREFETCH + 1):
         want = kk + m
         slot = want % PREFETCH
         if early_k[i, slot] != want and want < n_t and restarts[i, min(want, n_t - 1)]:
             y0 = driven[i, want - 1]
             y1 = y0 + (driven[i, want] - y0)  # the step's target as begin() computes it
-            early[i, slot] = _add(pl, y1, y1, False, False, 0, False, y1, -1)
-            early_k[i, slot] = want
+            if not _needless(st, i, y1):
+                early[i, slot] = _add(pl, y1, y1, False, False, 0, False, y1, -1)
+                early_k[i, slot] = want
     return row
 
 

@@ -30,8 +30,8 @@ GROUPS: dict[str, tuple[str, ...]] = {
                "foldprint.collision.broadphase_kernels", "foldprint.collision.swept3d_kernels",
                "foldprint.collision.narrow_kernels", "foldprint.collision.polytope_distance_kernels"),
     "loops": ("foldprint.physics.loops.decomp_kernels", "foldprint.physics.loops.closure_kernels",
-              "foldprint.physics.loops.tracker_kernels", "foldprint.physics.loops.normal_kernels",
-              "foldprint.physics.loops.track_kernels"),
+              "foldprint.physics.loops.pairwise_kernels", "foldprint.physics.loops.tracker_kernels",
+              "foldprint.physics.loops.normal_kernels", "foldprint.physics.loops.track_kernels"),
 }
 
 #: each group's kernels called from Python that take most of its compile time: the group is
