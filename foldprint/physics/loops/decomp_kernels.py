@@ -10,15 +10,17 @@ well, so Q1 is never formed), a QR of R1^T, ``R1^T = Q2 R2``, then one-sided Jac
 rotations (Hestenes) on the columns of ``L = R2^T``, accumulated into ``V = P Q2``, until
 every pair of columns is orthogonal to EPS of their norms: ``L W = U_L S``, so ``J = (Q1
 U_L) S (P Q2 W)^T``. The two QRs leave L's columns nearly orthogonal and strongly graded,
-so the rotations converge in 4-5 sweeps where J itself takes 9-10 (``miura_3x3``). The
-pairs are taken in round-robin order (n/2 disjoint pairs at a time): their inner products
-and rotation angles are independent, so the processor overlaps them instead of waiting on
-each square root. A pair costs one inner product: the columns' squared norms are carried
-along (Rutishauser's update, alpha - t gamma and beta + t gamma) and computed afresh once a
-column has lost most of its norm; the angle takes two square roots and one division (one
-division where its cosine is 1 in floating point). The rotations turn the rows of L^T and
-V^T as one row of 2n. The pivoted QR picks its columns by norms downdated the same way
-(LAPACK ``dgeqp3``'s rule); inner products are summed in four interleaved parts.
+so the rotations converge in 4 sweeps where J itself takes 9-10 (``miura_3x3``). The
+pairs are taken in row-cyclic order: L's columns come graded, largest first, and that
+order settles them in 4.00 sweeps against 4.13 for the round-robin order's disjoint pairs
+(whose independent angles the processor could overlap; with the cheaper pair below, the
+sweep saved pays more). A pair costs one inner product: the columns' squared norms are
+carried along (Rutishauser's update, alpha - t gamma and beta + t gamma) and computed
+afresh once a column has lost most of its norm; the angle takes two square roots and one
+division (one division where its cosine is 1 in floating point). The rotations turn the
+rows of L^T and V^T as one row of 2n. The pivoted QR picks its columns by norms downdated
+the same way (LAPACK ``dgeqp3``'s rule); inner products are summed in four interleaved
+parts.
 One-sided Jacobi resolves small singular values at least as well as LAPACK's ``gesdd``
 (whose error is round-off of the largest; Jacobi's, for a graded matrix as L, round-off of
 each), which is what the rank rule near the flat sheet needs (``docs/loops.md``).
@@ -178,64 +180,45 @@ def angle(alpha, beta, gamma):  # pragma: no cover - compiled
 
 
 @njit(contract=True)
-def jacobi_rows(av, n, nq, n0, cs, sn, tg, ids):  # pragma: no cover - compiled
+def jacobi_rows(av, n, nq, n0):  # pragma: no cover - compiled
     """One-sided Jacobi on the columns of A whose rows are the first ``n`` entries of the
     rows of ``av`` (n, w); each rotation turns the whole rows (w >= n), so ``av[:, n:]``
     holds (V W)^T afterwards when it held V^T. Until every pair is orthogonal to EPS:
     afterwards ``av[:, :n]`` = (A W)^T, W orthogonal, A W's columns orthogonal (their norms
-    the singular values, unsorted). The pairs in round-robin order, n/2 disjoint ones at a
-    time; scratch ``nq``, ``n0`` (n,: squared norms carried and their last fresh values),
-    ``cs``, ``sn``, ``tg`` (n // 2 + 1,) and ``ids`` (n + 1,). Returns the sweeps taken (the
-    last one without a rotation above LAST)."""
+    the singular values, unsorted). The pairs in row-cyclic order, (0, 1), (0, 2), ...,
+    (n - 2, n - 1); scratch ``nq``, ``n0`` (n,: squared norms carried and their last fresh
+    values). Returns the sweeps taken (the last one without a rotation above LAST)."""
     w = av.shape[1]
-    n2 = n + (n & 1)  # an odd n plays against a dummy column n
-    half = n2 // 2
     big = 0.0
     for j in range(n):
         nq[j] = dot(av[j], av[j], 0, n)
         n0[j] = nq[j]
         big = max(big, nq[j])
     tiny = TINY * TINY * big
-    for i in range(n2):
-        ids[i] = i
     for sweep in range(SWEEPS):
-        rotated = False
         large = False
-        for _ in range(n2 - 1):
-            for k in range(half):
-                p, q = ids[k], ids[n2 - 1 - k]
-                sn[k] = 0.0
-                if p >= n or q >= n:
-                    continue
+        for p in range(n - 1):
+            for q in range(p + 1, n):
                 alpha = nq[p]
                 beta = nq[q]
                 gamma = dot(av[p], av[q], 0, n)
                 if gamma * gamma <= EPS * EPS * alpha * beta or alpha <= tiny or beta <= tiny:
                     continue
                 large = large or gamma * gamma > LAST * LAST * alpha * beta
-                cs[k], sn[k], tg[k] = angle(alpha, beta, gamma)
-                rotated = True
-            for k in range(half):
-                if sn[k] == 0.0:
-                    continue
-                p, q, c, s = ids[k], ids[n2 - 1 - k], cs[k], sn[k]
+                c, s, tg = angle(alpha, beta, gamma)
                 for i in range(w):
                     x, y = av[p, i], av[q, i]
                     av[p, i] = c * x - s * y
                     av[q, i] = s * x + c * y
-                nq[p] -= tg[k]
-                nq[q] += tg[k]
+                nq[p] -= tg
+                nq[q] += tg
                 if nq[p] <= FRESH * n0[p]:
                     nq[p] = dot(av[p], av[p], 0, n)
                     n0[p] = nq[p]
                 if nq[q] <= FRESH * n0[q]:
                     nq[q] = dot(av[q], av[q], 0, n)
                     n0[q] = nq[q]
-            last = ids[n2 - 1]
-            for i in range(n2 - 1, 1, -1):
-                ids[i] = ids[i - 1]
-            ids[1] = last
-        if not rotated or not large:
+        if not large:
             return sweep + 1
     return SWEEPS
 
@@ -247,7 +230,7 @@ def svd_work(k, n):  # pragma: no cover - compiled
     singular values, U^T c and coefficients)."""
     mk = max(k, n)
     return (np.empty((n, mk)), np.empty((n, mk)), np.empty((n, n)), np.empty((n, 2 * n)), np.empty((n, n)),
-            np.empty((n, n)), np.empty((10, mk + 1)), np.empty((3, n + 1), np.intp), np.empty((3, n)))
+            np.empty((n, n)), np.empty((7, mk + 1)), np.empty((2, n), np.intp), np.empty((3, n)))
 
 
 @njit
@@ -258,8 +241,8 @@ def svd_small(jac, c, s, vec, uc, work):  # pragma: no cover - compiled
     from :func:`svd_work`. Returns the Jacobi sweeps taken."""
     k, n = jac.shape
     ct, vs, r1, av, qt, at, fv, iv, _ = work
-    b, qb, fs, nrm, dots, cs, sn, tg, cn, c0 = fv[0], fv[1], fv[2], fv[3], fv[4], fv[5], fv[6], fv[7], fv[8], fv[9]
-    perm, order, ids = iv[0, :n], iv[1, :n], iv[2]
+    b, qb, fs, nrm, dots, cn, c0 = fv[0], fv[1], fv[2], fv[3], fv[4], fv[5], fv[6]
+    perm, order = iv[0], iv[1]
     pivot = k > 0  # True, known at run time only (literal flags would compile house twice)
     qb[:] = 0.0
     if k >= n:
@@ -281,7 +264,7 @@ def svd_small(jac, c, s, vec, uc, work):  # pragma: no cover - compiled
         for i in range(n):
             av[j, i] = at[j, i]
             av[j, n + perm[i]] = qt[j, i]
-    sweeps = jacobi_rows(av, n, nrm, dots, cs, sn, tg, ids)
+    sweeps = jacobi_rows(av, n, nrm, dots)
     for j in range(n):
         nrm[j] = math.sqrt(dot(av[j], av[j], 0, n))
         dots[j] = dot(av[j], qb, 0, n)
