@@ -59,6 +59,9 @@ FRESH = 1.0 / 16.0
 #: a rotation whose tangent t = gamma / (beta - alpha) is below 2^-28 (2 gamma below
 #: SMALL |beta - alpha|) has cosine 1 in floating point (1 + t^2 rounds to 1)
 SMALL = 2.0 ** -27
+#: the angle's squares (beta - alpha)^2 + 4 gamma^2 are used between SAFE and 1 / SAFE, far
+#: from under- and overflow; outside, Rutishauser's ratio form (our choice)
+SAFE = 1e-250
 
 
 @njit(contract=True, inline=True)
@@ -166,17 +169,24 @@ def angle(alpha, beta, gamma):  # pragma: no cover - compiled
     Rutishauser's formula (the smaller root of t^2 + 2 zeta t - 1, zeta = (beta - alpha) /
     (2 gamma)), written with d = beta - alpha, g = 2 gamma, h = |(d, g)|, e = |d| + h:
     cos = e / sqrt(2 h e), sin = sign(d) g / sqrt(2 h e), t gamma = sign(d) g gamma 2 h /
-    (2 h e)."""
+    (2 h e); where h^2 nears under- or overflow, Rutishauser's own form in zeta."""
     dd = beta - alpha
     gg = 2.0 * gamma
     if abs(gg) < SMALL * abs(dd):
         t = gamma / dd
         return 1.0, t, t * gamma
-    h = math.sqrt(dd * dd + gg * gg)
+    h2 = dd * dd + gg * gg
+    if not SAFE < h2 < 1.0 / SAFE:  # squares near under- or overflow: the ratio form
+        zeta = dd / gg
+        t = math.copysign(1.0, zeta) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+        c = 1.0 / math.sqrt(1.0 + t * t)
+        return c, c * t, t * gamma
+    h = math.sqrt(h2)
     e = abs(dd) + h
     r = 1.0 / math.sqrt(2.0 * h * e)
     sg = gg if dd >= 0.0 else -gg
-    return e * r, sg * r, sg * gamma * 2.0 * h * r * r
+    sn = sg * r
+    return e * r, sn, sn * (gamma * r) * (2.0 * h)  # in this order, no product near 0 or inf
 
 
 @njit(contract=True)
