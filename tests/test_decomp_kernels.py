@@ -132,3 +132,16 @@ def test_rank_rule_decisions_match_numpy_on_a_graded_spectrum():
     s, _, _ = _assert_svd((u * sv) @ v.T, rng.standard_normal(24))
     thr = RANK_TOL * s[0]
     assert np.count_nonzero(s > thr) == n - 1
+
+
+@pytest.mark.parametrize("scale", [1e-60, 1e-30, 1e30, 1e60])
+def test_far_scales_match_numpy(scale):
+    """The angle's squares stay clear of under- and overflow: graded spectra scaled far from
+    1 match numpy as at scale 1 (the rotations' arithmetic is scale-free)."""
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        sv = 10.0 ** np.sort(rng.uniform(-12.0, 0.0, 12))[::-1]
+        sv[9:] = 0.0
+        u = np.linalg.qr(rng.standard_normal((24, 24)))[0][:, :12]
+        v = np.linalg.qr(rng.standard_normal((12, 12)))[0]
+        _assert_svd(scale * (u * sv) @ v.T, rng.standard_normal(24))

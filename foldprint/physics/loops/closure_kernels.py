@@ -183,11 +183,9 @@ def _gn_svd(jac, c, d, step, vec, fr, work):  # pragma: no cover - compiled
     """corrector._gn_svd of one point (the rank rule alone), by :func:`svd_small` (``work``
     its scratch)."""
     n = jac.shape[1]
-    s = np.empty(n)
-    uc = np.empty(n)
+    s, uc, coef = work[8][0], work[8][1], work[8][2]
     svd_small(jac, c, s, vec, uc, work)
     thr = RANK_TOL * max(1.0, s[0])
-    coef = np.empty(n)
     for j in range(n):
         keep = s[j] > thr
         fr[j] = not keep
