@@ -134,12 +134,12 @@ def test_the_warm_track_is_the_chunks_own(monkeypatch):
 
 def test_a_change_to_a_compiled_in_module_makes_the_cache_stale(tmp_path):
     """numba stamps a cached function with its own file only, while its cached code holds
-    the functions it calls: :func:`track_kernels.stale_with` adds their files' stamps, so an
-    edit of the callee alone is compiled again (the callee's size changes with the edit)."""
+    the functions it calls: :func:`foldprint.core.jit.stale_with` adds their files' stamps,
+    so an edit of the callee alone is compiled again (the callee's size changes with the edit)."""
     (tmp_path / "callee.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef g(x):\n    return x + 1\n")
     (tmp_path / "caller.py").write_text(
-        "import callee\nfrom numba import njit\nfrom foldprint.physics.loops.track_kernels import stale_with\n\n"
-        "@njit(cache=True)\ndef f(x):\n    return callee.g(x) * 10\n\nstale_with(f, [callee.__file__])\n")
+        "import callee\nfrom numba import njit\nfrom foldprint.core.jit import stale_with\n\n"
+        "@njit(cache=True)\ndef f(x):\n    return callee.g(x) * 10\n\nstale_with(__name__, [callee])\n")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
                PYTHONPATH=os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")]))
     run = [sys.executable, "-c", "import caller; print(caller.f(1))"]
@@ -147,3 +147,31 @@ def test_a_change_to_a_compiled_in_module_makes_the_cache_stale(tmp_path):
     assert list((tmp_path / "cache").rglob("caller.f-*.nbi"))  # cached
     (tmp_path / "callee.py").write_text((tmp_path / "callee.py").read_text().replace("x + 1", "x + 12"))
     assert subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout.split() == ["130"]
+
+
+def test_every_kernel_module_is_stamped_with_what_it_compiles_in():
+    """Each ``*_kernels.py`` that imports from other foldprint modules (kernels it calls,
+    constants it reads: compiled into its cached code) names every one of them to
+    :func:`foldprint.core.jit.stale_with`, so an edit of any of them makes its cache stale."""
+    import ast
+    import importlib
+    import importlib.util
+    from pathlib import Path
+
+    import foldprint
+    from foldprint.core import jit
+
+    root = Path(foldprint.__file__).parent
+    for path in sorted(root.rglob("*_kernels.py")):
+        name = "foldprint." + ".".join(path.relative_to(root).with_suffix("").parts)
+        importlib.import_module(name)
+        package = name.rsplit(".", 1)[0].split(".")
+        used = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.level:
+                base = ".".join(package[:len(package) - node.level + 1] + ([node.module] if node.module else []))
+                package_ = hasattr(importlib.import_module(base), "__path__")
+                names = [f"{base}.{a.name}" if package_ and importlib.util.find_spec(f"{base}.{a.name}") else base
+                         for a in node.names]  # a module imported by name, else the module named
+                used.update(n for n in names if n != "foldprint.core.jit")
+        assert used <= set(jit.STAMPED.get(name, ())), (name, sorted(used - set(jit.STAMPED.get(name, ()))))

@@ -21,7 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.jit import njit
+from ..core.jit import njit, stale_with
+from ..physics import kinematics_kernels
+from . import polytope_distance_kernels
 from ..physics.kinematics_kernels import chain_poses, driven_at
 from .polytope_distance_kernels import panel_bounds
 
@@ -275,3 +277,6 @@ def walk_runs(budget, runs, times, angles, poses, idx, lev, lo, hi, drv, kin, ge
         elif status[r] == NONE and at[r] < k1:
             n = _push(heap, n, at[r] * m + r)
     return n == 0, calls[0]
+
+
+stale_with(__name__, (kinematics_kernels, polytope_distance_kernels))

@@ -17,6 +17,7 @@ pays the compilation (docs/kernels.md measures it).
 from __future__ import annotations
 
 import os
+import sys
 from functools import lru_cache
 from typing import Callable, TypeVar
 
@@ -135,3 +136,28 @@ def njit(fn: F | None = None, *, contract: bool = False, inline: bool = False):
     if fn is None:
         return numba.njit(**options)
     return numba.njit(**options)(fn)
+
+
+#: each kernel module's compiled-in modules, as :func:`stale_with` stamped them (by name)
+STAMPED: dict[str, tuple[str, ...]] = {}
+
+
+def stale_with(module_name: str, modules) -> None:
+    """Stamp numba's disk cache of every compiled function of the module ``module_name``
+    with the time and size of each file of ``modules`` besides its own. numba stamps a
+    cached function with its own file only, while the code it caches holds compiled in the
+    kernels it calls and the constants it reads from other modules: an edit there alone
+    (a ``git pull`` that changes only the SVD) would leave the cache running the old code.
+    Call it at the end of a kernel module with every foldprint module it imports from
+    (tests/test_tracker_kernels.py checks the lists against the imports). Where numba's
+    private cache layout differs, or a function is not cached, nothing changes."""
+    STAMPED[module_name] = tuple(m.__name__ for m in modules)
+    stamps = tuple((os.stat(m.__file__).st_mtime, os.stat(m.__file__).st_size) for m in modules)
+    for obj in list(vars(sys.modules[module_name]).values()):
+        if getattr(getattr(obj, "py_func", None), "__module__", None) != module_name:
+            continue
+        try:
+            cache = obj._cache._cache_file
+            cache._source_stamp = (cache._source_stamp, *stamps)
+        except AttributeError:
+            continue

@@ -24,7 +24,8 @@ import math
 
 import numpy as np
 
-from ...core.jit import njit
+from ...core.jit import njit, stale_with
+from . import corrector, decomp_kernels, normal_kernels
 from .corrector import CLOSURE_TOL, GN_STEPS, MAX_STEP, NEWTON_STEPS, OPT_TOL, RANK_RES, RANK_TOL, SVD_BELOW
 from .decomp_kernels import svd_small, svd_work
 from .normal_kernels import cholesky, cholesky_solve, cycle_columns, lu_solve, normal_eq, shifted
@@ -372,3 +373,6 @@ class CompiledClosure:
         :mod:`~foldprint.physics.loops.track_kernels`) in the solver's; returns them."""
         self.solver.evaluations += evaluations
         return evaluations
+
+
+stale_with(__name__, (corrector, decomp_kernels, normal_kernels))

@@ -14,14 +14,12 @@ only where :func:`foldprint.core.jit.use_kernels` says yes.
 numba stamps a cached function with its own source file's time and size, but the code it
 caches holds the functions it calls compiled in: an edit of the bookkeeping or the round
 alone would leave the track running their old code from the cache. So the track's stamp
-is also that of every module it compiles in (:data:`COMPILED_IN`, :func:`stale_with`).
+is also that of every module it compiles in (:data:`COMPILED_IN`, :func:`foldprint.core.jit.stale_with`).
 """
 
 from __future__ import annotations
 
-import os
-
-from ...core.jit import njit
+from ...core.jit import njit, stale_with
 from . import closure_kernels, corrector, decomp_kernels, drive_state, normal_kernels, pairwise_kernels, tracker_kernels
 from .closure_kernels import round_pool
 from .tracker_kernels import between
@@ -47,16 +45,4 @@ def track_pool(first, st, rq, pl, tb):  # pragma: no cover - compiled
     return rounds, evaluations
 
 
-def stale_with(kernel, paths) -> None:
-    """Stamp numba's cache of the compiled function ``kernel`` with the time and size of
-    each file of ``paths`` besides its own, so a change to any of them makes its cached code
-    stale (compiled again on its next call). Where numba's private cache layout differs, or
-    the function is not cached, nothing changes."""
-    try:
-        cache = kernel._cache._cache_file
-    except AttributeError:
-        return
-    cache._source_stamp = (cache._source_stamp, *((os.stat(p).st_mtime, os.stat(p).st_size) for p in paths))
-
-
-stale_with(track_pool, [m.__file__ for m in COMPILED_IN])
+stale_with(__name__, COMPILED_IN)

@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core.jit import njit
+from ...core.jit import njit, stale_with
+from . import corrector, drive_state, pairwise_kernels
 from .corrector import MAX_STEP, OPT_TOL
 from .drive_state import (ACCEPT, FOLLOW_TOL, JUMP, LINE_ABOVE, LOST_TOL, NEAR_FLAT, PREFETCH, RESTART_SIDED, SKIP_FAR,
                           SKIP_TOL, WINDOW)
@@ -401,3 +402,6 @@ def between(first, st, rq, pl):  # pragma: no cover - compiled
         else:
             _post(st, rq, pl, i, work)
     return np.count_nonzero(pl[11])
+
+
+stale_with(__name__, (corrector, drive_state, pairwise_kernels))
