@@ -210,6 +210,24 @@ def ratios_driven(grid, stack, t, target, fixity):  # pragma: no cover - compile
 
 
 @njit
+def first_reach(values, level):  # pragma: no cover - compiled
+    """Per column of ``values`` (n_rows, n): the first row whose value is >= ``level``, -1
+    where none is (NaN never is). Row after row (the rows are contiguous), stopping once
+    every column has reached it."""
+    n = values.shape[1]
+    idx = np.full(n, -1, np.int64)
+    left = n
+    for k in range(values.shape[0]):
+        if left == 0:
+            break
+        for c in range(n):
+            if idx[c] < 0 and values[k, c] >= level:
+                idx[c] = k
+                left -= 1
+    return idx
+
+
+@njit
 def crossings(grid, stack, level):  # pragma: no cover - compiled
     """:meth:`foldprint.physics.recovery.curve.RecoveryCurve.time_to` of every column of
     ``stack`` (n_grid, n) on ``grid`` at ``level``: the first time its ratio reaches it,
@@ -217,13 +235,10 @@ def crossings(grid, stack, level):  # pragma: no cover - compiled
     not (the same index, test and sums)."""
     n = stack.shape[1]
     out = np.empty(n)
+    first = first_reach(stack, level)
     for c in range(n):
-        idx = 0
-        for k in range(grid.shape[0]):
-            if stack[k, c] >= level:
-                idx = k
-                break
-        if stack[idx, c] < level:
+        idx = first[c]
+        if idx < 0:
             out[c] = np.nan
         elif idx == 0:
             out[c] = 0.0
@@ -232,3 +247,25 @@ def crossings(grid, stack, level):  # pragma: no cover - compiled
             t0, t1 = grid[idx - 1], grid[idx]
             out[c] = t0 + (level - r0) / (r1 - r0) * (t1 - t0)
     return out
+
+
+@njit
+def level_steps(times, ratios, level):  # pragma: no cover - compiled
+    """:func:`foldprint.simulation.simulate.level_crossings` of ``ratios`` (n_t, n) at
+    ``times``: each column's first step at ``level`` (-1 where never) and its crossing
+    time, linear between that step and the one before (``times[0]`` at the first step,
+    NaN where never): the same test and, element by element, the same sums."""
+    n = ratios.shape[1]
+    first = first_reach(ratios, level)
+    t = np.empty(n)
+    for c in range(n):
+        j = first[c]
+        if j < 0:
+            t[c] = np.nan
+        elif j == 0:
+            t[c] = times[0]
+        else:
+            r0, r1 = ratios[j - 1, c], ratios[j, c]
+            f = (level - r0) / (r1 - r0)
+            t[c] = times[j - 1] + f * (times[j] - times[j - 1])
+    return first, t
