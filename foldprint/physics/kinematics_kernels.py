@@ -212,18 +212,14 @@ def ratios_driven(grid, stack, t, target, fixity):  # pragma: no cover - compile
 @njit
 def first_reach(values, level):  # pragma: no cover - compiled
     """Per column of ``values`` (n_rows, n): the first row whose value is >= ``level``, -1
-    where none is (NaN never is). Row after row (the rows are contiguous), stopping once
-    every column has reached it."""
+    where none is (NaN never is)."""
     n = values.shape[1]
     idx = np.full(n, -1, np.int64)
-    left = n
-    for k in range(values.shape[0]):
-        if left == 0:
-            break
-        for c in range(n):
-            if idx[c] < 0 and values[k, c] >= level:
+    for c in range(n):
+        for k in range(values.shape[0]):
+            if values[k, c] >= level:
                 idx[c] = k
-                left -= 1
+                break
     return idx
 
 
@@ -235,10 +231,13 @@ def crossings(grid, stack, level):  # pragma: no cover - compiled
     not (the same index, test and sums)."""
     n = stack.shape[1]
     out = np.empty(n)
-    first = first_reach(stack, level)
-    for c in range(n):
-        idx = first[c]
-        if idx < 0:
+    for c in range(n):  # column by column: a drive's stack is hinge-major (each column contiguous)
+        idx = 0
+        for k in range(grid.shape[0]):
+            if stack[k, c] >= level:
+                idx = k
+                break
+        if stack[idx, c] < level:
             out[c] = np.nan
         elif idx == 0:
             out[c] = 0.0
@@ -256,7 +255,7 @@ def level_steps(times, ratios, level):  # pragma: no cover - compiled
     time, linear between that step and the one before (``times[0]`` at the first step,
     NaN where never): the same test and, element by element, the same sums."""
     n = ratios.shape[1]
-    first = first_reach(ratios, level)
+    first = first_reach(ratios, level)  # column by column (each early out)
     t = np.empty(n)
     for c in range(n):
         j = first[c]
