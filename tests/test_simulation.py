@@ -382,7 +382,11 @@ def _crossings_column_by_column(times, ratios, level):
 @given(st.integers(0, 2 ** 32 - 1), st.integers(1, 40), st.integers(0, 7))
 def test_level_crossings_match_a_column_by_column_reference(seed, n_t, n):
     """Columns that reach the level at the first step, later, never, or hold NaN: the same
-    steps and the same crossing times (NaN where never) as the scalar reference."""
+    steps and the same crossing times (NaN where never) as the scalar reference, on the
+    numpy path and the compiled one (``kinematics_kernels.level_steps``)."""
+    import os
+    from unittest import mock
+
     from foldprint.simulation.simulate import level_crossings
 
     rng = np.random.default_rng(seed)
@@ -390,8 +394,10 @@ def test_level_crossings_match_a_column_by_column_reference(seed, n_t, n):
     ratios = np.sort(rng.uniform(0.0, 1.05, (n_t, n)), axis=0)
     if n and n_t > 2:
         ratios[:, 0] = np.where(rng.random(n_t) < 0.2, np.nan, ratios[:, 0])
-    for level in (0.98, 0.5, float(ratios[0, 0]) if n else 0.5):
-        steps, got = level_crossings(times, ratios, level)
-        ref_steps, ref = _crossings_column_by_column(times, ratios, level)
-        assert steps == ref_steps
-        assert [repr(x) for x in got] == [repr(x) for x in ref]
+    for path in ("numpy", "numba"):
+        with mock.patch.dict(os.environ, {"FOLDPRINT_KERNELS": path}):
+            for level in (0.98, 0.5, float(ratios[0, 0]) if n else 0.5):
+                steps, got = level_crossings(times, ratios, level)
+                ref_steps, ref = _crossings_column_by_column(times, ratios, level)
+                assert steps == ref_steps
+                assert [repr(x) for x in got] == [repr(x) for x in ref]

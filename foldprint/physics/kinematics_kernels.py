@@ -210,6 +210,20 @@ def ratios_driven(grid, stack, t, target, fixity):  # pragma: no cover - compile
 
 
 @njit
+def first_reach(values, level):  # pragma: no cover - compiled
+    """Per column of ``values`` (n_rows, n): the first row whose value is >= ``level``, -1
+    where none is (NaN never is)."""
+    n = values.shape[1]
+    idx = np.full(n, -1, np.int64)
+    for c in range(n):
+        for k in range(values.shape[0]):
+            if values[k, c] >= level:
+                idx[c] = k
+                break
+    return idx
+
+
+@njit
 def crossings(grid, stack, level):  # pragma: no cover - compiled
     """:meth:`foldprint.physics.recovery.curve.RecoveryCurve.time_to` of every column of
     ``stack`` (n_grid, n) on ``grid`` at ``level``: the first time its ratio reaches it,
@@ -217,7 +231,7 @@ def crossings(grid, stack, level):  # pragma: no cover - compiled
     not (the same index, test and sums)."""
     n = stack.shape[1]
     out = np.empty(n)
-    for c in range(n):
+    for c in range(n):  # column by column: a drive's stack is hinge-major (each column contiguous)
         idx = 0
         for k in range(grid.shape[0]):
             if stack[k, c] >= level:
@@ -232,3 +246,25 @@ def crossings(grid, stack, level):  # pragma: no cover - compiled
             t0, t1 = grid[idx - 1], grid[idx]
             out[c] = t0 + (level - r0) / (r1 - r0) * (t1 - t0)
     return out
+
+
+@njit
+def level_steps(times, ratios, level):  # pragma: no cover - compiled
+    """:func:`foldprint.simulation.simulate.level_crossings` of ``ratios`` (n_t, n) at
+    ``times``: each column's first step at ``level`` (-1 where never) and its crossing
+    time, linear between that step and the one before (``times[0]`` at the first step,
+    NaN where never): the same test and, element by element, the same sums."""
+    n = ratios.shape[1]
+    first = first_reach(ratios, level)  # column by column (each early out)
+    t = np.empty(n)
+    for c in range(n):
+        j = first[c]
+        if j < 0:
+            t[c] = np.nan
+        elif j == 0:
+            t[c] = times[0]
+        else:
+            r0, r1 = ratios[j - 1, c], ratios[j, c]
+            f = (level - r0) / (r1 - r0)
+            t[c] = times[j - 1] + f * (times[j] - times[j - 1])
+    return first, t

@@ -166,11 +166,16 @@ def check_simulation(design, dt: float, duration: float | None, method: Method, 
     est = run_estimate(design, dt, duration, method, runs, clearance, extra)
     if est is None:
         return {}  # simulate() reports bad values itself
-    dur, steps = run_sizes(design, dt, duration)[:2]
-    time_need = (f"estimated {fmt_seconds(est['seconds'])} for {steps:.3g} steps x {len(design.hinges)} hinges",
-                 f"{_SHORTER}, or {LIFT_TIME}")
-    return enforce(est, f"{source_of(design)}simulation", _memory_reason(design, est, dt, dur, steps, runs, extra),
-                   time_need)
+    # the refusals' sentences are written only for a refusal (every sample's fold asks)
+    if est["bytes"] > max_memory():
+        dur, steps = run_sizes(design, dt, duration)[:2]
+        enforce(est, f"{source_of(design)}simulation", _memory_reason(design, est, dt, dur, steps, runs, extra))
+    if est["seconds"] > time_budget():
+        steps = run_sizes(design, dt, duration)[1]
+        enforce(est, f"{source_of(design)}simulation", None,
+                (f"estimated {fmt_seconds(est['seconds'])} for {steps:.3g} steps x {len(design.hinges)} hinges",
+                 f"{_SHORTER}, or {LIFT_TIME}"))
+    return est
 
 
 def check_runs(design, dt: float, duration: float | None, method: Method, runs: int, clearance: bool = False,

@@ -159,10 +159,9 @@ def sample_drives(design: Design, library: MaterialLibrary, samples: Sequence[Sa
         ratio.setflags(write=False)
         mean_t.setflags(write=False)
         stacks[:, cols] = ratio.reshape(n_s, len(ks), len(t))
-        for j in range(len(tg)):
+        for j, (tg_j, tb_j, th_j, r_j, m_j) in enumerate(zip(tg.tolist(), tb.tolist(), th.tolist(), ratio, mean_t)):
             s, k = divmod(j, len(ks))
-            curves[s][ks[k]] = RecoveryCurve(name, float(tg[j]), float(tb[j]), float(th[j]), fix_c, t,
-                                             ratio[j], mean_t[j])
+            curves[s][ks[k]] = RecoveryCurve(name, tg_j, tb_j, th_j, fix_c, t, r_j, m_j)
     stacks.setflags(write=False)
     first = HingeDrive(design, samples[0].bath_c, library, curves=curves[0], stack=stacks[0].T)
     return [first] + [HingeDrive(design, smp.bath_c, library, curves=c, stack=st.T, statics=first.statics())

@@ -17,6 +17,7 @@ from . import costs
 from ..core.constants import DEFAULT_DT_S, FOLD_LEVEL, tol
 from ..model.design import Design, tree_order
 from ..core.errors import DesignError
+from ..core.jit import use_kernels
 from ..collision.goals import GoalResult, evaluate_goals
 from ..physics.kinematics import Trajectory
 from ..physics.hinge_drive import HingeDrive, simulate_kinematics
@@ -113,6 +114,11 @@ def level_crossings(times: np.ndarray, ratios: np.ndarray, level: float) -> tupl
     n = ratios.shape[1]
     if len(times) == 0 or n == 0:
         return [-1] * n, [float("nan")] * n
+    if ratios.dtype == np.float64 and len(times) == len(ratios) and use_kernels():
+        from ..physics.kinematics_kernels import level_steps  # one compiled pass, row after row
+
+        j, t = level_steps(times, np.ascontiguousarray(ratios), float(level))
+        return j.tolist(), t.tolist()
     hit = ratios >= level
     j = hit.argmax(axis=0)
     reached = hit[j, np.arange(n)]
