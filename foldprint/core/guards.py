@@ -22,6 +22,7 @@ import contextlib
 import math
 import os
 import re
+from collections.abc import Callable
 
 from .errors import FoldprintError
 
@@ -141,16 +142,18 @@ def refuse(what: str, need: str, fix: str, *, seconds: bool = False):
     raise ResourceError(f"{what} refused: {need}, over the {limit}; {fix}")
 
 
-def enforce(est: dict, what: str, memory: tuple[str, str] | None = None,
-            time: tuple[str, str] | None = None) -> dict:
+def enforce(est: dict, what: str, memory: tuple[str, str] | Callable[[], tuple[str, str]] | None = None,
+            time: tuple[str, str] | Callable[[], tuple[str, str]] | None = None) -> dict:
     """The refusal: ``est["bytes"]`` over :func:`max_memory` is refused with
     ``memory = (need, fix)``, then ``est["seconds"]`` over :func:`time_budget` with
     ``time = (need, fix)`` (:func:`refuse`); else ``est`` is returned. ``what`` names the
-    input and the work ("s.toml: simulation")."""
+    input and the work ("s.toml: simulation"). ``memory`` and ``time`` may be functions
+    giving the pair, called only for a refusal (a caller on a hot path, every Monte-Carlo
+    sample's fold, does not write sentences nobody reads)."""
     if memory is not None and est.get("bytes", 0.0) > max_memory():
-        refuse(what, *memory)
+        refuse(what, *(memory() if callable(memory) else memory))
     if time is not None and est.get("seconds", 0.0) > time_budget():
-        refuse(what, *time, seconds=True)
+        refuse(what, *(time() if callable(time) else time), seconds=True)
     return est
 
 

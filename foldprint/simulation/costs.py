@@ -166,16 +166,18 @@ def check_simulation(design, dt: float, duration: float | None, method: Method, 
     est = run_estimate(design, dt, duration, method, runs, clearance, extra)
     if est is None:
         return {}  # simulate() reports bad values itself
-    # the refusals' sentences are written only for a refusal (every sample's fold asks)
-    if est["bytes"] > max_memory():
+
+    def memory():
         dur, steps = run_sizes(design, dt, duration)[:2]
-        enforce(est, f"{source_of(design)}simulation", _memory_reason(design, est, dt, dur, steps, runs, extra))
-    if est["seconds"] > time_budget():
+        return _memory_reason(design, est, dt, dur, steps, runs, extra)
+
+    def time_need():
         steps = run_sizes(design, dt, duration)[1]
-        enforce(est, f"{source_of(design)}simulation", None,
-                (f"estimated {fmt_seconds(est['seconds'])} for {steps:.3g} steps x {len(design.hinges)} hinges",
-                 f"{_SHORTER}, or {LIFT_TIME}"))
-    return est
+        return (f"estimated {fmt_seconds(est['seconds'])} for {steps:.3g} steps x {len(design.hinges)} hinges",
+                f"{_SHORTER}, or {LIFT_TIME}")
+
+    # the refusals' sentences are written only for a refusal (every sample's fold asks)
+    return enforce(est, f"{source_of(design)}simulation", memory, time_need)
 
 
 def check_runs(design, dt: float, duration: float | None, method: Method, runs: int, clearance: bool = False,
