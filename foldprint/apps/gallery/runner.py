@@ -264,8 +264,9 @@ def _build_pool(designs: Sequence[Design], out: Path, dirnames: list[str], lib: 
         if kind == "samples":
             tests(what)
         elif kind == "warm":  # a cold numba cache: the first run after an install
-            if activity is not None:
-                activity(f"compiling the kernels, once after an install ({len(what)} groups in parallel, ~30 s)")
+            if activity is not None:  # each group 41-43 CPU-s, one a worker (docs/kernels.md)
+                activity(f"compiling the kernels, once after an install ({len(what)} groups in parallel, "
+                         "about 45 s)")
         else:
             step("material chart" if kind == "task" else entry_done(out))
 
