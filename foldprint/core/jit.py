@@ -156,8 +156,13 @@ def stale_with(module_name: str, modules) -> None:
     for obj in list(vars(sys.modules[module_name]).values()):
         if getattr(getattr(obj, "py_func", None), "__module__", None) != module_name:
             continue
-        try:
-            cache = obj._cache._cache_file
+        cache = cache_file(obj)
+        if cache is not None and hasattr(cache, "_source_stamp"):
             cache._source_stamp = (cache._source_stamp, *stamps)
-        except AttributeError:
-            continue
+
+
+def cache_file(kernel):
+    """numba's disk-cache file object of the compiled function ``kernel`` (its index and
+    source stamp), or None where it has none (not cached, the numpy path, a numba whose
+    private cache layout differs): the one place that reads that layout."""
+    return getattr(getattr(kernel, "_cache", None), "_cache_file", None)

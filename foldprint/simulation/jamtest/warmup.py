@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import importlib
 
+from ...core.jit import cache_file
+
 #: kernel module -> its group: ``strips`` the path of every sample (the recovery curves,
 #: forward kinematics, the broad phase and screen, the narrow phase and the exact distance),
 #: ``loops`` the closure's compiled round (with its small SVD), the tracker's bookkeeping and
@@ -50,8 +52,7 @@ def is_cached(module: str, name: str) -> bool:
     (its index file exists and matches the source's stamp). True when it cannot tell (a
     numba whose cache is laid out otherwise): then nothing is warmed ahead, as before."""
     try:
-        disp = getattr(importlib.import_module(module), name)
-        return bool(disp._cache._cache_file._load_index())
+        return bool(cache_file(getattr(importlib.import_module(module), name))._load_index())
     except Exception:  # noqa: BLE001 - numba's private cache layout: assume warm
         return True
 
