@@ -28,9 +28,9 @@ FIRST_HORIZON_S = 20.0
 def _log_times(material, bath_c: float, thickness: float, fix_c: float) -> np.ndarray:
     """ln of the times (s) to half and to full (98 %) recovery (inf when not reached)."""
     c = recovery_curve(material, bath_c, thickness, fix_c, horizon_s=FIRST_HORIZON_S)
-    if c.time_to(0.98) is None:
+    if c.fold_time is None:
         c = recovery_curve(material, bath_c, thickness, fix_c)
-    return np.array([math.log(x) if x else math.inf for x in (c.time_to(0.5), c.time_to(0.98))])
+    return np.array([math.log(x) if x else math.inf for x in (c.time_to(0.5), c.fold_time)])
 
 
 @lru_cache(maxsize=256)

@@ -139,7 +139,7 @@ def find_chains(design: Design, lib: MaterialLibrary, ledger: Ledger, bath_c: fl
     ft = {}
     for tg in levels:
         name = material_name(tg)
-        ft[name] = recovery_curve(lib[name], bath_c, thick, design.process.fix_temperature_c).time_to(0.98)
+        ft[name] = recovery_curve(lib[name], bath_c, thick, design.process.fix_temperature_c).fold_time
     graph = hinge_adjacency(design)
 
     def task(chain):

@@ -104,7 +104,7 @@ def temperature_grid(lo: float, hi: float) -> tuple[float, ...]:
 
 def _fold_times(design: Design, lib: MaterialLibrary, mats: Sequence[str], bath_c: float) -> dict[str, float | None]:
     thick = min(h.thickness for h in design.hinges)
-    return {m: recovery_curve(lib[m], bath_c, thick, design.process.fix_temperature_c).time_to(0.98) for m in mats}
+    return {m: recovery_curve(lib[m], bath_c, thick, design.process.fix_temperature_c).fold_time for m in mats}
 
 
 def _check_request(design: Design, lib: MaterialLibrary, materials: Sequence[str] | None,

@@ -101,7 +101,7 @@ def _draw_drives(task: Task, samples: list[Sample]) -> list[HingeDrive]:
     d, lib = task.design, task.library
     variant = with_materials(d, task.materials, task.bath_c, lib)
     full = run_end(d, task.dt, task.duration)
-    nominal = [recovery_curve(lib[m], task.bath_c, h.thickness, d.process.fix_temperature_c).time_to(0.98)
+    nominal = [recovery_curve(lib[m], task.bath_c, h.thickness, d.process.fix_temperature_c).fold_time
                for h, m in zip(d.hinges, task.materials)]
     first = full if None in nominal else min(full, SAMPLE_HORIZON_FACTOR * max(nominal) + SCREEN_TAIL_S)
     out = _curves_upto(variant, lib, samples, first)
@@ -121,7 +121,7 @@ def _curves_upto(variant: Design, lib: MaterialLibrary, samples: list[Sample], u
 
 def _covers(drive: HingeDrive, task: Task) -> bool:
     """Whether ``drive``'s curves hold every hinge's 98 % and the whole screening run of its draw."""
-    times = [c.time_to(0.98) for c in drive.curves]
+    times = [c.fold_time for c in drive.curves]
     if None in times or not drive.curves:
         return False
     return run_end(task.design, task.dt, _screen_end(task, times)) <= drive.curves[0].t[-1]
@@ -163,7 +163,7 @@ def _fold(task: Task, drive: HingeDrive, cache: DerivedCache | None) -> Verdict:
     d = task.design
     duration = task.duration
     if task.sample is not None:
-        duration = _screen_end(task, [c.time_to(0.98) for c in drive.curves])
+        duration = _screen_end(task, [c.fold_time for c in drive.curves])
     from ..pipeline import EvalOptions, Evaluation
 
     opts = EvalOptions(hinge_model=HingeModel.ARC, method=task.method, dt=task.dt, bath_c=task.bath_c,
