@@ -23,9 +23,10 @@ import numpy as np
 
 from ..core.jit import njit, stale_with
 from ..physics import kinematics_kernels
-from . import polytope_distance_kernels
+from . import polytope_distance_kernels, swept3d_kernels
 from ..physics.kinematics_kernels import chain_poses, driven_at
 from .polytope_distance_kernels import panel_bounds
+from .swept3d_kernels import motion
 
 #: a run's outcome in :func:`walk_runs`' ``status``
 NONE, CONTACT, INITIAL = 0, 1, 2
@@ -130,24 +131,18 @@ def _split(ta, da, fa, tb, db, fb, i, j, ang0, idx, lev, drv, kin, geo, tol, tim
 
 
 @njit
-def _f(x, angles, k0, idx, lev):  # pragma: no cover - compiled
-    """F at sample ``x`` of a run starting at ``k0``."""
-    return _motion(angles[x], angles[k0], idx, lev)
-
-
-@njit
 def _jump(angles, k0, k, k1, target, idx, lev):  # pragma: no cover - compiled
     """The last sample in [k, k1] whose F is <= ``target`` (F rises with the sample; k's
     is): galloping, then bisection (the reference's ``bisect_right`` on F)."""
     lo, step = k, 1  # F(lo) <= target
     hi = min(k1, lo + step)
-    while hi > lo and _f(hi, angles, k0, idx, lev) <= target:
+    while hi > lo and motion(angles, hi, k0, idx, lev) <= target:
         lo = hi
         step *= 2
         hi = min(k1, lo + step)
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if _f(mid, angles, k0, idx, lev) <= target:
+        if motion(angles, mid, k0, idx, lev) <= target:
             lo = mid
         else:
             hi = mid
@@ -181,18 +176,18 @@ def _step(r, i, j, k0, k1, k, d, times, angles, poses, idx, lev, drv, kin, geo, 
     """One step of a run from sample ``k`` at distance ``d`` (the reference's loop body,
     from one ``yield`` to the next): (the next sample, its distance), or ``status[r]``
     set (a contact) or the next sample k1 (safe to the run's end)."""
-    ck = _f(k, angles, k0, idx, lev)
+    ck = motion(angles, k, k0, idx, lev)
     kk = _jump(angles, k0, k, k1, ck + 0.9 * d, idx, lev)
     if kk >= k1:
         return k1, d
     if kk > k:
         calls[0] += 1
-        d = min(_gap(poses[kk, i], poses[kk, j], i, j, geo), d + _f(kk, angles, k0, idx, lev) - ck)
+        d = min(_gap(poses[kk, i], poses[kk, j], i, j, geo), d + motion(angles, kk, k0, idx, lev) - ck)
         if d <= tol:
             t, dd, lo = _refine(times[kk], d, i, j, drv, kin, geo, time_tol, calls)
             _finish(r, status, out, CONTACT, t, dd, lo)
         return kk, d
-    c1 = _f(k + 1, angles, k0, idx, lev)
+    c1 = motion(angles, k + 1, k0, idx, lev)
     calls[0] += 1
     d1 = min(_gap(poses[k + 1, i], poses[k + 1, j], i, j, geo), d + c1 - ck)
     if (d + d1) * (1 - rel) <= c1 - ck:
@@ -279,4 +274,4 @@ def walk_runs(budget, runs, times, angles, poses, idx, lev, lo, hi, drv, kin, ge
     return n == 0, calls[0]
 
 
-stale_with(__name__, (kinematics_kernels, polytope_distance_kernels))
+stale_with(__name__, (kinematics_kernels, polytope_distance_kernels, swept3d_kernels))

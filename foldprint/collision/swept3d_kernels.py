@@ -88,7 +88,7 @@ def _bound(pose_i, pose_j, pi, pj, wi, wj):  # pragma: no cover - compiled
 
 
 @njit
-def _motion(angles, k, k0, idx, lev):  # pragma: no cover - compiled
+def motion(angles, k, k0, idx, lev):  # pragma: no cover - compiled
     """F(t_k) of the pair: sum over its path's hinges of lever |rho(t_k) - rho(t_k0)|."""
     f = 0.0
     for h in range(idx.shape[0]):
@@ -100,11 +100,11 @@ def _motion(angles, k, k0, idx, lev):  # pragma: no cover - compiled
 def _reach(angles, k, kb, k0, idx, lev, limit):  # pragma: no cover - compiled
     """The last sample in [k, kb] with F < ``limit`` (k itself when k + 1 is not): F rises
     with the sample (monotone coordinates), so a galloping search, then bisection."""
-    if k >= kb or _motion(angles, k + 1, k0, idx, lev) >= limit:
+    if k >= kb or motion(angles, k + 1, k0, idx, lev) >= limit:
         return k
     lo, step = k + 1, 1  # F(lo) < limit
     hi = min(kb, lo + step)
-    while hi > lo and _motion(angles, hi, k0, idx, lev) < limit:
+    while hi > lo and motion(angles, hi, k0, idx, lev) < limit:
         lo = hi
         if lo >= kb:
             return kb
@@ -112,7 +112,7 @@ def _reach(angles, k, kb, k0, idx, lev, limit):  # pragma: no cover - compiled
         hi = min(kb, lo + step)
     while hi - lo > 1:  # F(lo) < limit <= F(hi)
         mid = (lo + hi) // 2
-        if _motion(angles, mid, k0, idx, lev) < limit:
+        if motion(angles, mid, k0, idx, lev) < limit:
             lo = mid
         else:
             hi = mid
@@ -149,11 +149,11 @@ def screen_runs(runs, angles, poses, pts, poff, idx, lev, lo, hi, tol, margin): 
                 break
             if k2 > k:
                 k = k2
-                fk = _motion(angles, k, ka, ri, rl)
+                fk = motion(angles, k, ka, ri, rl)
                 d = _bound(poses[k, i], poses[k, j], pi, pj, wi, wj)
                 continue
             d1 = _bound(poses[k + 1, i], poses[k + 1, j], pi, pj, wi, wj)
-            f1 = _motion(angles, k + 1, ka, ri, rl)
+            f1 = motion(angles, k + 1, ka, ri, rl)
             if d1 > tol and d + d1 - (f1 - fk) - margin > 2.0 * tol:
                 k, d, fk = k + 1, d1, f1
                 continue
