@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.jit import use_kernels
-from ..core.modes import HingeModel, Method
+from ..core.modes import Method
 from ..model.design import Design
 from .broadphase import candidate_runs, pair_bounds
 from .narrow_cost import check_narrow
@@ -138,8 +138,7 @@ def walk(checker: SweptChecker, runs: np.ndarray, times, angles, poses, tables):
 
     idx, lev, lo, hi = run_levers(checker, runs)
     tr, s = checker.transforms, prism_set(checker)
-    kin = (tr.hinge, tr.parent, tr.child, int(tr.root), tr.n, tr.k, tr.kk, tr.q, tr.start, tr.nrm, tr.line, tr.w,
-           tr.centred, tr.model == HingeModel.POINT)
+    kin = tr.chain_tables(tr.root)
     geo = (s.ring, s.piece_off, s.panel_off, s.half, s.cen, s.rad, CERT_ABS, CERT_REL)
     m = len(runs)
     at, dist, status, out = np.full(m, -1, np.int64), np.zeros(m), np.zeros(m, np.int64), np.zeros((m, 3))

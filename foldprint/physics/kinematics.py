@@ -282,9 +282,14 @@ class TreeTransforms:
     def compiled_poses(self, angles: np.ndarray, root: int, fill_eye: bool = True) -> np.ndarray:
         """World poses (m, n_panels, 4, 4) by the compiled kernel
         (:mod:`foldprint.physics.kinematics_kernels`): one product per hinge root outward."""
-        return kernels().chain_poses(np.ascontiguousarray(np.atleast_2d(np.asarray(angles, float))), self.hinge,
-                           self.parent, self.child, int(root), self.n, self.k, self.kk, self.q, self.start,
-                           self.nrm, self.line, self.w, self.centred, self.model == HingeModel.POINT, fill_eye)
+        return kernels().chain_poses(np.ascontiguousarray(np.atleast_2d(np.asarray(angles, float))),
+                                     *self.chain_tables(root), fill_eye)
+
+    def chain_tables(self, root: int) -> tuple:
+        """What the compiled ``chain_poses`` reads after the angles, the tree from ``root``
+        outward (also the compiled narrow phase's kinematics, which makes its split times' poses)."""
+        return (self.hinge, self.parent, self.child, int(root), self.n, self.k, self.kk, self.q, self.start,
+                self.nrm, self.line, self.w, self.centred, self.model == HingeModel.POINT)
 
     def poses(self, angles: np.ndarray) -> np.ndarray:
         """World poses (m, n_panels, 4, 4) for hinge angles (m, n_hinges): prefix products
