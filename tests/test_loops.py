@@ -219,7 +219,8 @@ def test_a_loop_solution_read_on_its_own_grid_is_its_interpolation():
     gives; off the grid the read interpolates (and moves off the grid rows)."""
     from dataclasses import replace
 
-    from foldprint.physics.hinge_drive import loop_dt, on_grid, solve_loops_many
+    from foldprint.physics.hinge_drive import loop_dt, solve_loops_many
+    from foldprint.physics.loops.closure import interp_rows
 
     d = design_from_fold(cp.miura())
     d = replace(d, process=replace(d.process, duration_s=1.5))
@@ -228,11 +229,15 @@ def test_a_loop_solution_read_on_its_own_grid_is_its_interpolation():
     solve_loops_many(drives, times)
     for drive in drives:
         sol = drive.solve_loops(times, loop_dt(times))
-        assert on_grid(sol, times) and np.array_equal(sol.times, times)
+        assert sol.on_grid(times) and np.array_equal(sol.times, times)
         np.testing.assert_array_equal(drive.angles(times), sol.at(times))
         np.testing.assert_array_equal(drive.variation(times), sol.total_variation(times))
+        read = interp_rows(times, sol.times, sol.angles)  # the interpolation the shortcut skips
+        np.testing.assert_array_equal(sol.at(times), read)
+        k = np.arange(len(times))
+        np.testing.assert_array_equal(sol.total_variation(times), sol.variation[k] + np.abs(read - sol.angles[k]))
         off = times[:-1] + 0.004
-        assert not on_grid(sol, off)
+        assert not sol.on_grid(off)
         np.testing.assert_array_equal(drive.angles(off), sol.at(off))
         assert not np.array_equal(drive.angles(off), sol.angles[:-1])
     assert not np.array_equal(drives[0].angles(times), drives[1].angles(times))

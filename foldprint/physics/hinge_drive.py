@@ -189,7 +189,7 @@ class HingeDrive:
             return self.driven(t)
         t = np.atleast_1d(np.asarray(t, float))
         sol = self.solve_loops(t)
-        return sol.angles.copy() if on_grid(sol, t) else sol.at(t)
+        return sol.at(t)
 
     def variation(self, t) -> np.ndarray:
         """Cumulative total variation of each angle from 0 to t, (n_t, n_hinges) rad (the
@@ -198,8 +198,6 @@ class HingeDrive:
             return np.abs(self.driven(t) - self.driven([0.0]))
         t = np.atleast_1d(np.asarray(t, float))
         sol = self.solve_loops(t)
-        if on_grid(sol, t):  # k is each grid index, the angles there the grid's: the same sums
-            return sol.variation + np.abs(sol.angles - sol.angles)
         return sol.total_variation(t)
 
     def solve_loops(self, times=None, dt: float = LOOP_DT) -> LoopSolution:
@@ -240,14 +238,6 @@ def run_times(design: Design, dt: float = DEFAULT_DT_S, duration: float | None =
         raise DesignError(f"duration and dt must be > 0 s, got {dur} and {dt}")
     n = int(np.ceil(dur / dt - 1e-9)) + 1
     return np.linspace(0.0, (n - 1) * dt, n)
-
-
-def on_grid(sol: LoopSolution, t: np.ndarray) -> bool:
-    """Whether times ``t`` are the loop solution's grid times themselves (a simulation's
-    times are: :meth:`HingeDrive._loop_grid` holds them exactly), where reading the
-    solution at ``t`` (:meth:`LoopSolution.at`) gives its grid angles unchanged."""
-    g = sol.times
-    return t.ndim == 1 and len(t) == len(g) and (t is g or np.array_equal(t, g))
 
 
 def loop_dt(times: np.ndarray) -> float:
@@ -299,7 +289,7 @@ def simulate_kinematics(design: Design, times: np.ndarray | None = None, *, bath
         if drive.loops is not None:
             loop = drive.solve_loops(times, loop_dt(times))
         if loop is not None:  # on its own grid (a simulation's times): the grid angles, read as they are
-            angles = loop.angles.copy() if on_grid(loop, times) else loop.at(times)
+            angles = loop.at(times)
         else:
             angles = drive.angles(times)
         ratios = _reached(angles, ratios, drive.target, drive.fixity)

@@ -133,15 +133,28 @@ class LoopSolution:
         run; ``foldprint.physics.hinge_drive.loop_gap_mm``), 0 for the point model."""
         return 0.0 if self.gap is None else float(self.gap())
 
+    def on_grid(self, t: np.ndarray) -> bool:
+        """Whether times ``t`` are this solution's grid times themselves (a simulation's
+        times are: the drive's loop grid holds them exactly)."""
+        g = self.times
+        return t.ndim == 1 and len(t) == len(g) and (t is g or np.array_equal(t, g))
+
     def at(self, t) -> np.ndarray:
-        """Angles (n, n_hinges) at times ``t``, piecewise linear between grid times."""
-        return interp_rows(np.atleast_1d(np.asarray(t, float)), self.times, self.angles)
+        """Angles (n, n_hinges) at times ``t``, piecewise linear between grid times; on
+        the grid's own times a copy of the grid rows (what the interpolation gives there:
+        the grid value on a grid time), without the search."""
+        t = np.atleast_1d(np.asarray(t, float))
+        if self.on_grid(t):
+            return self.angles.copy()
+        return interp_rows(t, self.times, self.angles)
 
     def total_variation(self, t) -> np.ndarray:
         """Cumulative total variation (n, n_hinges) of the piecewise linear angles from
         time 0 to ``t``: a bound on how far each angle has moved, valid when the angle
         is not monotone (the swept collision check's motion bound)."""
         t = np.atleast_1d(np.asarray(t, float))
+        if self.on_grid(t):  # k is each grid index, the angles there the grid's: the same sums
+            return self.variation + np.abs(self.angles - self.angles)
         g = self.times
         k = np.clip(np.searchsorted(g, t, side="right") - 1, 0, len(g) - 1)
         return self.variation[k] + np.abs(self.at(t) - self.angles[k])
