@@ -223,6 +223,13 @@ def first_reach(values, level):  # pragma: no cover - compiled
     return idx
 
 
+@njit(inline=True)
+def _cross(t0, t1, r0, r1, level):  # pragma: no cover - compiled
+    """The time ``level`` is reached between (t0, r0) and (t1, r1), linear: t0 + (level -
+    r0) / (r1 - r0) (t1 - t0), in that order."""
+    return t0 + (level - r0) / (r1 - r0) * (t1 - t0)
+
+
 @njit
 def crossings(grid, stack, level):  # pragma: no cover - compiled
     """:meth:`foldprint.physics.recovery.curve.RecoveryCurve.time_to` of every column of
@@ -231,20 +238,15 @@ def crossings(grid, stack, level):  # pragma: no cover - compiled
     not (the same index, test and sums)."""
     n = stack.shape[1]
     out = np.empty(n)
-    for c in range(n):  # column by column: a drive's stack is hinge-major (each column contiguous)
-        idx = 0
-        for k in range(grid.shape[0]):
-            if stack[k, c] >= level:
-                idx = k
-                break
+    first = first_reach(stack, level)  # column by column: a drive's stack is hinge-major
+    for c in range(n):
+        idx = max(first[c], 0)  # none reached: row 0, which the test below then refuses
         if stack[idx, c] < level:
             out[c] = np.nan
         elif idx == 0:
             out[c] = 0.0
         else:
-            r0, r1 = stack[idx - 1, c], stack[idx, c]
-            t0, t1 = grid[idx - 1], grid[idx]
-            out[c] = t0 + (level - r0) / (r1 - r0) * (t1 - t0)
+            out[c] = _cross(grid[idx - 1], grid[idx], stack[idx - 1, c], stack[idx, c], level)
     return out
 
 
@@ -264,7 +266,5 @@ def level_steps(times, ratios, level):  # pragma: no cover - compiled
         elif j == 0:
             t[c] = times[0]
         else:
-            r0, r1 = ratios[j - 1, c], ratios[j, c]
-            f = (level - r0) / (r1 - r0)
-            t[c] = times[j - 1] + f * (times[j] - times[j - 1])
+            t[c] = _cross(times[j - 1], times[j], ratios[j - 1, c], ratios[j, c], level)
     return first, t
