@@ -138,15 +138,26 @@ class HingeDrive:
 
     def driven(self, t) -> np.ndarray:
         """rho(t) = rho_target (1 - (1 - R(t)) f), (n_t, n_hinges) rad: what each hinge's
-        material asks for on its own."""
+        material asks for on its own; one compiled pass where :meth:`ratios` is this
+        class's, with no arrest (the same numbers)."""
+        t = np.atleast_1d(np.asarray(t, float))
+        if type(self).ratios is HingeDrive.ratios and self._one_pass(t):
+            return kernels().ratios_driven(self._grid, self._stack, np.ascontiguousarray(t), self.target,
+                                           self.fixity)[1]
         r = self.ratios(t)
         return self.target[None] * (1.0 - (1.0 - r) * self.fixity[None])
+
+    def _one_pass(self, t: np.ndarray) -> bool:
+        """Whether the compiled ``ratios_driven`` reads this drive at times ``t`` (one time
+        per row, stacked curves, no arrest, kernels on)."""
+        return t.ndim == 1 and not self.frozen_at and self._stack is not None and len(self.curves) > 0 and \
+            use_kernels()
 
     def ratios_and_driven(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(:meth:`ratios`, :meth:`driven`) at times ``t``, the ratios read once: one
         compiled pass for a plain drive with no arrest (the same numbers)."""
         plain = type(self).ratios is HingeDrive.ratios and type(self).driven is HingeDrive.driven
-        if plain and not self.frozen_at and self._stack is not None and len(self.curves) and use_kernels():
+        if plain and self._one_pass(np.asarray(t, float)):
             return kernels().ratios_driven(self._grid, self._stack, np.ascontiguousarray(t, float), self.target,
                                            self.fixity)
         r = self.ratios(t)
@@ -264,7 +275,7 @@ def solve_loops_many(drives: Sequence[HingeDrive], times: np.ndarray) -> None:
     while todo:
         d0, g0, _ = todo[0]
         same = [(d, g, k) for d, g, k in todo if d.loops.n == d0.loops.n and (g is g0 or np.array_equal(g, g0))]
-        drives_at = [d.ratios_and_driven(g0)[1] for d, _, _ in same]  # d.driven(g0), one compiled pass
+        drives_at = [d.driven(g0) for d, _, _ in same]
         for (d, _, k), sol in zip(same, d0.loops.track_many(g0, drives_at)):
             d._solution, d._solved_for = sol, k
         todo = [t for t in todo if not any(t[0] is d for d, _, _ in same)]
