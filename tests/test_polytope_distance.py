@@ -10,7 +10,7 @@ from __future__ import annotations
 import fcl
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
@@ -59,6 +59,8 @@ _SHIFT = st.tuples(*[st.floats(-500.0, 500.0)] * 3)
 @given(size=st.tuples(*[st.floats(0.5, 30.0)] * 4), half=st.tuples(st.floats(0.1, 2.0), st.floats(0.1, 2.0)),
        gap=st.tuples(st.floats(-5.0, 20.0), st.floats(-5.0, 20.0), st.sampled_from([0.0, 0.0, 0.5, 3.0, -2.0])),
        rot=_ROT, shift=_SHIFT)
+@example(size=(1.0, 16.0, 1.0, 1.0), half=(2.0, 1.0), gap=(-5.960464477539063e-08, 1.0, 0.5),
+         rot=(0.0, 2.0, 2.556640625), shift=(0.0, 0.0, 0.0))  # parallel edges overlapping by a hair
 def test_boxes_at_a_known_distance(size, half, gap, rot, shift):
     """Two boxes, the second beside the first by ``gap`` along each axis (negative: their
     ranges may overlap on it; dz = 0: coplanar faces, FCL's worst case), both moved by one

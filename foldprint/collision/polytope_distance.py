@@ -17,7 +17,10 @@ a face of the other (the vertex's foot inside the face) or at two edges, so the 
 of those candidates, each the distance of a real pair of points, is the distance. Each
 result is then certified: the plane through the nearest points' midpoint, normal to their
 difference, must have one prism on each side; the projections on that normal are a lower
-bound of the distance (``lb``), the nearest points' distance an upper bound (``ub``). A
+bound of the distance (``lb``), the nearest points' distance an upper bound (``ub``).
+Where the nearest features are parallel edges whose ranges overlap by a hair, that normal
+leans along the edges, and the normal squared off against each edge direction in turn
+(:func:`square_gap`) gives the lower bound instead. A
 pair certified to :func:`certify_tol` is exact to it; a pair the plane cannot separate
 overlaps (the candidates are complete for disjoint prisms), which the separating-axis
 theorem confirms (face normals and edge-direction cross products), and its distance is 0.
@@ -407,10 +410,35 @@ def prism_bounds(pose_a, ring_a, half_a, pose_b, ring_b, half_b):
     tol = certify_tol(max(np.abs(wa).max(), np.abs(wb).max()))
     if ub - lb <= tol:
         return float(ub), lb, pa, pb
+    lb = max(lb, square_gap(wa, len(ring_a), wb, len(ring_b), pb - pa))
+    if ub - lb <= tol:
+        return float(ub), lb, pa, pb
     sep = sat_separation(wa, len(ring_a), wb, len(ring_b))
     if sep <= 0.0:  # the plane cannot separate them: they overlap
         return 0.0, 0.0, pa, pb
-    return float(ub), max(lb, sep), pa, pb  # disjoint but uncertified (never met): honest bounds
+    return float(ub), max(lb, sep), pa, pb  # disjoint but uncertified: honest bounds
+
+
+def square_gap(wa, ka, wb, kb, d) -> float:
+    """The largest projection gap of the two prisms (world vertices, rings of ``ka`` and
+    ``kb``) along ``d`` (the nearest points' difference) with its part along one edge
+    direction of either prism taken out, each edge direction in turn. Where the nearest
+    features are parallel edges whose ranges overlap by a hair, the nearest points'
+    difference leans along the edges by about that overlap, and its own projection misses
+    the distance by that lean times the prisms' extent; the separating-axis theorem has no
+    axis there (parallel edges have no cross product). The difference squared off against
+    the edges' direction is the separating direction. Any direction's gap is a lower
+    bound of the distance, so this one can only tighten it."""
+    nxt = np.r_[np.arange(1, ka), 0], np.r_[np.arange(1, kb), 0]
+    e = np.vstack([wa[nxt[0]] - wa[:ka], wa[ka] - wa[0], wb[nxt[1]] - wb[:kb], wb[kb] - wb[0]])
+    with np.errstate(invalid="ignore", divide="ignore"):  # a zero-length edge: no direction (NaN, dropped)
+        v = d - (e @ d / np.einsum("ij,ij->i", e, e))[:, None] * e
+    n = np.linalg.norm(v, axis=1)
+    v = v[n > 0.0] / n[n > 0.0][:, None]
+    if not len(v):
+        return -np.inf
+    pa, pb = wa @ v.T, wb @ v.T
+    return float(np.maximum(pb.min(0) - pa.max(0), pa.min(0) - pb.max(0)).max())
 
 
 def sat_separation(wa, ka, wb, kb) -> float:

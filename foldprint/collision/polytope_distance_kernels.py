@@ -158,6 +158,25 @@ def _cross_gap(wa, wb, a, b):  # pragma: no cover - compiled
 
 
 @njit
+def _square_gap(wa, ka, wb, kb, d):  # pragma: no cover - compiled
+    """The reference's ``square_gap``: the gap along ``d`` with its part along each edge
+    direction of either prism taken out in turn, the largest (-inf where none is left)."""
+    best = -np.inf
+    for w, k in ((wa, ka), (wb, kb)):
+        for m in range(k + 1):
+            e = _direction(w, k, m)
+            ee = e[0] ** 2 + e[1] ** 2 + e[2] ** 2
+            if not ee > 0.0:  # a zero-length edge: no direction
+                continue
+            f = (e[0] * d[0] + e[1] * d[1] + e[2] * d[2]) / ee
+            vx, vy, vz = d[0] - f * e[0], d[1] - f * e[1], d[2] - f * e[2]
+            n = math.sqrt(vx * vx + vy * vy + vz * vz)
+            if n > 0.0:
+                best = max(best, _gap_along(wa, wb, vx / n, vy / n, vz / n))
+    return best
+
+
+@njit
 def _sat(wa, ka, wb, kb):  # pragma: no cover - compiled
     """The separating-axis theorem's largest projection gap (> 0 exactly when disjoint):
     each prism's face normals (the caps' is its axis, a side's is its direction across
@@ -193,6 +212,9 @@ def prism_bounds(pose_a, ring_a, half_a, pose_b, ring_b, half_b, cert_abs, cert_
     u = (pb - pa) / best
     lb = _gap_along(wa, wb, u[0], u[1], u[2])
     scale = max(np.abs(wa).max(), np.abs(wb).max())
+    if best - lb <= cert_abs + cert_rel * scale:
+        return best, lb, pa, pb
+    lb = max(lb, _square_gap(wa, ka, wb, kb, pb - pa))
     if best - lb <= cert_abs + cert_rel * scale:
         return best, lb, pa, pb
     sep = _sat(wa, ka, wb, kb)
